@@ -1,0 +1,106 @@
+"""Shared argument validators (private).
+
+All public functions validate their inputs here, once, and raise
+:mod:`longprofile.errors` exceptions with actionable messages. Compiled kernels
+trust their inputs.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .errors import InputError, ModelError, ShapeError
+
+__all__ = [
+    "as_float_array",
+    "require_finite",
+    "require_symmetric_psd",
+    "validate_step",
+    "require_positive",
+]
+
+
+def as_float_array(name: str, value, *, ndim: int | Sequence[int] | None = None,
+                   allow_nan: bool = True) -> np.ndarray:
+    """Convert ``value`` to a float64 ndarray and check its number of dimensions."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{name} must be numeric array-like; got {type(value).__name__} ({exc}).") from None
+    if ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+        if arr.ndim not in allowed:
+            want = " or ".join(f"{d}-D" for d in allowed)
+            raise ShapeError(f"{name} must be {want}; got shape {arr.shape}.")
+    if not allow_nan:
+        require_finite(name, arr)
+    elif np.isinf(arr).any():
+        raise InputError(f"{name} contains infinite values; use NaN for missing samples or remove them.")
+    return arr
+
+
+def require_finite(name: str, arr: np.ndarray) -> None:
+    """Raise :class:`InputError` if ``arr`` has NaN or infinite entries."""
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))
+        first = tuple(int(i) for i in bad[0])
+        raise InputError(f"{name} must be finite; {len(bad)} non-finite value(s), first at index {first}.")
+
+
+def require_positive(name: str, value, *, strict: bool = True) -> float:
+    """Return ``value`` as float after checking it is (strictly) positive and finite."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number; got {value!r}.") from None
+    if not np.isfinite(v) or (v <= 0 if strict else v < 0):
+        cmp = "> 0" if strict else ">= 0"
+        raise InputError(f"{name} must be finite and {cmp}; got {value!r}.")
+    return v
+
+
+def require_symmetric_psd(name: str, mat: np.ndarray, *, rtol: float = 1e-8) -> None:
+    """Check that ``mat`` (shape (..., n, n)) is symmetric positive semi-definite.
+
+    Symmetry is checked to a relative tolerance ``rtol`` of the largest entry;
+    positive semi-definiteness through the smallest eigenvalue, allowing
+    ``-rtol * max|eig|`` for round-off.
+    """
+    if mat.shape[-1] != mat.shape[-2]:
+        raise ShapeError(f"{name} must be square; got shape {mat.shape}.")
+    require_finite(name, mat)
+    scale = max(float(np.max(np.abs(mat), initial=0.0)), np.finfo(float).tiny)
+    asym = float(np.max(np.abs(mat - np.swapaxes(mat, -1, -2)), initial=0.0))
+    if asym > rtol * scale:
+        raise ModelError(f"{name} must be symmetric; max |A - A^T| = {asym:.3g} (scale {scale:.3g}). "
+                         "Symmetrise it, e.g. (A + A.T) / 2.")
+    eig = np.linalg.eigvalsh(0.5 * (mat + np.swapaxes(mat, -1, -2)))
+    emin = float(eig.min(initial=0.0))
+    emax = float(np.max(np.abs(eig), initial=0.0))
+    if emin < -rtol * max(emax, np.finfo(float).tiny) and emin < -1e-300:
+        raise ModelError(f"{name} must be positive semi-definite; smallest eigenvalue is {emin:.3g}.")
+
+
+def validate_step(step_name: str, step, positions_name: str, positions, n_samples: int) -> np.ndarray:
+    """Return the sample positions from either a constant step or explicit positions.
+
+    Exactly one of ``step`` (a positive scalar, e.g. ``dt`` in s or ``dx`` in m)
+    and ``positions`` (a strictly increasing array of length ``n_samples``) must
+    be given. The returned array has length ``n_samples``.
+    """
+    if (step is None) == (positions is None):
+        raise InputError(f"give exactly one of {step_name} (constant step) and {positions_name} "
+                         f"(sample positions); got {'both' if step is not None else 'neither'}.")
+    if step is not None:
+        h = require_positive(step_name, step)
+        return np.arange(n_samples, dtype=np.float64) * h
+    pos = as_float_array(positions_name, positions, ndim=1, allow_nan=False)
+    if pos.shape[0] != n_samples:
+        raise ShapeError(f"{positions_name} must have one entry per sample ({n_samples}); got {pos.shape[0]}.")
+    if n_samples > 1 and np.any(np.diff(pos) <= 0):
+        k = int(np.argmax(np.diff(pos) <= 0))
+        raise InputError(f"{positions_name} must be strictly increasing; {positions_name}[{k + 1}] = {pos[k + 1]!r} "
+                         f"<= {positions_name}[{k}] = {pos[k]!r}.")
+    return pos

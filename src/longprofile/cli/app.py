@@ -1,0 +1,85 @@
+"""Root of the ``longprofile`` command."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from .. import __version__
+from ..errors import LongprofileError
+from ._common import console
+
+app = typer.Typer(
+    name="longprofile",
+    help="Road and rail longitudinal profiles, road grade and vehicle states from indirect sensors.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+
+_CITATION = """\
+longprofile implements methods from:
+[000] Piasco, Legeay - APL longitudinal profile analyser: instrument model, double filtering, identification, Kalman deconvolution.
+[001] Sebsadji, Glaser, Mammar - vehicle state and road slope estimation, EKF cascaded with a Luenberger observer.
+[002] Recursive maximum-likelihood derivative estimators of noisy sampled signals.
+[003] Plancke - real-time vertical vehicle state estimation (thesis, SUPELEC / Delphi).
+[004] SNCF / Sorbonne - rail track settlement from sleeper inclinometers with a Bayesian rigidity prior."""
+
+
+def _version_callback(value: bool):
+    if value:
+        typer.echo(f"longprofile {__version__}")
+        raise typer.Exit()
+
+
+def _cite_callback(value: bool):
+    if value:
+        typer.echo(_CITATION)
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_version_callback, is_eager=True,
+                                 help="Print the version and exit."),
+    cite: bool = typer.Option(False, "--cite", callback=_cite_callback, is_eager=True,
+                              help="Print the papers implemented and exit."),
+):
+    """longprofile command line."""
+
+
+def _register():
+    from . import demo, signal
+
+    app.command("demo")(demo.demo)
+    app.command("differentiate")(signal.differentiate)
+
+
+_register()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console-script entry point: run the app, turn library errors into one red line and exit code 2."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except LongprofileError as exc:
+        console.print(f"[red]error:[/red] {exc}", highlight=False, soft_wrap=True)
+        return 2
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        console.print("[red]aborted[/red]")
+        return 1
+    except Exception as exc:  # click usage errors
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            exc.show()
+            return exc.exit_code
+        raise
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

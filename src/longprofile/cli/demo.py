@@ -1,0 +1,29 @@
+"""``longprofile demo``: the end-to-end job on built-in sample data, writing under ``out/``."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import typer
+
+from ._common import console
+
+# Each step is a module with ``run_demo(outdir: Path) -> list[Path]`` (files written).
+DEMO_STEPS = [
+    ("derivative estimators (paper 002)", "longprofile.signal._demo"),
+    ("Kalman smoothing (state-space engine)", "longprofile.statespace._demo"),
+]
+
+
+def demo(output: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the demo outputs.")):
+    """Run every demo on built-in sample data and write plots and tables under OUTPUT."""
+    output.mkdir(parents=True, exist_ok=True)
+    written = []
+    for title, module in DEMO_STEPS:
+        console.print(f"[bold]demo:[/bold] {title}")
+        files = importlib.import_module(module).run_demo(output)
+        for f in files:
+            console.print(f"  wrote {f}")
+        written.extend(files)
+    console.print(f"[green]demo finished:[/green] {len(written)} files in {output}/")
