@@ -1,0 +1,1 @@
+"""longprofile.vehicle."""
