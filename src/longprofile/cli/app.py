@@ -50,10 +50,11 @@ def _root(
 
 
 def _register():
-    from . import demo, signal
+    from . import demo, road, vehicle
 
     app.command("demo")(demo.demo)
-    app.command("differentiate")(signal.differentiate)
+    app.add_typer(road.road_app, name="road")
+    app.add_typer(vehicle.vehicle_app, name="vehicle")
 
 
 _register()
@@ -71,10 +72,9 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         console.print("[red]aborted[/red]")
         return 1
-    except Exception as exc:  # click usage errors
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
+    except Exception as exc:
+        # usage errors from typer's bundled click (ClickException: has show() and exit_code)
+        if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
             exc.show()
             return exc.exit_code
         raise

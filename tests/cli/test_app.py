@@ -1,0 +1,37 @@
+"""The CLI root: version, citation, and the error contract (one line, exit code 2, no traceback)."""
+
+import subprocess
+import sys
+
+from longprofile import __version__
+from longprofile.cli.app import main
+
+
+def test_version(capsys):
+    assert main(["--version"]) == 0
+    assert __version__ in capsys.readouterr().out
+
+
+def test_cite_names_the_papers(capsys):
+    assert main(["--cite"]) == 0
+    out = capsys.readouterr().out
+    for key in ("[000]", "[001]", "[002]", "[003]", "[004]"):
+        assert key in out
+
+
+def test_library_error_is_one_line_exit_2():
+    # a missing input file is a library InputError: one red line on stderr, exit code 2, no traceback
+    code = ("import sys; from longprofile.cli.app import app, main\n"
+            "from longprofile.io import read_table\n"
+            "@app.command('boom')\n"
+            "def boom():\n    read_table('/nonexistent/file.csv')\n"
+            "sys.exit(main(['boom']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "no such file" in lines[0]
+
+
+def test_usage_error_exit_2(capsys):
+    assert main(["no-such-command"]) == 2
