@@ -1,8 +1,27 @@
 """Road profiles: the APL trailer model and reconstruction (paper 000), roughness indices and spectra.
 
 Profile -- a longitudinal profile (stations in m, elevations in m, one column per track).
+iso8608_profile -- random road profile of an ISO 8608 class (A..H), seedable.
+
+Roughness indices and spectra (ASTM E1926 / WTP-46, ISO 8608)
+iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
+rectified_slope -- golden-car rectified slope per step (building block of the IRI).
+golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
+localized_roughness -- continuous short-interval IRI and defects above a threshold.
+waveband_energy -- mean-square elevation per segment in wavelength bands (APL_BANDS built in).
+profile_psd -- Welch displacement PSD in cycles/m; fit_iso8608 -- Gd(n0), waviness and class A..H.
+iso8608_gd, iso8608_class, ISO8608_CLASSES -- the ISO 8608 spectrum and class table.
 """
 
+from ._iri import GOLDEN_CAR, IRIResult, RectifiedSlope, golden_car_matrices, iri, rectified_slope
+from ._iso8608 import (ISO8608_BAND, ISO8608_CLASSES, ISO8608Fit, ProfilePSD, fit_iso8608, iso8608_class,
+                       iso8608_gd, iso8608_profile, profile_psd)
+from ._roughness import (APL_BANDS, LocalizedRoughness, RoughnessDefect, WavebandEnergy, localized_roughness,
+                         waveband_energy)
 from ._profile import Profile
 
-__all__ = ["Profile"]
+__all__ = ["Profile", "iso8608_profile",
+    "iri", "IRIResult", "rectified_slope", "RectifiedSlope", "golden_car_matrices", "GOLDEN_CAR",
+    "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
+    "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
+    "ISO8608_CLASSES", "ISO8608_BAND"]

@@ -10,6 +10,17 @@ kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched).
 rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covariances.
 log_likelihood         -- prediction-error log-likelihood.
 
+Stationary (constant-gain) inference
+------------------------------------
+steady_state_gain      -- stationary Kalman gain and covariances (DARE); SteadyStateGain result.
+steady_state_filter    -- constant-gain Kalman filter as a compiled LTI recursion (> 1e7 samples/s).
+steady_state_smoother  -- zero-lag fixed-interval counterpart, O(T n) memory.
+steady_state_smoothed_cov -- the constant smoothed covariance of steady_state_smoother.
+
+Deterministic propagation
+-------------------------
+linear_recursion       -- x[k+1] = A_k x[k] + B_k u[k], constant or per-step matrices (compiled; IRI golden car).
+
 Results
 -------
 FilterResult           -- filtered/predicted moments, innovations, log-likelihood.
@@ -22,7 +33,10 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
 from ._model import StateSpaceModel
+from ._propagate import LinearRecursionResult, linear_recursion
 from ._results import FilterResult, SmootherResult
+from ._steady import (SteadyStateGain, steady_state_filter, steady_state_gain, steady_state_smoothed_cov,
+                      steady_state_smoother)
 
 __all__ = [
     "StateSpaceModel",
@@ -31,4 +45,11 @@ __all__ = [
     "log_likelihood",
     "FilterResult",
     "SmootherResult",
+    "SteadyStateGain",
+    "steady_state_gain",
+    "steady_state_filter",
+    "steady_state_smoother",
+    "steady_state_smoothed_cov",
+    "linear_recursion",
+    "LinearRecursionResult",
 ]

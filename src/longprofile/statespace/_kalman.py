@@ -1,23 +1,21 @@
 """Kalman filter and RTS smoother for :class:`StateSpaceModel`.
 
-This module holds the public entry points: validation, shaping and the
-dispatch to the loops. The loops themselves are the only filter loops in the
-package.
+This module holds the public entry points: validation (once), shaping to
+C-contiguous float64 batches and the dispatch to the compiled loops of
+:mod:`._kernels`, which are the only linear filter/smoother loops in the package.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
 from .._validation import as_float_array
-from ..errors import ModelError, ShapeError
+from ..errors import InputError, ModelError, ShapeError
+from . import _kernels
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult
 
 __all__ = ["kalman_filter", "rts_smoother", "log_likelihood", "prepare_observations", "prepare_inputs"]
-
-_LOG2PI = float(np.log(2.0 * np.pi))
 
 
 def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
@@ -39,12 +37,14 @@ def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
         raise ShapeError(f"y must have m = {m} columns (one per observation of the model); got shape {np.shape(y)}.")
     if arr.shape[1] < 1:
         raise ShapeError("y has no samples.")
+    if arr.shape[0] < 1:
+        raise ShapeError(f"y is a batch of 0 series (shape {np.shape(y)}); pass at least one series.")
     model.check_length(arr.shape[1])
     return np.ascontiguousarray(arr), batched
 
 
-def prepare_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:
-    """Validate known inputs ``u``: (T, p) shared by all series, or (B, T, p). Returns (B, T, p) or None."""
+def _validate_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:
+    """Validate ``u``; return (1, T, p) when shared by the batch, (B, T, p) per series, or None."""
     p = model.n_inputs
     if u is None:
         if p:
@@ -56,176 +56,264 @@ def prepare_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim == 2:
-        arr = np.broadcast_to(arr[None], (n_batch,) + arr.shape)
-    if arr.shape[1:] != (n_steps, p) or arr.shape[0] != n_batch:
+        arr = arr[None]
+    if arr.shape[1:] != (n_steps, p) or arr.shape[0] not in (1, n_batch):
         raise ShapeError(f"u must have shape (T, p) = ({n_steps}, {p}) or (B, T, p) = ({n_batch}, {n_steps}, {p}); "
                          f"got {np.shape(u)}.")
     return np.ascontiguousarray(arr)
 
 
-def _symmetrize(a):
-    return 0.5 * (a + a.T)
+def prepare_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:
+    """Validate known inputs ``u``: (T, p) shared by all series, or (B, T, p). Returns (B, T, p) or None."""
+    arr = _validate_inputs(model, u, n_steps, n_batch)
+    if arr is None:
+        return None
+    return np.ascontiguousarray(np.broadcast_to(arr, (n_batch,) + arr.shape[1:]))
 
 
-def _filter_one(model: StateSpaceModel, y: np.ndarray, u: np.ndarray | None, store_cov: bool):
-    """Reference loop for one series: y (T, m), u (T, p) or None. Joseph-form update."""
-    T, m = y.shape
-    n = model.n_states
-    mean = np.empty((T, n))
-    pmean = np.empty((T, n))
-    cov = np.empty((T, n, n)) if store_cov else None
-    pcov = np.empty((T, n, n)) if store_cov else None
-    innov = np.full((T, m), np.nan)
-    icov = np.empty((T, m, m)) if store_cov else None
-    ll_steps = np.zeros(T)
-    n_obs = 0
-    x = model.initial_mean.copy()
-    P = model.initial_cov.copy()
-    eye = np.eye(n)
-    for k in range(T):
-        pmean[k] = x
-        if store_cov:
-            pcov[k] = P
-        H = model.at("observation", k)
-        R = model.at("obs_cov", k)
-        yhat = H @ x
-        D = model.at("input_observation", k)
-        if D is not None:
-            yhat = yhat + D @ u[k]
-        d = model.at("obs_offset", k)
-        if d is not None:
-            yhat = yhat + d
-        S_full = H @ P @ H.T + R
-        if store_cov:
-            icov[k] = _symmetrize(S_full)
-        obs = ~np.isnan(y[k])
-        if obs.any():
-            Ho = H[obs]
-            e = y[k, obs] - yhat[obs]
-            S = S_full[np.ix_(obs, obs)]
-            try:
-                c = cho_factor(S, lower=True)
-            except np.linalg.LinAlgError:
-                raise ModelError(f"innovation covariance is not positive definite at step {k}; "
-                                 "obs_cov (R) must be positive definite on the observed components.") from None
-            PHt = P @ Ho.T
-            K = cho_solve(c, PHt.T).T
-            x = x + K @ e
-            A = eye - K @ Ho
-            P = A @ P @ A.T + K @ R[np.ix_(obs, obs)] @ K.T
-            P = _symmetrize(P)
-            innov[k, obs] = e
-            logdet = 2.0 * np.sum(np.log(np.diag(c[0])))
-            ll_steps[k] = -0.5 * (obs.sum() * _LOG2PI + logdet + e @ cho_solve(c, e))
-            n_obs += int(obs.sum())
-        mean[k] = x
-        if store_cov:
-            cov[k] = P
-        if k < T - 1:
-            F = model.at("transition", k)
-            x = F @ x
-            B = model.at("input_transition", k)
-            if B is not None:
-                x = x + B @ u[k]
-            c_ = model.at("state_offset", k)
-            if c_ is not None:
-                x = x + c_
-            P = _symmetrize(F @ P @ F.T + model.at("process_cov", k))
-    return mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs
+def _readonly(a: np.ndarray) -> np.ndarray:
+    """A read-only, C-contiguous float64 view (one numba specialisation for every caller)."""
+    a = np.ascontiguousarray(a, dtype=np.float64).view()
+    a.setflags(write=False)
+    return a
+
+
+def _term(model: StateSpaceModel, name: str, base: int, default_shape: tuple) -> np.ndarray:
+    """Model term with a leading time axis (length 1 when constant); zeros of ``default_shape`` if absent."""
+    arr = getattr(model, name)
+    if arr is None:
+        return _readonly(np.zeros((1,) + default_shape))
+    return _readonly(arr[None] if arr.ndim == base else arr)
+
+
+def kernel_terms(model: StateSpaceModel) -> dict[str, np.ndarray]:
+    """The model's terms in the kernels' layout (leading time axis, absent terms as zeros, p may be 0)."""
+    n, m, p = model.n_states, model.n_obs, model.n_inputs
+    return dict(
+        F=_term(model, "transition", 2, (n, n)),
+        H=_term(model, "observation", 2, (m, n)),
+        Q=_term(model, "process_cov", 2, (n, n)),
+        R=_term(model, "obs_cov", 2, (m, m)),
+        Bm=_term(model, "input_transition", 2, (n, p)),
+        Dm=_term(model, "input_observation", 2, (m, p)),
+        c=_term(model, "state_offset", 1, (n,)),
+        d=_term(model, "obs_offset", 1, (m,)),
+        x0=_readonly(model.initial_mean),
+        P0=_readonly(model.initial_cov),
+    )
+
+
+def _raise_status(status: np.ndarray, batched: bool) -> None:
+    if status[2] == _kernels.STATUS_INNOVATION_NOT_PD:
+        where = f"step {status[1]}" + (f" of series {status[0]}" if batched else "")
+        raise ModelError(f"the innovation covariance H P H' + R is not positive definite at {where}; "
+                         "obs_cov (R) must be positive definite on the observed components (or the predicted "
+                         "state covariance must make H P H' positive definite there). Check R and the data.")
 
 
 def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool = True) -> FilterResult:
-    """Kalman filter with missing data (NaN) and a Joseph-form covariance update.
+    r"""Kalman filter with missing data (NaN) and a Joseph-form covariance update.
 
     Parameters
     ----------
     model : StateSpaceModel
         The linear-Gaussian model.
     y : (T,), (T, m) or (B, T, m) array_like
-        Observations; NaN marks a missing component (the update then uses only
-        the observed rows of H and R). A 3-D array is a batch of B independent
-        series of the same model.
+        Observations in the units of the model; NaN marks a missing component
+        (the update then uses only the observed rows of H and R). A 3-D array is
+        a batch of B independent series of the same model. (T,) is accepted for m = 1.
     u : (T, p) or (B, T, p) array_like, optional
-        Known inputs; ``u[k]`` enters the observation at step k and the transition k -> k+1.
+        Known inputs; ``u[k]`` enters the observation at step k and the
+        transition k -> k+1. A (T, p) input is shared by every series of a batch.
+        Required exactly when the model has input matrices.
     store_covariances : bool, default True
         If False, only means, innovations and the likelihood are returned
-        (``cov``, ``pred_cov``, ``innovation_cov`` are None): O(T n) memory.
+        (``cov``, ``pred_cov``, ``innovation_cov`` are None): O(T n) memory,
+        for very long signals.
 
     Returns
     -------
     FilterResult
+        ``mean``/``pred_mean`` (T, n), ``cov``/``pred_cov`` (T, n, n),
+        ``innovation`` (T, m) (NaN where missing), ``innovation_cov`` (T, m, m),
+        ``log_likelihood`` (float), ``log_likelihood_steps`` (T,), ``n_observed``
+        (int); every per-step field gains a leading axis B for batched ``y``, and
+        ``log_likelihood``/``n_observed`` become (B,) arrays.
+
+    Raises
+    ------
+    ShapeError
+        ``y`` or ``u`` do not match the model, or a time-varying term does not
+        have T-1 (transition side) or T (observation side) steps.
+    InputError
+        ``y`` has infinite values, ``u`` has NaN or infinite values.
+    ModelError
+        The innovation covariance of the observed components is not positive definite.
+
+    See Also
+    --------
+    rts_smoother, log_likelihood
 
     Notes
     -----
+    Prediction and update (Kalman 1960; Joseph form of the covariance update,
+    Bucy & Joseph 1968), with :math:`o` the observed components of step k:
+
+    .. math::
+
+        S_k &= H_o P_k^- H_o^\top + R_{oo}, \qquad K_k = P_k^- H_o^\top S_k^{-1}
+        \quad\text{(Cholesky solve, no inverse)} \\
+        x_k &= x_k^- + K_k (y_{k,o} - H_o x_k^- - D_o u_k - d_o) \\
+        P_k &= (I - K_k H_o) P_k^- (I - K_k H_o)^\top + K_k R_{oo} K_k^\top \\
+        x_{k+1}^- &= F_k x_k + B_k u_k + c_k, \qquad P_{k+1}^- = F_k P_k F_k^\top + Q_k
+
+    Covariances are symmetrised after every step. The log-likelihood is the
+    prediction-error decomposition over the observed components only; a step
+    with every component missing is a pure prediction contributing 0.
+
     Timing convention: ``model.initial_mean`` is the prior of x_0 before y_0,
     ``pred_mean[t]`` = E[x_t | y_<t], ``mean[t]`` = E[x_t | y_<=t].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from longprofile.statespace import StateSpaceModel, kalman_filter
+    >>> model = StateSpaceModel([[1.0]], [[1.0]], [[0.1]], [[1.0]], [0.0], [[10.0]])
+    >>> y = np.random.default_rng(0).normal(size=50)
+    >>> res = kalman_filter(model, y)
+    >>> res.mean.shape, res.cov.shape
+    ((50, 1), (50, 1, 1))
     """
     Y, batched = prepare_observations(model, y)
     nb, T, m = Y.shape
-    U = prepare_inputs(model, u, T, nb)
-    outs = [_filter_one(model, Y[b], None if U is None else U[b], store_covariances) for b in range(nb)]
-    stack = (lambda i: np.stack([o[i] for o in outs])) if batched else (lambda i: outs[0][i])
-    ll_steps = stack(6)
-    nobs = np.array([o[7] for o in outs]) if batched else outs[0][7]
+    U = _validate_inputs(model, u, T, nb)
+    if U is None:
+        U = np.zeros((1, T, 0))
+    terms = kernel_terms(model)
+    n = model.n_states
+    store = bool(store_covariances)
+    mean = np.empty((nb, T, n))
+    pmean = np.empty((nb, T, n))
+    innov = np.empty((nb, T, m))
+    ll = np.empty((nb, T))
+    nobs = np.empty(nb, dtype=np.int64)
+    cshape = (nb, T) if store else (1, 1)
+    cov = np.empty(cshape + (n, n))
+    pcov = np.empty(cshape + (n, n))
+    icov = np.empty(cshape + (m, m))
+    status = np.empty(3, dtype=np.int64)
+    _kernels.kalman_filter_kernel(
+        terms["F"], terms["H"], terms["Q"], terms["R"], terms["Bm"], terms["Dm"], terms["c"], terms["d"],
+        terms["x0"], terms["P0"], _readonly(Y), _readonly(U), store,
+        mean, cov, pmean, pcov, innov, icov, ll, nobs, status)
+    _raise_status(status, batched)
+    if not batched:
+        mean, pmean, innov, ll = mean[0], pmean[0], innov[0], ll[0]
+        if store:
+            cov, pcov, icov = cov[0], pcov[0], icov[0]
     return FilterResult(
-        mean=stack(0), cov=stack(1) if store_covariances else None,
-        pred_mean=stack(2), pred_cov=stack(3) if store_covariances else None,
-        innovation=stack(4), innovation_cov=stack(5) if store_covariances else None,
-        log_likelihood=ll_steps.sum(axis=-1) if batched else float(ll_steps.sum()),
-        log_likelihood_steps=ll_steps, n_observed=nobs, method="joseph")
+        mean=mean, cov=cov if store else None,
+        pred_mean=pmean, pred_cov=pcov if store else None,
+        innovation=innov, innovation_cov=icov if store else None,
+        log_likelihood=ll.sum(axis=-1) if batched else float(ll.sum()),
+        log_likelihood_steps=ll, n_observed=nobs if batched else int(nobs[0]), method="joseph")
 
 
 def log_likelihood(model: StateSpaceModel, y, *, u=None) -> float | np.ndarray:
     """Gaussian log-likelihood of ``y`` under ``model`` (prediction-error decomposition).
 
-    Missing components (NaN) do not count. Returns a float, or (B,) for batched ``y``.
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The linear-Gaussian model.
+    y : (T,), (T, m) or (B, T, m) array_like
+        Observations; NaN components are missing and do not count.
+    u : (T, p) or (B, T, p) array_like, optional
+        Known inputs.
+
+    Returns
+    -------
+    float or (B,) ndarray
+        :math:`\\sum_k \\log \\mathcal N(y_{k,o}; \\hat y_{k,o}, S_k)` over the observed components.
+
+    Notes
+    -----
+    Runs the means-only filter (no covariance storage); see :func:`kalman_filter`.
     """
     return kalman_filter(model, y, u=u, store_covariances=False).log_likelihood
 
 
-def _smooth_one(model, mean, cov, pmean, pcov):
-    T, n = mean.shape
-    sm = np.empty_like(mean)
-    sc = np.empty_like(cov)
-    cc = np.empty((max(T - 1, 0), n, n))
-    sm[-1] = mean[-1]
-    sc[-1] = cov[-1]
-    for k in range(T - 2, -1, -1):
-        F = model.at("transition", k)
-        Pp = pcov[k + 1]
-        # G = P_f F' Pp^{-1} via a symmetric solve (no explicit inverse)
-        try:
-            G = np.linalg.solve(Pp, F @ cov[k]).T
-        except np.linalg.LinAlgError:
-            G = (np.linalg.pinv(Pp) @ (F @ cov[k])).T
-        sm[k] = mean[k] + G @ (sm[k + 1] - pmean[k + 1])
-        sc[k] = _symmetrize(cov[k] + G @ (sc[k + 1] - Pp) @ G.T)
-        cc[k] = G @ sc[k + 1]
-    return sm, sc, cc
+def smoother_arrays(model: StateSpaceModel, filtered: FilterResult, *, store_gains: bool = False):
+    """Validate ``filtered`` against ``model`` and run the RTS kernel.
+
+    Returns (mean, cov, cross_cov, gains) with a leading batch axis always;
+    ``gains`` (B, T-1, n, n) holds G_t = P_t|t F_t' (P_t+1|t)^{-1} when ``store_gains``.
+    """
+    if not isinstance(filtered, FilterResult):
+        raise InputError(f"filtered must be the FilterResult returned by kalman_filter; got {type(filtered).__name__}.")
+    if filtered.cov is None or filtered.pred_cov is None:
+        raise ShapeError("rts_smoother needs the filtered covariances; run kalman_filter with store_covariances=True.")
+    mean = filtered.mean if filtered.mean.ndim == 3 else filtered.mean[None]
+    n = model.n_states
+    if mean.ndim != 3 or mean.shape[-1] != n:
+        raise ShapeError(f"filtered.mean has shape {filtered.mean.shape}, which does not match the model's "
+                         f"n = {n} states; smooth with the model the filter was run with.")
+    nb, T, _ = mean.shape
+    model.check_length(T)
+
+    def b3(a, tail):
+        a = a if a.ndim == len(tail) + 2 else a[None]
+        if a.shape != (nb, T) + tail:
+            raise ShapeError(f"filtered result is inconsistent: expected shape {(nb, T) + tail}, got {a.shape}.")
+        return _readonly(a)
+
+    args = (b3(filtered.mean, (n,)), b3(filtered.cov, (n, n)), b3(filtered.pred_mean, (n,)),
+            b3(filtered.pred_cov, (n, n)))
+    sm = np.empty((nb, T, n))
+    sc = np.empty((nb, T, n, n))
+    cc = np.empty((nb, max(T - 1, 0), n, n))
+    gains = np.empty((nb, max(T - 1, 0), n, n) if store_gains else (1, 1, n, n))
+    _kernels.rts_smoother_kernel(kernel_terms(model)["F"], *args, bool(store_gains), sm, sc, cc, gains)
+    return sm, sc, cc, (gains if store_gains else None)
 
 
 def rts_smoother(model: StateSpaceModel, filtered: FilterResult) -> SmootherResult:
-    """Rauch–Tung–Striebel smoother on the output of :func:`kalman_filter`.
+    r"""Rauch–Tung–Striebel smoother on the output of :func:`kalman_filter`.
 
     Parameters
     ----------
     model : StateSpaceModel
         The model the filter was run with.
     filtered : FilterResult
-        Output of :func:`kalman_filter` with covariances stored.
+        Output of :func:`kalman_filter` with covariances stored (one series or a batch).
 
     Returns
     -------
     SmootherResult
-        Smoothed means and covariances, and lag-one cross-covariances
-        ``cross_cov[t] = Cov(x_t, x_{t+1} | y)``.
+        ``mean`` (T, n), ``cov`` (T, n, n) and lag-one cross-covariances
+        ``cross_cov`` (T-1, n, n), ``cross_cov[t] = Cov(x_t, x_{t+1} | y)``;
+        a leading batch axis B when the filter ran on a batch.
+
+    Raises
+    ------
+    ShapeError
+        The filter ran without covariances, or its shapes do not match the model.
+
+    Notes
+    -----
+    Rauch, Tung & Striebel (1965):
+
+    .. math::
+
+        G_t &= P_{t|t} F_t^\top P_{t+1|t}^{-1} \quad\text{(Cholesky solve; eigen pseudo-inverse if singular)} \\
+        \hat x_{t|T} &= \hat x_{t|t} + G_t (\hat x_{t+1|T} - \hat x_{t+1|t}) \\
+        P_{t|T} &= P_{t|t} + G_t (P_{t+1|T} - P_{t+1|t}) G_t^\top, \qquad
+        \operatorname{Cov}(x_t, x_{t+1} \mid y) = G_t P_{t+1|T}
+
+    (the cross-covariance identity is de Jong 1989 / Shumway & Stoffer's lag-one
+    covariance written as a true covariance, not a second moment).
     """
-    if filtered.cov is None:
-        raise ShapeError("rts_smoother needs the filtered covariances; run kalman_filter with store_covariances=True.")
-    if filtered.mean.ndim == 3:
-        outs = [_smooth_one(model, filtered.mean[b], filtered.cov[b], filtered.pred_mean[b], filtered.pred_cov[b])
-                for b in range(filtered.mean.shape[0])]
-        sm, sc, cc = (np.stack([o[i] for o in outs]) for i in range(3))
-    else:
-        sm, sc, cc = _smooth_one(model, filtered.mean, filtered.cov, filtered.pred_mean, filtered.pred_cov)
+    sm, sc, cc, _ = smoother_arrays(model, filtered)
+    if filtered.mean.ndim == 2:
+        sm, sc, cc = sm[0], sc[0], cc[0]
     return SmootherResult(mean=sm, cov=sc, cross_cov=cc, filtered=filtered)

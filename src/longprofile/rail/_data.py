@@ -1,0 +1,252 @@
+"""Rail site data model: long-format sensors / readings / survey / controls tables, validated once.
+
+Tables (CSV or Parquet, one row per item, units in the column names):
+
+- sensors:  ``sensor_id`` (text), ``x_m`` (station along the track, m), optional ``z_m`` (initial altitude, m)
+- readings: ``timestamp`` (ISO 8601 date-time), ``sensor_id``, ``angle_deg`` (inclination, degrees),
+  ``temperature_c`` (°C)
+- survey:   ``x_m``, ``z_m`` — initial altitude survey, any grid (e.g. every 10 m)
+- controls: ``date`` (ISO date), ``x_m``, ``z_m`` — later control surveys (optional)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError, InputFormatError, UnitsError
+from ..io import read_table
+
+__all__ = ["SiteData", "validate_site", "read_site", "SENSOR_COLUMNS", "READING_COLUMNS",
+           "SURVEY_COLUMNS", "CONTROL_COLUMNS"]
+
+SENSOR_COLUMNS = ("sensor_id", "x_m")
+READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
+SURVEY_COLUMNS = ("x_m", "z_m")
+CONTROL_COLUMNS = ("date", "x_m", "z_m")
+
+#: Below this robust high-frequency noise (median over sensors, in the given unit) degrees are
+#: implausible for MEMS inclinometers (resolution 1e-4 deg, repeatability 2.5e-3 deg, paper 004 §1.3),
+#: while the same signal in radians (5e-3 deg = 8.7e-5 rad) falls below it.
+RADIAN_NOISE_THRESHOLD = 4e-4
+
+
+@dataclass(frozen=True, eq=False)
+class SiteData:
+    """A validated inclinometer site.
+
+    Attributes
+    ----------
+    sensors : DataFrame
+        ``sensor_id`` (str), ``x_m`` sorted by station; ``z_m`` if given.
+    readings : DataFrame
+        ``timestamp`` (datetime64), ``sensor_id`` (str), ``angle_deg``, ``temperature_c``,
+        sorted by sensor then time; angles in degrees whatever unit was given.
+    survey : DataFrame or None
+        ``x_m``, ``z_m`` sorted by x (None when the sensors carry ``z_m``).
+    controls : DataFrame or None
+        ``date`` (datetime64, day), ``x_m``, ``z_m``.
+    warnings : tuple of str
+        Everything that was accepted but deserves the user's attention (sorted input,
+        sensors without readings, control points outside the sensors...). Reported in every output.
+    """
+
+    sensors: pd.DataFrame
+    readings: pd.DataFrame
+    survey: pd.DataFrame | None
+    controls: pd.DataFrame | None
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def sensor_ids(self) -> list[str]:
+        """Sensor ids ordered by station."""
+        return list(self.sensors["sensor_id"])
+
+    @property
+    def x(self) -> np.ndarray:
+        """(N,) station positions, m."""
+        return self.sensors["x_m"].to_numpy(float)
+
+
+def _require_columns(df: pd.DataFrame, cols, what: str):
+    missing = [c for c in cols if c not in df.columns]
+    if missing:
+        raise InputFormatError(f"{what} table: missing column(s) {missing}; it has {list(df.columns)}. "
+                               f"Expected columns: {list(cols)}.")
+
+
+def _numeric(df: pd.DataFrame, col: str, what: str, *, allow_nan: bool = False) -> np.ndarray:
+    conv = pd.to_numeric(df[col], errors="coerce")
+    bad = conv.isna() & df[col].notna() if allow_nan else conv.isna()
+    if bad.any() or np.isinf(conv).any():
+        i = int(np.nonzero((bad | np.isinf(conv)).to_numpy())[0][0])
+        raise InputFormatError(f"{what} table, row {i}: column {col!r} must be a finite number; got {df[col].iloc[i]!r}.")
+    return conv.to_numpy(float)
+
+
+def _times(values, what: str, col: str) -> pd.Series:
+    try:
+        t = pd.to_datetime(pd.Series(values), format="ISO8601")
+    except (ValueError, TypeError) as exc:
+        raise InputFormatError(f"{what} table: column {col!r} must hold ISO 8601 dates/times "
+                               f"(e.g. 2019-11-18T08:10:00); {exc}") from None
+    if t.isna().any():
+        i = int(np.nonzero(t.isna().to_numpy())[0][0])
+        raise InputFormatError(f"{what} table, row {i}: column {col!r} is empty.")
+    if getattr(t.dt, "tz", None) is not None:
+        t = t.dt.tz_convert("UTC").dt.tz_localize(None)
+    return t
+
+
+def _robust_noise(readings: pd.DataFrame) -> float:
+    """Median over sensors of the robust std of first differences / sqrt(2) (high-frequency noise)."""
+    d = readings.groupby("sensor_id", sort=False)["angle_deg"].diff().abs()
+    per = d.groupby(readings["sensor_id"], sort=False).median() / (0.6745 * np.sqrt(2.0))
+    per = per[np.isfinite(per) & (per > 0)]
+    return float(per.median()) if len(per) else float("nan")
+
+
+def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
+                  controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
+                  check_units: bool = True) -> SiteData:
+    """Validate the four tables of a site and return a :class:`SiteData`.
+
+    Parameters
+    ----------
+    sensors, readings, survey, controls : DataFrame
+        The long-format tables (module docstring). ``survey`` may be omitted when
+        ``sensors`` has a ``z_m`` column; ``controls`` is optional.
+    angle_unit : {"deg", "rad"}, default "deg"
+        Unit of ``angle_deg`` as given; radians are converted to degrees.
+    check_units : bool, default True
+        With ``angle_unit="deg"``, refuse angles whose high-frequency noise is
+        implausibly small for degrees (typical of radians given by mistake).
+
+    Returns
+    -------
+    SiteData
+
+    Raises
+    ------
+    InputFormatError
+        Missing columns, non-numeric values, unreadable dates.
+    InputError
+        Unknown sensor ids in the readings, duplicate sensor ids or stations, duplicate
+        (sensor, timestamp) readings, a survey that does not cover the sensors, no survey at all.
+    UnitsError
+        Angles that look like radians (see ``check_units``), unknown ``angle_unit``.
+    """
+    warnings: list[str] = []
+    if angle_unit not in ("deg", "rad"):
+        raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
+    # ---- sensors
+    _require_columns(sensors, SENSOR_COLUMNS, "sensors")
+    s = pd.DataFrame({"sensor_id": sensors["sensor_id"].astype(str).str.strip(),
+                      "x_m": _numeric(sensors, "x_m", "sensors")})
+    if "z_m" in sensors.columns:
+        s["z_m"] = _numeric(sensors, "z_m", "sensors", allow_nan=True)
+    dup = s["sensor_id"][s["sensor_id"].duplicated()]
+    if len(dup):
+        raise InputError(f"sensors table: sensor id {dup.iloc[0]!r} appears more than once; ids must be unique.")
+    if len(s) < 3:
+        raise InputError(f"sensors table: at least 3 sensors are needed; got {len(s)}.")
+    s = s.sort_values("x_m", kind="stable").reset_index(drop=True)
+    same = np.nonzero(np.diff(s["x_m"].to_numpy()) <= 0)[0]
+    if same.size:
+        i = int(same[0])
+        raise InputError(f"sensors table: sensors {s['sensor_id'][i]!r} and {s['sensor_id'][i + 1]!r} are at the same "
+                         f"station x = {s['x_m'][i]} m; each sensor needs its own station.")
+    # ---- readings
+    _require_columns(readings, READING_COLUMNS, "readings")
+    r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp"),
+                      "sensor_id": readings["sensor_id"].astype(str).str.strip().to_numpy(),
+                      "angle_deg": _numeric(readings, "angle_deg", "readings", allow_nan=True),
+                      "temperature_c": _numeric(readings, "temperature_c", "readings", allow_nan=True)})
+    known = set(s["sensor_id"])
+    unknown = sorted(set(r["sensor_id"]) - known)
+    if unknown:
+        raise InputError(f"readings table: {len(unknown)} sensor id(s) not in the sensors table, e.g. "
+                         f"{unknown[:5]}; add them to the sensors table (with their station) or remove their readings.")
+    dups = r.duplicated(["sensor_id", "timestamp"])
+    if dups.any():
+        i = int(np.nonzero(dups.to_numpy())[0][0])
+        raise InputError(f"readings table, row {i}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
+                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp.")
+    order_ok = r.groupby("sensor_id", sort=False)["timestamp"].apply(lambda t: bool(t.is_monotonic_increasing))
+    if not order_ok.all():
+        bad = list(order_ok.index[~order_ok.to_numpy()])
+        warnings.append(f"readings of {len(bad)} sensor(s) were not in time order (e.g. {bad[:3]}); they were sorted.")
+    r = r.sort_values(["sensor_id", "timestamp"], kind="stable").reset_index(drop=True)
+    if angle_unit == "rad":
+        r["angle_deg"] = np.rad2deg(r["angle_deg"])
+    elif check_units:
+        noise = _robust_noise(r)
+        if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
+            raise UnitsError(f"readings: the angle noise is {noise:.2g} (median over sensors of the robust std of "
+                             f"successive differences), implausibly small for degrees (inclinometers: ~1e-3..1e-2 deg); "
+                             "the angles look like radians. Pass angle_unit='rad' (CLI: --angle-unit rad), or "
+                             "check_units=False (--no-check-units) if they really are degrees.")
+    without = sorted(known - set(r["sensor_id"]))
+    if without:
+        warnings.append(f"{len(without)} sensor(s) have no readings at all: {without[:5]}; they are reported as dead.")
+    # ---- survey
+    sv = None
+    if survey is not None:
+        _require_columns(survey, SURVEY_COLUMNS, "survey")
+        sv = pd.DataFrame({"x_m": _numeric(survey, "x_m", "survey"), "z_m": _numeric(survey, "z_m", "survey")})
+        sv = sv.sort_values("x_m", kind="stable").reset_index(drop=True)
+        if sv["x_m"].duplicated().any():
+            raise InputError("survey table: two altitudes at the same x_m; keep one per position.")
+        if len(sv) < 2:
+            raise InputError(f"survey table: at least 2 points are needed; got {len(sv)}.")
+        lo, hi = sv["x_m"].iloc[0], sv["x_m"].iloc[-1]
+        x = s["x_m"].to_numpy()
+        out = s["sensor_id"][(x < lo - 1e-9) | (x > hi + 1e-9)]
+        if len(out):
+            raise InputError(f"survey table covers x = {lo:g}..{hi:g} m but {len(out)} sensor(s) lie outside, e.g. "
+                             f"{list(out[:5])}; extend the survey to cover every sensor (altitudes are never extrapolated).")
+    elif "z_m" in s.columns and s["z_m"].notna().all():
+        sv = pd.DataFrame({"x_m": s["x_m"], "z_m": s["z_m"]})
+        warnings.append("no survey table: the initial profile is the sensors' z_m column.")
+    else:
+        raise InputError("no initial altitude: give a survey table (x_m, z_m) or a z_m column in the sensors table.")
+    # ---- controls
+    ct = None
+    if controls is not None:
+        _require_columns(controls, CONTROL_COLUMNS, "controls")
+        ct = pd.DataFrame({"date": _times(controls["date"].to_numpy(), "controls", "date").dt.normalize(),
+                           "x_m": _numeric(controls, "x_m", "controls"), "z_m": _numeric(controls, "z_m", "controls")})
+        x = s["x_m"].to_numpy()
+        outside = (ct["x_m"] < x[0]) | (ct["x_m"] > x[-1])
+        if outside.any():
+            warnings.append(f"{int(outside.sum())} control point(s) lie outside the instrumented span "
+                            f"{x[0]:g}..{x[-1]:g} m and are not compared.")
+        ct = ct.sort_values(["date", "x_m"], kind="stable").reset_index(drop=True)
+    return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
+
+
+def read_site(sensors, readings, survey=None, controls=None, *, angle_unit: str = "deg",
+              check_units: bool = True) -> SiteData:
+    """Read the site tables from CSV/Parquet files (``longprofile.io.read_table``) and validate them.
+
+    Parameters
+    ----------
+    sensors, readings : path-like
+        Required tables.
+    survey, controls : path-like, optional
+        Initial survey (required unless the sensors table has ``z_m``) and control surveys.
+    angle_unit, check_units
+        See :func:`validate_site`.
+
+    Returns
+    -------
+    SiteData
+    """
+    s = read_table(sensors, required=SENSOR_COLUMNS)
+    r = read_table(readings, required=READING_COLUMNS)
+    sv = None if survey is None else read_table(survey, required=SURVEY_COLUMNS)
+    ct = None if controls is None else read_table(controls, required=CONTROL_COLUMNS)
+    return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units)
+

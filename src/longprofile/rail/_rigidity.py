@@ -1,0 +1,562 @@
+r"""The Bayesian rigidity model of paper 004 (§4.2–4.4): dense reference and O(N) state-space version.
+
+Unknowns at the N stations (sensors) x_1 < ... < x_N are the altitude z_i = f(x_i)
+and the slope theta_i = f'(x_i) of the track. The prior penalises curvature,
+
+    pi(f) ∝ exp(-||f''||^2 / r),     ||g||^2 = (1 / (x_N - x_1)) ∫ g^2,
+
+which Lemma 4.1 turns into a quadratic form on X = (z, theta): between two
+stations the minimiser is the cubic Hermite polynomial and its cost is
+
+    ∫ f''^2 = 12/l^3 (dz - l (theta_i + theta_{i+1})/2)^2 + 1/l (theta_{i+1} - theta_i)^2.
+
+Mapping to the engine: with e_i = (z_{i+1} - z_i - l theta_i, theta_{i+1} - theta_i),
+the cost above equals e_i^T Qbar(l)^{-1} e_i with Qbar(l) = [[l^3/3, l^2/2], [l^2/2, l]],
+i.e. the transition density of the integrated Wiener process theta' = w, z' = theta,
+F(l) = [[1, l], [0, 1]], Q(l) = q Qbar(l). Matching exp(-(1/(r L)) Σ cost) with
+exp(-1/2 Σ e^T Q^{-1} e) gives q = r L / 2, L = x_N - x_1. The posterior of the
+paper is therefore exactly the RTS smoother of that model over the stations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve, cholesky_banded, solve_banded
+
+from .._validation import as_float_array, require_positive
+from ..errors import InputError, ShapeError
+from ..statespace import StateSpaceModel
+from ..statespace._shared_cov import shared_covariance_smoother
+
+__all__ = [
+    "ProfilePosterior",
+    "segment_rigidity_cost",
+    "rigidity_cost_matrix",
+    "rigidity_posterior_dense",
+    "rigidity_model",
+    "rigidity_posterior",
+    "initial_profile_posterior_dense",
+    "initial_profile_posterior",
+    "sample_profiles",
+    "max_settlement_monte_carlo",
+    "Z90",
+]
+
+#: Two-sided 90 % normal quantile (the paper rounds it to 1.6).
+Z90 = 1.6448536269514722
+
+#: Rigidity r of the paper (§4.1): typical mean-square curvature, m^-2 (the text's "1/r := 1e-8" is a misprint).
+DEFAULT_RIGIDITY = 1e-8
+#: Angle noise sigma of the paper (§4.2): 5e-3 degree, in radians.
+DEFAULT_SIGMA = np.deg2rad(5e-3)
+#: Anchor standard deviation sigma_z of the paper (§4.2), m.
+DEFAULT_SIGMA_Z = 1e-5
+#: Survey noise sigma_a of the paper (§4.4), m.
+DEFAULT_SIGMA_A = 2e-3
+#: Wide proper prior on the first slope (rad) replacing the paper's flat prior in the state-space form.
+FIRST_SLOPE_PRIOR_STD = 1.0
+#: Wide proper prior on the first altitude (m, after centring) for §4.4 in the state-space form.
+FIRST_ALTITUDE_PRIOR_STD = 100.0
+
+
+@dataclass(frozen=True, eq=False)
+class ProfilePosterior:
+    """Gaussian posterior of (altitude, slope) at the stations, for one or several profiles (days).
+
+    Attributes
+    ----------
+    x : (N,) ndarray
+        Station positions, m.
+    z_mean, slope_mean : (N,) or (D, N) ndarray
+        Posterior means of the altitude (m) and slope (rad ≈ m/m); one row per profile.
+    z_std, slope_std : (N,) or (D, N) ndarray
+        Posterior standard deviations.
+    station_cov : (N, 2, 2) or (D, N, 2, 2) ndarray
+        Posterior covariance of (z_i, theta_i) at each station.
+    cross_cov : (N-1, 2, 2) or (D, N-1, 2, 2) ndarray or None
+        Cov((z_i, theta_i), (z_{i+1}, theta_{i+1})): with ``station_cov`` it determines the
+        whole joint posterior (the posterior is Markov along the track). None for the dense reference.
+    full_cov : (2N, 2N) ndarray or None
+        Full covariance of X = (z_1..z_N, theta_1..theta_N), dense reference only.
+    log_likelihood : float or (D,) ndarray or None
+        Marginal log-likelihood of the observations (engine only; used to estimate sigma and r).
+    method : str
+        ``"dense"`` (the paper's formula) or ``"state-space"`` (RTS smoother over stations).
+    """
+
+    x: np.ndarray
+    z_mean: np.ndarray
+    slope_mean: np.ndarray
+    z_std: np.ndarray
+    slope_std: np.ndarray
+    station_cov: np.ndarray
+    cross_cov: np.ndarray | None
+    full_cov: np.ndarray | None
+    log_likelihood: float | np.ndarray | None
+    method: str
+
+    def z_band(self, level_z: float = Z90) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) altitude band, mean ∓ ``level_z`` std (default: two-sided 90 %)."""
+        return self.z_mean - level_z * self.z_std, self.z_mean + level_z * self.z_std
+
+
+def _check_stations(x) -> np.ndarray:
+    x = as_float_array("x (station positions)", x, ndim=1, allow_nan=False)
+    if x.size < 2:
+        raise InputError(f"the rigidity model needs at least 2 stations; got {x.size}.")
+    if np.any(np.diff(x) <= 0):
+        i = int(np.nonzero(np.diff(x) <= 0)[0][0])
+        raise InputError(f"station positions must be strictly increasing; x[{i}] = {x[i]} and x[{i + 1}] = {x[i + 1]}. "
+                         "Sort the sensors by position and merge duplicates.")
+    return x
+
+
+def segment_rigidity_cost(length: float) -> np.ndarray:
+    r"""Quadratic form of Lemma 4.1 on one segment: ∫ f''^2 = v^T M v, v = (z_i, theta_i, z_{i+1}, theta_{i+1}).
+
+    Parameters
+    ----------
+    length : float
+        Segment length l = x_{i+1} - x_i, m.
+
+    Returns
+    -------
+    (4, 4) ndarray
+        Symmetric M with v^T M v = 4 l c^2 + 12 l^2 c d + 12 l^3 d^2 (paper 004, proof of Lemma 4.1).
+
+    Notes
+    -----
+    The cubic coefficients are, correcting the paper's two misprints in the inverse
+    matrix and in its expansion,
+    c = 3 l^-2 (z_{i+1} - z_i) - l^-1 (2 theta_i + theta_{i+1}),
+    d = -2 l^-3 (z_{i+1} - z_i) + l^-2 (theta_i + theta_{i+1}).
+    """
+    l = require_positive("segment length", length)
+    # c = a . v, d = b . v
+    a = np.array([-3.0 / l**2, -2.0 / l, 3.0 / l**2, -1.0 / l])
+    b = np.array([2.0 / l**3, 1.0 / l**2, -2.0 / l**3, 1.0 / l**2])
+    M = 4 * l * np.outer(a, a) + 6 * l**2 * (np.outer(a, b) + np.outer(b, a)) + 12 * l**3 * np.outer(b, b)
+    return 0.5 * (M + M.T)
+
+
+def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY) -> np.ndarray:
+    r"""Rigidity cost matrix C of paper 004 (§4.2), ordered X = (z_1..z_N, theta_1..theta_N).
+
+    ``1/2 X^T C X = ||f''||^2 / r`` for the piecewise cubic Hermite f through X, i.e.
+    C = 2 / (r (x_N - x_1)) Σ_i M_i with M_i from :func:`segment_rigidity_cost`.
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Strictly increasing station positions, m.
+    rigidity : float, default 1e-8
+        r, m^-2.
+
+    Returns
+    -------
+    (2N, 2N) ndarray
+    """
+    x = _check_stations(x)
+    r = require_positive("rigidity", rigidity)
+    N = x.size
+    C = np.zeros((2 * N, 2 * N))
+    for i, l in enumerate(np.diff(x)):
+        idx = [i, N + i, i + 1, N + i + 1]
+        C[np.ix_(idx, idx)] += segment_rigidity_cost(l)
+    return C * (2.0 / (r * (x[-1] - x[0])))
+
+
+def _as_profiles(name, values, N):
+    arr = as_float_array(name, values, ndim=(1, 2))
+    if arr.shape[-1] != N:
+        raise ShapeError(f"{name} must have N = {N} columns (one per station); got shape {arr.shape}.")
+    return arr
+
+
+def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                             sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0)) -> ProfilePosterior:
+    r"""The paper's dense posterior (§4.2), O(N^3): the reference implementation.
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Station positions, m.
+    slopes : (N,) array_like
+        Measured slopes m_i (rad); NaN for a sensor without a measurement.
+    sigma : float
+        Slope noise standard deviation, rad (paper: 5e-3 degree).
+    rigidity : float
+        r, m^-2.
+    sigma_z : float
+        Standard deviation of the two end anchors, m (paper: 1e-5 m).
+    z_ends : (2,) array_like
+        Anchor altitudes (z_1^0, z_N^0), m.
+
+    Returns
+    -------
+    ProfilePosterior
+        With ``full_cov`` set and ``cross_cov`` None.
+
+    Notes
+    -----
+    Implements X | M ~ N(Sigma_X (P^T Sigma_theta^-1 M + A X^0), Sigma_X),
+    Sigma_X = (P^T Sigma_theta^-1 P + C + A)^-1, where P (N_obs x 2N) selects the
+    observed slopes and A is the anchor precision 1/sigma_z^2 on z_1 and z_N.
+    The paper prints P Sigma^-1 P^T (dimensions do not match), omits A from
+    Sigma_X and the mean, and writes 1/(2 sigma) and sigma^2 for 1/(2 sigma^2)
+    and sigma_z^2 in the posterior density: corrected here (docs/rail.md).
+    """
+    x = _check_stations(x)
+    N = x.size
+    m = _as_profiles("slopes", slopes, N)
+    if m.ndim != 1:
+        raise ShapeError(f"rigidity_posterior_dense takes one profile of N slopes; got shape {m.shape}.")
+    s = require_positive("sigma", sigma)
+    sz = require_positive("sigma_z", sigma_z)
+    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
+    prec = rigidity_cost_matrix(x, rigidity=rigidity)
+    rhs = np.zeros(2 * N)
+    obs = np.isfinite(m)
+    prec[N + np.nonzero(obs)[0], N + np.nonzero(obs)[0]] += 1.0 / s**2
+    rhs[N:][obs] = m[obs] / s**2
+    for i, z0 in ((0, z_ends[0]), (N - 1, z_ends[1])):
+        prec[i, i] += 1.0 / sz**2
+        rhs[i] += z0 / sz**2
+    cov = np.linalg.inv(prec)
+    cov = 0.5 * (cov + cov.T)
+    mean = cov @ rhs
+    return _dense_result(x, mean, cov)
+
+
+def _dense_result(x, mean, cov):
+    N = x.size
+    sc = np.empty((N, 2, 2))
+    sc[:, 0, 0] = np.diag(cov)[:N]
+    sc[:, 1, 1] = np.diag(cov)[N:]
+    sc[:, 0, 1] = sc[:, 1, 0] = cov[np.arange(N), N + np.arange(N)]
+    return ProfilePosterior(x=x, z_mean=mean[:N], slope_mean=mean[N:], z_std=np.sqrt(sc[:, 0, 0]),
+                            slope_std=np.sqrt(sc[:, 1, 1]), station_cov=sc, cross_cov=None, full_cov=cov,
+                            log_likelihood=None, method="dense")
+
+
+def _iwp_terms(x, q):
+    h = np.diff(x)
+    F = np.zeros((h.size, 2, 2))
+    F[:, 0, 0] = F[:, 1, 1] = 1.0
+    F[:, 0, 1] = h
+    Q = np.empty((h.size, 2, 2))
+    Q[:, 0, 0] = q * h**3 / 3
+    Q[:, 0, 1] = Q[:, 1, 0] = q * h**2 / 2
+    Q[:, 1, 1] = q * h
+    return F, Q
+
+
+def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                   sigma_z: float = DEFAULT_SIGMA_Z, z_start: float = 0.0,
+                   first_slope_prior_std: float = FIRST_SLOPE_PRIOR_STD) -> StateSpaceModel:
+    r"""State-space form of the rigidity prior over the stations (paper 004 §4.2, Lemma 4.1).
+
+    State x_i = (z_i, theta_i) at station i ("time" = station index); observation
+    y_i = (measured slope, anchored altitude), H = [[0, 1], [1, 0]], R = diag(sigma^2, sigma_z^2).
+    Put the end anchor z_N^0 in ``y[N-1, 1]`` and NaN in the other altitude rows.
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Station positions, m (irregular spacing allowed: F and Q vary per segment).
+    sigma, rigidity, sigma_z : float
+        As in :func:`rigidity_posterior_dense`.
+    z_start : float
+        Anchor altitude z_1^0 of the first station, m (the prior mean of z_1).
+    first_slope_prior_std : float, default 1 rad
+        The paper's prior is flat in theta_1; a state-space filter needs a proper
+        prior, so theta_1 ~ N(0, (1 rad)^2), a physical bound whose precision (1)
+        is ~1e8 times smaller than one slope measurement's.
+
+    Returns
+    -------
+    StateSpaceModel
+        F_i = [[1, h_i], [0, 1]], Q_i = q [[h_i^3/3, h_i^2/2], [h_i^2/2, h_i]], q = r (x_N - x_1) / 2.
+    """
+    x = _check_stations(x)
+    s = require_positive("sigma", sigma)
+    sz = require_positive("sigma_z", sigma_z)
+    r = require_positive("rigidity", rigidity)
+    sp = require_positive("first_slope_prior_std", first_slope_prior_std)
+    q = r * (x[-1] - x[0]) / 2.0
+    F, Q = _iwp_terms(x, q)
+    return StateSpaceModel(transition=F, observation=np.array([[0.0, 1.0], [1.0, 0.0]]), process_cov=Q,
+                           obs_cov=np.diag([s**2, sz**2]),
+                           initial_mean=np.array([float(z_start), 0.0]), initial_cov=np.diag([sz**2, sp**2]))
+
+
+def _posterior_from_smoother(x, sm, batched):
+    mean, cov, cc = sm.mean, sm.cov, sm.cross_cov
+    if batched:
+        D = mean.shape[0]
+        cov = np.broadcast_to(cov, (D,) + cov.shape)
+        cc = np.broadcast_to(cc, (D,) + cc.shape)
+    return ProfilePosterior(x=x, z_mean=mean[..., 0], slope_mean=mean[..., 1],
+                            z_std=np.sqrt(cov[..., 0, 0]), slope_std=np.sqrt(cov[..., 1, 1]),
+                            station_cov=cov, cross_cov=cc, full_cov=None,
+                            log_likelihood=sm.filtered.log_likelihood, method="state-space")
+
+
+def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                       sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0)) -> ProfilePosterior:
+    r"""Posterior of the rigidity model for one or many profiles, in O(N) per profile (RTS smoother).
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Station positions, m.
+    slopes : (N,) or (D, N) array_like
+        Measured slopes (rad) per profile (e.g. one row per day); NaN = no measurement.
+    sigma, rigidity, sigma_z, z_ends
+        As in :func:`rigidity_posterior_dense` (anchors shared by all profiles).
+
+    Returns
+    -------
+    ProfilePosterior
+        ``method="state-space"``; per-profile fields gain a leading D axis for 2-D ``slopes``.
+
+    Notes
+    -----
+    Same posterior as the paper's dense formula (§4.2), computed by the Kalman
+    filter + RTS smoother of :func:`rigidity_model` (module docstring: the mapping
+    q = r L / 2). Profiles sharing a missing pattern share one covariance pass
+    (:func:`longprofile.statespace.shared_covariance_smoother`), so D profiles of N
+    stations cost O(N + D N).
+    """
+    x = _check_stations(x)
+    N = x.size
+    m = _as_profiles("slopes", slopes, N)
+    batched = m.ndim == 2
+    M = m if batched else m[None]
+    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0])
+    Y = np.full((M.shape[0], N, 2), np.nan)
+    Y[:, :, 0] = M
+    Y[:, -1, 1] = z_ends[1]
+    D = M.shape[0]
+    zm = np.empty((D, N)); tm = np.empty((D, N))
+    sc = np.empty((D, N, 2, 2)); cc = np.empty((D, N - 1, 2, 2)); ll = np.empty(D)
+    pattern = np.isnan(M)
+    uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
+    for g in range(uniq.shape[0]):
+        rows = np.nonzero(inv.ravel() == g)[0]
+        sm = shared_covariance_smoother(model, Y[rows])
+        zm[rows] = sm.mean[..., 0]
+        tm[rows] = sm.mean[..., 1]
+        sc[rows] = sm.cov
+        cc[rows] = sm.cross_cov
+        ll[rows] = sm.filtered.log_likelihood
+    if not batched:
+        zm, tm, sc, cc, ll = zm[0], tm[0], sc[0], cc[0], float(ll[0])
+    return ProfilePosterior(x=x, z_mean=zm, slope_mean=tm, z_std=np.sqrt(sc[..., 0, 0]),
+                            slope_std=np.sqrt(sc[..., 1, 1]), station_cov=sc, cross_cov=cc, full_cov=None,
+                            log_likelihood=ll, method="state-space")
+
+
+def initial_profile_posterior_dense(x, altitudes, *, sigma_a: float = DEFAULT_SIGMA_A,
+                                    rigidity: float = DEFAULT_RIGIDITY) -> ProfilePosterior:
+    r"""Initial altitudes and angles from a survey at the stations, dense reference (paper 004 §4.4).
+
+    pi(X | a) ∝ exp(-1/2 X^T C X - 1/(2 sigma_a^2) Σ (z_i - a_i)^2).
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Station positions, m.
+    altitudes : (N,) array_like
+        Surveyed altitudes a_i at the stations, m (NaN = not surveyed).
+    sigma_a : float, default 2e-3
+        Survey noise, m.
+    rigidity : float
+        r, m^-2.
+    """
+    x = _check_stations(x)
+    N = x.size
+    a = _as_profiles("altitudes", altitudes, N)
+    sa = require_positive("sigma_a", sigma_a)
+    obs = np.isfinite(a)
+    if obs.sum() < 2:
+        raise InputError("the initial profile needs at least 2 surveyed altitudes.")
+    prec = rigidity_cost_matrix(x, rigidity=rigidity)
+    idx = np.nonzero(obs)[0]
+    prec[idx, idx] += 1.0 / sa**2
+    rhs = np.zeros(2 * N)
+    rhs[idx] = a[obs] / sa**2
+    cov = np.linalg.inv(prec)
+    cov = 0.5 * (cov + cov.T)
+    return _dense_result(x, cov @ rhs, cov)
+
+
+def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT_SIGMA_A,
+                              rigidity: float = DEFAULT_RIGIDITY) -> ProfilePosterior:
+    r"""Initial altitudes and slopes at the stations from a survey on any grid (paper 004 §4.4), O(N).
+
+    Parameters
+    ----------
+    x : (N,) array_like
+        Station (sensor) positions, m.
+    survey_x, survey_z : (S,) array_like
+        Survey positions and altitudes, m; any grid (e.g. every 10 m), at least 2 points.
+    sigma_a : float, default 2e-3
+        Survey noise, m.
+    rigidity : float
+        r, m^-2 (the normalising length L is the span of the stations and survey points).
+
+    Returns
+    -------
+    ProfilePosterior
+        At the N stations x: altitude and slope (the initial angles, arctan of the slope) with bands.
+
+    Notes
+    -----
+    Instead of interpolating a coarse survey to the sensors (paper §5.1), the
+    survey points become extra stations of the same rigidity model with observed
+    altitude only; the RTS smoother then gives the altitudes and slopes at the
+    sensors with bands that grow between survey points. When the survey is at the
+    sensors this is the paper's §4.4 posterior (tested against the dense form).
+    Altitudes are centred on the survey mean before filtering, and the first
+    station gets the wide proper prior N(0, (100 m)^2) x N(0, (1 rad)^2).
+    """
+    x = _check_stations(x)
+    sx = as_float_array("survey_x", survey_x, ndim=1, allow_nan=False)
+    szv = as_float_array("survey_z", survey_z, ndim=1, allow_nan=False)
+    if sx.shape != szv.shape or sx.size < 2:
+        raise InputError(f"survey_x and survey_z must have the same length >= 2; got {sx.shape} and {szv.shape}.")
+    sa = require_positive("sigma_a", sigma_a)
+    r = require_positive("rigidity", rigidity)
+    order = np.argsort(sx, kind="stable")
+    sx, szv = sx[order], szv[order]
+    if np.any(np.diff(sx) == 0):
+        raise InputError("the survey has two altitudes at the same position; keep one per position.")
+    allx = np.union1d(x, sx)
+    center = float(szv.mean())
+    q = r * (allx[-1] - allx[0]) / 2.0
+    F, Q = _iwp_terms(allx, q)
+    model = StateSpaceModel(transition=F, observation=np.array([[1.0, 0.0]]), process_cov=Q,
+                            obs_cov=np.array([[sa**2]]), initial_mean=np.zeros(2),
+                            initial_cov=np.diag([FIRST_ALTITUDE_PRIOR_STD**2, FIRST_SLOPE_PRIOR_STD**2]))
+    y = np.full((allx.size, 1), np.nan)
+    y[np.searchsorted(allx, sx), 0] = szv - center
+    sm = shared_covariance_smoother(model, y)
+    at = np.searchsorted(allx, x)
+    cov = sm.cov[at]
+    # cross-covariances between consecutive sensors through intermediate survey stations:
+    # Cov(x_a, x_b) = G_a G_{a+1} ... G_{b-1} P_b with G_k = cross_cov[k] P_{k+1}^{-1}
+    G = np.linalg.solve(sm.cov[1:], np.swapaxes(sm.cross_cov, 1, 2))
+    G = np.swapaxes(G, 1, 2)
+    cc = np.empty((x.size - 1, 2, 2))
+    for i in range(x.size - 1):
+        A = np.eye(2)
+        for k in range(at[i], at[i + 1]):
+            A = A @ G[k]
+        cc[i] = A @ sm.cov[at[i + 1]]
+    mean = sm.mean[at]
+    return ProfilePosterior(x=x, z_mean=mean[:, 0] + center, slope_mean=mean[:, 1], z_std=np.sqrt(cov[:, 0, 0]),
+                            slope_std=np.sqrt(cov[:, 1, 1]), station_cov=cov, cross_cov=cc, full_cov=None,
+                            log_likelihood=float(sm.filtered.log_likelihood), method="state-space")
+
+
+def _banded_precision(post: ProfilePosterior, d: int | None):
+    """Block-tridiagonal precision of the posterior in interleaved order (z_1, th_1, z_2, ...), lower banded form."""
+    sc = post.station_cov if d is None else post.station_cov[d]
+    cc = post.cross_cov if d is None else post.cross_cov[d]
+    N = sc.shape[0]
+    # Joint of a Gauss-Markov chain: precision from the local 4x4 pair covariances.
+    # Lambda = Σ_i inv(pair_i) - Σ_{interior} inv(P_i)  (junction-tree identity)
+    prec = np.zeros((3 + 1, 2 * N))  # lower form, bandwidth 3
+    full_blocks = np.zeros((N, 2, 2)); off = np.zeros((N - 1, 2, 2))
+    for i in range(N - 1):
+        pair = np.block([[sc[i], cc[i]], [cc[i].T, sc[i + 1]]])
+        Pinv = np.linalg.inv(pair)
+        full_blocks[i] += Pinv[:2, :2]
+        full_blocks[i + 1] += Pinv[2:, 2:]
+        off[i] = Pinv[2:, :2]
+    for i in range(1, N - 1):
+        full_blocks[i] -= np.linalg.inv(sc[i])
+    for i in range(N):
+        for a in range(2):
+            for b in range(a + 1):
+                prec[a - b, 2 * i + b] = full_blocks[i, a, b]
+    for i in range(N - 1):
+        for a in range(2):
+            for b in range(2):
+                row, col = 2 * (i + 1) + a, 2 * i + b
+                prec[row - col, col] = off[i, a, b]
+    return prec
+
+
+def sample_profiles(post: ProfilePosterior, n_samples: int, *, day: int | None = None, rng=None) -> np.ndarray:
+    r"""Draw altitude profiles from a state-space :class:`ProfilePosterior`.
+
+    Parameters
+    ----------
+    post : ProfilePosterior
+        From :func:`rigidity_posterior` (needs ``cross_cov``).
+    n_samples : int
+        Number of draws.
+    day : int, optional
+        Which profile of a batched posterior.
+    rng : numpy.random.Generator, optional
+
+    Returns
+    -------
+    (n_samples, N) ndarray
+        Altitude draws, m.
+
+    Notes
+    -----
+    The posterior is a Gauss–Markov chain along the track, so its precision is
+    block-tridiagonal; it is assembled from the pairwise covariances and sampled
+    by a banded Cholesky factorisation, O(N) per draw.
+    """
+    if post.cross_cov is None:
+        raise InputError("sample_profiles needs a state-space posterior (cross_cov); the dense one has full_cov: "
+                         "sample it with numpy's multivariate_normal.")
+    rng = np.random.default_rng(rng)
+    batched = post.z_mean.ndim == 2
+    if batched and day is None:
+        raise InputError("the posterior holds several profiles; pass day= to choose one.")
+    d = day if batched else None
+    prec = _banded_precision(post, d)
+    U = cholesky_banded(prec, lower=True)  # Lambda = L L^T
+    N = post.x.size
+    w = rng.standard_normal((2 * N, int(n_samples)))
+    # x = mu + L^{-T} w: solve L^T v = w (upper banded with bandwidth 3)
+    upper = np.zeros_like(U)
+    bw = U.shape[0] - 1
+    for k in range(bw + 1):
+        upper[bw - k, k:] = U[k, : 2 * N - k]
+    v = solve_banded((0, bw), upper, w)
+    zm = post.z_mean if d is None else post.z_mean[d]
+    return zm[None, :] + v[0::2].T
+
+
+def max_settlement_monte_carlo(post: ProfilePosterior, n_samples: int = 2000, *, rng=None):
+    r"""Mean and std of the maximum settlement max_i(-z_i) per profile by posterior sampling (paper 004 §4.3).
+
+    Parameters
+    ----------
+    post : ProfilePosterior
+        Posterior of the settlement (altitude change, m) per profile.
+    n_samples : int, default 2000
+    rng : numpy.random.Generator or seed, optional
+
+    Returns
+    -------
+    mean, std : float or (D,) ndarray
+        Of the (non-Gaussian) maximum settlement, m (positive = downwards).
+    """
+    rng = np.random.default_rng(rng)
+    if post.z_mean.ndim == 1:
+        s = -sample_profiles(post, n_samples, rng=rng).min(axis=1)
+        return float(s.mean()), float(s.std(ddof=1))
+    out = np.array([(lambda s: (s.mean(), s.std(ddof=1)))(-sample_profiles(post, n_samples, day=d, rng=rng).min(axis=1))
+                    for d in range(post.z_mean.shape[0])])
+    return out[:, 0], out[:, 1]

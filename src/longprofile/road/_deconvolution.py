@@ -1,0 +1,515 @@
+"""Kalman deconvolution of the APL signal (paper 000, §5), with the RTS smoother and ML tuning.
+
+The instrument (any :class:`APLModel`) is realised as a cascade of second-order sections, the
+road profile u gets a Wiener (random walk, eq. 7) or AR(1) model, and the augmented state
+z_k = [x_k; u_k] (eqs. 9-12) is handed to the state-space engine. No filter loop lives here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, optimize, signal
+
+from .._validation import as_float_array, require_positive
+from ..errors import InputError, ModelError, NotDetectableError, ShapeError
+from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
+from ._apl import APLModel, _check_profile_spacing
+from ._double_filter import double_filter
+from ._profile import Profile
+
+__all__ = [
+    "instrument_state_space",
+    "apl_deconvolution_model",
+    "is_detectable",
+    "detrend_profile",
+    "fit_noise_variances",
+    "NoiseFit",
+    "smoother_error_std",
+    "reconstruct_profile",
+    "Reconstruction",
+    "RECONSTRUCTION_METHODS",
+]
+
+RECONSTRUCTION_METHODS = ("smoother", "filter", "double")
+
+
+def instrument_state_space(model: APLModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A well-conditioned state-space realisation (A, B, C, D) of an instrument model.
+
+    Each second-order section b0 + b1 z^-1 + b2 z^-2 over 1 + a1 z^-1 + a2 z^-2 is realised in
+    observer form (x1' = -a1 x1 + x2 + (b1 - a1 b0) v, x2' = -a2 x1 + (b2 - a2 b0) v,
+    out = x1 + b0 v; first-order sections use one state) and the sections are connected in
+    series, after ``model.delay`` pure-delay states. The polynomial (companion) form of a
+    5th-order model with poles at 0.9976 is never formed.
+
+    Returns
+    -------
+    A : (n, n) ndarray
+    B : (n, 1) ndarray
+    C : (1, n) ndarray
+    D : (1, 1) ndarray
+    """
+    A = np.zeros((0, 0))
+    B = np.zeros((0, 1))
+    C = np.zeros((1, 0))
+    D = np.ones((1, 1))
+    blocks = []
+    for _ in range(model.delay):
+        blocks.append((np.zeros((1, 1)), np.ones((1, 1)), np.ones((1, 1)), np.zeros((1, 1))))
+    for b0, b1, b2, _a0, a1, a2 in model.sos:
+        if b2 == 0 and a2 == 0:
+            blocks.append((np.array([[-a1]]), np.array([[b1 - a1 * b0]]), np.array([[1.0]]), np.array([[b0]])))
+        else:
+            blocks.append((np.array([[-a1, 1.0], [-a2, 0.0]]), np.array([[b1 - a1 * b0], [b2 - a2 * b0]]),
+                           np.array([[1.0, 0.0]]), np.array([[b0]])))
+    for A2, B2, C2, D2 in blocks:
+        n1, n2 = A.shape[0], A2.shape[0]
+        A = np.block([[A, np.zeros((n1, n2))], [B2 @ C, A2]])
+        B = np.vstack([B, B2 @ D])
+        C = np.hstack([D2 @ C, C2])
+        D = D2 @ D
+    return A, B, C, D
+
+
+def _input_dynamics(input_model: str, dx: float, correlation_length: float | None) -> float:
+    if input_model == "wiener":
+        return 1.0
+    if input_model == "ar1":
+        if correlation_length is None:
+            raise InputError("input_model='ar1' needs correlation_length (m), e.g. 500.")
+        L = require_positive("correlation_length", correlation_length)
+        return float(np.exp(-dx / L))
+    raise InputError(f"input_model must be 'wiener' or 'ar1'; got {input_model!r}.")
+
+
+def apl_deconvolution_model(instrument: APLModel, q: float, r: float, *, input_model: str = "wiener",
+                            correlation_length: float | None = None, dx: float | None = None) -> StateSpaceModel:
+    r"""The augmented state-space model of §5.1 (eqs. 9-12): instrument state plus road elevation.
+
+    Parameters
+    ----------
+    instrument : APLModel
+        The trailer model (eq. 1, or identified).
+    q : float
+        Variance of the elevation increment v_k per sample, m^2 (eq. 7).
+    r : float
+        Variance of the measurement noise e_k, in the signal's units squared (m^2).
+    input_model : {"wiener", "ar1"}
+        ``"wiener"`` (paper, eq. 7): u_{k+1} = u_k + v_k. ``"ar1"`` (§5.2, option 1):
+        u_{k+1} = phi u_k + v_k with phi = exp(-dx / correlation_length), which makes the
+        augmented pair detectable.
+    correlation_length : float, optional
+        For ``"ar1"``, m.
+    dx : float, optional
+        Spacing, m (default ``instrument.dx``; for a bench model without dx, give it).
+
+    Returns
+    -------
+    StateSpaceModel
+        State z_k = [x_k (n); u_k] (n + 1), observation y_k = C x_k + D u_k + e_k.
+        Transition [[A, B], [0, phi]], process_cov diag(0, ..., 0, q), obs_cov [[r]].
+        Prior: the elevation at the first sample is the reference (u_0 = 0 exactly: elevations
+        are reported relative to the first station, since the APL cannot see a level) and the
+        instrument state is at its stationary distribution around the steady state M u_0,
+        M = (I - A)^{-1} B (see Notes).
+
+    Notes
+    -----
+    Paper 000 augments with u_{k-1} and an instrument driven by u_{k-1}, then shifts the
+    estimate by one sample; we augment with u_k itself (equivalent, no shift needed, and it
+    also allows a direct feed-through D != 0 as in eq. 1).
+
+    With the ``"wiener"`` input model and an instrument having an exact zero at z = 1 (eq. 1 has
+    three), the integrator of the input cancels against a differentiator: the pair (F, H) is
+    not detectable (§5.2) and no stationary Kalman filter exists (see :func:`is_detectable`).
+    The time-varying filter and smoother still run. The initial instrument-state covariance is
+    the stationary covariance of xi = x - M u, which obeys xi' = A xi - M v (solved by a discrete
+    Lyapunov equation), for the Wiener model; for AR(1) the joint stationary covariance of
+    [x; u] conditioned on u_0 = 0.
+    """
+    if not isinstance(instrument, APLModel):
+        raise InputError(f"instrument must be an APLModel; got {type(instrument).__name__}.")
+    if not instrument.is_stable:
+        raise ModelError(f"the instrument model {instrument.name!r} is unstable (max |pole| = "
+                         f"{np.abs(instrument.poles).max():.4f}); deconvolution needs a stable instrument.")
+    q = require_positive("q", q)
+    r = require_positive("r", r)
+    h = dx if dx is not None else instrument.dx
+    if h is None:
+        raise InputError("the instrument has no spacing dx (bench model); pass dx=... in m.")
+    h = require_positive("dx", h)
+    phi = _input_dynamics(input_model, h, correlation_length)
+    A, B, C, D = instrument_state_space(instrument)
+    n = A.shape[0]
+    F = np.block([[A, B], [np.zeros((1, n)), np.array([[phi]])]])
+    H = np.hstack([C, D])
+    Q = np.zeros((n + 1, n + 1))
+    Q[n, n] = q
+    M = np.linalg.solve(np.eye(n) - A, B)  # steady state of x per unit level
+    # xi = x - M u obeys xi' = A xi + (A M + B - phi M) u - M v; for phi = 1 the u term vanishes.
+    if phi == 1.0:
+        Pxi = linalg.solve_discrete_lyapunov(A, q * (M @ M.T))
+    else:
+        # stationary joint covariance of [x; u], then condition on u = 0
+        P = linalg.solve_discrete_lyapunov(F, Q)
+        Pxi = P[:n, :n] - np.outer(P[:n, n], P[n, :n]) / P[n, n]
+    P0 = np.zeros((n + 1, n + 1))
+    P0[:n, :n] = 0.5 * (Pxi + Pxi.T)
+    return StateSpaceModel(F, H, Q, np.array([[r]]), np.zeros(n + 1), P0)
+
+
+def is_detectable(model: StateSpaceModel, *, tol: float = 1e-9) -> bool:
+    """PBH test: every mode with |lambda| >= 1 of the transition is observable through H.
+
+    A mode is declared unobservable when the smallest singular value of [lambda I - F; H],
+    relative to the norm of F, is below ``tol``. Zeros "slightly off 1" (§5.2, option 2) pass
+    this test, with a small margin that the returned boolean does not quantify.
+    """
+    F, H = np.asarray(model.transition), np.asarray(model.observation)
+    if F.ndim != 2 or H.ndim != 2:
+        raise ModelError("is_detectable needs a time-invariant model.")
+    n = F.shape[0]
+    scale = max(np.linalg.norm(F, 2), 1.0)
+    for lam in np.linalg.eigvals(F):
+        if abs(lam) < 1.0 - 1e-12:
+            continue
+        s = np.linalg.svd(np.vstack([lam * np.eye(n) - F, H]), compute_uv=False)
+        if s[-1] < tol * scale:
+            return False
+    return True
+
+
+def _not_detectable_message(instrument: APLModel) -> str:
+    return (f"no stationary Kalman filter exists for the Wiener input model with {instrument.name!r}: its zero at "
+            "z = 1 cancels the integrator of the input, so (F, H) is not detectable (paper 000, §5.2). Use "
+            "input_model='ar1' (§5.2 option 1, e.g. correlation_length=500 m), an identified model whose zeros are "
+            "slightly off 1 (option 2), or the time-varying filter/smoother (stationary=False).")
+
+
+def detrend_profile(elevation, dx: float, *, highpass_wavelength: float | None = 100.0, axis: int = 0) -> np.ndarray:
+    """Remove what the APL cannot see: a degree-2 polynomial, then long waves by a zero-phase high-pass.
+
+    Parameters
+    ----------
+    elevation : array_like
+        Profile (relative elevations), m; detrended along ``axis``.
+    dx : float
+        Spacing, m.
+    highpass_wavelength : float or None
+        Cut-off wavelength, m (default 100). None: only the polynomial is removed.
+
+    Returns
+    -------
+    ndarray, same shape
+
+    Notes
+    -----
+    The triple differentiator of the APL makes any polynomial of degree <= 2 invisible
+    (§5.2, "Limitations"), and its high-pass sections leave almost nothing of wavelengths much
+    longer than V / 0.3 Hz (~ 67 m at 20 m/s). Step 1: least-squares removal of a quadratic in
+    distance (exact for the invisible part, no end effects). Step 2: a 2nd-order Butterworth
+    high-pass in second-order sections applied forward and backward (``sosfiltfilt``, zero phase,
+    |G|^2 = 1 / (1 + (lambda / highpass_wavelength)^4)). At the default 100 m, the gain at 50 m
+    (the long end of the roughness band 0.5-50 m) is 0.94 and at 25 m 0.996; waves of 200 m and
+    longer are attenuated by > 94 %. Pads with odd reflection of 3 x the cut-off wavelength.
+    """
+    z = np.moveaxis(as_float_array("elevation", elevation, allow_nan=False), axis, 0)
+    dx = require_positive("dx", dx)
+    n = z.shape[0]
+    if n < 3:
+        raise ShapeError(f"detrending needs at least 3 samples; got {n}.")
+    s = np.arange(n) * dx
+    s = (s - s.mean()) / max(s.std(), 1e-300)
+    V = np.vander(s, 3)
+    coef, *_ = np.linalg.lstsq(V, z.reshape(n, -1), rcond=None)
+    out = z - (V @ coef).reshape(z.shape)
+    if highpass_wavelength is not None:
+        lam = require_positive("highpass_wavelength", highpass_wavelength)
+        fc = 1.0 / lam
+        if fc >= 0.5 / dx:
+            raise InputError(f"highpass_wavelength {lam} m is shorter than 2 dx = {2 * dx} m.")
+        sos = signal.butter(2, fc, btype="highpass", fs=1.0 / dx, output="sos")
+        padlen = min(n - 1, int(3 * lam / dx))
+        out = signal.sosfiltfilt(sos, out, axis=0, padtype="odd", padlen=padlen)
+    return np.moveaxis(out, 0, axis)
+
+
+@dataclass(frozen=True)
+class NoiseFit:
+    """Maximum-likelihood q and r of the deconvolution model.
+
+    Attributes
+    ----------
+    q, r : float
+        Estimates, m^2.
+    log_likelihood : float
+        Maximised log-likelihood.
+    ratio_std_log10 : float
+        Approximate standard error of log10(q / r) from the curvature of the profile likelihood.
+    n_evaluations : int
+        Number of filter runs.
+    converged : bool
+    """
+
+    q: float
+    r: float
+    log_likelihood: float
+    ratio_std_log10: float
+    n_evaluations: int
+    converged: bool
+
+
+def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx):
+    lam = 10.0 ** log10_ratio
+    model = apl_deconvolution_model(instrument, lam, 1.0, input_model=input_model,
+                                    correlation_length=correlation_length, dx=dx)
+    res = kalman_filter(model, y)
+    obs = ~np.isnan(res.innovation[:, 0])
+    e = res.innovation[obs, 0]
+    s = res.innovation_cov[obs, 0, 0]
+    nobs = e.size
+    r_hat = float(np.mean(e * e / s))
+    ll = -0.5 * (nobs * (np.log(2 * np.pi * r_hat) + 1.0) + np.sum(np.log(s)))
+    return float(ll), r_hat
+
+
+def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wiener",
+                        correlation_length: float | None = None, dx: float | None = None,
+                        bounds_log10_ratio: tuple[float, float] = (-8.0, 4.0)) -> NoiseFit:
+    """Estimate q and r by maximum likelihood (prediction-error decomposition of the Kalman filter).
+
+    Parameters
+    ----------
+    signal_ : (T,) array_like
+        APL signal, m (NaN = missing sample).
+    instrument : APLModel
+    input_model, correlation_length, dx
+        As in :func:`apl_deconvolution_model`.
+    bounds_log10_ratio : (float, float)
+        Search interval for log10(q / r).
+
+    Returns
+    -------
+    NoiseFit
+
+    Raises
+    ------
+    ConvergenceError
+        Never silently: if the optimum sits on a bound, ``converged`` is False and the message of
+        :class:`NoiseFit` users should check; :func:`reconstruct_profile` raises.
+
+    Notes
+    -----
+    With u_0 fixed and the instrument-state prior proportional to q, every covariance of the
+    model scales with r for a fixed ratio q / r, so r is concentrated out in closed form
+    (r_hat = mean of e_k^2 / s_k over the innovations of the r = 1 filter) and only log10(q / r)
+    is searched (bounded scalar minimisation). This replaces the paper's hand tuning (§5.3,
+    q = 10 or 100 with r = 1).
+    """
+    y = as_float_array("signal", signal_, ndim=1)
+    lo, hi = bounds_log10_ratio
+    count = [0]
+
+    def neg(t):
+        count[0] += 1
+        return -_concentrated_ll(instrument, y, t, input_model, correlation_length, dx)[0]
+
+    grid = np.linspace(lo, hi, 13)
+    vals = [neg(t) for t in grid]
+    i = int(np.argmin(vals))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    res = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
+    t = float(res.x)
+    ll, r_hat = _concentrated_ll(instrument, y, t, input_model, correlation_length, dx)
+    h = 0.05
+    curv = (neg(t + h) - 2 * (-ll) + neg(t - h)) / h ** 2
+    std = float(1.0 / np.sqrt(curv)) if curv > 0 else float("inf")
+    on_bound = (t - lo) < 0.01 or (hi - t) < 0.01
+    return NoiseFit(q=r_hat * 10.0 ** t, r=r_hat, log_likelihood=ll, ratio_std_log10=std,
+                    n_evaluations=count[0] + 1, converged=bool(res.success and not on_bound))
+
+
+def smoother_error_std(instrument: APLModel, q: float, r: float, *, band: tuple[float, float] | None = None,
+                       input_model: str = "wiener", correlation_length: float | None = None,
+                       dx: float | None = None, highpass_wavelength: float | None = None,
+                       n_points: int = 200_001) -> float:
+    r"""Stationary posterior std of the smoothed elevation error in a waveband (spectral formula).
+
+    Parameters
+    ----------
+    band : (float, float), optional
+        Wavelength band (shortest, longest), m; the error is band-passed by a sharp (ideal) filter.
+    highpass_wavelength : float, optional
+        Alternatively, the error seen through :func:`detrend_profile`'s high-pass.
+
+    Returns
+    -------
+    float
+        m.
+
+    Notes
+    -----
+    Away from the ends of a record the fixed-interval smoother is the non-causal Wiener
+    smoother, whose error spectrum is S_err = S_u r / (r + |H|^2 S_u) with
+    S_u(w) = q / |1 - phi e^{-jw}|^2; the returned value is sqrt((1/pi) int_0^pi W(w) S_err dw)
+    with W the band's power response.
+    """
+    h = dx if dx is not None else instrument.dx
+    h = require_positive("dx", h)
+    phi = _input_dynamics(input_model, h, correlation_length)
+    w = np.linspace(0.0, np.pi, int(n_points))[1:]
+    Hm = np.abs(instrument.response_at(w / (2 * np.pi * instrument.dt))) ** 2
+    Su = q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2
+    Serr = Su * r / (r + Hm * Su)
+    n_cyc = w / (2 * np.pi * h)  # cycles per m
+    W = np.ones_like(w)
+    if band is not None:
+        lo, hi = band
+        W = ((n_cyc >= 1.0 / hi) & (n_cyc <= 1.0 / lo)).astype(float)
+    if highpass_wavelength is not None:
+        fc = 1.0 / highpass_wavelength
+        W = W * (1.0 / (1.0 + (fc / n_cyc) ** 4)) ** 2
+    return float(np.sqrt(np.trapezoid(W * Serr, w) / np.pi))
+
+
+@dataclass(frozen=True, eq=False)
+class Reconstruction:
+    """A road profile reconstructed from an APL signal.
+
+    Attributes
+    ----------
+    profile : Profile
+        The reconstructed elevation after :func:`detrend_profile` (what the APL can see), m;
+        ``profile.std`` is the stationary posterior std of that detrended elevation (None for
+        ``"double"``).
+    raw_elevation : (T,) ndarray
+        The estimate before detrending (relative to the first station), m.
+    raw_std : (T,) ndarray or None
+        Per-sample posterior std of ``raw_elevation`` from the filter or smoother (grows with
+        distance: it includes the long waves the trailer cannot see), m.
+    method : str
+        ``"smoother"``, ``"filter"`` or ``"double"``.
+    q, r : float or None
+        Noise variances used, m^2 (None for ``"double"``).
+    noise_fit : NoiseFit or None
+        The ML fit, when q and r were estimated.
+    input_model : str or None
+    highpass_wavelength : float or None
+    """
+
+    profile: Profile
+    raw_elevation: np.ndarray
+    raw_std: np.ndarray | None
+    method: str
+    q: float | None
+    r: float | None
+    noise_fit: NoiseFit | None
+    input_model: str | None
+    highpass_wavelength: float | None
+
+
+def _signal_of(signal_, instrument):
+    if isinstance(signal_, Profile):
+        dx = _check_profile_spacing(signal_, instrument)
+        if signal_.elevation.shape[1] != 1:
+            raise ShapeError(f"reconstruct one track at a time; the signal has tracks {list(signal_.tracks)}.")
+        return signal_.elevation[:, 0], dx, signal_.distance, signal_.name
+    y = as_float_array("signal", signal_, ndim=1)
+    if instrument.dx is None:
+        raise InputError("a bare array needs an instrument with a spacing dx; pass a Profile or build the model "
+                         "with apl_model(speed, dx).")
+    return y, instrument.dx, np.arange(y.size) * instrument.dx, ""
+
+
+def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoother", q: float | None = None,
+                        r: float | None = None, input_model: str = "wiener", correlation_length: float | None = None,
+                        highpass_wavelength: float | None = 100.0, min_length: float | None = None) -> Reconstruction:
+    """Reconstruct the road profile from an APL signal.
+
+    Parameters
+    ----------
+    signal_ : Profile or (T,) array_like
+        The APL signal, m, at the instrument's spacing. NaN samples are missing and are bridged
+        by the Kalman methods (the posterior std grows there); ``"double"`` refuses them.
+    instrument : APLModel
+        Trailer model (eq. 1 via :func:`apl_model`, or identified).
+    method : {"smoother", "filter", "double"}
+        RTS smoother (offline, default), causal Kalman filter (the paper's §5), or the paper's
+        double filtering (§3).
+    q, r : float, optional
+        Elevation-increment and noise variances, m^2; both None (default) -> maximum likelihood
+        (:func:`fit_noise_variances`); give both or neither.
+    input_model, correlation_length
+        Road model, see :func:`apl_deconvolution_model`.
+    highpass_wavelength : float or None
+        Detrending cut-off, m (see :func:`detrend_profile`).
+    min_length : float, optional
+        Shortest accepted record, m (default: 5 x highpass_wavelength, or 200 samples).
+
+    Returns
+    -------
+    Reconstruction
+
+    Raises
+    ------
+    InputError
+        Unknown method, too short a record, q without r, NaN with ``"double"``.
+    UnitsError
+        Signal spacing differs from the instrument's dx.
+    ConvergenceError
+        The ML estimate of q/r lies on its search bound.
+    """
+    from ..errors import ConvergenceError
+
+    if method not in RECONSTRUCTION_METHODS:
+        raise InputError(f"method must be one of {RECONSTRUCTION_METHODS}; got {method!r}.")
+    y, dx, distance, name = _signal_of(signal_, instrument)
+    n_min = 200
+    if min_length is None and highpass_wavelength is not None:
+        n_min = max(n_min, int(np.ceil(highpass_wavelength / dx)))
+    elif min_length is not None:
+        n_min = int(np.ceil(require_positive("min_length", min_length) / dx))
+    if y.size < n_min:
+        raise InputError(f"the signal has {y.size} samples ({y.size * dx:g} m); need at least {n_min} "
+                         f"({n_min * dx:g} m) for a reconstruction with highpass_wavelength={highpass_wavelength} m.")
+    if np.all(np.isnan(y)):
+        raise InputError("the signal is entirely missing (NaN).")
+    if method == "double":
+        if np.isnan(y).any():
+            raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); double filtering needs "
+                             "a continuous record: cut it at the gaps or use method='smoother'.")
+        raw = double_filter(y, instrument)
+        prof = Profile(distance, detrend_profile(raw, dx, highpass_wavelength=highpass_wavelength),
+                       name=f"double-filtered {name}".strip())
+        return Reconstruction(profile=prof, raw_elevation=raw, raw_std=None, method=method, q=None, r=None,
+                              noise_fit=None, input_model=None, highpass_wavelength=highpass_wavelength)
+    if (q is None) != (r is None):
+        raise InputError("give both q and r (m^2), or neither to estimate them by maximum likelihood.")
+    fit = None
+    if q is None:
+        fit = fit_noise_variances(y, instrument, input_model=input_model, correlation_length=correlation_length,
+                                  dx=dx)
+        if not fit.converged:
+            raise ConvergenceError(f"the ML estimate of q/r hit its search bound (q = {fit.q:.3g}, r = {fit.r:.3g} "
+                                   "m^2); the signal may not match the instrument model. Give q and r explicitly.")
+        q, r = fit.q, fit.r
+    model = apl_deconvolution_model(instrument, q, r, input_model=input_model,
+                                    correlation_length=correlation_length, dx=dx)
+    filt = kalman_filter(model, y)
+    if method == "filter":
+        mean, cov = filt.mean[:, -1], filt.cov[:, -1, -1]
+    else:
+        sm = rts_smoother(model, filt)
+        mean, cov = sm.mean[:, -1], sm.cov[:, -1, -1]
+    elevation = detrend_profile(mean, dx, highpass_wavelength=highpass_wavelength)
+    std = None
+    if method == "smoother" and highpass_wavelength is not None:
+        s = smoother_error_std(instrument, q, r, input_model=input_model, correlation_length=correlation_length,
+                               dx=dx, highpass_wavelength=highpass_wavelength)
+        std = np.full(y.size, s)
+    prof = Profile(distance, elevation, std=std, name=f"{method} reconstruction of {name}".strip())
+    return Reconstruction(profile=prof, raw_elevation=mean, raw_std=np.sqrt(np.maximum(cov, 0.0)), method=method,
+                          q=float(q), r=float(r), noise_fit=fit, input_model=input_model,
+                          highpass_wavelength=highpass_wavelength)

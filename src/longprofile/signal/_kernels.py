@@ -1,0 +1,138 @@
+"""Compiled kernel of the recursive (running-moment) polynomial differentiator (private).
+
+The kernel trusts its inputs; :mod:`._derivative` and :mod:`._streaming` validate.
+
+For a tap sequence h[n] = sum_{j=0}^{d} c_j n^j (n = 1..N) plus a free h[0],
+
+    y[k] = h[0] x[k] + sum_j c_j S_j[k],     S_j[k] = sum_{n=1}^{N} n^j x[k-n],
+
+and the moments obey the O(d^2) recursion (binomial expansion of (m+1)^j)
+
+    S_j[k+1] = sum_{i=0}^{j} C(j, i) (S_i[k] + [i = 0] x[k] - N^i x[k-N]).
+
+The recursion is only marginally stable (round-off grows polynomially), so the
+moments are recomputed exactly from the ring buffer every ``refresh`` samples
+and whenever a NaN leaves the window. Samples are stored relative to a
+reference value (the first finite sample) so a large offset costs no precision.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+__all__ = ["moment_filter_kernel"]
+
+
+@nb.njit(cache=True, nogil=True)
+def _recompute(ring_b, pos, s, degree, window):
+    # ring_b[(pos - n) mod N] holds x[k+1-n] for n = 1..N (k = last sample processed)
+    for j in range(degree + 1):
+        s[j] = 0.0
+    for n in range(1, window + 1):
+        idx = pos - n
+        if idx < 0:
+            idx += window
+        v = ring_b[idx]
+        p = 1.0
+        fn = float(n)
+        for j in range(degree + 1):
+            s[j] += p * v
+            p *= fn
+
+
+@nb.njit(cache=True, nogil=True)
+def moment_filter_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
+                         ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
+    """Run the recursive filter on x (B, T), updating the per-series state in place.
+
+    Output o at a valid sample is h0[o] v + sum_j c[o, j] S_j + gain[o] ref + const[o, b]
+    (v = x - ref), NaN otherwise; written to out (n_out, B, T). State per
+    series b: ring (B, N), pos, sums (B, d+1), n_seen, last_nan, since
+    (int64), ref (float), ref_set (int64).
+    """
+    n_series, n_steps = x.shape
+    n_out = c.shape[0]
+    s = np.zeros(degree + 1)
+    tmp = np.zeros(degree + 1)
+    nan = np.nan
+    for b in range(n_series):
+        ring_b = ring[b]
+        p = pos[b]
+        g = n_seen[b]
+        lnan = last_nan[b]
+        since_b = since[b]
+        rb = ref[b]
+        rset = ref_set[b]
+        for j in range(degree + 1):
+            s[j] = sums[b, j]
+        for t in range(n_steps):
+            xk = x[b, t]
+            if rset == 0 and not np.isnan(xk):
+                rb = xk
+                rset = 1
+            v = xk - rb
+            if np.isnan(v):
+                lnan = g
+            if g >= window and g - lnan > window:
+                if degree == 2:
+                    for o in range(n_out):
+                        out[o, b, t] = (h0[o] * v + c[o, 0] * s[0] + c[o, 1] * s[1] + c[o, 2] * s[2]
+                                        + gain[o] * rb + const[o, b])
+                else:
+                    for o in range(n_out):
+                        acc = h0[o] * v + gain[o] * rb + const[o, b]
+                        for j in range(degree + 1):
+                            acc += c[o, j] * s[j]
+                        out[o, b, t] = acc
+            else:
+                for o in range(n_out):
+                    out[o, b, t] = nan
+            old = ring_b[p]
+            if degree == 1:
+                a0 = s[0] + v - old
+                a1 = s[1] - npow[1] * old
+                s[1] = a1 + a0
+                s[0] = a0
+            elif degree == 2:
+                a0 = s[0] + v - old
+                a1 = s[1] - npow[1] * old
+                a2 = s[2] - npow[2] * old
+                s[2] = a2 + 2.0 * a1 + a0
+                s[1] = a1 + a0
+                s[0] = a0
+            elif degree == 3:
+                a0 = s[0] + v - old
+                a1 = s[1] - npow[1] * old
+                a2 = s[2] - npow[2] * old
+                a3 = s[3] - npow[3] * old
+                s[3] = a3 + 3.0 * a2 + 3.0 * a1 + a0
+                s[2] = a2 + 2.0 * a1 + a0
+                s[1] = a1 + a0
+                s[0] = a0
+            else:
+                for i in range(degree + 1):
+                    tmp[i] = s[i] - npow[i] * old
+                tmp[0] += v
+                for j in range(degree + 1):
+                    acc = 0.0
+                    for i in range(j + 1):
+                        acc += binom[j, i] * tmp[i]
+                    s[j] = acc
+            ring_b[p] = v
+            p += 1
+            if p == window:
+                p = 0
+            g += 1
+            since_b += 1
+            if since_b >= refresh or lnan == g - 1 - window:
+                _recompute(ring_b, p, s, degree, window)
+                since_b = 0
+        pos[b] = p
+        n_seen[b] = g
+        last_nan[b] = lnan
+        since[b] = since_b
+        ref[b] = rb
+        ref_set[b] = rset
+        for j in range(degree + 1):
+            sums[b, j] = s[j]

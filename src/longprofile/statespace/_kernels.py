@@ -1,0 +1,494 @@
+"""Compiled (numba) loops of the linear state-space engine.
+
+The kernels trust their inputs: the public wrappers in :mod:`._kalman` and
+:mod:`._sampling` validate once, convert to C-contiguous float64 and call them.
+No kernel allocates per step: work arrays are allocated once per call and the
+small matrix products are written out as loops (n, m are small).
+
+Conventions shared by all kernels
+---------------------------------
+* Model terms always carry a leading "time" axis K: K = 1 for a constant term
+  (index 0 is used at every step), K = T-1 (transition side) or K = T
+  (observation side) for a time-varying one. ``_at(K, k)`` picks the index.
+* Absent inputs are passed as arrays with p = 0 columns, absent offsets as
+  zeros of shape (1, n) / (1, m), so one kernel serves every model.
+* Known inputs ``u`` are (1, T, p) when shared by the whole batch, else (NB, T, p).
+* Output covariance arrays are (NB, T, ., .) when stored and (1, 1, ., .)
+  scratch otherwise (``store`` flag): one kernel gives the full and the
+  means-only filter.
+* Errors are reported through ``status`` = [batch, step, code] (code 0 = ok);
+  the wrapper raises the matching :mod:`longprofile.errors` exception.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = [
+    "kalman_filter_kernel",
+    "rts_smoother_kernel",
+    "backward_sample_kernel",
+    "simulate_kernel",
+    "STATUS_OK",
+    "STATUS_INNOVATION_NOT_PD",
+]
+
+STATUS_OK = 0
+STATUS_INNOVATION_NOT_PD = 1
+
+_LOG2PI = math.log(2.0 * math.pi)
+
+# Floating-point contraction/reassociation only: NaN and inf semantics are kept (missing data is NaN).
+_FASTMATH = {"contract", "reassoc", "nsz", "arcp"}
+
+
+@njit(cache=True, inline="always")
+def _at(K, k):
+    return k if K > 1 else 0
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _cholesky_lower(A, k, rel_tol):
+    """In-place lower Cholesky of the leading k x k block of A (lower triangle read).
+
+    Returns False if a pivot is not positive (``<= rel_tol`` times the original
+    diagonal entry), i.e. the block is not numerically positive definite.
+    """
+    for j in range(k):
+        s = A[j, j]
+        djj = s
+        for l in range(j):
+            s -= A[j, l] * A[j, l]
+        if not (s > rel_tol * abs(djj)) or s <= 0.0:
+            return False
+        ljj = math.sqrt(s)
+        A[j, j] = ljj
+        for i in range(j + 1, k):
+            t = A[i, j]
+            for l in range(j):
+                t -= A[i, l] * A[j, l]
+            A[i, j] = t / ljj
+    return True
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _forward_sub(L, k, b):
+    """Solve L z = b in place (L lower, leading k x k block)."""
+    for i in range(k):
+        s = b[i]
+        for l in range(i):
+            s -= L[i, l] * b[l]
+        b[i] = s / L[i, i]
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _backward_sub_t(L, k, b):
+    """Solve L^T z = b in place (L lower, leading k x k block)."""
+    for i in range(k - 1, -1, -1):
+        s = b[i]
+        for l in range(i + 1, k):
+            s -= L[l, i] * b[l]
+        b[i] = s / L[i, i]
+
+
+# Sizes up to these are compiled with n and m as compile-time constants (fully unrolled small
+# matrix products, about twice as fast); larger models use the generic (run-time size) kernel.
+MAX_FIXED_STATES = 8
+MAX_FIXED_OBS = 4
+
+
+def _fixed(n: int, limit: int) -> int:
+    return n if 0 < n <= limit else 0
+
+
+@functools.lru_cache(maxsize=None)
+def _make_filter_kernel(n_fixed: int, m_fixed: int):
+    """Build (or load from numba's cache) the filter kernel for constant sizes (0 = run-time size)."""
+    N_FIXED = n_fixed
+    M_FIXED = m_fixed
+
+    @njit(cache=True, fastmath=_FASTMATH)
+    def kernel(F, H, Q, R, Bm, Dm, c, d, x0, P0, y, u, store,
+               mean, cov, pmean, pcov, innov, icov, ll, nobs, status):
+        NB = y.shape[0]
+        T = y.shape[1]
+        n = N_FIXED if N_FIXED > 0 else x0.shape[0]
+        m = M_FIXED if M_FIXED > 0 else y.shape[2]
+        p = Bm.shape[2]
+        x = np.empty(n)
+        xn = np.empty(n)
+        P = np.empty((n, n))
+        AP = np.empty((n, n))
+        FP = np.empty((n, n))
+        PHt = np.empty((n, m))
+        APHt = np.empty((n, m))
+        S = np.empty((m, m))
+        L = np.empty((m, m))
+        Kg = np.empty((n, m))
+        KR = np.empty((n, m))
+        e = np.empty(m)
+        w = np.empty(m)
+        yhat = np.empty(m)
+        obs = np.empty(m, np.bool_)
+        status[0] = -1
+        status[1] = -1
+        status[2] = STATUS_OK
+        for b in range(NB):
+            ub = b if u.shape[0] > 1 else 0
+            for i in range(n):
+                x[i] = x0[i]
+                for j in range(n):
+                    P[i, j] = P0[i, j]
+            count = 0
+            for t in range(T):
+                sb = b if store else 0
+                st = t if store else 0
+                for i in range(n):
+                    pmean[b, t, i] = x[i]
+                if store:
+                    for i in range(n):
+                        for j in range(n):
+                            pcov[sb, st, i, j] = P[i, j]
+                kh = _at(H.shape[0], t)
+                kr = _at(R.shape[0], t)
+                kd = _at(Dm.shape[0], t)
+                kdo = _at(d.shape[0], t)
+                for i in range(m):
+                    s = d[kdo, i]
+                    for l in range(n):
+                        s += H[kh, i, l] * x[l]
+                    for l in range(p):
+                        s += Dm[kd, i, l] * u[ub, t, l]
+                    yhat[i] = s
+                # P H'
+                for i in range(n):
+                    for j in range(m):
+                        s = 0.0
+                        for l in range(n):
+                            s += P[i, l] * H[kh, j, l]
+                        PHt[i, j] = s
+                # S = H P H' + R, symmetric, over all m components
+                for i in range(m):
+                    for j in range(i + 1):
+                        s = 0.5 * (R[kr, i, j] + R[kr, j, i])
+                        for l in range(n):
+                            s += H[kh, i, l] * PHt[l, j]
+                        S[i, j] = s
+                        S[j, i] = s
+                if store:
+                    for i in range(m):
+                        for j in range(m):
+                            icov[sb, st, i, j] = S[i, j]
+                mo = 0
+                for i in range(m):
+                    v = y[b, t, i]
+                    obs[i] = not math.isnan(v)
+                    if obs[i]:
+                        mo += 1
+                        e[i] = v - yhat[i]
+                        innov[b, t, i] = e[i]
+                    else:
+                        e[i] = 0.0
+                        innov[b, t, i] = np.nan
+                llt = 0.0
+                if mo > 0:
+                    # Missing components: their rows/columns of S become the identity and their
+                    # innovation 0, so they get a zero gain column and add nothing to the likelihood:
+                    # exactly the update with the observed rows of H and R only.
+                    for i in range(m):
+                        for j in range(i + 1):
+                            if obs[i] and obs[j]:
+                                L[i, j] = S[i, j]
+                            else:
+                                L[i, j] = 1.0 if i == j else 0.0
+                    if not _cholesky_lower(L, m, 0.0):
+                        status[0] = b
+                        status[1] = t
+                        status[2] = STATUS_INNOVATION_NOT_PD
+                        return
+                    logdet = 0.0
+                    for i in range(m):
+                        w[i] = e[i]
+                        logdet += 2.0 * math.log(L[i, i])
+                    _forward_sub(L, m, w)
+                    quad = 0.0
+                    for i in range(m):
+                        quad += w[i] * w[i]
+                    llt = -0.5 * (mo * _LOG2PI + logdet + quad)
+                    count += mo
+                    # gain K = P H_o' S_o^{-1}, row by row (zero columns on missing components)
+                    for i in range(n):
+                        for j in range(m):
+                            w[j] = PHt[i, j] if obs[j] else 0.0
+                        _forward_sub(L, m, w)
+                        _backward_sub_t(L, m, w)
+                        for j in range(m):
+                            Kg[i, j] = w[j]
+                    for i in range(n):
+                        s = x[i]
+                        for j in range(m):
+                            s += Kg[i, j] * e[j]
+                        x[i] = s
+                    # Joseph form P = A P A' + K R K', A = I - K H, evaluated factor by factor:
+                    # AP = P - K (P H')',  (AP) A' = AP - (AP H') K'
+                    for i in range(n):
+                        for j in range(n):
+                            s = P[i, j]
+                            for a in range(m):
+                                s -= Kg[i, a] * PHt[j, a]
+                            AP[i, j] = s
+                    for i in range(n):
+                        for a in range(m):
+                            s = 0.0
+                            for l in range(n):
+                                s += AP[i, l] * H[kh, a, l]
+                            APHt[i, a] = s
+                    for i in range(n):
+                        for a in range(m):
+                            s = 0.0
+                            for a2 in range(m):
+                                s += Kg[i, a2] * R[kr, a2, a]
+                            KR[i, a] = s
+                    for i in range(n):
+                        for j in range(i + 1):
+                            s = 0.5 * (AP[i, j] + AP[j, i])
+                            for a in range(m):
+                                s += (0.5 * (KR[i, a] * Kg[j, a] + KR[j, a] * Kg[i, a])
+                                      - 0.5 * (APHt[i, a] * Kg[j, a] + APHt[j, a] * Kg[i, a]))
+                            P[i, j] = s
+                            P[j, i] = s
+                ll[b, t] = llt
+                for i in range(n):
+                    mean[b, t, i] = x[i]
+                if store:
+                    for i in range(n):
+                        for j in range(n):
+                            cov[sb, st, i, j] = P[i, j]
+                if t < T - 1:
+                    kf = _at(F.shape[0], t)
+                    kq = _at(Q.shape[0], t)
+                    kb = _at(Bm.shape[0], t)
+                    kc = _at(c.shape[0], t)
+                    for i in range(n):
+                        s = c[kc, i]
+                        for l in range(n):
+                            s += F[kf, i, l] * x[l]
+                        for l in range(p):
+                            s += Bm[kb, i, l] * u[ub, t, l]
+                        xn[i] = s
+                    for i in range(n):
+                        x[i] = xn[i]
+                    for i in range(n):
+                        for j in range(n):
+                            s = 0.0
+                            for l in range(n):
+                                s += F[kf, i, l] * P[l, j]
+                            FP[i, j] = s
+                    for i in range(n):
+                        for j in range(i + 1):
+                            s = 0.5 * (Q[kq, i, j] + Q[kq, j, i])
+                            for l in range(n):
+                                s += FP[i, l] * F[kf, j, l]
+                            P[i, j] = s
+                            P[j, i] = s
+            nobs[b] = count
+
+    return kernel
+
+
+def kalman_filter_kernel(F, H, Q, R, Bm, Dm, c, d, x0, P0, y, u, store,
+                         mean, cov, pmean, pcov, innov, icov, ll, nobs, status):
+    """Joseph-form Kalman filter over a batch, NaN components = missing.
+
+    Shapes: F (KF,n,n), H (KH,m,n), Q (KQ,n,n), R (KR,m,m), Bm (KB,n,p),
+    Dm (KD,m,p), c (Kc,n), d (Kd,m), x0 (n,), P0 (n,n), y (NB,T,m),
+    u (1 or NB, T, p). Outputs: mean, pmean (NB,T,n); innov (NB,T,m);
+    ll (NB,T); nobs (NB,) int64; cov, pcov (NB,T,n,n) and icov (NB,T,m,m)
+    when ``store`` else (1,1,.,.) scratch; status (3,) int64.
+    """
+    kernel = _make_filter_kernel(_fixed(x0.shape[0], MAX_FIXED_STATES), _fixed(y.shape[2], MAX_FIXED_OBS))
+    kernel(F, H, Q, R, Bm, Dm, c, d, x0, P0, y, u, store, mean, cov, pmean, pcov, innov, icov, ll, nobs, status)
+
+
+@functools.lru_cache(maxsize=None)
+def _make_smoother_kernel(n_fixed: int):
+    """Build (or load from numba's cache) the RTS kernel for a constant n (0 = run-time size)."""
+    N_FIXED = n_fixed
+
+    @njit(cache=True, fastmath=_FASTMATH)
+    def kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gains):
+        NB = mean.shape[0]
+        T = mean.shape[1]
+        n = N_FIXED if N_FIXED > 0 else mean.shape[2]
+        Lp = np.empty((n, n))
+        FP = np.empty((n, n))
+        G = np.empty((n, n))
+        GD = np.empty((n, n))
+        r = np.empty(n)
+        col = np.empty(n)
+        for b in range(NB):
+            for i in range(n):
+                sm[b, T - 1, i] = mean[b, T - 1, i]
+                for j in range(n):
+                    sc[b, T - 1, i, j] = cov[b, T - 1, i, j]
+            for t in range(T - 2, -1, -1):
+                kf = _at(F.shape[0], t)
+                # FP = F P_t|t
+                for i in range(n):
+                    for j in range(n):
+                        s = 0.0
+                        for l in range(n):
+                            s += F[kf, i, l] * cov[b, t, l, j]
+                        FP[i, j] = s
+                for i in range(n):
+                    for j in range(i + 1):
+                        Lp[i, j] = pcov[b, t + 1, i, j]
+                if _cholesky_lower(Lp, n, 1e-13):
+                    # G' = Pp^{-1} (F P), column by column
+                    for j in range(n):
+                        for i in range(n):
+                            col[i] = FP[i, j]
+                        _forward_sub(Lp, n, col)
+                        _backward_sub_t(Lp, n, col)
+                        for i in range(n):
+                            G[j, i] = col[i]
+                else:
+                    _pinv_gain(pcov[b, t + 1], FP, G, n)
+                if store_gains:
+                    for i in range(n):
+                        for j in range(n):
+                            gains[b, t, i, j] = G[i, j]
+                for i in range(n):
+                    r[i] = sm[b, t + 1, i] - pmean[b, t + 1, i]
+                for i in range(n):
+                    s = mean[b, t, i]
+                    for l in range(n):
+                        s += G[i, l] * r[l]
+                    sm[b, t, i] = s
+                # P_t|T = P_t|t + G (P_t+1|T - P_t+1|t) G'
+                for i in range(n):
+                    for j in range(n):
+                        s = 0.0
+                        for l in range(n):
+                            s += G[i, l] * (sc[b, t + 1, l, j] - pcov[b, t + 1, l, j])
+                        GD[i, j] = s
+                for i in range(n):
+                    for j in range(i + 1):
+                        s = 0.5 * (cov[b, t, i, j] + cov[b, t, j, i])
+                        for l in range(n):
+                            s += 0.5 * (GD[i, l] * G[j, l] + GD[j, l] * G[i, l])
+                        sc[b, t, i, j] = s
+                        sc[b, t, j, i] = s
+                # Cov(x_t, x_t+1 | y) = G P_t+1|T
+                for i in range(n):
+                    for j in range(n):
+                        s = 0.0
+                        for l in range(n):
+                            s += G[i, l] * sc[b, t + 1, l, j]
+                        cc[b, t, i, j] = s
+
+    return kernel
+
+
+@njit(cache=True)
+def _pinv_gain(Pp, FP, G, n):
+    """G = (F P)' Pp^+ with an eigen-decomposition pseudo-inverse (singular predicted covariance)."""
+    A = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = 0.5 * (Pp[i, j] + Pp[j, i])
+    ev, V = np.linalg.eigh(A)
+    emax = 0.0
+    for i in range(n):
+        emax = max(emax, abs(ev[i]))
+    cut = 1e-12 * emax
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for l in range(n):
+                if ev[l] > cut:
+                    s += V[i, l] * V[j, l] / ev[l]
+            A[i, j] = s
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for l in range(n):
+                s += FP[l, i] * A[l, j]
+            G[i, j] = s
+
+
+def rts_smoother_kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gains):
+    """Rauch-Tung-Striebel smoother over a batch.
+
+    Shapes: F (KF,n,n); mean, pmean (NB,T,n); cov, pcov (NB,T,n,n). Outputs:
+    sm (NB,T,n), sc (NB,T,n,n), cc (NB,max(T-1,0),n,n) with
+    ``cc[b,t] = Cov(x_t, x_{t+1} | y)``; gains (NB,T-1,n,n) smoother gains
+    G_t = P_t|t F_t' P_t+1|t^{-1} when ``store_gains`` else (1,1,n,n) scratch.
+    A predicted covariance that is not numerically positive definite is
+    inverted by an eigen-decomposition pseudo-inverse (the only allocating path).
+    """
+    kernel = _make_smoother_kernel(_fixed(mean.shape[2], MAX_FIXED_STATES))
+    kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gains)
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def backward_sample_kernel(mean, pmean, gains, roots, z, out):
+    """Backward pass of forward-filter backward-sample (Carter-Kohn).
+
+    mean, pmean (T,n); gains (T-1,n,n); roots (T,n,n) with ``roots[t] roots[t]'``
+    the covariance of x_t | x_{t+1}, y_0..t (t < T-1) and of x_{T-1} | y;
+    z (S,T,n) standard normal draws; out (S,T,n).
+    """
+    S, T, n = z.shape
+    r = np.empty(n)
+    for s_ in range(S):
+        for i in range(n):
+            v = mean[T - 1, i]
+            for l in range(n):
+                v += roots[T - 1, i, l] * z[s_, T - 1, l]
+            out[s_, T - 1, i] = v
+        for t in range(T - 2, -1, -1):
+            for i in range(n):
+                r[i] = out[s_, t + 1, i] - pmean[t + 1, i]
+            for i in range(n):
+                v = mean[t, i]
+                for l in range(n):
+                    v += gains[t, i, l] * r[l] + roots[t, i, l] * z[s_, t, l]
+                out[s_, t, i] = v
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def simulate_kernel(F, H, Bm, Dm, c, d, u, x0, w, v, x, y):
+    """Draw a trajectory: x (T,n), y (T,m) from x0 (n,), process noise w (T-1,n),
+    observation noise v (T,m), inputs u (T,p); model terms as in the filter kernel."""
+    T, n = x.shape
+    m = y.shape[1]
+    p = Bm.shape[2]
+    for i in range(n):
+        x[0, i] = x0[i]
+    for t in range(T):
+        kh = _at(H.shape[0], t)
+        kd = _at(Dm.shape[0], t)
+        kdo = _at(d.shape[0], t)
+        for i in range(m):
+            s = d[kdo, i] + v[t, i]
+            for l in range(n):
+                s += H[kh, i, l] * x[t, l]
+            for l in range(p):
+                s += Dm[kd, i, l] * u[t, l]
+            y[t, i] = s
+        if t < T - 1:
+            kf = _at(F.shape[0], t)
+            kb = _at(Bm.shape[0], t)
+            kc = _at(c.shape[0], t)
+            for i in range(n):
+                s = c[kc, i] + w[t, i]
+                for l in range(n):
+                    s += F[kf, i, l] * x[t, l]
+                for l in range(p):
+                    s += Bm[kb, i, l] * u[t, l]
+                x[t + 1, i] = s

@@ -1,0 +1,207 @@
+"""Deterministic linear recursion x[k+1] = A_k x[k] + B_k u[k] (compiled kernel behind a validating wrapper).
+
+This is the propagation step of every linear state-space simulation without noise: the
+golden quarter car of the IRI (road), discretised filters, input responses. Domain modules
+build the matrices; the loop lives here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .._validation import as_float_array
+from ..errors import ShapeError
+
+__all__ = ["LinearRecursionResult", "linear_recursion"]
+
+
+@dataclass(frozen=True, eq=False)
+class LinearRecursionResult:
+    """Output of :func:`linear_recursion`.
+
+    Attributes
+    ----------
+    states : (T + 1, n) ndarray or None
+        ``states[0] = x0`` and ``states[k + 1] = A_k states[k] + B_k u[k]``; None when not stored.
+    outputs : (T, q) ndarray or None
+        ``outputs[k] = C states[k + 1]`` (the output after step k); None without ``output_matrix``.
+    final_state : (n,) ndarray
+        ``x[T]``, to carry the recursion on over the next chunk of inputs.
+    """
+
+    states: np.ndarray | None
+    outputs: np.ndarray | None
+    final_state: np.ndarray
+
+
+@njit(cache=True, nogil=True)
+def _recursion_kernel(a, b, u, x0, c, a_step, b_step, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
+    n = x0.shape[0]
+    p = u.shape[1]
+    q = c.shape[0]
+    n_steps = u.shape[0]
+    x = x0.copy()
+    xn = np.empty(n)
+    if store_states:
+        for i in range(n):
+            states[0, i] = x[i]
+    for k in range(n_steps):
+        ka = k * a_step
+        kb = k * b_step
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += a[ka, i, j] * x[j]
+            for j in range(p):
+                acc += b[kb, i, j] * u[k, j]
+            xn[i] = acc
+        for i in range(n):
+            x[i] = xn[i]
+        if store_states:
+            for i in range(n):
+                states[k + 1, i] = x[i]
+        if store_outputs:
+            for r in range(q):
+                acc = 0.0
+                for j in range(n):
+                    acc += c[r, j] * x[j]
+                outputs[k, r] = acc
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _recursion_kernel_4(a, b, u, x0, c, a_step, b_step, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
+    # Same recursion as _recursion_kernel for n = 4 with the state held in scalars (about 3x faster: the
+    # golden quarter car of the IRI and other 4-state models). Same operation order per component.
+    p = u.shape[1]
+    q = c.shape[0]
+    x0_ = x0[0]
+    x1_ = x0[1]
+    x2_ = x0[2]
+    x3_ = x0[3]
+    if store_states:
+        states[0, 0] = x0_
+        states[0, 1] = x1_
+        states[0, 2] = x2_
+        states[0, 3] = x3_
+    for k in range(u.shape[0]):
+        ka = k * a_step
+        kb = k * b_step
+        y0 = a[ka, 0, 0] * x0_ + a[ka, 0, 1] * x1_ + a[ka, 0, 2] * x2_ + a[ka, 0, 3] * x3_
+        y1 = a[ka, 1, 0] * x0_ + a[ka, 1, 1] * x1_ + a[ka, 1, 2] * x2_ + a[ka, 1, 3] * x3_
+        y2 = a[ka, 2, 0] * x0_ + a[ka, 2, 1] * x1_ + a[ka, 2, 2] * x2_ + a[ka, 2, 3] * x3_
+        y3 = a[ka, 3, 0] * x0_ + a[ka, 3, 1] * x1_ + a[ka, 3, 2] * x2_ + a[ka, 3, 3] * x3_
+        for j in range(p):
+            ukj = u[k, j]
+            y0 += b[kb, 0, j] * ukj
+            y1 += b[kb, 1, j] * ukj
+            y2 += b[kb, 2, j] * ukj
+            y3 += b[kb, 3, j] * ukj
+        x0_ = y0
+        x1_ = y1
+        x2_ = y2
+        x3_ = y3
+        if store_states:
+            states[k + 1, 0] = x0_
+            states[k + 1, 1] = x1_
+            states[k + 1, 2] = x2_
+            states[k + 1, 3] = x3_
+        if store_outputs:
+            for r in range(q):
+                outputs[k, r] = c[r, 0] * x0_ + c[r, 1] * x1_ + c[r, 2] * x2_ + c[r, 3] * x3_
+    x = np.empty(4)
+    x[0] = x0_
+    x[1] = x1_
+    x[2] = x2_
+    x[3] = x3_
+    return x
+
+
+def linear_recursion(transition, input_matrix, inputs, x0, *, output_matrix=None,
+                     store_states: bool | None = None) -> LinearRecursionResult:
+    """Run the deterministic linear recursion ``x[k+1] = A_k x[k] + B_k u[k]``, k = 0..T-1.
+
+    Parameters
+    ----------
+    transition : (n, n) or (T, n, n) array_like
+        A: constant, or one matrix per step (``transition[k]`` maps step k to k + 1).
+    input_matrix : (n, p) or (T, n, p) array_like
+        B: constant, or one matrix per step.
+    inputs : (T, p) array_like, or (T,) when p = 1
+        u[k]; must be finite.
+    x0 : (n,) array_like
+        Initial state x[0].
+    output_matrix : (q, n) array_like, optional
+        C: if given, ``outputs[k] = C x[k + 1]`` is returned (T, q). Use it to keep only what you need of
+        a long run (memory T q instead of T n).
+    store_states : bool, optional
+        Store all states (T + 1, n). Default: True without ``output_matrix``, False with it.
+
+    Returns
+    -------
+    LinearRecursionResult
+        ``states`` (T + 1, n) or None, ``outputs`` (T, q) or None, ``final_state`` (n,).
+
+    Raises
+    ------
+    ShapeError
+        A matrix has neither its base rank nor exactly one leading per-step axis of length T, or the
+        dimensions n, p, q disagree.
+    InputError
+        Non-finite matrices, inputs or initial state.
+
+    Notes
+    -----
+    Shape rule (style guide convention 5): a matrix at its base rank is constant; with one extra
+    leading axis it is per-step and that axis must have length T (the number of inputs). The loop is a
+    numba kernel (``cache=True``) in float64, O(T n (n + p)); a chunked run that passes
+    ``final_state`` as the next ``x0`` gives the same numbers as one run.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> res = linear_recursion(np.array([[0.5]]), np.array([[1.0]]), np.ones(3), np.array([0.0]))
+    >>> res.states[:, 0]
+    array([0.  , 1.  , 1.5 , 1.75])
+    """
+    u = as_float_array("inputs", inputs, ndim=(1, 2), allow_nan=False)
+    if u.ndim == 1:
+        u = u[:, None]
+    n_steps, p = u.shape
+    x = as_float_array("x0", x0, ndim=1, allow_nan=False)
+    n = x.shape[0]
+    a = as_float_array("transition", transition, ndim=(2, 3), allow_nan=False)
+    b = as_float_array("input_matrix", input_matrix, ndim=(2, 3), allow_nan=False)
+    a3, a_step = _per_step("transition", a, (n, n), n_steps)
+    b3, b_step = _per_step("input_matrix", b, (n, p), n_steps)
+    if output_matrix is not None:
+        c = as_float_array("output_matrix", output_matrix, ndim=2, allow_nan=False)
+        if c.shape[1] != n:
+            raise ShapeError(f"output_matrix must be (q, {n}) for a state of dimension {n}; got shape {c.shape}.")
+    else:
+        c = np.zeros((0, n))
+    keep_states = (output_matrix is None) if store_states is None else bool(store_states)
+    keep_outputs = output_matrix is not None
+    states = np.empty((n_steps + 1, n) if keep_states else (0, n))
+    outputs = np.empty((n_steps, c.shape[0]) if keep_outputs else (0, 0))
+    kernel = _recursion_kernel_4 if n == 4 else _recursion_kernel
+    final = kernel(a3, b3, np.ascontiguousarray(u), np.ascontiguousarray(x), np.ascontiguousarray(c),
+                              a_step, b_step, keep_states, keep_outputs, states, outputs)
+    return LinearRecursionResult(states=states if keep_states else None,
+                                 outputs=outputs if keep_outputs else None, final_state=final)
+
+
+def _per_step(name: str, mat: np.ndarray, base: tuple[int, int], n_steps: int) -> tuple[np.ndarray, int]:
+    """Return (contiguous (S, r, c) array, index step 0 or 1) after checking the shape rule."""
+    if mat.ndim == 2:
+        if mat.shape != base:
+            raise ShapeError(f"{name} must be {base} (constant) or ({n_steps}, {base[0]}, {base[1]}) (per step); "
+                             f"got shape {mat.shape}.")
+        return np.ascontiguousarray(mat[None]), 0
+    if mat.shape != (n_steps,) + base:
+        raise ShapeError(f"{name} per step must be ({n_steps}, {base[0]}, {base[1]}) (one matrix per input); "
+                         f"got shape {mat.shape}.")
+    return np.ascontiguousarray(mat), 1

@@ -1,0 +1,127 @@
+"""Compiled loops of the steady-state (constant-gain) Kalman filter and smoother (private).
+
+Why numba and not scipy.signal: the steady-state filter is an LTI system, but
+scipy has no multi-output state-space filter in C (``dlsim`` loops in Python)
+and the transfer-function route needs one IIR filter per state (6 states x 3
+biquads for the APL model, measured at ~120 M samples/s per 3-section
+``sosfilt`` pass, i.e. < 20 M samples/s for all states), is numerically poor
+for high orders and gives neither the predicted means nor the innovations.
+The recursion below is the filter itself (same arithmetic as the Kalman
+update with a frozen gain), allocation-free, one pass over the data.
+
+For small models (n <= 8, m <= 4) the sizes are passed to numba as literals so
+that the inner loops are fully unrolled (measured ~1.4x faster for n = 6,
+m = 1); larger models use the same code with run-time sizes. Kernels trust
+their inputs: the public wrappers in ``_steady.py`` validate everything.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import literally, njit
+
+__all__ = ["filter_kernel", "smooth_kernel", "MAX_LITERAL_STATES", "MAX_LITERAL_OBS"]
+
+MAX_LITERAL_STATES = 8
+MAX_LITERAL_OBS = 4
+
+
+@njit(cache=True)
+def _filter_impl(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
+    """Constant-gain filter. Returns the sum of the quadratic forms e' S^-1 e.
+
+    pred:  xp[k] = F xf[k-1] + B u[k-1] + c          (xp[0] = x0)
+    innov: e[k]  = y[k] - H xp[k] - D u[k] - d
+    filt:  xf[k] = xp[k] + K e[k]
+    """
+    T = y.shape[0]
+    P = u.shape[1]
+    xp = np.empty(N)
+    xf = np.empty(N)
+    e = np.empty(M)
+    for i in range(N):
+        xp[i] = x0[i]
+    quad = 0.0
+    for k in range(T):
+        for j in range(M):
+            s = y[k, j] - d[j]
+            for i in range(N):
+                s -= H[j, i] * xp[i]
+            for q in range(P):
+                s -= D[j, q] * u[k, q]
+            e[j] = s
+        qk = 0.0
+        for j in range(M):
+            t = 0.0
+            for i in range(M):
+                t += Sinv[j, i] * e[i]
+            qk += e[j] * t
+        quad += qk
+        if store_extra:
+            for j in range(M):
+                innov[k, j] = e[j]
+            ll_steps[k] = qk
+            for i in range(N):
+                pmean[k, i] = xp[i]
+        for i in range(N):
+            s = xp[i]
+            for j in range(M):
+                s += K[i, j] * e[j]
+            xf[i] = s
+            mean[k, i] = s
+        for i in range(N):
+            s = c[i]
+            for j in range(N):
+                s += F[i, j] * xf[j]
+            for q in range(P):
+                s += B[i, q] * u[k, q]
+            xp[i] = s
+    return quad
+
+
+@njit(cache=True)
+def _filter_literal(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
+    return _filter_impl(literally(N), literally(M), F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov,
+                        ll_steps, store_extra)
+
+
+@njit(cache=True)
+def _smooth_impl(N, I_GF, G, GB, Gc, u, xf, xs):
+    """Constant-gain RTS backward pass; ``xs`` may be the same array as ``xf`` (in place).
+
+    xs[k] = xf[k] + G (xs[k+1] - F xf[k] - B u[k] - c) = (I - G F) xf[k] + G xs[k+1] - G B u[k] - G c
+    """
+    T = xf.shape[0]
+    P = u.shape[1]
+    tmp = np.empty(N)
+    for i in range(N):
+        xs[T - 1, i] = xf[T - 1, i]
+    for k in range(T - 2, -1, -1):
+        for i in range(N):
+            s = -Gc[i]
+            for j in range(N):
+                s += I_GF[i, j] * xf[k, j] + G[i, j] * xs[k + 1, j]
+            for q in range(P):
+                s -= GB[i, q] * u[k, q]
+            tmp[i] = s
+        for i in range(N):
+            xs[k, i] = tmp[i]
+
+
+@njit(cache=True)
+def _smooth_literal(N, I_GF, G, GB, Gc, u, xf, xs):
+    _smooth_impl(literally(N), I_GF, G, GB, Gc, u, xf, xs)
+
+
+def filter_kernel(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
+    """Dispatch to the unrolled (small sizes) or generic compiled constant-gain filter."""
+    n, m = F.shape[0], H.shape[0]
+    fn = _filter_literal if (n <= MAX_LITERAL_STATES and m <= MAX_LITERAL_OBS) else _filter_impl
+    return fn(n, m, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra)
+
+
+def smooth_kernel(I_GF, G, GB, Gc, u, xf, xs):
+    """Dispatch to the unrolled (small sizes) or generic compiled constant-gain backward pass."""
+    n = G.shape[0]
+    fn = _smooth_literal if n <= MAX_LITERAL_STATES else _smooth_impl
+    fn(n, I_GF, G, GB, Gc, u, xf, xs)

@@ -1,0 +1,474 @@
+"""Vehicle states and road slope from ABS, steering and IMU signals (paper 001, section IV).
+
+Two estimators share one result type (:class:`SlopeEstimate`):
+
+* ``"cascade"`` -- the paper's scheme: an EKF on the 4-wheel model (eq. (20)) estimates (V_x, V_y, r)
+  and the tyre forces, then a Luenberger observer on the longitudinal model (21) estimates the slope;
+* ``"joint"`` -- one EKF on the augmented state (V_x, V_y, r, theta_r) with a random-walk slope.
+
+Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`, and the
+engine's pole-placement observer); this module only builds models and maps results.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .._validation import as_float_array, require_positive
+from ..errors import InputError, ModelError, ShapeError
+from ._car import GRAVITY, Vehicle, default_vehicle
+from ._planar_model import N_INPUTS, U_SLOPE, ekf_step, forces_and_std, planar_rates_jac
+from ._planar_sim import DriveLog
+
+__all__ = ["EKFTuning", "SlopeEstimate", "planar_ekf_model", "slope_ekf_model", "slope_observer_matrices",
+           "slope_observer_gain", "estimate_slope", "planar_inputs", "planar_measurements"]
+
+
+@dataclass(frozen=True)
+class EKFTuning:
+    """Noise settings of the vehicle EKFs (continuous-time white-noise intensities and sensor stds).
+
+    Parameters
+    ----------
+    vx_rate_psd : float
+        Intensity of the unmodelled longitudinal acceleration, (m/s^2)^2/Hz; Q = psd * dt. In the
+        cascade it must absorb the unknown grade acceleration g sin(theta_r) (see Notes of
+        :func:`estimate_slope`).
+    vy_rate_psd : float
+        Same for dV_y/dt, (m/s^2)^2/Hz.
+    yaw_accel_psd : float
+        Same for dr/dt, (rad/s^2)^2/Hz.
+    slope_rate_psd : float
+        Random-walk intensity of the grade in the joint EKF, rad^2/s (a grade change of
+        sqrt(psd * t) rad is expected over t seconds).
+    speed_std : float
+        Std of the V_x measurement (mean rear-wheel speed times R), m/s.
+    yaw_rate_std : float
+        Std of the gyro, rad/s.
+    initial_std : tuple of 4 float
+        Prior std of (V_x, V_y, r, theta_r) around (first speed reading, 0, first gyro reading, 0),
+        in m/s, m/s, rad/s, rad.
+    """
+
+    vx_rate_psd: float = 0.01
+    vy_rate_psd: float = 0.05
+    yaw_accel_psd: float = 0.05
+    slope_rate_psd: float = 2e-4
+    speed_std: float = 0.01
+    yaw_rate_std: float = 3e-3
+    initial_std: tuple = (0.5, 0.3, 0.05, 0.1)
+
+    def __post_init__(self):
+        for k in ("vx_rate_psd", "vy_rate_psd", "yaw_accel_psd", "slope_rate_psd", "speed_std", "yaw_rate_std"):
+            require_positive(k, getattr(self, k))
+        init = tuple(float(v) for v in self.initial_std)
+        if len(init) != 4 or not all(math.isfinite(v) and v > 0 for v in init):
+            raise InputError(f"initial_std must be 4 positive numbers (V_x, V_y, r, theta_r); got {self.initial_std!r}.")
+        object.__setattr__(self, "initial_std", init)
+
+
+# ------------------------------------------------------------------------------------------ model functions
+
+@functools.lru_cache(maxsize=32)
+def _planar_functions(params: tuple, dt: float):
+    p = np.array(params)
+
+    @njit
+    def f(x, u, k):
+        return ekf_step(x, u, p, dt)[0]
+
+    @njit
+    def f_jac(x, u, k):
+        return ekf_step(x, u, p, dt)[1]
+
+    @njit
+    def h(x, u, k):
+        y = np.empty(2)
+        y[0] = x[0]
+        y[1] = x[2]
+        return y
+
+    @njit
+    def h_jac(x, u, k):
+        H = np.zeros((2, 3))
+        H[0, 0] = 1.0
+        H[1, 2] = 1.0
+        return H
+
+    return f, f_jac, h, h_jac
+
+
+@njit(cache=True)
+def _joint_step(x, u, p, dt):
+    xdot = np.empty(3)
+    jac = np.empty((3, 3))
+    dslope = np.empty(3)
+    planar_rates_jac(x[:3], u, p, x[3], xdot, jac, dslope)
+    xn = np.empty(4)
+    F = np.zeros((4, 4))
+    for i in range(3):
+        xn[i] = x[i] + dt * xdot[i]
+        for j in range(3):
+            F[i, j] = dt * jac[i, j]
+        F[i, i] += 1.0
+        F[i, 3] = dt * dslope[i]
+    xn[3] = x[3]
+    F[3, 3] = 1.0
+    return xn, F
+
+
+@functools.lru_cache(maxsize=32)
+def _joint_functions(params: tuple, dt: float):
+    p = np.array(params)
+
+    @njit
+    def f(x, u, k):
+        return _joint_step(x, u, p, dt)[0]
+
+    @njit
+    def f_jac(x, u, k):
+        return _joint_step(x, u, p, dt)[1]
+
+    @njit
+    def h(x, u, k):
+        y = np.empty(2)
+        y[0] = x[0]
+        y[1] = x[2]
+        return y
+
+    @njit
+    def h_jac(x, u, k):
+        H = np.zeros((2, 4))
+        H[0, 0] = 1.0
+        H[1, 2] = 1.0
+        return H
+
+    return f, f_jac, h, h_jac
+
+
+def _nonlinear_model_class():
+    from ..statespace import NonlinearStateSpaceModel
+
+    return NonlinearStateSpaceModel
+
+
+def planar_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.0), tuning: EKFTuning | None = None):
+    r"""The EKF model of paper 001, eq. (20): state (V_x, V_y, r), measurements (V_x, r).
+
+    Parameters
+    ----------
+    vehicle : Vehicle
+        Model parameters.
+    dt : float
+        Step ΔT of the discretisation, s.
+    initial_state : (3,) array_like
+        Prior mean of (V_x, V_y, r) in m/s, m/s, rad/s.
+    tuning : EKFTuning, optional
+        Noise settings (default ``EKFTuning()``).
+
+    Returns
+    -------
+    NonlinearStateSpaceModel
+        numba-jitted ``f``, ``h`` and analytic Jacobians; inputs are rows of :func:`planar_inputs`.
+
+    Notes
+    -----
+    x[k+1] = x[k] + ΔT f_c(x[k], u[k]) with f_c eq. (11)-(19); the yaw row is divided by I_z
+    (eq. (20) prints M, a misprint: (11) has I_z dr/dt = sum M_Z). The grade used is the input
+    column ``slope`` (zero in the cascade: see :func:`estimate_slope`). The Jacobian is analytic
+    (chain rule through (18) and the Dugoff model, tested against finite differences).
+    Q = diag(psd) ΔT, R = diag(speed_std^2, yaw_rate_std^2).
+    """
+    tuning = EKFTuning() if tuning is None else tuning
+    dt = require_positive("dt", dt)
+    x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
+    if x0.shape != (3,):
+        raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
+    f, f_jac, h, h_jac = _planar_functions(tuple(vehicle.as_array().tolist()), dt)
+    Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd]) * dt
+    R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
+    P0 = np.diag(np.square(tuning.initial_std[:3]))
+    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac)
+
+
+def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.0, 0.0),
+                    tuning: EKFTuning | None = None):
+    """The augmented EKF: state (V_x, V_y, r, theta_r) with a random-walk grade; measurements (V_x, r).
+
+    Same parameters as :func:`planar_ekf_model`, with a 4-element ``initial_state``. The grade enters
+    the gravity term of (11) and the static loads M g cos(theta_r) of (19); its Jacobian column is
+    analytic too. Q = diag(psd) ΔT including ``slope_rate_psd``.
+    """
+    tuning = EKFTuning() if tuning is None else tuning
+    dt = require_positive("dt", dt)
+    x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
+    if x0.shape != (4,):
+        raise ShapeError(f"initial_state must be (V_x, V_y, r, theta_r); got shape {x0.shape}.")
+    f, f_jac, h, h_jac = _joint_functions(tuple(vehicle.as_array().tolist()), dt)
+    Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd, tuning.slope_rate_psd]) * dt
+    R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
+    P0 = np.diag(np.square(tuning.initial_std))
+    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac)
+
+
+def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None) -> np.ndarray:
+    """Input rows ``u`` (T, 12) of the vehicle EKFs from a drive log.
+
+    Columns: steering angle, the 4 wheel speeds, a_x, a_y, grade (``slope``, default 0), the 4
+    adhesion coefficients (``friction``: (4,) or (T, 4), default ``vehicle.friction``).
+    """
+    T = log.time.size
+    u = np.empty((T, N_INPUTS))
+    u[:, 0] = log.steering_angle
+    u[:, 1:5] = log.wheel_speeds
+    u[:, 5] = log.accel_x
+    u[:, 6] = log.accel_y
+    if slope is None:
+        u[:, U_SLOPE] = 0.0
+    else:
+        s = as_float_array("slope", slope, ndim=(0, 1), allow_nan=False)
+        if s.ndim == 1 and s.shape[0] != T:
+            raise ShapeError(f"slope must be a scalar or have one value per sample ({T}); got {s.shape}.")
+        u[:, U_SLOPE] = s
+    mu = np.asarray(vehicle.friction) if friction is None else as_float_array("friction", friction, ndim=(1, 2),
+                                                                               allow_nan=False)
+    if mu.shape not in ((4,), (T, 4)):
+        raise ShapeError(f"friction must have shape (4,) or (T, 4) = ({T}, 4) (FL, FR, RL, RR); got {mu.shape}.")
+    if np.any(mu <= 0):
+        raise InputError(f"friction must be > 0; got min {mu.min():g}.")
+    u[:, 8:12] = mu
+    return u
+
+
+def planar_measurements(log: DriveLog, vehicle: Vehicle) -> np.ndarray:
+    """Measurements y (T, 2) of eq. (20): V_x as the mean rear-wheel translational speed, and the gyro r."""
+    return np.column_stack([0.5 * vehicle.wheel_radius * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3]),
+                            log.yaw_rate])
+
+
+# ------------------------------------------------------------------------------------------ slope observer
+
+def slope_observer_matrices(vehicle: Vehicle, dt: float | None = None):
+    r"""The longitudinal model (21) as ``(A, B, C)``; discretised exactly (zero-order hold) when ``dt`` is given.
+
+    State (V_x, s) with s = sin(theta_r), input F_res (N), output V_x. Writing the state with
+    sin(theta_r) makes (21) exactly linear, so the small-angle step of the paper is not needed:
+
+    .. math::  A = \begin{bmatrix}0 & -g\\ 0 & 0\end{bmatrix},\ B = \begin{bmatrix}1/M\\0\end{bmatrix},\
+               C = [1\ 0];\qquad A_d = \begin{bmatrix}1 & -g\,\Delta T\\ 0 & 1\end{bmatrix},\
+               B_d = \begin{bmatrix}\Delta T/M\\0\end{bmatrix}.
+    """
+    g = GRAVITY
+    M = vehicle.mass
+    C = np.array([[1.0, 0.0]])
+    if dt is None:
+        return np.array([[0.0, -g], [0.0, 0.0]]), np.array([[1.0 / M], [0.0]]), C
+    dt = require_positive("dt", dt)
+    return np.array([[1.0, -g * dt], [0.0, 1.0]]), np.array([[dt / M], [0.0]]), C
+
+
+def slope_observer_gain(vehicle: Vehicle, dt: float, *, poles=(-1.0, -1.5)) -> np.ndarray:
+    """Luenberger gain (2, 1) of the discretised model (21) placing the continuous-time ``poles`` (1/s).
+
+    The discrete poles are exp(p dt); the gain comes from the engine's
+    :func:`longprofile.statespace.luenberger_gain` (pole placement, scipy ``place_poles``).
+    """
+    from ..statespace import luenberger_gain
+
+    poles_c = np.asarray(poles, dtype=complex)
+    if poles_c.shape != (2,) or np.any(poles_c.real >= 0):
+        raise InputError(f"poles must be 2 continuous-time poles with negative real parts (1/s); got {poles!r}.")
+    A, _, C = slope_observer_matrices(vehicle, dt)
+    z = np.exp(poles_c * dt)
+    if np.all(z.imag == 0):
+        z = z.real
+    return np.asarray(luenberger_gain(A, C, z, discrete=True), dtype=float)
+
+
+# ------------------------------------------------------------------------------------------ results
+
+@dataclass(frozen=True, eq=False)
+class SlopeEstimate:
+    """Vehicle states, tyre forces and road slope estimated from a drive log (paper 001).
+
+    All per-sample arrays have T rows; wheel arrays have columns FL, FR, RL, RR; ``*_std`` are
+    posterior (or propagated) standard deviations in the same units.
+
+    Attributes
+    ----------
+    time : (T,) ndarray
+        s.
+    vx, vy, yaw_rate : (T,) ndarray
+        Filtered V_x, V_y (m/s) and r (rad/s).
+    vx_std, vy_std, yaw_rate_std : (T,) ndarray
+        Their stds from the EKF covariance.
+    slope, slope_std : (T,) ndarray
+        Road grade angle theta_r and its std, rad.
+    fx, fy, fx_std, fy_std : (T, 4) ndarray
+        Dugoff tyre forces at the estimate (wheel axes), N, stds by the delta method.
+    resisting_force, resisting_force_std : (T,) ndarray
+        F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21), N.
+    method : str
+        ``"cascade"`` (EKF + Luenberger, the paper) or ``"joint"`` (augmented EKF).
+    filtered : FilterResult
+        The engine's EKF result.
+    observer_gain : (2, 1) ndarray or None
+        Luenberger gain (cascade only).
+    """
+
+    time: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    yaw_rate: np.ndarray
+    vx_std: np.ndarray
+    vy_std: np.ndarray
+    yaw_rate_std: np.ndarray
+    slope: np.ndarray
+    slope_std: np.ndarray
+    fx: np.ndarray
+    fy: np.ndarray
+    fx_std: np.ndarray
+    fy_std: np.ndarray
+    resisting_force: np.ndarray
+    resisting_force_std: np.ndarray
+    method: str
+    filtered: object
+    observer_gain: np.ndarray | None = None
+
+    def to_frame(self):
+        """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
+        import pandas as pd
+
+        cols = {"time": self.time}
+        for k in ("vx", "vy", "yaw_rate", "slope", "resisting_force"):
+            cols[k] = getattr(self, k)
+            cols[f"{k}_std"] = getattr(self, f"{k}_std")
+        for k in ("fx", "fy"):
+            for i, w in enumerate(("fl", "fr", "rl", "rr")):
+                cols[f"{k}_{w}"] = getattr(self, k)[:, i]
+                cols[f"{k}_{w}_std"] = getattr(self, f"{k}_std")[:, i]
+        return pd.DataFrame(cols)
+
+
+@njit(cache=True)
+def _forces_along(mean, cov, u, p, slope, fx, fy, fx_std, fy_std, res, res_std):
+    T = mean.shape[0]
+    for k in range(T):
+        out = forces_and_std(mean[k, :3], cov[k, :3, :3], u[k], p, slope[k], fx[k], fy[k], fx_std[k], fy_std[k])
+        res[k] = out[2]
+        res_std[k] = out[3]
+
+
+def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
+                   poles=(-1.0, -1.5), tuning: EKFTuning | None = None, friction=None) -> SlopeEstimate:
+    r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
+
+    Parameters
+    ----------
+    log : DriveLog
+        Wheel speeds, steering angle, gyro yaw rate and accelerometers, uniformly sampled.
+    vehicle : Vehicle, optional
+        Model parameters (default :func:`default_vehicle`).
+    method : {"cascade", "joint"}
+        ``"cascade"``: EKF (20) then the Luenberger observer on (21) (the paper, section IV);
+        ``"joint"``: one EKF on (V_x, V_y, r, theta_r).
+    poles : (2,) sequence of float
+        Continuous-time poles of the Luenberger observer, 1/s (cascade only). Faster poles track
+        grade changes with less lag and pass more force noise.
+    tuning : EKFTuning, optional
+        EKF noise settings.
+    friction : (4,) or (T, 4) array_like, optional
+        Adhesion mu_i assumed by the estimator (default ``vehicle.friction``).
+
+    Returns
+    -------
+    SlopeEstimate
+
+    Raises
+    ------
+    InputError
+        For an unknown ``method`` or invalid settings.
+    ModelError
+        If the filter fails (non-finite model output: check the log's units and the vehicle).
+
+    Notes
+    -----
+    Cascade (paper 001, section II and IV): the first observer is the EKF of eq. (20) with
+    measurements V_x = R (omega_rl + omega_rr)/2 and r. Its model is run with theta_r = 0: section
+    II requires the first subsystem S1 not to depend on the second observer's state, whereas eq.
+    (20) feeds back theta_r-hat, a loop the convergence proof does not cover. The grade acceleration
+    is absorbed by the V_x process noise (``vx_rate_psd``), which keeps V_x-hat, hence the slips and
+    the forces, close to the wheel-speed data. The second observer is the Luenberger observer on (21)
+    with input F_res-hat and output the measured V_x, discretised exactly, gain by pole placement.
+    The slope std of the cascade is the stationary std of the observer error driven by the EKF's
+    F_res std and the speed noise, treated as white (discrete Lyapunov equation): it ignores the
+    time correlation of the force errors and the tracking lag, so it is optimistic.
+
+    Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
+    """
+    if method not in ("cascade", "joint"):
+        raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
+    if not isinstance(log, DriveLog):
+        raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
+    vehicle = default_vehicle() if vehicle is None else vehicle
+    tuning = EKFTuning() if tuning is None else tuning
+    from ..statespace import extended_kalman_filter
+
+    dt = log.dt
+    u = planar_inputs(log, vehicle, friction=friction)
+    y = planar_measurements(log, vehicle)
+    x0 = [y[0, 0], 0.0, y[0, 1]]
+    if method == "joint":
+        model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
+    else:
+        model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
+    filtered = extended_kalman_filter(model, y, u=u)
+    mean, cov = filtered.mean, filtered.cov
+    T = y.shape[0]
+    p = vehicle.as_array()
+    slope_for_loads = mean[:, 3].copy() if method == "joint" else np.zeros(T)
+    fx = np.empty((T, 4))
+    fy = np.empty((T, 4))
+    fx_std = np.empty((T, 4))
+    fy_std = np.empty((T, 4))
+    res = np.empty(T)
+    res_std = np.empty(T)
+    _forces_along(mean, cov, u, p, slope_for_loads, fx, fy, fx_std, fy_std, res, res_std)
+    std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    gain = None
+    if method == "joint":
+        slope, slope_std = mean[:, 3].copy(), std[:, 3].copy()
+    else:
+        slope, slope_std, gain = _cascade_slope(vehicle, dt, y[:, 0], res, res_std, poles, tuning)
+    return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
+                         vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
+                         slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
+                         resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
+                         observer_gain=gain)
+
+
+def _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning):
+    from scipy.linalg import solve_discrete_lyapunov
+
+    from ..statespace import luenberger_observer
+
+    A, B, C = slope_observer_matrices(vehicle, dt)
+    L = slope_observer_gain(vehicle, dt, poles=poles)
+    obs = luenberger_observer(A, B, C, L, speed[:, None], u=res[:, None], x0=np.array([speed[0], 0.0]))
+    state = np.asarray(obs.state)
+    if not np.all(np.isfinite(state)):
+        raise ModelError("the slope observer diverged; check the poles and the log.")
+    s = state[:, 1]
+    slope = np.arcsin(np.clip(s, -1.0, 1.0))
+    phi = A - L @ C
+    var_f = float(np.median(res_std) ** 2)
+    W = B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2
+    P = solve_discrete_lyapunov(phi, W)
+    s_std = math.sqrt(max(P[1, 1], 0.0))
+    slope_std = np.full(s.shape, s_std) / np.sqrt(np.maximum(1.0 - np.clip(s, -0.99, 0.99) ** 2, 1e-12))
+    return slope, slope_std, L

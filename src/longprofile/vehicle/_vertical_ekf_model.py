@@ -1,0 +1,175 @@
+"""Compiled transition / observation functions of the thesis-003 corner filters, stacked over the four corners.
+
+State (16,): for corner c = 0..3 (FL, FR, RL, RR) the block ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``
+(thesis §3.5.2: relative velocity m/s, relative displacement m, vehicle disturbance force N, tyre deflection m).
+Known input (7,): ``u = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]``.
+
+Transition (thesis (4.7), explicit Euler at Te, digest §6.3)::
+
+    dZ21dot' = dZ21dot + Te * (Z2dd_c - Z1dd_c)
+    dZ21'    = dZ21    + Te * dZ21dot
+    P'       = alpha_veh   P    (+ (1 - alpha_veh)   B_veh)      alpha = exp(-Te / tau)
+    dZ10'    = alpha_route dZ10 (+ (1 - alpha_route) B_route)
+    Z2dd_c = -sum_e coupling[c, e] F_e + d_c(a_x, a_y, psidd) + coupling[c, c] P_c
+    Z1dd_c = (F_c - k_t dZ10_c + FN_c(a_x, a_y)) / m_w,c
+
+The tensions ``F_e`` of the OTHER corners (and the opposite corner's anti-roll-bar term) are computed from
+the other corners' current estimates — the thesis's "forces fed from the other filters" (§3.1, eq. (3.3)).
+
+Jacobians: with ``decentralised=True`` the transition Jacobian is block-diagonal: each corner
+differentiates only its own state, the other corners' forces being known inputs — exactly the thesis's four
+per-corner EKFs run in lock-step (block-diagonal Q, R, P0 and H keep the covariance block-diagonal, so the
+stacked filter equals the four local filters). With ``decentralised=False`` the full Jacobian (cross-corner
+force coupling) gives a centralised full-car EKF on the same model.
+
+Observations: config 1 ``y = dZ21`` (4,); config 2 ``[dZ21, Z2dd]`` (8,); config 3 ``[dZ21, Z1dd]`` (8,).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ._vertical_model import (CDAX, CDAY, CDPSI, CFNAX, CFNAY, CKBAR, CMW, SKT, STAU,
+                              suspension_tensions)
+
+N_STATE = 16
+N_INPUT = 7
+
+
+@njit(cache=True)
+def _forces(x, u, corner, scalars):
+    dz = np.empty(4)
+    dzd = np.empty(4)
+    for c in range(4):
+        dzd[c] = x[4 * c]
+        dz[c] = x[4 * c + 1]
+    F = np.empty(4)
+    ks = np.empty(4)
+    cd = np.empty(4)
+    suspension_tensions(dz, dzd, u[3:7], corner, scalars[STAU], F, ks, cd)
+    return F, ks, cd
+
+
+@njit(cache=True)
+def _accels(x, u, corner, coupling, scalars, F):
+    """Body-corner and wheel accelerations (4,), (4,) from the stacked state."""
+    kt = scalars[SKT]
+    ax, ay, ps = u[0], u[1], u[2]
+    z2dd = np.empty(4)
+    z1dd = np.empty(4)
+    for c in range(4):
+        acc = corner[c, CDAX] * ax + corner[c, CDAY] * ay + corner[c, CDPSI] * ps + coupling[c, c] * x[4 * c + 2]
+        for e in range(4):
+            acc -= coupling[c, e] * F[e]
+        z2dd[c] = acc
+        fn = corner[c, CFNAX] * ax + corner[c, CFNAY] * ay
+        z1dd[c] = (F[c] - kt * x[4 * c + 3] + fn) / corner[c, CMW]
+    return z2dd, z1dd
+
+
+@njit(cache=True)
+def corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road):
+    """Stacked Euler transition x[k] -> x[k+1] (16,) of the four corner models."""
+    F, ks, cd = _forces(x, u, corner, scalars)
+    z2dd, z1dd = _accels(x, u, corner, coupling, scalars, F)
+    out = np.empty(16)
+    for c in range(4):
+        i = 4 * c
+        out[i] = x[i] + dt * (z2dd[c] - z1dd[c])
+        out[i + 1] = x[i + 1] + dt * x[i]
+        out[i + 2] = alpha_veh * x[i + 2]
+        out[i + 3] = alpha_road * x[i + 3]
+    return out
+
+
+@njit(cache=True)
+def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, decentralised):
+    """Jacobian A_d = I + Te A_c (16, 16) of :func:`corner_transition` (analytic spring and damper slopes)."""
+    F, ks, cd = _forces(x, u, corner, scalars)
+    kt = scalars[SKT]
+    J = np.zeros((16, 16))
+    # dF_g / d dZ_e and dF_g / d dZdot_e
+    dF_dz = np.zeros((4, 4))
+    dF_dv = np.zeros((4, 4))
+    for g in range(4):
+        o = g + 1 if g % 2 == 0 else g - 1
+        dF_dz[g, g] = ks[g] + corner[g, CKBAR]
+        dF_dz[g, o] = -corner[g, CKBAR]
+        dF_dv[g, g] = cd[g]
+    for c in range(4):
+        i = 4 * c
+        inv_mw = 1.0 / corner[c, CMW]
+        for e in range(4):
+            if decentralised and e != c:
+                continue
+            j = 4 * e
+            dv = 0.0
+            dz = 0.0
+            for g in range(4):
+                w = -coupling[c, g] - (inv_mw if g == c else 0.0)
+                if decentralised and g != c:
+                    continue
+                dv += w * dF_dv[g, e]
+                dz += w * dF_dz[g, e]
+            J[i, j] = dt * dv
+            J[i, j + 1] = dt * dz
+        J[i, i] += 1.0
+        J[i, i + 2] = dt * coupling[c, c]
+        J[i, i + 3] = dt * kt * inv_mw
+        J[i + 1, i] = dt
+        J[i + 1, i + 1] = 1.0
+        J[i + 2, i + 2] = alpha_veh
+        J[i + 3, i + 3] = alpha_road
+    return J
+
+
+@njit(cache=True)
+def corner_observation(x, u, corner, coupling, scalars, config):
+    """Stacked observation: dZ21 (4,) for config 1; [dZ21, Z2dd] (8,) config 2; [dZ21, Z1dd] (8,) config 3."""
+    m = 4 if config == 1 else 8
+    y = np.empty(m)
+    for c in range(4):
+        y[c] = x[4 * c + 1]
+    if config != 1:
+        F, ks, cd = _forces(x, u, corner, scalars)
+        z2dd, z1dd = _accels(x, u, corner, coupling, scalars, F)
+        for c in range(4):
+            y[4 + c] = z2dd[c] if config == 2 else z1dd[c]
+    return y
+
+
+@njit(cache=True)
+def corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentralised):
+    """Jacobian C (m, 16) of :func:`corner_observation`."""
+    m = 4 if config == 1 else 8
+    H = np.zeros((m, 16))
+    for c in range(4):
+        H[c, 4 * c + 1] = 1.0
+    if config == 1:
+        return H
+    F, ks, cd = _forces(x, u, corner, scalars)
+    kt = scalars[SKT]
+    for c in range(4):
+        row = 4 + c
+        o = c + 1 if c % 2 == 0 else c - 1
+        if config == 2:
+            for g in range(4):
+                if decentralised and g != c:
+                    continue
+                w = -coupling[c, g]
+                og = g + 1 if g % 2 == 0 else g - 1
+                # dF_g/d dZdot_g, dF_g/d dZ_g and dF_g/d dZ_og
+                H[row, 4 * g] += w * cd[g]
+                H[row, 4 * g + 1] += w * (ks[g] + corner[g, CKBAR])
+                if not decentralised:
+                    H[row, 4 * og + 1] += -w * corner[g, CKBAR]
+            H[row, 4 * c + 2] = coupling[c, c]
+        else:
+            inv_mw = 1.0 / corner[c, CMW]
+            H[row, 4 * c] = cd[c] * inv_mw
+            H[row, 4 * c + 1] = (ks[c] + corner[c, CKBAR]) * inv_mw
+            if not decentralised:
+                H[row, 4 * o + 1] = -corner[c, CKBAR] * inv_mw
+            H[row, 4 * c + 3] = -kt * inv_mw
+    return H
