@@ -40,21 +40,26 @@ def random_model(rng, n, m, T, *, tv=False, tv_cov=False, offsets=False, tv_offs
     return StateSpaceModel(F, H, Q, R, rng.normal(size=n), random_spd(rng, n, 0.5), **kw)
 
 
+def _gauss(rng, cov):
+    w, V = np.linalg.eigh(cov)
+    return V @ (np.sqrt(np.clip(w, 0.0, None)) * rng.standard_normal(len(w)))
+
+
 def draw(model, T, rng, u=None):
     """Draw (x, y) with a plain loop (independent of the library's simulator)."""
     n, m = model.n_states, model.n_obs
     x = np.empty((T, n))
     y = np.empty((T, m))
-    x[0] = rng.multivariate_normal(model.initial_mean, model.initial_cov)
+    x[0] = model.initial_mean + _gauss(rng, model.initial_cov)
     for k in range(T):
-        yk = model.at("observation", k) @ x[k] + rng.multivariate_normal(np.zeros(m), model.at("obs_cov", k))
+        yk = model.at("observation", k) @ x[k] + _gauss(rng, model.at("obs_cov", k))
         if model.input_observation is not None:
             yk = yk + model.at("input_observation", k) @ u[k]
         if model.obs_offset is not None:
             yk = yk + model.at("obs_offset", k)
         y[k] = yk
         if k < T - 1:
-            xk = model.at("transition", k) @ x[k] + rng.multivariate_normal(np.zeros(n), model.at("process_cov", k))
+            xk = model.at("transition", k) @ x[k] + _gauss(rng, model.at("process_cov", k))
             if model.input_transition is not None:
                 xk = xk + model.at("input_transition", k) @ u[k]
             if model.state_offset is not None:

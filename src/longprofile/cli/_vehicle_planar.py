@@ -1,9 +1,99 @@
-"""CLI commands (module owned by one domain; registered on its group in road.py / vehicle.py)."""
+"""``longprofile vehicle simulate`` and ``longprofile vehicle slope`` (paper 001: planar states and road slope)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
+
+from ._common import check_output_path, console
+
+
+def _parse_poles(text: str):
+    from ..errors import InputError
+
+    try:
+        poles = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"--poles must be two comma-separated numbers in 1/s, e.g. '-4,-6'; got {text!r}.") from None
+    return poles
+
+
+def _vehicle(path: Path | None):
+    from ..vehicle import default_vehicle, load_vehicle
+
+    return default_vehicle() if path is None else load_vehicle(path)
+
+
+def _save_figure(fig, path: Path):
+    out = check_output_path(path)
+    fig.savefig(out, dpi=110)
+    console.print(f"wrote {out}")
+
+
+def simulate(
+    output: Path = typer.Option(..., "--output", "-o", help="Log file to write (.csv or .parquet)."),
+    scenario: str = typer.Option("paper", "--scenario", "-s",
+                                 help="Built-in scenario: paper, hill or low-mu (see docs/vehicle-slope.md)."),
+    vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the sensor noise."),
+    duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (scenario default)."),
+    truth: bool = typer.Option(True, "--truth/--no-truth", help="Also write the true_* columns."),
+    plot: Path | None = typer.Option(None, "--plot", help="Also draw an overview figure (PNG)."),
+):
+    """Simulate a drive with the 4-wheel model and write the sensor log (and the truth)."""
+    from ..io import write_table
+    from ..vehicle import drive_scenario, plot_drive, simulate_drive
+
+    car = _vehicle(vehicle)
+    out = check_output_path(output, vehicle)
+    sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed)
+    write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
+    console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
+    if plot is not None:
+        _save_figure(plot_drive(sim), plot)
+
+
+def slope(
+    log: Path = typer.Argument(..., help="Drive log (.csv or .parquet) with the channels of docs/vehicle-slope.md."),
+    output: Path = typer.Option(..., "--output", "-o", help="States file to write (.csv or .parquet)."),
+    vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
+    method: str = typer.Option("cascade", "--method", help="cascade (EKF + Luenberger, paper 001) or joint (one EKF)."),
+    poles: str = typer.Option("-5,-7", "--poles", help="Luenberger observer poles, 1/s (cascade)."),
+    plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
+):
+    """Estimate vehicle states, tyre forces and the road slope from a drive log."""
+    from ..io import read_table, write_table
+    from ..vehicle import DriveLog, estimate_slope, plot_slope_estimate
+
+    car = _vehicle(vehicle)
+    out = check_output_path(output, log, vehicle)
+    frame = read_table(log)
+    drive = DriveLog.from_frame(frame, source=str(log))
+    with console.status("estimating states and slope..."):
+        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles))
+    write_table(est.to_frame(), out)
+    console.print(f"wrote {out} ({est.time.size} samples, method {method})")
+    if plot is not None:
+        truth = _truth_from_frame(frame)
+        _save_figure(plot_slope_estimate(est, truth), plot)
+
+
+def _truth_from_frame(frame):
+    """The true_* columns of a simulated log, for the plot overlay (None for a real log)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    need = ["true_vx", "true_vy", "true_yaw_rate", "true_slope"] + [f"true_fx_{w}" for w in ("fl", "fr", "rl", "rr")]
+    if not all(c in frame.columns for c in need):
+        return None
+    return SimpleNamespace(vx=frame["true_vx"].to_numpy(float), vy=frame["true_vy"].to_numpy(float),
+                           yaw_rate=frame["true_yaw_rate"].to_numpy(float), slope=frame["true_slope"].to_numpy(float),
+                           fx=np.column_stack([frame[f"true_fx_{w}"].to_numpy(float) for w in ("fl", "fr", "rl", "rr")]))
 
 
 def register(app: typer.Typer) -> None:
     """Attach this module's commands to app."""
+    app.command("simulate")(simulate)
+    app.command("slope")(slope)

@@ -50,9 +50,10 @@ def _root(
 
 
 def _register():
-    from . import demo, road, vehicle
+    from . import demo, road, signal, vehicle
 
     app.command("demo")(demo.demo)
+    app.command("differentiate")(signal.differentiate)
     app.add_typer(road.road_app, name="road")
     app.add_typer(vehicle.vehicle_app, name="vehicle")
 

@@ -2,8 +2,13 @@
 
 read_table   -- read a CSV or Parquet table with required/numeric column checks.
 write_table  -- write a table as CSV or Parquet by suffix.
+read_profile -- read a road profile (CSV/Parquet with unit-suffixed columns, or ERD); units never guessed.
+write_profile -- write a profile as CSV, Parquet or ERD with its units in the header.
+read_erd, write_erd -- UMTRI/ProVAL ERD text files (ERDFILEV2.00, several channels).
 """
 
+from ._erd import read_erd, write_erd
+from ._profiles import read_profile, write_profile
 from ._tables import read_table, write_table
 
-__all__ = ["read_table", "write_table"]
+__all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd"]

@@ -165,7 +165,7 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
                       "angle_deg": _numeric(readings, "angle_deg", "readings", allow_nan=True),
                       "temperature_c": _numeric(readings, "temperature_c", "readings", allow_nan=True)})
     known = set(s["sensor_id"])
-    unknown = sorted(set(r["sensor_id"]) - known)
+    unknown = sorted(set(r["sensor_id"].unique()) - known)
     if unknown:
         raise InputError(f"readings table: {len(unknown)} sensor id(s) not in the sensors table, e.g. "
                          f"{unknown[:5]}; add them to the sensors table (with their station) or remove their readings.")
@@ -174,9 +174,9 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         i = int(np.nonzero(dups.to_numpy())[0][0])
         raise InputError(f"readings table, row {i}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
                          f"{r['timestamp'][i]}; keep one reading per sensor and timestamp.")
-    order_ok = r.groupby("sensor_id", sort=False)["timestamp"].apply(lambda t: bool(t.is_monotonic_increasing))
-    if not order_ok.all():
-        bad = list(order_ok.index[~order_ok.to_numpy()])
+    back = (r.groupby("sensor_id", sort=False)["timestamp"].diff() < pd.Timedelta(0)).to_numpy()
+    if back.any():
+        bad = sorted(set(r["sensor_id"].to_numpy()[back]))
         warnings.append(f"readings of {len(bad)} sensor(s) were not in time order (e.g. {bad[:3]}); they were sorted.")
     r = r.sort_values(["sensor_id", "timestamp"], kind="stable").reset_index(drop=True)
     if angle_unit == "rad":
@@ -188,7 +188,7 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
                              f"successive differences), implausibly small for degrees (inclinometers: ~1e-3..1e-2 deg); "
                              "the angles look like radians. Pass angle_unit='rad' (CLI: --angle-unit rad), or "
                              "check_units=False (--no-check-units) if they really are degrees.")
-    without = sorted(known - set(r["sensor_id"]))
+    without = sorted(known - set(r["sensor_id"].unique()))
     if without:
         warnings.append(f"{len(without)} sensor(s) have no readings at all: {without[:5]}; they are reported as dead.")
     # ---- survey

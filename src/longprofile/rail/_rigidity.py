@@ -41,6 +41,7 @@ __all__ = [
     "initial_profile_posterior",
     "sample_profiles",
     "max_settlement_monte_carlo",
+    "measurement_std",
     "Z90",
 ]
 
@@ -560,3 +561,51 @@ def max_settlement_monte_carlo(post: ProfilePosterior, n_samples: int = 2000, *,
     out = np.array([(lambda s: (s.mean(), s.std(ddof=1)))(-sample_profiles(post, n_samples, day=d, rng=rng).min(axis=1))
                     for d in range(post.z_mean.shape[0])])
     return out[:, 0], out[:, 1]
+
+
+def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                    sigma_z: float = DEFAULT_SIGMA_Z, chunk: int = 256) -> np.ndarray:
+    r"""Std of the posterior-mean altitude due to the slope measurement noise alone, at every station.
+
+    The posterior mean is linear in the slopes, mu_z = A m (+ anchor terms), so for a given
+    true profile its error from the measurement noise has covariance sigma^2 A A^T. This is the
+    frequentist ("measurement") uncertainty of the estimate — the band tested for coverage on
+    synthetic truth — whereas the posterior std (:class:`ProfilePosterior`) adds the prior's
+    uncertainty about the track between sensors (large for the paper's loose r = 1e-8).
+
+    Parameters
+    ----------
+    x : (N,) array_like
+    slopes : (N,) or (D, N) array_like
+        Only the NaN pattern (which sensors measured) matters.
+    sigma, rigidity, sigma_z
+        As in :func:`rigidity_posterior`.
+    chunk : int
+        Columns of A computed per engine call.
+
+    Returns
+    -------
+    (N,) or (D, N) ndarray
+        sigma * sqrt(diag(A A^T)), m; computed exactly from the unit-impulse responses of the
+        smoother (O(N^2) per missing pattern, through the engine).
+    """
+    x = _check_stations(x)
+    N = x.size
+    m = _as_profiles("slopes", slopes, N)
+    batched = m.ndim == 2
+    M = m if batched else m[None]
+    s = require_positive("sigma", sigma)
+    pattern = np.isnan(M)
+    uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
+    out = np.empty(M.shape)
+    for g in range(uniq.shape[0]):
+        obs = np.nonzero(~uniq[g])[0]
+        acc = np.zeros(N)
+        for start in range(0, obs.size, chunk):
+            cols = obs[start:start + chunk]
+            Y = np.where(uniq[g][None, :], np.nan, 0.0).repeat(cols.size, axis=0)
+            Y[np.arange(cols.size), cols] = 1.0
+            resp = rigidity_posterior(x, Y, sigma=s, rigidity=rigidity, sigma_z=sigma_z).z_mean
+            acc += np.sum(resp**2, axis=0)
+        out[inv.ravel() == g] = s * np.sqrt(acc)
+    return out if batched else out[0]

@@ -118,19 +118,19 @@ def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     return _first_order(t, T, float(tau_hours))
 
 
-def _slice_regression(day, a, T):
+def _slice_regression(day, a, T, n_days):
     """Per-day least-squares slope of a on T and residual variance; days with too little spread -> NaN."""
-    df = pd.DataFrame({"d": day, "a": a, "T": T})
-    g = df.groupby("d")
-    ma, mT = g["a"].transform("mean"), g["T"].transform("mean")
-    da, dT = df["a"] - ma, df["T"] - mT
-    sxy = (da * dT).groupby(df["d"]).sum()
-    sxx = (dT * dT).groupby(df["d"]).sum()
-    syy = (da * da).groupby(df["d"]).sum()
-    n = g.size()
-    ok = (n >= 6) & (sxx > 1e-6 * n) & (np.sqrt(sxx / n) > 0.5)  # at least 0.5 °C of spread within the day
-    slope = (sxy / sxx).where(ok)
-    resid = ((syy - sxy**2 / sxx) / (n - 2)).where(ok)
+    n = np.bincount(day, minlength=n_days).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ma = np.bincount(day, a, n_days) / n
+        mT = np.bincount(day, T, n_days) / n
+        da, dT = a - ma[day], T - mT[day]
+        sxy = np.bincount(day, da * dT, n_days)
+        sxx = np.bincount(day, dT * dT, n_days)
+        syy = np.bincount(day, da * da, n_days)
+        ok = (n >= 6) & (sxx > 0) & (np.sqrt(sxx / np.maximum(n, 1)) > 0.5)  # >= 0.5 °C spread within the day
+        slope = np.where(ok, sxy / sxx, np.nan)
+        resid = np.where(ok, (syy - sxy**2 / sxx) / (n - 2), np.nan)
     return slope, resid
 
 
@@ -203,8 +203,8 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
             best = None
             for tau in taus:
                 Ts = first_order_response(th, T, tau)
-                slope, resid = _slice_regression(day[use], a[use], Ts[use])
-                if slope.notna().sum() == 0:
+                slope, resid = _slice_regression(day[use], a[use], Ts[use], D)
+                if np.isfinite(slope).sum() == 0:
                     continue
                 score = float(np.nanmedian(resid))
                 if best is None or score < best[0]:

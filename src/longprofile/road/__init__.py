@@ -11,11 +11,13 @@ localized_roughness -- continuous short-interval IRI and defects above a thresho
 waveband_energy -- mean-square elevation per segment in wavelength bands (APL_BANDS built in).
 profile_psd -- Welch displacement PSD in cycles/m; fit_iso8608 -- Gd(n0), waviness and class A..H.
 iso8608_gd, iso8608_class, ISO8608_CLASSES -- the ISO 8608 spectrum and class table.
+analyse_roughness -- every analysis of a roughness report in one call (RoughnessAnalysis).
 """
 
 from ._iri import GOLDEN_CAR, IRIResult, RectifiedSlope, golden_car_matrices, iri, rectified_slope
 from ._iso8608 import (ISO8608_BAND, ISO8608_CLASSES, ISO8608Fit, ProfilePSD, fit_iso8608, iso8608_class,
                        iso8608_gd, iso8608_profile, profile_psd)
+from ._summary import RoughnessAnalysis, analyse_roughness
 from ._roughness import (APL_BANDS, LocalizedRoughness, RoughnessDefect, WavebandEnergy, localized_roughness,
                          waveband_energy)
 from ._profile import Profile
@@ -24,4 +26,4 @@ __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "rectified_slope", "RectifiedSlope", "golden_car_matrices", "GOLDEN_CAR",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
-    "ISO8608_CLASSES", "ISO8608_BAND"]
+    "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis"]

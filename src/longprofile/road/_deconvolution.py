@@ -13,8 +13,9 @@ import numpy as np
 from scipy import linalg, optimize, signal
 
 from .._validation import as_float_array, require_positive
-from ..errors import InputError, ModelError, NotDetectableError, ShapeError
-from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
+from ..errors import ConvergenceError, InputError, ModelError, NotDetectableError, ShapeError
+from ..statespace import (StateSpaceModel, kalman_filter, rts_smoother, steady_state_filter, steady_state_gain,
+                          steady_state_smoother)
 from ._apl import APLModel, _check_profile_spacing
 from ._double_filter import double_filter
 from ._profile import Profile
@@ -35,14 +36,62 @@ __all__ = [
 RECONSTRUCTION_METHODS = ("smoother", "filter", "double")
 
 
-def instrument_state_space(model: APLModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A well-conditioned state-space realisation (A, B, C, D) of an instrument model.
+def _minimal_sections(model: APLModel) -> list[tuple[np.ndarray, np.ndarray]]:
+    """First/second-order sections (b, a) with exactly one state per pole (no dead-beat states).
 
-    Each second-order section b0 + b1 z^-1 + b2 z^-2 over 1 + a1 z^-1 + a2 z^-2 is realised in
-    observer form (x1' = -a1 x1 + x2 + (b1 - a1 b0) v, x2' = -a2 x1 + (b2 - a2 b0) v,
-    out = x1 + b0 v; first-order sections use one state) and the sections are connected in
-    series, after ``model.delay`` pure-delay states. The polynomial (companion) form of a
-    5th-order model with poles at 0.9976 is never formed.
+    Complex pole pairs and pairs of real poles make 2nd-order sections, a last odd real pole a
+    1st-order one; each section takes the unassigned zeros nearest its poles (at most its
+    order), the sections closest to the unit circle first; the gain goes on the first section.
+    ``scipy.signal.zpk2sos`` is not used here because it pads with poles at the origin, which
+    would add unobservable dead-beat states (and a singular steady-state covariance).
+    """
+    poles = list(model.poles)
+    groups = []
+    cplx = sorted([p for p in poles if p.imag > 1e-14], key=lambda p: -abs(p))
+    for p in cplx:
+        groups.append([p, np.conj(p)])
+    real = sorted([p.real for p in poles if abs(p.imag) <= 1e-14], key=lambda p: -abs(p))
+    for i in range(0, len(real), 2):
+        groups.append([complex(x) for x in real[i:i + 2]])
+    groups.sort(key=lambda g: -max(abs(p) for p in g))
+    zeros = list(model.zeros)
+    sections = []
+    for g in groups:
+        chosen = []
+        for _ in range(len(g)):
+            if not zeros:
+                break
+            # prefer a conjugate-closed choice: take the nearest zero and, if complex, its conjugate
+            i = int(np.argmin([min(abs(z - p) for p in g) for z in zeros]))
+            z = zeros.pop(i)
+            chosen.append(z)
+            if abs(z.imag) > 1e-14:
+                j = int(np.argmin([abs(w - np.conj(z)) for w in zeros]))
+                chosen.append(zeros.pop(j))
+            if len(chosen) >= len(g):
+                break
+        if len(chosen) > len(g):  # a complex pair did not fit a 1st-order section: put it back
+            zeros.extend(chosen[len(g):])
+            chosen = chosen[:len(g)]
+        b = np.real(np.poly(chosen)) if chosen else np.array([1.0])
+        a = np.real(np.poly(g))
+        k = len(g)
+        sections.append((np.pad(b, (0, k + 1 - b.size)), a))
+    if zeros:
+        raise ModelError("could not assign every zero to a section (more zeros than poles?).")
+    if sections:
+        sections[0] = (sections[0][0] * model.gain, sections[0][1])
+    return sections
+
+
+def instrument_state_space(model: APLModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A minimal, well-conditioned state-space realisation (A, B, C, D) of an instrument model.
+
+    Each first- or second-order section b0 + b1 z^-1 (+ b2 z^-2) over 1 + a1 z^-1 (+ a2 z^-2) is
+    realised in observer form (x1' = -a1 x1 + x2 + (b1 - a1 b0) v, x2' = -a2 x1 + (b2 - a2 b0) v,
+    out = x1 + b0 v) and the sections are connected in series, after ``model.delay`` pure-delay
+    states: n = order + delay states. The polynomial (companion) form of a 5th-order model with
+    poles at 0.9976 is never formed.
 
     Returns
     -------
@@ -58,10 +107,16 @@ def instrument_state_space(model: APLModel) -> tuple[np.ndarray, np.ndarray, np.
     blocks = []
     for _ in range(model.delay):
         blocks.append((np.zeros((1, 1)), np.ones((1, 1)), np.ones((1, 1)), np.zeros((1, 1))))
-    for b0, b1, b2, _a0, a1, a2 in model.sos:
-        if b2 == 0 and a2 == 0:
+    if not model.poles.size:
+        blocks.append((np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[model.gain]])))
+    for b, a in _minimal_sections(model):
+        if a.size == 2:
+            b0, b1 = b
+            a1 = a[1]
             blocks.append((np.array([[-a1]]), np.array([[b1 - a1 * b0]]), np.array([[1.0]]), np.array([[b0]])))
         else:
+            b0, b1, b2 = b
+            a1, a2 = a[1], a[2]
             blocks.append((np.array([[-a1, 1.0], [-a2, 0.0]]), np.array([[b1 - a1 * b0], [b2 - a2 * b0]]),
                            np.array([[1.0, 0.0]]), np.array([[b0]])))
     for A2, B2, C2, D2 in blocks:
@@ -261,14 +316,19 @@ class NoiseFit:
     converged: bool
 
 
-def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx):
+def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx, stationary):
     lam = 10.0 ** log10_ratio
     model = apl_deconvolution_model(instrument, lam, 1.0, input_model=input_model,
                                     correlation_length=correlation_length, dx=dx)
-    res = kalman_filter(model, y)
-    obs = ~np.isnan(res.innovation[:, 0])
-    e = res.innovation[obs, 0]
-    s = res.innovation_cov[obs, 0, 0]
+    if stationary:
+        res = steady_state_filter(model, y)
+        e = res.innovation[:, 0]
+        s = np.full(e.shape, steady_state_gain(model).innovation_cov[0, 0])
+    else:
+        res = kalman_filter(model, y)
+        obs = ~np.isnan(res.innovation[:, 0])
+        e = res.innovation[obs, 0]
+        s = res.innovation_cov[obs, 0, 0]
     nobs = e.size
     r_hat = float(np.mean(e * e / s))
     ll = -0.5 * (nobs * (np.log(2 * np.pi * r_hat) + 1.0) + np.sum(np.log(s)))
@@ -277,7 +337,7 @@ def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length
 
 def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wiener",
                         correlation_length: float | None = None, dx: float | None = None,
-                        bounds_log10_ratio: tuple[float, float] = (-8.0, 4.0)) -> NoiseFit:
+                        bounds_log10_ratio: tuple[float, float] = (-8.0, 4.0), stationary: bool = False) -> NoiseFit:
     """Estimate q and r by maximum likelihood (prediction-error decomposition of the Kalman filter).
 
     Parameters
@@ -289,6 +349,9 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
         As in :func:`apl_deconvolution_model`.
     bounds_log10_ratio : (float, float)
         Search interval for log10(q / r).
+    stationary : bool
+        Use the steady-state filter's (asymptotic) likelihood: O(T) and fast for long records;
+        needs a detectable model and a complete signal (default False: exact time-varying filter).
 
     Returns
     -------
@@ -297,8 +360,9 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     Raises
     ------
     ConvergenceError
-        Never silently: if the optimum sits on a bound, ``converged`` is False and the message of
-        :class:`NoiseFit` users should check; :func:`reconstruct_profile` raises.
+        If the likelihood cannot be evaluated anywhere in the interval. An optimum on a bound is
+        not an error here but is flagged (``converged`` False); :func:`reconstruct_profile` raises
+        :class:`ConvergenceError` for it.
 
     Notes
     -----
@@ -314,15 +378,21 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
 
     def neg(t):
         count[0] += 1
-        return -_concentrated_ll(instrument, y, t, input_model, correlation_length, dx)[0]
+        try:
+            return -_concentrated_ll(instrument, y, t, input_model, correlation_length, dx, stationary)[0]
+        except NotDetectableError:
+            # the Riccati equation is numerically unsolvable at this extreme ratio: treat it as infeasible
+            return np.inf
 
     grid = np.linspace(lo, hi, 13)
-    vals = [neg(t) for t in grid]
+    vals = np.array([neg(t) for t in grid])
+    if not np.isfinite(vals).any():
+        raise ConvergenceError("the likelihood could not be evaluated at any q/r ratio in the search interval.")
     i = int(np.argmin(vals))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     res = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
     t = float(res.x)
-    ll, r_hat = _concentrated_ll(instrument, y, t, input_model, correlation_length, dx)
+    ll, r_hat = _concentrated_ll(instrument, y, t, input_model, correlation_length, dx, stationary)
     h = 0.05
     curv = (neg(t + h) - 2 * (-ll) + neg(t - h)) / h ** 2
     std = float(1.0 / np.sqrt(curv)) if curv > 0 else float("inf")
@@ -425,7 +495,8 @@ def _signal_of(signal_, instrument):
 
 def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoother", q: float | None = None,
                         r: float | None = None, input_model: str = "wiener", correlation_length: float | None = None,
-                        highpass_wavelength: float | None = 100.0, min_length: float | None = None) -> Reconstruction:
+                        highpass_wavelength: float | None = 100.0, min_length: float | None = None,
+                        stationary: bool | None = None) -> Reconstruction:
     """Reconstruct the road profile from an APL signal.
 
     Parameters
@@ -446,7 +517,12 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     highpass_wavelength : float or None
         Detrending cut-off, m (see :func:`detrend_profile`).
     min_length : float, optional
-        Shortest accepted record, m (default: 5 x highpass_wavelength, or 200 samples).
+        Shortest accepted record, m (default: one highpass_wavelength, and at least 200 samples).
+    stationary : bool or None
+        True: constant-gain steady-state filter/smoother (O(T n) memory, compiled; needs a
+        detectable model and no NaN). False: exact time-varying filter/RTS smoother with
+        per-sample covariances (O(T n^2) memory). None (default): stationary when the record has
+        more than 200 000 samples, time-varying otherwise.
 
     Returns
     -------
@@ -460,9 +536,16 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         Signal spacing differs from the instrument's dx.
     ConvergenceError
         The ML estimate of q/r lies on its search bound.
-    """
-    from ..errors import ConvergenceError
+    NotDetectableError
+        A stationary run was requested (or chosen for a long record) but no stationary Kalman
+        filter exists (Wiener input with an exact zero at 1, paper 000 §5.2).
 
+    Notes
+    -----
+    With the stationary path, ``raw_std`` is the constant steady-state posterior std
+    (filter: sqrt of the steady filtered variance; smoother: :func:`smoother_error_std`),
+    valid away from the ends.
+    """
     if method not in RECONSTRUCTION_METHODS:
         raise InputError(f"method must be one of {RECONSTRUCTION_METHODS}; got {method!r}.")
     y, dx, distance, name = _signal_of(signal_, instrument)
@@ -487,22 +570,45 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
                               noise_fit=None, input_model=None, highpass_wavelength=highpass_wavelength)
     if (q is None) != (r is None):
         raise InputError("give both q and r (m^2), or neither to estimate them by maximum likelihood.")
+    if stationary is None:
+        stationary = y.size > 200_000
+    if stationary:
+        if np.isnan(y).any():
+            raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); the stationary filter needs a "
+                             "complete record: use stationary=False (exact filter across gaps) or cut the record.")
+        probe = apl_deconvolution_model(instrument, 1.0, 1.0, input_model=input_model,
+                                        correlation_length=correlation_length, dx=dx)
+        if not is_detectable(probe):
+            raise NotDetectableError(_not_detectable_message(instrument))
     fit = None
     if q is None:
         fit = fit_noise_variances(y, instrument, input_model=input_model, correlation_length=correlation_length,
-                                  dx=dx)
+                                  dx=dx, stationary=stationary)
         if not fit.converged:
             raise ConvergenceError(f"the ML estimate of q/r hit its search bound (q = {fit.q:.3g}, r = {fit.r:.3g} "
                                    "m^2); the signal may not match the instrument model. Give q and r explicitly.")
         q, r = fit.q, fit.r
     model = apl_deconvolution_model(instrument, q, r, input_model=input_model,
                                     correlation_length=correlation_length, dx=dx)
-    filt = kalman_filter(model, y)
-    if method == "filter":
-        mean, cov = filt.mean[:, -1], filt.cov[:, -1, -1]
+    if stationary:
+        if method == "filter":
+            mean = steady_state_filter(model, y).mean[:, -1]
+            cov = np.full(y.size, steady_state_gain(model).cov[-1, -1])
+        else:
+            mean = steady_state_smoother(model, y, store_filtered=False).mean[:, -1]
+            # the constant smoothed variance, from the spectral (Wiener smoother) formula: the engine's
+            # steady_state_smoothed_cov needs the inverse of a predicted covariance that is numerically
+            # singular for this model (condition ~1e15)
+            cov = np.full(y.size, smoother_error_std(instrument, q, r, input_model=input_model,
+                                                     correlation_length=correlation_length, dx=dx) ** 2)
+        mean = np.ascontiguousarray(mean)
     else:
-        sm = rts_smoother(model, filt)
-        mean, cov = sm.mean[:, -1], sm.cov[:, -1, -1]
+        filt = kalman_filter(model, y)
+        if method == "filter":
+            mean, cov = filt.mean[:, -1], filt.cov[:, -1, -1]
+        else:
+            sm = rts_smoother(model, filt)
+            mean, cov = sm.mean[:, -1], sm.cov[:, -1, -1]
     elevation = detrend_profile(mean, dx, highpass_wavelength=highpass_wavelength)
     std = None
     if method == "smoother" and highpass_wavelength is not None:

@@ -253,8 +253,7 @@ def _smooth(x, z, regular_dx, moving_average, base_length):
         if x.size <= n_base:
             raise InputError(f"the profile ({x.size} samples) is shorter than the moving-average base "
                              f"({n_base} samples of {regular_dx:g} m).")
-        csum = np.concatenate([np.zeros((1, z.shape[1])), np.cumsum(z, axis=0)])
-        zs = (csum[n_base:] - csum[:-n_base]) / n_base
+        zs = np.lib.stride_tricks.sliding_window_view(z, n_base, axis=0).mean(axis=-1)  # no running-sum drift
         return x[lo:x.size - hi], zs, True
     xs, zs = _box_average_irregular(x, z, base_length)
     if xs.size < 2:
@@ -320,6 +319,7 @@ def rectified_slope(profile: Profile, *, tracks=None, lead_in: float = 11.0, mov
     lead_in = require_positive("lead_in", lead_in)
     base_length = require_positive("base_length", base_length)
     z, names = _select_tracks(profile, tracks)
+    z = z - z[0]  # exact invariance to a constant; keeps the moving average and slopes free of cancellation
     x = profile.distance
     if x.size < 2:
         raise InputError("the profile needs at least 2 stations.")

@@ -13,6 +13,7 @@ DerivativeMethod             -- one registry entry.
 StreamingDerivative          -- O(1)-per-sample streaming estimator fed block by block.
 estimate_noise_std           -- robust white-noise std from high-order differences (MAD).
 kalman_differentiator_model  -- StateSpaceModel of the Kalman differentiator.
+plot_derivative              -- Figure of a signal and its estimated derivative with a ±2 std band.
 
 Coefficients and properties (exact rationals with fractions.Fraction)
 ---------------------------------------------------------------------
@@ -58,6 +59,7 @@ from ._derivative import (
     estimate_noise_std,
     kalman_differentiator_model,
 )
+from ._plot import plot_derivative
 from ._streaming import StreamingDerivative
 
 __all__ = [
@@ -72,6 +74,7 @@ __all__ = [
     "StreamingDerivative",
     "estimate_noise_std",
     "kalman_differentiator_model",
+    "plot_derivative",
     "ml_coefficients",
     "ml_coefficients_float",
     "ml_model_variance",

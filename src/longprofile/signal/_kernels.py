@@ -42,6 +42,119 @@ def _recompute(ring_b, pos, s, degree, window):
 
 
 @nb.njit(cache=True, nogil=True)
+def _recompute_small(ring_b, pos, window):
+    """Exact moments S_0..S_3 from the ring (two contiguous runs, no modulo)."""
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    # n = 1..pos: idx = pos - n (pos-1 down to 0); n = pos+1..N: idx = window + pos - n
+    for n in range(1, window + 1):
+        idx = pos - n if n <= pos else window + pos - n
+        v = ring_b[idx]
+        fn = float(n)
+        w = v * fn
+        s0 += v
+        s1 += w
+        w *= fn
+        s2 += w
+        s3 += w * fn
+    return s0, s1, s2, s3
+
+
+@nb.njit(cache=True, nogil=True)
+def _small_kernel(x, window, degree, c, h0, gain, const, npow, refresh,
+                  ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
+    """Degree <= 3 and at most 3 outputs: moments and coefficients kept in scalars (registers).
+
+    c is padded to 4 columns; with fewer than 3 outputs the last one is recomputed
+    into the same row (harmless duplicate writes).
+    """
+    n_series, n_steps = x.shape
+    n_out = c.shape[0]
+    k1 = min(1, n_out - 1)
+    k2 = min(2, n_out - 1)
+    nan = np.nan
+    n1 = npow[1]
+    n2 = npow[2] if degree >= 2 else 0.0
+    n3 = npow[3] if degree >= 3 else 0.0
+    c00, c01, c02, c03, h00 = c[0, 0], c[0, 1], c[0, 2], c[0, 3], h0[0]
+    c10, c11, c12, c13, h01 = c[k1, 0], c[k1, 1], c[k1, 2], c[k1, 3], h0[k1]
+    c20, c21, c22, c23, h02 = c[k2, 0], c[k2, 1], c[k2, 2], c[k2, 3], h0[k2]
+    for b in range(n_series):
+        xb = x[b]
+        o0 = out[0, b]
+        o1 = out[k1, b]
+        o2 = out[k2, b]
+        ring_b = ring[b]
+        p = pos[b]
+        g = n_seen[b]
+        lnan = last_nan[b]
+        since_b = since[b]
+        rb = ref[b]
+        rset = ref_set[b]
+        e0 = gain[0] * rb + const[0, b]
+        e1 = gain[k1] * rb + const[k1, b]
+        e2 = gain[k2] * rb + const[k2, b]
+        s0 = sums[b, 0]
+        s1 = sums[b, 1]
+        s2 = sums[b, 2] if degree >= 2 else 0.0
+        s3 = sums[b, 3] if degree >= 3 else 0.0
+        for t in range(n_steps):
+            xk = xb[t]
+            if rset == 0 and not np.isnan(xk):
+                rb = xk
+                rset = 1
+                e0 = gain[0] * rb + const[0, b]
+                e1 = gain[k1] * rb + const[k1, b]
+                e2 = gain[k2] * rb + const[k2, b]
+            v = xk - rb
+            if np.isnan(v):
+                lnan = g
+            if g >= window and g - lnan > window:
+                o0[t] = h00 * v + c00 * s0 + c01 * s1 + c02 * s2 + c03 * s3 + e0
+                o1[t] = h01 * v + c10 * s0 + c11 * s1 + c12 * s2 + c13 * s3 + e1
+                o2[t] = h02 * v + c20 * s0 + c21 * s1 + c22 * s2 + c23 * s3 + e2
+            else:
+                o0[t] = nan
+                o1[t] = nan
+                o2[t] = nan
+            old = ring_b[p]
+            ring_b[p] = v
+            a0 = s0 + v - old
+            a1 = s1 - n1 * old
+            a2 = s2 - n2 * old
+            a3 = s3 - n3 * old
+            s3 = a3 + 3.0 * a2 + 3.0 * a1 + a0
+            s2 = a2 + 2.0 * a1 + a0
+            s1 = a1 + a0
+            s0 = a0
+            p += 1
+            if p == window:
+                p = 0
+            g += 1
+            since_b += 1
+            if since_b >= refresh or lnan == g - 1 - window:
+                s0, s1, s2, s3 = _recompute_small(ring_b, p, window)
+                if degree < 3:
+                    s3 = 0.0
+                if degree < 2:
+                    s2 = 0.0
+                since_b = 0
+        pos[b] = p
+        n_seen[b] = g
+        last_nan[b] = lnan
+        since[b] = since_b
+        ref[b] = rb
+        ref_set[b] = rset
+        sums[b, 0] = s0
+        sums[b, 1] = s1
+        if degree >= 2:
+            sums[b, 2] = s2
+        if degree >= 3:
+            sums[b, 3] = s3
+
+
 def moment_filter_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
                          ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
     """Run the recursive filter on x (B, T), updating the per-series state in place.
@@ -51,6 +164,20 @@ def moment_filter_kernel(x, window, degree, c, h0, gain, const, binom, npow, ref
     series b: ring (B, N), pos, sums (B, d+1), n_seen, last_nan, since
     (int64), ref (float), ref_set (int64).
     """
+    if degree <= 3 and c.shape[0] <= 3:
+        c4 = np.zeros((c.shape[0], 4))
+        c4[:, :degree + 1] = c
+        _small_kernel(x, window, degree, c4, h0, gain, const, npow, refresh,
+                      ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out)
+    else:
+        _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
+                        ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out)
+
+
+@nb.njit(cache=True, nogil=True)
+def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
+                         ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
+    """Any degree: moments in a small array (see moment_filter_kernel)."""
     n_series, n_steps = x.shape
     n_out = c.shape[0]
     s = np.zeros(degree + 1)

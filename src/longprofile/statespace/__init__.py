@@ -9,6 +9,7 @@ Linear inference
 kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched).
 rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covariances.
 log_likelihood         -- prediction-error log-likelihood.
+posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
 ------------------------------------
@@ -16,6 +17,17 @@ steady_state_gain      -- stationary Kalman gain and covariances (DARE); SteadyS
 steady_state_filter    -- constant-gain Kalman filter as a compiled LTI recursion (> 1e7 samples/s).
 steady_state_smoother  -- zero-lag fixed-interval counterpart, O(T n) memory.
 steady_state_smoothed_cov -- the constant smoothed covariance of steady_state_smoother.
+
+Nonlinear inference
+-------------------
+NonlinearStateSpaceModel -- x' = f(x, u, k) + w, y = h(x, u, k) + v (numba-jitted f, h run compiled).
+extended_kalman_filter -- EKF (Joseph form, NaN = missing), stores the Jacobians used.
+extended_rts_smoother  -- EKF smoother on the stored linearisations and predicted moments.
+
+Observers
+---------
+luenberger_gain        -- observer gain L by pole placement (continuous or discrete).
+luenberger_observer    -- run a Luenberger observer over data (exact ZOH for continuous models); ObserverResult.
 
 Deterministic propagation
 -------------------------
@@ -31,10 +43,13 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 ``cross_cov[t]`` = Cov(x_t, x_{t+1} | y).
 """
 
+from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
 from ._model import StateSpaceModel
+from ._observer import ObserverResult, luenberger_gain, luenberger_observer
 from ._propagate import LinearRecursionResult, linear_recursion
 from ._results import FilterResult, SmootherResult
+from ._sampling import posterior_sample, simulate
 from ._steady import (SteadyStateGain, steady_state_filter, steady_state_gain, steady_state_smoothed_cov,
                       steady_state_smoother)
 
@@ -43,6 +58,8 @@ __all__ = [
     "kalman_filter",
     "rts_smoother",
     "log_likelihood",
+    "posterior_sample",
+    "simulate",
     "FilterResult",
     "SmootherResult",
     "SteadyStateGain",

@@ -241,7 +241,10 @@ def _ekf_python(model, Q3, R3, y, u, store):
                 Fj[k] = F
             x = xn
             Qk = Q3[k if Q3.shape[0] > 1 else 0]
-            P = F @ P @ F.T + 0.5 * (Qk + Qk.T)
+            with np.errstate(over="ignore", invalid="ignore"):
+                P = F @ P @ F.T + 0.5 * (Qk + Qk.T)
+            if not np.all(np.isfinite(P)):
+                raise _not_finite_cov(k)
             P = 0.5 * (P + P.T)
     return mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs, Fj, Hj
 
@@ -249,6 +252,12 @@ def _ekf_python(model, Q3, R3, y, u, store):
 def _not_pd(k):
     return ModelError(f"innovation covariance is not positive definite at step {k}; obs_cov (R) must be positive "
                       "definite on the observed components (or the covariance has lost definiteness: check Q, R).")
+
+
+def _not_finite_cov(k):
+    return ModelError(f"the predicted covariance became non-finite at step {k} -> {k + 1}: the transition Jacobian "
+                      "is huge or the filter diverged; check transition_fn / transition_jacobian and the scaling of "
+                      "the states.")
 
 
 def _ekf_compiled(model, Q3, R3, y, u, store):
@@ -273,6 +282,8 @@ def _ekf_compiled(model, Q3, R3, y, u, store):
         raise _not_pd(k)
     if status == 2:
         raise ModelError(f"transition_fn or its Jacobian returned non-finite values at step {k}.")
+    if status == 4:
+        raise _not_finite_cov(k)
     if status == 3:
         raise ModelError(f"observation_fn or its Jacobian returned non-finite values at step {k}.")
     if not store:

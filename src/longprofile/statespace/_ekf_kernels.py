@@ -12,7 +12,8 @@ arguments, they are compiled once per process and model functions
 
 Status codes returned by :func:`ekf_kernel` (the wrapper turns them into
 exceptions): 0 ok, 1 innovation covariance not positive definite, 2 non-finite
-transition output or Jacobian, 3 non-finite observation output or Jacobian.
+transition output or Jacobian, 3 non-finite observation output or Jacobian,
+4 non-finite predicted covariance.
 """
 
 from __future__ import annotations
@@ -54,6 +55,19 @@ def _all_finite2(a, r, c):
             if not np.isfinite(a[i, j]):
                 return False
     return True
+
+
+@njit(cache=True)
+def _copy1(src, dst):
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
+@njit(cache=True)
+def _copy2(src, dst):
+    for i in range(dst.shape[0]):
+        for j in range(dst.shape[1]):
+            dst[i, j] = src[i, j]
 
 
 @njit(cache=True)
@@ -197,8 +211,10 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
     """
     T, m = y.shape
     n = x0.shape[0]
-    x = x0.copy()
-    P = P0.copy()
+    x = np.empty(n)
+    P = np.empty((n, n))
+    _copy1(x0, x)
+    _copy2(P0, P)
     xw = np.empty(n)
     Jf = np.empty((n, n))
     Jh = np.empty((m, n))
@@ -217,22 +233,22 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
     state[1] = 0
     for k in range(T):
         uk = u[k]
-        pmean[k] = x
+        _copy1(x, pmean[k])
         if store:
-            pcov[k] = P
+            _copy2(P, pcov[k])
         yhat = h(x, uk, k)
         if hjac is None:
             fd_jacobian(h, x, uk, k, xw, Jh)
         else:
-            Jh[:, :] = hjac(x, uk, k)
+            _copy2(hjac(x, uk, k), Jh)
         if not _all_finite2(Jh, m, n):
             state[0] = 3
             state[1] = k
             return n_obs
         _innovation_cov(P, Jh, R3[k if R3.shape[0] > 1 else 0], PHt, S)
         if store:
-            Hj[k] = Jh
-            icov[k] = S
+            _copy2(Jh, Hj[k])
+            _copy2(S, icov[k])
         status, mo, ll = _update(x, P, Jh, yhat, y[k], R3[k if R3.shape[0] > 1 else 0], PHt, S, L, K, A, AP,
                                  KR, e, w, obs, innov[k])
         if status != 0:
@@ -241,20 +257,20 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
             return n_obs
         ll_steps[k] = ll
         n_obs += mo
-        mean[k] = x
+        _copy1(x, mean[k])
         if store:
-            cov[k] = P
+            _copy2(P, cov[k])
         if k < T - 1:
             if fjac is None:
                 fd_jacobian(f, x, uk, k, xw, Jf)
             else:
-                Jf[:, :] = fjac(x, uk, k)
+                _copy2(fjac(x, uk, k), Jf)
             if not _all_finite2(Jf, n, n):
                 state[0] = 2
                 state[1] = k
                 return n_obs
             if store:
-                Fj[k] = Jf
+                _copy2(Jf, Fj[k])
             xn = f(x, uk, k)
             for i in range(n):
                 if not np.isfinite(xn[i]):
@@ -263,4 +279,9 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
                     return n_obs
                 x[i] = xn[i]
             _predict_cov(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], AP)
+            for i in range(n):
+                if not np.isfinite(P[i, i]):
+                    state[0] = 4
+                    state[1] = k
+                    return n_obs
     return n_obs

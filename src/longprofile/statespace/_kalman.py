@@ -103,6 +103,22 @@ def kernel_terms(model: StateSpaceModel) -> dict[str, np.ndarray]:
     )
 
 
+def _carve(*shapes) -> list[np.ndarray]:
+    """Uninitialised float64 arrays of the given shapes, carved from ONE allocation.
+
+    One large block instead of several medium ones: NumPy asks the kernel for huge
+    pages on blocks of a few MB, which makes first-touch page faults ~20x cheaper
+    (they otherwise dominate a 4-state filter). The arrays share the block as base.
+    """
+    sizes = [int(np.prod(s)) for s in shapes]
+    block = np.empty(sum(sizes))
+    out, start = [], 0
+    for shape, size in zip(shapes, sizes):
+        out.append(block[start:start + size].reshape(shape))
+        start += size
+    return out
+
+
 def _raise_status(status: np.ndarray, batched: bool) -> None:
     if status[2] == _kernels.STATUS_INNOVATION_NOT_PD:
         where = f"step {status[1]}" + (f" of series {status[0]}" if batched else "")
@@ -192,15 +208,10 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
     terms = kernel_terms(model)
     n = model.n_states
     store = bool(store_covariances)
-    mean = np.empty((nb, T, n))
-    pmean = np.empty((nb, T, n))
-    innov = np.empty((nb, T, m))
-    ll = np.empty((nb, T))
-    nobs = np.empty(nb, dtype=np.int64)
     cshape = (nb, T) if store else (1, 1)
-    cov = np.empty(cshape + (n, n))
-    pcov = np.empty(cshape + (n, n))
-    icov = np.empty(cshape + (m, m))
+    mean, pmean, innov, ll, cov, pcov, icov = _carve(
+        (nb, T, n), (nb, T, n), (nb, T, m), (nb, T), cshape + (n, n), cshape + (n, n), cshape + (m, m))
+    nobs = np.empty(nb, dtype=np.int64)
     status = np.empty(3, dtype=np.int64)
     _kernels.kalman_filter_kernel(
         terms["F"], terms["H"], terms["Q"], terms["R"], terms["Bm"], terms["Dm"], terms["c"], terms["d"],
@@ -269,9 +280,7 @@ def smoother_arrays(model: StateSpaceModel, filtered: FilterResult, *, store_gai
 
     args = (b3(filtered.mean, (n,)), b3(filtered.cov, (n, n)), b3(filtered.pred_mean, (n,)),
             b3(filtered.pred_cov, (n, n)))
-    sm = np.empty((nb, T, n))
-    sc = np.empty((nb, T, n, n))
-    cc = np.empty((nb, max(T - 1, 0), n, n))
+    sm, sc, cc = _carve((nb, T, n), (nb, T, n, n), (nb, max(T - 1, 0), n, n))
     gains = np.empty((nb, max(T - 1, 0), n, n) if store_gains else (1, 1, n, n))
     _kernels.rts_smoother_kernel(kernel_terms(model)["F"], *args, bool(store_gains), sm, sc, cc, gains)
     return sm, sc, cc, (gains if store_gains else None)

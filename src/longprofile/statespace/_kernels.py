@@ -76,23 +76,30 @@ def _cholesky_lower(A, k, rel_tol):
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _forward_sub(L, k, b):
-    """Solve L z = b in place (L lower, leading k x k block)."""
+def _inverse_diagonal(L, k, dinv):
+    """dinv[i] = 1 / L[i, i] (the triangular solves then multiply instead of dividing)."""
+    for i in range(k):
+        dinv[i] = 1.0 / L[i, i]
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def _forward_sub(L, dinv, k, b):
+    """Solve L z = b in place (L lower, leading k x k block, dinv its inverse diagonal)."""
     for i in range(k):
         s = b[i]
         for l in range(i):
             s -= L[i, l] * b[l]
-        b[i] = s / L[i, i]
+        b[i] = s * dinv[i]
 
 
 @njit(cache=True, fastmath=_FASTMATH)
-def _backward_sub_t(L, k, b):
-    """Solve L^T z = b in place (L lower, leading k x k block)."""
+def _backward_sub_t(L, dinv, k, b):
+    """Solve L^T z = b in place (L lower, leading k x k block, dinv its inverse diagonal)."""
     for i in range(k - 1, -1, -1):
         s = b[i]
         for l in range(i + 1, k):
             s -= L[l, i] * b[l]
-        b[i] = s / L[i, i]
+        b[i] = s * dinv[i]
 
 
 # Sizes up to these are compiled with n and m as compile-time constants (fully unrolled small
@@ -134,6 +141,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
         w = np.empty(m)
         yhat = np.empty(m)
         obs = np.empty(m, np.bool_)
+        dinv = np.empty(m)
         status[0] = -1
         status[1] = -1
         status[2] = STATUS_OK
@@ -210,11 +218,12 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                         status[1] = t
                         status[2] = STATUS_INNOVATION_NOT_PD
                         return
+                    _inverse_diagonal(L, m, dinv)
                     logdet = 0.0
                     for i in range(m):
                         w[i] = e[i]
                         logdet += 2.0 * math.log(L[i, i])
-                    _forward_sub(L, m, w)
+                    _forward_sub(L, dinv, m, w)
                     quad = 0.0
                     for i in range(m):
                         quad += w[i] * w[i]
@@ -224,8 +233,8 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                     for i in range(n):
                         for j in range(m):
                             w[j] = PHt[i, j] if obs[j] else 0.0
-                        _forward_sub(L, m, w)
-                        _backward_sub_t(L, m, w)
+                        _forward_sub(L, dinv, m, w)
+                        _backward_sub_t(L, dinv, m, w)
                         for j in range(m):
                             Kg[i, j] = w[j]
                     for i in range(n):
@@ -330,6 +339,7 @@ def _make_smoother_kernel(n_fixed: int):
         GD = np.empty((n, n))
         r = np.empty(n)
         col = np.empty(n)
+        dinv = np.empty(n)
         for b in range(NB):
             for i in range(n):
                 sm[b, T - 1, i] = mean[b, T - 1, i]
@@ -349,11 +359,12 @@ def _make_smoother_kernel(n_fixed: int):
                         Lp[i, j] = pcov[b, t + 1, i, j]
                 if _cholesky_lower(Lp, n, 1e-13):
                     # G' = Pp^{-1} (F P), column by column
+                    _inverse_diagonal(Lp, n, dinv)
                     for j in range(n):
                         for i in range(n):
                             col[i] = FP[i, j]
-                        _forward_sub(Lp, n, col)
-                        _backward_sub_t(Lp, n, col)
+                        _forward_sub(Lp, dinv, n, col)
+                        _backward_sub_t(Lp, dinv, n, col)
                         for i in range(n):
                             G[j, i] = col[i]
                 else:

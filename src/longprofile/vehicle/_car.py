@@ -34,12 +34,14 @@ _TOML_LAYOUT = {
         "longitudinal_stiffness": "longitudinal_stiffness", "cornering_stiffness": "cornering_stiffness",
         "friction": "friction",
     },
-    "drivetrain": {"driven_axle": "driven_axle", "brake_front_share": "brake_front_share"},
+    "drivetrain": {"driven_axle": "driven_axle", "brake_front_share": "brake_front_share",
+                   "engine_brake_torque": "engine_brake_torque"},
 }
 _UNITS = {
     "mass": "kg", "yaw_inertia": "kg m^2", "cg_to_front_axle": "m", "cg_to_rear_axle": "m", "track": "m",
     "cg_height": "m", "aero_longitudinal": "N s^2/m^2", "aero_lateral": "N s^2/m^2", "wheel_radius": "m",
     "wheel_inertia": "kg m^2", "longitudinal_stiffness": "N", "cornering_stiffness": "N/rad",
+    "engine_brake_torque": "N m",
 }
 
 
@@ -75,6 +77,9 @@ class Vehicle:
         Where the simulator applies the drive torque.
     brake_front_share : float
         Share of the brake torque on the front axle, in [0, 1] (simulator).
+    engine_brake_torque : float
+        Largest overrun (engine-braking) torque, N m in total at the driven wheels; the simulator's
+        driver brakes with the engine up to it and with the service brakes beyond.
     name, description : str
         Free labels.
 
@@ -104,6 +109,7 @@ class Vehicle:
     friction: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
     driven_axle: str = "front"
     brake_front_share: float = 0.7
+    engine_brake_torque: float = 300.0
     name: str = ""
     description: str = ""
 
@@ -129,6 +135,8 @@ class Vehicle:
         if not 0.0 <= float(self.brake_front_share) <= 1.0:
             raise InputError(f"brake_front_share must be in [0, 1]; got {self.brake_front_share!r}.")
         object.__setattr__(self, "brake_front_share", float(self.brake_front_share))
+        _check_number("engine_brake_torque", self.engine_brake_torque, positive=False)
+        object.__setattr__(self, "engine_brake_torque", float(self.engine_brake_torque))
 
     @property
     def wheelbase(self) -> float:

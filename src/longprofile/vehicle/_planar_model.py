@@ -50,12 +50,13 @@ def normal_loads(p, ax, ay, slope, out):
 
 
 @njit(cache=True)
-def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn):
+def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn, dfw):
     """Eq. (18) slips and slip angles, then Dugoff forces (15)-(17) of the 4 tyres.
 
     Writes ``slip``, ``alpha`` (rad), ``fx``, ``fy`` (N, wheel axes) of shape (4,), and the
     derivatives ``dfx``, ``dfy`` (4, 3) of the forces w.r.t. the state (V_x, V_y, r), and in ``dfn``
-    (2, 4) the derivatives of (fx, fy) w.r.t. each wheel's normal load.
+    (2, 4) the derivatives of (fx, fy) w.r.t. each wheel's normal load, in ``dfw`` (2, 4) those
+    w.r.t. each wheel's spin rate.
     The wheel-centre velocity of wheel i at (x_i, y_i) is (V_x - r y_i, V_y + r x_i); the slip uses
     its component along the wheel plane, the slip angle is delta_i - atan(v_y,i / v_x,i).
     """
@@ -82,12 +83,15 @@ def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, 
         if rw >= vw and rw >= V_MIN:
             lam = (rw - vw) / rw
             dl = -1.0 / rw
+            dlw = R * vw / (rw * rw)
         elif vw >= V_MIN:
             lam = rw / vw - 1.0
             dl = -rw / (vw * vw)
+            dlw = R / vw
         else:
             lam = (rw - vw) / V_MIN
             dl = -1.0 / V_MIN
+            dlw = R / V_MIN
         beta = math.atan2(vyi, vxi)
         a = di - beta
         t = math.tan(a)
@@ -100,6 +104,8 @@ def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, 
         f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn[i], mu[i], cx0, cy0)
         dfn[0, i] = fxn
         dfn[1, i] = fyn
+        dfw[0, i] = fxl * dlw
+        dfw[1, i] = fyl * dlw
         slip[i] = lam
         alpha[i] = a
         fx[i] = f_x
@@ -178,9 +184,10 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
     dfx = np.empty((4, 3))
     dfy = np.empty((4, 3))
     dfn = np.empty((2, 4))
+    dfw = np.empty((2, 4))
     delta = u[U_DELTA]
     tyre_kinematics_forces(x[0], x[1], x[2], delta, u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
-                           slip, alpha, fx, fy, dfx, dfy, dfn)
+                           slip, alpha, fx, fy, dfx, dfy, dfn, dfw)
     sfx, sfy, mz = body_sums(fx, fy, delta, p)
     body_derivative(x[0], x[1], x[2], sfx, sfy, mz, slope, p, xdot)
     g = np.empty((3, 3))
@@ -230,10 +237,12 @@ def ekf_step(x, u, p, dt):
 
 
 @njit(cache=True)
-def forces_and_std(x, cov, u, p, slope, fx_out, fy_out, fx_std, fy_std):
+def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std):
     """Tyre forces at the estimate ``x`` and their std by the delta method through (18)->(15)-(17).
 
-    ``cov`` is the (3, 3) covariance of (V_x, V_y, r); ``slope`` (rad) enters the loads (19).
+    ``cov`` is the (3, 3) covariance of (V_x, V_y, r); ``slope`` (rad) enters the loads (19);
+    ``omega_rel_std`` is the relative std of the wheel-speed inputs (independent wheels), whose
+    contribution is added to the force variances.
 
     Returns ``(sum_fx, sum_fx_std, resisting, resisting_std)``; ``resisting`` = F_res of eq. (21):
     sum F_X + M r V_y - C_x V_x |V_x| (N), whose std is also propagated.
@@ -245,11 +254,15 @@ def forces_and_std(x, cov, u, p, slope, fx_out, fy_out, fx_std, fy_std):
     dfx = np.empty((4, 3))
     dfy = np.empty((4, 3))
     dfn = np.empty((2, 4))
+    dfw = np.empty((2, 4))
     tyre_kinematics_forces(x[0], x[1], x[2], u[U_DELTA], u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
-                           slip, alpha, fx_out, fy_out, dfx, dfy, dfn)
+                           slip, alpha, fx_out, fy_out, dfx, dfy, dfn, dfw)
+    w_var = np.empty(4)
     for i in range(4):
-        vx_ = 0.0
-        vy_ = 0.0
+        w_var[i] = (omega_rel_std * u[U_OMEGA + i]) ** 2
+    for i in range(4):
+        vx_ = dfw[0, i] * dfw[0, i] * w_var[i]
+        vy_ = dfw[1, i] * dfw[1, i] * w_var[i]
         for a in range(3):
             for b in range(3):
                 vx_ += dfx[i, a] * cov[a, b] * dfx[i, b]
@@ -265,8 +278,17 @@ def forces_and_std(x, cov, u, p, slope, fx_out, fy_out, fx_std, fy_std):
     gr[0] = g[0, 0] - 2.0 * p[P_CXA] * abs(x[0])
     gr[1] = g[0, 1] + m * x[2]
     gr[2] = g[0, 2] + m * x[1]
+    # wheel-speed input noise through the body sums (independent wheels)
+    c = math.cos(u[U_DELTA])
+    sn = math.sin(u[U_DELTA])
     v_res = 0.0
-    v_sfx = 0.0
+    for i in range(4):
+        if i < 2:
+            d = dfw[0, i] * c - dfw[1, i] * sn
+        else:
+            d = dfw[0, i]
+        v_res += d * d * w_var[i]
+    v_sfx = v_res
     for a in range(3):
         for b in range(3):
             v_res += gr[a] * cov[a, b] * gr[b]

@@ -483,7 +483,8 @@ def _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, o
     dfx = np.empty((4, 3))
     dfy = np.empty((4, 3))
     dfn = np.empty((2, 4))
-    tyre_kinematics_forces(z[0], z[1], z[2], delta, z[3:7], fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn)
+    dfw = np.empty((2, 4))
+    tyre_kinematics_forces(z[0], z[1], z[2], delta, z[3:7], fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn, dfw)
     sfx, sfy, mz = body_sums(fx, fy, delta, p)
     body_derivative(z[0], z[1], z[2], sfx, sfy, mz, slope, p, dz[0:3])
     R = p[P_R]
@@ -509,7 +510,7 @@ def _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, o
 
 
 @njit(cache=True)
-def _simulate_kernel(p, drive_share, brake_share, dt, v_ref, steer, ds, slope_grid, mu_left, mu_right, z0,
+def _simulate_kernel(p, drive_share, brake_share, engine_brake, dt, v_ref, steer, ds, slope_grid, mu_left, mu_right, z0,
                      kp, ki, states, forces, slope_out, acc_out):
     T = v_ref.shape[0]
     z = z0.copy()
@@ -551,12 +552,12 @@ def _simulate_kernel(p, drive_share, brake_share, dt, v_ref, steer, ds, slope_gr
         dv = (v_ref[k + 1] - v_ref[k]) / dt if k + 1 < T else 0.0
         f_cmd = m * (kp * e + ki * integ + dv) + m * g * math.sin(sl) + p[P_CXA] * z[0] * abs(z[0])
         t_cmd = f_cmd * R
+        t_engine = max(t_cmd, -engine_brake)
+        t_brake = t_cmd - t_engine
         for i in range(4):
-            if t_cmd >= 0.0:
-                torque[i] = t_cmd * drive_share[i]
-            else:
-                # brake torque opposes the spin, smoothly to zero at standstill
-                torque[i] = t_cmd * brake_share[i] * math.tanh(z[3 + i] / 0.5)
+            # drive or overrun torque on the driven axle; service brakes (opposing the spin, smoothly to zero
+            # at standstill) for what the engine cannot hold
+            torque[i] = t_engine * drive_share[i] + t_brake * brake_share[i] * math.tanh(z[3 + i] / 0.5)
         # RK4 with inputs held over the step
         _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k1, fbuf)
         for j in range(_NZ):
@@ -598,8 +599,8 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
     and load transfer (19) driven by the specific force of the previous step (a one-step lag breaks
     the algebraic loop loads -> forces -> accelerations). Wheels: I_w d(omega)/dt = T_i - R F_x,i.
     Driver: a PI speed controller (gains 1 s^-1 and 0.2 s^-2) with feed-forward of grade, drag and
-    target acceleration; positive torque goes to the driven axle, negative torque is shared between
-    the brakes (``brake_front_share``). Integration: classical RK4 at the scenario step with inputs
+    target acceleration; positive torque goes to the driven axle, negative torque too up to
+    ``engine_brake_torque`` (engine braking), the rest is shared between the brakes (``brake_front_share``). Integration: classical RK4 at the scenario step with inputs
     held over the step. Road grade and adhesion are read along the travelled distance; each wheel
     reads the adhesion at its own position.
     """
@@ -625,7 +626,7 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
     slope = np.empty(T)
     acc = np.empty((T, 2))
     ds = float(scenario.road_distance[1] - scenario.road_distance[0])
-    _simulate_kernel(p, np.array(drive), np.array(brake), scenario.dt, scenario.target_speed, scenario.steering, ds,
+    _simulate_kernel(p, np.array(drive), np.array(brake), vehicle.engine_brake_torque, scenario.dt, scenario.target_speed, scenario.steering, ds,
                      scenario.road_slope, np.ascontiguousarray(scenario.road_friction[:, 0]),
                      np.ascontiguousarray(scenario.road_friction[:, 1]), z0, 1.0, 0.2, states, forces, slope, acc)
     if not np.all(np.isfinite(states)):

@@ -50,21 +50,41 @@ class EKFTuning:
         Std of the V_x measurement (mean rear-wheel speed times R), m/s.
     yaw_rate_std : float
         Std of the gyro, rad/s.
+    wheel_speed_rel_std : float
+        Relative std of each wheel-speed reading (ABS period measurement), used to add the input
+        noise to the std of the tyre forces (the EKF treats the inputs as exact).
     initial_std : tuple of 4 float
         Prior std of (V_x, V_y, r, theta_r) around (first speed reading, 0, first gyro reading, 0),
         in m/s, m/s, rad/s, rad.
+
+    Notes
+    -----
+    The defaults are the cascade's (tuned on the simulated "paper" drive, see docs/vehicle-slope.md).
+    :meth:`for_method` gives the defaults of each estimator: the joint EKF models the grade, so its
+    V_x process noise is 100 times smaller.
     """
 
+    @classmethod
+    def for_method(cls, method: str) -> "EKFTuning":
+        """Default tuning of ``"cascade"`` or ``"joint"``."""
+        if method == "joint":
+            return cls(vx_rate_psd=1e-4)
+        if method == "cascade":
+            return cls()
+        raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
+
     vx_rate_psd: float = 0.01
-    vy_rate_psd: float = 0.05
-    yaw_accel_psd: float = 0.05
-    slope_rate_psd: float = 2e-4
-    speed_std: float = 0.01
+    vy_rate_psd: float = 0.005
+    yaw_accel_psd: float = 0.002
+    slope_rate_psd: float = 5e-3
+    speed_std: float = 0.004
     yaw_rate_std: float = 3e-3
+    wheel_speed_rel_std: float = 3e-4
     initial_std: tuple = (0.5, 0.3, 0.05, 0.1)
 
     def __post_init__(self):
-        for k in ("vx_rate_psd", "vy_rate_psd", "yaw_accel_psd", "slope_rate_psd", "speed_std", "yaw_rate_std"):
+        for k in ("vx_rate_psd", "vy_rate_psd", "yaw_accel_psd", "slope_rate_psd", "speed_std", "yaw_rate_std",
+                  "wheel_speed_rel_std"):
             require_positive(k, getattr(self, k))
         init = tuple(float(v) for v in self.initial_std)
         if len(init) != 4 or not all(math.isfinite(v) and v > 0 for v in init):
@@ -272,7 +292,7 @@ def slope_observer_matrices(vehicle: Vehicle, dt: float | None = None):
     return np.array([[1.0, -g * dt], [0.0, 1.0]]), np.array([[dt / M], [0.0]]), C
 
 
-def slope_observer_gain(vehicle: Vehicle, dt: float, *, poles=(-1.0, -1.5)) -> np.ndarray:
+def slope_observer_gain(vehicle: Vehicle, dt: float, *, poles=(-5.0, -7.0)) -> np.ndarray:
     """Luenberger gain (2, 1) of the discretised model (21) placing the continuous-time ``poles`` (1/s).
 
     The discrete poles are exp(p dt); the gain comes from the engine's
@@ -356,16 +376,17 @@ class SlopeEstimate:
 
 
 @njit(cache=True)
-def _forces_along(mean, cov, u, p, slope, fx, fy, fx_std, fy_std, res, res_std):
+def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, res, res_std):
     T = mean.shape[0]
     for k in range(T):
-        out = forces_and_std(mean[k, :3], cov[k, :3, :3], u[k], p, slope[k], fx[k], fy[k], fx_std[k], fy_std[k])
+        out = forces_and_std(mean[k, :3], cov[k, :3, :3], u[k], p, slope[k], omega_rel_std, fx[k], fy[k],
+                             fx_std[k], fy_std[k])
         res[k] = out[2]
         res_std[k] = out[3]
 
 
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
-                   poles=(-1.0, -1.5), tuning: EKFTuning | None = None, friction=None) -> SlopeEstimate:
+                   poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None) -> SlopeEstimate:
     r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
 
     Parameters
@@ -381,7 +402,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         Continuous-time poles of the Luenberger observer, 1/s (cascade only). Faster poles track
         grade changes with less lag and pass more force noise.
     tuning : EKFTuning, optional
-        EKF noise settings.
+        EKF noise settings (default ``EKFTuning.for_method(method)``).
     friction : (4,) or (T, 4) array_like, optional
         Adhesion mu_i assumed by the estimator (default ``vehicle.friction``).
 
@@ -405,9 +426,10 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     is absorbed by the V_x process noise (``vx_rate_psd``), which keeps V_x-hat, hence the slips and
     the forces, close to the wheel-speed data. The second observer is the Luenberger observer on (21)
     with input F_res-hat and output the measured V_x, discretised exactly, gain by pole placement.
-    The slope std of the cascade is the stationary std of the observer error driven by the EKF's
-    F_res std and the speed noise, treated as white (discrete Lyapunov equation): it ignores the
-    time correlation of the force errors and the tracking lag, so it is optimistic.
+    The slope std of the cascade is the stationary std of the observer error (discrete Lyapunov
+    equation with the fixed gain) driven by the EKF's median F_res std and the speed noise, both
+    treated as white, and by a random-walk grade of intensity ``slope_rate_psd`` (the joint EKF's
+    prior): it ignores the time correlation of the force errors.
 
     Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
     """
@@ -416,7 +438,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     if not isinstance(log, DriveLog):
         raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
     vehicle = default_vehicle() if vehicle is None else vehicle
-    tuning = EKFTuning() if tuning is None else tuning
+    tuning = EKFTuning.for_method(method) if tuning is None else tuning
     from ..statespace import extended_kalman_filter
 
     dt = log.dt
@@ -438,7 +460,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     fy_std = np.empty((T, 4))
     res = np.empty(T)
     res_std = np.empty(T)
-    _forces_along(mean, cov, u, p, slope_for_loads, fx, fy, fx_std, fy_std, res, res_std)
+    _forces_along(mean, cov, u, p, slope_for_loads, tuning.wheel_speed_rel_std, fx, fy, fx_std, fy_std, res, res_std)
     std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     gain = None
     if method == "joint":
@@ -467,7 +489,7 @@ def _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning):
     slope = np.arcsin(np.clip(s, -1.0, 1.0))
     phi = A - L @ C
     var_f = float(np.median(res_std) ** 2)
-    W = B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2
+    W = B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2 + np.diag([0.0, tuning.slope_rate_psd * dt])
     P = solve_discrete_lyapunov(phi, W)
     s_std = math.sqrt(max(P[1, 1], 0.0))
     slope_std = np.full(s.shape, s_std) / np.sqrt(np.maximum(1.0 - np.clip(s, -0.99, 0.99) ** 2, 1e-12))

@@ -2,7 +2,8 @@
 
 State (16,): for corner c = 0..3 (FL, FR, RL, RR) the block ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``
 (thesis §3.5.2: relative velocity m/s, relative displacement m, vehicle disturbance force N, tyre deflection m).
-Known input (7,): ``u = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]``.
+Known input: ``u[0:7] = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]`` (further columns carry filter settings,
+see :func:`longprofile.vehicle._vertical_estimate.vertical_ekf_inputs`).
 
 Transition (thesis (4.7), explicit Euler at Te, digest §6.3)::
 

@@ -23,8 +23,8 @@ from ._vertical_ekf_model import (corner_observation, corner_observation_jacobia
 from ._vertical_model import CKBAR, CMW, VerticalVehicleParams, suspension_tensions, vertical_params_arrays
 from ._vertical_sim import SENSOR_CONFIGS, VerticalSensors
 
-__all__ = ["CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model", "VerticalStateEstimate",
-           "estimate_vertical_states", "yaw_acceleration"]
+__all__ = ["CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model", "vertical_ekf_inputs",
+           "VerticalStateEstimate", "estimate_vertical_states", "yaw_acceleration"]
 
 _DISP_VAR = 3e-8  # thesis (4.2): (6e-4 m)^2 / 12
 
@@ -105,44 +105,62 @@ def thesis_filter_settings(config: int, dt: float = 1e-3) -> CornerFilterSetting
 
 
 def _engine():
-    """The engine's NonlinearStateSpaceModel and extended_kalman_filter (public names once exported)."""
+    """The engine's NonlinearStateSpaceModel, extended_kalman_filter and block_extended_kalman_filter."""
     try:
-        from ..statespace import NonlinearStateSpaceModel, extended_kalman_filter
-    except ImportError:  # exported by the EKF helper; the private module is the same object
+        from ..statespace import NonlinearStateSpaceModel, block_extended_kalman_filter, extended_kalman_filter
+    except ImportError:  # until the EKF names are exported by their helper; same objects
+        from ..statespace._block_ekf import block_extended_kalman_filter
         from ..statespace._ekf import NonlinearStateSpaceModel, extended_kalman_filter
-    return NonlinearStateSpaceModel, extended_kalman_filter
+    return NonlinearStateSpaceModel, extended_kalman_filter, block_extended_kalman_filter
 
 
-@functools.lru_cache(maxsize=16)
-def _compiled_functions(corner_b: bytes, coupling_b: bytes, scalars_b: bytes, dt: float, alpha_veh: float,
-                        alpha_road: float, config: int, decentralised: bool):
-    """numba closures f(x,u,k), h(x,u,k) and their Jacobians with the parameters frozen in (cached)."""
+STATE_BLOCKS = np.repeat(np.arange(4), 4)
+
+
+# Columns of the EKF's known-input row: the measured manoeuvre inputs, the actuator forces, then the filter
+# settings. Carrying the settings in the input row lets ONE compiled kernel serve every configuration
+# (numba compiles the engine's loop once per set of model functions).
+U_AX, U_AY, U_PSIDD, U_ACT = 0, 1, 2, 3
+U_DT, U_ALPHA_VEH, U_ALPHA_ROAD, U_CONFIG, U_DECENTRALISED = 7, 8, 9, 10, 11
+N_U = 12
+
+
+@functools.lru_cache(maxsize=8)
+def _compiled_functions(corner_b: bytes, coupling_b: bytes, scalars_b: bytes):
+    """numba closures f(x,u,k), h(x,u,k) and their Jacobians with the vehicle parameters frozen in (cached)."""
     corner = np.frombuffer(corner_b).reshape(4, -1).copy()
     coupling = np.frombuffer(coupling_b).reshape(4, 4).copy()
     scalars = np.frombuffer(scalars_b).copy()
 
     @njit
     def f(x, u, k):
-        return corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road)
+        return corner_transition(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD])
 
     @njit
     def jf(x, u, k):
-        return corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, decentralised)
+        return corner_transition_jacobian(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH],
+                                          u[U_ALPHA_ROAD], u[U_DECENTRALISED] > 0.5)
 
     @njit
     def h(x, u, k):
-        return corner_observation(x, u, corner, coupling, scalars, config)
+        return corner_observation(x, u, corner, coupling, scalars, int(u[U_CONFIG]))
 
     @njit
     def jh(x, u, k):
-        return corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentralised)
+        return corner_observation_jacobian(x, u, corner, coupling, scalars, int(u[U_CONFIG]),
+                                           u[U_DECENTRALISED] > 0.5)
 
     return f, jf, h, jh
 
 
 def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicleParams | None = None,
-                       settings: CornerFilterSettings | None = None, decentralised: bool = True):
+                       settings: CornerFilterSettings | None = None):
     """The thesis's corner EKFs as one :class:`~longprofile.statespace.NonlinearStateSpaceModel` (16 states).
+
+    Run it with :func:`~longprofile.statespace.block_extended_kalman_filter` (one block per corner: the
+    thesis's four per-corner EKFs, the other corners' forces entering through their estimates, §3.1) or with
+    :func:`~longprofile.statespace.extended_kalman_filter` (centralised full-car EKF); the input column
+    ``decentralised`` selects block-diagonal (1) or full (0) Jacobians.
 
     Parameters
     ----------
@@ -154,19 +172,16 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
         Model parameters used by the filter (default: thesis set).
     settings : CornerFilterSettings, optional
         Noise settings (default :func:`thesis_filter_settings`).
-    decentralised : bool
-        True (default): block-diagonal Jacobians = the thesis's four per-corner EKFs, the other corners'
-        forces entering as inputs computed from their estimates (§3.1). False: full Jacobians, a
-        centralised full-car EKF on the same model.
 
     Returns
     -------
     NonlinearStateSpaceModel
         Transition/observation functions are numba-jitted (``f(x, u, k)``, ``h(x, u, k)``); the known
-        input is ``u[k] = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]``. State order per corner c: ``x[4c:4c+4] =
-        [dZ21dot, dZ21, P, dZ10]``.
+        input row (12,) is ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR, dt, alpha_veh, alpha_route, config,
+        decentralised]`` — build it with :func:`vertical_ekf_inputs`. State order per corner c:
+        ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``.
     """
-    NonlinearStateSpaceModel, _ = _engine()
+    NonlinearStateSpaceModel = _engine()[0]
     if config not in SENSOR_CONFIGS:
         raise InputError(f"config must be 1, 2 or 3 (thesis sensor configurations); got {config!r}.")
     dt = require_positive("dt", dt)
@@ -176,8 +191,7 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
         raise InputError(f"configuration {config} has accelerometers: settings.accel_var must be given.")
     corner, coupling, scalars = vertical_params_arrays(p)
     av, ar = s.alphas(dt)
-    f, jf, h, jh = _compiled_functions(corner.tobytes(), coupling.tobytes(), scalars.tobytes(), dt, av, ar,
-                                       int(config), bool(decentralised))
+    f, jf, h, jh = _compiled_functions(corner.tobytes(), coupling.tobytes(), scalars.tobytes())
     q = np.zeros(16)
     q[2::4] = (1 - av) ** 2 * s.vehicle_var
     q[3::4] = (1 - ar) ** 2 * s.road_var
@@ -242,17 +256,28 @@ class VerticalStateEstimate:
     filtered: object
 
 
-def _inputs(sensors: VerticalSensors, actuator_force, yaw_cutoff):
+def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSettings | None = None,
+                        decentralised: bool = True, actuator_force=None, yaw_cutoff: float = 5.0) -> np.ndarray:
+    """The (T, 12) known-input rows of :func:`vertical_ekf_model` for a sensor record.
+
+    Columns: a_x, a_y (measured), psidd (:func:`yaw_acceleration` of the measured yaw rate), the four actuator
+    forces (default 0), then dt, alpha_veh, alpha_route, config, decentralised (constants).
+    """
     T = sensors.time.shape[0]
-    u = np.zeros((T, 7))
-    u[:, 0] = sensors.ax
-    u[:, 1] = sensors.ay
-    u[:, 2] = yaw_acceleration(sensors.yaw_rate, sensors.dt, cutoff=yaw_cutoff)
+    s = settings or thesis_filter_settings(sensors.config, sensors.dt)
+    u = np.zeros((T, N_U))
+    u[:, U_AX] = sensors.ax
+    u[:, U_AY] = sensors.ay
+    u[:, U_PSIDD] = yaw_acceleration(sensors.yaw_rate, sensors.dt, cutoff=yaw_cutoff)
     if actuator_force is not None:
         U = as_float_array("actuator_force", actuator_force, ndim=2, allow_nan=False)
         if U.shape != (T, 4):
             raise ShapeError(f"actuator_force must have shape (T, 4) = ({T}, 4); got {U.shape}.")
-        u[:, 3:] = U
+        u[:, U_ACT:U_ACT + 4] = U
+    av, ar = s.alphas(sensors.dt)
+    u[:, U_DT], u[:, U_ALPHA_VEH], u[:, U_ALPHA_ROAD] = sensors.dt, av, ar
+    u[:, U_CONFIG] = sensors.config
+    u[:, U_DECENTRALISED] = 1.0 if decentralised else 0.0
     return u
 
 
@@ -298,21 +323,26 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     * config 3: wheel accelerometer -> high-pass 0.1 Hz -> integral -> high-pass 0.1 Hz; body
       ``Z1dot + dZ21dot`` -> low-pass 7 Hz.
     """
-    _, extended_kalman_filter = _engine()
+    _, extended_kalman_filter, block_extended_kalman_filter = _engine()
     if not isinstance(sensors, VerticalSensors):
         raise InputError(f"sensors must be a VerticalSensors (from measure_vertical or sensors_from_frame); "
                          f"got {type(sensors).__name__}.")
     p = params or VerticalVehicleParams()
     config = sensors.config
     s = settings or thesis_filter_settings(config, sensors.dt)
-    model = vertical_ekf_model(config, sensors.dt, params=p, settings=s, decentralised=decentralised)
-    u = _inputs(sensors, actuator_force, yaw_cutoff)
+    model = vertical_ekf_model(config, sensors.dt, params=p, settings=s)
+    u = vertical_ekf_inputs(sensors, settings=s, decentralised=decentralised, actuator_force=actuator_force,
+                            yaw_cutoff=yaw_cutoff)
     y = sensors.displacement
     if config == 2:
         y = np.hstack([y, sensors.body_accel])
     elif config == 3:
         y = np.hstack([y, sensors.wheel_accel])
-    res = extended_kalman_filter(model, np.ascontiguousarray(y), u=u)
+    if decentralised:
+        res = block_extended_kalman_filter(model, np.ascontiguousarray(y), u=u, state_blocks=STATE_BLOCKS,
+                                           obs_blocks=np.tile(np.arange(4), y.shape[1] // 4))
+    else:
+        res = extended_kalman_filter(model, np.ascontiguousarray(y), u=u)
     x = res.mean
     vel, disp = x[:, 0::4], x[:, 1::4]
     dist, tyre = x[:, 2::4], x[:, 3::4]

@@ -1,0 +1,165 @@
+"""Profile files: CSV and Parquet with explicit units (station column + one column per track)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError, InputFormatError, UnitsError
+from ._tables import read_table, write_table
+
+__all__ = ["LENGTH_UNITS", "read_profile", "write_profile", "unit_factor"]
+
+#: Length units understood in file headers, with their value in metres.
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
+
+_DISTANCE_NAMES = ("distance", "station", "chainage", "x")
+_SUFFIX = re.compile(r"^(?P<base>.+?)(?:_|\s*\[)(?P<unit>m|mm|cm|km|in|ft|mi)\]?$", re.IGNORECASE)
+
+
+def unit_factor(unit: str, *, what: str = "elevation") -> float:
+    """Metres per ``unit`` (m, mm, cm, km, in, ft, mi); :class:`UnitsError` for anything else."""
+    key = str(unit).strip().lower()
+    if key not in LENGTH_UNITS:
+        raise UnitsError(f"unknown {what} unit {unit!r}; use one of {sorted(LENGTH_UNITS)}.")
+    return LENGTH_UNITS[key]
+
+
+def _split(column: str) -> tuple[str, str | None]:
+    m = _SUFFIX.match(column.strip())
+    if m:
+        return m.group("base"), m.group("unit").lower()
+    return column.strip(), None
+
+
+def read_profile(path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
+    """Read a profile from CSV or Parquet (or ERD, by suffix ``.erd``).
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv``/``.txt`` (header row; ``#`` lines are comments), ``.parquet``, or ``.erd``.
+    units : {"m", "mm", "cm", "in", "ft"}, optional
+        Unit of the elevation columns that do not carry one in their name. Never guessed: if a column has
+        no unit and ``units`` is not given, :class:`UnitsError` is raised. If a column names its unit and
+        ``units`` disagrees, :class:`UnitsError` too.
+    tracks : str or sequence of str, optional
+        Track (column base) names to read (default: every elevation column).
+    distance_column : str, optional
+        Name of the station column (default: the first of ``distance_<u>``, ``station_<u>``,
+        ``chainage_<u>``, ``x_<u>``).
+
+    Returns
+    -------
+    Profile
+        Stations and elevations converted to metres. Columns ``<track>_std_<u>`` become ``Profile.std``
+        (NaN for tracks without one).
+
+    Raises
+    ------
+    UnitsError
+        Missing or unknown units.
+    InputFormatError
+        Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
+        names the line).
+
+    Notes
+    -----
+    Column naming: ``<name>_<unit>`` or ``<name> [<unit>]``, e.g. ``distance_m, left_mm, right_mm``.
+    """
+    from ..road import Profile
+
+    path = Path(path)
+    if path.suffix.lower() == ".erd":
+        from ._erd import read_erd
+
+        return read_erd(path, units=units, tracks=tracks)
+    if units is not None:
+        unit_factor(units)
+    df = read_table(path)
+    fmt_line = (lambda i: f"line {i + 2}") if path.suffix.lower() in (".csv", ".txt") else (lambda i: f"row {i}")
+    parsed = {c: _split(str(c)) for c in df.columns}
+    if distance_column is None:
+        candidates = [c for c, (base, _) in parsed.items() if base.lower() in _DISTANCE_NAMES]
+        if not candidates:
+            raise InputFormatError(f"{path}: no station column; expected one named distance_m (or station_m, "
+                                   f"chainage_m, x_m, with its unit); the file has {list(df.columns)}.")
+        distance_column = candidates[0]
+    elif distance_column not in df.columns:
+        raise InputFormatError(f"{path}: no column {distance_column!r}; the file has {list(df.columns)}.")
+    _, dunit = parsed[distance_column]
+    if dunit is None:
+        raise UnitsError(f"{path}: the station column {distance_column!r} does not give its unit; rename it e.g. "
+                         "distance_m (stations are never assumed to be in metres).")
+    columns = {}
+    std_columns = {}
+    for c, (base, unit) in parsed.items():
+        if c == distance_column:
+            continue
+        if unit is None:
+            if units is None:
+                raise UnitsError(f"{path}: column {c!r} does not give its elevation unit; pass --units m|mm "
+                                 f"(units=...) or name the column e.g. {c}_mm. Units are never guessed.")
+            unit = units
+        elif units is not None and unit != units.lower():
+            raise UnitsError(f"{path}: column {c!r} is in {unit} but units={units!r} was given; remove the option "
+                             "or fix the header.")
+        if base.lower().endswith("_std"):
+            std_columns[base[:-4]] = (c, unit)
+        else:
+            columns[base] = (c, unit)
+    names = list(columns) if tracks is None else ([tracks] if isinstance(tracks, str) else list(tracks))
+    for t in names:
+        if t not in columns:
+            raise InputError(f"{path}: no track {t!r}; the file has {list(columns)}.")
+    if not names:
+        raise InputFormatError(f"{path}: no elevation column besides {distance_column!r}.")
+    used = [distance_column] + [columns[t][0] for t in names] + [std_columns[t][0] for t in names if t in std_columns]
+    for c in used:
+        conv = pd.to_numeric(df[c], errors="coerce")
+        bad = conv.isna() & df[c].notna()
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputFormatError(f"{path}: {fmt_line(i)}: column {c!r} has a non-numeric value {df[c].iloc[i]!r}.")
+        df[c] = conv.astype(float)
+    x = df[distance_column].to_numpy() * unit_factor(dunit, what="distance")
+    if np.isnan(x).any():
+        i = int(np.flatnonzero(np.isnan(x))[0])
+        raise InputFormatError(f"{path}: {fmt_line(i)}: empty station in column {distance_column!r}.")
+    if x.size > 1 and np.any(np.diff(x) <= 0):
+        i = int(np.flatnonzero(np.diff(x) <= 0)[0]) + 1
+        raise InputFormatError(f"{path}: {fmt_line(i)}: station {df[distance_column].iloc[i]:g} is not greater than "
+                               f"the previous one {df[distance_column].iloc[i - 1]:g}; stations must increase strictly.")
+    z = np.column_stack([df[columns[t][0]].to_numpy() * unit_factor(columns[t][1]) for t in names])
+    std = None
+    if any(t in std_columns for t in names):
+        std = np.full(z.shape, np.nan)
+        for j, t in enumerate(names):
+            if t in std_columns:
+                c, u = std_columns[t]
+                std[:, j] = df[c].to_numpy() * unit_factor(u)
+    return Profile(distance=x, elevation=z, tracks=tuple(names), std=std, name=path.stem)
+
+
+def write_profile(profile, path, *, units: str = "m") -> Path:
+    """Write a profile as CSV, Parquet or ERD (by suffix) with its units in the header.
+
+    Columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the profile has a
+    standard deviation. ERD: see :func:`longprofile.io.write_erd`. Returns the path.
+    """
+    path = Path(path)
+    factor = unit_factor(units)
+    if path.suffix.lower() == ".erd":
+        from ._erd import write_erd
+
+        return write_erd(profile, path, units=units)
+    cols = {"distance_m": profile.distance}
+    for j, t in enumerate(profile.tracks):
+        cols[f"{t}_{units}"] = profile.elevation[:, j] / factor
+    if profile.std is not None:
+        for j, t in enumerate(profile.tracks):
+            cols[f"{t}_std_{units}"] = profile.std[:, j] / factor
+    return write_table(pd.DataFrame(cols), path)

@@ -1,0 +1,176 @@
+"""Sensor health (paper 004 §6): flag sensors whose readings are improbable under the rigidity model.
+
+Every sensor ends with a status and a sentence; flagged sensors are excluded from the
+settlement and listed in every output — never dropped silently.
+
+Statuses
+--------
+ok          readings consistent with the model
+dead        no readings, readings on fewer than half of the days, or a stuck value
+            (robust spread of the raw readings below the sensors' 1e-4 deg resolution)
+reversed    its angle changes follow minus what its neighbours predict (mounted backwards)
+drifting    its leave-one-out residual grows linearly with time
+detached    its leave-one-out residual jumps once and stays (sensor came loose / moved)
+improbable  residuals far beyond the noise level without one of the patterns above
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2
+
+from ._rigidity import rigidity_posterior
+
+__all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals"]
+
+SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
+#: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
+DEAD_SPREAD_DEG = 1e-4
+#: Family-wise false-alarm probability of the chi-square test on a sensor's LOO residuals.
+IMPROBABLE_P = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class SensorHealth:
+    """Health of each sensor.
+
+    Attributes
+    ----------
+    sensor_ids : list of str
+    status : (N,) ndarray of str
+        One of :data:`SENSOR_STATUSES`.
+    detail : (N,) ndarray of str
+        Why (statistic and threshold) — printed in reports.
+    excluded : (N,) bool ndarray
+        True for every status other than "ok": these sensors do not enter the settlement.
+    loo_score : (N,) ndarray
+        Mean squared standardised leave-one-out residual over days (≈1 for a healthy sensor);
+        NaN for dead sensors.
+    """
+
+    sensor_ids: list
+    status: np.ndarray
+    detail: np.ndarray
+    excluded: np.ndarray
+    loo_score: np.ndarray
+
+    def flagged(self) -> list[tuple[str, str, str]]:
+        """(sensor_id, status, detail) of every excluded sensor."""
+        return [(s, st, d) for s, st, d, e in zip(self.sensor_ids, self.status, self.detail, self.excluded) if e]
+
+
+def loo_residuals(x, slopes, *, sigma, rigidity, sigma_z):
+    r"""Standardised leave-one-out residuals of every slope measurement under the rigidity model.
+
+    For a Gaussian linear model with noise sigma, the prediction of m_i from all other
+    measurements has residual e_i = (m_i - mu_i) / (1 - h_i) and variance sigma^2 / (1 - h_i),
+    h_i = Var(theta_i | M) / sigma^2 (the leverage), so one smoother run gives all N of them.
+
+    Returns
+    -------
+    z : (D, N) ndarray
+        Standardised LOO residuals (NaN where no measurement).
+    pred : (D, N) ndarray
+        LOO predictions m_i - e_i, rad.
+    """
+    post = rigidity_posterior(x, slopes, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
+    lev = np.clip(post.slope_std**2 / sigma**2, 0.0, 1.0 - 1e-12)
+    e = (slopes - post.slope_mean) / (1.0 - lev)
+    z = e / np.sqrt(sigma**2 / (1.0 - lev))
+    return z, slopes - e
+
+
+def _classify(m, pred, z):
+    """Pattern of a flagged sensor from its measurements m, LOO predictions and standardised residuals (over days)."""
+    ok = np.isfinite(m) & np.isfinite(pred)
+    m, pred, z = m[ok], pred[ok], z[ok]
+    if m.size < 3:
+        return "improbable", "too few days to tell the pattern"
+    if np.sum(pred**2) > 0 and np.sum((m + pred) ** 2) < 0.25 * np.sum((m - pred) ** 2):
+        b = float(np.dot(m, pred) / np.dot(pred, pred))
+        return "reversed", f"angle changes follow {b:+.2f} x the neighbours' prediction (expected +1)"
+    t = np.arange(z.size, dtype=float)
+    tot = float(np.sum((z - z.mean()) ** 2)) or 1e-300
+    A = np.vstack([np.ones_like(t), t]).T
+    res_lin = float(np.sum((z - A @ np.linalg.lstsq(A, z, rcond=None)[0]) ** 2))
+    cs = np.cumsum(z)
+    best_step = np.inf
+    for k in range(1, z.size):
+        m1, m2 = cs[k - 1] / k, (cs[-1] - cs[k - 1]) / (z.size - k)
+        r = float(np.sum((z[:k] - m1) ** 2) + np.sum((z[k:] - m2) ** 2))
+        best_step = min(best_step, r)
+    r2_lin, r2_step = 1 - res_lin / tot, 1 - best_step / tot
+    if r2_lin > 0.6 and r2_lin >= r2_step:
+        return "drifting", f"residual trend explains {100 * r2_lin:.0f} % of its variance"
+    if r2_step > 0.6:
+        return "detached", f"one jump explains {100 * r2_step:.0f} % of its residual variance"
+    return "improbable", "residuals far beyond the noise without a clear pattern"
+
+
+def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, exclude=(), max_flagged=None,
+                   fit=None) -> tuple[SensorHealth, float, float]:
+    """Flag dead and improbable sensors, iteratively (worst first), re-fitting the noise after each exclusion.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = no data).
+    sigma, rigidity : float
+        Starting values (or fixed values when ``fit`` is None).
+    sigma_z : float
+        Anchor std, m.
+    raw_spread_deg : (N,) ndarray, optional
+        Robust spread of each sensor's raw readings (dead-sensor test).
+    exclude : iterable of int
+        Sensors excluded by the user (status "improbable", detail "excluded by the user").
+    max_flagged : int, optional
+        Stop after this many LOO exclusions (default: a quarter of the sensors).
+    fit : callable, optional
+        ``fit(slopes_masked, sigma, rigidity) -> (sigma, rigidity)`` re-estimates the noise after each exclusion.
+
+    Returns
+    -------
+    health : SensorHealth
+    sigma, rigidity : float
+        Final values (re-fitted if ``fit`` was given).
+    """
+    D, N = slopes.shape
+    status = np.array(["ok"] * N, dtype=object)
+    detail = np.array([""] * N, dtype=object)
+    have = np.isfinite(slopes).sum(axis=0)
+    for j in range(N):
+        if have[j] == 0:
+            status[j], detail[j] = "dead", "no readings"
+        elif have[j] < 0.5 * D:
+            status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
+        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
+            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
+    for j in exclude:
+        status[j], detail[j] = "improbable", "excluded by the user"
+    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
+    score = np.full(N, np.nan)
+    n_flag = 0
+    while True:
+        bad = status != "ok"
+        M = np.where(bad[None, :], np.nan, slopes)
+        if fit is not None:
+            sigma, rigidity = fit(M, sigma, rigidity)
+        z, pred = loo_residuals(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
+        k = np.isfinite(z).sum(axis=0)
+        score = np.where(k > 0, np.nansum(z**2, axis=0) / np.maximum(k, 1), np.nan)
+        pval = np.where(k > 0, chi2.sf(score * k, np.maximum(k, 1)), 1.0)
+        cand = np.nonzero((pval < IMPROBABLE_P / N) & ~bad)[0]
+        if cand.size == 0 or n_flag >= max_flagged or (~bad).sum() <= 3:
+            break
+        j = int(cand[np.argmax(score[cand])])
+        kind, why = _classify(slopes[:, j], pred[:, j], z[:, j])
+        status[j] = kind
+        detail[j] = f"{why}; mean squared LOO z-score {score[j]:.3g} over {k[j]} days (p < {IMPROBABLE_P:g}/N)"
+        n_flag += 1
+    health = SensorHealth(sensor_ids=list(range(N)), status=np.array(status, dtype=str),
+                          detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score)
+    return health, float(sigma), float(rigidity)

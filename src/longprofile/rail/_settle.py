@@ -1,0 +1,363 @@
+"""The whole settlement job: readings -> daily angles -> health -> daily posteriors -> through time -> alarms."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize_scalar
+
+from .._validation import require_positive
+from ..errors import InputError
+from ._data import SiteData
+from ._health import SensorHealth, assess_sensors
+from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
+from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, Z90, ProfilePosterior,
+                        initial_profile_posterior, max_settlement_monte_carlo, measurement_std, rigidity_posterior)
+from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
+from ._thermal import DailyAngles, daily_angles
+
+__all__ = ["SettlementResult", "estimate_settlement", "fit_noise_and_rigidity", "day_difference_sigma", "affine_correction"]
+
+
+@dataclass(frozen=True, eq=False)
+class SettlementResult:
+    """Everything :func:`estimate_settlement` found. Shapes: D days, N sensors (by station).
+
+    Attributes
+    ----------
+    days : (D,) datetime64[ns] ndarray
+    sensor_ids : list of str
+    x : (N,) ndarray
+        Stations, m.
+    dz : (D, N) ndarray
+        Daily posterior mean of the altitude change since day 0, m (negative = settlement), at every
+        station — excluded sensors' stations are estimated from their neighbours.
+    dz_std : (D, N) ndarray
+        Measurement std of dz, m: its error from the slope noise (:func:`~longprofile.rail.measurement_std`);
+        the 90 % band is dz ∓ 1.645 dz_std (calibrated on synthetic truth, docs/rail.md).
+    dz_posterior_std : (D, N) ndarray
+        Posterior std of the paper's Bayesian model (§4.3), m: adds the prior's uncertainty about
+        the track between sensors (≈ 1 cm at 90 % with the paper's r = 1e-8, as the paper reports).
+    slope_change, slope_change_std : (D, N) ndarray
+        Posterior slope change, rad.
+    smoothed : TemporalSettlement or None
+        Settlement smoothed across days with daily rates (None when ``through_time=False``).
+    initial : ProfilePosterior
+        Initial altitudes and slopes at the sensors from the survey (§4.4).
+    integrated : dict of str -> (D, N) ndarray
+        Altitude change by the paper's §2 chain integrations (forward, backward, average, convex).
+    max_settlement_mean, max_settlement_std : (D,) ndarray
+        Monte Carlo mean and std of max_i(-dz_i), m (§4.3).
+    health : SensorHealth
+    daily : DailyAngles
+    sigma : float
+        Slope noise std used, rad.
+    rigidity : float
+        r used, m^-2.
+    alarms : DataFrame
+        See :func:`~longprofile.rail.settlement_alarms`.
+    controls : DataFrame or None
+        Control points compared with the estimate: date, x_m, dz_control_m, dz_estimate_m, std_m, inside_90.
+    warnings : tuple of str
+        Everything the user must know (input fixes, excluded sensors, affine correction...).
+    settings : dict
+        The options used (for reports).
+    """
+
+    days: np.ndarray
+    sensor_ids: list
+    x: np.ndarray
+    dz: np.ndarray
+    dz_std: np.ndarray
+    dz_posterior_std: np.ndarray
+    slope_change: np.ndarray
+    slope_change_std: np.ndarray
+    smoothed: TemporalSettlement | None
+    initial: ProfilePosterior
+    integrated: dict
+    max_settlement_mean: np.ndarray
+    max_settlement_std: np.ndarray
+    health: SensorHealth
+    daily: DailyAngles
+    sigma: float
+    rigidity: float
+    alarms: pd.DataFrame
+    controls: pd.DataFrame | None
+    warnings: tuple
+    settings: dict = field(default_factory=dict)
+
+    def to_table(self) -> pd.DataFrame:
+        """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m,
+        dz_lower90_m, dz_upper90_m, smoothed_dz_m, smoothed_std_m, rate_m_per_day, rate_std_m_per_day."""
+        D, N = self.dz.shape
+        out = pd.DataFrame({
+            "date": np.repeat(pd.DatetimeIndex(self.days).strftime("%Y-%m-%d").to_numpy(), N),
+            "sensor_id": np.tile(self.sensor_ids, D),
+            "x_m": np.tile(self.x, D),
+            "status": np.tile(self.health.status, D),
+            "dz_m": self.dz.ravel(),
+            "dz_std_m": self.dz_std.ravel(),
+            "dz_lower90_m": (self.dz - Z90 * self.dz_std).ravel(),
+            "dz_upper90_m": (self.dz + Z90 * self.dz_std).ravel(),
+            "dz_posterior_std_m": self.dz_posterior_std.ravel(),
+        })
+        if self.smoothed is not None:
+            out["smoothed_dz_m"] = self.smoothed.mean.ravel()
+            out["smoothed_std_m"] = self.smoothed.std.ravel()
+            out["rate_m_per_day"] = self.smoothed.rate.ravel()
+            out["rate_std_m_per_day"] = self.smoothed.rate_std.ravel()
+        return out
+
+
+def day_difference_sigma(slopes) -> float:
+    r"""Robust std of the day-to-day differences of the daily slope changes, rad: the slope noise sigma.
+
+    If the daily error e_t of a sensor is independent across days, the change
+    m_t = s_t + e_t - e_0 has error std sqrt(2) std(e), and so has m_t - m_{t-1}
+    on days without settlement; the median absolute deviation over all sensor-days
+    ignores the few days with settlement steps.
+    """
+    d = np.diff(np.asarray(slopes, float), axis=0)
+    d = d[np.isfinite(d)]
+    if d.size < 10:
+        raise InputError("too few daily slope changes to estimate their noise; pass sigma.")
+    s = 1.4826 * float(np.median(np.abs(d - np.median(d))))
+    if s <= 0:
+        raise InputError("the daily slope changes do not vary from day to day: the noise cannot be estimated; "
+                         "pass sigma.")
+    return s
+
+
+def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFAULT_SIGMA_Z):
+    """Noise sigma (robust day-to-day differences) and rigidity r (maximum marginal likelihood) of the daily slopes.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing); row 0 is the reference day.
+    sigma, rigidity : float, optional
+        Fixed values; None = estimate.
+    sigma_z : float
+
+    Returns
+    -------
+    sigma, rigidity : float
+
+    Notes
+    -----
+    Estimating sigma and r jointly by maximum likelihood is degenerate on real-like data
+    (the stationary prior cannot be right both on quiet days and on days with a bowl: the
+    likelihood then prefers sigma -> 0), so sigma comes from :func:`day_difference_sigma`
+    and only r is fitted, by the Kalman-filter likelihood of the rigidity model summed over
+    the days that differ from the reference day (Brent search on log r).
+    """
+    slopes = np.asarray(slopes, float)
+    s = float(sigma) if sigma is not None else day_difference_sigma(slopes)
+    if rigidity is not None:
+        return s, float(rigidity)
+    fit_rows = slopes[np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0]
+    if fit_rows.shape[0] == 0:
+        raise InputError("no day differs from the reference day: the rigidity cannot be estimated; pass it.")
+
+    def nll(logr):
+        if not -50 < logr < 5:
+            return 1e300
+        ll = rigidity_posterior(x, fit_rows, sigma=s, rigidity=float(np.exp(logr)), sigma_z=sigma_z).log_likelihood
+        return -float(np.sum(ll))
+
+    grid = np.log(np.logspace(-14, -6, 9))
+    vals = [nll(g) for g in grid]
+    k = int(np.argmin(vals))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
+    return s, float(np.exp(res.x if res.fun <= vals[k] else grid[k]))
+
+
+def affine_correction(x, slopes, usable):
+    r"""Affine-in-space correction of §5.2: remove, per day, the line through the first and last usable sensors' changes.
+
+    m'_i(t) = m_i(t) - [m_a(t) + (m_b(t) - m_a(t)) (x_i - x_a) / (x_b - x_a)], a, b = first and last usable sensors.
+
+    Warning (paper 004 §5.2): this forces the end sensors to read no change; it fixed the
+    drifting sensors of Farébersviller track 2 but degraded track 1 — it is not robust, and it
+    removes any genuine rotation of the ends.
+    """
+    idx = np.nonzero(usable)[0]
+    if idx.size < 2:
+        raise InputError("the affine correction needs at least 2 usable sensors.")
+    a, b = idx[0], idx[-1]
+    w = (x - x[a]) / (x[b] - x[a])
+    return slopes - (slopes[:, [a]] + (slopes[:, [b]] - slopes[:, [a]]) * w[None, :])
+
+
+def _compare_controls(site: SiteData, days, x, dz, dz_std, initial_survey):
+    ct = site.controls
+    if ct is None or len(ct) == 0:
+        return None
+    sx, sz = initial_survey
+    rows = []
+    dayidx = {pd.Timestamp(d): i for i, d in enumerate(pd.DatetimeIndex(days))}
+    for (date, g) in ct.groupby("date"):
+        d = dayidx.get(pd.Timestamp(date))
+        inside = (g["x_m"] >= x[0]) & (g["x_m"] <= x[-1]) & (g["x_m"] >= sx[0]) & (g["x_m"] <= sx[-1])
+        g = g[inside]
+        if d is None or len(g) == 0:
+            continue
+        cx = g["x_m"].to_numpy()
+        ctrl = g["z_m"].to_numpy() - np.interp(cx, sx, sz)
+        est = np.interp(cx, x, dz[d])
+        sd = np.interp(cx, x, dz_std[d])
+        for a, b, c, s in zip(cx, ctrl, est, sd):
+            rows.append((pd.Timestamp(date).date().isoformat(), float(a), float(b), float(c), float(s),
+                         bool(abs(b - c) <= Z90 * np.hypot(s, np.sqrt(2) * DEFAULT_SIGMA_A))))
+    if not rows:
+        return None
+    return pd.DataFrame(rows, columns=["date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "inside_90"])
+
+
+def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float | None = None,
+                        rigidity: float | None = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z,
+                        sigma_a: float = DEFAULT_SIGMA_A, reference_temp_c: float = 5.0, quiet_days=None,
+                        check_health: bool = True, exclude_sensors=(), use_affine_correction: bool = False,
+                        through_time: bool = True, process_std: float | None = None,
+                        settlement_threshold_m: float | None = None, rate_threshold_m_per_day: float | None = None,
+                        alarm_probability: float = 0.5, n_monte_carlo: int = 1000, rng=0) -> SettlementResult:
+    r"""Altitude change of the track, day by day, with 90 % bands, from sleeper inclinometers (paper 004).
+
+    Parameters
+    ----------
+    site : SiteData
+        From :func:`~longprofile.rail.read_site` / :func:`~longprofile.rail.validate_site`.
+    thermal : {"linear", "lagged", "none"}, default "linear"
+        Temperature de-biasing: the paper's §3 ("linear") or the first-order lag model.
+    sigma : float, optional
+        Std of the daily slope changes, rad. Default: estimated from the day-to-day differences
+        (:func:`day_difference_sigma`); the paper's 5e-3 deg is the noise of single readings,
+        far too wide for daily medians of ~100 readings.
+    rigidity : float or None, default 1e-8
+        r, m^-2 (the paper's value). None: maximum marginal likelihood over the days.
+    sigma_z : float, default 1e-5
+        Std of the end anchors, m (ends assumed fixed, §2 and §4.2).
+    sigma_a : float, default 2e-3
+        Survey noise, m (§4.4).
+    reference_temp_c : float, default 5
+    quiet_days : sequence of dates, optional
+        Days without works, for the thermal fit.
+    check_health : bool, default True
+        Flag and exclude improbable sensors (§6). Dead sensors are always excluded.
+    exclude_sensors : iterable of str
+        Sensor ids to exclude (reported as excluded by the user).
+    use_affine_correction : bool, default False
+        Apply the §5.2 affine correction (see :func:`affine_correction` for the paper's warning).
+    through_time : bool, default True
+        Also smooth across days per station and compute daily rates.
+    process_std : float, optional
+        Day-to-day settlement std of the through-time model, m/day (default: maximum likelihood).
+    settlement_threshold_m, rate_threshold_m_per_day : float, optional
+        Alarm thresholds on |altitude change| (m) and |daily rate| (m/day).
+    alarm_probability : float, default 0.5
+        Report a station-day when the exceedance probability is at least this.
+    n_monte_carlo : int, default 1000
+        Posterior draws per day for the maximum settlement (0 = skip, NaN results).
+    rng : int or Generator, default 0
+
+    Returns
+    -------
+    SettlementResult
+
+    Notes
+    -----
+    Steps: daily angles (§3) -> slope changes tan(theta0 + m) - tan(theta0) with the
+    initial angles of §4.4 -> sensor health (§6) with sigma and r re-estimated after each
+    exclusion -> rigidity posterior of the slope changes with both ends anchored at 0
+    (§4.2; by linearity this equals the paper's absolute posterior minus the posterior at
+    day 0) -> Monte Carlo of the maximum settlement (§4.3) -> through-time smoothing,
+    rates and alarms (beyond the paper).
+    """
+    require_positive("sigma_z", sigma_z)
+    require_positive("sigma_a", sigma_a)
+    warnings = list(site.warnings)
+    ids = site.sensor_ids
+    x = site.x
+    N = x.size
+    unknown = sorted(set(exclude_sensors) - set(ids))
+    if unknown:
+        raise InputError(f"exclude_sensors: unknown sensor id(s) {unknown[:5]}; known ids are like {ids[:3]}.")
+    daily = daily_angles(site, thermal=thermal, reference_temp_c=reference_temp_c, quiet_days=quiet_days)
+    days = daily.days
+    D = days.size
+    if D < 2:
+        raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
+    n_out = int(daily.n_outliers.sum())
+    if n_out:
+        warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
+                        f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
+    sv = site.survey
+    initial = initial_profile_posterior(x, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(), sigma_a=sigma_a,
+                                        rigidity=DEFAULT_RIGIDITY if rigidity is None else rigidity)
+    theta0 = np.arctan(initial.slope_mean)
+    change = np.deg2rad(daily.change_deg)
+    slopes = np.tan(theta0[None, :] + change) - np.tan(theta0)[None, :]
+    excl_idx = [ids.index(s) for s in exclude_sensors]
+    # health checks need a prior as stiff as the data allow (a loose prior predicts nothing from the
+    # neighbours), so they always use the maximum-likelihood rigidity; the settlement uses ``rigidity``.
+    fit = (lambda M, s, r: fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=None, sigma_z=sigma_z))
+    s0, r0 = fit(slopes, None, None)
+    if check_health:
+        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sigma_z,
+                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, fit=fit)
+    else:
+        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sigma_z,
+                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, max_flagged=0, fit=fit)
+    health = replace(health, sensor_ids=list(ids))
+    M = np.where(health.excluded[None, :], np.nan, slopes)
+    sig, rig = fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
+    for sid, st, why in health.flagged():
+        warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+    if health.excluded[0] or health.excluded[-1]:
+        warnings.append("an end sensor is excluded: the end anchor still holds at its station, but the angle there "
+                        "is only known through the rigidity prior.")
+    M = np.where(health.excluded[None, :], np.nan, slopes)
+    if use_affine_correction:
+        M = affine_correction(x, M, ~health.excluded)
+        warnings.append("affine correction of §5.2 applied: end sensors forced to read no change; the paper warns it "
+                        "is not robust (it helped one track and degraded the other).")
+        if sigma is None or rigidity is None:
+            sig, rig = fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
+    post = rigidity_posterior(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z)
+    meas_std = measurement_std(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z)
+    # §2 chain integrations on the same slope changes (excluded sensors interpolated from neighbours)
+    ok = ~health.excluded
+    Mi = np.array([np.interp(x, x[ok & np.isfinite(row)], row[ok & np.isfinite(row)]) for row in M])
+    bar0 = bar_angles_from_profile(x, initial.z_mean)
+    bar_change = Mi[:, :-1]  # §2: sensor i measures the bar from sensor i to i+1
+    integrated = {meth: integrate_angles(x, np.arctan(np.tan(bar0)[None, :] + bar_change), method=meth)
+                  - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
+    if n_monte_carlo > 0:
+        mc_mean, mc_std = max_settlement_monte_carlo(post, int(n_monte_carlo), rng=rng)
+    else:
+        mc_mean = mc_std = np.full(D, np.nan)
+    smoothed = smooth_through_time(post.z_mean, meas_std, process_std=process_std) if through_time else None
+    src_mean = smoothed.mean if smoothed is not None else post.z_mean
+    src_std = smoothed.std if smoothed is not None else meas_std
+    alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=settlement_threshold_m,
+                               rate=None if smoothed is None else smoothed.rate,
+                               rate_std=None if smoothed is None else smoothed.rate_std,
+                               rate_threshold_m_per_day=rate_threshold_m_per_day, min_probability=alarm_probability)
+    controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
+    settings = dict(thermal=thermal, sigma_rad=sig, sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
+                    sigma_estimated=sigma is None, rigidity_estimated=rigidity is None, sigma_z=sigma_z,
+                    sigma_a=sigma_a, reference_temp_c=reference_temp_c, affine_correction=use_affine_correction,
+                    through_time=through_time, process_std=None if smoothed is None else smoothed.process_std,
+                    settlement_threshold_m=settlement_threshold_m, rate_threshold_m_per_day=rate_threshold_m_per_day,
+                    alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo)
+    return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post.z_mean, dz_std=meas_std,
+                            dz_posterior_std=post.z_std,
+                            slope_change=post.slope_mean, slope_change_std=post.slope_std, smoothed=smoothed,
+                            initial=initial, integrated=integrated, max_settlement_mean=np.atleast_1d(mc_mean),
+                            max_settlement_std=np.atleast_1d(mc_std), health=health, daily=daily, sigma=sig,
+                            rigidity=rig, alarms=alarms, controls=controls, warnings=tuple(warnings),
+                            settings=settings)

@@ -1,0 +1,371 @@
+"""Road roughness report: a self-contained HTML page, its PNG figures and CSV tables.
+
+Rendering only: every number comes from :func:`longprofile.road.analyse_roughness`.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import OutputError
+
+__all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "write_road_report"]
+
+#: IRI condition limits in m/km: good below 1.50 (95 in/mi), poor above 2.68 (170 in/mi) -- the FHWA pavement
+#: condition thresholds for IRI (23 CFR 490.313). Used for the colours of the report; configurable.
+IRI_CONDITION_LIMITS = (1.50, 2.68)
+
+_GOOD, _FAIR, _POOR = "#2e7d32", "#f9a825", "#c62828"
+
+
+def _figure(width=10.0, height=3.6):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _envelope(x, y, max_points=60000):
+    """Min/max envelope of y over bins when there are too many points to draw (keeps every spike visible)."""
+    n = x.size
+    if n <= max_points:
+        return x, y, y
+    k = int(np.ceil(n / (max_points // 2)))
+    m = (n // k) * k
+    xb = x[:m].reshape(-1, k).mean(axis=1)
+    yb = y[:m].reshape(-1, k)
+    return xb, np.nanmin(yb, axis=1), np.nanmax(yb, axis=1)
+
+
+def _iri_axes(ax, result, limits, reference=None, reference_label="reference"):
+    good, poor = limits
+    top = max(float(np.nanmax(result.iri, initial=0.0)), poor) * 1.25
+    if reference is not None and reference.iri.size:
+        top = max(top, float(np.nanmax(reference.iri)) * 1.25)
+    x0, x1 = (result.segment_start[0], result.segment_end[-1]) if result.iri.shape[0] else (0.0, 1.0)
+    ax.axhspan(0, good, color=_GOOD, alpha=0.10, lw=0)
+    ax.axhspan(good, poor, color=_FAIR, alpha=0.12, lw=0)
+    ax.axhspan(poor, top, color=_POOR, alpha=0.10, lw=0)
+    ax.axhline(good, color=_GOOD, lw=1, ls="--", label=f"good < {good:.2f} m/km")
+    ax.axhline(poor, color=_POOR, lw=1, ls="--", label=f"poor > {poor:.2f} m/km")
+    k = len(result.tracks)
+    width = result.segment_length / (k + 1)
+    for j, t in enumerate(result.tracks):
+        ax.bar(result.segment_start + (j + 0.5) * width, result.iri[:, j], width=width * 0.95, align="edge",
+               label=f"IRI {t}", alpha=0.9)
+    if reference is not None:
+        for j, t in enumerate(reference.tracks):
+            ax.step(np.append(reference.segment_start, reference.segment_end[-1:]),
+                    np.append(reference.iri[:, j], reference.iri[-1:, j]), where="post", color="k", lw=1.5,
+                    label=f"IRI {reference_label}" + (f" ({t})" if len(reference.tracks) > 1 else ""))
+    if result.mri is not None:
+        ax.step(np.append(result.segment_start, result.segment_end[-1:]), np.append(result.mri, result.mri[-1:]),
+                where="post", color="0.2", lw=1.2, ls=":", label="MRI")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(0, top)
+    ax.set_xlabel("station [m]")
+    ax.set_ylabel("IRI [m/km]")
+    ax.set_title(f"IRI per {result.segment_length:g} m segment")
+    ax.legend(loc="upper right", fontsize=8, ncol=3)
+
+
+def plot_iri(result, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
+    """Bar chart of the IRI per segment with the condition limits, saved as PNG."""
+    fig = _figure()
+    _iri_axes(fig.add_subplot(), result, limits)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    return path
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def _profile_figure(analysis, reference_profile=None, reference_label="reference"):
+    p = analysis.profile
+    fig = _figure(height=3.4)
+    ax = fig.add_subplot()
+    for j, t in enumerate(p.tracks):
+        x, lo, hi = _envelope(p.distance, p.elevation[:, j] * 1000)
+        if lo is hi:
+            line, = ax.plot(x, lo, lw=0.8, label=t)
+        else:
+            line = ax.fill_between(x, lo, hi, lw=0.5, alpha=0.8, label=f"{t} (min-max per bin)")
+        if p.std is not None and np.isfinite(p.std[:, j]).any():
+            xs, s_lo, s_hi = _envelope(p.distance, (p.elevation[:, j] - 2 * p.std[:, j]) * 1000)
+            _, s_lo2, s_hi2 = _envelope(p.distance, (p.elevation[:, j] + 2 * p.std[:, j]) * 1000)
+            ax.fill_between(xs, s_lo, s_hi2, alpha=0.2, lw=0, label=f"{t} ± 2σ")
+    if reference_profile is not None:
+        for j, t in enumerate(reference_profile.tracks):
+            x, lo, hi = _envelope(reference_profile.distance, reference_profile.elevation[:, j] * 1000)
+            ax.plot(x, hi, color="k", lw=0.7, alpha=0.7, label=f"{reference_label}")
+    ax.set_xlabel("station [m]")
+    ax.set_ylabel("elevation [mm]")
+    ax.set_title("Longitudinal profile")
+    ax.legend(loc="upper right", fontsize=8, ncol=3)
+    return fig
+
+
+def _localized_figure(loc):
+    fig = _figure(height=3.2)
+    ax = fig.add_subplot()
+    for j, t in enumerate(loc.tracks):
+        x, lo, hi = _envelope(loc.station, loc.continuous_iri[:, j])
+        ax.plot(x, hi, lw=0.9, label=f"{t}")
+    ax.axhline(loc.threshold, color=_POOR, ls="--", lw=1.2, label=f"threshold {loc.threshold:g} m/km")
+    for d in loc.defects:
+        ax.axvspan(d.start, d.end, color=_POOR, alpha=0.15, lw=0)
+    ax.set_xlabel("window centre [m]")
+    ax.set_ylabel(f"IRI over {loc.window:g} m [m/km]")
+    ax.set_title("Localised roughness (continuous short-interval IRI); shaded: above threshold")
+    ax.set_ylim(bottom=0)
+    ax.legend(loc="upper right", fontsize=8, ncol=4)
+    return fig
+
+
+def _psd_figure(analysis):
+    from ..road import ISO8608_CLASSES, iso8608_gd
+
+    psd = analysis.psd
+    fig = _figure(height=4.2)
+    ax = fig.add_subplot()
+    n = psd.wavenumber[1:]
+    grid = np.geomspace(0.01, max(3.0, n[-1]), 200)
+    for letter, (lo, _, hi) in ISO8608_CLASSES.items():
+        if lo > 0:
+            ax.loglog(grid, iso8608_gd(grid, lo), color="0.6", lw=0.8)
+            ax.text(0.1, lo * 1.1, f"{chr(ord(letter) - 1)}|{letter}", fontsize=7, color="0.35", clip_on=True)
+    for j, t in enumerate(psd.tracks):
+        ax.loglog(n, psd.psd[1:, j], lw=1.0, label=f"{t} (Welch)")
+        if analysis.iso8608 is not None:
+            f = analysis.iso8608[j]
+            ax.loglog(grid, iso8608_gd(grid, f.gd_n0), ls="--", lw=1.2,
+                      label=f"{t}: Gd(0.1) = {f.gd_n0 * 1e6:.0f}e-6 m³, class {f.road_class}")
+    ax.axvspan(0.011, 2.83, color="0.9", alpha=0.3, lw=0)
+    ax.set_xlim(grid[0], grid[-1])
+    positive = psd.psd[1:][psd.psd[1:] > 0]
+    ymax = float(positive.max()) if positive.size else 1e-3
+    ax.set_ylim(ymax * 1e-7, ymax * 30)
+    ax.set_xlabel("spatial frequency n [cycle/m]")
+    ax.set_ylabel("Gd(n) [m³]")
+    ax.set_title("Displacement PSD with the ISO 8608 class limits (grey lines, w = 2)")
+    ax.legend(loc="lower left", fontsize=8)
+    return fig
+
+
+def _table_html(df: pd.DataFrame, *, fmt="{:.3f}", highlight=None) -> str:
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+    rows = []
+    for _, r in df.iterrows():
+        cells = []
+        for c in df.columns:
+            v = r[c]
+            style = ""
+            if highlight is not None:
+                style = highlight(c, v)
+            if isinstance(v, (float, np.floating)):
+                text = f"{v:.1f}" if str(c).endswith("_m") else fmt.format(v)
+            else:
+                text = html.escape(str(v))
+            cells.append(f"<td{style}>{text}</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1150px;
+color:#222;line-height:1.45}
+h1{font-size:1.6em;margin-bottom:0}h2{border-bottom:2px solid #ddd;padding-bottom:3px;margin-top:1.6em}
+.sub{color:#666;margin-top:2px}table{border-collapse:collapse;margin:8px 0;font-size:0.9em}
+th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#f3f3f3}
+td:first-child,th:first-child{text-align:left}img{max-width:100%;border:1px solid #eee}
+.cards{display:flex;gap:12px;flex-wrap:wrap}.card{border:1px solid #ddd;border-radius:6px;padding:8px 14px;
+min-width:150px}.card b{font-size:1.5em;display:block}.note{background:#fff8e1;border-left:4px solid #f9a825;
+padding:6px 10px;margin:8px 0}.small{font-size:0.85em;color:#555}
+"""
+
+
+def _condition(v, limits):
+    good, poor = limits
+    if not np.isfinite(v):
+        return ""
+    colour = _GOOD if v < good else (_POOR if v > poor else _FAIR)
+    return f' style="background:{colour}22"'
+
+
+def write_road_report(analysis, outdir, *, reference=None, reference_label: str = "reference",
+                      limits=IRI_CONDITION_LIMITS, title: str | None = None, inputs=()) -> list[Path]:
+    """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables into ``outdir``.
+
+    Parameters
+    ----------
+    analysis : RoughnessAnalysis
+        From :func:`longprofile.road.analyse_roughness`.
+    outdir : path-like
+        Output folder (created).
+    reference : RoughnessAnalysis, optional
+        A second analysis shown beside (e.g. the true profile of a simulation).
+    reference_label : str
+        Its name in the tables and legends.
+    limits : (float, float)
+        IRI condition limits (good below, poor above), m/km. Default FHWA 1.50 / 2.68 m/km.
+    title : str, optional
+        Page title (default from the profile name).
+    inputs : sequence of path-like
+        Input files, to refuse writing over them.
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    out = Path(outdir)
+    for inp in inputs:
+        if inp is not None and Path(inp).resolve() == out.resolve():
+            raise OutputError(f"output folder {out} is an input; choose another folder.")
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    res = analysis.iri
+    name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
+
+    # tables
+    iri_df = res.to_frame()
+    if reference is not None and reference.iri.iri.shape[0] == iri_df.shape[0]:
+        for j, t in enumerate(reference.iri.tracks):
+            iri_df[f"iri_{reference_label}_{t}_m_per_km".replace(" ", "_")] = reference.iri.iri[:, j]
+    tables = {"iri_segments.csv": iri_df, "localized_roughness.csv": analysis.localized.to_frame()}
+    if analysis.psd is not None:
+        psd_df = pd.DataFrame({"wavenumber_cycles_per_m": analysis.psd.wavenumber})
+        for j, t in enumerate(analysis.psd.tracks):
+            psd_df[f"psd_{t}_m3"] = analysis.psd.psd[:, j]
+        tables["psd.csv"] = psd_df
+    if analysis.iso8608 is not None:
+        tables["iso8608.csv"] = pd.DataFrame({
+            "track": analysis.profile.tracks,
+            "gd_n0_w2_m3": [f.gd_n0 for f in analysis.iso8608],
+            "class_w2": [f.road_class for f in analysis.iso8608],
+            "gd_n0_free_m3": [f.gd_n0_free for f in analysis.iso8608],
+            "waviness_free": [f.waviness for f in analysis.iso8608],
+            "class_free": [f.road_class_free for f in analysis.iso8608],
+        })
+    if analysis.waveband is not None:
+        tables["waveband_energy.csv"] = analysis.waveband.to_frame()
+    for fname, df in tables.items():
+        p = out / fname
+        df.to_csv(p, index=False)
+        written.append(p)
+
+    # figures
+    figs = {"profile.png": _profile_figure(analysis, None if reference is None else reference.profile,
+                                           reference_label)}
+    fig = _figure()
+    _iri_axes(fig.add_subplot(), res, limits, None if reference is None else reference.iri, reference_label)
+    figs["iri.png"] = fig
+    figs["localized_roughness.png"] = _localized_figure(analysis.localized)
+    if analysis.psd is not None:
+        figs["psd.png"] = _psd_figure(analysis)
+    images = {}
+    for fname, f in figs.items():
+        data = _png(f)
+        (out / fname).write_bytes(data)
+        written.append(out / fname)
+        images[fname] = base64.b64encode(data).decode("ascii")
+
+    def img(fname, alt):
+        return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{images[fname]}">'
+
+    # summary cards
+    p = analysis.profile
+    cards = []
+    for j, t in enumerate(res.tracks):
+        v = float(res.section_iri[j])
+        cards.append(f'<div class="card"{_condition(v, limits)}>IRI {html.escape(t)}<b>{v:.2f} m/km</b>'
+                     f'<span class="small">{res.section_start:.1f}–{res.section_end:.1f} m</span></div>')
+    if res.section_mri is not None:
+        cards.append(f'<div class="card"{_condition(res.section_mri, limits)}>MRI<b>{res.section_mri:.2f} m/km</b>'
+                     f'<span class="small">HRI {res.section_hri:.2f} m/km</span></div>')
+    if reference is not None:
+        for j, t in enumerate(reference.iri.tracks):
+            v = float(reference.iri.section_iri[j])
+            cards.append(f'<div class="card">IRI {html.escape(reference_label)}<b>{v:.2f} m/km</b>'
+                         f'<span class="small">{html.escape(t)}</span></div>')
+    if analysis.iso8608 is not None:
+        for j, f in enumerate(analysis.iso8608):
+            cards.append(f'<div class="card">ISO 8608 {html.escape(p.tracks[j])}<b>class {f.road_class}</b>'
+                         f'<span class="small">Gd(0.1) = {f.gd_n0 * 1e6:.0f}·10⁻⁶ m³ (w = 2)</span></div>')
+    loc = analysis.localized
+    n_def = len(loc.defects)
+    cards.append(f'<div class="card">Localised roughness<b>{n_def} location{"s" if n_def != 1 else ""}</b>'
+                 f'<span class="small">{loc.window:g} m IRI &gt; {loc.threshold:g} m/km</span></div>')
+
+    spacing = p.spacing
+    meta = (f"{p.n_samples} samples, stations {p.distance[0]:.2f}–{p.distance[-1]:.2f} m, "
+            + (f"constant step {spacing * 1000:.1f} mm" if spacing is not None else "irregular stations")
+            + f"; tracks: {', '.join(p.tracks)}.")
+    notes = "".join(f'<div class="note">{html.escape(n)}</div>' for n in analysis.notes)
+    highlight = (lambda c, v: _condition(float(v), limits) if "iri" in str(c) or str(c).startswith(("mri", "hri"))
+                 else "")
+    seg_table = (_table_html(iri_df, fmt="{:.2f}", highlight=highlight) if len(iri_df)
+                 else "<p>No complete segment.</p>")
+    def_df = loc.to_frame()
+    def_table = (_table_html(def_df, fmt="{:.1f}") if len(def_df)
+                 else f"<p>No location above {loc.threshold:g} m/km.</p>")
+    iso_table = _table_html(tables["iso8608.csv"], fmt="{:.4g}") if "iso8608.csv" in tables else ""
+    wave_html = ""
+    if analysis.waveband is not None:
+        wdf = analysis.waveband.to_frame()
+        wave_html = (f"<h2>Waveband energies</h2><p>Mean square of the profile band-passed in each wavelength band, "
+                     f"per {analysis.waveband.segment_end[0] - analysis.waveband.segment_start[0]:g} m segment, "
+                     f"in mm². Bands: {', '.join(analysis.waveband.bands)}.</p>"
+                     + (_table_html(wdf, fmt="{:.3g}") if len(wdf) else "<p>No complete segment.</p>"))
+    psd_html = ""
+    if analysis.psd is not None:
+        psd_html = (f"<h2>Spectrum and ISO 8608 class</h2>{img('psd.png', 'PSD')}"
+                    f"<p class='small'>Welch estimate, {analysis.psd.segment_length:g} m Hann segments, 50 % overlap, "
+                    "linear detrend. Gd(n0) at n0 = 0.1 cycle/m fitted over 0.011–2.83 cycle/m with w = 2 (the "
+                    "ISO 8608 classification) and with a free waviness w.</p>" + iso_table)
+    ma = "applied" if res.moving_average else "not needed at this spacing"
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}</style></head>
+<body>
+<h1>{html.escape(name)}</h1>
+<p class="sub">{html.escape(meta)}</p>
+<div class="cards">{''.join(cards)}</div>
+{notes}
+<h2>Profile</h2>
+{img('profile.png', 'profile')}
+<h2>IRI per segment</h2>
+{img('iri.png', 'IRI per segment')}
+<p class="small">Colours: good below {limits[0]:.2f} m/km, poor above {limits[1]:.2f} m/km (FHWA condition limits,
+configurable). IRI per ASTM E1926 / World Bank TP 46: golden quarter car at 80 km/h, exact discretisation for the
+actual spacing, initial slope over the first {res.lead_in:g} m, state carried across segments, 250 mm moving average
+{ma}.</p>
+{seg_table}
+<h2>Localised roughness</h2>
+{img('localized_roughness.png', 'continuous IRI')}
+<p class="small">IRI over a {loc.window:g} m window centred on every station; a location is a run of stations
+where it exceeds {loc.threshold:g} m/km (start and end are window centres).</p>
+{def_table}
+{psd_html}
+{wave_html}
+<h2>Files</h2>
+<p class="small">{' · '.join(html.escape(f) for f in list(tables) + list(figs))} (in this folder). Generated by
+longprofile; definitions and assumptions: docs/road-indices.md.</p>
+</body></html>
+"""
+    index = out / "index.html"
+    index.write_text(page, encoding="utf-8")
+    written.insert(0, index)
+    return written

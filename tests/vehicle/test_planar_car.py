@@ -1,0 +1,76 @@
+"""Vehicle description (TOML <-> frozen dataclass) of the planar model, paper 001."""
+
+import dataclasses
+
+import pytest
+
+from longprofile.errors import InputError, InputFormatError
+from longprofile.vehicle import Vehicle, default_vehicle, load_vehicle
+
+
+def test_default_car_is_documented_and_valid():
+    car = default_vehicle()
+    assert car.mass == 1500.0
+    assert car.friction == (0.8, 0.8, 0.8, 0.8)  # paper V.A: mu = 0.8
+    assert car.wheelbase == pytest.approx(2.6)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        car.mass = 1.0
+
+
+def test_toml_round_trip(tmp_path):
+    car = default_vehicle().with_changes(mass=1650.0, friction=(0.5, 0.6, 0.7, 0.8), driven_axle="rear")
+    path = tmp_path / "car.toml"
+    path.write_text(car.to_toml())
+    assert load_vehicle(path) == car
+
+
+def test_missing_and_unknown_keys_are_errors(tmp_path):
+    text = default_vehicle().to_toml()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("mass = 1500.0", "mas = 1500.0"))
+    with pytest.raises(InputFormatError, match="unknown key 'mas' in \\[body\\]"):
+        load_vehicle(bad)
+    bad.write_text(text.replace("yaw_inertia = 2500.0  # kg m^2\n", ""))
+    with pytest.raises(InputFormatError, match="missing key 'yaw_inertia' in \\[body\\]"):
+        load_vehicle(bad)
+    bad.write_text(text.replace("[wheels]", "[wheel]"))
+    with pytest.raises(InputFormatError, match="unknown key 'wheel'; expected the tables"):
+        load_vehicle(bad)
+    bad.write_text(text.split("[wheels]")[0])
+    with pytest.raises(InputFormatError, match="missing table \\[wheels\\]"):
+        load_vehicle(bad)
+    bad.write_text("mass = [")
+    with pytest.raises(InputFormatError, match="not valid TOML"):
+        load_vehicle(bad)
+    with pytest.raises(InputError, match="no such vehicle description"):
+        load_vehicle(tmp_path / "nope.toml")
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"mass": -1.0}, "mass must be finite and > 0 kg"),
+    ({"cg_height": float("nan")}, "cg_height must be finite"),
+    ({"friction": (0.8, 0.8, 0.8)}, "friction must be 4"),
+    ({"friction": (0.8, 0.8, 0.8, 0.0)}, "friction must be 4"),
+    ({"driven_axle": "middle"}, "driven_axle must be"),
+    ({"brake_front_share": 1.5}, "brake_front_share must be in"),
+    ({"aero_longitudinal": -0.1}, "aero_longitudinal must be finite and >= 0"),
+    ({"mass": "heavy"}, "mass must be a number"),
+])
+def test_invalid_parameters_raise(change, message):
+    with pytest.raises(InputError, match=message):
+        default_vehicle().with_changes(**change)
+
+
+def test_invalid_value_in_file_names_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(default_vehicle().to_toml().replace("mass = 1500.0", "mass = -3.0"))
+    with pytest.raises(InputFormatError, match="bad.toml: mass must be finite and > 0"):
+        load_vehicle(bad)
+
+
+def test_vehicle_is_a_dataclass_with_all_fields_in_toml():
+    names = {f.name for f in dataclasses.fields(Vehicle)}
+    text = default_vehicle().to_toml()
+    for name in names - {"name", "description"}:
+        key = {"wheel_radius": "radius", "wheel_inertia": "inertia"}.get(name, name)
+        assert f"{key} = " in text, name
