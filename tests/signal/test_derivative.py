@@ -220,3 +220,22 @@ def test_bad_dt_and_data():
         derivative(np.array([0.0, np.inf, 1.0, 2.0]), 1.0, method="backward")
     with pytest.raises(InputError, match="cannot estimate the noise level"):
         derivative(np.arange(3.0), 1.0, method="backward")
+    with pytest.raises(InputError, match="x has 20 samples along axis 0, fewer than the window of 46"):
+        derivative(np.arange(20.0), 1.0, method="ml", window=45)
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_kalman_steady_state_agrees_after_the_transient(smooth):
+    rng = np.random.default_rng(11)
+    dt = 0.01
+    t = np.arange(3000) * dt
+    x = np.sin(1.5 * t) + 0.02 * rng.standard_normal(t.size)
+    exact = derivative_kalman(x, dt, q_over_r=1e4, noise_std=0.02, smooth=smooth)
+    fast = derivative_kalman(x, dt, q_over_r=1e4, noise_std=0.02, smooth=smooth, steady_state=True)
+    mid = slice(1000, 2000)
+    np.testing.assert_allclose(fast.derivative[mid], exact.derivative[mid], rtol=1e-7, atol=1e-7)
+    np.testing.assert_allclose(fast.derivative_std[mid], exact.derivative_std[mid], rtol=1e-6)
+    assert fast.params["steady_state"] is True
+    x[5] = np.nan
+    with pytest.raises(InputError, match="NaN"):
+        derivative_kalman(x, dt, q_over_r=1e4, noise_std=0.02, steady_state=True)

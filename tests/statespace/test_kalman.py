@@ -289,6 +289,20 @@ def test_smoother_cov_below_filter_cov_and_symmetric(md):
     gap = np.linalg.eigvalsh(f.cov - s.cov)
     assert gap.min() >= -1e-10 * max(1.0, np.abs(f.cov).max())
     assert np.linalg.eigvalsh(s.cov).min() >= -1e-10
+    # the lag-one cross-covariance makes a valid joint covariance of (x_t, x_t+1) given y
+    joint = np.block([[s.cov[:-1], s.cross_cov], [np.swapaxes(s.cross_cov, 1, 2), s.cov[1:]]])
+    assert np.linalg.eigvalsh(0.5 * (joint + np.swapaxes(joint, 1, 2))).min() >= -1e-9
+
+
+@PROPS
+@given(model_and_data())
+def test_kernel_equals_reference_loop(md):
+    model, y = md
+    a, b = kalman_filter(model, y), reference_filter(model, y)
+    _compare(a, b, atol=1e-9 * max(1.0, float(np.abs(np.nan_to_num(y)).max())))
+    sa, sb = rts_smoother(model, a), reference_smoother(model, b)
+    for name in ("mean", "cov", "cross_cov"):
+        assert_allclose(getattr(sa, name), getattr(sb, name), rtol=0, atol=1e-9, err_msg=name)
 
 
 @PROPS

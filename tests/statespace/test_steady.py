@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from longprofile.errors import InputError, ModelError, NotDetectableError
+from longprofile.errors import InputError, ModelError, NotDetectableError, ShapeError
 from longprofile.statespace import (
     StateSpaceModel,
     kalman_filter,
@@ -117,7 +117,7 @@ def test_smoother_equals_rts_after_transient(p, offsets):
     np.testing.assert_allclose(fast.filtered.mean[200:], exact.filtered.mean[200:], atol=1e-8)
     # the constant smoothed covariance is the one the exact smoother reaches mid-series
     np.testing.assert_allclose(steady_state_smoothed_cov(model), exact.cov[T // 2], atol=1e-10)
-    lean = steady_state_smoother(model, y, u=u, store_filtered=False)
+    lean = steady_state_smoother(model, y, u=u, store_filtered=False, gain=steady_state_gain(model))
     assert lean.filtered is None
     np.testing.assert_array_equal(lean.mean, fast.mean)
 
@@ -173,6 +173,9 @@ def test_input_errors():
     tv = model.replace(obs_cov=np.ones((50, 1, 1)))
     with pytest.raises(ModelError, match="time-invariant"):
         steady_state_filter(tv, np.ones(50))
+    other = random_model(13, n=3, m=1)
+    with pytest.raises(ShapeError, match=r"gain has shape \(3, 1\)"):
+        steady_state_filter(model, np.ones(50), gain=steady_state_gain(other))
     singular = model.replace(obs_cov=np.zeros((1, 1)))
     with pytest.raises(ModelError, match="positive definite"):
         steady_state_gain(singular)

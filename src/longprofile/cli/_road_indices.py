@@ -45,7 +45,7 @@ def iri_command(
         plot_iri(result, check_output_path(plot, file))
     summary = ", ".join(f"{t} {v:.2f}" for t, v in zip(result.tracks, result.section_iri))
     extra = "" if result.section_mri is None else f"; MRI {result.section_mri:.2f}, HRI {result.section_hri:.2f}"
-    console.print(f"section IRI [m/km]: {summary}{extra} ({len(table)} segment(s) of {segment:g} m)")
+    console.print(f"section IRI (m/km): {summary}{extra} ({len(table)} segment(s) of {segment:g} m)", markup=False)
 
 
 def report_command(
@@ -73,7 +73,7 @@ def report_command(
         if plot is not None:
             files.append(plot_iri(analysis.iri, check_output_path(plot, file)))
         bar.advance(task)
-    console.print(f"report: {files[0]} ({len(files)} files)")
+    console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 
 
 def register(app: typer.Typer) -> None:

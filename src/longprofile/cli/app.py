@@ -55,6 +55,9 @@ def _register():
     app.command("demo")(demo.demo)
     app.command("differentiate")(signal.differentiate)
     app.add_typer(road.road_app, name="road")
+    from . import rail
+
+    app.add_typer(rail.rail_app, name="rail")
     app.add_typer(vehicle.vehicle_app, name="vehicle")
 
 

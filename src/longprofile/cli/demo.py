@@ -13,6 +13,8 @@ from ._common import console
 DEMO_STEPS = [
     ("derivative estimators (paper 002)", "longprofile.signal._demo"),
     ("Kalman smoothing (state-space engine)", "longprofile.statespace._demo"),
+    ("road profile from the APL trailer (paper 000)", "longprofile.road._demo_apl"),
+    ("IRI report on the APL reconstruction (ASTM E1926, ISO 8608)", "longprofile.road._demo_report"),
 ]
 
 

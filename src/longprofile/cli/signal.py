@@ -22,6 +22,8 @@ def differentiate(
     order: int = typer.Option(1, "--order", help="Derivative order."),
     q_over_r: float | None = typer.Option(None, "--q-over-r", help="Kalman: jerk variance / noise variance."),
     smooth: bool = typer.Option(False, "--smooth", help="Kalman: RTS smoother (non-causal) instead of the filter."),
+    steady_state: bool = typer.Option(False, "--steady-state",
+                                      help="Kalman: constant-gain filter/smoother (fast, O(T) memory, no NaN)."),
     noise_std: float | None = typer.Option(None, "--noise-std", help="Noise std of the signal (estimated if omitted)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the signal and its derivative (PNG)."),
 ):
@@ -35,7 +37,8 @@ def differentiate(
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
     res = derivative(x, dt, method=method, window=window, degree=degree, order=order, noise_std=noise_std,
-                     q_over_r=q_over_r, smooth=True if smooth else None)
+                     q_over_r=q_over_r, smooth=True if smooth else None,
+                     steady_state=True if steady_state else None)
     write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g})")

@@ -23,11 +23,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve, cholesky_banded, solve_banded
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ..statespace import StateSpaceModel
+from ..statespace import StateSpaceModel, posterior_sample
 from ..statespace._shared_cov import shared_covariance_smoother
 
 __all__ = [
@@ -58,8 +57,11 @@ DEFAULT_SIGMA_Z = 1e-5
 DEFAULT_SIGMA_A = 2e-3
 #: Wide proper prior on the first slope (rad) replacing the paper's flat prior in the state-space form.
 FIRST_SLOPE_PRIOR_STD = 1.0
-#: Wide proper prior on the first altitude (m, after centring) for §4.4 in the state-space form.
+#: Wide proper priors on the first altitude (m, after centring) and slope (rad) for §4.4 in the state-space
+#: form: there the slopes are only known through altitude differences (precision ~1e6), so the slope
+#: prior must be wider than for §4.2 to stay below 1e-9 m of the paper's flat prior.
 FIRST_ALTITUDE_PRIOR_STD = 100.0
+INITIAL_PROFILE_SLOPE_PRIOR_STD = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -423,7 +425,7 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
     sensors with bands that grow between survey points. When the survey is at the
     sensors this is the paper's §4.4 posterior (tested against the dense form).
     Altitudes are centred on the survey mean before filtering, and the first
-    station gets the wide proper prior N(0, (100 m)^2) x N(0, (1 rad)^2).
+    station gets the wide proper prior N(0, (100 m)^2) x N(0, (10 rad)^2).
     """
     x = _check_stations(x)
     sx = as_float_array("survey_x", survey_x, ndim=1, allow_nan=False)
@@ -442,7 +444,7 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
     F, Q = _iwp_terms(allx, q)
     model = StateSpaceModel(transition=F, observation=np.array([[1.0, 0.0]]), process_cov=Q,
                             obs_cov=np.array([[sa**2]]), initial_mean=np.zeros(2),
-                            initial_cov=np.diag([FIRST_ALTITUDE_PRIOR_STD**2, FIRST_SLOPE_PRIOR_STD**2]))
+                            initial_cov=np.diag([FIRST_ALTITUDE_PRIOR_STD**2, INITIAL_PROFILE_SLOPE_PRIOR_STD**2]))
     y = np.full((allx.size, 1), np.nan)
     y[np.searchsorted(allx, sx), 0] = szv - center
     sm = shared_covariance_smoother(model, y)
@@ -464,103 +466,67 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
                             log_likelihood=float(sm.filtered.log_likelihood), method="state-space")
 
 
-def _banded_precision(post: ProfilePosterior, d: int | None):
-    """Block-tridiagonal precision of the posterior in interleaved order (z_1, th_1, z_2, ...), lower banded form."""
-    sc = post.station_cov if d is None else post.station_cov[d]
-    cc = post.cross_cov if d is None else post.cross_cov[d]
-    N = sc.shape[0]
-    # Joint of a Gauss-Markov chain: precision from the local 4x4 pair covariances.
-    # Lambda = Σ_i inv(pair_i) - Σ_{interior} inv(P_i)  (junction-tree identity)
-    prec = np.zeros((3 + 1, 2 * N))  # lower form, bandwidth 3
-    full_blocks = np.zeros((N, 2, 2)); off = np.zeros((N - 1, 2, 2))
-    for i in range(N - 1):
-        pair = np.block([[sc[i], cc[i]], [cc[i].T, sc[i + 1]]])
-        Pinv = np.linalg.inv(pair)
-        full_blocks[i] += Pinv[:2, :2]
-        full_blocks[i + 1] += Pinv[2:, 2:]
-        off[i] = Pinv[2:, :2]
-    for i in range(1, N - 1):
-        full_blocks[i] -= np.linalg.inv(sc[i])
-    for i in range(N):
-        for a in range(2):
-            for b in range(a + 1):
-                prec[a - b, 2 * i + b] = full_blocks[i, a, b]
-    for i in range(N - 1):
-        for a in range(2):
-            for b in range(2):
-                row, col = 2 * (i + 1) + a, 2 * i + b
-                prec[row - col, col] = off[i, a, b]
-    return prec
-
-
-def sample_profiles(post: ProfilePosterior, n_samples: int, *, day: int | None = None, rng=None) -> np.ndarray:
-    r"""Draw altitude profiles from a state-space :class:`ProfilePosterior`.
+def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                    sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None) -> np.ndarray:
+    r"""Draw altitude profiles from the rigidity posterior (forward-filter backward-sample on the engine).
 
     Parameters
     ----------
-    post : ProfilePosterior
-        From :func:`rigidity_posterior` (needs ``cross_cov``).
+    x : (N,) array_like
+        Stations, m.
+    slopes : (N,) or (D, N) array_like
+        Measured slopes, rad (NaN = none); one row per profile.
     n_samples : int
-        Number of draws.
-    day : int, optional
-        Which profile of a batched posterior.
-    rng : numpy.random.Generator, optional
+        Draws per profile.
+    sigma, rigidity, sigma_z, z_ends
+        As in :func:`rigidity_posterior`.
+    rng : None, int or numpy.random.Generator
 
     Returns
     -------
-    (n_samples, N) ndarray
+    (n_samples, N) or (n_samples, D, N) ndarray
         Altitude draws, m.
 
     Notes
     -----
-    The posterior is a Gauss–Markov chain along the track, so its precision is
-    block-tridiagonal; it is assembled from the pairwise covariances and sampled
-    by a banded Cholesky factorisation, O(N) per draw.
+    Calls :func:`longprofile.statespace.posterior_sample` on :func:`rigidity_model`; the draws
+    have the posterior mean and covariance of :func:`rigidity_posterior_dense` (tested).
     """
-    if post.cross_cov is None:
-        raise InputError("sample_profiles needs a state-space posterior (cross_cov); the dense one has full_cov: "
-                         "sample it with numpy's multivariate_normal.")
-    rng = np.random.default_rng(rng)
-    batched = post.z_mean.ndim == 2
-    if batched and day is None:
-        raise InputError("the posterior holds several profiles; pass day= to choose one.")
-    d = day if batched else None
-    prec = _banded_precision(post, d)
-    U = cholesky_banded(prec, lower=True)  # Lambda = L L^T
-    N = post.x.size
-    w = rng.standard_normal((2 * N, int(n_samples)))
-    # x = mu + L^{-T} w: solve L^T v = w (upper banded with bandwidth 3)
-    upper = np.zeros_like(U)
-    bw = U.shape[0] - 1
-    for k in range(bw + 1):
-        upper[bw - k, k:] = U[k, : 2 * N - k]
-    v = solve_banded((0, bw), upper, w)
-    zm = post.z_mean if d is None else post.z_mean[d]
-    return zm[None, :] + v[0::2].T
+    x = _check_stations(x)
+    N = x.size
+    m = _as_profiles("slopes", slopes, N)
+    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0])
+    Y = np.full(m.shape + (2,), np.nan)
+    Y[..., 0] = m
+    Y[..., -1, 1] = z_ends[1]
+    return posterior_sample(model, Y, n_samples, rng=rng)[..., 0]
 
 
-def max_settlement_monte_carlo(post: ProfilePosterior, n_samples: int = 2000, *, rng=None):
-    r"""Mean and std of the maximum settlement max_i(-z_i) per profile by posterior sampling (paper 004 §4.3).
+def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float = DEFAULT_SIGMA,
+                               rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z, rng=None):
+    r"""Mean and std of the maximum settlement max_i(-dz_i) by posterior sampling (paper 004 §4.3).
 
     Parameters
     ----------
-    post : ProfilePosterior
-        Posterior of the settlement (altitude change, m) per profile.
+    x : (N,) array_like
+        Stations, m.
+    slopes : (N,) or (D, N) array_like
+        Slope changes since the reference day, rad (ends anchored at 0).
     n_samples : int, default 2000
-    rng : numpy.random.Generator or seed, optional
+    sigma, rigidity, sigma_z
+        As in :func:`rigidity_posterior`.
+    rng : None, int or numpy.random.Generator
 
     Returns
     -------
     mean, std : float or (D,) ndarray
         Of the (non-Gaussian) maximum settlement, m (positive = downwards).
     """
-    rng = np.random.default_rng(rng)
-    if post.z_mean.ndim == 1:
-        s = -sample_profiles(post, n_samples, rng=rng).min(axis=1)
-        return float(s.mean()), float(s.std(ddof=1))
-    out = np.array([(lambda s: (s.mean(), s.std(ddof=1)))(-sample_profiles(post, n_samples, day=d, rng=rng).min(axis=1))
-                    for d in range(post.z_mean.shape[0])])
-    return out[:, 0], out[:, 1]
+    draws = sample_profiles(x, slopes, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng)
+    mx = -draws.min(axis=-1)
+    mean, std = mx.mean(axis=0), mx.std(axis=0, ddof=1)
+    return (float(mean), float(std)) if np.ndim(mean) == 0 else (mean, std)
 
 
 def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,

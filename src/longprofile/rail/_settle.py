@@ -337,7 +337,8 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     integrated = {meth: integrate_angles(x, np.arctan(np.tan(bar0)[None, :] + bar_change), method=meth)
                   - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
     if n_monte_carlo > 0:
-        mc_mean, mc_std = max_settlement_monte_carlo(post, int(n_monte_carlo), rng=rng)
+        mc_mean, mc_std = max_settlement_monte_carlo(x, M, int(n_monte_carlo), sigma=sig, rigidity=rig,
+                                                     sigma_z=sigma_z, rng=rng)
     else:
         mc_mean = mc_std = np.full(D, np.nan)
     smoothed = smooth_through_time(post.z_mean, meas_std, process_std=process_std) if through_time else None

@@ -110,7 +110,7 @@ def _profile_figure(analysis, reference_profile=None, reference_label="reference
     if reference_profile is not None:
         for j, t in enumerate(reference_profile.tracks):
             x, lo, hi = _envelope(reference_profile.distance, reference_profile.elevation[:, j] * 1000)
-            ax.plot(x, hi, color="k", lw=0.7, alpha=0.7, label=f"{reference_label}")
+            ax.plot(x, hi, color="k", lw=0.6, alpha=0.5, zorder=1, label=f"{reference_label}")
     ax.set_xlabel("station [m]")
     ax.set_ylabel("elevation [mm]")
     ax.set_title("Longitudinal profile")
@@ -244,7 +244,8 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     iri_df = res.to_frame()
     if reference is not None and reference.iri.iri.shape[0] == iri_df.shape[0]:
         for j, t in enumerate(reference.iri.tracks):
-            iri_df[f"iri_{reference_label}_{t}_m_per_km".replace(" ", "_")] = reference.iri.iri[:, j]
+            key = reference_label if len(reference.iri.tracks) == 1 else f"{reference_label}_{t}"
+            iri_df[f"iri_{key}_m_per_km".replace(" ", "_")] = reference.iri.iri[:, j]
     tables = {"iri_segments.csv": iri_df, "localized_roughness.csv": analysis.localized.to_frame()}
     if analysis.psd is not None:
         psd_df = pd.DataFrame({"wavenumber_cycles_per_m": analysis.psd.wavenumber})

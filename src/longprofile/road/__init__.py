@@ -12,6 +12,10 @@ waveband_energy -- mean-square elevation per segment in wavelength bands (APL_BA
 profile_psd -- Welch displacement PSD in cycles/m; fit_iso8608 -- Gd(n0), waviness and class A..H.
 iso8608_gd, iso8608_class, ISO8608_CLASSES -- the ISO 8608 spectrum and class table.
 analyse_roughness -- every analysis of a roughness report in one call (RoughnessAnalysis).
+
+APL trailer (paper 000; full index in longprofile.road.apl)
+apl -- submodule: instrument model, apl_response, double_filter, reconstruct_profile, synthetic profiles.
+apl_model, apl_response, double_filter, reconstruct_profile, Reconstruction -- the main entry points.
 """
 
 from ._iri import GOLDEN_CAR, IRIResult, RectifiedSlope, golden_car_matrices, iri, rectified_slope
@@ -21,9 +25,12 @@ from ._summary import RoughnessAnalysis, analyse_roughness
 from ._roughness import (APL_BANDS, LocalizedRoughness, RoughnessDefect, WavebandEnergy, localized_roughness,
                          waveband_energy)
 from ._profile import Profile
+from . import apl
+from .apl import Reconstruction, apl_model, apl_response, double_filter, reconstruct_profile
 
 __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "rectified_slope", "RectifiedSlope", "golden_car_matrices", "GOLDEN_CAR",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
-    "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis"]
+    "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",
+    "apl", "apl_model", "apl_response", "double_filter", "reconstruct_profile", "Reconstruction"]

@@ -28,6 +28,7 @@ __all__ = [
     "PAPER_IDENTIFIED_MODELS",
     "apl_model",
     "apl_model_from_polynomials",
+    "apl_model_from_dict",
     "paper_identified_model",
     "frequency_response",
     "passband",
@@ -158,6 +159,11 @@ class APLModel:
         for pj in self.poles:
             den = den * (1.0 - pj * zinv)
         return num / den * zinv ** self.delay
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable description (B/A coefficients, delay included, plus dt, speed, dx, name)."""
+        return dict(kind="apl-model", numerator=self.numerator.tolist(), denominator=self.denominator.tolist(),
+                    dt=self.dt, speed=self.speed, dx=self.dx, name=self.name)
 
     @property
     def dc_gain(self) -> float:
@@ -321,6 +327,29 @@ def apl_model_from_polynomials(numerator, denominator, *, dt: float, speed: floa
     zeros = np.roots(b) if b.size > 1 else np.array([], dtype=complex)
     poles = np.roots(a) if a.size > 1 else np.array([], dtype=complex)
     return APLModel(zeros=zeros, poles=poles, gain=float(b[0]), delay=delay, dt=dt, speed=speed, dx=dx, name=name)
+
+
+def apl_model_from_dict(data: dict) -> APLModel:
+    """Rebuild an :class:`APLModel` from :meth:`APLModel.to_dict` output (e.g. a ``road identify`` JSON file).
+
+    Raises
+    ------
+    InputFormatError
+        If a required key is missing or malformed.
+    """
+    from ..errors import InputFormatError
+
+    if not isinstance(data, dict) or data.get("kind") != "apl-model":
+        raise InputFormatError("not an APL model description: expected a JSON object with kind = 'apl-model' "
+                               "(written by `longprofile road identify`).")
+    missing = [k for k in ("numerator", "denominator", "dt") if k not in data]
+    if missing:
+        raise InputFormatError(f"APL model description lacks {missing}.")
+    try:
+        return apl_model_from_polynomials(data["numerator"], data["denominator"], dt=data["dt"],
+                                          speed=data.get("speed"), dx=data.get("dx"), name=data.get("name", ""))
+    except (TypeError, ValueError) as exc:
+        raise InputFormatError(f"APL model description is malformed: {exc}") from None
 
 
 # Identified models of §4.2 (B/A as printed; nk = 1, sampling Te of the record).

@@ -275,11 +275,14 @@ def detrend_profile(elevation, dx: float, *, highpass_wavelength: float | None =
     n = z.shape[0]
     if n < 3:
         raise ShapeError(f"detrending needs at least 3 samples; got {n}.")
-    s = np.arange(n) * dx
-    s = (s - s.mean()) / max(s.std(), 1e-300)
-    V = np.vander(s, 3)
-    coef, *_ = np.linalg.lstsq(V, z.reshape(n, -1), rcond=None)
-    out = z - (V @ coef).reshape(z.shape)
+    # least-squares quadratic in normalised distance s in [-1, 1], by 3x3 normal equations built from
+    # running sums (O(1) extra memory: a Vandermonde matrix of a 2e7-sample record would take 480 MB)
+    flat = z.reshape(n, -1)
+    s = np.linspace(-1.0, 1.0, n)
+    G = np.array([[np.sum(s ** (i + j)) for j in range(3)] for i in range(3)])
+    rhs = np.stack([flat.sum(axis=0), s @ flat, (s * s) @ flat])
+    coef = np.linalg.solve(G, rhs)
+    out = (flat - coef[0] - np.outer(s, coef[1]) - np.outer(s * s, coef[2])).reshape(z.shape)
     if highpass_wavelength is not None:
         lam = require_positive("highpass_wavelength", highpass_wavelength)
         fc = 1.0 / lam

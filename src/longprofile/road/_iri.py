@@ -212,8 +212,8 @@ def _select_tracks(profile: Profile, tracks) -> tuple[np.ndarray, tuple[str, ...
         names = (tracks,) if isinstance(tracks, str) else tuple(tracks)
         if not names:
             raise InputError("tracks must name at least one track.")
-    z = np.column_stack([profile.track(t) for t in names])
-    if np.isnan(z).any():
+    z = np.column_stack([profile.track(t) for t in names])  # always a new array
+    if np.isnan(z.sum()):  # one pass, no temporary (infinite values are refused by Profile)
         i, j = np.argwhere(np.isnan(z))[0]
         raise InputError(f"track {names[j]!r} has a missing (NaN) elevation at station {profile.distance[i]:.3f} m; "
                          "the IRI needs a continuous profile: cut the profile at the gap or fill it explicitly.")
@@ -277,35 +277,53 @@ def _insert_stations(x: np.ndarray, z: np.ndarray, new: np.ndarray, tol: float) 
     return xa[order], np.concatenate([z, zn])[order]
 
 
-def _run_golden_car(x: np.ndarray, z: np.ndarray, lead_in: float, regular: bool) -> np.ndarray:
-    """Rectified slope (M-1, K) in m/m for the profile (x, z), state carried through the whole run."""
+def _run_golden_car(x: np.ndarray, z: np.ndarray, lead_in: float, regular: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Steps (M-1,) and rectified slope (M-1, K) in m/km for the profile (x, z), state carried through the run.
+
+    Processed in chunks of ``_CHUNK`` steps (bounded temporaries that stay in cache); the state is carried
+    exactly from one chunk to the next, so the result does not depend on the chunking.
+    """
     if x[-1] - x[0] < lead_in:
         raise InputError(f"the profile is {x[-1] - x[0]:.3f} m long, shorter than the {lead_in:g} m lead-in used to "
                          "initialise the IRI; use a longer profile or a shorter lead_in.")
     h = np.diff(x)
-    slope = np.diff(z, axis=0) / h[:, None]
-    out = np.empty_like(slope)
+    out = np.empty((z.shape[1], h.size)).T  # column-major: each track's output is contiguous
     if regular:
-        st, pr = golden_car_matrices(float(h.mean()))
+        st, pr = golden_car_matrices(float((x[-1] - x[0]) / h.size))
+        pr = pr[:, None]
     for j in range(z.shape[1]):
-        s0 = (np.interp(x[0] + lead_in, x, z[:, j]) - z[0, j]) / lead_in
+        zj = z[:, j]
+        s0 = (np.interp(x[0] + lead_in, x, zj) - zj[0]) / lead_in
         state = np.array([s0, 0.0, s0, 0.0])
-        if regular:
-            res = linear_recursion(st, pr[:, None], slope[:, j], state, output_matrix=_C_RV)
-            out[:, j] = np.abs(res.outputs[:, 0])
-            continue
         for a in range(0, h.size, _CHUNK):
             b = min(h.size, a + _CHUNK)
-            st_k, pr_k = golden_car_matrices(h[a:b])
-            res = linear_recursion(st_k, pr_k[:, :, None], slope[a:b, j], state, output_matrix=_C_RV)
-            out[a:b, j] = np.abs(res.outputs[:, 0])
+            slope = np.subtract(zj[a + 1:b + 1], zj[a:b])
+            slope /= h[a:b]
+            if regular:
+                res = linear_recursion(st, pr, slope, state, output_matrix=_C_RV)
+            else:
+                st_k, pr_k = golden_car_matrices(h[a:b])
+                res = linear_recursion(st_k, pr_k[:, :, None], slope, state, output_matrix=_C_RV)
+            rv = res.outputs[:, 0]
+            np.abs(rv, out=rv)
+            np.multiply(rv, 1000.0, out=out[a:b, j])
             state = res.final_state
-    return out
+    return h, out
 
 
 def _is_regular(x: np.ndarray) -> float | None:
-    d = np.diff(x)
-    return float(d.mean()) if d.size and np.allclose(d, d.mean(), rtol=1e-6, atol=0) else None
+    """Mean step if all steps agree with it to 1e-6 relative (the rule of ``Profile.spacing``), else None.
+
+    Scans the steps in chunks (no full-size temporary)."""
+    if x.size < 2:
+        return None
+    mean = (x[-1] - x[0]) / (x.size - 1)
+    block = 4 * _CHUNK
+    for a in range(0, x.size - 1, block):
+        d = np.diff(x[a:a + block + 1])
+        if d.max() - mean > 1e-6 * mean or mean - d.min() > 1e-6 * mean:
+            return None
+    return float(mean)
 
 
 def rectified_slope(profile: Profile, *, tracks=None, lead_in: float = 11.0, moving_average: bool | None = None,
@@ -316,35 +334,52 @@ def rectified_slope(profile: Profile, *, tracks=None, lead_in: float = 11.0, mov
     :func:`iri`; ``extra_stations`` (m) are inserted by linear interpolation before the run (segment
     boundaries), which does not change the simulated states at the original stations.
     """
+    return _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extra_stations, None)
+
+
+def _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx):
+    """rectified_slope with the constant step ``dx`` already known (None: irregular or not yet checked)."""
     lead_in = require_positive("lead_in", lead_in)
     base_length = require_positive("base_length", base_length)
     z, names = _select_tracks(profile, tracks)
-    z = z - z[0]  # exact invariance to a constant; keeps the moving average and slopes free of cancellation
+    z -= z[0]  # (a fresh copy) exact invariance to a constant; keeps averages and slopes free of cancellation
     x = profile.distance
     if x.size < 2:
         raise InputError("the profile needs at least 2 stations.")
-    dx = _is_regular(x)
+    if dx is None:
+        dx = _is_regular(x)
     xs, zs, applied = _smooth(x, z, dx, moving_average, base_length)
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
+    inserted = False
     if extra_stations is not None:
+        before = xs
         xs, zs = _insert_stations(xs, zs, np.asarray(extra_stations, dtype=float), tol)
-    regular = _is_regular(xs) is not None
-    rs = _run_golden_car(xs, zs, lead_in, regular) * 1000.0
-    return RectifiedSlope(station=xs, step=np.diff(xs), rectified=rs, tracks=names, moving_average=applied,
+        inserted = xs is not before
+    regular = dx is not None and not inserted  # smoothing keeps a constant step; inserted stations break it
+    h, rs = _run_golden_car(xs, zs, lead_in, regular)
+    return RectifiedSlope(station=xs, step=h, rectified=rs, tracks=names, moving_average=applied,
                           method="constant-step" if regular else "per-step")
 
 
 def _segment_means(station, step, values, bounds, tol):
-    """Length-weighted mean of per-step values over [bounds[j], bounds[j+1]] (step assigned by its end)."""
+    """Length-weighted mean of per-step values over [bounds[j], bounds[j+1]] (step assigned by its end).
+
+    Every boundary inside the station range is a station (inserted before the run), so segment j covers
+    the steps ``e_j .. e_{j+1} - 1`` with ``e_j`` the index of the station at ``bounds[j]``.
+    """
     n_seg = bounds.size - 1
-    idx = np.searchsorted(bounds + tol, station[1:], side="left") - 1
-    inside = (idx >= 0) & (idx < n_seg)
-    length = np.bincount(idx[inside], weights=step[inside], minlength=n_seg)
-    out = np.empty((n_seg, values.shape[1]))
+    out = np.full((n_seg, values.shape[1]), np.nan)
+    if n_seg == 0:
+        return out
+    e = np.minimum(np.searchsorted(station, bounds - tol, side="left"), step.size)
+    ok = e[1:] > e[:-1]
+    starts = np.minimum(e[:-1], max(e[-1] - 1, 0))
+    length = np.add.reduceat(step[:e[-1]], starts) if e[-1] > 0 else np.zeros(n_seg)
     for j in range(values.shape[1]):
-        out[:, j] = np.bincount(idx[inside], weights=(step * values[:, j])[inside], minlength=n_seg)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return out / length[:, None]
+        weighted = step[:e[-1]] * values[:e[-1], j]
+        sums = np.add.reduceat(weighted, starts) if e[-1] > 0 else np.zeros(n_seg)
+        out[ok, j] = sums[ok] / length[ok]
+    return out
 
 
 def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: float | None = None,
@@ -416,8 +451,7 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
     n_seg = int(np.floor((x[-1] - first) / segment_length + 1e-9))
     bounds = first + segment_length * np.arange(n_seg + 1)
-    kwargs = dict(lead_in=lead_in, moving_average=moving_average, base_length=base_length, extra_stations=bounds)
-    rs = rectified_slope(profile, tracks=tracks, **kwargs)
+    rs = _rectified_slope(profile, tracks, lead_in, moving_average, base_length, bounds, dx)
     seg = _segment_means(rs.station, rs.step, rs.rectified, bounds, tol)
     section = (rs.step @ rs.rectified) / rs.step.sum()
     mri = hri = None
@@ -427,7 +461,7 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
         section_mri = float(section.mean())
         z = np.column_stack([profile.track(t) for t in rs.tracks]).mean(axis=1)
         half = Profile(distance=x, elevation=z, tracks=("half-car",))
-        rh = rectified_slope(half, **kwargs)
+        rh = _rectified_slope(half, None, lead_in, moving_average, base_length, bounds, dx)
         hri = _segment_means(rh.station, rh.step, rh.rectified, bounds, tol)[:, 0]
         section_hri = float((rh.step @ rh.rectified[:, 0]) / rh.step.sum())
     return IRIResult(segment_start=bounds[:-1], segment_end=bounds[1:], iri=seg, tracks=rs.tracks,

@@ -7,13 +7,16 @@ and elevations in metres.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .._validation import require_positive
 from ..errors import InputError
 from ._profile import Profile
 
-__all__ = ["bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile", "white_noise_profile"]
+__all__ = ["bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile", "white_noise_profile",
+           "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES"]
 
 
 def _stations(length, dx):
@@ -183,3 +186,76 @@ def white_noise_profile(length: float = 250.0, dx: float = 0.05, *, std: float =
     std = require_positive("std", std)
     z = np.random.default_rng(rng).normal(0.0, std, size=x.shape)
     return Profile(x, z, name=f"white noise {std * 1e3:g} mm")
+
+
+@dataclass(frozen=True, eq=False)
+class APLRecording:
+    """A simulated APL recording with its truth.
+
+    Attributes
+    ----------
+    distance : (N,) ndarray
+        Stations, m.
+    true_elevation : (N,) ndarray
+        The road profile, m.
+    signal : (N,) ndarray
+        What the trailer records (model response + noise), m.
+    noise_std : float
+        Standard deviation of the added white measurement noise, m.
+    """
+
+    distance: np.ndarray
+    true_elevation: np.ndarray
+    signal: np.ndarray
+    noise_std: float
+
+
+SYNTHETIC_PROFILES = ("iso8608", "bump", "crenels", "speed-hump", "sine-arcs", "white-noise")
+
+
+def simulate_apl_recording(kind: str, model, *, length: float = 1000.0, road_class: str = "C",
+                           noise_fraction: float = 0.02, rng=None) -> APLRecording:
+    """Simulate an APL recording of a synthetic road with known truth.
+
+    Parameters
+    ----------
+    kind : {"iso8608", "bump", "crenels", "speed-hump", "sine-arcs", "white-noise"}
+        The synthetic profile (defaults of the matching ``*_profile`` function; crenels: 5, i.e. 10 fronts).
+    model : APLModel
+        The instrument (its ``dx`` sets the spacing).
+    length : float
+        m.
+    road_class : str
+        ISO 8608 class for ``"iso8608"``.
+    noise_fraction : float
+        Measurement noise std as a fraction of the noise-free signal RMS (default 0.02).
+    rng : int, Generator or None
+
+    Returns
+    -------
+    APLRecording
+    """
+    from ._apl import apl_response
+    from ._iso8608 import iso8608_profile
+
+    if model.dx is None:
+        raise InputError("the instrument model has no spacing dx; build it with apl_model(speed, dx).")
+    dx = model.dx
+    gen = np.random.default_rng(rng)
+    makers = {
+        "iso8608": lambda: iso8608_profile(length, dx, road_class, rng=gen),
+        "bump": lambda: bump_profile(length, dx),
+        "crenels": lambda: crenel_profile(length, dx, n_crenels=5),
+        "speed-hump": lambda: speed_hump_profile(length, dx),
+        "sine-arcs": lambda: sine_arcs_profile(length, dx),
+        "white-noise": lambda: white_noise_profile(length, dx, rng=gen),
+    }
+    if kind not in makers:
+        raise InputError(f"kind must be one of {SYNTHETIC_PROFILES}; got {kind!r}.")
+    frac = require_positive("noise_fraction", noise_fraction, strict=False)
+    prof = makers[kind]()
+    u = prof.elevation[:, 0]
+    y0 = apl_response(u, model)
+    sd = frac * float(np.sqrt(np.mean(y0 ** 2)))
+    y = y0 + (gen.normal(0.0, sd, y0.size) if sd > 0 else 0.0)
+    return APLRecording(distance=prof.distance, true_elevation=u, signal=y, noise_std=sd)

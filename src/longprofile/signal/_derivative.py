@@ -212,6 +212,10 @@ def _run_fir(series: np.ndarray, window: int, degree: int, outputs, implementati
 
 def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design, taps_exact, noise_std,
                 method, params, implementation) -> DerivativeResult:
+    if arr.shape[axis] < window + 1:
+        raise InputError(f"x has {arr.shape[axis]} samples along axis {axis}, fewer than the window of "
+                         f"{window + 1} samples (N = {window} past samples + the current one) that one estimate "
+                         "needs; use a smaller window or a longer record.")
     series, moved_shape = _to_series(arr, axis)
     ns = _noise_std(noise_std, arr, axis)
     gain = float(_coef.variance_gain(taps_exact))
@@ -422,7 +426,7 @@ def kalman_differentiator_model(dt: float, *, q_over_r: float, noise_std: float 
 
 
 def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1, noise_std=None,
-                      smooth: bool = False, axis: int = 0) -> DerivativeResult:
+                      smooth: bool = False, steady_state: bool = False, axis: int = 0) -> DerivativeResult:
     r"""Kalman differentiator (paper 002 §2.3) on the state-space engine.
 
     Parameters
@@ -447,6 +451,13 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     smooth : bool, default False
         False: causal filter (estimates use samples up to k). True: RTS
         smoother (non-causal, uses the whole record).
+    steady_state : bool, default False
+        Use the constant (stationary) gains instead of the exact time-varying
+        filter: :func:`~longprofile.statespace.steady_state_filter` /
+        :func:`~longprofile.statespace.steady_state_smoother`, an LTI recursion
+        with O(T) memory for very long records. The first samples (the filter's
+        start-up transient) then differ from the exact filter, ``derivative_std``
+        is the constant stationary value, and NaN samples are refused (InputError).
     axis : int, default 0
         Sample axis.
 
@@ -475,7 +486,8 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     >>> bool(abs(res.derivative[-1] - np.cos(t[-1])) < 1e-2)
     True
     """
-    from ..statespace import kalman_filter, rts_smoother
+    from ..statespace import (kalman_filter, rts_smoother, steady_state_filter, steady_state_gain,
+                              steady_state_smoothed_cov, steady_state_smoother)
 
     arr, dt, axis = _prepare(x, dt, axis)
     q_over_r = require_positive("q_over_r", q_over_r)
@@ -483,8 +495,9 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     if degree > 4:
         raise InputError(f"degree must be <= 4 for the Kalman differentiator; got {degree}.")
     order = _check_order(order, degree, f"a Kalman state of degree {degree}")
-    if not isinstance(smooth, (bool, np.bool_)):
-        raise InputError(f"smooth must be True or False; got {smooth!r}.")
+    for flag_name, flag in (("smooth", smooth), ("steady_state", steady_state)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise InputError(f"{flag_name} must be True or False; got {flag!r}.")
     ns = _noise_std(noise_std, arr, axis)
     if np.any(ns <= 0):
         raise InputError("noise_std must be > 0 for the Kalman differentiator (r = noise_std**2 is the "
@@ -507,17 +520,23 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
         ref = block[np.arange(block.shape[0]), first]
         model = kalman_differentiator_model(dt, q_over_r=q_over_r, noise_std=float(level), degree=degree)
         y = (block - ref[:, None])[:, :, None]
-        filtered = kalman_filter(model, y)
-        post = rts_smoother(model, filtered) if smooth else filtered
+        if steady_state:
+            gain = steady_state_gain(model)
+            post = steady_state_smoother(model, y, gain=gain) if smooth else steady_state_filter(model, y, gain=gain)
+            cov = steady_state_smoothed_cov(model) if smooth else gain.cov
+            std[idx] = np.sqrt(max(cov[order, order], 0.0))
+        else:
+            filtered = kalman_filter(model, y)
+            post = rts_smoother(model, filtered) if smooth else filtered
+            std[idx] = np.sqrt(np.maximum(post.cov[:, :, order, order], 0.0))
         value[idx] = post.mean[:, :, 0] + ref[:, None]
         deriv[idx] = post.mean[:, :, order]
-        std[idx] = np.sqrt(np.maximum(post.cov[:, :, order, order], 0.0))
     noise_param = float(ns.flat[0]) if ns.size == 1 and np.all(ns == ns.flat[0]) else ns.copy()
     return DerivativeResult(
         value=_from_series(value, moved_shape, axis), derivative=_from_series(deriv, moved_shape, axis),
         derivative_std=_from_series(std, moved_shape, axis), method="kalman",
         params={"q_over_r": q_over_r, "degree": degree, "order": order, "noise_std": noise_param,
-                "smooth": bool(smooth)})
+                "smooth": bool(smooth), "steady_state": bool(steady_state)})
 
 
 # --------------------------------------------------------------------------- registry
@@ -555,7 +574,8 @@ DERIVATIVE_METHODS: Mapping[str, DerivativeMethod] = MappingProxyType({
                                 "causal least-squares polynomial fit on N+1 samples (Savitzky-Golay end point)"),
     "backward": DerivativeMethod(derivative_backward, ("degree", "order", "noise_std", "implementation"),
                                  (), True, "backward difference of order n = degree (paper 002 Table 1a)"),
-    "kalman": DerivativeMethod(derivative_kalman, ("q_over_r", "degree", "order", "noise_std", "smooth"),
+    "kalman": DerivativeMethod(derivative_kalman, ("q_over_r", "degree", "order", "noise_std", "smooth",
+                                                   "steady_state"),
                                ("q_over_r",), None,
                                "Kalman differentiator, random-jerk model (paper 002 §2.3); smooth=True for RTS"),
 })
@@ -563,7 +583,8 @@ DERIVATIVE_METHODS: Mapping[str, DerivativeMethod] = MappingProxyType({
 
 def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: int | None = None,
                order: int = 1, axis: int = 0, noise_std=None, q_over_r: float | None = None,
-               smooth: bool | None = None, implementation: str | None = None) -> DerivativeResult:
+               smooth: bool | None = None, steady_state: bool | None = None,
+               implementation: str | None = None) -> DerivativeResult:
     """Estimate the derivative of a noisy sampled signal with any registered method.
 
     Parameters
@@ -590,6 +611,8 @@ def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: 
         Kalman tuning (required for "kalman").
     smooth : bool, optional
         Kalman only: RTS smoother instead of the causal filter.
+    steady_state : bool, optional
+        Kalman only: constant-gain (stationary) filter/smoother for long records.
     implementation : {"recursive", "fir"}, optional
         FIR methods only.
 
@@ -615,7 +638,7 @@ def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: 
         raise InputError(f"unknown derivative method {method!r}; choose one of {sorted(DERIVATIVE_METHODS)}.")
     spec = DERIVATIVE_METHODS[method]
     given = {"window": window, "degree": degree, "noise_std": noise_std, "q_over_r": q_over_r,
-             "smooth": smooth, "implementation": implementation}
+             "smooth": smooth, "steady_state": steady_state, "implementation": implementation}
     kwargs: dict[str, Any] = {"order": order}
     for name, val in given.items():
         if val is None:

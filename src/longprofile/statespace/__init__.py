@@ -9,6 +9,7 @@ Linear inference
 kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched).
 rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covariances.
 log_likelihood         -- prediction-error log-likelihood.
+shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
@@ -29,6 +30,10 @@ Observers
 luenberger_gain        -- observer gain L by pole placement (continuous or discrete).
 luenberger_observer    -- run a Luenberger observer over data (exact ZOH for continuous models); ObserverResult.
 
+Estimation
+----------
+fit_mle                -- maximum-likelihood parameters of build(theta) -> model, Hessian standard errors; MLEResult.
+
 Deterministic propagation
 -------------------------
 linear_recursion       -- x[k+1] = A_k x[k] + B_k u[k], constant or per-step matrices (compiled; IRI golden car).
@@ -45,11 +50,13 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
+from ._mle import MLEResult, fit_mle
 from ._model import StateSpaceModel
 from ._observer import ObserverResult, luenberger_gain, luenberger_observer
 from ._propagate import LinearRecursionResult, linear_recursion
 from ._results import FilterResult, SmootherResult
 from ._sampling import posterior_sample, simulate
+from ._shared_cov import shared_covariance_smoother
 from ._steady import (SteadyStateGain, steady_state_filter, steady_state_gain, steady_state_smoothed_cov,
                       steady_state_smoother)
 
@@ -59,6 +66,7 @@ __all__ = [
     "rts_smoother",
     "log_likelihood",
     "posterior_sample",
+    "shared_covariance_smoother",
     "simulate",
     "FilterResult",
     "SmootherResult",
@@ -67,6 +75,14 @@ __all__ = [
     "steady_state_filter",
     "steady_state_smoother",
     "steady_state_smoothed_cov",
+    "NonlinearStateSpaceModel",
+    "extended_kalman_filter",
+    "extended_rts_smoother",
+    "ObserverResult",
+    "luenberger_gain",
+    "luenberger_observer",
+    "fit_mle",
+    "MLEResult",
     "linear_recursion",
     "LinearRecursionResult",
 ]

@@ -14,8 +14,6 @@ that identity — at a cost linear, not cubic, in the number of blocks.
 
 from __future__ import annotations
 
-from collections import namedtuple
-
 import numpy as np
 from numba import njit
 
@@ -45,10 +43,9 @@ def _fd(fn, x, u, k, J):
 
 
 @njit(cache=True)
-def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store, W):
-    """Joseph-form update of one block in place (scratch in W). Returns (status, n observed, log-likelihood)."""
-    Pb, Hb, PHt, S_all, L, K, A, AP, KR = W.Pb, W.Hb, W.PHt, W.S, W.L, W.K, W.A, W.AP, W.KR
-    obs, e, w = W.obs, W.e, W.w
+def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
+                  Pb, Hb, PHt, S_all, L, K, A, AP, KR, obs, e, w):
+    """Joseph-form update of one block in place (scratch arrays given). Returns (status, n observed, loglik)."""
     for i in range(ns):
         for j in range(ns):
             Pb[i, j] = P[si[i], si[j]]
@@ -155,8 +152,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
 
 
 @njit(cache=True)
-def _block_predict(P, Jf, Q, si, ns, W):
-    Fb, Pb, AP = W.A, W.Pb, W.AP
+def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
     for i in range(ns):
         for j in range(ns):
             Fb[i, j] = Jf[si[i], si[j]]
@@ -176,26 +172,55 @@ def _block_predict(P, Jf, Q, si, ns, W):
             P[si[j], si[i]] = t
 
 
-_Scratch = namedtuple("_Scratch", "Pb Hb PHt S L K A AP KR obs e w")
+@njit(cache=True)
+def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store):
+    """Update every block (their state sets are disjoint, so the order does not matter)."""
+    smax, omax = sidx.shape[1], oidx.shape[1]
+    Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
+    S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
+    A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
+    obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
+    for a in range(innov_k.shape[0]):
+        innov_k[a] = np.nan
+    if store:
+        icov_k[:, :] = 0.0
+    ll = 0.0
+    n_obs = 0
+    for b in range(sidx.shape[0]):
+        status, mo, llb = _block_update(x, P, Jh, yhat, yk, R, sidx[b], scount[b], oidx[b], ocount[b], innov_k,
+                                        icov_k, store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
+        if status != 0:
+            return status, n_obs, ll
+        ll += llb
+        n_obs += mo
+    return 0, n_obs, ll
 
 
 @njit(cache=True)
-def _scratch(smax, omax):
-    return _Scratch(np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax)), np.empty((omax, omax)),
-                    np.zeros((omax, omax)), np.empty((smax, omax)), np.empty((smax, smax)), np.empty((smax, smax)),
-                    np.empty((smax, omax)), np.empty(omax, np.int64), np.empty(omax), np.empty(omax))
+def _predict_all(P, Jf, Q, sidx, scount):
+    smax = sidx.shape[1]
+    Fb, Pb, AP = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, smax))
+    for b in range(sidx.shape[0]):
+        _block_predict(P, Jf, Q, sidx[b], scount[b], Fb, Pb, AP)
+
+
+@njit(cache=True)
+def _all_finite(a):
+    for i in range(a.shape[0]):
+        if not np.isfinite(a[i]):
+            return False
+    return True
 
 
 @njit
 def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
                   mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
+    """The loop compiled per set of model functions; the linear algebra is in cached helpers."""
     T, m = y.shape
     n = x0.shape[0]
-    nb = sidx.shape[0]
-    W = _scratch(sidx.shape[1], oidx.shape[1])
     x = x0.copy()
     P = np.zeros((n, n))
-    for b in range(nb):
+    for b in range(sidx.shape[0]):
         for i in range(scount[b]):
             for j in range(scount[b]):
                 P[sidx[b, i], sidx[b, j]] = P0[sidx[b, i], sidx[b, j]]
@@ -215,19 +240,13 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
             Jh[:, :] = hjac(x, uk, k)
         if store:
             Hj[k] = Jh
-            icov[k] = 0.0
-        for a in range(m):
-            innov[k, a] = np.nan
-        ll = 0.0
-        for b in range(nb):
-            status, mo, llb = _block_update(x, P, Jh, yhat, y[k], R, sidx[b], scount[b], oidx[b], ocount[b],
-                                            innov[k], icov[k if store else 0], store, W)
-            if status != 0:
-                state[0] = status
-                state[1] = k
-                return n_obs
-            ll += llb
-            n_obs += mo
+        status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
+                                     icov[k if store else 0], store)
+        if status != 0:
+            state[0] = status
+            state[1] = k
+            return n_obs
+        n_obs += mo
         ll_steps[k] = ll
         mean[k] = x
         if store:
@@ -238,14 +257,11 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
             else:
                 Jf[:, :] = fjac(x, uk, k)
             xn = f(x, uk, k)
-            for i in range(n):
-                if not np.isfinite(xn[i]):
-                    state[0] = 2
-                    state[1] = k
-                    return n_obs
-            Q = Q3[k if Q3.shape[0] > 1 else 0]
-            for b in range(nb):
-                _block_predict(P, Jf, Q, sidx[b], scount[b], W)
+            if not _all_finite(xn):
+                state[0] = 2
+                state[1] = k
+                return n_obs
+            _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount)
             if store:
                 Fj[k] = Jf
             x[:] = xn

@@ -32,6 +32,7 @@ __all__ = [
     "kalman_filter_kernel",
     "rts_smoother_kernel",
     "backward_sample_kernel",
+    "backward_conditional_cov_kernel",
     "simulate_kernel",
     "STATUS_OK",
     "STATUS_INNOVATION_NOT_PD",
@@ -444,6 +445,34 @@ def rts_smoother_kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gain
     """
     kernel = _make_smoother_kernel(_fixed(mean.shape[2], MAX_FIXED_STATES))
     kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gains)
+
+
+@njit(cache=True, fastmath=_FASTMATH)
+def backward_conditional_cov_kernel(cov, pcov, gains, out):
+    """out[t] = P_t|t - G_t P_t+1|t G_t' (symmetrised) for t < T-1 and out[T-1] = P_T-1|T-1.
+
+    cov, pcov (T,n,n); gains (T-1,n,n); out (T,n,n): the covariance of x_t | x_t+1, y_0..t in FFBS.
+    """
+    T, n = cov.shape[0], cov.shape[1]
+    GP = np.empty((n, n))
+    for t in range(T - 1):
+        for i in range(n):
+            for j in range(n):
+                s = 0.0
+                for l in range(n):
+                    s += gains[t, i, l] * pcov[t + 1, l, j]
+                GP[i, j] = s
+        for i in range(n):
+            for j in range(i + 1):
+                s = 0.0
+                for l in range(n):
+                    s += 0.5 * (GP[i, l] * gains[t, j, l] + GP[j, l] * gains[t, i, l])
+                v = 0.5 * (cov[t, i, j] + cov[t, j, i]) - s
+                out[t, i, j] = v
+                out[t, j, i] = v
+    for i in range(n):
+        for j in range(n):
+            out[T - 1, i, j] = 0.5 * (cov[T - 1, i, j] + cov[T - 1, j, i])
 
 
 @njit(cache=True, fastmath=_FASTMATH)

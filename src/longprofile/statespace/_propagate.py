@@ -120,6 +120,56 @@ def _recursion_kernel_4(a, b, u, x0, c, a_step, b_step, store_states, store_outp
     return x
 
 
+@njit(cache=True, nogil=True)
+def _recursion_kernel_4_const(a, b, u, x0, c, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
+    # n = 4 with constant A and B: A held in registers (the IRI golden car on a constant step).
+    # Same operation order per component as the other kernels (identical results).
+    p = u.shape[1]
+    q = c.shape[0]
+    a00, a01, a02, a03 = a[0, 0, 0], a[0, 0, 1], a[0, 0, 2], a[0, 0, 3]
+    a10, a11, a12, a13 = a[0, 1, 0], a[0, 1, 1], a[0, 1, 2], a[0, 1, 3]
+    a20, a21, a22, a23 = a[0, 2, 0], a[0, 2, 1], a[0, 2, 2], a[0, 2, 3]
+    a30, a31, a32, a33 = a[0, 3, 0], a[0, 3, 1], a[0, 3, 2], a[0, 3, 3]
+    x0_ = x0[0]
+    x1_ = x0[1]
+    x2_ = x0[2]
+    x3_ = x0[3]
+    if store_states:
+        states[0, 0] = x0_
+        states[0, 1] = x1_
+        states[0, 2] = x2_
+        states[0, 3] = x3_
+    for k in range(u.shape[0]):
+        y0 = a00 * x0_ + a01 * x1_ + a02 * x2_ + a03 * x3_
+        y1 = a10 * x0_ + a11 * x1_ + a12 * x2_ + a13 * x3_
+        y2 = a20 * x0_ + a21 * x1_ + a22 * x2_ + a23 * x3_
+        y3 = a30 * x0_ + a31 * x1_ + a32 * x2_ + a33 * x3_
+        for j in range(p):
+            ukj = u[k, j]
+            y0 += b[0, 0, j] * ukj
+            y1 += b[0, 1, j] * ukj
+            y2 += b[0, 2, j] * ukj
+            y3 += b[0, 3, j] * ukj
+        x0_ = y0
+        x1_ = y1
+        x2_ = y2
+        x3_ = y3
+        if store_states:
+            states[k + 1, 0] = x0_
+            states[k + 1, 1] = x1_
+            states[k + 1, 2] = x2_
+            states[k + 1, 3] = x3_
+        if store_outputs:
+            for r in range(q):
+                outputs[k, r] = c[r, 0] * x0_ + c[r, 1] * x1_ + c[r, 2] * x2_ + c[r, 3] * x3_
+    x = np.empty(4)
+    x[0] = x0_
+    x[1] = x1_
+    x[2] = x2_
+    x[3] = x3_
+    return x
+
+
 def linear_recursion(transition, input_matrix, inputs, x0, *, output_matrix=None,
                      store_states: bool | None = None) -> LinearRecursionResult:
     """Run the deterministic linear recursion ``x[k+1] = A_k x[k] + B_k u[k]``, k = 0..T-1.
@@ -187,6 +237,11 @@ def linear_recursion(transition, input_matrix, inputs, x0, *, output_matrix=None
     keep_outputs = output_matrix is not None
     states = np.empty((n_steps + 1, n) if keep_states else (0, n))
     outputs = np.empty((n_steps, c.shape[0]) if keep_outputs else (0, 0))
+    if n == 4 and a_step == 0 and b_step == 0:
+        final = _recursion_kernel_4_const(a3, b3, np.ascontiguousarray(u), np.ascontiguousarray(x),
+                                          np.ascontiguousarray(c), keep_states, keep_outputs, states, outputs)
+        return LinearRecursionResult(states=states if keep_states else None,
+                                     outputs=outputs if keep_outputs else None, final_state=final)
     kernel = _recursion_kernel_4 if n == 4 else _recursion_kernel
     final = kernel(a3, b3, np.ascontiguousarray(u), np.ascontiguousarray(x), np.ascontiguousarray(c),
                               a_step, b_step, keep_states, keep_outputs, states, outputs)

@@ -16,6 +16,8 @@ __all__ = ["posterior_sample", "simulate"]
 # Eigenvalues of a covariance down to -_NEG_TOL * (largest eigenvalue) are round-off and set to 0;
 # anything more negative means the recursion lost positive semi-definiteness and is an error.
 _NEG_TOL = 1e-6
+# Number of standard normal draws generated at once by posterior_sample (32 MB).
+_CHUNK = 1 << 22
 
 
 def _as_generator(rng) -> np.random.Generator:
@@ -122,15 +124,22 @@ def posterior_sample(model: StateSpaceModel, y, n_samples: int, *, rng=None, u=N
     out = np.empty((n_samples, nb, T, n))
     for b in range(nb):
         cond = np.empty((T, n, n))
-        G = gains[b]
-        cond[:-1] = cov[b, :-1] - G @ pcov[b, 1:] @ np.swapaxes(G, -1, -2)
-        cond[-1] = cov[b, -1]
+        G = np.ascontiguousarray(gains[b])
+        _kernels.backward_conditional_cov_kernel(np.ascontiguousarray(cov[b]), np.ascontiguousarray(pcov[b]),
+                                                 G, cond)
         roots = np.ascontiguousarray(psd_sqrt(cond, "the backward conditional covariance"))
-        z = gen.standard_normal((n_samples, T, n))
-        draws = np.empty((n_samples, T, n))
-        _kernels.backward_sample_kernel(np.ascontiguousarray(mean[b]), np.ascontiguousarray(pmean[b]),
-                                        np.ascontiguousarray(G), roots, z, draws)
-        out[:, b] = draws
+        args = (np.ascontiguousarray(mean[b]), np.ascontiguousarray(pmean[b]), G, roots)
+        # standard normal draws in chunks of about _CHUNK numbers, so the noise never doubles the memory
+        chunk = max(1, _CHUNK // (T * n))
+        for s0 in range(0, n_samples, chunk):
+            s1 = min(n_samples, s0 + chunk)
+            z = gen.standard_normal((s1 - s0, T, n))
+            if nb == 1:
+                _kernels.backward_sample_kernel(*args, z, out[s0:s1, 0])  # contiguous when B = 1
+            else:
+                draws = np.empty((s1 - s0, T, n))
+                _kernels.backward_sample_kernel(*args, z, draws)
+                out[s0:s1, b] = draws
     return out if batched else out[:, 0]
 
 

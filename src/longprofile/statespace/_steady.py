@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve, solve_discrete_are, solve_discrete_lyapunov
 
-from ..errors import InputError, ModelError, NotDetectableError
+from ..errors import InputError, ModelError, NotDetectableError, ShapeError
 from ._kalman import prepare_inputs, prepare_observations
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult
@@ -240,6 +240,17 @@ def steady_state_smoothed_cov(model: StateSpaceModel) -> np.ndarray:
     return Ps
 
 
+def _gain(model, gain):
+    if gain is None:
+        return steady_state_gain(model)
+    if not isinstance(gain, SteadyStateGain):
+        raise InputError(f"gain must be a SteadyStateGain from steady_state_gain(model); got {type(gain).__name__}.")
+    if gain.gain.shape != (model.n_states, model.n_obs):
+        raise ShapeError(f"gain has shape {gain.gain.shape} but the model needs (n, m) = "
+                         f"({model.n_states}, {model.n_obs}); compute it with steady_state_gain(model).")
+    return gain
+
+
 def _prepare(model, y, u, what):
     _require_time_invariant(model, what)
     Y, batched = prepare_observations(model, y)
@@ -301,7 +312,7 @@ def _filter_result(mean, pmean, innov, ll_steps, ll, batched, m):
                         log_likelihood_steps=pick(ll_steps), n_observed=nobs, method="steady-state")
 
 
-def steady_state_filter(model: StateSpaceModel, y, *, u=None) -> FilterResult:
+def steady_state_filter(model: StateSpaceModel, y, *, u=None, gain: SteadyStateGain | None = None) -> FilterResult:
     """Kalman filter with the constant steady-state gain, run as a compiled LTI recursion.
 
     Parameters
@@ -312,6 +323,10 @@ def steady_state_filter(model: StateSpaceModel, y, *, u=None) -> FilterResult:
         Observations, complete (no NaN). A 3-D array is a batch of series.
     u : (T, p) or (B, T, p) array_like, optional
         Known inputs, as in :func:`kalman_filter`.
+    gain : SteadyStateGain, optional
+        The result of ``steady_state_gain(model)``, to skip solving the DARE
+        again when the same model filters many series. Must belong to ``model``
+        (only its shapes can be checked).
 
     Returns
     -------
@@ -341,12 +356,13 @@ def steady_state_filter(model: StateSpaceModel, y, *, u=None) -> FilterResult:
     likelihood is the asymptotic (stationary) one, exact only after that transient.
     """
     Y, batched, U, terms = _prepare(model, y, u, "steady_state_filter")
-    ss = steady_state_gain(model)
+    ss = _gain(model, gain)
     out = _run_filter(model, ss, Y, U, terms, True)
     return _filter_result(*out, batched, model.n_obs)
 
 
-def steady_state_smoother(model: StateSpaceModel, y, *, u=None, store_filtered: bool = True) -> SmootherResult:
+def steady_state_smoother(model: StateSpaceModel, y, *, u=None, store_filtered: bool = True,
+                          gain: SteadyStateGain | None = None) -> SmootherResult:
     """Fixed-interval (zero-lag) smoother with the constant steady-state gains, in O(T n) memory.
 
     Parameters
@@ -362,6 +378,8 @@ def steady_state_smoother(model: StateSpaceModel, y, *, u=None, store_filtered: 
         innovations). With False the backward pass overwrites the forward means
         in place and ``result.filtered`` is None: peak memory is then one
         (T, n) array plus the data (e.g. 0.96 GB for T = 2e7, n = 6).
+    gain : SteadyStateGain, optional
+        Precomputed ``steady_state_gain(model)`` (see :func:`steady_state_filter`).
 
     Returns
     -------
@@ -386,7 +404,7 @@ def steady_state_smoother(model: StateSpaceModel, y, *, u=None, store_filtered: 
     of the exact filter differ from the stationary ones.
     """
     Y, batched, U, terms = _prepare(model, y, u, "steady_state_smoother")
-    ss = steady_state_gain(model)
+    ss = _gain(model, gain)
     G = _smoother_gain(model, ss)
     mean, pmean, innov, ll_steps, ll = _run_filter(model, ss, Y, U, terms, store_filtered)
     B, _D, c, _d = terms

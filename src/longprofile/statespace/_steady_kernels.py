@@ -113,15 +113,44 @@ def _smooth_literal(N, I_GF, G, GB, Gc, u, xf, xs):
     _smooth_impl(literally(N), I_GF, G, GB, Gc, u, xf, xs)
 
 
+# Per-size trampolines: a jitted closure whose sizes are compile-time constants calls the ``literally``
+# wrapper with literal arguments, so numba resolves the unrolled (disk-cached) specialisation directly.
+# Calling the wrapper from Python instead would re-run type inference on every call (~30 ms).
+_TRAMPOLINES: dict = {}
+
+
+def _trampoline(kind, n, m):
+    key = (kind, n, m)
+    fn = _TRAMPOLINES.get(key)
+    if fn is not None:
+        return fn
+    N, M = n, m
+    if kind == "filter":
+        @njit
+        def fn(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
+            return _filter_literal(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps,
+                                   store_extra)
+    else:
+        @njit
+        def fn(I_GF, G, GB, Gc, u, xf, xs):
+            _smooth_literal(N, I_GF, G, GB, Gc, u, xf, xs)
+    _TRAMPOLINES[key] = fn
+    return fn
+
+
 def filter_kernel(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
     """Dispatch to the unrolled (small sizes) or generic compiled constant-gain filter."""
     n, m = F.shape[0], H.shape[0]
-    fn = _filter_literal if (n <= MAX_LITERAL_STATES and m <= MAX_LITERAL_OBS) else _filter_impl
-    return fn(n, m, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra)
+    if n <= MAX_LITERAL_STATES and m <= MAX_LITERAL_OBS:
+        return _trampoline("filter", n, m)(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps,
+                                           store_extra)
+    return _filter_impl(n, m, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra)
 
 
 def smooth_kernel(I_GF, G, GB, Gc, u, xf, xs):
     """Dispatch to the unrolled (small sizes) or generic compiled constant-gain backward pass."""
     n = G.shape[0]
-    fn = _smooth_literal if n <= MAX_LITERAL_STATES else _smooth_impl
-    fn(n, I_GF, G, GB, Gc, u, xf, xs)
+    if n <= MAX_LITERAL_STATES:
+        _trampoline("smooth", n, 0)(I_GF, G, GB, Gc, u, xf, xs)
+    else:
+        _smooth_impl(n, I_GF, G, GB, Gc, u, xf, xs)

@@ -6,8 +6,9 @@ Two estimators share one result type (:class:`SlopeEstimate`):
   and the tyre forces, then a Luenberger observer on the longitudinal model (21) estimates the slope;
 * ``"joint"`` -- one EKF on the augmented state (V_x, V_y, r, theta_r) with a random-walk slope.
 
-Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`, and the
-engine's pole-placement observer); this module only builds models and maps results.
+Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`,
+:func:`longprofile.statespace.luenberger_gain` and :func:`longprofile.statespace.luenberger_observer`);
+this module only builds models and maps results.
 """
 
 from __future__ import annotations
@@ -61,14 +62,14 @@ class EKFTuning:
     -----
     The defaults are the cascade's (tuned on the simulated "paper" drive, see docs/vehicle-slope.md).
     :meth:`for_method` gives the defaults of each estimator: the joint EKF models the grade, so its
-    V_x process noise is 100 times smaller.
+    V_x process noise is 100 times smaller (and its speed std 0.01 m/s, which filters the grade more).
     """
 
     @classmethod
     def for_method(cls, method: str) -> "EKFTuning":
         """Default tuning of ``"cascade"`` or ``"joint"``."""
         if method == "joint":
-            return cls(vx_rate_psd=1e-4)
+            return cls(vx_rate_psd=1e-4, speed_std=0.01)
         if method == "cascade":
             return cls()
         raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
@@ -76,7 +77,7 @@ class EKFTuning:
     vx_rate_psd: float = 0.01
     vy_rate_psd: float = 0.005
     yaw_accel_psd: float = 0.002
-    slope_rate_psd: float = 5e-3
+    slope_rate_psd: float = 1e-3
     speed_std: float = 0.004
     yaw_rate_std: float = 3e-3
     wheel_speed_rel_std: float = 3e-4
@@ -292,22 +293,24 @@ def slope_observer_matrices(vehicle: Vehicle, dt: float | None = None):
     return np.array([[1.0, -g * dt], [0.0, 1.0]]), np.array([[dt / M], [0.0]]), C
 
 
-def slope_observer_gain(vehicle: Vehicle, dt: float, *, poles=(-5.0, -7.0)) -> np.ndarray:
-    """Luenberger gain (2, 1) of the discretised model (21) placing the continuous-time ``poles`` (1/s).
+def slope_observer_gain(vehicle: Vehicle, *, poles=(-5.0, -7.0)) -> np.ndarray:
+    """Luenberger gain L (2, 1) of the longitudinal model (21) placing the eigenvalues of A - L C at ``poles``.
 
-    The discrete poles are exp(p dt); the gain comes from the engine's
-    :func:`longprofile.statespace.luenberger_gain` (pole placement, scipy ``place_poles``).
+    Continuous-time design (paper 001, IV.B: the eigenvalues of A - L C must have negative real
+    parts), by the engine's :func:`longprofile.statespace.luenberger_gain` (pole placement). With one
+    output the two poles must be distinct.
+
+    Raises
+    ------
+    InputError
+        If the poles are not 2 stable (negative real part) values.
+    ModelError
+        If they cannot be placed (e.g. a repeated pole).
     """
     from ..statespace import luenberger_gain
 
-    poles_c = np.asarray(poles, dtype=complex)
-    if poles_c.shape != (2,) or np.any(poles_c.real >= 0):
-        raise InputError(f"poles must be 2 continuous-time poles with negative real parts (1/s); got {poles!r}.")
-    A, _, C = slope_observer_matrices(vehicle, dt)
-    z = np.exp(poles_c * dt)
-    if np.all(z.imag == 0):
-        z = z.real
-    return np.asarray(luenberger_gain(A, C, z, discrete=True), dtype=float)
+    A, _, C = slope_observer_matrices(vehicle)
+    return np.asarray(luenberger_gain(A, C, poles), dtype=float)
 
 
 # ------------------------------------------------------------------------------------------ results
@@ -386,7 +389,8 @@ def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std,
 
 
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
-                   poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None) -> SlopeEstimate:
+                   poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None,
+                   initial_state=None) -> SlopeEstimate:
     r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
 
     Parameters
@@ -405,6 +409,9 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         EKF noise settings (default ``EKFTuning.for_method(method)``).
     friction : (4,) or (T, 4) array_like, optional
         Adhesion mu_i assumed by the estimator (default ``vehicle.friction``).
+    initial_state : (3,) array_like, optional
+        Prior mean of (V_x, V_y, r) (default: first speed reading, 0, first gyro reading); the grade
+        starts at 0 in both methods.
 
     Returns
     -------
@@ -428,8 +435,9 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     with input F_res-hat and output the measured V_x, discretised exactly, gain by pole placement.
     The slope std of the cascade is the stationary std of the observer error (discrete Lyapunov
     equation with the fixed gain) driven by the EKF's median F_res std and the speed noise, both
-    treated as white, and by a random-walk grade of intensity ``slope_rate_psd`` (the joint EKF's
-    prior): it ignores the time correlation of the force errors.
+    treated as white. It is the noise part only: while the grade changes at a rate rho (rad/s) the
+    observer also lags by about rho (-1/p1 - 1/p2) (0.34 s x rho with the default poles), and model
+    errors (mass, adhesion, rear-wheel slip under braking) add biases; see docs/vehicle-slope.md.
 
     Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
     """
@@ -444,7 +452,13 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     dt = log.dt
     u = planar_inputs(log, vehicle, friction=friction)
     y = planar_measurements(log, vehicle)
-    x0 = [y[0, 0], 0.0, y[0, 1]]
+    if initial_state is None:
+        x0 = [y[0, 0], 0.0, y[0, 1]]
+    else:
+        x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
+        if x0.shape != (3,):
+            raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
+        x0 = x0.tolist()
     if method == "joint":
         model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
     else:
@@ -475,22 +489,24 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
 
 
 def _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning):
-    from scipy.linalg import solve_discrete_lyapunov
+    """Luenberger observer on (21) run by the engine (exact zero-order-hold integration of its ODE)."""
+    from scipy.linalg import solve_continuous_lyapunov
 
     from ..statespace import luenberger_observer
 
-    A, B, C = slope_observer_matrices(vehicle, dt)
-    L = slope_observer_gain(vehicle, dt, poles=poles)
-    obs = luenberger_observer(A, B, C, L, speed[:, None], u=res[:, None], x0=np.array([speed[0], 0.0]))
-    state = np.asarray(obs.state)
-    if not np.all(np.isfinite(state)):
-        raise ModelError("the slope observer diverged; check the poles and the log.")
+    A, B, C = slope_observer_matrices(vehicle)
+    L = slope_observer_gain(vehicle, poles=poles)
+    obs = luenberger_observer(A, B, C, L, speed, u=res[:, None], x0=np.array([speed[0], 0.0]), dt=dt)
+    state = obs.state
+    if not np.all(np.isfinite(state)) or np.any(np.abs(state[:, 1]) > 1.0):
+        raise ModelError("the slope observer diverged (|sin(theta_r)| > 1); check the poles, the vehicle mass "
+                         "and the units of the log.")
     s = state[:, 1]
-    slope = np.arcsin(np.clip(s, -1.0, 1.0))
-    phi = A - L @ C
+    slope = np.arcsin(s)
+    # error dynamics de/dt = (A - L C) e + B w_F - L v with white noises of PSD var * dt (sampled at dt)
     var_f = float(np.median(res_std) ** 2)
-    W = B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2 + np.diag([0.0, tuning.slope_rate_psd * dt])
-    P = solve_discrete_lyapunov(phi, W)
+    M = A - L @ C
+    P = solve_continuous_lyapunov(M, -(B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2) * dt)
     s_std = math.sqrt(max(P[1, 1], 0.0))
-    slope_std = np.full(s.shape, s_std) / np.sqrt(np.maximum(1.0 - np.clip(s, -0.99, 0.99) ** 2, 1e-12))
+    slope_std = s_std / np.sqrt(1.0 - s ** 2)
     return slope, slope_std, L

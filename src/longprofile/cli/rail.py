@@ -1,0 +1,120 @@
+"""``longprofile rail simulate | settle``: track settlement from sleeper inclinometers (paper 004)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ._common import check_output_path, console, progress
+
+rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, with confidence bands (paper 004).",
+                       no_args_is_help=True)
+
+
+@rail_app.command("simulate")
+def simulate_command(
+    output: Path = typer.Option(..., "--output", "-o", help="Folder for sensors.csv, readings.csv, survey.csv, "
+                                                             "controls.csv (if any) and truth.csv."),
+    preset: str = typer.Option("mittersheim-like", "--preset", help="mittersheim-like or farebersviller-like."),
+    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    sampling_minutes: float = typer.Option(10.0, "--sampling-minutes", help="Interval between readings, min."),
+    days: int = typer.Option(None, "--days", help="Number of days (default: the preset's)."),
+    fmt: str = typer.Option("csv", "--format", help="csv or parquet."),
+    plot: Path = typer.Option(None, "--plot", help="Also draw the true settlement to this PNG."),
+):
+    """Simulate an inclinometer site with known settlement (ground truth in truth.csv)."""
+    import numpy as np
+    import pandas as pd
+
+    from ..errors import InputError
+    from ..io import write_table
+    from ..rail import simulate_site
+
+    if fmt not in ("csv", "parquet"):
+        raise InputError(f"--format must be csv or parquet; got {fmt!r}.")
+    site = simulate_site(preset, seed=seed, sampling_minutes=sampling_minutes, n_days=days)
+    out = Path(output)
+    written = [write_table(site.sensors, out / f"sensors.{fmt}"), write_table(site.readings, out / f"readings.{fmt}"),
+               write_table(site.survey, out / f"survey.{fmt}")]
+    if site.controls is not None:
+        written.append(write_table(site.controls, out / f"controls.{fmt}"))
+    tr = site.truth
+    D, N = tr.settlement.shape
+    truth = pd.DataFrame({"date": np.repeat(pd.DatetimeIndex(tr.days).strftime("%Y-%m-%d"), N),
+                          "sensor_id": np.tile(site.sensors["sensor_id"].to_numpy(), D), "x_m": np.tile(tr.x, D),
+                          "dz_true_m": tr.settlement.ravel(),
+                          "status_true": np.tile([tr.bad_sensors.get(s, "ok") for s in site.sensors["sensor_id"]], D)})
+    written.append(write_table(truth, out / f"truth.{fmt}"))
+    if plot is not None:
+        from ..report._rail import _figure
+
+        fig = _figure(10, 4)
+        ax = fig.add_subplot()
+        for d in np.unique(np.linspace(0, D - 1, 6).round().astype(int)):
+            ax.plot(tr.x, 1e3 * tr.settlement[d], label=pd.Timestamp(tr.days[d]).strftime("%Y-%m-%d"))
+        ax.set_xlabel("station x (m)"); ax.set_ylabel("true altitude change (mm)"); ax.legend(fontsize=7)
+        fig.savefig(check_output_path(plot), dpi=110)
+    console.print(f"simulated {preset}: {N} sensors, {D} days, {len(site.readings)} readings -> "
+                  f"{', '.join(str(p) for p in written)}")
+
+
+@rail_app.command("settle")
+def settle_command(
+    sensors: Path = typer.Option(..., "--sensors", help="Sensors table: sensor_id, x_m [, z_m] (CSV/Parquet)."),
+    readings: Path = typer.Option(..., "--readings",
+                                  help="Readings table: timestamp, sensor_id, angle_deg, temperature_c."),
+    survey: Path = typer.Option(None, "--survey", help="Initial survey: x_m, z_m (any grid covering the sensors)."),
+    controls: Path = typer.Option(None, "--controls", help="Control surveys: date, x_m, z_m."),
+    output: Path = typer.Option(..., "--output", "-o", help="Settlement table (.csv/.parquet), one row per day and "
+                                                             "sensor, with 90 % bands and rates."),
+    plot: Path = typer.Option(None, "--plot", help="Also draw settlement profiles with bands to this PNG."),
+    report: Path = typer.Option(None, "--report", help="Also write an HTML report (profiles, bands, controls, "
+                                                        "alarms, flagged sensors) into this folder."),
+    thermal: str = typer.Option("linear", "--thermal", help="linear (paper §3), lagged (first-order lag) or none."),
+    sigma_deg: float = typer.Option(None, "--sigma-deg", help="Std of daily angle changes, deg (default: estimated)."),
+    rigidity: float = typer.Option(1e-8, "--rigidity", help="Rigidity r, m^-2 (paper: 1e-8); 0 = maximum likelihood."),
+    sigma_z: float = typer.Option(1e-5, "--sigma-z", help="Std of the fixed-end anchors, m."),
+    sigma_a: float = typer.Option(2e-3, "--sigma-a", help="Survey noise, m."),
+    angle_unit: str = typer.Option("deg", "--angle-unit", help="Unit of angle_deg as given: deg or rad."),
+    check_units: bool = typer.Option(True, "--check-units/--no-check-units",
+                                     help="Refuse angles that look like radians."),
+    exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
+    no_health: bool = typer.Option(False, "--no-health-check", help="Only exclude dead sensors."),
+    affine: bool = typer.Option(False, "--affine-correction", help="Apply the §5.2 affine correction (not robust)."),
+    threshold_mm: float = typer.Option(None, "--settlement-threshold-mm", help="Alarm on |altitude change|, mm."),
+    rate_mm: float = typer.Option(None, "--rate-threshold-mm-per-day", help="Alarm on |daily rate|, mm/day."),
+    alarm_probability: float = typer.Option(0.5, "--alarm-probability", help="Report exceedance probabilities >= this."),
+    n_monte_carlo: int = typer.Option(1000, "--monte-carlo", help="Posterior draws per day for the max settlement."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of the Monte Carlo."),
+):
+    """Altitude change of the track, day by day, with 90 % bands, sensor health and alarms."""
+    import numpy as np
+
+    from ..io import write_table
+    from ..rail import estimate_settlement, read_site
+    from ..report._rail import plot_settlement, write_rail_report
+
+    inputs = (sensors, readings, survey, controls)
+    site = read_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
+    with progress() as bar:
+        task = bar.add_task("settlement", total=1)
+        res = estimate_settlement(
+            site, thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
+            rigidity=None if rigidity == 0 else rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
+            check_health=not no_health, exclude_sensors=tuple(exclude), use_affine_correction=affine,
+            settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
+            rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,
+            alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed)
+        bar.advance(task)
+    write_table(res.to_table(), check_output_path(output, *inputs))
+    if plot is not None:
+        plot_settlement(res, check_output_path(plot, *inputs))
+    if report is not None:
+        write_rail_report(res, report)
+    for w in res.warnings:
+        console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
+    worst = -res.dz[-1].min()
+    console.print(f"{len(res.sensor_ids)} sensors, {res.days.size} days; {int(res.health.excluded.sum())} sensor(s) "
+                  f"excluded; max settlement on the last day {1e3 * worst:.1f} mm; {len(res.alarms)} alarm(s) "
+                  f"-> {output}")

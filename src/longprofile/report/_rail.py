@@ -1,0 +1,278 @@
+"""Rail settlement report: a self-contained HTML page, its PNG figures and CSV tables.
+
+Rendering only: every number comes from :func:`longprofile.rail.estimate_settlement`.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import OutputError
+
+__all__ = ["plot_settlement", "write_rail_report"]
+
+_Z90 = 1.6448536269514722
+
+
+def _figure(width=10.0, height=4.0):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _day_label(d) -> str:
+    return pd.Timestamp(d).strftime("%Y-%m-%d")
+
+
+def _chosen_days(result, n=6):
+    D = result.days.size
+    idx = np.unique(np.linspace(0, D - 1, min(n, D)).round().astype(int))
+    return idx
+
+
+def _profiles_axes(ax, result, days_idx, *, controls=True):
+    import matplotlib as mpl
+
+    cmap = mpl.colormaps["viridis"]
+    x = result.x
+    for k, d in enumerate(days_idx):
+        c = cmap(k / max(len(days_idx) - 1, 1))
+        m = 1e3 * result.dz[d]
+        s = 1e3 * _Z90 * result.dz_std[d]
+        ax.fill_between(x, m - s, m + s, color=c, alpha=0.25, lw=0)
+        ax.plot(x, m, color=c, lw=1.6, label=_day_label(result.days[d]))
+        if controls and result.controls is not None:
+            cd = result.controls[result.controls["date"] == _day_label(result.days[d])]
+            if len(cd):
+                ax.plot(cd["x_m"], 1e3 * cd["dz_control_m"], "o", color=c, ms=4, mec="k", mew=0.5)
+    bad = result.health.excluded
+    if bad.any():
+        ax.plot(x[bad], np.zeros(bad.sum()), "x", color="#c62828", ms=8, mew=2, label="excluded sensor")
+    ax.axhline(0, color="0.5", lw=0.8)
+    ax.set_xlabel("station x (m)")
+    ax.set_ylabel("altitude change (mm)")
+    ax.legend(fontsize=7, ncol=2, loc="lower left")
+
+
+def plot_settlement(result, path, *, n_days: int = 6) -> Path:
+    """Settlement profiles on ``n_days`` evenly spaced days with their 90 % bands; control surveys as dots."""
+    fig = _figure(10, 4.2)
+    ax = fig.add_subplot()
+    _profiles_axes(ax, result, _chosen_days(result, n_days))
+    ax.set_title("altitude change since the first day, 90 % bands (dots: control surveys, x: excluded sensors)",
+                 fontsize=9)
+    path = Path(path)
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as exc:
+        raise OutputError(f"cannot write the plot {path}: {exc}") from None
+    return path
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def _weekly_figure(result):
+    """Small multiples: one panel per week, the profile of each day with its band."""
+    D = result.days.size
+    weeks = [list(range(s, min(s + 7, D))) for s in range(0, D, 7)]
+    ncol = 2
+    nrow = int(np.ceil(len(weeks) / ncol))
+    fig = _figure(11, 2.6 * nrow)
+    lo = 1e3 * np.nanmin(result.dz - _Z90 * result.dz_std)
+    hi = 1e3 * np.nanmax(result.dz + _Z90 * result.dz_std)
+    for i, w in enumerate(weeks):
+        ax = fig.add_subplot(nrow, ncol, i + 1)
+        _profiles_axes(ax, result, w)
+        ax.set_ylim(lo - 1, hi + 1)
+        ax.set_title(f"week from {_day_label(result.days[w[0]])}", fontsize=9)
+    return fig
+
+
+def _time_figure(result):
+    fig = _figure(11, 6.0)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    days = pd.DatetimeIndex(result.days)
+    sm = result.smoothed
+    mean = sm.mean if sm is not None else result.dz
+    std = sm.std if sm is not None else result.dz_std
+    j = int(np.nanargmin(mean[-1]))
+    other = 0 if j != 0 else result.x.size - 1  # an end station for comparison
+    for jj, c in ((j, "#c62828"), (other, "0.4")):
+        ax1.fill_between(days, 1e3 * (mean[:, jj] - _Z90 * std[:, jj]), 1e3 * (mean[:, jj] + _Z90 * std[:, jj]),
+                         color=c, alpha=0.2, lw=0)
+        ax1.plot(days, 1e3 * mean[:, jj], color=c, label=f"{result.sensor_ids[jj]} (x = {result.x[jj]:.1f} m)")
+        ax1.plot(days, 1e3 * result.dz[:, jj], ".", color=c, ms=4)
+    ax1.set_ylabel("altitude change (mm)")
+    ax1.legend(fontsize=8)
+    ax1.set_title("settlement through time (line: smoothed across days, dots: daily posterior), 90 % bands",
+                  fontsize=9)
+    if sm is not None:
+        r, rs = 1e3 * sm.rate[:, j], 1e3 * _Z90 * sm.rate_std[:, j]
+        ax2.bar(days, r, color="#c62828", alpha=0.6, width=0.8)
+        ax2.errorbar(days, r, yerr=rs, fmt="none", ecolor="k", lw=0.8)
+        ax2.set_ylabel(f"rate at {result.sensor_ids[j]} (mm/day)")
+    ax2.plot(days, 1e3 * result.max_settlement_mean, "k-", lw=1, label="max settlement (Monte Carlo mean)")
+    ax2.fill_between(days, 1e3 * (result.max_settlement_mean - result.max_settlement_std),
+                     1e3 * (result.max_settlement_mean + result.max_settlement_std), color="k", alpha=0.1, lw=0)
+    ax2.legend(fontsize=8)
+    fig.autofmt_xdate()
+    return fig
+
+
+def _map_figure(result):
+    fig = _figure(11, 3.6)
+    ax = fig.add_subplot()
+    sm = result.smoothed
+    mean = sm.mean if sm is not None else result.dz
+    lim = max(1e-3, float(np.nanmax(np.abs(mean)))) * 1e3
+    im = ax.pcolormesh(result.x, np.arange(result.days.size), 1e3 * mean, cmap="RdBu", vmin=-lim, vmax=lim,
+                       shading="nearest")
+    ax.set_yticks(np.arange(0, result.days.size, 7), [_day_label(d) for d in result.days[::7]], fontsize=7)
+    ax.set_xlabel("station x (m)")
+    ax.set_title("altitude change (mm) by day and station", fontsize=9)
+    fig.colorbar(im, ax=ax, label="mm")
+    return fig
+
+
+def _initial_figure(result):
+    fig = _figure(11, 4.0)
+    ax1, ax2 = fig.subplots(1, 2)
+    ini = result.initial
+    x = result.x
+    trend = np.polyval(np.polyfit(x, ini.z_mean, 1), x)
+    ax1.fill_between(x, 1e3 * (ini.z_mean - trend - _Z90 * ini.z_std), 1e3 * (ini.z_mean - trend + _Z90 * ini.z_std),
+                     color="C0", alpha=0.3, lw=0)
+    ax1.plot(x, 1e3 * (ini.z_mean - trend), "C0")
+    ax1.set_title("initial profile minus its linear trend (§4.4), 90 % band", fontsize=9)
+    ax1.set_xlabel("station x (m)"); ax1.set_ylabel("mm")
+    ang = np.rad2deg(np.arctan(ini.slope_mean))
+    band = np.rad2deg(_Z90 * ini.slope_std)
+    ax2.fill_between(x, ang - band, ang + band, color="C1", alpha=0.3, lw=0)
+    ax2.plot(x, ang, "C1")
+    ax2.set_title("initial angles (deg), 90 % band", fontsize=9)
+    ax2.set_xlabel("station x (m)")
+    return fig
+
+
+def _controls_figure(result):
+    c = result.controls
+    fig = _figure(11, 3.4)
+    ax = fig.add_subplot()
+    for k, (date, g) in enumerate(c.groupby("date")):
+        col = f"C{k}"
+        ax.errorbar(g["x_m"], 1e3 * g["dz_estimate_m"], yerr=1e3 * _Z90 * g["std_m"], fmt="-", color=col, lw=1,
+                    label=f"estimate {date}")
+        ax.plot(g["x_m"], 1e3 * g["dz_control_m"], "o", color=col, mec="k", mew=0.5, label=f"control {date}")
+    ax.set_xlabel("station x (m)"); ax.set_ylabel("altitude change (mm)")
+    ax.legend(fontsize=7, ncol=3)
+    ax.set_title("estimate vs control surveys (control noise ~2 mm x sqrt 2)", fontsize=9)
+    return fig
+
+
+def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
+    if df is None or len(df) == 0:
+        return "<p><em>none</em></p>"
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+    rows = []
+    for _, r in df.iterrows():
+        cells = "".join(f"<td>{fmt.format(v) if isinstance(v, (float, np.floating)) else html.escape(str(v))}</td>"
+                        for v in r)
+        rows.append(f"<tr>{cells}</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def write_rail_report(result, outdir, *, title: str = "Track settlement report") -> list[Path]:
+    """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
+
+    Parameters
+    ----------
+    result : SettlementResult
+    outdir : path-like
+        Created if needed.
+    title : str
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    out = Path(outdir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the report folder {out}: {exc}") from None
+    figs = {"profiles_by_week": _weekly_figure(result), "through_time": _time_figure(result),
+            "settlement_map": _map_figure(result), "initial_profile": _initial_figure(result)}
+    if result.controls is not None:
+        figs["controls"] = _controls_figure(result)
+    written = []
+    imgs = {}
+    for name, fig in figs.items():
+        data = _png(fig)
+        p = out / f"{name}.png"
+        p.write_bytes(data)
+        written.append(p)
+        imgs[name] = base64.b64encode(data).decode()
+    table = result.to_table()
+    p = out / "settlement.csv"; table.to_csv(p, index=False); written.append(p)
+    p = out / "alarms.csv"; result.alarms.to_csv(p, index=False); written.append(p)
+    health = pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
+                           "detail": result.health.detail, "loo_score": result.health.loo_score,
+                           "thermal_coef_deg_per_c": result.daily.thermal_coef,
+                           "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers})
+    p = out / "sensors.csv"; health.to_csv(p, index=False); written.append(p)
+    st = result.settings
+    flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
+    maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],
+                         "max settlement mean (mm)": 1e3 * result.max_settlement_mean,
+                         "std (mm)": 1e3 * result.max_settlement_std})
+    ctrl_summary = ""
+    if result.controls is not None:
+        c = result.controls
+        g = c.groupby("date").apply(lambda d: pd.Series({
+            "points": len(d), "RMS diff (mm)": 1e3 * np.sqrt(np.mean((d.dz_control_m - d.dz_estimate_m) ** 2)),
+            "inside 90 % (%)": 100 * d.inside_90.mean()}), include_groups=False).reset_index()
+        ctrl_summary = "<h2>Control surveys</h2>" + _table_html(g) + f'<img src="data:image/png;base64,{imgs["controls"]}">'
+    alarms = result.alarms.copy()
+    if len(alarms):
+        alarms["value"] = alarms["value"] * 1e3
+        alarms = alarms.rename(columns={"value": "value (mm or mm/day)"})
+        alarms["threshold"] = alarms["threshold"] * 1e3
+    warn = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or "<li>none</li>"
+    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
+<style>body{{font-family:sans-serif;max-width:1150px;margin:auto;padding:1em}} table{{border-collapse:collapse;font-size:12px}}
+td,th{{border:1px solid #ccc;padding:2px 6px}} img{{max-width:100%}} .warn li{{color:#8a4b00}}</style></head><body>
+<h1>{html.escape(title)}</h1>
+<p>{len(result.sensor_ids)} sensors over {result.x[-1] - result.x[0]:.1f} m, {result.days.size} days
+({_day_label(result.days[0])} to {_day_label(result.days[-1])}). Method: paper 004 (SNCF / Sorbonne) rigidity
+posterior on the state-space engine; thermal model <b>{html.escape(str(st.get('thermal')))}</b>; slope noise
+sigma = {st.get('sigma_deg', float('nan')):.2e} deg ({'estimated' if st.get('sigma_estimated') else 'given'});
+rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-2</sup>; day-to-day settlement std
+{1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % measurement bands (docs/rail.md).</p>
+<h2>Warnings</h2><ul class="warn">{warn}</ul>
+<h2>Flagged sensors (excluded)</h2>{_table_html(flagged)}
+<h2>Alarms</h2>{_table_html(alarms)}
+<h2>Settlement profiles per day, 90 % bands</h2><img src="data:image/png;base64,{imgs['profiles_by_week']}">
+<h2>Settlement through time and daily rate</h2><img src="data:image/png;base64,{imgs['through_time']}">
+<img src="data:image/png;base64,{imgs['settlement_map']}">
+{ctrl_summary}
+<h2>Maximum settlement (Monte Carlo, §4.3)</h2>{_table_html(maxs)}
+<h2>Initial profile and angles (§4.4)</h2><img src="data:image/png;base64,{imgs['initial_profile']}">
+<p>Tables: settlement.csv, alarms.csv, sensors.csv.</p></body></html>"""
+    p = out / "index.html"
+    p.write_text(page, encoding="utf-8")
+    written.insert(0, p)
+    return written

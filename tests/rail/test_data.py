@@ -1,0 +1,93 @@
+"""Site tables: reading CSV / Parquet, validation errors and explicit warnings."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from longprofile.errors import InputError, InputFormatError, UnitsError
+from longprofile.rail import read_site, simulate_site, validate_site
+
+
+@pytest.fixture(scope="module")
+def small():
+    return simulate_site("mittersheim-like", seed=3, sampling_minutes=60, n_days=4)
+
+
+def test_csv_and_parquet_give_the_same_site(small, tmp_path):
+    for ext in ("csv", "parquet"):
+        small.sensors.to_csv(tmp_path / "s.csv", index=False) if ext == "csv" else small.sensors.to_parquet(tmp_path / "s.parquet")
+        r = small.readings.copy()
+        if ext == "csv":
+            r["timestamp"] = pd.to_datetime(r["timestamp"]).dt.strftime("%Y-%m-%dT%H:%M:%S")
+            r.to_csv(tmp_path / "r.csv", index=False)
+            small.survey.to_csv(tmp_path / "v.csv", index=False)
+        else:
+            r.to_parquet(tmp_path / "r.parquet")
+            small.survey.to_parquet(tmp_path / "v.parquet")
+    a = read_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
+    b = read_site(tmp_path / "s.parquet", tmp_path / "r.parquet", tmp_path / "v.parquet")
+    assert a.sensor_ids == b.sensor_ids
+    assert np.allclose(a.readings["angle_deg"], b.readings["angle_deg"])
+    assert (a.readings["timestamp"].to_numpy() == b.readings["timestamp"].to_numpy()).all()
+    assert a.warnings == ()
+
+
+def test_unknown_sensor_ids_are_an_error(small):
+    r = small.readings.copy()
+    r.loc[5, "sensor_id"] = "S99"
+    with pytest.raises(InputError, match=r"not in the sensors table, e.g. \['S99'\]"):
+        validate_site(small.sensors, r, small.survey)
+
+
+def test_duplicate_timestamps_are_an_error(small):
+    r = pd.concat([small.readings, small.readings.iloc[[10]]], ignore_index=True)
+    with pytest.raises(InputError, match="duplicate reading for sensor"):
+        validate_site(small.sensors, r, small.survey)
+
+
+def test_unsorted_timestamps_are_sorted_with_a_warning(small):
+    r = small.readings.iloc[::-1].reset_index(drop=True)
+    site = validate_site(small.sensors, r, small.survey)
+    assert any("not in time order" in w and "sorted" in w for w in site.warnings)
+    ref = validate_site(small.sensors, small.readings, small.survey)
+    assert np.array_equal(site.readings["angle_deg"].to_numpy(), ref.readings["angle_deg"].to_numpy())
+
+
+def test_radians_by_mistake_are_detected(small):
+    r = small.readings.copy()
+    r["angle_deg"] = np.deg2rad(r["angle_deg"])
+    with pytest.raises(UnitsError, match="look like radians.*angle_unit='rad'"):
+        validate_site(small.sensors, r, small.survey)
+    site = validate_site(small.sensors, r, small.survey, angle_unit="rad")
+    ref = validate_site(small.sensors, small.readings, small.survey)
+    assert np.allclose(site.readings["angle_deg"], ref.readings["angle_deg"])
+    assert validate_site(small.sensors, r, small.survey, check_units=False).readings["angle_deg"].abs().max() < 0.1
+    with pytest.raises(UnitsError, match="'deg' or 'rad'"):
+        validate_site(small.sensors, small.readings, small.survey, angle_unit="grad")
+
+
+def test_survey_must_cover_the_sensors(small):
+    sv = small.survey[small.survey["x_m"] < 100]
+    with pytest.raises(InputError, match="survey table covers x = 0..9.*lie outside.*extend the survey"):
+        validate_site(small.sensors, small.readings, sv)
+
+
+def test_missing_columns_and_bad_values(small):
+    with pytest.raises(InputFormatError, match=r"readings table: missing column\(s\) \['temperature_c'\]"):
+        validate_site(small.sensors, small.readings.drop(columns="temperature_c"), small.survey)
+    s = small.sensors.copy().astype({"x_m": object})
+    s.loc[2, "x_m"] = "abc"
+    with pytest.raises(InputFormatError, match="sensors table, row 2: column 'x_m'"):
+        validate_site(s, small.readings, small.survey)
+    with pytest.raises(InputError, match="no initial altitude"):
+        validate_site(small.sensors, small.readings, None)
+    s2 = small.sensors.copy()
+    s2.loc[1, "x_m"] = s2.loc[0, "x_m"]
+    with pytest.raises(InputError, match="same station"):
+        validate_site(s2, small.readings, small.survey)
+
+
+def test_sensors_without_readings_are_reported(small):
+    r = small.readings[small.readings["sensor_id"] != "S05"]
+    site = validate_site(small.sensors, r, small.survey)
+    assert any("no readings at all" in w and "S05" in w for w in site.warnings)

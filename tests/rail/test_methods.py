@@ -1,0 +1,126 @@
+"""§2 integration, §3 / lagged thermal models, synthetic presets, temporal smoothing and alarms."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+from scipy.stats import norm
+
+from longprofile.errors import InputError
+from longprofile.rail import (bar_angles_from_profile, daily_angles, first_order_response, integrate_angles,
+                              settlement_alarms, simulate_site, smooth_through_time, validate_site)
+from longprofile.statespace import StateSpaceModel, kalman_filter, rts_smoother
+
+
+@settings(max_examples=30, deadline=None)
+@given(z=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=12), method=st.sampled_from(
+    ["forward", "backward", "average", "convex"]))
+def test_integration_reconstructs_any_profile_from_its_bar_angles(z, method):
+    z = np.array(z)
+    x = np.arange(z.size) * 3.0
+    got = integrate_angles(x, bar_angles_from_profile(x, z), method=method, z_first=z[0], z_last=z[-1])
+    assert np.allclose(got, z, atol=1e-12)
+
+
+def test_forward_misclosure_and_convex_keeps_both_ends():
+    x = np.linspace(0, 30, 11)
+    biased = np.full(10, 1e-3)  # a constant angle error of 1 mrad on a flat track
+    fwd = integrate_angles(x, biased, method="forward")
+    conv = integrate_angles(x, biased, method="convex")
+    assert fwd[-1] == pytest.approx(30 * np.tan(1e-3))
+    assert conv[0] == 0 and conv[-1] == pytest.approx(0, abs=1e-15)
+    with pytest.raises(InputError, match="method must be one of"):
+        integrate_angles(x, biased, method="spline")
+
+
+def test_first_order_response_matches_scipy_ode_solver():
+    # irregular sampling, temperature linear between samples: oracle = scipy's ODE solver at tight tolerance
+    t = np.sort(np.r_[0.0, np.random.default_rng(0).uniform(0, 48, 300), 48.0])
+    T = 10 + 8 * np.sin(2 * np.pi * t / 24)
+    tau = 3.0
+    ours = first_order_response(t, T, tau)
+    sol = solve_ivp(lambda s, y: (np.interp(s, t, T) - y) / tau, (0, 48), [T[0]], t_eval=t, rtol=1e-10,
+                    atol=1e-10, max_step=0.05)
+    assert np.allclose(ours, sol.y[0], atol=1e-6)
+    assert np.array_equal(first_order_response(t, T, 0.0), T)
+
+
+@pytest.fixture(scope="module")
+def fare_site():
+    syn = simulate_site("farebersviller-like", seed=1, sampling_minutes=30, n_days=12)
+    return syn, validate_site(syn.sensors, syn.readings, syn.survey, syn.controls)
+
+
+def test_linear_debiasing_recovers_the_thermal_coefficients():
+    syn = simulate_site("mittersheim-like", seed=2, sampling_minutes=30, n_days=8)
+    site = validate_site(syn.sensors, syn.readings, syn.survey)
+    da = daily_angles(site, thermal="linear")
+    good = [i for i, s in enumerate(site.sensor_ids) if s not in syn.truth.bad_sensors]
+    assert np.allclose(da.thermal_coef[good], syn.truth.thermal_coef[good], atol=2e-4)
+    assert da.n_outliers.sum() > 0  # the preset has outliers and they are counted, not hidden
+
+
+def test_lagged_model_finds_the_lag_and_beats_linear_on_hysteresis(fare_site):
+    syn, site = fare_site
+    lin = daily_angles(site, thermal="linear")
+    lag = daily_angles(site, thermal="lagged")
+    true = np.rad2deg(syn.truth.slope_change)
+    err_lin = np.sqrt(np.nanmean((lin.change_deg - true) ** 2))
+    err_lag = np.sqrt(np.nanmean((lag.change_deg - true) ** 2))
+    assert err_lag < 0.5 * err_lin
+    assert np.median(np.abs(lag.thermal_lag_hours - syn.truth.thermal_lag_hours)) < 1.0
+    with pytest.raises(InputError, match="thermal must be one of"):
+        daily_angles(site, thermal="cubic")
+
+
+def test_presets_match_the_issue():
+    m = simulate_site("mittersheim-like", seed=0, sampling_minutes=120)
+    assert len(m.sensors) == 58 and m.sensors["x_m"].iloc[-1] == pytest.approx(167.5)
+    assert len(m.truth.days) == 28 and not m.truth.work_days[:7].any() and m.truth.work_days.any()
+    assert -m.truth.settlement.min() == pytest.approx(0.02, rel=0.05)
+    assert set(m.truth.bad_sensors.values()) == {"dead", "reversed"}
+    assert m.readings["temperature_c"].min() == pytest.approx(-5, abs=1.5)
+    assert m.readings["temperature_c"].max() == pytest.approx(15, abs=1.5)
+    f = simulate_site("farebersviller-like", seed=0, sampling_minutes=240)
+    assert len(f.sensors) == 75 and len(f.truth.days) >= 89
+    assert f.truth.thermal_lag_hours.min() > 0
+    assert f.controls["date"].nunique() == 3 and np.allclose(np.diff(np.unique(f.controls["x_m"])), 10)
+    a = simulate_site("mittersheim-like", seed=5, sampling_minutes=120)
+    b = simulate_site("mittersheim-like", seed=5, sampling_minutes=120)
+    pd.testing.assert_frame_equal(a.readings, b.readings)
+    with pytest.raises(InputError, match="unknown preset"):
+        simulate_site("paris")
+
+
+def test_temporal_smoothing_is_the_engine_smoother_per_station():
+    rng = np.random.default_rng(0)
+    D, N = 15, 3
+    truth = np.cumsum(rng.normal(0, 1e-3, (D, N)), axis=0)
+    truth[0] = 0
+    sd = np.full((D, N), 5e-4)
+    obs = truth + rng.normal(0, 5e-4, (D, N))
+    res = smooth_through_time(obs, sd, process_std=1e-3)
+    for j in range(N):
+        model = StateSpaceModel(np.eye(1), np.eye(1), [[1e-6]], sd[:, j].reshape(D, 1, 1) ** 2, [0.0], [[1e-16]])
+        ref = rts_smoother(model, kalman_filter(model, obs[:, j]))
+        assert np.allclose(res.mean[:, j], ref.mean[:, 0], atol=1e-12)
+        var_diff = ref.cov[1:, 0, 0] + ref.cov[:-1, 0, 0] - 2 * ref.cross_cov[:, 0, 0]
+        assert np.allclose(res.rate_std[1:, j], np.sqrt(var_diff))
+    est = smooth_through_time(obs, sd)
+    assert est.process_std in (5e-4, 1e-3, 2e-3)
+
+
+def test_alarm_probabilities_are_gaussian_tail_probabilities():
+    days = pd.date_range("2020-01-01", periods=2).to_numpy()
+    mean = np.array([[0.0, -0.004], [0.0, -0.012]])
+    std = np.full((2, 2), 0.002)
+    al = settlement_alarms(days, ["A", "B"], np.array([0.0, 3.0]), mean, std, threshold_m=0.01,
+                           min_probability=0.01)
+    row = al[(al.date == "2020-01-02") & (al.sensor_id == "B")].iloc[0]
+    assert row.probability == pytest.approx(norm.cdf((-0.01 + 0.012) / 0.002) + norm.sf((0.01 + 0.012) / 0.002))
+    assert set(al.columns) == {"date", "sensor_id", "x_m", "kind", "value", "threshold", "probability"}
+    assert len(settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, threshold_m=1.0)) == 0
+    with pytest.raises(InputError, match="rate threshold needs"):
+        settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, rate_threshold_m_per_day=0.001)

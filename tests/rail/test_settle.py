@@ -1,0 +1,87 @@
+"""The whole job on synthetic truth: accuracy, band coverage, sensor health, controls, options."""
+
+import numpy as np
+import pytest
+
+from longprofile.errors import InputError
+from longprofile.rail import estimate_settlement, simulate_site, validate_site
+
+
+@pytest.fixture(scope="module")
+def mitt():
+    syn = simulate_site("mittersheim-like", seed=0, sampling_minutes=20)
+    site = validate_site(syn.sensors, syn.readings, syn.survey)
+    res = estimate_settlement(site, settlement_threshold_m=0.01, rate_threshold_m_per_day=0.003, n_monte_carlo=300)
+    return syn, site, res
+
+
+def test_mittersheim_accuracy_and_band_coverage(mitt):
+    syn, _, res = mitt
+    err = res.dz - syn.truth.settlement
+    assert np.sqrt(np.mean(err**2)) <= 2e-3
+    # 90 % bands cover 85-95 % of the true values (days after the reference day, interior stations)
+    inside = (np.abs(err) <= 1.6448536 * res.dz_std)[1:, 1:-1]
+    assert 0.85 <= inside.mean() <= 0.95
+    sm = res.smoothed
+    assert np.sqrt(np.mean((sm.mean - syn.truth.settlement) ** 2)) <= 2e-3
+    # the paper's posterior band (prior uncertainty between sensors) is wider than the measurement band
+    assert np.all(res.dz_posterior_std >= res.dz_std - 1e-15)
+
+
+def test_dead_and_reversed_sensors_are_flagged_and_reported(mitt):
+    syn, _, res = mitt
+    flagged = {sid: st for sid, st, _ in res.health.flagged()}
+    assert flagged == syn.truth.bad_sensors
+    for sid in flagged:
+        assert any(f"sensor {sid} excluded" in w for w in res.warnings)
+    table = res.to_table()
+    assert set(table.loc[table.sensor_id.isin(list(flagged)), "status"]) == set(flagged.values())
+    assert len(table) == res.dz.size
+
+
+def test_monte_carlo_max_settlement_and_alarms(mitt):
+    syn, _, res = mitt
+    true_max = -syn.truth.settlement[-1].min()
+    assert abs(res.max_settlement_mean[-1] - true_max) < 3 * res.max_settlement_std[-1]
+    assert res.max_settlement_std[-1] > 0
+    al = res.alarms
+    assert len(al) > 0 and set(al["kind"]) == {"settlement", "rate"}
+    assert al["probability"].between(0.5, 1.0).all()
+    # no settlement alarm before the works (week 1)
+    first_work = str(np.datetime_as_string(syn.truth.days[np.argmax(syn.truth.work_days)], unit="D"))
+    assert (al["date"] >= first_work).all()
+
+
+def test_paper_chain_integrations_are_less_accurate_than_the_posterior(mitt):
+    syn, _, res = mitt
+    rms = {k: np.sqrt(np.mean((v - syn.truth.settlement) ** 2)) for k, v in res.integrated.items()}
+    post = np.sqrt(np.mean((res.dz - syn.truth.settlement) ** 2))
+    assert set(rms) == {"forward", "backward", "average", "convex"}
+    assert post < min(rms.values())
+
+
+def test_options_exclusion_affine_and_errors(mitt):
+    syn, site, _ = mitt
+    res = estimate_settlement(site, exclude_sensors=["S01"], use_affine_correction=True, through_time=False,
+                              n_monte_carlo=0, sigma=2e-5)
+    assert res.smoothed is None and np.isnan(res.max_settlement_mean).all()
+    assert any("affine correction" in w for w in res.warnings)
+    assert dict((s, st) for s, st, _ in res.health.flagged())["S01"] == "improbable"
+    assert res.sigma == 2e-5
+    with pytest.raises(InputError, match="unknown sensor id"):
+        estimate_settlement(site, exclude_sensors=["nope"])
+
+
+def test_farebersviller_lagged_thermal_model_is_closer_to_controls():
+    syn = simulate_site("farebersviller-like", seed=0, sampling_minutes=60, n_days=40)
+    site = validate_site(syn.sensors, syn.readings, syn.survey, syn.controls)
+    rms = {}
+    for thermal in ("linear", "lagged"):
+        res = estimate_settlement(site, thermal=thermal, n_monte_carlo=0)
+        c = res.controls
+        assert c is not None and set(c["date"]) == {"2021-04-06"}
+        rms[thermal] = np.sqrt(np.mean((c["dz_control_m"] - c["dz_estimate_m"]) ** 2))
+        rms[thermal + "_truth"] = np.sqrt(np.mean((res.dz - syn.truth.settlement) ** 2))
+    assert rms["lagged_truth"] < rms["linear_truth"]
+    assert rms["lagged"] < rms["linear"]
+    assert rms["lagged"] < 4e-3  # the control surveys themselves have 2 mm noise
