@@ -64,3 +64,18 @@ def test_waveband_errors():
         waveband_energy(p, bands={"bad": (10.0, 5.0)})
     with pytest.raises(InputError, match="shorter than the window"):
         localized_roughness(iso8608_profile(20.0, 0.1, "A", rng=0), window=25.0, lead_in=5.0)
+
+
+def test_analysis_and_report_on_irregular_stations(tmp_path):
+    from longprofile.report import write_road_report
+    from longprofile.road import analyse_roughness
+
+    p = iso8608_profile(150.0, 0.1, "B", rng=3)
+    keep = np.sort(np.random.default_rng(1).choice(p.n_samples, size=1200, replace=False))
+    irregular = Profile(distance=p.distance[keep], elevation=p.elevation[keep], name="irregular")
+    a = analyse_roughness(irregular, segment_length=50.0)
+    assert a.psd is None and a.iso8608 is None and a.waveband is None
+    assert a.iri.method == "per-step" and "irregular" in a.notes[0]
+    files = write_road_report(a, tmp_path / "rep")
+    page = files[0].read_text()
+    assert "Stations are irregular" in page and "psd.png" not in [f.name for f in files]

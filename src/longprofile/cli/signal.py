@@ -36,9 +36,10 @@ def differentiate(
     out = check_output_path(output, file)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
-    res = derivative(x, dt, method=method, window=window, degree=degree, order=order, noise_std=noise_std,
-                     q_over_r=q_over_r, smooth=True if smooth else None,
-                     steady_state=True if steady_state else None)
+    with console.status(f"differentiating {x.size} samples ({method})..."):
+        res = derivative(x, dt, method=method, window=window, degree=degree, order=order, noise_std=noise_std,
+                         q_over_r=q_over_r, smooth=True if smooth else None,
+                         steady_state=True if steady_state else None)
     write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g})")

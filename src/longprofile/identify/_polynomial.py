@@ -102,9 +102,9 @@ class IdentifiedModel:
                     noise_numerator=None if self.noise_numerator is None else self.noise_numerator.tolist(),
                     dt=self.dt, params=self.params.tolist(), param_names=list(self.param_names),
                     std_errors=self.std_errors.tolist(), covariance=self.covariance.tolist(),
-                    residual_std=self.residual_std, n_iterations=self.n_iterations, converged=self.converged,
-                    stable=self.stable, zeros=c(self.zeros), poles=c(self.poles),
-                    fit_simulation=self.fit_simulation, fit_prediction=self.fit_prediction,
+                    residual_std=float(self.residual_std), n_iterations=int(self.n_iterations),
+                    converged=bool(self.converged), stable=bool(self.stable), zeros=c(self.zeros), poles=c(self.poles),
+                    fit_simulation=float(self.fit_simulation), fit_prediction=float(self.fit_prediction),
                     n_samples=self.n_samples, message=self.message)
 
 
@@ -212,7 +212,7 @@ def _finish(structure, orders, b, a, c, dt, theta, names, J, resid, res, u, y, o
     cov, se, sigma2 = _covariance(J, resid, theta.size)
     poles = _roots(a)
     stable = bool(np.all(np.abs(poles) < 1)) and (c is None or bool(np.all(np.abs(_roots(c)) < 1)))
-    converged = bool(res.success) and np.all(np.isfinite(theta))
+    converged = bool(res.success) and bool(np.all(np.isfinite(theta)))
     ysim = signal.lfilter(b, a, u) if stable else np.full_like(y, np.nan)
     model = IdentifiedModel(
         structure=structure, orders=orders, numerator=b, denominator=a, noise_numerator=c,

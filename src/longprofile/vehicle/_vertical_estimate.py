@@ -315,7 +315,7 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     :func:`vertical_ekf_model`. Absolute velocities (thesis §6.5), all causal:
 
     * config 1: a "handling" body model driven by a_x, a_y, psidd (wheels fixed) plus a "comfort" body
-      model driven by the road-induced part of the estimated relative motion; sum, high-pass 0.2 Hz and
+      model driven by the road-induced suspension forces ``F(estimate) - F(handling)``; sum, high-pass 0.2 Hz and
       2nd-order low-pass 3 Hz / damping 0.4. Wheel: ``Z1dot = Z2dot_comfort - dZ21dot_road``, high-pass
       0.3 Hz, low-pass 100 Hz.
     * config 2: body accelerometer -> high-pass 0.3 Hz -> integral -> high-pass 0.1 Hz; wheel
@@ -374,12 +374,10 @@ def _integrate(a, dt):
 
 
 @njit(cache=True)
-def _body_models(dz_in, dzd_in, u, corner, coupling, scalars, dt, handling):
-    """Euler integration of the body-corner equation (thesis (3.7)).
+def _handling_model(u, corner, coupling, scalars, dt):
+    """Thesis handling model (4.9): body on its suspensions, wheels held fixed, driven by a_x, a_y, psidd.
 
-    handling=True: body on its suspensions with the wheels held fixed, driven by a_x, a_y, psidd
-    (thesis handling model (4.9)); returns its corner velocities and relative motion.
-    handling=False: body driven by the suspension forces of the given relative motion (comfort model (4.10)).
+    Explicit Euler; returns the corner velocities Z2dot_h (T, 4) and displacements (= relative motion) (T, 4).
     """
     T = u.shape[0]
     z2 = np.zeros(4)
@@ -390,23 +388,47 @@ def _body_models(dz_in, dzd_in, u, corner, coupling, scalars, dt, handling):
     ks = np.empty(4)
     cd = np.empty(4)
     zero = np.zeros(4)
-    tau = scalars[1]
     for k in range(T):
-        if handling:
-            suspension_tensions(z2, z2d, zero, corner, tau, F, ks, cd)
-        else:
-            suspension_tensions(dz_in[k], dzd_in[k], zero, corner, tau, F, ks, cd)
-        vel[k] = z2d
-        rel[k] = z2
+        suspension_tensions(z2, z2d, zero, corner, scalars[1], F, ks, cd)
         for c in range(4):
-            acc = 0.0
-            if handling:
-                acc = corner[c, 14] * u[k, 0] + corner[c, 15] * u[k, 1] + corner[c, 16] * u[k, 2]
+            vel[k, c] = z2d[c]
+            rel[k, c] = z2[c]
+        for c in range(4):
+            acc = corner[c, 14] * u[k, 0] + corner[c, 15] * u[k, 1] + corner[c, 16] * u[k, 2]
             for e in range(4):
                 acc -= coupling[c, e] * F[e]
             z2d[c] += dt * acc
             z2[c] += dt * vel[k, c]
     return vel, rel
+
+
+@njit(cache=True)
+def _comfort_model(dz, dzd, dz_h, dzd_h, corner, coupling, scalars, dt):
+    """Thesis comfort model (4.10): body-corner velocity driven by the road-induced suspension forces.
+
+    The road-induced force is ``F(estimated relative motion) - F(handling-model relative motion)`` (the
+    exact superposition of the forces; the thesis feeds the difference of the motions into F, which the
+    strongly non-linear damper at low speed does not tolerate). Explicit Euler; returns (T, 4) velocities.
+    """
+    T = dz.shape[0]
+    z2d = np.zeros(4)
+    vel = np.zeros((T, 4))
+    F = np.empty(4)
+    Fh = np.empty(4)
+    ks = np.empty(4)
+    cd = np.empty(4)
+    zero = np.zeros(4)
+    for k in range(T):
+        suspension_tensions(dz[k], dzd[k], zero, corner, scalars[1], F, ks, cd)
+        suspension_tensions(dz_h[k], dzd_h[k], zero, corner, scalars[1], Fh, ks, cd)
+        for c in range(4):
+            vel[k, c] = z2d[c]
+        for c in range(4):
+            acc = 0.0
+            for e in range(4):
+                acc -= coupling[c, e] * (F[e] - Fh[e])
+            z2d[c] += dt * acc
+    return vel
 
 
 def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspension_velocity, u, *,
@@ -418,11 +440,10 @@ def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspens
     comp = gx * sensors.ax[:, None] + gy * sensors.ay[:, None]
     if config == 1:
         corner, coupling, scalars = vertical_params_arrays(params)
-        hv, hrel = _body_models(suspension_deflection, suspension_velocity, np.ascontiguousarray(u), corner,
-                                coupling, scalars, dt, True)
-        road_dz = np.ascontiguousarray(suspension_deflection - hrel)
-        road_dzd = np.ascontiguousarray(suspension_velocity - hv)
-        cv, _ = _body_models(road_dz, road_dzd, np.ascontiguousarray(u), corner, coupling, scalars, dt, False)
+        hv, hrel = _handling_model(np.ascontiguousarray(u), corner, coupling, scalars, dt)
+        cv = _comfort_model(np.ascontiguousarray(suspension_deflection), np.ascontiguousarray(suspension_velocity),
+                            hrel, hv, corner, coupling, scalars, dt)
+        road_dzd = suspension_velocity - hv
         body = signal.sosfilt(_sos(1, 0.2, "high", dt), hv + cv, axis=0)
         body = signal.sosfilt(_second_order_lowpass(3.0, 0.4, dt), body, axis=0)
         wheel = signal.sosfilt(_sos(1, 0.3, "high", dt), cv - road_dzd, axis=0)

@@ -1,0 +1,88 @@
+"""``longprofile road simulate | reconstruct | identify`` (CliRunner, in process)."""
+
+import json
+
+import numpy as np
+import pandas as pd
+from scipy import signal
+from typer.testing import CliRunner
+
+from longprofile.cli.app import app, main
+from longprofile.road.apl import apl_model
+
+runner = CliRunner()
+
+
+def _run(args):
+    return runner.invoke(app, args, catch_exceptions=True)
+
+
+def test_simulate_then_reconstruct_three_methods(tmp_path):
+    rec = tmp_path / "rec.csv"
+    r = _run(["road", "simulate", "-o", str(rec), "--length", "200", "--seed", "1", "--plot", str(tmp_path / "r.png")])
+    assert r.exit_code == 0, r.output
+    df = pd.read_csv(rec)
+    assert list(df.columns) == ["distance_m", "true_m", "apl_m"] and len(df) == 4001
+    assert (tmp_path / "r.png").stat().st_size > 1000
+    for method in ("smoother", "filter", "double"):
+        out = tmp_path / f"{method}.csv"
+        args = ["road", "reconstruct", str(rec), "--speed", "20", "--dx", "0.05", "--method", method, "-o", str(out)]
+        if method == "smoother":
+            args += ["--plot", str(tmp_path / "p.png")]
+        if method == "filter":
+            args += ["--q", "2e-6", "--r", "1e-8"]
+        r = _run(args)
+        assert r.exit_code == 0, r.output
+        prof = pd.read_csv(out)
+        assert list(prof.columns) == ["distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m"]
+        assert np.isfinite(prof["elevation_m"]).all()
+    assert (tmp_path / "p.png").stat().st_size > 1000
+
+
+def test_reconstruct_bad_inputs_are_one_line_errors(tmp_path, capsys):
+    rec = tmp_path / "rec.csv"
+    assert _run(["road", "simulate", "-o", str(rec), "--length", "100"]).exit_code == 0
+    out = str(tmp_path / "o.csv")
+    assert main(["road", "reconstruct", str(rec), "--dx", "0.1", "-o", out]) == 2
+    assert "0.05 m apart but --dx is 0.1" in capsys.readouterr().err.replace("\n", " ")
+    assert main(["road", "reconstruct", str(rec), "--speed", "15", "-o", out]) == 2
+    assert "no Table 1 calibration" in capsys.readouterr().err.replace("\n", " ")
+    short = tmp_path / "short.csv"
+    pd.read_csv(rec).iloc[:50].to_csv(short, index=False)
+    assert main(["road", "reconstruct", str(short), "-o", out]) == 2
+    assert "need at least" in capsys.readouterr().err.replace("\n", " ")
+    gap = tmp_path / "gap.csv"
+    df = pd.read_csv(rec)
+    df.loc[100:120, "apl_m"] = np.nan
+    df.to_csv(gap, index=False)
+    assert main(["road", "reconstruct", str(gap), "--method", "double", "-o", out]) == 2
+    assert "missing" in capsys.readouterr().err
+    # the Kalman methods bridge the gap (documented), with a larger posterior std there
+    assert main(["road", "reconstruct", str(gap), "--q", "2e-6", "--r", "1e-8", "-o", out]) == 0
+    prof = pd.read_csv(out)
+    assert prof["raw_std_m"][110] > prof["raw_std_m"][90]
+
+
+def test_identify_writes_a_model_loadable_by_reconstruct(tmp_path):
+    m = apl_model(20.0, 0.05)
+    n = 5000
+    k = np.arange(n)
+    u = np.where(((k + 250) // 500) % 2 == 1, 0.01, 0.0)
+    y = signal.lfilter(m.numerator, m.denominator, u) + np.random.default_rng(0).normal(0, 2e-5, n)
+    pd.DataFrame(dict(u=u)).to_csv(tmp_path / "u.csv", index=False)
+    pd.DataFrame(dict(y=y)).to_csv(tmp_path / "y.csv", index=False)
+    model = tmp_path / "model.json"
+    r = _run(["road", "identify", "--input", str(tmp_path / "u.csv"), "--output", str(tmp_path / "y.csv"),
+              "--orders", "5", "6", "0", "-o", str(model), "--plot", str(tmp_path / "id.png")])
+    assert r.exit_code == 0, r.output
+    data = json.loads(model.read_text())
+    assert data["model"]["dx"] == 0.05 and data["model"]["speed"] == 20.0
+    assert data["fit"]["converged"] and data["fit"]["stable"]
+    rec = tmp_path / "rec.csv"
+    assert _run(["road", "simulate", "-o", str(rec), "--length", "100"]).exit_code == 0
+    r = _run(["road", "reconstruct", str(rec), "--model", str(model), "--q", "2e-6", "--r", "1e-8",
+              "-o", str(tmp_path / "p.csv")])
+    assert r.exit_code == 0, r.output
+    # a model identified for another spacing is refused
+    assert main(["road", "reconstruct", str(rec), "--model", str(model), "--dx", "0.15", "-o",
+                 str(tmp_path / "q.csv")]) == 2

@@ -1,0 +1,60 @@
+"""``longprofile rail simulate | settle`` in process (CliRunner) and the error contract (exit 2, one line)."""
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from longprofile.cli.app import app, main
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def site_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("site")
+    res = runner.invoke(app, ["rail", "simulate", "--preset", "farebersviller-like", "-o", str(out), "--days", "36",
+                              "--sampling-minutes", "120", "--seed", "1", "--plot", str(out / "truth.png")])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_simulate_writes_the_tables(site_dir):
+    for name in ("sensors", "readings", "survey", "controls", "truth"):
+        assert (site_dir / f"{name}.csv").exists()
+    assert (site_dir / "truth.png").stat().st_size > 1000
+    assert set(pd.read_csv(site_dir / "readings.csv").columns) == {"timestamp", "sensor_id", "angle_deg",
+                                                                     "temperature_c"}
+
+
+def test_settle_writes_table_plot_and_report(site_dir, tmp_path):
+    out = tmp_path / "settlement.csv"
+    args = ["rail", "settle", "--sensors", str(site_dir / "sensors.csv"), "--readings", str(site_dir / "readings.csv"),
+            "--survey", str(site_dir / "survey.csv"), "--controls", str(site_dir / "controls.csv"), "-o", str(out),
+            "--plot", str(tmp_path / "s.png"), "--report", str(tmp_path / "report"), "--thermal", "lagged",
+            "--settlement-threshold-mm", "5", "--monte-carlo", "50"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(out)
+    truth = pd.read_csv(site_dir / "truth.csv")
+    assert len(table) == len(truth)
+    merged = table.merge(truth, on=["date", "sensor_id"])
+    assert ((merged.dz_m - merged.dz_true_m) ** 2).mean() ** 0.5 < 3e-3
+    assert {"dz_lower90_m", "dz_upper90_m", "rate_m_per_day", "status"} <= set(table.columns)
+    html = (tmp_path / "report" / "index.html").read_text()
+    for section in ("Flagged sensors", "Alarms", "Control surveys", "Settlement profiles per day"):
+        assert section in html
+    assert (tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
+    bad = pd.read_csv(site_dir / "readings.csv")
+    bad.loc[0, "sensor_id"] = "ghost"
+    bad.to_csv(tmp_path / "bad.csv", index=False)
+    code = main(["rail", "settle", "--sensors", str(site_dir / "sensors.csv"), "--readings", str(tmp_path / "bad.csv"),
+                 "--survey", str(site_dir / "survey.csv"), "-o", str(tmp_path / "o.csv")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "ghost" in err and "Traceback" not in err
+    code = main(["rail", "simulate", "--preset", "nowhere", "-o", str(tmp_path / "x")])
+    assert code == 2
+    assert "unknown preset" in capsys.readouterr().err
