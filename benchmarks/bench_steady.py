@@ -8,6 +8,8 @@ Rows
 - steady-state smoother (``store_filtered=False``, the road helper's low-memory mode): samples/s.
 - EKF with numba-jitted f, h and Jacobians, n=3, m=2: microseconds per step (target <= 2), and the ratio
   of filterpy's ``ExtendedKalmanFilter`` time per step to ours (same model, same data).
+- Luenberger observer, continuous model n=2 m=1 run at 1 kHz: real-time factor on a one-hour log (issue 6
+  asks EKF + observer >= 500x real time).
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ from longprofile.statespace import (
     StateSpaceModel,
     extended_kalman_filter,
     kalman_filter,
+    luenberger_gain,
+    luenberger_observer,
     steady_state_filter,
     steady_state_smoother,
 )
@@ -116,7 +120,8 @@ def run(quick: bool) -> list[BenchRow]:
     steady_state_smoother(model, y[:100], store_filtered=False)
     t_ss = best_time(lambda: steady_state_filter(model, y), repeat=3)  # includes solving the DARE
     rate = T / t_ss
-    rows.append(BenchRow(AREA, "steady_state_filter n=6 m=1", rate, "samples/s", target=2e7,
+    # targets apply to the full sizes only (quick mode is dominated by fixed per-call costs)
+    rows.append(BenchRow(AREA, "steady_state_filter n=6 m=1", rate, "samples/s", target=None if quick else 2e7,
                          detail=f"T={T}, full FilterResult (means, pred means, innovations, loglik)"))
     kalman_filter(model, y[:100], store_covariances=False)
     t_kf = best_time(lambda: kalman_filter(model, y[:T_general], store_covariances=False), repeat=2)
@@ -134,7 +139,7 @@ def run(quick: bool) -> list[BenchRow]:
     extended_kalman_filter(ekf_model, y2[:10])  # compile (once per process for these functions)
     t_e = best_time(lambda: extended_kalman_filter(ekf_model, y2), repeat=3)
     us = t_e / T_ekf * 1e6
-    rows.append(BenchRow(AREA, "EKF n=3 m=2 jitted f/h/Jacobians", us, "us/step", target=2.0,
+    rows.append(BenchRow(AREA, "EKF n=3 m=2 jitted f/h/Jacobians", us, "us/step", target=None if quick else 2.0,
                          higher_is_better=False, detail=f"T={T_ekf}, covariances and Jacobians stored"))
     t_lean = best_time(lambda: extended_kalman_filter(ekf_model, y2, store_covariances=False), repeat=3)
     rows.append(BenchRow(AREA, "EKF n=3 m=2 jitted, means only", t_lean / T_ekf * 1e6, "us/step",
@@ -142,4 +147,16 @@ def run(quick: bool) -> list[BenchRow]:
     t_fp = _filterpy_ekf_time(y2[:T_fp])
     rows.append(BenchRow(AREA, "EKF speed-up vs filterpy ExtendedKalmanFilter", (t_fp / T_fp) / (t_e / T_ekf), "x",
                          detail=f"filterpy {t_fp / T_fp * 1e6:.3g} us/step on T={T_fp}"))
+    # ---------------------------------------------------------- Luenberger observer at 1 kHz
+    T_obs = 100_000 if quick else 3_600_000
+    A = np.array([[0.0, 1.0], [0.0, -0.1]])
+    B = np.array([[0.0], [1.0]])
+    C = np.array([[1.0, 0.0]])
+    L = luenberger_gain(A, C, [-5.0, -6.0])
+    y3 = np.random.default_rng(3).standard_normal(T_obs)
+    u3 = np.ones((T_obs, 1))
+    luenberger_observer(A, B, C, L, y3[:10], u=u3[:10], dt=1e-3)
+    t_o = best_time(lambda: luenberger_observer(A, B, C, L, y3, u=u3, dt=1e-3), repeat=3)
+    rows.append(BenchRow(AREA, "luenberger_observer n=2 m=1 at 1 kHz", (T_obs * 1e-3) / t_o, "x real time",
+                         detail=f"T={T_obs} samples ({T_obs * 1e-3:.0f} s of log)"))
     return rows

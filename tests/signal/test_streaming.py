@@ -117,3 +117,20 @@ def test_errors():
     est.update(np.zeros((10, 2)))
     with pytest.raises(ShapeError, match="keep the stream's shape"):
         est.update(np.zeros(10))
+
+
+@settings(max_examples=20, deadline=None)
+@given(window=st.integers(1, 30), degree=st.integers(1, 4), nan_at=st.lists(st.integers(0, 799), max_size=8),
+       block=st.integers(1, 300))
+def test_random_nans_match_the_fir_exactly_in_pattern_and_value(window, degree, nan_at, block):
+    window = max(window, degree)
+    x = _signal(800, seed=3)
+    x[nan_at] = np.nan
+    est = StreamingDerivative(1e-3, window=window, degree=degree)
+    out = np.concatenate([est.update(x[i:i + block]) for i in range(0, x.size, block)])
+    ref = lfilter(ml_coefficients_float(window, degree) / 1e-3, 1.0, x)
+    ref[:window] = np.nan
+    np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
+    ok = ~np.isnan(ref)
+    if ok.any():
+        np.testing.assert_allclose(out[ok], ref[ok], rtol=1e-9, atol=1e-9 * np.abs(ref[ok]).max())

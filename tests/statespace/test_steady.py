@@ -79,6 +79,9 @@ def test_gain_solves_dare_and_stabilises(seed, n, m):
     assert np.abs(resid).max() <= 1e-9 * max(1.0, np.abs(P).max())
     assert np.max(np.abs(np.linalg.eigvals((np.eye(n) - ss.gain @ H) @ F))) < 1.0
     assert np.all(np.linalg.eigvalsh(P - ss.cov) >= -1e-10)  # measurement update never adds uncertainty
+    assert ss.closed_loop_radius == pytest.approx(np.max(np.abs(np.linalg.eigvals((np.eye(n) - ss.gain @ H) @ F))))
+    Ps = steady_state_smoothed_cov(model)
+    assert np.all(np.linalg.eigvalsh(ss.cov - Ps) >= -1e-10 * np.abs(ss.cov).max())  # smoothing never adds either
 
 
 @pytest.mark.parametrize("p, offsets", [(0, False), (2, True)])
@@ -120,6 +123,18 @@ def test_smoother_equals_rts_after_transient(p, offsets):
     lean = steady_state_smoother(model, y, u=u, store_filtered=False, gain=steady_state_gain(model))
     assert lean.filtered is None
     np.testing.assert_array_equal(lean.mean, fast.mean)
+
+
+def test_singular_predicted_covariance():
+    # a deterministic stable state (no process noise) makes P_p exactly singular: the smoother gain must
+    # not blow up (minimum-norm solution) and still equal the exact smoother
+    F = np.array([[0.5, 0.0], [0.3, 0.9]])
+    model = StateSpaceModel(F, np.array([[1.0, 1.0]]), np.diag([0.0, 1.0]), np.eye(1), np.zeros(2), np.eye(2))
+    assert np.linalg.matrix_rank(steady_state_gain(model).pred_cov) == 1
+    y = np.random.default_rng(14).standard_normal(400)
+    exact = rts_smoother(model, kalman_filter(model, y))
+    np.testing.assert_allclose(steady_state_smoother(model, y).mean[100:], exact.mean[100:], atol=1e-10)
+    np.testing.assert_allclose(steady_state_smoothed_cov(model), exact.cov[200], atol=1e-10)
 
 
 def test_batched_equals_loop():

@@ -64,7 +64,7 @@ def test_log_round_trip_and_missing_channels(low_mu, tmp_path):
     assert tuple(frame.columns) == LOG_COLUMNS
     back = DriveLog.from_frame(frame)
     np.testing.assert_array_equal(back.wheel_speeds, low_mu.log.wheel_speeds)
-    with pytest.raises(InputFormatError, match=r"x.csv: missing channel\(s\) wheel_speed_rr \[rad/s\], yaw_rate \[rad/s\]"):
+    with pytest.raises(InputFormatError, match=r"x.csv: missing channel\(s\) wheel_speed_rr \(rad/s\), yaw_rate \(rad/s\)"):
         DriveLog.from_frame(frame.drop(columns=["yaw_rate", "wheel_speed_rr"]), source="x.csv")
     frame.loc[5, "accel_x"] = np.nan
     with pytest.raises(InputFormatError, match="column 'accel_x' has a missing or non-numeric value at row 5"):

@@ -58,7 +58,7 @@ def slope(
     log: Path = typer.Argument(..., help="Drive log (.csv or .parquet) with the channels of docs/vehicle-slope.md."),
     output: Path = typer.Option(..., "--output", "-o", help="States file to write (.csv or .parquet)."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
-    method: str = typer.Option("cascade", "--method", help="cascade (EKF + Luenberger, paper 001) or joint (one EKF)."),
+    method: str = typer.Option("cascade", "--method", help="cascade (EKF + Luenberger, paper 001) or joint (one EKF with the grade in the state)."),
     poles: str = typer.Option("-5,-7", "--poles", help="Luenberger observer poles, 1/s (cascade)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
 ):

@@ -15,6 +15,7 @@ DEMO_STEPS = [
     ("Kalman smoothing (state-space engine)", "longprofile.statespace._demo"),
     ("road profile from the APL trailer (paper 000)", "longprofile.road._demo_apl"),
     ("IRI report on the APL reconstruction (ASTM E1926, ISO 8608)", "longprofile.road._demo_report"),
+    ("rail settlement from inclinometers (paper 004)", "longprofile.rail._demo"),
 ]
 
 

@@ -62,7 +62,8 @@ class SensorHealth:
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
-        return [(s, st, d) for s, st, d, e in zip(self.sensor_ids, self.status, self.detail, self.excluded) if e]
+        return [(str(s), str(st), str(d)) for s, st, d, e in zip(self.sensor_ids, self.status, self.detail, self.excluded)
+                if e]
 
 
 def loo_residuals(x, slopes, *, sigma, rigidity, sigma_z):

@@ -344,9 +344,20 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     Y[:, :, 0] = M
     Y[:, -1, 1] = z_ends[1]
     D = M.shape[0]
+    pattern = np.isnan(M)
+    if (pattern == pattern[0]).all():  # the usual case: one covariance pass, shared (read-only views)
+        sm = shared_covariance_smoother(model, Y)
+        sc = np.broadcast_to(sm.cov, (D,) + sm.cov.shape)
+        cc = np.broadcast_to(sm.cross_cov, (D,) + sm.cross_cov.shape)
+        zstd = np.broadcast_to(np.sqrt(sm.cov[:, 0, 0]), (D, N))
+        tstd = np.broadcast_to(np.sqrt(sm.cov[:, 1, 1]), (D, N))
+        zm, tm, ll = sm.mean[..., 0], sm.mean[..., 1], sm.filtered.log_likelihood
+        if not batched:
+            zm, tm, sc, cc, ll, zstd, tstd = zm[0], tm[0], sc[0], cc[0], float(ll[0]), zstd[0], tstd[0]
+        return ProfilePosterior(x=x, z_mean=zm, slope_mean=tm, z_std=zstd, slope_std=tstd, station_cov=sc,
+                                cross_cov=cc, full_cov=None, log_likelihood=ll, method="state-space")
     zm = np.empty((D, N)); tm = np.empty((D, N))
     sc = np.empty((D, N, 2, 2)); cc = np.empty((D, N - 1, 2, 2)); ll = np.empty(D)
-    pattern = np.isnan(M)
     uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
     for g in range(uniq.shape[0]):
         rows = np.nonzero(inv.ravel() == g)[0]

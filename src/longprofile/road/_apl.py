@@ -255,7 +255,8 @@ def apl_model(speed: float = 20.0, dx: float = 0.05, *, poles: TrailerPoles | No
             raise InputError(
                 f"no Table 1 calibration for speed {V} m/s and dx {h} m; the paper calibrates only "
                 f"{sorted(TABLE1_CONFIGURATIONS)} (speed m/s, dx m). Pass poles=TrailerPoles(...) "
-                "from your own trailer calibration.")
+                "from your own trailer calibration, or identify the trailer at this configuration "
+                "(CLI: road identify, then --model model.json).")
         poles = TABLE1_CONFIGURATIONS[key]
     dt = h / V
     nyquist = 0.5 / dt

@@ -48,7 +48,7 @@ def _check_int(name: str, value, minimum: int) -> int:
     return value
 
 
-def _check_design(window, degree, order, *, exact_fit_ok: bool = True) -> tuple[int, int, int]:
+def _check_design(window, degree, order) -> tuple[int, int, int]:
     """Validate (window N, degree d, derivative order r): 1 <= d <= 6, N >= d, 0 <= r <= d."""
     degree = _check_int("degree", degree, 1)
     if degree > _MAX_DEGREE:

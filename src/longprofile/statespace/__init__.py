@@ -24,6 +24,7 @@ Nonlinear inference
 NonlinearStateSpaceModel -- x' = f(x, u, k) + w, y = h(x, u, k) + v (numba-jitted f, h run compiled).
 extended_kalman_filter -- EKF (Joseph form, NaN = missing), stores the Jacobians used.
 extended_rts_smoother  -- EKF smoother on the stored linearisations and predicted moments.
+block_extended_kalman_filter -- decentralised EKF: local EKFs per state block, coupled through the means (thesis 003).
 
 Observers
 ---------
@@ -48,6 +49,7 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 ``cross_cov[t]`` = Cov(x_t, x_{t+1} | y).
 """
 
+from ._block_ekf import block_extended_kalman_filter
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
 from ._mle import MLEResult, fit_mle
@@ -78,6 +80,7 @@ __all__ = [
     "NonlinearStateSpaceModel",
     "extended_kalman_filter",
     "extended_rts_smoother",
+    "block_extended_kalman_filter",
     "ObserverResult",
     "luenberger_gain",
     "luenberger_observer",

@@ -95,8 +95,8 @@ def _cov_pass(F, Q, H, R, P0, obs):
 
 
 @njit(cache=True)
-def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):
-    """Means of every series through the shared gains (filter then smoother)."""
+def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):  # pragma: no cover - compiled
+    """Means of every series through the shared gains (filter then smoother); no allocation inside the loops."""
     B, T, m = Y.shape
     n = x0.shape[0]
     mf = np.empty((B, T, n))
@@ -105,8 +105,11 @@ def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):
     innov = np.full((B, T, m), np.nan)
     ll = np.zeros((B, T))
     e = np.zeros(m)
+    x = np.empty(n)
+    xn = np.empty(n)
     for b in range(B):
-        x = x0.copy()
+        for i in range(n):
+            x[i] = x0[i]
         for k in range(T):
             for i in range(n):
                 mp[b, k, i] = x[i]
@@ -125,24 +128,22 @@ def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):
                     if obs[k, j]:
                         for jj in range(m):
                             quad += e[j] * Sinv[k, j, jj] * e[jj]
-                xn = x.copy()
                 for i in range(n):
                     acc = 0.0
                     for j in range(m):
                         acc += K[k, i, j] * e[j]
-                    xn[i] = x[i] + acc
-                x = xn
+                    x[i] += acc
                 ll[b, k] = -0.5 * (n_obs_step[k] * 1.8378770664093453 + logdet[k] + quad)
             for i in range(n):
                 mf[b, k, i] = x[i]
             if k < T - 1:
-                xn = np.empty(n)
                 for i in range(n):
                     acc = c[k, i]
                     for jj in range(n):
                         acc += F[k, i, jj] * x[jj]
                     xn[i] = acc
-                x = xn
+                for i in range(n):
+                    x[i] = xn[i]
         for i in range(n):
             ms[b, T - 1, i] = mf[b, T - 1, i]
         for k in range(T - 2, -1, -1):

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve, solve_discrete_are, solve_discrete_lyapunov
+from scipy.linalg import LinAlgError, LinAlgWarning, cho_factor, cho_solve, solve_discrete_are, solve_discrete_lyapunov
 
 from ..errors import InputError, ModelError, NotDetectableError, ShapeError
 from ._kalman import prepare_inputs, prepare_observations
@@ -19,6 +20,8 @@ __all__ = ["SteadyStateGain", "steady_state_gain", "steady_state_filter", "stead
 _LOG2PI = float(np.log(2.0 * np.pi))
 # Relative tolerance of the PBH rank tests and of "on the unit circle".
 _PBH_RTOL = 1e-9
+# Largest accepted relative residual of the DARE / Lyapunov solutions (max |residual| / max |P|).
+_DARE_RTOL = 1e-8
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,12 +38,17 @@ class SteadyStateGain:
         Stationary filtered covariance Cov(x_k | y_<=k) = (I - K H) P (Joseph form).
     innovation_cov : (m, m) ndarray
         Stationary innovation covariance S = H P H' + R.
+    closed_loop_radius : float
+        Spectral radius rho of the filter's closed loop (I - K H) F. The start-up transient of
+        the constant-gain filter (where it differs from :func:`kalman_filter`) decays like rho^k:
+        about ln(1e-8) / ln(rho) samples to 1e-8. Close to 1 means a slow, nearly undetectable mode.
     """
 
     gain: np.ndarray
     pred_cov: np.ndarray
     cov: np.ndarray
     innovation_cov: np.ndarray
+    closed_loop_radius: float = float("nan")
 
 
 def _sym(a):
@@ -176,8 +184,18 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
                                  "detectable and Q excites every marginally stable mode.") from None
     P = _sym(P)
     S = _sym(H @ P @ H.T + R)
-    cS = cho_factor(S, lower=True)
+    try:
+        cS = cho_factor(S, lower=True)
+    except np.linalg.LinAlgError:
+        raise NotDetectableError("the Riccati solution gives a non-positive-definite innovation covariance; the "
+                                 "model is too ill-conditioned for a steady-state filter.") from None
     K = cho_solve(cS, H @ P).T
+    resid = F @ P @ F.T - F @ P @ H.T @ cho_solve(cS, H @ P @ F.T) + Q - P
+    scale = max(float(np.abs(P).max()), float(np.abs(Q).max()), np.finfo(float).tiny)
+    if not np.all(np.isfinite(P)) or float(np.abs(resid).max()) > _DARE_RTOL * scale:
+        raise NotDetectableError(f"the Riccati solution is inaccurate (relative residual "
+                                 f"{float(np.abs(resid).max()) / scale:.3g} > {_DARE_RTOL:g}): the model is close to "
+                                 "undetectable or badly scaled. Rescale the states, or use kalman_filter.")
     A = (np.eye(n) - K @ H) @ F
     rho = float(np.max(np.abs(np.linalg.eigvals(A)), initial=0.0))
     if not np.all(np.isfinite(P)) or rho >= 1.0:
@@ -188,17 +206,27 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     for arr in (K, P, Pf, S):
         arr.setflags(write=False)
     del m
-    return SteadyStateGain(gain=K, pred_cov=P, cov=Pf, innovation_cov=S)
+    return SteadyStateGain(gain=K, pred_cov=P, cov=Pf, innovation_cov=S, closed_loop_radius=rho)
 
 
 def _smoother_gain(model: StateSpaceModel, ss: SteadyStateGain) -> np.ndarray:
     """Constant RTS gain G = P_f F' P_p^-1 (solve, pseudo-inverse if P_p is singular)."""
     F = model.transition
-    rhs = F @ ss.cov  # = (P_f F')'
-    try:
-        return np.linalg.solve(ss.pred_cov, rhs).T
-    except np.linalg.LinAlgError:
-        return (np.linalg.pinv(ss.pred_cov) @ rhs).T
+    Pp = ss.pred_cov
+    rhs = F @ ss.cov  # = (P_f F')', so G' solves P_p G' = rhs
+    target = float(np.abs(rhs).max()) or 1.0
+    d = np.sqrt(np.diag(Pp))
+    if np.all(d > 0):
+        # equilibrate (states of very different scales) before the solve
+        try:
+            Gt = np.linalg.solve(Pp / np.outer(d, d), rhs / d[:, None]) / d[:, None]
+            if float(np.abs(Pp @ Gt - rhs).max()) <= 1e-10 * target:
+                return Gt.T
+        except np.linalg.LinAlgError:
+            pass
+    # singular P_p (deterministic state combinations): minimum-norm solution, directions of zero
+    # predicted variance carry no smoothing correction
+    return (np.linalg.pinv(Pp, rcond=1e-13, hermitian=True) @ rhs).T
 
 
 def steady_state_smoothed_cov(model: StateSpaceModel) -> np.ndarray:
@@ -234,8 +262,18 @@ def steady_state_smoothed_cov(model: StateSpaceModel) -> np.ndarray:
     if rho >= 1.0:
         raise NotDetectableError(f"the steady-state smoother gain is not stable (spectral radius {rho:.6g} >= 1), "
                                  "so the smoothed covariance has no fixed point.")
-    Ps = solve_discrete_lyapunov(G, _sym(ss.cov - G @ ss.pred_cov @ G.T))
+    C = _sym(ss.cov - G @ ss.pred_cov @ G.T)
+    with warnings.catch_warnings():
+        # scipy warns on the ill-conditioned Kronecker system when rho(G) is close to 1 (slow smoother
+        # modes, e.g. the APL model); the residual check below decides instead.
+        warnings.simplefilter("ignore", LinAlgWarning)
+        Ps = solve_discrete_lyapunov(G, C, method="direct" if G.shape[0] <= 12 else "bilinear")
     Ps = _sym(Ps)
+    resid = float(np.abs(Ps - G @ Ps @ G.T - C).max())
+    if not np.all(np.isfinite(Ps)) or resid > _DARE_RTOL * max(float(np.abs(Ps).max()), np.finfo(float).tiny):
+        raise NotDetectableError(f"the steady-state smoothed covariance could not be solved accurately (relative "
+                                 f"Lyapunov residual {resid / max(float(np.abs(Ps).max()), 1e-300):.3g}; smoother "
+                                 f"gain spectral radius {rho:.8g}). Use rts_smoother's covariance instead.")
     Ps.setflags(write=False)
     return Ps
 

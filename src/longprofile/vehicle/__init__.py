@@ -15,6 +15,18 @@ slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
 EKFTuning             -- EKF noise settings.
 plot_slope_estimate / plot_drive -- figures.
+
+Vertical states (thesis 003, Plancke: 7-DOF model, per-corner EKFs)
+-------------------------------------------------------------------
+VerticalVehicleParams -- 7-DOF vertical model parameters (thesis Audi A8 set).
+simulate_vertical     -- RK4 simulator of heave/roll/pitch + 4 wheels; VerticalSimulation.
+wheel_road_inputs / bench_sweep_road / steering_sine_manoeuvre -- road, 4-poster sweep and track inputs.
+measure_vertical      -- sensors of configurations 1-3 (VerticalSensors); sensors_to_frame / sensors_from_frame.
+vertical_ekf_model / vertical_ekf_inputs -- corner EKF model (16 stacked states) and its input rows.
+estimate_vertical_states -- per-corner EKFs + absolute velocities; VerticalStateEstimate.
+CornerFilterSettings / thesis_filter_settings -- Q/R/P0 of the thesis per configuration.
+corner_observability  -- SVD observability analysis of the corner models; ObservabilityResult.
+epsilon_score / score_vertical_estimate / reproduce_thesis_tables -- the thesis criterion and Tables 4.4/4.5.
 """
 
 from ._car import Vehicle, default_vehicle, load_vehicle
@@ -24,6 +36,14 @@ from ._planar_sim import (LOG_COLUMNS, SCENARIOS, DriveLog, DriveScenario, Drive
 from ._slope import (EKFTuning, SlopeEstimate, estimate_slope, planar_ekf_model, planar_inputs, planar_measurements,
                      slope_ekf_model, slope_observer_gain, slope_observer_matrices)
 from ._slope_plot import plot_drive, plot_slope_estimate
+from ._vertical_estimate import (CornerFilterSettings, VerticalStateEstimate, estimate_vertical_states,
+                                 thesis_filter_settings, vertical_ekf_inputs, vertical_ekf_model)
+from ._vertical_eval import (THESIS_BENCH_TABLE, THESIS_TRACK_TABLE, epsilon_score, reproduce_thesis_tables,
+                             score_vertical_estimate)
+from ._vertical_model import VerticalVehicleParams
+from ._vertical_observability import ObservabilityResult, corner_observability
+from ._vertical_sim import (VerticalSensors, VerticalSimulation, bench_sweep_road, measure_vertical, sensors_from_frame,
+                            sensors_to_frame, simulate_vertical, steering_sine_manoeuvre, wheel_road_inputs)
 
 __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle",
@@ -33,4 +53,10 @@ __all__ = [
     "EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "plot_slope_estimate", "plot_drive",
+    "VerticalVehicleParams", "simulate_vertical", "VerticalSimulation", "wheel_road_inputs", "bench_sweep_road",
+    "steering_sine_manoeuvre", "measure_vertical", "VerticalSensors", "sensors_to_frame", "sensors_from_frame",
+    "vertical_ekf_model", "vertical_ekf_inputs", "estimate_vertical_states", "VerticalStateEstimate",
+    "CornerFilterSettings", "thesis_filter_settings", "corner_observability", "ObservabilityResult",
+    "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "THESIS_BENCH_TABLE",
+    "THESIS_TRACK_TABLE",
 ]

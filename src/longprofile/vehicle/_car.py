@@ -206,13 +206,13 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
     for section, keys in _TOML_LAYOUT.items():
         table = data.get(section)
         if not isinstance(table, dict):
-            raise InputFormatError(f"{source}: missing table [{section}] with keys {sorted(keys)}.")
+            raise InputFormatError(f"{source}: missing table '{section}' with keys {sorted(keys)}.")
         for key in table:
             if key not in keys:
-                raise InputFormatError(f"{source}: unknown key {key!r} in [{section}]; expected {sorted(keys)}.")
+                raise InputFormatError(f"{source}: unknown key {key!r} in table '{section}'; expected {sorted(keys)}.")
         for key, attr in keys.items():
             if key not in table:
-                raise InputFormatError(f"{source}: missing key {key!r} in [{section}] "
+                raise InputFormatError(f"{source}: missing key {key!r} in table '{section}' "
                                        f"({_UNITS.get(attr, 'see docs/vehicle-slope.md')}).")
             kwargs[attr] = table[key]
     kwargs["name"] = str(data.get("name", ""))

@@ -359,7 +359,7 @@ class DriveLog:
         """
         missing = [c for c in LOG_COLUMNS if c not in frame.columns]
         if missing:
-            units = ", ".join(f"{c} [{_LOG_UNITS.get(c, _LOG_UNITS['wheel_speed'])}]" for c in missing)
+            units = ", ".join(f"{c} ({_LOG_UNITS.get(c, _LOG_UNITS['wheel_speed'])})" for c in missing)
             raise InputFormatError(f"{source}: missing channel(s) {units}; a drive log needs {list(LOG_COLUMNS)} "
                                    "(see docs/vehicle-slope.md).")
         for c in LOG_COLUMNS:

@@ -401,7 +401,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         Model parameters (default :func:`default_vehicle`).
     method : {"cascade", "joint"}
         ``"cascade"``: EKF (20) then the Luenberger observer on (21) (the paper, section IV);
-        ``"joint"``: one EKF on (V_x, V_y, r, theta_r).
+        ``"joint"``: one EKF on (V_x, V_y, r, theta_r) with the paper's measurements.
     poles : (2,) sequence of float
         Continuous-time poles of the Luenberger observer, 1/s (cascade only). Faster poles track
         grade changes with less lag and pass more force noise.
@@ -459,7 +459,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         if x0.shape != (3,):
             raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
         x0 = x0.tolist()
-    if method == "joint":
+    if method != "cascade":
         model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
     else:
         model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
@@ -467,7 +467,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     mean, cov = filtered.mean, filtered.cov
     T = y.shape[0]
     p = vehicle.as_array()
-    slope_for_loads = mean[:, 3].copy() if method == "joint" else np.zeros(T)
+    slope_for_loads = mean[:, 3].copy() if method != "cascade" else np.zeros(T)
     fx = np.empty((T, 4))
     fy = np.empty((T, 4))
     fx_std = np.empty((T, 4))
@@ -477,7 +477,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     _forces_along(mean, cov, u, p, slope_for_loads, tuning.wheel_speed_rel_std, fx, fy, fx_std, fy_std, res, res_std)
     std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     gain = None
-    if method == "joint":
+    if method != "cascade":
         slope, slope_std = mean[:, 3].copy(), std[:, 3].copy()
     else:
         slope, slope_std, gain = _cascade_slope(vehicle, dt, y[:, 0], res, res_std, poles, tuning)

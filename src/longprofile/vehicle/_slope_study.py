@@ -1,0 +1,88 @@
+"""Accuracy and sensitivity studies of the slope estimators on simulated drives (demo, benchmark, docs)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ._slope import estimate_slope
+
+__all__ = ["accuracy_scores", "PAPER_PROTOTYPE_ERRORS", "sensitivity_study", "plot_sensitivity"]
+
+#: Relative estimation errors reported on the prototype vehicle (paper 001, section V.B).
+PAPER_PROTOTYPE_ERRORS = {"vx": 0.04, "vy": 0.05, "yaw_rate": 0.075}
+
+
+def accuracy_scores(simulation, estimate, *, settle: float = 2.0) -> dict:
+    """Errors of an estimate against the truth after ``settle`` seconds (issue 6 definitions).
+
+    Returns a dict: ``slope_rms_deg`` (RMS error, degrees), ``vx_rel``, ``vy_rel``, ``yaw_rate_rel``
+    (RMS error / RMS of the true signal), ``vy_rms`` (m/s), ``slope_max_deg``, ``fx_rms`` (N, all wheels).
+    """
+    tr = simulation.truth
+    m = simulation.log.time >= settle
+
+    def rms(a):
+        return float(np.sqrt(np.mean(np.square(a[m]))))
+
+    def rel(key):
+        ref = rms(getattr(tr, key))
+        return rms(getattr(estimate, key) - getattr(tr, key)) / ref if ref > 0 else float("nan")
+
+    e_slope = np.degrees(estimate.slope - tr.slope)
+    return {"slope_rms_deg": rms(e_slope), "slope_max_deg": float(np.abs(e_slope[m]).max()),
+            "vx_rel": rel("vx"), "vy_rel": rel("vy"), "yaw_rate_rel": rel("yaw_rate"),
+            "vy_rms": rms(estimate.vy - tr.vy), "fx_rms": rms(estimate.fx - tr.fx)}
+
+
+def sensitivity_study(simulation, *, method: str = "cascade", mass_factors=(0.9, 1.1),
+                      friction_values=(0.5, 1.1)) -> tuple[pd.DataFrame, dict]:
+    """Slope error when the estimator's mass or adhesion is wrong.
+
+    Runs :func:`estimate_slope` on ``simulation.log`` with the true vehicle, with the mass scaled by
+    each of ``mass_factors``, and with the adhesion of all wheels set to each of ``friction_values``.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        One row per case: ``case``, ``slope_rms_deg``, ``slope_bias_deg``, ``slope_max_deg`` (after 2 s).
+    errors : dict
+        case -> (T,) slope error in degrees (for plotting).
+    """
+    car = simulation.vehicle
+    tr = simulation.truth
+    m = simulation.log.time >= 2.0
+    cases = {"nominal": estimate_slope(simulation.log, car, method=method)}
+    for f in mass_factors:
+        cases[f"mass x{f:g}"] = estimate_slope(simulation.log, car.with_changes(mass=f * car.mass), method=method)
+    for mu in friction_values:
+        cases[f"mu = {mu:g}"] = estimate_slope(simulation.log, car, method=method, friction=np.full(4, mu))
+    errors = {k: np.degrees(v.slope - tr.slope) for k, v in cases.items()}
+    rows = [{"case": k, "slope_rms_deg": float(np.sqrt(np.mean(e[m] ** 2))), "slope_bias_deg": float(e[m].mean()),
+             "slope_max_deg": float(np.abs(e[m]).max())} for k, e in errors.items()]
+    return pd.DataFrame(rows), errors
+
+
+def plot_sensitivity(simulation, errors: dict, *, title: str = ""):
+    """Slope error over time for each case of :func:`sensitivity_study`, with the true grade and speed."""
+    from matplotlib.figure import Figure
+
+    t = simulation.log.time
+    fig = Figure(figsize=(9.0, 6.0), layout="constrained")
+    ax = fig.subplots(2, 1, sharex=True)
+    ax[0].plot(t, np.degrees(simulation.truth.slope), color="k", label="true grade [deg]")
+    ax0b = ax[0].twinx()
+    ax0b.plot(t, simulation.truth.vx, color="C7", lw=0.8, label="V_x [m/s]")
+    ax0b.set_ylabel("V_x [m/s]", color="C7")
+    ax[0].set_ylabel("grade [deg]")
+    ax[0].legend(loc="upper left", fontsize=7)
+    for k, e in errors.items():
+        ax[1].plot(t, e, lw=1.4 if k == "nominal" else 0.9, color="k" if k == "nominal" else None, label=k)
+    ax[1].axhspan(-0.3, 0.3, color="g", alpha=0.1, label="±0.3° target")
+    ax[1].set_ylabel("slope error [deg]")
+    ax[1].set_xlabel("time [s]")
+    ax[1].legend(fontsize=7, ncol=3)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.suptitle(title or f"Slope sensitivity to the vehicle model ({simulation.scenario} drive)")
+    return fig

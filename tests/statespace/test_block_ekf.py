@@ -1,0 +1,110 @@
+"""Decentralised block EKF == the engine's EKF with every cross-block term removed (thesis 003 §3.1)."""
+
+import numpy as np
+import pytest
+from numba import njit
+
+from longprofile.errors import InputError, ShapeError
+from longprofile.statespace import NonlinearStateSpaceModel, block_extended_kalman_filter, extended_kalman_filter
+
+
+# two coupled pendulum-like blocks of two states each; the blocks interact through the means only
+@njit
+def _f(x, u, k):
+    out = np.empty(4)
+    out[0] = x[0] + 0.01 * x[1]
+    out[1] = x[1] - 0.01 * (np.sin(x[0]) + 0.3 * (x[0] - x[2])) + 0.01 * u[0]
+    out[2] = x[2] + 0.01 * x[3]
+    out[3] = x[3] - 0.01 * (np.sin(x[2]) + 0.3 * (x[2] - x[0]))
+    return out
+
+
+@njit
+def _fjac_block(x, u, k):
+    J = np.zeros((4, 4))
+    J[0, 0], J[0, 1] = 1.0, 0.01
+    J[1, 0], J[1, 1] = -0.01 * (np.cos(x[0]) + 0.3), 1.0
+    J[2, 2], J[2, 3] = 1.0, 0.01
+    J[3, 2], J[3, 3] = -0.01 * (np.cos(x[2]) + 0.3), 1.0
+    return J
+
+
+@njit
+def _h(x, u, k):
+    out = np.empty(3)
+    out[0] = x[0]
+    out[1] = np.sin(x[2])
+    out[2] = x[1] * x[1]
+    return out
+
+
+@njit
+def _hjac(x, u, k):
+    H = np.zeros((3, 4))
+    H[0, 0] = 1.0
+    H[1, 2] = np.cos(x[2])
+    H[2, 1] = 2 * x[1]
+    return H
+
+
+def _model(Q=None):
+    return NonlinearStateSpaceModel(_f, _h, np.diag([1e-4, 1e-3, 2e-4, 1e-3]) if Q is None else Q,
+                                    np.diag([0.01, 0.02, 0.05]), np.array([0.5, 0.0, -0.3, 0.1]),
+                                    np.diag([0.1, 0.2, 0.1, 0.2]), transition_jacobian=_fjac_block,
+                                    observation_jacobian=_hjac)
+
+
+def _data(T=300, seed=0):
+    rng = np.random.default_rng(seed)
+    y = np.column_stack([np.sin(np.arange(T) * 0.05), np.cos(np.arange(T) * 0.03), np.full(T, 0.01)])
+    y = y + 0.1 * rng.standard_normal(y.shape)
+    y[10, 1] = np.nan
+    y[20] = np.nan
+    return y, rng.standard_normal((T, 1))
+
+
+SB = np.array([0, 0, 1, 1])
+OB = np.array([0, 1, 0])
+
+
+def test_block_filter_equals_dense_ekf_with_block_diagonal_structure():
+    y, u = _data()
+    model = _model()
+    dense = extended_kalman_filter(model, y, u=u)
+    block = block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB)
+    # the dense EKF keeps the covariance block-diagonal here (block Jacobians, H, Q, R, P0) — same algorithm
+    np.testing.assert_allclose(block.mean, dense.mean, rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(block.cov, dense.cov, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(block.pred_mean, dense.pred_mean, rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(block.innovation, dense.innovation, rtol=1e-9, atol=1e-11, equal_nan=True)
+    assert block.log_likelihood == pytest.approx(dense.log_likelihood, rel=1e-9)
+    assert block.n_observed == dense.n_observed == 3 * 300 - 4
+    assert block.method == "block-ekf"
+    light = block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, store_covariances=False)
+    np.testing.assert_array_equal(light.mean, block.mean)
+    assert light.cov is None and light.transition_jacobians is None
+
+
+def test_cross_block_terms_are_ignored():
+    y, u = _data(T=100)
+    Q = np.diag([1e-4, 1e-3, 2e-4, 1e-3])
+    Q_cross = Q.copy()
+    Q_cross[0, 2] = Q_cross[2, 0] = 5e-5
+    a = block_extended_kalman_filter(_model(Q), y, u=u, state_blocks=SB, obs_blocks=OB)
+    b = block_extended_kalman_filter(_model(Q_cross), y, u=u, state_blocks=SB, obs_blocks=OB)
+    np.testing.assert_array_equal(a.mean, b.mean)
+    assert np.all(a.cov[:, :2, 2:] == 0)
+
+
+def test_block_filter_errors():
+    y, u = _data(T=20)
+    with pytest.raises(ShapeError, match="state_blocks must be 4 integer"):
+        block_extended_kalman_filter(_model(), y, u=u, state_blocks=[0, 1], obs_blocks=OB)
+    with pytest.raises(InputError, match="every label"):
+        block_extended_kalman_filter(_model(), y, u=u, state_blocks=np.array([0, 0, 2, 2]), obs_blocks=OB)
+    with pytest.raises(ShapeError, match=r"y must have shape \(T, 3\)"):
+        block_extended_kalman_filter(_model(), y[:, :2], u=u, state_blocks=SB, obs_blocks=OB)
+    py = NonlinearStateSpaceModel(lambda x, u, k: x, lambda x, u, k: x[:3], np.eye(4), np.eye(3), np.zeros(4),
+                                  np.eye(4))
+    with pytest.raises(InputError, match="numba"):
+        block_extended_kalman_filter(py, y, state_blocks=SB, obs_blocks=OB)
