@@ -97,7 +97,7 @@ def test_cross_block_terms_are_ignored():
 
 
 def test_block_filter_errors():
-    y, u = _data(T=20)
+    y, u = _data(T=30)
     with pytest.raises(ShapeError, match="state_blocks must be 4 integer"):
         block_extended_kalman_filter(_model(), y, u=u, state_blocks=[0, 1], obs_blocks=OB)
     with pytest.raises(InputError, match="every label"):

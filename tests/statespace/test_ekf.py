@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numba import njit
 
 from longprofile.errors import InputError, ModelError, ShapeError
@@ -104,6 +106,29 @@ def test_linear_model_equals_kalman_filter_and_rts(compiled, analytic):
     np.testing.assert_allclose(ers.cov, rts.cov, atol=tol, rtol=0)
     np.testing.assert_allclose(ers.cross_cov, rts.cross_cov, atol=tol, rtol=0)
     assert ers.filtered is ekf
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 4), m=st.integers(1, 3), missing=st.floats(0.0, 0.5))
+def test_random_linear_models_python_path_equals_kalman_filter(seed, n, m, missing):
+    rng = np.random.default_rng(seed)
+    F = rng.standard_normal((n, n))
+    F *= 0.9 / max(abs(np.linalg.eigvals(F)))
+    H = rng.standard_normal((m, n))
+    A = rng.standard_normal((n, n))
+    Q = A @ A.T * 0.1 + 1e-3 * np.eye(n)
+    R = np.eye(m) * 0.5
+    x0, P0 = rng.standard_normal(n), np.eye(n)
+    y = rng.standard_normal((30, m))
+    y[rng.random((30, m)) < missing] = np.nan
+    lin = StateSpaceModel(F, H, Q, R, x0, P0)
+    model = NonlinearStateSpaceModel(lambda x, u, k: F @ x, lambda x, u, k: H @ x, Q, R, x0, P0,
+                                     lambda x, u, k: F, lambda x, u, k: H)
+    kf, ekf = kalman_filter(lin, y), extended_kalman_filter(model, y)
+    np.testing.assert_allclose(ekf.mean, kf.mean, atol=1e-10)
+    np.testing.assert_allclose(ekf.cov, kf.cov, atol=1e-10)
+    assert ekf.log_likelihood == pytest.approx(kf.log_likelihood, abs=1e-9)
+    np.testing.assert_allclose(extended_rts_smoother(model, ekf).cov, rts_smoother(lin, kf).cov, atol=1e-10)
 
 
 # ---------------------------------------------------------------- a nonlinear pendulum

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+from scipy.special import ndtr
 
 from ..errors import InputError
 from ..statespace import StateSpaceModel
@@ -102,7 +102,7 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None) -> TemporalS
 
 def _prob_abs_exceeds(mean, std, thr):
     std = np.maximum(std, 1e-300)
-    return norm.cdf((-thr - mean) / std) + norm.sf((thr - mean) / std)
+    return ndtr((-thr - mean) / std) + ndtr((mean - thr) / std)
 
 
 def settlement_alarms(days, sensor_ids, x, mean, std, *, threshold_m=None, rate=None, rate_std=None,

@@ -1,0 +1,110 @@
+"""Vehicle states and road slope (paper 001): accuracy on simulated drives and real-time factor.
+
+Rows:
+* accuracy on the paper-like drive after 2 s (issue 6 targets), for the cascade (EKF + Luenberger)
+  and the joint EKF; the other scenarios are reported without target;
+* real-time factor of the whole estimator (EKF on the engine + forces + observer) at 1 kHz
+  (target >= 500: one hour of log in under 7.2 s);
+* speed-up of the engine's compiled EKF over filterpy's ExtendedKalmanFilter (Python loop) running the
+  same jitted model functions, and the largest difference between their state estimates.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from benchmarks._common import BenchRow, best_time
+
+AREA = "vehicle_slope"
+
+
+def _filterpy_ekf(model, y, u, n_steps):
+    from filterpy.kalman import ExtendedKalmanFilter
+
+    class _EKF(ExtendedKalmanFilter):
+        def predict_x(self, u=0):
+            self.x = model.transition_fn(self.x, u, 0)
+
+    kf = _EKF(dim_x=model.n_states, dim_z=model.n_obs)
+    kf.x = model.initial_mean.copy()
+    kf.P = model.initial_cov.copy()
+    kf.R = model.obs_cov.copy()
+    kf.Q = model.process_cov.copy()
+    out = np.empty((n_steps, model.n_states))
+    for k in range(n_steps):
+        uk = u[k]
+        kf.update(y[k], HJacobian=lambda x, uk=uk: model.observation_jacobian(x, uk, 0),
+                  Hx=lambda x, uk=uk: model.observation_fn(x, uk, 0))
+        out[k] = kf.x
+        kf.F = model.transition_jacobian(kf.x, uk, 0)
+        kf.predict(u=uk)
+    return out
+
+
+def run(quick: bool) -> list[BenchRow]:
+    from longprofile.statespace import extended_kalman_filter
+    from longprofile.vehicle import (default_vehicle, drive_scenario, estimate_slope, planar_ekf_model, planar_inputs,
+                                     planar_measurements, simulate_drive)
+    from longprofile.vehicle._slope_study import PAPER_PROTOTYPE_ERRORS, accuracy_scores
+
+    car = default_vehicle()
+    rows = []
+    duration = 8.0 if quick else 40.0
+    sim = simulate_drive(drive_scenario("paper", duration=duration), car, seed=0)
+    methods = ("cascade",) if quick else ("cascade", "joint")
+    for method in methods:
+        s = accuracy_scores(sim, estimate_slope(sim.log, car, method=method))
+        detail = f"paper-like drive {duration:g} s, after 2 s, method {method}"
+        rows += [
+            BenchRow(AREA, f"{method}: slope RMS error", s["slope_rms_deg"], "deg", 0.3, False, detail),
+            BenchRow(AREA, f"{method}: V_x relative error", 100 * s["vx_rel"], "%", 1.0, False,
+                     detail + f"; paper prototype {100 * PAPER_PROTOTYPE_ERRORS['vx']:g} %"),
+            BenchRow(AREA, f"{method}: V_y RMS error", s["vy_rms"], "m/s", 0.1, False,
+                     detail + f"; V_y relative {100 * s['vy_rel']:.2f} %, paper prototype "
+                     f"{100 * PAPER_PROTOTYPE_ERRORS['vy']:g} %"),
+            BenchRow(AREA, f"{method}: yaw rate relative error", 100 * s["yaw_rate_rel"], "%", 2.0, False,
+                     detail + f"; paper prototype {100 * PAPER_PROTOTYPE_ERRORS['yaw_rate']:g} %"),
+        ]
+    if not quick:
+        for scenario in ("hill", "low-mu"):
+            other = simulate_drive(scenario, car, seed=0)
+            for method in ("cascade", "joint"):
+                s = accuracy_scores(other, estimate_slope(other.log, car, method=method))
+                rows.append(BenchRow(AREA, f"{scenario} / {method}: slope RMS error", s["slope_rms_deg"], "deg",
+                                     None, False, f"max {s['slope_max_deg']:.2f} deg, V_x rel "
+                                     f"{100 * s['vx_rel']:.2f} % (no target: see docs/vehicle-slope.md)"))
+
+    # real-time factor at 1 kHz: estimator on a long log
+    long_s = 4.0 if quick else 600.0
+    drive = sim if quick else simulate_drive(drive_scenario("paper", duration=long_s), car, seed=1)
+    log = drive.log
+    if quick:
+        from longprofile.vehicle import DriveLog
+
+        n = int(long_s / log.dt)
+        log = DriveLog(log.time[:n], log.steering_angle[:n], log.wheel_speeds[:n], log.yaw_rate[:n],
+                       log.accel_x[:n], log.accel_y[:n])
+    T = log.time.size
+    for method in methods:
+        estimate_slope(log, car, method=method)  # compile outside the timing
+        elapsed = best_time(lambda: estimate_slope(log, car, method=method), repeat=2 if quick else 3)
+        rows.append(BenchRow(AREA, f"{method}: real-time factor at 1 kHz", T * log.dt / elapsed, "x", 500.0, True,
+                             f"{T} samples in {elapsed:.3f} s (EKF + forces with std + "
+                             f"{'Luenberger observer' if method == 'cascade' else 'slope state'})"))
+
+    # engine EKF vs filterpy's EKF (same jitted model functions), speed and agreement
+    n_peer = 500 if quick else 5000
+    u = planar_inputs(log, car)
+    y = planar_measurements(log, car)
+    model = planar_ekf_model(car, log.dt, initial_state=[y[0, 0], 0.0, y[0, 1]])
+    ours = extended_kalman_filter(model, y[:n_peer], u=u[:n_peer])
+    t_ours = best_time(lambda: extended_kalman_filter(model, y[:n_peer], u=u[:n_peer]), repeat=3)
+    t0 = time.perf_counter()
+    peer = _filterpy_ekf(model, y, u, n_peer)
+    t_peer = time.perf_counter() - t0
+    rows.append(BenchRow(AREA, "EKF speed-up vs filterpy ExtendedKalmanFilter", t_peer / t_ours, "x", None, True,
+                         f"{n_peer} steps, same jitted f/h/Jacobians; max |state difference| "
+                         f"{np.abs(peer - ours.mean).max():.2e}"))
+    return rows
