@@ -5,6 +5,11 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 STAMP_TEST := $(VENV)/.installed-test
 
+# Small LAPACK calls are much slower with threaded BLAS on 2 cores; the engine is single-threaded by design.
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
+export MKL_NUM_THREADS ?= 1
+
 .PHONY: demo test bench bench-quick clean
 
 $(VENV)/bin/python:

@@ -42,22 +42,30 @@ def _accuracy_rows(quick: bool) -> list[BenchRow]:
     from longprofile.rail import estimate_settlement, simulate_site, validate_site
 
     rows = []
-    syn = simulate_site("mittersheim-like", seed=0, sampling_minutes=60 if quick else 10, n_days=10 if quick else None)
-    site = validate_site(syn.sensors, syn.readings, syn.survey)
-    t0 = time.perf_counter()
-    res = estimate_settlement(site, n_monte_carlo=0 if quick else 1000)
-    elapsed = time.perf_counter() - t0
-    err = res.dz - syn.truth.settlement
-    rows.append(BenchRow(AREA, "mittersheim-like settlement RMS error", float(1e3 * np.sqrt(np.mean(err**2))), "mm",
+    seeds = (0,) if quick else (0, 1, 2, 3, 4)
+    rms, cover, found, elapsed, n_read = [], [], [], [], 0
+    for seed in seeds:
+        syn = simulate_site("mittersheim-like", seed=seed, sampling_minutes=60 if quick else 10,
+                            n_days=10 if quick else None)
+        site = validate_site(syn.sensors, syn.readings, syn.survey)
+        t0 = time.perf_counter()
+        res = estimate_settlement(site, n_monte_carlo=0 if quick else 1000)
+        elapsed.append(time.perf_counter() - t0)
+        n_read = len(site.readings)
+        err = res.dz - syn.truth.settlement
+        rms.append(1e3 * np.sqrt(np.mean(err**2)))
+        cover.append(100 * (np.abs(err) <= 1.6448536269514722 * res.dz_std)[1:, 1:-1].mean())
+        found.append({s: st for s, st, _ in res.health.flagged()} == syn.truth.bad_sensors)
+    rows.append(BenchRow(AREA, "mittersheim-like settlement RMS error (worst seed)", float(max(rms)), "mm",
                          target=2.0, higher_is_better=False,
-                         detail=f"{len(site.readings)} readings, whole job {elapsed:.2f} s"))
-    inside = (np.abs(err) <= 1.6448536269514722 * res.dz_std)[1:, 1:-1].mean()
-    rows.append(BenchRow(AREA, "mittersheim-like 90 % band coverage", float(100 * inside), "%",
+                         detail=f"seeds {list(seeds)}: {', '.join(f'{v:.3f}' for v in rms)} mm; {n_read} readings, "
+                                f"whole job {np.mean(elapsed):.2f} s"))
+    rows.append(BenchRow(AREA, "mittersheim-like 90 % band coverage (mean over seeds)", float(np.mean(cover)), "%",
                          target=None if quick else 85.0,
-                         detail="target 85-95 %; days after the reference day, interior stations"))
-    flagged = {s: st for s, st, _ in res.health.flagged()}
-    rows.append(BenchRow(AREA, "mittersheim-like bad sensors found", float(flagged == syn.truth.bad_sensors), "bool",
-                         detail=f"flagged {flagged}, truth {syn.truth.bad_sensors}"))
+                         detail=f"target 85-95 %; per seed {', '.join(f'{v:.1f}' for v in cover)} %; days after the "
+                                "reference day, interior stations"))
+    rows.append(BenchRow(AREA, "mittersheim-like dead + reversed sensors found", float(np.mean(found)), "fraction",
+                         target=None if quick else 1.0, detail=f"seeds {list(seeds)}"))
     if quick:
         return rows
     syn = simulate_site("farebersviller-like", seed=0, sampling_minutes=30)

@@ -60,6 +60,10 @@ def test_linear_debiasing_recovers_the_thermal_coefficients():
     good = [i for i, s in enumerate(site.sensor_ids) if s not in syn.truth.bad_sensors]
     assert np.allclose(da.thermal_coef[good], syn.truth.thermal_coef[good], atol=2e-4)
     assert da.n_outliers.sum() > 0  # the preset has outliers and they are counted, not hidden
+    quiet = daily_angles(site, thermal="linear", quiet_days=syn.truth.days[:5])
+    assert np.allclose(quiet.thermal_coef[good], syn.truth.thermal_coef[good], atol=4e-4)
+    with pytest.raises(InputError, match="quiet_days must be dates"):
+        daily_angles(site, quiet_days=["not a date"])
 
 
 def test_lagged_model_finds_the_lag_and_beats_linear_on_hysteresis(fare_site):

@@ -171,3 +171,40 @@ def test_measurement_std_is_sigma_times_the_row_norm_of_the_dense_operator():
     got = measurement_std(x, slopes, chunk=4, **kw)
     assert np.allclose(got, expected, rtol=1e-7, atol=1e-15)
     assert np.all(got <= dense.z_std + 1e-15)  # the measurement part never exceeds the posterior std
+
+
+def test_rigidity_model_runs_on_the_generic_engine():
+    from longprofile.statespace import kalman_filter, rts_smoother
+
+    rng = np.random.default_rng(8)
+    x = _stations(rng, 15)
+    slopes = rng.normal(0, 1e-4, 15)
+    model = rigidity_model(x, sigma=1e-4)
+    y = np.full((15, 2), np.nan)
+    y[:, 0] = slopes
+    y[-1, 1] = 0.0
+    sm = rts_smoother(model, kalman_filter(model, y))
+    post = rigidity_posterior(x, slopes, sigma=1e-4)
+    assert np.allclose(sm.mean[:, 0], post.z_mean, atol=1e-13)
+    assert np.allclose(sm.cov, post.station_cov, atol=1e-15)
+
+
+def test_coarse_survey_posterior_equals_dense_on_the_union_grid():
+    rng = np.random.default_rng(9)
+    x = np.sort(rng.uniform(1, 59, 18))
+    sx = np.arange(0, 61, 10.0)
+    sz = 200 + 0.002 * sx + rng.normal(0, 2e-3, sx.size)
+    ss = initial_profile_posterior(x, sx, sz, sigma_a=2e-3, rigidity=1e-8)
+    allx = np.union1d(x, sx)
+    a = np.full(allx.size, np.nan)
+    a[np.searchsorted(allx, sx)] = sz
+    dense = initial_profile_posterior_dense(allx, a, sigma_a=2e-3, rigidity=1e-8)
+    at = np.searchsorted(allx, x)
+    n = allx.size
+    assert np.abs(dense.z_mean[at] - ss.z_mean).max() < 1e-8
+    assert np.allclose(dense.z_std[at], ss.z_std, rtol=1e-5)
+    # cross-covariance of consecutive sensors through the survey stations in between
+    for i in range(x.size - 1):
+        za, zb = at[i], at[i + 1]
+        assert ss.cross_cov[i, 0, 0] == pytest.approx(dense.full_cov[za, zb], rel=1e-5, abs=1e-14)
+        assert ss.cross_cov[i, 1, 0] == pytest.approx(dense.full_cov[n + za, zb], rel=1e-5, abs=1e-14)

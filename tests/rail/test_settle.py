@@ -85,3 +85,28 @@ def test_farebersviller_lagged_thermal_model_is_closer_to_controls():
     assert rms["lagged_truth"] < rms["linear_truth"]
     assert rms["lagged"] < rms["linear"]
     assert rms["lagged"] < 4e-3  # the control surveys themselves have 2 mm noise
+
+
+def test_drifting_and_detached_sensors_are_classified():
+    import pandas as pd
+
+    syn = simulate_site("mittersheim-like", seed=0, sampling_minutes=30)
+    r = syn.readings.copy()
+    t = (pd.to_datetime(r.timestamp) - pd.Timestamp("2019-11-18")).dt.total_seconds() / 86400
+    m = r.sensor_id == "S05"
+    r.loc[m, "angle_deg"] += 0.01 * t[m]  # drifts 0.01 deg/day
+    m = r.sensor_id == "S50"
+    r.loc[m & (t > 15), "angle_deg"] += 0.3  # comes loose on day 15
+    res = estimate_settlement(validate_site(syn.sensors, r, syn.survey), n_monte_carlo=0)
+    flagged = {s: st for s, st, _ in res.health.flagged()}
+    assert flagged == {**syn.truth.bad_sensors, "S05": "drifting", "S50": "detached"}
+
+
+def test_demo_writes_report_and_accuracy(tmp_path):
+    from longprofile.rail._demo import run_demo
+
+    files = run_demo(tmp_path)
+    assert (tmp_path / "rail" / "report" / "index.html") in files
+    text = (tmp_path / "rail" / "accuracy.txt").read_text()
+    assert "settlement RMS error" in text and "S34 (reversed)" in text
+    assert all(f.exists() for f in files)

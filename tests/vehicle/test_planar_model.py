@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from longprofile.vehicle import (DriveScenario, SensorSpec, default_vehicle, planar_ekf_model, simulate_drive,
-                                 slope_ekf_model)
+from longprofile.vehicle import (DriveScenario, SensorSpec, default_vehicle, drive_scenario, planar_ekf_model,
+                                 simulate_drive, slope_ekf_model)
 
 CAR = default_vehicle()
 G = 9.80665
@@ -108,3 +108,20 @@ def test_loads_and_force_balance_on_a_grade():
     front = tr.normal_force[last, :2].sum(axis=1).mean()
     expected_front = CAR.mass * (G * np.cos(theta) * CAR.cg_to_rear_axle - CAR.cg_height * tr.accel_x[last].mean()) / CAR.wheelbase
     assert front == pytest.approx(expected_front, rel=1e-6)
+
+
+def test_ekf_transition_agrees_with_the_simulator_physics():
+    # the EKF's Euler step (eq. (20), allocation-free kernel) fed with the true inputs reproduces the
+    # simulator's RK4 step (independent implementation of (11)-(19)) to O(dt^2)
+    sim = simulate_drive(drive_scenario("low-mu", duration=12.0), CAR, sensors=SensorSpec.ideal())
+    tr = sim.truth
+    dt = sim.log.dt
+    model = planar_ekf_model(CAR, dt)
+    worst = np.zeros(3)
+    for k in range(1, tr.vx.size - 1, 97):
+        u = np.concatenate([[tr.steering_angle[k]], tr.wheel_speeds[k], [tr.accel_x[k - 1], tr.accel_y[k - 1]],
+                            [tr.slope[k]], tr.friction[k]])  # the simulator's loads lag one step
+        x = np.array([tr.vx[k], tr.vy[k], tr.yaw_rate[k]])
+        x_next = np.array([tr.vx[k + 1], tr.vy[k + 1], tr.yaw_rate[k + 1]])
+        worst = np.maximum(worst, np.abs(model.transition_fn(x, u, k) - x_next))
+    assert np.all(worst < [2e-5, 2e-5, 2e-5]), worst

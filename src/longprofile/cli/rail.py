@@ -80,6 +80,8 @@ def settle_command(
     check_units: bool = typer.Option(True, "--check-units/--no-check-units",
                                      help="Refuse angles that look like radians."),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
+    quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "
+                                                                   "the thermal fit then uses only these days."),
     no_health: bool = typer.Option(False, "--no-health-check", help="Only exclude dead sensors."),
     affine: bool = typer.Option(False, "--affine-correction", help="Apply the §5.2 affine correction (not robust)."),
     threshold_mm: float = typer.Option(None, "--settlement-threshold-mm", help="Alarm on |altitude change|, mm."),
@@ -102,7 +104,7 @@ def settle_command(
         res = estimate_settlement(
             site, thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
             rigidity=None if rigidity == 0 else rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
-            check_health=not no_health, exclude_sensors=tuple(exclude), use_affine_correction=affine,
+            quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude), use_affine_correction=affine,
             settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
             rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,
             alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed)

@@ -29,7 +29,8 @@ assess_sensors, SensorHealth -- flag dead / reversed / drifting / detached / imp
 
 Beyond the paper
 ----------------
-smooth_through_time         -- settlement smoothed across days per station, daily rates with bands.
+smooth_through_time         -- settlement smoothed across days per station, daily rates with bands;
+                               TemporalSettlement is its result.
 settlement_alarms           -- threshold exceedances with station, date and probability.
 estimate_settlement         -- the whole job, readings to settlement, bands, health and alarms.
 SettlementResult            -- its result (``to_table()`` for the long output table).

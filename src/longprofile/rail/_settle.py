@@ -291,6 +291,7 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     D = days.size
     if D < 2:
         raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
+    warnings.extend(daily.warnings)
     n_out = int(daily.n_outliers.sum())
     if n_out:
         warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "

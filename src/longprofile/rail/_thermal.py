@@ -63,6 +63,8 @@ class DailyAngles:
         T_ref of the correction, °C.
     thermal : str
         ``"linear"``, ``"lagged"`` or ``"none"``.
+    warnings : tuple of str
+        Sensors whose thermal coefficient could not be fitted (left uncorrected), reported.
     """
 
     days: np.ndarray
@@ -77,6 +79,7 @@ class DailyAngles:
     thermal_lag_hours: np.ndarray
     reference_temp_c: float
     thermal: str
+    warnings: tuple = ()
 
 
 @njit(cache=True)
@@ -166,10 +169,15 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     D = len(days)
     quiet = None
     if quiet_days is not None:
-        quiet = set(pd.DatetimeIndex(pd.to_datetime(list(quiet_days))).normalize())
+        try:
+            quiet = set(pd.DatetimeIndex(pd.to_datetime(list(quiet_days))).normalize())
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"quiet_days must be dates like 2019-11-18; {exc}") from None
         if not quiet:
             raise InputError("quiet_days is empty; give at least one day without works, or None.")
     t0 = days[0]
+    quiet_mask = None if quiet is None else np.asarray(days.isin(list(quiet)))
+    unfitted = []
     angle = np.full((D, N), np.nan)
     nread = np.zeros((D, N), dtype=int)
     nout = np.zeros(N, dtype=int)
@@ -197,7 +205,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         keep = np.abs(dev) <= OUTLIER_THRESHOLD * max(s_hf, 1e-4)
         nout[j] = int((~keep).sum())
         a, T, th, day = a[keep], T[keep], th[keep], day[keep]
-        use = np.ones(a.size, bool) if quiet is None else np.isin(days[day], list(quiet))
+        use = np.ones(a.size, bool) if quiet is None else quiet_mask[day]
         if thermal != "none" and use.sum() > 12:
             taus = (0.0,) if thermal == "linear" else LAG_GRID_HOURS
             best = None
@@ -212,6 +220,10 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
             if best is not None:
                 _, lag[j], coef[j], Ts = best
                 a = a - coef[j] * (Ts - reference_temp_c)
+            else:
+                unfitted.append(sid)
+        elif thermal != "none":
+            unfitted.append(sid)
         dm = pd.Series(a).groupby(day).median()
         cnt = pd.Series(a).groupby(day).size()
         angle[dm.index.to_numpy(), j] = dm.to_numpy()
@@ -223,4 +235,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
             change[:, j] = angle[:, j] - angle[ok[0], j]
     return DailyAngles(days=days.to_numpy(), sensor_ids=list(ids), angle_deg=angle, change_deg=change,
                        n_readings=nread, n_outliers=nout, raw_std_deg=rawstd, noise_deg=noise, thermal_coef=coef,
-                       thermal_lag_hours=lag, reference_temp_c=float(reference_temp_c), thermal=thermal)
+                       thermal_lag_hours=lag, reference_temp_c=float(reference_temp_c), thermal=thermal,
+                       warnings=tuple([f"no thermal correction for {len(unfitted)} sensor(s) {unfitted[:5]}: too few "
+                                       "readings (or < 0.5 °C of temperature spread within a day) on the days used "
+                                       "for the fit"] if unfitted else []))

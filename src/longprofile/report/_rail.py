@@ -253,8 +253,14 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report")
     alarms = result.alarms.copy()
     if len(alarms):
         alarms["value"] = alarms["value"] * 1e3
-        alarms = alarms.rename(columns={"value": "value (mm or mm/day)"})
         alarms["threshold"] = alarms["threshold"] * 1e3
+        alarms = (alarms.groupby(["sensor_id", "x_m", "kind"], sort=False)
+                  .agg(first_date=("date", "min"), last_date=("date", "max"), days=("date", "size"),
+                       threshold=("threshold", "first"), worst_value=("value", lambda v: v.iloc[np.argmax(np.abs(v))]),
+                       max_probability=("probability", "max"))
+                  .reset_index().sort_values(["first_date", "x_m"]))
+        alarms = alarms.rename(columns={"worst_value": "worst value (mm or mm/day)",
+                                        "threshold": "threshold (mm or mm/day)"})
     warn = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or "<li>none</li>"
     page = f"""<!doctype html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:sans-serif;max-width:1150px;margin:auto;padding:1em}} table{{border-collapse:collapse;font-size:12px}}
@@ -268,7 +274,8 @@ rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-2</sup>; day-to-day s
 {1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % measurement bands (docs/rail.md).</p>
 <h2>Warnings</h2><ul class="warn">{warn}</ul>
 <h2>Flagged sensors (excluded)</h2>{_table_html(flagged)}
-<h2>Alarms</h2>{_table_html(alarms)}
+<h2>Alarms</h2><p>One row per station and kind (first and last day of exceedance with probability at
+least {st.get('alarm_probability')}); every station-day is in alarms.csv.</p>{_table_html(alarms)}
 <h2>Settlement profiles per day, 90 % bands</h2><img src="data:image/png;base64,{imgs['profiles_by_week']}">
 <h2>Settlement through time and daily rate</h2><img src="data:image/png;base64,{imgs['through_time']}">
 <img src="data:image/png;base64,{imgs['settlement_map']}">

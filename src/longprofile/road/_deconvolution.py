@@ -279,10 +279,15 @@ def detrend_profile(elevation, dx: float, *, highpass_wavelength: float | None =
     # running sums (O(1) extra memory: a Vandermonde matrix of a 2e7-sample record would take 480 MB)
     flat = z.reshape(n, -1)
     s = np.linspace(-1.0, 1.0, n)
-    G = np.array([[np.sum(s ** (i + j)) for j in range(3)] for i in range(3)])
-    rhs = np.stack([flat.sum(axis=0), s @ flat, (s * s) @ flat])
+    s2 = s * s
+    G = np.array([[n, s.sum(), s2.sum()], [s.sum(), s2.sum(), s @ s2], [s2.sum(), s @ s2, s2 @ s2]])
+    rhs = np.stack([flat.sum(axis=0), s @ flat, s2 @ flat])
     coef = np.linalg.solve(G, rhs)
-    out = (flat - coef[0] - np.outer(s, coef[1]) - np.outer(s * s, coef[2])).reshape(z.shape)
+    out = flat - coef[0]
+    out -= np.outer(s, coef[1])
+    out -= np.outer(s2, coef[2])
+    del s, s2
+    out = out.reshape(z.shape)
     if highpass_wavelength is not None:
         lam = require_positive("highpass_wavelength", highpass_wavelength)
         fc = 1.0 / lam

@@ -173,13 +173,9 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
 
 
 @njit(cache=True)
-def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store):
+def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store,
+                Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
     """Update every block (their state sets are disjoint, so the order does not matter)."""
-    smax, omax = sidx.shape[1], oidx.shape[1]
-    Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
-    S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
-    A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
-    obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
     for a in range(innov_k.shape[0]):
         innov_k[a] = np.nan
     if store:
@@ -197,9 +193,7 @@ def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov
 
 
 @njit(cache=True)
-def _predict_all(P, Jf, Q, sidx, scount):
-    smax = sidx.shape[1]
-    Fb, Pb, AP = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, smax))
+def _predict_all(P, Jf, Q, sidx, scount, Fb, Pb, AP):
     for b in range(sidx.shape[0]):
         _block_predict(P, Jf, Q, sidx[b], scount[b], Fb, Pb, AP)
 
@@ -226,6 +220,11 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
                 P[sidx[b, i], sidx[b, j]] = P0[sidx[b, i], sidx[b, j]]
     Jf = np.zeros((n, n))
     Jh = np.zeros((m, n))
+    smax, omax = sidx.shape[1], oidx.shape[1]
+    Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
+    S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
+    A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
+    obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
     n_obs = 0
     for k in range(T):
         uk = u[k]
@@ -241,7 +240,7 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
         if store:
             Hj[k] = Jh
         status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
-                                     icov[k if store else 0], store)
+                                     icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
         if status != 0:
             state[0] = status
             state[1] = k
@@ -261,7 +260,7 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
                 state[0] = 2
                 state[1] = k
                 return n_obs
-            _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount)
+            _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
             if store:
                 Fj[k] = Jf
             x[:] = xn

@@ -154,7 +154,7 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     """
     _require_time_invariant(model, "steady_state_gain")
     F, H, Q, R = model.transition, model.observation, model.process_cov, model.obs_cov
-    n, m = model.n_states, model.n_obs
+    n = model.n_states
     try:
         np.linalg.cholesky(R)
     except np.linalg.LinAlgError:
@@ -205,12 +205,11 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     Pf = _sym(IKH @ P @ IKH.T + K @ R @ K.T)
     for arr in (K, P, Pf, S):
         arr.setflags(write=False)
-    del m
     return SteadyStateGain(gain=K, pred_cov=P, cov=Pf, innovation_cov=S, closed_loop_radius=rho)
 
 
 def _smoother_gain(model: StateSpaceModel, ss: SteadyStateGain) -> np.ndarray:
-    """Constant RTS gain G = P_f F' P_p^-1 (solve, pseudo-inverse if P_p is singular)."""
+    """Constant RTS gain G = P_f F' P_p^-1 (equilibrated solve; minimum-norm solution if P_p is singular)."""
     F = model.transition
     Pp = ss.pred_cov
     rhs = F @ ss.cov  # = (P_f F')', so G' solves P_p G' = rhs

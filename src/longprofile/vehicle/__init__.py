@@ -27,6 +27,8 @@ estimate_vertical_states -- per-corner EKFs + absolute velocities; VerticalState
 CornerFilterSettings / thesis_filter_settings -- Q/R/P0 of the thesis per configuration.
 corner_observability  -- SVD observability analysis of the corner models; ObservabilityResult.
 epsilon_score / score_vertical_estimate / reproduce_thesis_tables -- the thesis criterion and Tables 4.4/4.5.
+vertical_test_run     -- simulate a thesis test (road / 4-poster sweep / track) and measure one configuration.
+estimate_to_frame / plot_vertical_estimate -- table and figure of a VerticalStateEstimate.
 """
 
 from ._car import Vehicle, default_vehicle, load_vehicle
@@ -42,8 +44,10 @@ from ._vertical_eval import (THESIS_BENCH_TABLE, THESIS_TRACK_TABLE, epsilon_sco
                              score_vertical_estimate)
 from ._vertical_model import VerticalVehicleParams
 from ._vertical_observability import ObservabilityResult, corner_observability
+from ._vertical_plot import estimate_to_frame, plot_vertical_estimate
 from ._vertical_sim import (VerticalSensors, VerticalSimulation, bench_sweep_road, measure_vertical, sensors_from_frame,
-                            sensors_to_frame, simulate_vertical, steering_sine_manoeuvre, wheel_road_inputs)
+                            sensors_to_frame, simulate_vertical, steering_sine_manoeuvre, vertical_test_run,
+                            wheel_road_inputs)
 
 __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle",
@@ -58,5 +62,5 @@ __all__ = [
     "vertical_ekf_model", "vertical_ekf_inputs", "estimate_vertical_states", "VerticalStateEstimate",
     "CornerFilterSettings", "thesis_filter_settings", "corner_observability", "ObservabilityResult",
     "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "THESIS_BENCH_TABLE",
-    "THESIS_TRACK_TABLE",
+    "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
 ]

@@ -237,27 +237,27 @@ def ekf_step(x, u, p, dt):
 
 
 @njit(cache=True)
-def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std):
+def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std, scratch):
     """Tyre forces at the estimate ``x`` and their std by the delta method through (18)->(15)-(17).
 
     ``cov`` is the (3, 3) covariance of (V_x, V_y, r); ``slope`` (rad) enters the loads (19);
     ``omega_rel_std`` is the relative std of the wheel-speed inputs (independent wheels), whose
-    contribution is added to the force variances.
-
+    contribution is added to the force variances. ``scratch`` is a (9, 4, 4) work array.
     Returns ``(sum_fx, sum_fx_std, resisting, resisting_std)``; ``resisting`` = F_res of eq. (21):
     sum F_X + M r V_y - C_x V_x |V_x| (N), whose std is also propagated.
     """
-    fn = np.empty(4)
+    fn = scratch[0, 0]
+    slip = scratch[0, 1]
+    alpha = scratch[0, 2]
+    w_var = scratch[0, 3]
+    dfx = scratch[1, :, :3]
+    dfy = scratch[2, :, :3]
+    dfn = scratch[3, :2]
+    dfw = scratch[4, :2]
+    g = scratch[5, :3, :3]
     normal_loads(p, u[U_AX], u[U_AY], slope, fn)
-    slip = np.empty(4)
-    alpha = np.empty(4)
-    dfx = np.empty((4, 3))
-    dfy = np.empty((4, 3))
-    dfn = np.empty((2, 4))
-    dfw = np.empty((2, 4))
     tyre_kinematics_forces(x[0], x[1], x[2], u[U_DELTA], u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
                            slip, alpha, fx_out, fy_out, dfx, dfy, dfn, dfw)
-    w_var = np.empty(4)
     for i in range(4):
         w_var[i] = (omega_rel_std * u[U_OMEGA + i]) ** 2
     for i in range(4):
@@ -270,14 +270,12 @@ def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, f
         fx_std[i] = math.sqrt(max(vx_, 0.0))
         fy_std[i] = math.sqrt(max(vy_, 0.0))
     sfx, sfy, mz = body_sums(fx_out, fy_out, u[U_DELTA], p)
-    g = np.empty((3, 3))
     body_sums_grad(dfx, dfy, u[U_DELTA], p, g)
     m = p[P_MASS]
     res = sfx + m * x[2] * x[1] - p[P_CXA] * x[0] * abs(x[0])
-    gr = np.empty(3)
-    gr[0] = g[0, 0] - 2.0 * p[P_CXA] * abs(x[0])
-    gr[1] = g[0, 1] + m * x[2]
-    gr[2] = g[0, 2] + m * x[1]
+    gr0 = g[0, 0] - 2.0 * p[P_CXA] * abs(x[0])
+    gr1 = g[0, 1] + m * x[2]
+    gr2 = g[0, 2] + m * x[1]
     # wheel-speed input noise through the body sums (independent wheels)
     c = math.cos(u[U_DELTA])
     sn = math.sin(u[U_DELTA])
@@ -290,7 +288,282 @@ def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, f
         v_res += d * d * w_var[i]
     v_sfx = v_res
     for a in range(3):
+        ga = gr0 if a == 0 else (gr1 if a == 1 else gr2)
         for b in range(3):
-            v_res += gr[a] * cov[a, b] * gr[b]
+            gb = gr0 if b == 0 else (gr1 if b == 1 else gr2)
+            v_res += ga * cov[a, b] * gb
             v_sfx += g[0, a] * cov[a, b] * g[0, b]
     return sfx, math.sqrt(max(v_sfx, 0.0)), res, math.sqrt(max(v_res, 0.0))
+
+
+@njit(cache=True)
+def planar_fused(vx, vy, r, u, p, slope):
+    """Allocation-free eq. (11)-(19) for the EKF inner loop: rates, Jacobian and slope derivative.
+
+    Same mathematics as :func:`planar_rates_jac` (tested against it), written with scalars only so the
+    compiled EKF loop does not allocate. Returns a 15-tuple:
+    ``(dvx, dvy, dr, J00, J01, J02, J10, J11, J12, J20, J21, J22, ds0, ds1, ds2)``.
+    """
+    m = p[P_MASS]
+    iz = p[P_IZ]
+    lf = p[P_LF]
+    lr = p[P_LR]
+    L = lf + lr
+    h = p[P_H]
+    hb = 0.5 * p[P_TRACK]
+    R = p[P_R]
+    cx0 = p[P_CX0]
+    cy0 = p[P_CY0]
+    grav = p[P_G]
+    delta = u[U_DELTA]
+    ax = u[U_AX]
+    ay = u[U_AY]
+    cd = math.cos(delta)
+    sd = math.sin(delta)
+    tdelta = sd / cd
+    w = m * grav * math.cos(slope)
+    dw = -m * grav * math.sin(slope)
+    dxl = h * m * ax / (2.0 * L)
+    # accumulated body sums and their derivatives w.r.t. (vx, vy, r, slope)
+    sfx = 0.0
+    sfy = 0.0
+    mz = 0.0
+    gx0 = gx1 = gx2 = gx3 = 0.0
+    gy0 = gy1 = gy2 = gy3 = 0.0
+    gm0 = gm1 = gm2 = gm3 = 0.0
+    for i in range(4):
+        front = i < 2
+        left = (i % 2) == 0
+        xi = lf if front else -lr
+        yi = hb if left else -hb
+        lever = lr if front else lf
+        # eq. (19)
+        lat = lever * h * m * ay / (p[P_TRACK] * L)
+        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        dfn_ds = lever * dw / (2.0 * L)
+        c = cd if front else 1.0
+        s = sd if front else 0.0
+        vxi = vx - r * yi
+        vyi = vy + r * xi
+        vw = vxi * c + vyi * s
+        dvw2 = -yi * c + xi * s
+        rw = R * u[U_OMEGA + i]
+        if rw >= vw and rw >= V_MIN:
+            lam = (rw - vw) / rw
+            dl = -1.0 / rw
+        elif vw >= V_MIN:
+            lam = rw / vw - 1.0
+            dl = -rw / (vw * vw)
+        else:
+            lam = (rw - vw) / V_MIN
+            dl = -1.0 / V_MIN
+        # tan(alpha) = tan(delta_i - atan(vyi / vxi)) = (td vxi - vyi) / (vxi + td vyi), no trig per wheel
+        td = tdelta if front else 0.0
+        num = td * vxi - vyi
+        den = vxi + td * vyi
+        t = num / den
+        # d t / d(vxi, vyi), then chain to (vx, vy, r): d vxi = (1, 0, -yi), d vyi = (0, 1, xi)
+        tx = (td * den - num) / (den * den)
+        ty = (-den - num * td) / (den * den)
+        dt0 = tx
+        dt1 = ty
+        dt2 = -yi * tx + xi * ty
+        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[U_MU + i], cx0, cy0)
+        ax0 = fxl * dl * c + fxt * dt0
+        ax1 = fxl * dl * s + fxt * dt1
+        ax2 = fxl * dl * dvw2 + fxt * dt2
+        ax3 = fxn * dfn_ds
+        ay0 = fyl * dl * c + fyt * dt0
+        ay1 = fyl * dl * s + fyt * dt1
+        ay2 = fyl * dl * dvw2 + fyt * dt2
+        ay3 = fyn * dfn_ds
+        # eq. (12)-(14): body-axis components and moment arm of this wheel
+        bx = c * f_x - s * f_y
+        by = s * f_x + c * f_y
+        sfx += bx
+        sfy += by
+        mz += xi * by - yi * bx
+        bx0 = c * ax0 - s * ay0
+        bx1 = c * ax1 - s * ay1
+        bx2 = c * ax2 - s * ay2
+        bx3 = c * ax3 - s * ay3
+        by0 = s * ax0 + c * ay0
+        by1 = s * ax1 + c * ay1
+        by2 = s * ax2 + c * ay2
+        by3 = s * ax3 + c * ay3
+        gx0 += bx0
+        gx1 += bx1
+        gx2 += bx2
+        gx3 += bx3
+        gy0 += by0
+        gy1 += by1
+        gy2 += by2
+        gy3 += by3
+        gm0 += xi * by0 - yi * bx0
+        gm1 += xi * by1 - yi * bx1
+        gm2 += xi * by2 - yi * bx2
+        gm3 += xi * by3 - yi * bx3
+    cxa = p[P_CXA]
+    cya = p[P_CYA]
+    dvx = sfx / m + r * vy - cxa * vx * abs(vx) / m - grav * math.sin(slope)
+    dvy = sfy / m - r * vx - cya * vy * abs(vy) / m
+    dr = mz / iz
+    return (dvx, dvy, dr,
+            gx0 / m - 2.0 * cxa * abs(vx) / m, gx1 / m + r, gx2 / m + vy,
+            gy0 / m - r, gy1 / m - 2.0 * cya * abs(vy) / m, gy2 / m - vx,
+            gm0 / iz, gm1 / iz, gm2 / iz,
+            gx3 / m - grav * math.cos(slope), gy3 / m, gm3 / iz)
+
+
+@njit(cache=True)
+def ekf_next(x, u, p, dt):
+    """x[k+1] of eq. (20) (Euler step), allocation of the result only."""
+    r = planar_fused(x[0], x[1], x[2], u, p, u[U_SLOPE])
+    xn = np.empty(3)
+    xn[0] = x[0] + dt * r[0]
+    xn[1] = x[1] + dt * r[1]
+    xn[2] = x[2] + dt * r[2]
+    return xn
+
+
+@njit(cache=True)
+def ekf_jacobian(x, u, p, dt):
+    """F = I + dt df/dx of eq. (20)."""
+    r = planar_fused(x[0], x[1], x[2], u, p, u[U_SLOPE])
+    F = np.empty((3, 3))
+    F[0, 0] = 1.0 + dt * r[3]
+    F[0, 1] = dt * r[4]
+    F[0, 2] = dt * r[5]
+    F[1, 0] = dt * r[6]
+    F[1, 1] = 1.0 + dt * r[7]
+    F[1, 2] = dt * r[8]
+    F[2, 0] = dt * r[9]
+    F[2, 1] = dt * r[10]
+    F[2, 2] = 1.0 + dt * r[11]
+    return F
+
+
+@njit(cache=True)
+def joint_next(x, u, p, dt):
+    """Augmented transition (V_x, V_y, r, theta_r): eq. (20) with the grade from the state, random-walk grade."""
+    r = planar_fused(x[0], x[1], x[2], u, p, x[3])
+    xn = np.empty(4)
+    xn[0] = x[0] + dt * r[0]
+    xn[1] = x[1] + dt * r[1]
+    xn[2] = x[2] + dt * r[2]
+    xn[3] = x[3]
+    return xn
+
+
+@njit(cache=True)
+def joint_jacobian(x, u, p, dt):
+    """Jacobian (4, 4) of :func:`joint_next`."""
+    r = planar_fused(x[0], x[1], x[2], u, p, x[3])
+    F = np.zeros((4, 4))
+    for i in range(3):
+        for j in range(3):
+            F[i, j] = dt * r[3 + 3 * i + j]
+        F[i, i] += 1.0
+        F[i, 3] = dt * r[12 + i]
+    F[3, 3] = 1.0
+    return F
+
+
+@njit(cache=True)
+def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std):
+    """Allocation-free :func:`forces_and_std` (same results; tested against it). Returns (F_res, F_res std)."""
+    m = p[P_MASS]
+    lf = p[P_LF]
+    lr = p[P_LR]
+    L = lf + lr
+    h = p[P_H]
+    hb = 0.5 * p[P_TRACK]
+    R = p[P_R]
+    cx0 = p[P_CX0]
+    cy0 = p[P_CY0]
+    vx = x[0]
+    vy = x[1]
+    r = x[2]
+    delta = u[U_DELTA]
+    cd = math.cos(delta)
+    sd = math.sin(delta)
+    tdelta = sd / cd
+    w = m * p[P_G] * math.cos(slope)
+    dxl = h * m * u[U_AX] / (2.0 * L)
+    c00 = cov[0, 0]
+    c01 = cov[0, 1]
+    c02 = cov[0, 2]
+    c11 = cov[1, 1]
+    c12 = cov[1, 2]
+    c22 = cov[2, 2]
+    sfx = 0.0
+    g0 = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    v_in = 0.0
+    for i in range(4):
+        front = i < 2
+        left = (i % 2) == 0
+        xi = lf if front else -lr
+        yi = hb if left else -hb
+        lever = lr if front else lf
+        lat = lever * h * m * u[U_AY] / (p[P_TRACK] * L)
+        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        c = cd if front else 1.0
+        s = sd if front else 0.0
+        vxi = vx - r * yi
+        vyi = vy + r * xi
+        vw = vxi * c + vyi * s
+        dvw2 = -yi * c + xi * s
+        omega = u[U_OMEGA + i]
+        rw = R * omega
+        if rw >= vw and rw >= V_MIN:
+            lam = (rw - vw) / rw
+            dl = -1.0 / rw
+            dlw = R * vw / (rw * rw)
+        elif vw >= V_MIN:
+            lam = rw / vw - 1.0
+            dl = -rw / (vw * vw)
+            dlw = R / vw
+        else:
+            lam = (rw - vw) / V_MIN
+            dl = -1.0 / V_MIN
+            dlw = R / V_MIN
+        td = tdelta if front else 0.0
+        num = td * vxi - vyi
+        den = vxi + td * vyi
+        t = num / den
+        tx = (td * den - num) / (den * den)
+        ty = (-den - num * td) / (den * den)
+        dt0 = tx
+        dt1 = ty
+        dt2 = -yi * tx + xi * ty
+        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[U_MU + i], cx0, cy0)
+        a0 = fxl * dl * c + fxt * dt0
+        a1 = fxl * dl * s + fxt * dt1
+        a2 = fxl * dl * dvw2 + fxt * dt2
+        b0 = fyl * dl * c + fyt * dt0
+        b1 = fyl * dl * s + fyt * dt1
+        b2 = fyl * dl * dvw2 + fyt * dt2
+        wv = (omega_rel_std * omega) ** 2
+        fx_out[i] = f_x
+        fy_out[i] = f_y
+        qx = (a0 * a0 * c00 + a1 * a1 * c11 + a2 * a2 * c22
+              + 2.0 * (a0 * a1 * c01 + a0 * a2 * c02 + a1 * a2 * c12)) + fxl * fxl * dlw * dlw * wv
+        qy = (b0 * b0 * c00 + b1 * b1 * c11 + b2 * b2 * c22
+              + 2.0 * (b0 * b1 * c01 + b0 * b2 * c02 + b1 * b2 * c12)) + fyl * fyl * dlw * dlw * wv
+        fx_std[i] = math.sqrt(max(qx, 0.0))
+        fy_std[i] = math.sqrt(max(qy, 0.0))
+        sfx += c * f_x - s * f_y
+        g0 += c * a0 - s * b0
+        g1 += c * a1 - s * b1
+        g2 += c * a2 - s * b2
+        d = (c * fxl - s * fyl) * dlw
+        v_in += d * d * wv
+    cxa = p[P_CXA]
+    res = sfx + m * r * vy - cxa * vx * abs(vx)
+    g0 -= 2.0 * cxa * abs(vx)
+    g1 += m * r
+    g2 += m * vy
+    v = v_in + g0 * g0 * c00 + g1 * g1 * c11 + g2 * g2 * c22 + 2.0 * (g0 * g1 * c01 + g0 * g2 * c02 + g1 * g2 * c12)
+    return res, math.sqrt(max(v, 0.0))

@@ -23,7 +23,7 @@ from numba import njit
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ModelError, ShapeError
 from ._car import GRAVITY, Vehicle, default_vehicle
-from ._planar_model import N_INPUTS, U_SLOPE, ekf_step, forces_and_std, planar_rates_jac
+from ._planar_model import N_INPUTS, U_SLOPE, ekf_jacobian, ekf_next, forces_fused, joint_jacobian, joint_next
 from ._planar_sim import DriveLog
 
 __all__ = ["EKFTuning", "SlopeEstimate", "planar_ekf_model", "slope_ekf_model", "slope_observer_matrices",
@@ -101,11 +101,11 @@ def _planar_functions(params: tuple, dt: float):
 
     @njit
     def f(x, u, k):
-        return ekf_step(x, u, p, dt)[0]
+        return ekf_next(x, u, p, dt)
 
     @njit
     def f_jac(x, u, k):
-        return ekf_step(x, u, p, dt)[1]
+        return ekf_jacobian(x, u, p, dt)
 
     @njit
     def h(x, u, k):
@@ -124,36 +124,17 @@ def _planar_functions(params: tuple, dt: float):
     return f, f_jac, h, h_jac
 
 
-@njit(cache=True)
-def _joint_step(x, u, p, dt):
-    xdot = np.empty(3)
-    jac = np.empty((3, 3))
-    dslope = np.empty(3)
-    planar_rates_jac(x[:3], u, p, x[3], xdot, jac, dslope)
-    xn = np.empty(4)
-    F = np.zeros((4, 4))
-    for i in range(3):
-        xn[i] = x[i] + dt * xdot[i]
-        for j in range(3):
-            F[i, j] = dt * jac[i, j]
-        F[i, i] += 1.0
-        F[i, 3] = dt * dslope[i]
-    xn[3] = x[3]
-    F[3, 3] = 1.0
-    return xn, F
-
-
 @functools.lru_cache(maxsize=32)
 def _joint_functions(params: tuple, dt: float):
     p = np.array(params)
 
     @njit
     def f(x, u, k):
-        return _joint_step(x, u, p, dt)[0]
+        return joint_next(x, u, p, dt)
 
     @njit
     def f_jac(x, u, k):
-        return _joint_step(x, u, p, dt)[1]
+        return joint_jacobian(x, u, p, dt)
 
     @njit
     def h(x, u, k):
@@ -382,10 +363,8 @@ class SlopeEstimate:
 def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, res, res_std):
     T = mean.shape[0]
     for k in range(T):
-        out = forces_and_std(mean[k, :3], cov[k, :3, :3], u[k], p, slope[k], omega_rel_std, fx[k], fy[k],
-                             fx_std[k], fy_std[k])
-        res[k] = out[2]
-        res_std[k] = out[3]
+        res[k], res_std[k] = forces_fused(mean[k], cov[k], u[k], p, slope[k], omega_rel_std, fx[k], fy[k],
+                                          fx_std[k], fy_std[k])
 
 
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",

@@ -35,6 +35,7 @@ __all__ = [
     "measure_vertical",
     "sensors_to_frame",
     "sensors_from_frame",
+    "vertical_test_run",
 ]
 
 SENSOR_CONFIGS = (1, 2, 3)
@@ -529,3 +530,60 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
     return VerticalSensors(config=int(config), time=t, displacement=stack("dz21"), ax=arr["ax"], ay=arr["ay"],
                            yaw_rate=arr["yaw_rate"], body_accel=stack("body_accel") if config == 2 else None,
                            wheel_accel=stack("wheel_accel") if config == 3 else None, dt=dt)
+
+
+_TESTS = ("road", "sweep", "track")
+
+
+def vertical_test_run(config: int, *, test: str = "road", road_class: str = "C", speed: float = 20.0,
+                      duration: float = 20.0, seed: int = 0, dt: float = 1e-3,
+                      params: VerticalVehicleParams | None = None) -> tuple[VerticalSimulation, VerticalSensors]:
+    """Simulate one of the thesis's tests and measure it with the sensors of ``config``.
+
+    Parameters
+    ----------
+    config : {1, 2, 3}
+        Sensor configuration.
+    test : {"road", "sweep", "track"}
+        ``"road"``: drive at ``speed`` over an ISO 8608 ``road_class`` road (two independent wheel paths,
+        rear wheels delayed by wheelbase / V); ``"sweep"``: the 4-poster heave sweep 0.5 -> 25 Hz (35 s
+        in the thesis; here ``duration``, same end frequency); ``"track"``: the 80 km/h steering-sine
+        manoeuvre (0 -> 2 Hz) on a road of ``road_class`` at ``speed``.
+    road_class : str
+        ISO 8608 class "A".."H" of the road (tests "road" and "track").
+    speed : float
+        Vehicle speed, m/s.
+    duration : float
+        Length of the run, s.
+    seed : int
+        Seed of the road and the sensor noise.
+    dt : float
+        Sample period, s.
+    params : VerticalVehicleParams, optional
+        The simulated car (default thesis set).
+
+    Returns
+    -------
+    (VerticalSimulation, VerticalSensors)
+    """
+    from ..road import iso8608_profile
+
+    if test not in _TESTS:
+        raise InputError(f"test must be one of {list(_TESTS)}; got {test!r}.")
+    if config not in SENSOR_CONFIGS:
+        raise InputError(f"config must be 1, 2 or 3 (thesis sensor configurations); got {config!r}.")
+    p = params or VerticalVehicleParams()
+    duration = require_positive("duration", duration)
+    speed = require_positive("speed", speed)
+    if test == "sweep":
+        sim = simulate_vertical(bench_sweep_road(dt, duration=duration), dt, params=p)
+    else:
+        length = speed * duration + p.wheelbase + 10.0
+        prof = iso8608_profile(length, min(0.05, speed * dt * 10), road_class, rng=seed, tracks=("left", "right"))
+        road = wheel_road_inputs(prof, speed, dt, duration=duration, params=p)
+        if test == "road":
+            sim = simulate_vertical(road, dt, params=p)
+        else:
+            ax, ay, psidd = steering_sine_manoeuvre(dt, duration=(road.shape[0] - 1) * dt, speed=speed)
+            sim = simulate_vertical(road, dt, params=p, ax=ax, ay=ay, yaw_accel=psidd)
+    return sim, measure_vertical(sim, config, rng=seed + 1)
