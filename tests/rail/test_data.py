@@ -14,16 +14,14 @@ def small():
 
 
 def test_csv_and_parquet_give_the_same_site(small, tmp_path):
-    for ext in ("csv", "parquet"):
-        small.sensors.to_csv(tmp_path / "s.csv", index=False) if ext == "csv" else small.sensors.to_parquet(tmp_path / "s.parquet")
-        r = small.readings.copy()
-        if ext == "csv":
-            r["timestamp"] = pd.to_datetime(r["timestamp"]).dt.strftime("%Y-%m-%dT%H:%M:%S")
-            r.to_csv(tmp_path / "r.csv", index=False)
-            small.survey.to_csv(tmp_path / "v.csv", index=False)
-        else:
-            r.to_parquet(tmp_path / "r.parquet")
-            small.survey.to_parquet(tmp_path / "v.parquet")
+    r = small.readings.copy()
+    small.sensors.to_parquet(tmp_path / "s.parquet")
+    r.to_parquet(tmp_path / "r.parquet")
+    small.survey.to_parquet(tmp_path / "v.parquet")
+    small.sensors.to_csv(tmp_path / "s.csv", index=False)
+    r["timestamp"] = pd.to_datetime(r["timestamp"]).dt.strftime("%Y-%m-%dT%H:%M:%S")
+    r.to_csv(tmp_path / "r.csv", index=False)
+    small.survey.to_csv(tmp_path / "v.csv", index=False)
     a = read_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
     b = read_site(tmp_path / "s.parquet", tmp_path / "r.parquet", tmp_path / "v.parquet")
     assert a.sensor_ids == b.sensor_ids

@@ -59,3 +59,29 @@ def test_rejects_different_missing_patterns_and_inputs():
     m_in = StateSpaceModel(np.eye(1), np.eye(1), np.eye(1), np.eye(1), [0.0], np.eye(1), input_transition=np.eye(1))
     with pytest.raises(ShapeError, match="known inputs"):
         shared_covariance_smoother(m_in, np.zeros((5, 1)))
+
+
+def test_noise_covariance_equals_the_impulse_responses_of_the_engine_smoother():
+    from longprofile.statespace import smoother_noise_covariance
+
+    rng = np.random.default_rng(3)
+    T = 12
+    model = _model(T, rng)
+    pattern = np.zeros((T, 2))
+    pattern[2, 0] = pattern[7, :] = np.nan
+    Rn = np.diag([0.1, 0.0])  # only the first component's noise drives the estimate
+    got = smoother_noise_covariance(model, pattern, noise_cov=Rn)
+    # oracle: the smoothed mean's linear map A from the observations, column by column, with the generic engine
+    obs = np.argwhere(~np.isnan(pattern))
+    base = rts_smoother(model, kalman_filter(model, pattern)).mean
+    cols = []
+    for k, j in obs:
+        y = pattern.copy()
+        y[k, j] = 1.0
+        cols.append(rts_smoother(model, kalman_filter(model, y)).mean - base)
+    A = np.stack(cols, axis=-1)  # (T, n, n_obs)
+    w = np.array([Rn[j, j] for _, j in obs])
+    expected = np.einsum("tio,o,tjo->tij", A, w, A)
+    assert np.allclose(got, expected, atol=1e-12)
+    with pytest.raises(ShapeError, match="noise_cov must have shape"):
+        smoother_noise_covariance(model, pattern, noise_cov=np.eye(3))

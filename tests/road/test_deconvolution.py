@@ -145,3 +145,22 @@ def test_detrend_removes_quadratics_exactly():
     w = 0.01 * np.sin(2 * np.pi * s / 10.0)
     out = detrend_profile(z + w, DX)
     assert np.max(np.abs(out - w)[800:-800]) < 1e-3 * 0.01 * 10
+
+
+@pytest.mark.parametrize("n_differentiators,min_corr", [(1, 0.99), (2, 0.5)])
+def test_causal_filter_tracks_when_the_instrument_has_few_differentiators(n_differentiators, min_corr):
+    # the "filter" path is correct: with one zero at 1 (cancelled by the Wiener integrator) the causal
+    # estimate tracks crenels; the triple zero of the APL is what breaks causal deconvolution (docs/road-apl.md)
+    from longprofile.road.apl import APLModel
+
+    n = 4000
+    k = np.arange(n)
+    u = np.where(((k + 250) // 500) % 2 == 1, 1.0, 0.0)
+    m = APLModel(zeros=np.ones(n_differentiators), poles=np.full(n_differentiators, 0.99), gain=1.0, delay=0,
+                 dt=0.0025, dx=DX)
+    y = apl_filter(m, u, initial="rest") + np.random.default_rng(0).normal(0, 1e-3, n)
+    rec = reconstruct_profile(y, m, method="filter", q=1e-3, r=1e-6, highpass_wavelength=None, stationary=False)
+    s = np.linspace(-1, 1, n)
+    V = np.vander(s, 3)
+    det = lambda x: x - V @ np.linalg.lstsq(V, x, rcond=None)[0]  # noqa: E731
+    assert np.corrcoef(det(rec.raw_elevation), det(u))[0, 1] > min_corr

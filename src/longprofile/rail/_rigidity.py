@@ -27,7 +27,7 @@ import numpy as np
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
 from ..statespace import StateSpaceModel, posterior_sample
-from ..statespace._shared_cov import shared_covariance_smoother
+from ..statespace._shared_cov import shared_covariance_smoother, smoother_noise_covariance
 
 __all__ = [
     "ProfilePosterior",
@@ -541,7 +541,7 @@ def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float
 
 
 def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                    sigma_z: float = DEFAULT_SIGMA_Z, chunk: int = 256) -> np.ndarray:
+                    sigma_z: float = DEFAULT_SIGMA_Z) -> np.ndarray:
     r"""Std of the posterior-mean altitude due to the slope measurement noise alone, at every station.
 
     The posterior mean is linear in the slopes, mu_z = A m (+ anchor terms), so for a given
@@ -557,14 +557,13 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
         Only the NaN pattern (which sensors measured) matters.
     sigma, rigidity, sigma_z
         As in :func:`rigidity_posterior`.
-    chunk : int
-        Columns of A computed per engine call.
 
     Returns
     -------
     (N,) or (D, N) ndarray
-        sigma * sqrt(diag(A A^T)), m; computed exactly from the unit-impulse responses of the
-        smoother (O(N^2) per missing pattern, through the engine).
+        sigma * sqrt(diag(A A^T)), m, in O(N) per missing pattern
+        (:func:`longprofile.statespace.smoother_noise_covariance`; the end anchor is an exact
+        constraint of the truth, so only the slope noise drives the error).
     """
     x = _check_stations(x)
     N = x.size
@@ -572,17 +571,15 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     batched = m.ndim == 2
     M = m if batched else m[None]
     s = require_positive("sigma", sigma)
+    model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z)
+    noise = np.diag([s**2, 0.0])
     pattern = np.isnan(M)
     uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
     out = np.empty(M.shape)
     for g in range(uniq.shape[0]):
-        obs = np.nonzero(~uniq[g])[0]
-        acc = np.zeros(N)
-        for start in range(0, obs.size, chunk):
-            cols = obs[start:start + chunk]
-            Y = np.where(uniq[g][None, :], np.nan, 0.0).repeat(cols.size, axis=0)
-            Y[np.arange(cols.size), cols] = 1.0
-            resp = rigidity_posterior(x, Y, sigma=s, rigidity=rigidity, sigma_z=sigma_z).z_mean
-            acc += np.sum(resp**2, axis=0)
-        out[inv.ravel() == g] = s * np.sqrt(acc)
+        y = np.full((N, 2), np.nan)
+        y[:, 0] = np.where(uniq[g], np.nan, 0.0)
+        y[-1, 1] = 0.0
+        S = smoother_noise_covariance(model, y, noise_cov=noise)
+        out[inv.ravel() == g] = np.sqrt(np.maximum(S[:, 0, 0], 0.0))
     return out if batched else out[0]

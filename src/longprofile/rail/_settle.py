@@ -13,7 +13,7 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import SensorHealth, assess_sensors
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
-from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, Z90, ProfilePosterior,
+from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, Z90, ProfilePosterior,
                         initial_profile_posterior, max_settlement_monte_carlo, measurement_std, rigidity_posterior)
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles

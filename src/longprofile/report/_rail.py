@@ -236,7 +236,10 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report")
     health = pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
                            "detail": result.health.detail, "loo_score": result.health.loo_score,
                            "thermal_coef_deg_per_c": result.daily.thermal_coef,
-                           "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers})
+                           "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers,
+                           "initial_z_m": result.initial.z_mean, "initial_z_std_m": result.initial.z_std,
+                           "initial_angle_deg": np.rad2deg(np.arctan(result.initial.slope_mean)),
+                           "initial_angle_std_deg": np.rad2deg(result.initial.slope_std)})
     p = out / "sensors.csv"; health.to_csv(p, index=False); written.append(p)
     st = result.settings
     flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]

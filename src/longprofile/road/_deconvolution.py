@@ -601,14 +601,14 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     if stationary:
         if method == "filter":
             mean = steady_state_filter(model, y).mean[:, -1]
-            cov = np.full(y.size, steady_state_gain(model).cov[-1, -1])
+            cov = np.broadcast_to(steady_state_gain(model).cov[-1, -1], y.shape)  # constant: a view, no memory
         else:
             mean = steady_state_smoother(model, y, store_filtered=False).mean[:, -1]
             # the constant smoothed variance, from the spectral (Wiener smoother) formula: the engine's
             # steady_state_smoothed_cov needs the inverse of a predicted covariance that is numerically
             # singular for this model (condition ~1e15)
-            cov = np.full(y.size, smoother_error_std(instrument, q, r, input_model=input_model,
-                                                     correlation_length=correlation_length, dx=dx) ** 2)
+            cov = np.broadcast_to(smoother_error_std(instrument, q, r, input_model=input_model,
+                                                     correlation_length=correlation_length, dx=dx) ** 2, y.shape)
         mean = np.ascontiguousarray(mean)
     else:
         filt = kalman_filter(model, y)
@@ -622,8 +622,9 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     if method == "smoother" and highpass_wavelength is not None:
         s = smoother_error_std(instrument, q, r, input_model=input_model, correlation_length=correlation_length,
                                dx=dx, highpass_wavelength=highpass_wavelength)
-        std = np.full(y.size, s)
+        std = np.broadcast_to(s, y.shape)
     prof = Profile(distance, elevation, std=std, name=f"{method} reconstruction of {name}".strip())
-    return Reconstruction(profile=prof, raw_elevation=mean, raw_std=np.sqrt(np.maximum(cov, 0.0)), method=method,
+    raw_std = np.broadcast_to(np.sqrt(max(float(cov[0]), 0.0)), y.shape) if stationary else np.sqrt(np.maximum(cov, 0.0))
+    return Reconstruction(profile=prof, raw_elevation=mean, raw_std=raw_std, method=method,
                           q=float(q), r=float(r), noise_fit=fit, input_model=input_model,
                           highpass_wavelength=highpass_wavelength)

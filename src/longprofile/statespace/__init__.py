@@ -10,6 +10,7 @@ kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched).
 rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covariances.
 log_likelihood         -- prediction-error log-likelihood.
 shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
+smoother_noise_covariance -- covariance of the smoothed mean from the observation noise alone (fixed truth).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
@@ -58,7 +59,7 @@ from ._observer import ObserverResult, luenberger_gain, luenberger_observer
 from ._propagate import LinearRecursionResult, linear_recursion
 from ._results import FilterResult, SmootherResult
 from ._sampling import posterior_sample, simulate
-from ._shared_cov import shared_covariance_smoother
+from ._shared_cov import shared_covariance_smoother, smoother_noise_covariance
 from ._steady import (SteadyStateGain, steady_state_filter, steady_state_gain, steady_state_smoothed_cov,
                       steady_state_smoother)
 
@@ -69,6 +70,7 @@ __all__ = [
     "log_likelihood",
     "posterior_sample",
     "shared_covariance_smoother",
+    "smoother_noise_covariance",
     "simulate",
     "FilterResult",
     "SmootherResult",

@@ -10,7 +10,8 @@ from scipy.linalg import cho_factor, cho_solve
 
 from .._validation import as_float_array, require_symmetric_psd
 from ..errors import InputError, ModelError, ShapeError
-from ._ekf_kernels import FD_REL_STEP, ekf_kernel
+from ._ekf_kernels import ekf_kernel
+from ._linalg_kernels import FD_REL_STEP
 from ._kalman import rts_smoother
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult

@@ -21,79 +21,31 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._linalg_kernels import (
+    FD_REL_STEP,
+    all_finite2,
+    cholesky_lower,
+    copy1,
+    copy2,
+    fd_jacobian,
+    forward_sub,
+    inverse_diagonal,
+    joseph_update,
+    sandwich_sym,
+    solve_rows,
+)
+
 __all__ = ["ekf_kernel", "fd_jacobian", "FD_REL_STEP"]
 
-# Central differences: truncation O(h^2), round-off O(eps/h) -> h ~ eps^(1/3) relative to the state's scale.
-FD_REL_STEP = float(np.finfo(float).eps ** (1.0 / 3.0))
 _LOG2PI = float(np.log(2.0 * np.pi))
 
 
-@njit
-def fd_jacobian(fn, x, u, k, xw, J):
-    """Central-difference Jacobian of fn(., u, k) at x into J (rows: outputs); xw is scratch of x's size."""
-    n = x.shape[0]
-    for j in range(n):
-        xw[j] = x[j]
-    for j in range(n):
-        step = FD_REL_STEP * max(abs(x[j]), 1.0)
-        hi = x[j] + step
-        lo = x[j] - step
-        xw[j] = hi
-        a = fn(xw, u, k)
-        xw[j] = lo
-        b = fn(xw, u, k)
-        xw[j] = x[j]
-        inv = 1.0 / (hi - lo)
-        for i in range(a.shape[0]):
-            J[i, j] = (a[i] - b[i]) * inv
-
-
 @njit(cache=True)
-def _all_finite2(a, r, c):
-    for i in range(r):
-        for j in range(c):
-            if not np.isfinite(a[i, j]):
-                return False
-    return True
-
-
-@njit(cache=True)
-def _copy1(src, dst):
-    for i in range(dst.shape[0]):
-        dst[i] = src[i]
-
-
-@njit(cache=True)
-def _copy2(src, dst):
-    for i in range(dst.shape[0]):
-        for j in range(dst.shape[1]):
-            dst[i, j] = src[i, j]
-
-
-@njit(cache=True)
-def _innovation_cov(P, Jh, R, PHt, S):
-    """PHt = P H', S = H P H' + (R + R')/2."""
-    n = P.shape[0]
-    m = Jh.shape[0]
-    for i in range(n):
-        for a in range(m):
-            s = 0.0
-            for j in range(n):
-                s += P[i, j] * Jh[a, j]
-            PHt[i, a] = s
-    for a in range(m):
-        for b in range(a, m):
-            s = 0.5 * (R[a, b] + R[b, a])
-            for i in range(n):
-                s += Jh[a, i] * PHt[i, b]
-            S[a, b] = s
-            S[b, a] = s
-
-
-@njit(cache=True)
-def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, obs, innov_k):
+def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, obs, innov_k):
     """Joseph-form measurement update on the observed components of yk (NaN = missing), in place.
 
+    The observed rows of H, the observed block of S and of R are gathered first, then the
+    engine's shared Cholesky / triangular-solve / Joseph helpers run on that leading block.
     Returns (status, number observed, log-likelihood contribution); status 1 = S not PD, 3 = non-finite.
     """
     n = x.shape[0]
@@ -111,94 +63,35 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, obs, innov_k):
         if not np.isfinite(ya):
             return 3, 0, 0.0
         e[a] = ya
-    for a in range(mo):
-        for b in range(a + 1):
-            s = S[obs[a], obs[b]]
-            for c in range(b):
-                s -= L[a, c] * L[b, c]
-            if a == b:
-                if not s > 0.0:
-                    return 1, 0, 0.0
-                L[a, a] = np.sqrt(s)
-            else:
-                L[a, b] = s / L[b, b]
-    quad = 0.0
+        for b in range(mo):
+            L[a, b] = S[obs[a], obs[b]]
+            Ro[a, b] = R[obs[a], obs[b]]
+        for j in range(n):
+            Ho[a, j] = Jh[obs[a], j]
+        for i in range(n):
+            K[i, a] = PHt[i, obs[a]]
+    if not cholesky_lower(L, mo, 0.0):
+        return 1, 0, 0.0
+    inverse_diagonal(L, mo, dinv)
     logdet = 0.0
     for a in range(mo):
-        s = e[a]
-        for c in range(a):
-            s -= L[a, c] * w[c]
-        w[a] = s / L[a, a]
-        quad += w[a] * w[a]
+        w[a] = e[a]
         logdet += 2.0 * np.log(L[a, a])
+    forward_sub(L, dinv, mo, w)
+    quad = 0.0
+    for a in range(mo):
+        quad += w[a] * w[a]
     ll = -0.5 * (mo * _LOG2PI + logdet + quad)
-    for i in range(n):
-        for a in range(mo):
-            s = PHt[i, obs[a]]
-            for c in range(a):
-                s -= L[a, c] * K[i, c]
-            K[i, a] = s / L[a, a]
-        for a in range(mo - 1, -1, -1):
-            s = K[i, a]
-            for c in range(a + 1, mo):
-                s -= L[c, a] * K[i, c]
-            K[i, a] = s / L[a, a]
+    solve_rows(L, dinv, mo, K, n, w)  # K = P H_o' S_o^-1
     for i in range(n):
         s = x[i]
         for a in range(mo):
             s += K[i, a] * e[a]
         x[i] = s
-    for i in range(n):
-        for j in range(n):
-            s = 1.0 if i == j else 0.0
-            for a in range(mo):
-                s -= K[i, a] * Jh[obs[a], j]
-            A[i, j] = s
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for c in range(n):
-                s += A[i, c] * P[c, j]
-            AP[i, j] = s
-    for i in range(n):
-        for a in range(mo):
-            s = 0.0
-            for b in range(mo):
-                s += K[i, b] * R[obs[b], obs[a]]
-            KR[i, a] = s
-    for i in range(n):
-        for j in range(i, n):
-            s = 0.0
-            for c in range(n):
-                s += AP[i, c] * A[j, c]
-            t = 0.0
-            for a in range(mo):
-                t += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
-            s += 0.5 * t
-            P[i, j] = s
-            P[j, i] = s
+    joseph_update(P, K, Ho, Ro, n, mo, A, AP, KR)
     for a in range(mo):
         innov_k[obs[a]] = e[a]
     return 0, mo, ll
-
-
-@njit(cache=True)
-def _predict_cov(P, Jf, Q, AP):
-    """P <- F P F' + (Q + Q')/2, symmetric, in place."""
-    n = P.shape[0]
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for c in range(n):
-                s += Jf[i, c] * P[c, j]
-            AP[i, j] = s
-    for i in range(n):
-        for j in range(i, n):
-            s = 0.5 * (Q[i, j] + Q[j, i])
-            for c in range(n):
-                s += AP[i, c] * Jf[j, c]
-            P[i, j] = s
-            P[j, i] = s
 
 
 @njit
@@ -213,8 +106,8 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
     n = x0.shape[0]
     x = np.empty(n)
     P = np.empty((n, n))
-    _copy1(x0, x)
-    _copy2(P0, P)
+    copy1(x0, x)
+    copy2(P0, P)
     xw = np.empty(n)
     Jf = np.empty((n, n))
     Jh = np.empty((m, n))
@@ -227,50 +120,53 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
     KR = np.empty((n, m))
     e = np.empty(m)
     w = np.empty(m)
+    dinv = np.empty(m)
+    Ho = np.empty((m, n))
+    Ro = np.empty((m, m))
     obs = np.empty(m, np.int64)
     n_obs = 0
     state[0] = 0
     state[1] = 0
     for k in range(T):
         uk = u[k]
-        _copy1(x, pmean[k])
+        copy1(x, pmean[k])
         if store:
-            _copy2(P, pcov[k])
+            copy2(P, pcov[k])
         yhat = h(x, uk, k)
         if hjac is None:
             fd_jacobian(h, x, uk, k, xw, Jh)
         else:
-            _copy2(hjac(x, uk, k), Jh)
-        if not _all_finite2(Jh, m, n):
+            copy2(hjac(x, uk, k), Jh)
+        if not all_finite2(Jh, m, n):
             state[0] = 3
             state[1] = k
             return n_obs
-        _innovation_cov(P, Jh, R3[k if R3.shape[0] > 1 else 0], PHt, S)
+        sandwich_sym(Jh, P, R3[k if R3.shape[0] > 1 else 0], PHt, S)  # PHt = P H', S = H P H' + R
         if store:
-            _copy2(Jh, Hj[k])
-            _copy2(S, icov[k])
+            copy2(Jh, Hj[k])
+            copy2(S, icov[k])
         status, mo, ll = _update(x, P, Jh, yhat, y[k], R3[k if R3.shape[0] > 1 else 0], PHt, S, L, K, A, AP,
-                                 KR, e, w, obs, innov[k])
+                                 KR, e, w, dinv, Ho, Ro, obs, innov[k])
         if status != 0:
             state[0] = status
             state[1] = k
             return n_obs
         ll_steps[k] = ll
         n_obs += mo
-        _copy1(x, mean[k])
+        copy1(x, mean[k])
         if store:
-            _copy2(P, cov[k])
+            copy2(P, cov[k])
         if k < T - 1:
             if fjac is None:
                 fd_jacobian(f, x, uk, k, xw, Jf)
             else:
-                _copy2(fjac(x, uk, k), Jf)
-            if not _all_finite2(Jf, n, n):
+                copy2(fjac(x, uk, k), Jf)
+            if not all_finite2(Jf, n, n):
                 state[0] = 2
                 state[1] = k
                 return n_obs
             if store:
-                _copy2(Jf, Fj[k])
+                copy2(Jf, Fj[k])
             xn = f(x, uk, k)
             for i in range(n):
                 if not np.isfinite(xn[i]):
@@ -278,7 +174,7 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
                     state[1] = k
                     return n_obs
                 x[i] = xn[i]
-            _predict_cov(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], AP)
+            sandwich_sym(Jf, P, Q3[k if Q3.shape[0] > 1 else 0], AP, P)  # P <- F P F' + Q
             for i in range(n):
                 if not np.isfinite(P[i, i]):
                     state[0] = 4

@@ -28,6 +28,10 @@ import math
 import numpy as np
 from numba import njit
 
+from ._linalg_kernels import FASTMATH as _FASTMATH
+from ._linalg_kernels import affine_map, cholesky_lower, forward_sub, inverse_diagonal, solve_rows
+from ._linalg_kernels import at as _at
+
 __all__ = [
     "kalman_filter_kernel",
     "rts_smoother_kernel",
@@ -42,65 +46,6 @@ STATUS_OK = 0
 STATUS_INNOVATION_NOT_PD = 1
 
 _LOG2PI = math.log(2.0 * math.pi)
-
-# Floating-point contraction/reassociation only: NaN and inf semantics are kept (missing data is NaN).
-_FASTMATH = {"contract", "reassoc", "nsz", "arcp"}
-
-
-@njit(cache=True, inline="always")
-def _at(K, k):
-    return k if K > 1 else 0
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _cholesky_lower(A, k, rel_tol):
-    """In-place lower Cholesky of the leading k x k block of A (lower triangle read).
-
-    Returns False if a pivot is not positive (``<= rel_tol`` times the original
-    diagonal entry), i.e. the block is not numerically positive definite.
-    """
-    for j in range(k):
-        s = A[j, j]
-        djj = s
-        for l in range(j):
-            s -= A[j, l] * A[j, l]
-        if not (s > rel_tol * abs(djj)) or s <= 0.0:
-            return False
-        ljj = math.sqrt(s)
-        A[j, j] = ljj
-        for i in range(j + 1, k):
-            t = A[i, j]
-            for l in range(j):
-                t -= A[i, l] * A[j, l]
-            A[i, j] = t / ljj
-    return True
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _inverse_diagonal(L, k, dinv):
-    """dinv[i] = 1 / L[i, i] (the triangular solves then multiply instead of dividing)."""
-    for i in range(k):
-        dinv[i] = 1.0 / L[i, i]
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _forward_sub(L, dinv, k, b):
-    """Solve L z = b in place (L lower, leading k x k block, dinv its inverse diagonal)."""
-    for i in range(k):
-        s = b[i]
-        for l in range(i):
-            s -= L[i, l] * b[l]
-        b[i] = s * dinv[i]
-
-
-@njit(cache=True, fastmath=_FASTMATH)
-def _backward_sub_t(L, dinv, k, b):
-    """Solve L^T z = b in place (L lower, leading k x k block, dinv its inverse diagonal)."""
-    for i in range(k - 1, -1, -1):
-        s = b[i]
-        for l in range(i + 1, k):
-            s -= L[l, i] * b[l]
-        b[i] = s * dinv[i]
 
 
 # Sizes up to these are compiled with n and m as compile-time constants (fully unrolled small
@@ -126,7 +71,6 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
         T = y.shape[1]
         n = N_FIXED if N_FIXED > 0 else x0.shape[0]
         m = M_FIXED if M_FIXED > 0 else y.shape[2]
-        p = Bm.shape[2]
         x = np.empty(n)
         xn = np.empty(n)
         P = np.empty((n, n))
@@ -166,13 +110,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                 kr = _at(R.shape[0], t)
                 kd = _at(Dm.shape[0], t)
                 kdo = _at(d.shape[0], t)
-                for i in range(m):
-                    s = d[kdo, i]
-                    for l in range(n):
-                        s += H[kh, i, l] * x[l]
-                    for l in range(p):
-                        s += Dm[kd, i, l] * u[ub, t, l]
-                    yhat[i] = s
+                affine_map(H, kh, x, m, n, Dm, kd, u, ub, t, d, kdo, yhat)  # H x + D u + d
                 # P H'
                 for i in range(n):
                     for j in range(m):
@@ -214,17 +152,17 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                                 L[i, j] = S[i, j]
                             else:
                                 L[i, j] = 1.0 if i == j else 0.0
-                    if not _cholesky_lower(L, m, 0.0):
+                    if not cholesky_lower(L, m, 0.0):
                         status[0] = b
                         status[1] = t
                         status[2] = STATUS_INNOVATION_NOT_PD
                         return
-                    _inverse_diagonal(L, m, dinv)
+                    inverse_diagonal(L, m, dinv)
                     logdet = 0.0
                     for i in range(m):
                         w[i] = e[i]
                         logdet += 2.0 * math.log(L[i, i])
-                    _forward_sub(L, dinv, m, w)
+                    forward_sub(L, dinv, m, w)
                     quad = 0.0
                     for i in range(m):
                         quad += w[i] * w[i]
@@ -233,11 +171,8 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                     # gain K = P H_o' S_o^{-1}, row by row (zero columns on missing components)
                     for i in range(n):
                         for j in range(m):
-                            w[j] = PHt[i, j] if obs[j] else 0.0
-                        _forward_sub(L, dinv, m, w)
-                        _backward_sub_t(L, dinv, m, w)
-                        for j in range(m):
-                            Kg[i, j] = w[j]
+                            Kg[i, j] = PHt[i, j] if obs[j] else 0.0
+                    solve_rows(L, dinv, m, Kg, n, w)
                     for i in range(n):
                         s = x[i]
                         for j in range(m):
@@ -283,13 +218,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                     kq = _at(Q.shape[0], t)
                     kb = _at(Bm.shape[0], t)
                     kc = _at(c.shape[0], t)
-                    for i in range(n):
-                        s = c[kc, i]
-                        for l in range(n):
-                            s += F[kf, i, l] * x[l]
-                        for l in range(p):
-                            s += Bm[kb, i, l] * u[ub, t, l]
-                        xn[i] = s
+                    affine_map(F, kf, x, n, n, Bm, kb, u, ub, t, c, kc, xn)  # F x + B u + c
                     for i in range(n):
                         x[i] = xn[i]
                     for i in range(n):
@@ -358,16 +287,13 @@ def _make_smoother_kernel(n_fixed: int):
                 for i in range(n):
                     for j in range(i + 1):
                         Lp[i, j] = pcov[b, t + 1, i, j]
-                if _cholesky_lower(Lp, n, 1e-13):
-                    # G' = Pp^{-1} (F P), column by column
-                    _inverse_diagonal(Lp, n, dinv)
+                if cholesky_lower(Lp, n, 1e-13):
+                    # G = (F P)' Pp^{-1}, row by row
+                    inverse_diagonal(Lp, n, dinv)
                     for j in range(n):
                         for i in range(n):
-                            col[i] = FP[i, j]
-                        _forward_sub(Lp, dinv, n, col)
-                        _backward_sub_t(Lp, dinv, n, col)
-                        for i in range(n):
-                            G[j, i] = col[i]
+                            G[j, i] = FP[i, j]
+                    solve_rows(Lp, dinv, n, G, n, col)
                 else:
                     _pinv_gain(pcov[b, t + 1], FP, G, n)
                 if store_gains:
@@ -504,31 +430,22 @@ def backward_sample_kernel(mean, pmean, gains, roots, z, out):
 @njit(cache=True, fastmath=_FASTMATH)
 def simulate_kernel(F, H, Bm, Dm, c, d, u, x0, w, v, x, y):
     """Draw a trajectory: x (T,n), y (T,m) from x0 (n,), process noise w (T-1,n),
-    observation noise v (T,m), inputs u (T,p); model terms as in the filter kernel."""
+    observation noise v (T,m), inputs u (1,T,p); model terms as in the filter kernel."""
     T, n = x.shape
     m = y.shape[1]
-    p = Bm.shape[2]
     for i in range(n):
         x[0, i] = x0[i]
     for t in range(T):
         kh = _at(H.shape[0], t)
         kd = _at(Dm.shape[0], t)
         kdo = _at(d.shape[0], t)
+        affine_map(H, kh, x[t], m, n, Dm, kd, u, 0, t, d, kdo, y[t])
         for i in range(m):
-            s = d[kdo, i] + v[t, i]
-            for l in range(n):
-                s += H[kh, i, l] * x[t, l]
-            for l in range(p):
-                s += Dm[kd, i, l] * u[t, l]
-            y[t, i] = s
+            y[t, i] += v[t, i]
         if t < T - 1:
             kf = _at(F.shape[0], t)
             kb = _at(Bm.shape[0], t)
             kc = _at(c.shape[0], t)
+            affine_map(F, kf, x[t], n, n, Bm, kb, u, 0, t, c, kc, x[t + 1])
             for i in range(n):
-                s = c[kc, i] + w[t, i]
-                for l in range(n):
-                    s += F[kf, i, l] * x[t, l]
-                for l in range(p):
-                    s += Bm[kb, i, l] * u[t, l]
-                x[t + 1, i] = s
+                x[t + 1, i] += w[t, i]

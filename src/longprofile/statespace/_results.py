@@ -67,11 +67,12 @@ class SmootherResult:
         Smoothed covariances (None when the smoother ran means-only).
     cross_cov : (T-1, n, n) ndarray or None
         Lag-one covariances Cov(x_t, x_{t+1} | y) — a true covariance, not a second moment.
-    filtered : FilterResult
-        The forward pass the smoother was run on.
+    filtered : FilterResult or None
+        The forward pass the smoother was run on (None only for the documented
+        low-memory mode of :func:`steady_state_smoother`).
     """
 
     mean: np.ndarray
     cov: np.ndarray | None
     cross_cov: np.ndarray | None
-    filtered: FilterResult
+    filtered: FilterResult | None

@@ -188,7 +188,7 @@ def simulate(model: StateSpaceModel, n_steps: int, *, rng=None, u=None) -> tuple
     gen = _as_generator(rng)
     model.check_length(T)
     U = _validate_inputs(model, u, T, 1)
-    U = np.zeros((T, 0)) if U is None else np.ascontiguousarray(U[0])
+    U = np.zeros((1, T, 0)) if U is None else U
     terms = kernel_terms(model)
     n, m = model.n_states, model.n_obs
     x0 = model.initial_mean + psd_sqrt(model.initial_cov, "initial_cov (P0)") @ gen.standard_normal(n)

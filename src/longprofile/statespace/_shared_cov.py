@@ -21,7 +21,7 @@ from ._kalman import prepare_observations
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult
 
-__all__ = ["shared_covariance_smoother"]
+__all__ = ["shared_covariance_smoother", "smoother_noise_covariance"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
 
@@ -228,3 +228,88 @@ def shared_covariance_smoother(model: StateSpaceModel, y) -> SmootherResult:
         log_likelihood=ll.sum(axis=-1) if batched else float(ll.sum()), log_likelihood_steps=ll,
         n_observed=np.full(B, n_observed) if batched else n_observed, method="shared-covariance")
     return SmootherResult(mean=ms, cov=Ps, cross_cov=cc[: max(T - 1, 0)], filtered=filtered)
+
+
+@njit(cache=True)
+def _noise_cov_pass(F, H, K, G, Rn):  # pragma: no cover - compiled
+    """Covariance of the RTS-smoothed mean driven by observation noise alone (fixed truth), O(T n^3)."""
+    T, m, n = H.shape
+    eye = np.eye(n)
+    Pf = np.empty((T, n, n))
+    A = np.zeros((T, n, n))
+    P = K[0] @ Rn[0] @ K[0].T
+    Pf[0] = 0.5 * (P + P.T)
+    for k in range(1, T):
+        A[k] = (eye - K[k] @ H[k]) @ F[k - 1]
+        P = A[k] @ Pf[k - 1] @ A[k].T + K[k] @ Rn[k] @ K[k].T
+        Pf[k] = 0.5 * (P + P.T)
+    S = np.empty((T, n, n))
+    S[T - 1] = Pf[T - 1]
+    Nk = eye.copy()  # d xs[k+1] / d xf[k+1]
+    for k in range(T - 2, -1, -1):
+        M = Nk @ A[k + 1]  # d xs[k+1] / d xf[k]
+        B = eye - G[k] @ F[k]
+        X = B @ Pf[k] @ M.T @ G[k].T
+        Sk = B @ Pf[k] @ B.T + G[k] @ S[k + 1] @ G[k].T + X + X.T
+        S[k] = 0.5 * (Sk + Sk.T)
+        Nk = B + G[k] @ M
+    return S
+
+
+def smoother_noise_covariance(model: StateSpaceModel, y, *, noise_cov=None) -> np.ndarray:
+    r"""Covariance of the RTS-smoothed mean caused by the observation noise alone, for a fixed true state path.
+
+    The smoothed mean is linear in the observations, x_s = A y + b; for a fixed truth its
+    error from the noise v ~ N(0, R_n) has covariance A R_n A^T (the frequentist, "measurement"
+    covariance of the estimate), whereas the smoother's ``cov`` is the Bayesian posterior
+    covariance (which also counts the prior's uncertainty). Computed by forward and backward
+    covariance recursions through the shared gains, O(T n^3), no matrix A formed.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        As in :func:`shared_covariance_smoother` (its ``obs_cov`` sets the gains).
+    y : (T, m) array_like
+        Only the NaN pattern matters (which components are observed).
+    noise_cov : (m, m) or (T, m, m) array_like, optional
+        Covariance R_n of the noise actually driving the estimate; default the model's ``obs_cov``.
+        E.g. zero on components that are exact constraints.
+
+    Returns
+    -------
+    (T, n, n) ndarray
+        Cov(x_s[t] | true path), t = 0..T-1.
+
+    Notes
+    -----
+    With A_k = (I - K_k H_k) F_{k-1} the filtered mean's noise covariance is
+    P_k = A_k P_{k-1} A_k^T + K_k R_n K_k^T; backwards, with B_k = I - G_k F_k and
+    N_k = d x_s[k] / d x_f[k] (N_{T-1} = I, N_k = B_k + G_k N_{k+1} A_{k+1}),
+    S_k = B P_k B^T + G_k S_{k+1} G_k^T + (B P_k A_{k+1}^T N_{k+1}^T G_k^T + its transpose).
+    """
+    if model.n_inputs:
+        raise ShapeError("smoother_noise_covariance does not take known inputs (the model has B or D).")
+    Y, batched = prepare_observations(model, y)
+    if batched:
+        raise ShapeError("smoother_noise_covariance takes one (T, m) pattern; got a batch.")
+    _, T, m = Y.shape
+    n = model.n_states
+    obs = np.ascontiguousarray(~np.isnan(Y[0]))
+    F = _per_step(model, "transition", max(T - 1, 1), (n, n))
+    Q = _per_step(model, "process_cov", max(T - 1, 1), (n, n))
+    H = _per_step(model, "observation", T, (m, n))
+    R = _per_step(model, "obs_cov", T, (m, m))
+    if noise_cov is None:
+        Rn = R
+    else:
+        Rn = np.asarray(noise_cov, dtype=float)
+        if Rn.shape == (m, m):
+            Rn = np.broadcast_to(Rn, (T, m, m))
+        if Rn.shape != (T, m, m):
+            raise ShapeError(f"noise_cov must have shape ({m}, {m}) or ({T}, {m}, {m}); got {np.shape(noise_cov)}.")
+        Rn = np.ascontiguousarray(Rn)
+    try:
+        _, _, K, _, _, _, _, G, _ = _cov_pass(F, Q, H, R, np.ascontiguousarray(model.initial_cov), obs)
+    except np.linalg.LinAlgError:
+        raise ModelError("an innovation or predicted covariance is not positive definite.") from None
+    return _noise_cov_pass(F, H, K, np.ascontiguousarray(G), Rn)

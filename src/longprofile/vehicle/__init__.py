@@ -29,6 +29,9 @@ corner_observability  -- SVD observability analysis of the corner models; Observ
 epsilon_score / score_vertical_estimate / reproduce_thesis_tables -- the thesis criterion and Tables 4.4/4.5.
 vertical_test_run     -- simulate a thesis test (road / 4-poster sweep / track) and measure one configuration.
 estimate_to_frame / plot_vertical_estimate -- table and figure of a VerticalStateEstimate.
+smooth_vertical_states -- offline extended RTS smoothing of the corner-EKF estimate.
+vertical_linear_model / estimate_vertical_states_linear -- centralised linear full-car KF / RTS for comparison.
+road_profile_from_suspension -- the road under the wheels from the suspension sensors (car as profilometer).
 """
 
 from ._car import Vehicle, default_vehicle, load_vehicle
@@ -39,12 +42,14 @@ from ._slope import (EKFTuning, SlopeEstimate, estimate_slope, planar_ekf_model,
                      slope_ekf_model, slope_observer_gain, slope_observer_matrices)
 from ._slope_plot import plot_drive, plot_slope_estimate
 from ._vertical_estimate import (CornerFilterSettings, VerticalStateEstimate, estimate_vertical_states,
-                                 thesis_filter_settings, vertical_ekf_inputs, vertical_ekf_model)
+                                 estimate_vertical_states_linear, smooth_vertical_states, thesis_filter_settings,
+                                 vertical_ekf_inputs, vertical_ekf_model, vertical_linear_model)
 from ._vertical_eval import (THESIS_BENCH_TABLE, THESIS_TRACK_TABLE, epsilon_score, reproduce_thesis_tables,
                              score_vertical_estimate)
 from ._vertical_model import VerticalVehicleParams
 from ._vertical_observability import ObservabilityResult, corner_observability
 from ._vertical_plot import estimate_to_frame, plot_vertical_estimate
+from ._vertical_road import road_profile_from_suspension
 from ._vertical_sim import (VerticalSensors, VerticalSimulation, bench_sweep_road, measure_vertical, sensors_from_frame,
                             sensors_to_frame, simulate_vertical, steering_sine_manoeuvre, vertical_test_run,
                             wheel_road_inputs)
@@ -63,4 +68,6 @@ __all__ = [
     "CornerFilterSettings", "thesis_filter_settings", "corner_observability", "ObservabilityResult",
     "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "THESIS_BENCH_TABLE",
     "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
+    "smooth_vertical_states", "road_profile_from_suspension", "vertical_linear_model",
+    "estimate_vertical_states_linear",
 ]

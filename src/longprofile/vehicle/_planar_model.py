@@ -220,88 +220,12 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
 
 
 @njit(cache=True)
-def ekf_step(x, u, p, dt):
-    """Eq. (20) (explicit Euler step of (11)) for the state (V_x, V_y, r); returns (x_next, F)."""
-    xdot = np.empty(3)
-    jac = np.empty((3, 3))
-    dslope = np.empty(3)
-    planar_rates_jac(x, u, p, u[U_SLOPE], xdot, jac, dslope)
-    xn = np.empty(3)
-    F = np.empty((3, 3))
-    for i in range(3):
-        xn[i] = x[i] + dt * xdot[i]
-        for j in range(3):
-            F[i, j] = dt * jac[i, j]
-        F[i, i] += 1.0
-    return xn, F
-
-
-@njit(cache=True)
-def forces_and_std(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std, scratch):
-    """Tyre forces at the estimate ``x`` and their std by the delta method through (18)->(15)-(17).
-
-    ``cov`` is the (3, 3) covariance of (V_x, V_y, r); ``slope`` (rad) enters the loads (19);
-    ``omega_rel_std`` is the relative std of the wheel-speed inputs (independent wheels), whose
-    contribution is added to the force variances. ``scratch`` is a (9, 4, 4) work array.
-    Returns ``(sum_fx, sum_fx_std, resisting, resisting_std)``; ``resisting`` = F_res of eq. (21):
-    sum F_X + M r V_y - C_x V_x |V_x| (N), whose std is also propagated.
-    """
-    fn = scratch[0, 0]
-    slip = scratch[0, 1]
-    alpha = scratch[0, 2]
-    w_var = scratch[0, 3]
-    dfx = scratch[1, :, :3]
-    dfy = scratch[2, :, :3]
-    dfn = scratch[3, :2]
-    dfw = scratch[4, :2]
-    g = scratch[5, :3, :3]
-    normal_loads(p, u[U_AX], u[U_AY], slope, fn)
-    tyre_kinematics_forces(x[0], x[1], x[2], u[U_DELTA], u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
-                           slip, alpha, fx_out, fy_out, dfx, dfy, dfn, dfw)
-    for i in range(4):
-        w_var[i] = (omega_rel_std * u[U_OMEGA + i]) ** 2
-    for i in range(4):
-        vx_ = dfw[0, i] * dfw[0, i] * w_var[i]
-        vy_ = dfw[1, i] * dfw[1, i] * w_var[i]
-        for a in range(3):
-            for b in range(3):
-                vx_ += dfx[i, a] * cov[a, b] * dfx[i, b]
-                vy_ += dfy[i, a] * cov[a, b] * dfy[i, b]
-        fx_std[i] = math.sqrt(max(vx_, 0.0))
-        fy_std[i] = math.sqrt(max(vy_, 0.0))
-    sfx, sfy, mz = body_sums(fx_out, fy_out, u[U_DELTA], p)
-    body_sums_grad(dfx, dfy, u[U_DELTA], p, g)
-    m = p[P_MASS]
-    res = sfx + m * x[2] * x[1] - p[P_CXA] * x[0] * abs(x[0])
-    gr0 = g[0, 0] - 2.0 * p[P_CXA] * abs(x[0])
-    gr1 = g[0, 1] + m * x[2]
-    gr2 = g[0, 2] + m * x[1]
-    # wheel-speed input noise through the body sums (independent wheels)
-    c = math.cos(u[U_DELTA])
-    sn = math.sin(u[U_DELTA])
-    v_res = 0.0
-    for i in range(4):
-        if i < 2:
-            d = dfw[0, i] * c - dfw[1, i] * sn
-        else:
-            d = dfw[0, i]
-        v_res += d * d * w_var[i]
-    v_sfx = v_res
-    for a in range(3):
-        ga = gr0 if a == 0 else (gr1 if a == 1 else gr2)
-        for b in range(3):
-            gb = gr0 if b == 0 else (gr1 if b == 1 else gr2)
-            v_res += ga * cov[a, b] * gb
-            v_sfx += g[0, a] * cov[a, b] * g[0, b]
-    return sfx, math.sqrt(max(v_sfx, 0.0)), res, math.sqrt(max(v_res, 0.0))
-
-
-@njit(cache=True)
 def planar_fused(vx, vy, r, u, p, slope):
     """Allocation-free eq. (11)-(19) for the EKF inner loop: rates, Jacobian and slope derivative.
 
-    Same mathematics as :func:`planar_rates_jac` (tested against it), written with scalars only so the
-    compiled EKF loop does not allocate. Returns a 15-tuple:
+    Same mathematics as :func:`planar_rates_jac` (the readable version, also used by the simulator),
+    written with scalars only so the compiled EKF loop does not allocate; tests check the EKF step
+    against the simulator's physics and the Jacobian against finite differences. Returns a 15-tuple:
     ``(dvx, dvy, dr, J00, J01, J02, J10, J11, J12, J20, J21, J22, ds0, ds1, ds2)``.
     """
     m = p[P_MASS]
@@ -471,7 +395,13 @@ def joint_jacobian(x, u, p, dt):
 
 @njit(cache=True)
 def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std):
-    """Allocation-free :func:`forces_and_std` (same results; tested against it). Returns (F_res, F_res std)."""
+    """Tyre forces at the estimate ``x`` and their std by the delta method through (18)->(15)-(17).
+
+    ``cov`` is the covariance of the state (its (V_x, V_y, r) block is used); ``slope`` (rad) enters the
+    loads (19); ``omega_rel_std`` is the relative std of the wheel-speed inputs (independent wheels),
+    whose contribution is added. Writes fx, fy and their stds (4,) and returns ``(F_res, F_res std)``,
+    F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21) in N. Allocation-free.
+    """
     m = p[P_MASS]
     lf = p[P_LF]
     lr = p[P_LR]

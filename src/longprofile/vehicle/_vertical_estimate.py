@@ -24,7 +24,8 @@ from ._vertical_model import CKBAR, CMW, VerticalVehicleParams, suspension_tensi
 from ._vertical_sim import SENSOR_CONFIGS, VerticalSensors
 
 __all__ = ["CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model", "vertical_ekf_inputs",
-           "VerticalStateEstimate", "estimate_vertical_states", "yaw_acceleration"]
+           "VerticalStateEstimate", "estimate_vertical_states", "smooth_vertical_states", "yaw_acceleration",
+           "vertical_linear_model", "estimate_vertical_states_linear"]
 
 _DISP_VAR = 3e-8  # thesis (4.2): (6e-4 m)^2 / 12
 
@@ -472,3 +473,120 @@ def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspens
         wheel = signal.sosfilt(_sos(1, 0.1, "high", dt), _integrate(a, dt), axis=0)
         body = signal.sosfilt(_sos(1, 7.0, "low", dt), wheel + suspension_velocity, axis=0)
     return body, wheel
+
+
+def smooth_vertical_states(estimate: VerticalStateEstimate, *, params: VerticalVehicleParams | None = None,
+                           settings: CornerFilterSettings | None = None) -> VerticalStateEstimate:
+    """Offline (fixed-interval) counterpart of :func:`estimate_vertical_states`: extended RTS smoothing.
+
+    Runs the engine's :func:`~longprofile.statespace.extended_rts_smoother` on the filter output (with the
+    linearisations the filter used; block-diagonal for the per-corner filters, so the smoother is per corner
+    too). Relative states, disturbance and tyre deflection/force are smoothed; the absolute velocities are
+    those of the real-time chains (copied).
+
+    Parameters
+    ----------
+    estimate : VerticalStateEstimate
+        Output of :func:`estimate_vertical_states` (its ``filtered`` field must hold covariances).
+    params, settings
+        The ones the filter ran with (defaults: thesis values).
+
+    Returns
+    -------
+    VerticalStateEstimate
+        ``method`` gains the suffix ``"+rts"``; ``filtered`` is the engine's SmootherResult.
+    """
+    from ..statespace import extended_rts_smoother
+
+    if not isinstance(estimate, VerticalStateEstimate):
+        raise InputError(f"estimate must be a VerticalStateEstimate; got {type(estimate).__name__}.")
+    p = params or VerticalVehicleParams()
+    dt = float(estimate.time[1] - estimate.time[0])
+    model = vertical_ekf_model(estimate.config, dt, params=p, settings=settings)
+    sm = extended_rts_smoother(model, estimate.filtered)
+    x = sm.mean
+    std = np.sqrt(np.maximum(np.diagonal(sm.cov, axis1=1, axis2=2), 0.0))
+    return VerticalStateEstimate(
+        time=estimate.time, suspension_deflection=x[:, 1::4], suspension_velocity=x[:, 0::4],
+        vehicle_disturbance=x[:, 2::4], tyre_deflection=x[:, 3::4], tyre_force=-p.tyre_stiffness * x[:, 3::4],
+        body_velocity=estimate.body_velocity, wheel_velocity=estimate.wheel_velocity, state_std=std,
+        config=estimate.config, method=estimate.method + "+rts", filtered=sm)
+
+
+def vertical_linear_model(config: int, dt: float = 1e-3, *, params: VerticalVehicleParams | None = None,
+                          settings: CornerFilterSettings | None = None):
+    """Linear-Gaussian full-car model: the corner model linearised at rest with ALL cross-corner couplings.
+
+    ``x[k+1] = F x[k] + B u[k] + w``, ``y = H x + D u + v`` with F, H the full (centralised) Jacobians of
+    :func:`vertical_ekf_model` at x = 0, u = 0 and B, D the exact input matrices of a_x, a_y, psidd and the
+    four actuator forces (the model is affine in them). The damper is linearised at v = 0, where its slope
+    (the mean of the rebound and compression slopes) is far steeper than at working velocities: this is the
+    linear comparison point that motivates the thesis's EKF.
+
+    Returns
+    -------
+    StateSpaceModel
+        16 states (as the EKF), 7 inputs ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]``.
+    """
+    from ..statespace import StateSpaceModel
+
+    nl = vertical_ekf_model(config, dt, params=params, settings=settings)
+    s = settings or thesis_filter_settings(config, dt)
+    av, ar = s.alphas(dt)
+    u0 = np.zeros(N_U)
+    u0[U_DT], u0[U_ALPHA_VEH], u0[U_ALPHA_ROAD], u0[U_CONFIG], u0[U_DECENTRALISED] = dt, av, ar, config, 0.0
+    x0 = np.zeros(16)
+    F = nl.transition_jacobian(x0, u0, 0)
+    H = nl.observation_jacobian(x0, u0, 0)
+    B = np.empty((16, 7))
+    D = np.empty((H.shape[0], 7))
+    f0, h0 = nl.transition_fn(x0, u0, 0), nl.observation_fn(x0, u0, 0)
+    for j in range(7):
+        uj = u0.copy()
+        uj[j] = 1.0  # f and h are affine in the inputs: one unit step gives the exact column
+        B[:, j] = nl.transition_fn(x0, uj, 0) - f0
+        D[:, j] = nl.observation_fn(x0, uj, 0) - h0
+    return StateSpaceModel(transition=F, observation=H, process_cov=np.asarray(nl.process_cov),
+                           obs_cov=np.asarray(nl.obs_cov), initial_mean=np.zeros(16),
+                           initial_cov=np.asarray(nl.initial_cov), input_transition=B, input_observation=D)
+
+
+def estimate_vertical_states_linear(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
+                                    settings: CornerFilterSettings | None = None, smooth: bool = False,
+                                    yaw_cutoff: float = 5.0) -> VerticalStateEstimate:
+    """Centralised full-car LINEAR Kalman filter (or RTS smoother) on :func:`vertical_linear_model`.
+
+    The comparison point of the thesis's EKF: same states, sensors and noise settings, but the spring and
+    damper linearised at rest and all corners estimated jointly by the engine's
+    :func:`~longprofile.statespace.kalman_filter` (``smooth=True``: :func:`~longprofile.statespace.rts_smoother`,
+    offline). Absolute velocities are rebuilt with the same chains as :func:`estimate_vertical_states`.
+
+    Returns
+    -------
+    VerticalStateEstimate
+        ``method`` = ``"linear-kf"`` or ``"linear-rts"``.
+    """
+    from ..statespace import kalman_filter, rts_smoother
+
+    if not isinstance(sensors, VerticalSensors):
+        raise InputError(f"sensors must be a VerticalSensors; got {type(sensors).__name__}.")
+    p = params or VerticalVehicleParams()
+    config = sensors.config
+    model = vertical_linear_model(config, sensors.dt, params=p, settings=settings)
+    u = vertical_ekf_inputs(sensors, settings=settings, yaw_cutoff=yaw_cutoff)
+    y = sensors.displacement
+    if config == 2:
+        y = np.hstack([y, sensors.body_accel])
+    elif config == 3:
+        y = np.hstack([y, sensors.wheel_accel])
+    res = kalman_filter(model, y, u=u[:, :7])
+    out = rts_smoother(model, res) if smooth else res
+    x = out.mean
+    vel, disp = x[:, 0::4], x[:, 1::4]
+    body, wheel = absolute_velocities(sensors, disp, vel, u, params=p)
+    std = np.sqrt(np.maximum(np.diagonal(out.cov, axis1=1, axis2=2), 0.0))
+    return VerticalStateEstimate(
+        time=sensors.time.copy(), suspension_deflection=disp, suspension_velocity=vel, vehicle_disturbance=x[:, 2::4],
+        tyre_deflection=x[:, 3::4], tyre_force=-p.tyre_stiffness * x[:, 3::4], body_velocity=body,
+        wheel_velocity=wheel, state_std=std, config=config, method="linear-rts" if smooth else "linear-kf",
+        filtered=out)
