@@ -183,3 +183,10 @@ def test_invalid_settings(paper):
         estimate_slope(sim.log, friction=(0.8, 0.8))
     with pytest.raises(InputError, match="speed_std must be finite and > 0"):
         EKFTuning(speed_std=0.0)
+    from longprofile.vehicle import DriveLog
+
+    log = sim.log
+    stopped = log.wheel_speeds.copy()
+    stopped[100:200] = 0.0
+    with pytest.raises(InputError, match="below 2 m/s at 100 sample\\(s\\), first at t = 0.1 s"):
+        estimate_slope(DriveLog(log.time, log.steering_angle, stopped, log.yaw_rate, log.accel_x, log.accel_y))

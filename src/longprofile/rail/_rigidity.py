@@ -307,6 +307,17 @@ def _posterior_from_smoother(x, sm, batched):
                             log_likelihood=sm.filtered.log_likelihood, method="state-space")
 
 
+def _pattern_groups(pattern: np.ndarray):
+    """[(row indices, pattern row)] of the distinct NaN patterns of a (D, N) bool array, in first-seen order."""
+    if (pattern == pattern[0]).all():
+        return [(np.arange(pattern.shape[0]), pattern[0])]
+    groups: dict = {}
+    packed = np.packbits(pattern, axis=1)
+    for d in range(pattern.shape[0]):
+        groups.setdefault(packed[d].tobytes(), []).append(d)
+    return [(np.array(rows), pattern[rows[0]]) for rows in groups.values()]
+
+
 def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
                        sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0)) -> ProfilePosterior:
     r"""Posterior of the rigidity model for one or many profiles, in O(N) per profile (RTS smoother).
@@ -358,9 +369,7 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
                                 cross_cov=cc, full_cov=None, log_likelihood=ll, method="state-space")
     zm = np.empty((D, N)); tm = np.empty((D, N))
     sc = np.empty((D, N, 2, 2)); cc = np.empty((D, N - 1, 2, 2)); ll = np.empty(D)
-    uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
-    for g in range(uniq.shape[0]):
-        rows = np.nonzero(inv.ravel() == g)[0]
+    for rows, _pat in _pattern_groups(pattern):
         sm = shared_covariance_smoother(model, Y[rows])
         zm[rows] = sm.mean[..., 0]
         tm[rows] = sm.mean[..., 1]
@@ -574,12 +583,11 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z)
     noise = np.diag([s**2, 0.0])
     pattern = np.isnan(M)
-    uniq, inv = np.unique(pattern, axis=0, return_inverse=True)
     out = np.empty(M.shape)
-    for g in range(uniq.shape[0]):
+    for rows, pat in _pattern_groups(pattern):
         y = np.full((N, 2), np.nan)
-        y[:, 0] = np.where(uniq[g], np.nan, 0.0)
+        y[:, 0] = np.where(pat, np.nan, 0.0)
         y[-1, 1] = 0.0
         S = smoother_noise_covariance(model, y, noise_cov=noise)
-        out[inv.ravel() == g] = np.sqrt(np.maximum(S[:, 0, 0], 0.0))
+        out[rows] = np.sqrt(np.maximum(S[:, 0, 0], 0.0))
     return out if batched else out[0]

@@ -20,13 +20,15 @@ from __future__ import annotations
 import numpy as np
 from numba import literally, njit
 
+from ._linalg_kernels import FASTMATH
+
 __all__ = ["filter_kernel", "smooth_kernel", "MAX_LITERAL_STATES", "MAX_LITERAL_OBS"]
 
 MAX_LITERAL_STATES = 8
 MAX_LITERAL_OBS = 4
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _filter_impl(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
     """Constant-gain filter. Returns the sum of the quadratic forms e' S^-1 e.
 
@@ -85,7 +87,7 @@ def _filter_literal(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, inno
                         ll_steps, store_extra)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _smooth_impl(N, I_GF, G, GB, Gc, u, xf, xs):
     """Constant-gain RTS backward pass; ``xs`` may be the same array as ``xf`` (in place).
 

@@ -296,6 +296,9 @@ def slope_observer_gain(vehicle: Vehicle, *, poles=(-5.0, -7.0)) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------ results
 
+#: Lowest speed (m/s) accepted by :func:`estimate_slope`.
+_MIN_SPEED = 2.0
+
 @dataclass(frozen=True, eq=False)
 class SlopeEstimate:
     """Vehicle states, tyre forces and road slope estimated from a drive log (paper 001).
@@ -399,7 +402,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     Raises
     ------
     InputError
-        For an unknown ``method`` or invalid settings.
+        For an unknown ``method``, invalid settings, or a log with samples below 2 m/s.
     ModelError
         If the filter fails (non-finite model output: check the log's units and the vehicle).
 
@@ -431,6 +434,12 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     dt = log.dt
     u = planar_inputs(log, vehicle, friction=friction)
     y = planar_measurements(log, vehicle)
+    slow = y[:, 0] < _MIN_SPEED
+    if slow.any():
+        k = int(np.argmax(slow))
+        raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
+                         f"t = {log.time[k]:g} s ({y[k, 0]:.3g} m/s); the planar model of paper 001 (slips of eq. "
+                         "(18)) is not valid near standstill: cut those parts of the log.")
     if initial_state is None:
         x0 = [y[0, 0], 0.0, y[0, 1]]
     else:
