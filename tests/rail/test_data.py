@@ -89,3 +89,14 @@ def test_sensors_without_readings_are_reported(small):
     r = small.readings[small.readings["sensor_id"] != "S05"]
     site = validate_site(small.sensors, r, small.survey)
     assert any("no readings at all" in w and "S05" in w for w in site.warnings)
+
+
+def test_empty_values_and_ignored_columns_are_reported(small):
+    r = small.readings.copy()
+    r.loc[[3, 4], "temperature_c"] = np.nan
+    s = small.sensors.assign(z_m=1.0)
+    site = validate_site(s, r, small.survey)
+    assert any("2 reading(s) have an empty angle or temperature" in w for w in site.warnings)
+    assert any("survey is used" in w for w in site.warnings)
+    alone = validate_site(s, small.readings, None)
+    assert any("initial profile is the sensors' z_m column" in w for w in alone.warnings)

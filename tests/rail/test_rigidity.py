@@ -200,3 +200,18 @@ def test_coarse_survey_posterior_equals_dense_on_the_union_grid():
         za, zb = at[i], at[i + 1]
         assert ss.cross_cov[i, 0, 0] == pytest.approx(dense.full_cov[za, zb], rel=1e-5, abs=1e-14)
         assert ss.cross_cov[i, 1, 0] == pytest.approx(dense.full_cov[n + za, zb], rel=1e-5, abs=1e-14)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(3, 30), r=st.sampled_from([1e-12, 1e-10, 1e-8, 1e-6]),
+       n_missing=st.integers(0, 2))
+def test_property_state_space_equals_dense(seed, n, r, n_missing):
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.uniform(0.5, 6.0, n))
+    slopes = rng.normal(0, 2e-4, n)
+    slopes[rng.choice(n, size=min(n_missing, n - 2), replace=False)] = np.nan
+    kw = dict(sigma=5e-5, rigidity=r, sigma_z=1e-5, z_ends=(0.0, 0.001))
+    dense = rigidity_posterior_dense(x, slopes, **kw)
+    ss = rigidity_posterior(x, slopes, **kw)
+    assert np.abs(dense.z_mean - ss.z_mean).max() < 1e-9
+    assert np.allclose(dense.z_std, ss.z_std, rtol=1e-5, atol=1e-12)

@@ -188,6 +188,9 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
                              f"successive differences), implausibly small for degrees (inclinometers: ~1e-3..1e-2 deg); "
                              "the angles look like radians. Pass angle_unit='rad' (CLI: --angle-unit rad), or "
                              "check_units=False (--no-check-units) if they really are degrees.")
+    empty = int((r["angle_deg"].isna() | r["temperature_c"].isna()).sum())
+    if empty:
+        warnings.append(f"{empty} reading(s) have an empty angle or temperature and are not used.")
     without = sorted(known - set(r["sensor_id"].unique()))
     if without:
         warnings.append(f"{len(without)} sensor(s) have no readings at all: {without[:5]}; they are reported as dead.")
@@ -204,6 +207,8 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         lo, hi = sv["x_m"].iloc[0], sv["x_m"].iloc[-1]
         x = s["x_m"].to_numpy()
         out = s["sensor_id"][(x < lo - 1e-9) | (x > hi + 1e-9)]
+        if "z_m" in s.columns:
+            warnings.append("the sensors table has a z_m column and a survey table was given: the survey is used.")
         if len(out):
             raise InputError(f"survey table covers x = {lo:g}..{hi:g} m but {len(out)} sensor(s) lie outside, e.g. "
                              f"{list(out[:5])}; extend the survey to cover every sensor (altitudes are never extrapolated).")

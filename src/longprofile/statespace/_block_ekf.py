@@ -42,7 +42,7 @@ def _fd(fn, x, u, k, J):
             J[i, j] = (a[i] - b[i]) / (2.0 * step)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
                   Pb, Hb, PHt, S_all, L, K, A, AP, KR, obs, e, w):
     """Joseph-form update of one block in place (scratch arrays given). Returns (status, n observed, loglik)."""
@@ -151,7 +151,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
     return 0, mo, -0.5 * (mo * _LOG2PI + logdet + quad)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
     for i in range(ns):
         for j in range(ns):
@@ -172,7 +172,7 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
             P[si[j], si[i]] = t
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store,
                 Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
     """Update every block (their state sets are disjoint, so the order does not matter)."""
@@ -192,7 +192,7 @@ def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov
     return 0, n_obs, ll
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _predict_all(P, Jf, Q, sidx, scount, Fb, Pb, AP):
     for b in range(sidx.shape[0]):
         _block_predict(P, Jf, Q, sidx[b], scount[b], Fb, Pb, AP)

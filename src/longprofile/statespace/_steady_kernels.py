@@ -6,8 +6,9 @@ and the transfer-function route needs one IIR filter per state (6 states x 3
 biquads for the APL model, measured at ~120 M samples/s per 3-section
 ``sosfilt`` pass, i.e. < 20 M samples/s for all states), is numerically poor
 for high orders and gives neither the predicted means nor the innovations.
-The recursion below is the filter itself (same arithmetic as the Kalman
-update with a frozen gain), allocation-free, one pass over the data.
+The recursion below is the filter itself (the Kalman update with a frozen
+gain, written in closed-loop form so that only one n x n product is carried
+from step to step), allocation-free, one pass over the data.
 
 For small models (n <= 8, m <= 4) the sizes are passed to numba as literals so
 that the inner loops are fully unrolled (measured ~1.4x faster for n = 6,
@@ -29,22 +30,39 @@ MAX_LITERAL_OBS = 4
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def _filter_impl(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
+def _filter_impl(N, M, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps,
+                 store_extra):
     """Constant-gain filter. Returns the sum of the quadratic forms e' S^-1 e.
 
-    pred:  xp[k] = F xf[k-1] + B u[k-1] + c          (xp[0] = x0)
-    innov: e[k]  = y[k] - H xp[k] - D u[k] - d
+    innov: e[k]  = y[k] - H xp[k] - D u[k] - d         (xp[0] = x0)
     filt:  xf[k] = xp[k] + K e[k]
+    pred:  xp[k+1] = F xf[k] + B u[k] + c = A xp[k] + G y[k] + Bc u[k] + cc
+
+    with the closed-loop matrices A = F (I - K H), G = F K, Bc = B - F K D, cc = c - F K d.
+    Only the last line feeds back, so the loop-carried dependency is one n x n product
+    (the innovation, filtered mean and likelihood are computed off that chain): about
+    1.4x faster than the textbook order xp -> e -> xf -> xp, equal to round-off.
+    With ``store_extra`` the per-step ll_steps[k] = -(const + e' S^-1 e) / 2 are written
+    with innovations and predicted means; otherwise those arrays are not touched.
     """
     T = y.shape[0]
     P = u.shape[1]
     xp = np.empty(N)
-    xf = np.empty(N)
+    xn = np.empty(N)
     e = np.empty(M)
     for i in range(N):
         xp[i] = x0[i]
     quad = 0.0
     for k in range(T):
+        for i in range(N):
+            s = cc[i]
+            for j in range(N):
+                s += A[i, j] * xp[j]
+            for j in range(M):
+                s += G[i, j] * y[k, j]
+            for q in range(P):
+                s += Bc[i, q] * u[k, q]
+            xn[i] = s
         for j in range(M):
             s = y[k, j] - d[j]
             for i in range(N):
@@ -62,29 +80,24 @@ def _filter_impl(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, 
         if store_extra:
             for j in range(M):
                 innov[k, j] = e[j]
-            ll_steps[k] = qk
+            ll_steps[k] = -0.5 * (const + qk)
             for i in range(N):
                 pmean[k, i] = xp[i]
         for i in range(N):
             s = xp[i]
             for j in range(M):
                 s += K[i, j] * e[j]
-            xf[i] = s
             mean[k, i] = s
         for i in range(N):
-            s = c[i]
-            for j in range(N):
-                s += F[i, j] * xf[j]
-            for q in range(P):
-                s += B[i, q] * u[k, q]
-            xp[i] = s
+            xp[i] = xn[i]
     return quad
 
 
 @njit(cache=True)
-def _filter_literal(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
-    return _filter_impl(literally(N), literally(M), F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov,
-                        ll_steps, store_extra)
+def _filter_literal(N, M, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps,
+                    store_extra):
+    return _filter_impl(literally(N), literally(M), A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean,
+                        innov, ll_steps, store_extra)
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -129,9 +142,9 @@ def _trampoline(kind, n, m):
     N, M = n, m
     if kind == "filter":
         @njit
-        def fn(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
-            return _filter_literal(N, M, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps,
-                                   store_extra)
+        def fn(A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps, store_extra):
+            return _filter_literal(N, M, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov,
+                                   ll_steps, store_extra)
     else:
         @njit
         def fn(I_GF, G, GB, Gc, u, xf, xs):
@@ -140,13 +153,14 @@ def _trampoline(kind, n, m):
     return fn
 
 
-def filter_kernel(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra):
-    """Dispatch to the unrolled (small sizes) or generic compiled constant-gain filter."""
-    n, m = F.shape[0], H.shape[0]
+def filter_kernel(A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps, store_extra):
+    """Dispatch to the unrolled (small sizes) or generic compiled constant-gain filter (see ``_filter_impl``)."""
+    n, m = A.shape[0], H.shape[0]
     if n <= MAX_LITERAL_STATES and m <= MAX_LITERAL_OBS:
-        return _trampoline("filter", n, m)(F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps,
-                                           store_extra)
-    return _filter_impl(n, m, F, K, H, B, D, c, d, Sinv, x0, y, u, mean, pmean, innov, ll_steps, store_extra)
+        return _trampoline("filter", n, m)(A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov,
+                                           ll_steps, store_extra)
+    return _filter_impl(n, m, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps,
+                        store_extra)
 
 
 def smooth_kernel(I_GF, G, GB, Gc, u, xf, xs):

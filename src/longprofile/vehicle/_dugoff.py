@@ -54,6 +54,19 @@ def dugoff_grad(slip, tan_alpha, normal_force, mu, cx0, cy0):
             cx0 * slip * (h + g * dh_dg) * dg_dfn, cy0 * tan_alpha * (h + g * dh_dg) * dg_dfn)
 
 
+@njit(cache=True, inline="always")
+def dugoff_values(slip, tan_alpha, normal_force, mu, cx0, cy0):
+    """Dugoff forces ``(fx, fy)`` only (same formulas as :func:`dugoff_grad`)."""
+    one_m = 1.0 - slip
+    g = 0.5 * mu * max(normal_force, 0.0)
+    s = np.sqrt(cx0 * cx0 * slip * slip + cy0 * cy0 * tan_alpha * tan_alpha)
+    if s <= _TINY or one_m * g >= s:
+        inv = 1.0 / one_m
+        return cx0 * slip * inv, cy0 * tan_alpha * inv
+    h = (2.0 - one_m * g / s) / s
+    return cx0 * g * slip * h, cy0 * g * tan_alpha * h
+
+
 @njit(cache=True)
 def _dugoff_arrays(slip, tan_alpha, normal_force, mu, cx0, cy0, fx, fy):
     for i in range(slip.shape[0]):

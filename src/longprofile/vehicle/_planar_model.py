@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ._car import (P_CX0, P_CXA, P_CY0, P_CYA, P_G, P_H, P_IZ, P_LF, P_LR, P_MASS, P_R, P_TRACK)
-from ._dugoff import dugoff_grad
+from ._dugoff import dugoff_grad, dugoff_values
 
 U_DELTA, U_OMEGA, U_AX, U_AY, U_SLOPE, U_MU = 0, 1, 5, 6, 7, 8
 N_INPUTS = 12
@@ -340,9 +340,61 @@ def planar_fused(vx, vy, r, u, p, slope):
 
 
 @njit(cache=True)
+def planar_rates_fast(vx, vy, r, u, p, slope):
+    """(dV_x/dt, dV_y/dt, dr/dt) of eq. (11)-(19) without derivatives (the EKF's f); same maths as
+    :func:`planar_fused`."""
+    m = p[P_MASS]
+    lf = p[P_LF]
+    lr = p[P_LR]
+    L = lf + lr
+    h = p[P_H]
+    hb = 0.5 * p[P_TRACK]
+    R = p[P_R]
+    delta = u[U_DELTA]
+    cd = math.cos(delta)
+    sd = math.sin(delta)
+    tdelta = sd / cd
+    w = m * p[P_G] * math.cos(slope)
+    dxl = h * m * u[U_AX] / (2.0 * L)
+    sfx = 0.0
+    sfy = 0.0
+    mz = 0.0
+    for i in range(4):
+        front = i < 2
+        left = (i % 2) == 0
+        xi = lf if front else -lr
+        yi = hb if left else -hb
+        lever = lr if front else lf
+        lat = lever * h * m * u[U_AY] / (p[P_TRACK] * L)
+        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        c = cd if front else 1.0
+        s = sd if front else 0.0
+        vxi = vx - r * yi
+        vyi = vy + r * xi
+        vw = vxi * c + vyi * s
+        rw = R * u[U_OMEGA + i]
+        if rw >= vw and rw >= V_MIN:
+            lam = (rw - vw) / rw
+        elif vw >= V_MIN:
+            lam = rw / vw - 1.0
+        else:
+            lam = (rw - vw) / V_MIN
+        td = tdelta if front else 0.0
+        t = (td * vxi - vyi) / (vxi + td * vyi)
+        f_x, f_y = dugoff_values(lam, t, fn, u[U_MU + i], p[P_CX0], p[P_CY0])
+        bx = c * f_x - s * f_y
+        by = s * f_x + c * f_y
+        sfx += bx
+        sfy += by
+        mz += xi * by - yi * bx
+    return (sfx / m + r * vy - p[P_CXA] * vx * abs(vx) / m - p[P_G] * math.sin(slope),
+            sfy / m - r * vx - p[P_CYA] * vy * abs(vy) / m, mz / p[P_IZ])
+
+
+@njit(cache=True)
 def ekf_next(x, u, p, dt):
     """x[k+1] of eq. (20) (Euler step), allocation of the result only."""
-    r = planar_fused(x[0], x[1], x[2], u, p, u[U_SLOPE])
+    r = planar_rates_fast(x[0], x[1], x[2], u, p, u[U_SLOPE])
     xn = np.empty(3)
     xn[0] = x[0] + dt * r[0]
     xn[1] = x[1] + dt * r[1]
@@ -370,7 +422,7 @@ def ekf_jacobian(x, u, p, dt):
 @njit(cache=True)
 def joint_next(x, u, p, dt):
     """Augmented transition (V_x, V_y, r, theta_r): eq. (20) with the grade from the state, random-walk grade."""
-    r = planar_fused(x[0], x[1], x[2], u, p, x[3])
+    r = planar_rates_fast(x[0], x[1], x[2], u, p, x[3])
     xn = np.empty(4)
     xn[0] = x[0] + dt * r[0]
     xn[1] = x[1] + dt * r[1]

@@ -225,26 +225,35 @@ def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None)
     adhesion coefficients (``friction``: (4,) or (T, 4), default ``vehicle.friction``).
     """
     T = log.time.size
-    u = np.empty((T, N_INPUTS))
-    u[:, 0] = log.steering_angle
-    u[:, 1:5] = log.wheel_speeds
-    u[:, 5] = log.accel_x
-    u[:, 6] = log.accel_y
     if slope is None:
-        u[:, U_SLOPE] = 0.0
+        s = np.zeros(T)
     else:
         s = as_float_array("slope", slope, ndim=(0, 1), allow_nan=False)
         if s.ndim == 1 and s.shape[0] != T:
             raise ShapeError(f"slope must be a scalar or have one value per sample ({T}); got {s.shape}.")
-        u[:, U_SLOPE] = s
+        s = np.ascontiguousarray(np.broadcast_to(s, (T,)))
     mu = np.asarray(vehicle.friction) if friction is None else as_float_array("friction", friction, ndim=(1, 2),
                                                                                allow_nan=False)
     if mu.shape not in ((4,), (T, 4)):
         raise ShapeError(f"friction must have shape (4,) or (T, 4) = ({T}, 4) (FL, FR, RL, RR); got {mu.shape}.")
     if np.any(mu <= 0):
         raise InputError(f"friction must be > 0; got min {mu.min():g}.")
-    u[:, 8:12] = mu
+    mu = np.ascontiguousarray(np.broadcast_to(mu, (T, 4)), dtype=np.float64)
+    u = np.empty((T, N_INPUTS))
+    _fill_inputs(log.steering_angle, log.wheel_speeds, log.accel_x, log.accel_y, s, mu, u)
     return u
+
+
+@njit(cache=True)
+def _fill_inputs(steer, wheel, ax, ay, slope, mu, u):
+    for k in range(u.shape[0]):
+        u[k, 0] = steer[k]
+        for i in range(4):
+            u[k, 1 + i] = wheel[k, i]
+            u[k, 8 + i] = mu[k, i]
+        u[k, 5] = ax[k]
+        u[k, 6] = ay[k]
+        u[k, U_SLOPE] = slope[k]
 
 
 def planar_measurements(log: DriveLog, vehicle: Vehicle) -> np.ndarray:

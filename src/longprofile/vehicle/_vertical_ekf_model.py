@@ -90,6 +90,20 @@ def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, a
     F, ks, cd = _forces(x, u, corner, scalars)
     kt = scalars[SKT]
     J = np.zeros((16, 16))
+    if decentralised:  # fast path: own corner only (the other corners' forces are inputs)
+        for c in range(4):
+            i = 4 * c
+            inv_mw = 1.0 / corner[c, CMW]
+            w = -coupling[c, c] - inv_mw
+            J[i, i] = 1.0 + dt * w * cd[c]
+            J[i, i + 1] = dt * w * (ks[c] + corner[c, CKBAR])
+            J[i, i + 2] = dt * coupling[c, c]
+            J[i, i + 3] = dt * kt * inv_mw
+            J[i + 1, i] = dt
+            J[i + 1, i + 1] = 1.0
+            J[i + 2, i + 2] = alpha_veh
+            J[i + 3, i + 3] = alpha_road
+        return J
     # dF_g / d dZ_e and dF_g / d dZdot_e
     dF_dz = np.zeros((4, 4))
     dF_dv = np.zeros((4, 4))

@@ -1,0 +1,231 @@
+"""Fixed-lag smoother E[x_t | y_0..t+L]: a real-time smoother with a fixed latency of L samples.
+
+Implemented on the engine's filters (:func:`kalman_filter`, :func:`steady_state_filter`): the
+fixed-lag estimate is the filtered estimate plus a finite sum of the L future innovations, so no
+new Kalman recursion is written here (Anderson & Moore, *Optimal Filtering*, 1979, §7.3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+from scipy.signal import fftconvolve
+
+from .._validation import as_float_array
+from ..errors import InputError, ShapeError
+from ._kalman import kalman_filter
+from ._model import StateSpaceModel
+from ._results import FilterResult
+from ._steady import steady_state_filter, steady_state_gain
+
+__all__ = ["FixedLagResult", "fixed_lag_smoother"]
+
+
+@dataclass(frozen=True, eq=False)
+class FixedLagResult:
+    """Output of :func:`fixed_lag_smoother`.
+
+    Attributes
+    ----------
+    mean : (T, k) ndarray
+        E[x_t[states] | y_0..min(t + lag, T - 1)].
+    cov : (T, k, k) ndarray
+        The matching posterior covariances (read-only).
+    std : (T, k) ndarray
+        Square roots of their diagonals.
+    states : (k,) ndarray of int
+        Indices of the states returned (all n by default).
+    lag : int
+        L, in samples: the estimate at t uses data up to t + L (the last L estimates use the data
+        up to the end of the record, i.e. they are the fixed-interval smoother's).
+    method : str
+        ``"exact"`` (time-varying gains of :func:`kalman_filter`) or ``"steady-state"``.
+    filtered : FilterResult
+        The forward pass the estimate was built from.
+    """
+
+    mean: np.ndarray
+    cov: np.ndarray
+    std: np.ndarray
+    states: np.ndarray
+    lag: int
+    method: str
+    filtered: FilterResult
+
+
+def _check_lag(lag) -> int:
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)):
+        raise InputError(f"lag must be a non-negative integer number of samples; got {lag!r}.")
+    if lag < 0:
+        raise InputError(f"lag must be >= 0 samples (0 = the Kalman filter); got {lag}.")
+    return int(lag)
+
+
+def _check_states(states, n: int) -> np.ndarray:
+    if states is None:
+        return np.arange(n)
+    idx = np.atleast_1d(np.asarray(states))
+    if idx.ndim != 1 or idx.size == 0 or not np.issubdtype(idx.dtype, np.integer):
+        raise InputError(f"states must be a non-empty sequence of state indices (integers); got {states!r}.")
+    if idx.min() < -n or idx.max() >= n:
+        raise InputError(f"states {idx.tolist()} out of range for a model with n = {n} states.")
+    return np.mod(idx, n)
+
+
+def _info_terms(H, S, e):
+    """Per-step Omega_t = H_o' S_oo^-1 H_o (T, n, n) and g_t = H_o' S_oo^-1 e_o (T, n) on the observed rows o."""
+    T, m = e.shape
+    n = H.shape[-1]
+    Omega = np.zeros((T, n, n))
+    g = np.zeros((T, n))
+    missing = np.isnan(e)
+    patterns, which = np.unique(missing, axis=0, return_inverse=True)
+    which = np.asarray(which).reshape(-1)
+    for p, pattern in enumerate(patterns):
+        o = np.flatnonzero(~pattern)
+        if o.size == 0:
+            continue  # nothing observed: no information at these steps
+        t = np.flatnonzero(which == p)
+        Ho = H[t][:, o, :]
+        Soo = S[t][:, o[:, None], o[None, :]]
+        Si_H = np.linalg.solve(Soo, Ho)  # (k, |o|, n)
+        Omega[t] = np.swapaxes(Ho, 1, 2) @ Si_H
+        g[t] = np.einsum("kon,ko->kn", Si_H, e[t][:, o])
+    return Omega, g
+
+
+def _exact(model, Y, u, lag, states):
+    filt = kalman_filter(model, Y, u=u, store_covariances=True)
+    T, n = filt.mean.shape
+    F = model.transition
+    H = model.observation
+    H = np.broadcast_to(H, (T, *H.shape)) if H.ndim == 2 else H
+    Omega, g = _info_terms(H, filt.innovation_cov, filt.innovation)
+    mean = filt.mean[:, states].copy()
+    cov = filt.cov[:, states[:, None], states[None, :]].copy()
+    L = min(lag, T - 1)
+    if L > 0:
+        # closed loop of the prediction error: eps_{t+1} = F_t (I - P_t|t-1 Omega_t) eps_t + (noise)
+        closed = np.eye(n) - filt.pred_cov[:-1] @ Omega[:-1]
+        closed = (F @ closed) if F.ndim == 2 else np.matmul(F, closed)
+        closed_T = np.ascontiguousarray(np.swapaxes(closed, 1, 2))
+        # Psi[t] = Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)'
+        psi = filt.pred_cov[:, states, :].copy()
+        for i in range(1, L + 1):
+            rows = T - i
+            psi = psi[:rows] @ closed_T[i - 1:i - 1 + rows]
+            mean[:rows] += np.einsum("tkn,tn->tk", psi, g[i:])
+            cov[:rows] -= psi @ Omega[i:] @ np.swapaxes(psi, 1, 2)
+    return filt, mean, cov
+
+
+def _stationary(model, Y, u, lag, states):
+    ss = steady_state_gain(model)
+    filt = steady_state_filter(model, Y, u=u, gain=ss)
+    T = filt.mean.shape[0]
+    F, H = model.transition, model.observation
+    n, m = model.n_states, model.n_obs
+    k = states.size
+    S = ss.innovation_cov
+    cS = cho_factor(S, lower=True)
+    HtSi = cho_solve(cS, H).T  # H' S^-1 (n, m)
+    closed_T = (F @ (np.eye(n) - ss.gain @ H)).T
+    L = min(lag, T - 1)
+    # W_i = Cov(x_t[states], e_{t+i}) S^-1 = P[states, :] (closed^i)' H' S^-1, i = 1..L
+    W = np.empty((L + 1, k, m))
+    reduction = np.zeros((L + 1, k, k))  # cumulative sum of W_i S W_i' (variance removed by L future samples)
+    psi = ss.pred_cov[states, :]
+    W[0] = psi @ HtSi
+    for i in range(1, L + 1):
+        psi = psi @ closed_T
+        W[i] = psi @ HtSi
+        reduction[i] = reduction[i - 1] + W[i] @ S @ W[i].T
+    mean = filt.mean[:, states].copy()
+    if L > 0:
+        e = filt.innovation
+        for a in range(k):
+            for j in range(m):
+                # sum_{i=1..L} W_i[a, j] e_{t+i, j} as a correlation; e beyond the record end is absent (0)
+                c = fftconvolve(e[:, j], W[:0:-1, a, j], mode="full")  # c[t + L] = sum_i W_i e_{t+i}
+                mean[:T - 1, a] += c[L:L + T - 1]
+    n_future = np.minimum(L, T - 1 - np.arange(T))
+    cov = ss.cov[np.ix_(states, states)][None] - reduction[n_future]
+    return filt, mean, cov
+
+
+def fixed_lag_smoother(model: StateSpaceModel, y, lag: int, *, u=None, stationary: bool = False,
+                       states=None) -> FixedLagResult:
+    r"""Fixed-lag smoother: E[x_t | y_0..t+L], the best estimate available L samples after t.
+
+    A real-time estimator with a constant latency of ``lag`` samples: unlike the fixed-interval
+    (RTS) smoother it never uses data more than L samples ahead, so it can run on a stream.
+    ``lag = 0`` is the Kalman filter; as L exceeds the memory of the smoother it tends to
+    :func:`rts_smoother` (``stationary=False``) or :func:`steady_state_smoother` (True).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Linear-Gaussian model; time-varying terms are accepted with ``stationary=False``.
+    y : (T,) or (T, m) array_like
+        Observations; NaN = missing (``stationary=False`` only). Batches are not accepted.
+    lag : int
+        L >= 0, samples.
+    u : (T, p) array_like, optional
+        Known inputs, as in :func:`kalman_filter`.
+    stationary : bool, default False
+        False: exact, on :func:`kalman_filter` with per-step gains and covariances
+        (O(T n^2) memory, O(T L n^2 k) time). True: constant gains of :func:`steady_state_gain`
+        on :func:`steady_state_filter` (time-invariant, detectable model, complete data; the
+        first samples carry the steady-state filter's start-up transient; O(T n) memory, the L
+        future innovations summed by FFT convolution: fast for long L and long records).
+    states : sequence of int, optional
+        Indices of the states to return (default all): the work and memory of the lag sum scale
+        with their number k.
+
+    Returns
+    -------
+    FixedLagResult
+        ``mean`` (T, k), ``cov`` (T, k, k), ``std`` (T, k), with ``filtered`` the forward pass.
+
+    Raises
+    ------
+    InputError, ShapeError
+        Negative or non-integer lag, bad state indices, batched y.
+    NotDetectableError, ModelError
+        With ``stationary=True``, as :func:`steady_state_gain`.
+
+    Notes
+    -----
+    With e_j the innovations, S_j their covariances and eps_j = x_j - E[x_j | y_<j], the
+    innovations are independent, so (Anderson & Moore 1979, §7.3)
+
+    .. math::
+
+        E[x_t \mid y_{0..t+L}] = E[x_t \mid y_{0..t}]
+            + \sum_{i=1}^{L} \operatorname{Cov}(x_t, e_{t+i}) S_{t+i}^{-1} e_{t+i}, \qquad
+        \operatorname{Cov}(x_t, e_{t+i}) = P_{t|t-1} \Phi_{t,i}^\top H_{t+i}^\top,
+
+    with Phi_{t,i} = A_{t+i-1} ... A_t, A_j = F_j (I - K_j H_j) the closed loop of the prediction
+    error; the covariance loses sum_i Cov(x_t, e_{t+i}) S^-1 Cov(x_t, e_{t+i})'. Missing components
+    contribute nothing (their rows of H and S are dropped). This is the same estimator as the
+    steady-state filter of the model augmented with L delayed copies of the selected states (whose
+    gain blocks are the W_i = Cov(x_t, e_{t+i}) S^-1), without its (n + kL)-dimensional state.
+    """
+    if not isinstance(model, StateSpaceModel):
+        raise InputError(f"fixed_lag_smoother needs a StateSpaceModel; got {type(model).__name__}.")
+    lag = _check_lag(lag)
+    arr = as_float_array("y", y, ndim=(1, 2))
+    idx = _check_states(states, model.n_states)
+    if stationary:
+        filt, mean, cov = _stationary(model, arr, u, lag, idx)
+        method = "steady-state"
+    else:
+        filt, mean, cov = _exact(model, arr, u, lag, idx)
+        method = "exact"
+    cov = 0.5 * (cov + np.swapaxes(cov, 1, 2))
+    std = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0.0, None))
+    for a in (mean, cov, std):
+        a.setflags(write=False)
+    return FixedLagResult(mean=mean, cov=cov, std=std, states=idx, lag=lag, method=method, filtered=filt)
