@@ -106,6 +106,49 @@ def test_filter_equals_kalman_filter_after_transient(p, offsets):
     assert np.abs(fast.mean[0] - exact.mean[0]).max() > 1e-6
 
 
+@pytest.mark.parametrize("p, offsets", [(0, False), (2, True)])
+def test_filter_is_the_constant_gain_recursion_from_the_first_sample(p, offsets):
+    # oracle: the textbook order (predict -> innovation -> update) with the DARE gain, in NumPy; the kernel
+    # runs the closed-loop form, so this checks the algebra of that rewrite from step 0 (no transient excuse)
+    model = random_model(7, n=5, m=2, p=p, offsets=offsets)
+    rng = np.random.default_rng(8)
+    T = 300
+    y = rng.standard_normal((T, 2))
+    u = rng.standard_normal((T, p)) if p else None
+    K = steady_state_gain(model).gain
+    F, H = model.transition, model.observation
+    B = model.input_transition if p else np.zeros((5, 0))
+    D = model.input_observation if p else np.zeros((2, 0))
+    c = model.state_offset if offsets else np.zeros(5)
+    d = model.obs_offset if offsets else np.zeros(2)
+    uu = u if p else np.zeros((T, 0))
+    xp = model.initial_mean.copy()
+    ref_mean, ref_pred, ref_innov = np.empty((T, 5)), np.empty((T, 5)), np.empty((T, 2))
+    for k in range(T):
+        e = y[k] - H @ xp - D @ uu[k] - d
+        xf = xp + K @ e
+        ref_pred[k], ref_innov[k], ref_mean[k] = xp, e, xf
+        xp = F @ xf + B @ uu[k] + c
+    fast = steady_state_filter(model, y, u=u)
+    np.testing.assert_allclose(fast.mean, ref_mean, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(fast.pred_mean, ref_pred, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(fast.innovation, ref_innov, rtol=1e-10, atol=1e-10)
+
+
+def test_store_predictions_false_keeps_means_and_total_likelihood():
+    model = random_model(9, n=6, m=1)
+    y = np.random.default_rng(10).standard_normal((3, 400, 1))
+    full = steady_state_filter(model, y)
+    lean = steady_state_filter(model, y, store_predictions=False)
+    assert lean.pred_mean is None and lean.innovation is None and lean.log_likelihood_steps is None
+    np.testing.assert_array_equal(lean.mean, full.mean)
+    np.testing.assert_allclose(lean.log_likelihood, full.log_likelihood, rtol=1e-13)
+    np.testing.assert_allclose(full.log_likelihood, full.log_likelihood_steps.sum(axis=-1), rtol=1e-12)
+    one = steady_state_filter(model, y[1], store_predictions=False)
+    np.testing.assert_array_equal(one.mean, full.mean[1])
+    assert one.log_likelihood == pytest.approx(full.log_likelihood[1], rel=1e-13)
+
+
 @pytest.mark.parametrize("p, offsets", [(0, False), (1, True)])
 def test_smoother_equals_rts_after_transient(p, offsets):
     model = random_model(5, n=3, m=1, p=p, offsets=offsets)

@@ -21,6 +21,7 @@ paper is therefore exactly the RTS smoother of that model over the stations.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import factorial
 
 import numpy as np
 
@@ -62,6 +63,11 @@ FIRST_SLOPE_PRIOR_STD = 1.0
 #: prior must be wider than for §4.2 to stay below 1e-9 m of the paper's flat prior.
 FIRST_ALTITUDE_PRIOR_STD = 100.0
 INITIAL_PROFILE_SLOPE_PRIOR_STD = 10.0
+#: Wide proper prior on the first curvature (m^-1) of the quintic-spline prior (penalty_order=3).
+FIRST_CURVATURE_PRIOR_STD = 0.1
+#: Supported prior orders: 2 = the paper's ||f''||^2 (cubic Hermite between stations, Lemma 4.1);
+#: 3 = ||f'''||^2 (quintic Hermite between stations; beyond the paper, for smooth settlement bowls).
+PENALTY_ORDERS = (2, 3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -244,21 +250,36 @@ def _dense_result(x, mean, cov):
                             log_likelihood=None, method="dense")
 
 
-def _iwp_terms(x, q):
+def _iwp_terms(x, q, penalty_order: int = 2):
+    """Transition F_i and process covariance Q_i of the integrated Wiener process over the station gaps.
+
+    penalty_order 2: state (z, theta), the paper's cubic-spline prior (penalises f'');
+    penalty_order 3: state (z, theta, kappa), the quintic-spline prior (penalises f''').
+    Component a is the (n-1-a)-fold integral of a Brownian motion of diffusion q.
+    """
     h = np.diff(x)
-    F = np.zeros((h.size, 2, 2))
-    F[:, 0, 0] = F[:, 1, 1] = 1.0
-    F[:, 0, 1] = h
-    Q = np.empty((h.size, 2, 2))
-    Q[:, 0, 0] = q * h**3 / 3
-    Q[:, 0, 1] = Q[:, 1, 0] = q * h**2 / 2
-    Q[:, 1, 1] = q * h
+    n = int(penalty_order)
+    F = np.zeros((h.size, n, n))
+    Q = np.empty((h.size, n, n))
+    for a in range(n):
+        for b in range(a, n):
+            F[:, a, b] = h ** (b - a) / factorial(b - a)
+        for b in range(n):
+            e = 2 * n - 2 - a - b
+            Q[:, a, b] = q * h ** (e + 1) / ((e + 1) * factorial(n - 1 - a) * factorial(n - 1 - b))
     return F, Q
+
+
+def _check_order(penalty_order) -> int:
+    if penalty_order not in PENALTY_ORDERS:
+        raise InputError(f"penalty_order must be 2 (the paper's cubic-spline prior, penalises f'') or 3 (the "
+                         f"quintic-spline prior, penalises f'''); got {penalty_order!r}.")
+    return int(penalty_order)
 
 
 def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
                    sigma_z: float = DEFAULT_SIGMA_Z, z_start: float = 0.0,
-                   first_slope_prior_std: float = FIRST_SLOPE_PRIOR_STD) -> StateSpaceModel:
+                   first_slope_prior_std: float = FIRST_SLOPE_PRIOR_STD, penalty_order: int = 2) -> StateSpaceModel:
     r"""State-space form of the rigidity prior over the stations (paper 004 §4.2, Lemma 4.1).
 
     State x_i = (z_i, theta_i) at station i ("time" = station index); observation
@@ -277,22 +298,35 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
         The paper's prior is flat in theta_1; a state-space filter needs a proper
         prior, so theta_1 ~ N(0, (1 rad)^2), a physical bound whose precision (1)
         is ~1e8 times smaller than one slope measurement's.
+    penalty_order : {2, 3}, default 2
+        2: the paper's prior exp(-||f''||^2 / r) (cubic Hermite between stations).
+        3: exp(-||f‴||^2 / r) (beyond the paper): the state gains the curvature kappa_i = f''(x_i),
+        F_i = [[1, h, h^2/2], [0, 1, h], [0, 0, 1]], Q_i = q [[h^5/20, h^4/8, h^3/6], [h^4/8, h^3/3, h^2/2],
+        [h^3/6, h^2/2, h]] (integrated integrated Wiener process; between stations the minimiser of
+        ∫ f‴^2 is the quintic Hermite polynomial, and e^T Qbar^-1 e is its cost, tested against
+        scipy's BPoly). r is then in m^-4, and kappa_1 ~ N(0, (0.1 m^-1)^2).
 
     Returns
     -------
     StateSpaceModel
-        F_i = [[1, h_i], [0, 1]], Q_i = q [[h_i^3/3, h_i^2/2], [h_i^2/2, h_i]], q = r (x_N - x_1) / 2.
+        F_i = [[1, h_i], [0, 1]], Q_i = q [[h_i^3/3, h_i^2/2], [h_i^2/2, h_i]], q = r (x_N - x_1) / 2
+        (penalty_order 2; the observation matrix gains a zero column for the curvature with 3).
     """
     x = _check_stations(x)
     s = require_positive("sigma", sigma)
     sz = require_positive("sigma_z", sigma_z)
     r = require_positive("rigidity", rigidity)
     sp = require_positive("first_slope_prior_std", first_slope_prior_std)
+    n = _check_order(penalty_order)
     q = r * (x[-1] - x[0]) / 2.0
-    F, Q = _iwp_terms(x, q)
-    return StateSpaceModel(transition=F, observation=np.array([[0.0, 1.0], [1.0, 0.0]]), process_cov=Q,
-                           obs_cov=np.diag([s**2, sz**2]),
-                           initial_mean=np.array([float(z_start), 0.0]), initial_cov=np.diag([sz**2, sp**2]))
+    F, Q = _iwp_terms(x, q, n)
+    H = np.zeros((2, n))
+    H[0, 1] = H[1, 0] = 1.0
+    P0 = np.diag([sz**2, sp**2, FIRST_CURVATURE_PRIOR_STD**2][:n])
+    m0 = np.zeros(n)
+    m0[0] = float(z_start)
+    return StateSpaceModel(transition=F, observation=H, process_cov=Q, obs_cov=np.diag([s**2, sz**2]),
+                           initial_mean=m0, initial_cov=P0)
 
 
 def _posterior_from_smoother(x, sm, batched):
@@ -319,7 +353,7 @@ def _pattern_groups(pattern: np.ndarray):
 
 
 def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                       sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0)) -> ProfilePosterior:
+                       sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), penalty_order: int = 2) -> ProfilePosterior:
     r"""Posterior of the rigidity model for one or many profiles, in O(N) per profile (RTS smoother).
 
     Parameters
@@ -330,6 +364,9 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
         Measured slopes (rad) per profile (e.g. one row per day); NaN = no measurement.
     sigma, rigidity, sigma_z, z_ends
         As in :func:`rigidity_posterior_dense` (anchors shared by all profiles).
+    penalty_order : {2, 3}, default 2
+        2 = the paper's prior; 3 = the smoother ||f‴||^2 prior (:func:`rigidity_model`), whose
+        station covariances are 3 x 3 (altitude, slope, curvature).
 
     Returns
     -------
@@ -350,7 +387,9 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     batched = m.ndim == 2
     M = m if batched else m[None]
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
-    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0])
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
+                           penalty_order=penalty_order)
+    n = model.n_states
     Y = np.full((M.shape[0], N, 2), np.nan)
     Y[:, :, 0] = M
     Y[:, -1, 1] = z_ends[1]
@@ -368,7 +407,7 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
         return ProfilePosterior(x=x, z_mean=zm, slope_mean=tm, z_std=zstd, slope_std=tstd, station_cov=sc,
                                 cross_cov=cc, full_cov=None, log_likelihood=ll, method="state-space")
     zm = np.empty((D, N)); tm = np.empty((D, N))
-    sc = np.empty((D, N, 2, 2)); cc = np.empty((D, N - 1, 2, 2)); ll = np.empty(D)
+    sc = np.empty((D, N, n, n)); cc = np.empty((D, N - 1, n, n)); ll = np.empty(D)
     for rows, _pat in _pattern_groups(pattern):
         sm = shared_covariance_smoother(model, Y[rows])
         zm[rows] = sm.mean[..., 0]
@@ -487,7 +526,7 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
 
 
 def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                    sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None) -> np.ndarray:
+                    sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None, penalty_order: int = 2) -> np.ndarray:
     r"""Draw altitude profiles from the rigidity posterior (forward-filter backward-sample on the engine).
 
     Parameters
@@ -498,7 +537,7 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
         Measured slopes, rad (NaN = none); one row per profile.
     n_samples : int
         Draws per profile.
-    sigma, rigidity, sigma_z, z_ends
+    sigma, rigidity, sigma_z, z_ends, penalty_order
         As in :func:`rigidity_posterior`.
     rng : None, int or numpy.random.Generator
 
@@ -516,7 +555,8 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
     N = x.size
     m = _as_profiles("slopes", slopes, N)
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
-    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0])
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
+                           penalty_order=penalty_order)
     Y = np.full(m.shape + (2,), np.nan)
     Y[..., 0] = m
     Y[..., -1, 1] = z_ends[1]
@@ -524,7 +564,8 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
 
 
 def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float = DEFAULT_SIGMA,
-                               rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z, rng=None):
+                               rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z, rng=None,
+                               penalty_order: int = 2):
     r"""Mean and std of the maximum settlement max_i(-dz_i) by posterior sampling (paper 004 §4.3).
 
     Parameters
@@ -534,7 +575,7 @@ def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float
     slopes : (N,) or (D, N) array_like
         Slope changes since the reference day, rad (ends anchored at 0).
     n_samples : int, default 2000
-    sigma, rigidity, sigma_z
+    sigma, rigidity, sigma_z, penalty_order
         As in :func:`rigidity_posterior`.
     rng : None, int or numpy.random.Generator
 
@@ -543,28 +584,30 @@ def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float
     mean, std : float or (D,) ndarray
         Of the (non-Gaussian) maximum settlement, m (positive = downwards).
     """
-    draws = sample_profiles(x, slopes, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng)
+    draws = sample_profiles(x, slopes, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng,
+                            penalty_order=penalty_order)
     mx = -draws.min(axis=-1)
     mean, std = mx.mean(axis=0), mx.std(axis=0, ddof=1)
     return (float(mean), float(std)) if np.ndim(mean) == 0 else (mean, std)
 
 
 def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                    sigma_z: float = DEFAULT_SIGMA_Z) -> np.ndarray:
+                    sigma_z: float = DEFAULT_SIGMA_Z, penalty_order: int = 2) -> np.ndarray:
     r"""Std of the posterior-mean altitude due to the slope measurement noise alone, at every station.
 
     The posterior mean is linear in the slopes, mu_z = A m (+ anchor terms), so for a given
     true profile its error from the measurement noise has covariance sigma^2 A A^T. This is the
-    frequentist ("measurement") uncertainty of the estimate — the band tested for coverage on
-    synthetic truth — whereas the posterior std (:class:`ProfilePosterior`) adds the prior's
-    uncertainty about the track between sensors (large for the paper's loose r = 1e-8).
+    frequentist ("measurement") uncertainty of the estimate for a FIXED true profile: it leaves out
+    the smoothing bias and the prior's uncertainty about the track between sensors, which the
+    posterior std (:class:`ProfilePosterior`) includes. It is a lower bound of the error, reported
+    as an extra column; the bands use the posterior std (docs/rail.md).
 
     Parameters
     ----------
     x : (N,) array_like
     slopes : (N,) or (D, N) array_like
         Only the NaN pattern (which sensors measured) matters.
-    sigma, rigidity, sigma_z
+    sigma, rigidity, sigma_z, penalty_order
         As in :func:`rigidity_posterior`.
 
     Returns
@@ -580,7 +623,7 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     batched = m.ndim == 2
     M = m if batched else m[None]
     s = require_positive("sigma", sigma)
-    model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z)
+    model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order)
     noise = np.diag([s**2, 0.0])
     pattern = np.isnan(M)
     out = np.empty(M.shape)

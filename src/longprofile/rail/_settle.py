@@ -13,12 +13,13 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import SensorHealth, assess_sensors
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
-from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, Z90, ProfilePosterior,
+from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, PENALTY_ORDERS, Z90, ProfilePosterior,
                         initial_profile_posterior, max_settlement_monte_carlo, measurement_std, rigidity_posterior)
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
 
-__all__ = ["SettlementResult", "estimate_settlement", "fit_noise_and_rigidity", "day_difference_sigma", "affine_correction"]
+__all__ = ["SettlementResult", "estimate_settlement", "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit",
+           "day_difference_sigma", "affine_correction"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,11 +36,11 @@ class SettlementResult:
         Daily posterior mean of the altitude change since day 0, m (negative = settlement), at every
         station — excluded sensors' stations are estimated from their neighbours.
     dz_std : (D, N) ndarray
-        Measurement std of dz, m: its error from the slope noise (:func:`~longprofile.rail.measurement_std`);
-        the 90 % band is dz ∓ 1.645 dz_std (calibrated on synthetic truth, docs/rail.md).
-    dz_posterior_std : (D, N) ndarray
-        Posterior std of the paper's Bayesian model (§4.3), m: adds the prior's uncertainty about
-        the track between sensors (≈ 1 cm at 90 % with the paper's r = 1e-8, as the paper reports).
+        Posterior std of dz, m, under the fitted change prior (all the model's uncertainty: slope
+        noise, smoothing and the track between sensors); the 90 % band is dz ∓ 1.645 dz_std.
+    dz_noise_std : (D, N) ndarray
+        The part of the error due to the slope noise alone for a fixed true profile, m
+        (:func:`~longprofile.rail.measurement_std`): a lower bound, not a band (docs/rail.md).
     slope_change, slope_change_std : (D, N) ndarray
         Posterior slope change, rad.
     smoothed : TemporalSettlement or None
@@ -55,7 +56,11 @@ class SettlementResult:
     sigma : float
         Slope noise std used, rad.
     rigidity : float
-        r used, m^-2.
+        r of the change prior used, m^-2 (penalty_order 2) or m^-4 (penalty_order 3).
+    penalty_order : int
+        2 = the paper's ||f''||^2 prior on the change profile, 3 = the smoother ||f‴||^2 prior.
+    change_prior : ChangePriorFit or None
+        The maximum-likelihood fit of the change prior (None when ``rigidity`` was given).
     alarms : DataFrame
         See :func:`~longprofile.rail.settlement_alarms`.
     controls : DataFrame or None
@@ -71,7 +76,7 @@ class SettlementResult:
     x: np.ndarray
     dz: np.ndarray
     dz_std: np.ndarray
-    dz_posterior_std: np.ndarray
+    dz_noise_std: np.ndarray
     slope_change: np.ndarray
     slope_change_std: np.ndarray
     smoothed: TemporalSettlement | None
@@ -83,14 +88,17 @@ class SettlementResult:
     daily: DailyAngles
     sigma: float
     rigidity: float
+    penalty_order: int
+    change_prior: ChangePriorFit | None
     alarms: pd.DataFrame
     controls: pd.DataFrame | None
     warnings: tuple
     settings: dict = field(default_factory=dict)
 
     def to_table(self) -> pd.DataFrame:
-        """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m,
-        dz_lower90_m, dz_upper90_m, smoothed_dz_m, smoothed_std_m, rate_m_per_day, rate_std_m_per_day."""
+        """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
+        dz_lower90_m, dz_upper90_m, dz_noise_std_m, smoothed_dz_m, smoothed_std_m, rate_m_per_day,
+        rate_std_m_per_day."""
         D, N = self.dz.shape
         out = pd.DataFrame({
             "date": np.repeat(pd.DatetimeIndex(self.days).strftime("%Y-%m-%d").to_numpy(), N),
@@ -101,7 +109,7 @@ class SettlementResult:
             "dz_std_m": self.dz_std.ravel(),
             "dz_lower90_m": (self.dz - Z90 * self.dz_std).ravel(),
             "dz_upper90_m": (self.dz + Z90 * self.dz_std).ravel(),
-            "dz_posterior_std_m": self.dz_posterior_std.ravel(),
+            "dz_noise_std_m": self.dz_noise_std.ravel(),
         })
         if self.smoothed is not None:
             out["smoothed_dz_m"] = self.smoothed.mean.ravel()

@@ -14,8 +14,8 @@ from scipy import linalg, optimize, signal
 
 from .._validation import as_float_array, require_positive
 from ..errors import ConvergenceError, InputError, ModelError, NotDetectableError, ShapeError
-from ..statespace import (StateSpaceModel, kalman_filter, rts_smoother, steady_state_filter, steady_state_gain,
-                          steady_state_smoother)
+from ..statespace import (StateSpaceModel, fixed_lag_smoother, kalman_filter, rts_smoother, steady_state_filter,
+                          steady_state_gain, steady_state_smoother)
 from ._apl import APLModel, _check_profile_spacing
 from ._double_filter import double_filter
 from ._profile import Profile
@@ -31,9 +31,47 @@ __all__ = [
     "reconstruct_profile",
     "Reconstruction",
     "RECONSTRUCTION_METHODS",
+    "default_fixed_lag",
+    "FIXED_LAG_CORRELATION_LENGTH",
+    "FIXED_LAG_TIME_CONSTANTS",
 ]
 
-RECONSTRUCTION_METHODS = ("smoother", "filter", "double")
+RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
+
+#: Default AR(1) correlation length (m) of the road model for ``method="fixed-lag"`` (see docs/road-apl.md:
+#: with the Wiener model the invisible quadratic of the triple zero at 1 is re-resolved at every sample and the
+#: fixed-lag estimate converges only when the lag approaches the record length).
+FIXED_LAG_CORRELATION_LENGTH = 2.0
+#: Default lag of ``method="fixed-lag"``, in pendulum time constants (see :func:`default_fixed_lag`).
+FIXED_LAG_TIME_CONSTANTS = 4.0
+
+
+def default_fixed_lag(instrument: APLModel, *, n_time_constants: float = FIXED_LAG_TIME_CONSTANTS) -> float:
+    """Default latency (m) of the fixed-lag reconstruction: a few pendulum time constants at the towing speed.
+
+    Parameters
+    ----------
+    instrument : APLModel
+        With ``dt`` and ``dx``. The pendulum is the complex pole pair of largest modulus (Table 1: |p1|
+        = 0.9976 at 20 m/s, 5 cm); without complex poles, the slowest pole.
+    n_time_constants : float
+        Default 4 (measured error-vs-lag curve in docs/road-apl.md: about 3 % band error at 20 m/s).
+
+    Returns
+    -------
+    float
+        n_time_constants * tau * V in m, tau = -dt / ln|p1| (1.04 s at 20 m/s, 5 cm: 83 m).
+    """
+    if instrument.dx is None:
+        raise InputError("the instrument has no spacing dx (bench model); give lag_m explicitly.")
+    poles = np.asarray(instrument.poles)
+    if not poles.size:
+        raise InputError("the instrument has no poles; give lag_m explicitly.")
+    cplx = poles[np.abs(poles.imag) > 1e-14]
+    radius = float(np.abs(cplx if cplx.size else poles).max())
+    tau = -instrument.dt / np.log(radius)
+    speed = instrument.dx / instrument.dt
+    return float(require_positive("n_time_constants", n_time_constants) * tau * speed)
 
 
 def _minimal_sections(model: APLModel) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -475,6 +513,11 @@ class Reconstruction:
         The ML fit, when q and r were estimated.
     input_model : str or None
     highpass_wavelength : float or None
+    lag_m : float or None
+        ``"fixed-lag"`` only: the latency used, m (``raw_elevation[k]`` uses the signal up to
+        distance[k] + lag_m).
+    correlation_length : float or None
+        AR(1) correlation length used, m (None for the Wiener model).
     """
 
     profile: Profile
@@ -486,6 +529,8 @@ class Reconstruction:
     noise_fit: NoiseFit | None
     input_model: str | None
     highpass_wavelength: float | None
+    lag_m: float | None = None
+    correlation_length: float | None = None
 
 
 def _signal_of(signal_, instrument):
@@ -502,9 +547,10 @@ def _signal_of(signal_, instrument):
 
 
 def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoother", q: float | None = None,
-                        r: float | None = None, input_model: str = "wiener", correlation_length: float | None = None,
-                        highpass_wavelength: float | None = 100.0, min_length: float | None = None,
-                        stationary: bool | None = None) -> Reconstruction:
+                        r: float | None = None, input_model: str | None = None,
+                        correlation_length: float | None = None, highpass_wavelength: float | None = 100.0,
+                        min_length: float | None = None, stationary: bool | None = None,
+                        lag_m: float | None = None) -> Reconstruction:
     """Reconstruct the road profile from an APL signal.
 
     Parameters
@@ -514,14 +560,17 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         by the Kalman methods (the posterior std grows there); ``"double"`` refuses them.
     instrument : APLModel
         Trailer model (eq. 1 via :func:`apl_model`, or identified).
-    method : {"smoother", "filter", "double"}
-        RTS smoother (offline, default), causal Kalman filter (the paper's §5), or the paper's
-        double filtering (§3).
+    method : {"smoother", "filter", "double", "fixed-lag"}
+        RTS smoother (offline, default), causal Kalman filter (the paper's §5), the paper's
+        double filtering (§3), or the fixed-lag smoother E[u_k | y_0..k+lag] (real time with a
+        constant latency of ``lag_m``; :func:`longprofile.statespace.fixed_lag_smoother`).
     q, r : float, optional
         Elevation-increment and noise variances, m^2; both None (default) -> maximum likelihood
         (:func:`fit_noise_variances`); give both or neither.
     input_model, correlation_length
-        Road model, see :func:`apl_deconvolution_model`.
+        Road model, see :func:`apl_deconvolution_model`. Default (None): ``"wiener"`` for the
+        smoother and the filter; ``"ar1"`` with ``correlation_length`` = FIXED_LAG_CORRELATION_LENGTH
+        (2 m) for ``"fixed-lag"`` (also when ``"ar1"`` is given without a correlation length).
     highpass_wavelength : float or None
         Detrending cut-off, m (see :func:`detrend_profile`).
     min_length : float, optional
@@ -531,6 +580,9 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         detectable model and no NaN). False: exact time-varying filter/RTS smoother with
         per-sample covariances (O(T n^2) memory). None (default): stationary when the record has
         more than 200 000 samples, time-varying otherwise.
+    lag_m : float, optional
+        ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default
+        :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s).
 
     Returns
     -------
@@ -552,11 +604,25 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     -----
     With the stationary path, ``raw_std`` is the constant steady-state posterior std
     (filter: sqrt of the steady filtered variance; smoother: :func:`smoother_error_std`),
-    valid away from the ends.
+    valid away from the ends. ``"fixed-lag"`` returns the per-sample fixed-lag posterior std in
+    ``raw_std`` and ``profile.std = None``; its ``profile`` is detrended like the others, which is
+    an offline (zero-phase) step: the real-time output is ``raw_elevation``.
     """
     if method not in RECONSTRUCTION_METHODS:
         raise InputError(f"method must be one of {RECONSTRUCTION_METHODS}; got {method!r}.")
+    if lag_m is not None and method != "fixed-lag":
+        raise InputError(f"lag_m applies to method='fixed-lag' only; got method={method!r} with lag_m={lag_m}.")
+    if input_model is None:
+        input_model = "ar1" if method == "fixed-lag" else "wiener"
+    if method == "fixed-lag" and input_model == "ar1" and correlation_length is None:
+        correlation_length = FIXED_LAG_CORRELATION_LENGTH
     y, dx, distance, name = _signal_of(signal_, instrument)
+    if method == "fixed-lag":
+        if lag_m is None:
+            lag_m = default_fixed_lag(instrument)
+        elif not np.isfinite(lag_m) or lag_m < 0:
+            raise InputError(f"lag_m must be a finite latency >= 0 m; got {lag_m}.")
+        lag_m = float(lag_m)
     n_min = 200
     if min_length is None and highpass_wavelength is not None:
         n_min = max(n_min, int(np.ceil(highpass_wavelength / dx)))
@@ -598,7 +664,12 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         q, r = fit.q, fit.r
     model = apl_deconvolution_model(instrument, q, r, input_model=input_model,
                                     correlation_length=correlation_length, dx=dx)
-    if stationary:
+    if method == "fixed-lag":
+        lag = int(round(lag_m / dx))
+        lag_m = lag * dx
+        fl = fixed_lag_smoother(model, y, lag, stationary=stationary, states=[-1])
+        mean, cov = fl.mean[:, 0], fl.cov[:, 0, 0]
+    elif stationary:
         if method == "filter":
             mean = steady_state_filter(model, y).mean[:, -1]
             cov = np.broadcast_to(steady_state_gain(model).cov[-1, -1], y.shape)  # constant: a view, no memory
@@ -624,7 +695,11 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
                                dx=dx, highpass_wavelength=highpass_wavelength)
         std = np.broadcast_to(s, y.shape)
     prof = Profile(distance, elevation, std=std, name=f"{method} reconstruction of {name}".strip())
-    raw_std = np.broadcast_to(np.sqrt(max(float(cov[0]), 0.0)), y.shape) if stationary else np.sqrt(np.maximum(cov, 0.0))
+    if stationary and method != "fixed-lag":
+        raw_std = np.broadcast_to(np.sqrt(max(float(cov[0]), 0.0)), y.shape)
+    else:
+        raw_std = np.sqrt(np.maximum(cov, 0.0))
     return Reconstruction(profile=prof, raw_elevation=mean, raw_std=raw_std, method=method,
                           q=float(q), r=float(r), noise_fit=fit, input_model=input_model,
-                          highpass_wavelength=highpass_wavelength)
+                          highpass_wavelength=highpass_wavelength, lag_m=lag_m if method == "fixed-lag" else None,
+                          correlation_length=correlation_length if input_model == "ar1" else None)

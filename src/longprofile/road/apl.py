@@ -13,7 +13,8 @@ apl_response               -- what the trailer records on a profile; apl_filter 
 Reconstruction
 --------------
 double_filter              -- the paper's zero-phase double filtering (§3, eqs. 4-5).
-reconstruct_profile        -- smoother / Kalman filter / double filter in one call (Reconstruction).
+reconstruct_profile        -- smoother / Kalman filter / double filter / fixed-lag smoother in one call (Reconstruction).
+default_fixed_lag          -- default latency of method="fixed-lag" (4 pendulum time constants, m).
 apl_deconvolution_model    -- the augmented state-space model of §5.1 (eqs. 9-12) for the engine.
 instrument_state_space     -- minimal cascade realisation (A, B, C, D) of an instrument.
 is_detectable              -- §5.2 detectability (PBH) of an augmented model.
@@ -31,8 +32,8 @@ simulate_apl_recording, APLRecording -- a noisy trailer recording of one of them
 from ._apl import (PAPER_IDENTIFIED_MODELS, RC_TIME_CONSTANT, TABLE1_CONFIGURATIONS, APLModel, FrequencyResponse,
                    TrailerPoles, apl_filter, apl_model, apl_model_from_dict, apl_model_from_polynomials, apl_response, frequency_response,
                    paper_identified_model, passband, plot_frequency_response)
-from ._deconvolution import (RECONSTRUCTION_METHODS, NoiseFit, Reconstruction, apl_deconvolution_model,
-                             detrend_profile, fit_noise_variances, instrument_state_space, is_detectable,
+from ._deconvolution import (FIXED_LAG_CORRELATION_LENGTH, FIXED_LAG_TIME_CONSTANTS, RECONSTRUCTION_METHODS, NoiseFit,
+                             Reconstruction, apl_deconvolution_model, default_fixed_lag, detrend_profile, fit_noise_variances, instrument_state_space, is_detectable,
                              reconstruct_profile, smoother_error_std)
 from ._double_filter import double_filter
 from ._synthetic import (SYNTHETIC_PROFILES, APLRecording, bump_profile, crenel_profile, simulate_apl_recording,
@@ -46,4 +47,5 @@ __all__ = [
     "instrument_state_space", "is_detectable", "fit_noise_variances", "NoiseFit", "smoother_error_std",
     "detrend_profile", "bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile",
     "white_noise_profile", "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES", "apl_model_from_dict",
+    "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
 ]

@@ -19,6 +19,7 @@ steady_state_gain      -- stationary Kalman gain and covariances (DARE); SteadyS
 steady_state_filter    -- constant-gain Kalman filter as a compiled LTI recursion (> 1e7 samples/s).
 steady_state_smoother  -- zero-lag fixed-interval counterpart, O(T n) memory.
 steady_state_smoothed_cov -- the constant smoothed covariance of steady_state_smoother.
+fixed_lag_smoother     -- E[x_t | y_0..t+L]: real-time smoother with a latency of L samples; FixedLagResult.
 
 Nonlinear inference
 -------------------
@@ -52,6 +53,7 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 
 from ._block_ekf import block_extended_kalman_filter
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
+from ._fixed_lag import FixedLagResult, fixed_lag_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
 from ._mle import MLEResult, fit_mle
 from ._model import StateSpaceModel
@@ -79,6 +81,8 @@ __all__ = [
     "steady_state_filter",
     "steady_state_smoother",
     "steady_state_smoothed_cov",
+    "fixed_lag_smoother",
+    "FixedLagResult",
     "NonlinearStateSpaceModel",
     "extended_kalman_filter",
     "extended_rts_smoother",

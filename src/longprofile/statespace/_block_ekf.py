@@ -42,7 +42,7 @@ def _fd(fn, x, u, k, J):
             J[i, j] = (a[i] - b[i]) / (2.0 * step)
 
 
-@njit(inline="always")
+@njit(cache=True, inline="always")
 def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
                   Pb, Hb, PHt, S_all, L, K, A, AP, KR, obs, e, w):
     """Joseph-form update of one block in place (scratch arrays given). Returns (status, n observed, loglik)."""
@@ -151,7 +151,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
     return 0, mo, -0.5 * (mo * _LOG2PI + logdet + quad)
 
 
-@njit(inline="always")
+@njit(cache=True, inline="always")
 def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
     for i in range(ns):
         for j in range(ns):
@@ -172,7 +172,7 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
             P[si[j], si[i]] = t
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store,
                 Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
     """Update every block (their state sets are disjoint, so the order does not matter)."""
@@ -192,7 +192,7 @@ def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov
     return 0, n_obs, ll
 
 
-@njit(inline="always")
+@njit(cache=True)
 def _predict_all(P, Jf, Q, sidx, scount, Fb, Pb, AP):
     for b in range(sidx.shape[0]):
         _block_predict(P, Jf, Q, sidx[b], scount[b], Fb, Pb, AP)
@@ -233,10 +233,7 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
         if store:
             pcov[k] = P
         yhat = h(x, uk, k)
-        if hjac is None:
-            _fd(h, x, uk, k, Jh)
-        else:
-            Jh[:, :] = hjac(x, uk, k)
+        Jh[:, :] = hjac(x, uk, k)
         if store:
             Hj[k] = Jh
         status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
@@ -251,10 +248,7 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
         if store:
             cov[k] = P
         if k < T - 1:
-            if fjac is None:
-                _fd(f, x, uk, k, Jf)
-            else:
-                Jf[:, :] = fjac(x, uk, k)
+            Jf[:, :] = fjac(x, uk, k)
             xn = f(x, uk, k)
             if not _all_finite(xn):
                 state[0] = 2
