@@ -11,7 +11,6 @@ from scipy.stats import norm
 from longprofile.errors import InputError
 from longprofile.rail import (bar_angles_from_profile, daily_angles, first_order_response, integrate_angles,
                               settlement_alarms, simulate_site, smooth_through_time, validate_site)
-from longprofile.statespace import StateSpaceModel, kalman_filter, rts_smoother
 
 
 @settings(max_examples=30, deadline=None)
@@ -98,22 +97,36 @@ def test_presets_match_the_issue():
         simulate_site("paris")
 
 
-def test_temporal_smoothing_is_the_engine_smoother_per_station():
+def test_temporal_smoothing_equals_dense_conditioning_with_the_shared_reference_error():
+    # external oracle: one dense Gaussian conditioning of (s_1..s_{D-1}) on y_d = s_d - a_0 + n_d, d >= 1, with
+    # s a random walk from s_0 = 0 (Cov(s_d, s_e) = q^2 min(d, e)), a_0 ~ N(0, v/2) shared, n_d ~ N(0, v/2)
     rng = np.random.default_rng(0)
-    D, N = 15, 3
-    truth = np.cumsum(rng.normal(0, 1e-3, (D, N)), axis=0)
-    truth[0] = 0
-    sd = np.full((D, N), 5e-4)
-    obs = truth + rng.normal(0, 5e-4, (D, N))
-    res = smooth_through_time(obs, sd, process_std=1e-3)
+    D, N, q, v = 15, 3, 1e-3, (5e-4) ** 2
+    truth = np.vstack([np.zeros(N), np.cumsum(rng.normal(0, q, (D - 1, N)), axis=0)])
+    a = rng.normal(0, np.sqrt(v / 2), (D, N))
+    obs = truth + a - a[0]
+    sd = np.full((D, N), np.sqrt(v))
+    res = smooth_through_time(obs, sd, process_std=q)
+    d = np.arange(1, D)
+    S = q**2 * np.minimum.outer(d, d)
+    C = S + v / 2 + np.eye(D - 1) * v / 2
     for j in range(N):
-        model = StateSpaceModel(np.eye(1), np.eye(1), [[1e-6]], sd[:, j].reshape(D, 1, 1) ** 2, [0.0], [[1e-16]])
-        ref = rts_smoother(model, kalman_filter(model, obs[:, j]))
-        assert np.allclose(res.mean[:, j], ref.mean[:, 0], atol=1e-12)
-        var_diff = ref.cov[1:, 0, 0] + ref.cov[:-1, 0, 0] - 2 * ref.cross_cov[:, 0, 0]
-        assert np.allclose(res.rate_std[1:, j], np.sqrt(var_diff))
+        mean = S @ np.linalg.solve(C, obs[1:, j])
+        cov = S - S @ np.linalg.solve(C, S)
+        assert np.allclose(res.mean[1:, j], mean, atol=1e-12)
+        assert np.allclose(res.std[1:, j], np.sqrt(np.diag(cov)), rtol=1e-6)
+        var_rate = np.diag(cov)[1:] + np.diag(cov)[:-1] - 2 * np.diag(cov, 1)
+        assert np.allclose(res.rate_std[2:, j], np.sqrt(var_rate), rtol=1e-6)
+    # the reference day's share cannot be averaged away: the smoothed std stays above sqrt(v / 2) / 2
+    assert np.all(res.std[1:] > 0.5 * np.sqrt(v / 2))
+    # reference_share=0: the daily errors are independent, a plain random walk + noise
+    ind = smooth_through_time(obs, sd, process_std=q, reference_share=0.0)
+    C0 = S + np.eye(D - 1) * v
+    assert np.allclose(ind.mean[1:, 0], S @ np.linalg.solve(C0, obs[1:, 0]), atol=1e-12)
     est = smooth_through_time(obs, sd)
     assert est.process_std in (5e-4, 1e-3, 2e-3)
+    with pytest.raises(InputError, match="reference_share"):
+        smooth_through_time(obs, sd, reference_share=1.0)
 
 
 def test_alarm_probabilities_are_gaussian_tail_probabilities():

@@ -9,6 +9,7 @@ EXPECTED = {
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
+    "fit_change_prior", "ChangePriorFit",
 }
 
 

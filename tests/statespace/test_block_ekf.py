@@ -108,3 +108,6 @@ def test_block_filter_errors():
                                   np.eye(4))
     with pytest.raises(InputError, match="numba"):
         block_extended_kalman_filter(py, y, state_blocks=SB, obs_blocks=OB)
+    no_jac = NonlinearStateSpaceModel(_f, _h, np.eye(4), np.eye(3), np.zeros(4), np.eye(4))
+    with pytest.raises(InputError, match="analytic transition_jacobian"):
+        block_extended_kalman_filter(no_jac, y, u=u, state_blocks=SB, obs_blocks=OB)

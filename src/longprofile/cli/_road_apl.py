@@ -71,17 +71,20 @@ def reconstruct_command(
     output: Path = typer.Option(..., "--output", "-o", help="Profile table: distance_m, elevation_m, std_m, raw_m, raw_std_m."),
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's distance_m)."),
-    method: str = typer.Option("smoother", "--method", help="smoother, filter or double."),
+    method: str = typer.Option("smoother", "--method", help="smoother, filter, double or fixed-lag (real time)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
     column: str = typer.Option("apl_m", "--column", help="Name of the signal column, in metres."),
     q: float = typer.Option(None, "--q", help="Elevation-increment variance, m^2 (default: maximum likelihood)."),
     r: float = typer.Option(None, "--r", help="Noise variance, m^2 (default: maximum likelihood)."),
-    input_model: str = typer.Option("wiener", "--input-model", help="Road model: wiener (paper) or ar1 (§5.2)."),
+    input_model: str = typer.Option(None, "--input-model",
+                                    help="Road model: wiener (paper) or ar1 (§5.2). Default: wiener; ar1 (2 m) for fixed-lag."),
     correlation_length: float = typer.Option(None, "--correlation-length", help="AR(1) correlation length, m."),
     highpass: float = typer.Option(100.0, "--highpass-wavelength", help="Detrending cut-off wavelength, m."),
+    lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: 4 pendulum time constants, 83 m "
+                                                   "at 20 m/s)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the reconstruction to this PNG."),
 ):
-    """Reconstruct the road profile from an APL signal (smoother, Kalman filter or double filtering)."""
+    """Reconstruct the road profile from an APL signal (smoother, Kalman filter, double filtering or fixed lag)."""
     import numpy as np
     import pandas as pd
 
@@ -102,7 +105,7 @@ def reconstruct_command(
     with progress() as bar:
         task = bar.add_task(f"reconstruct ({method})", total=1)
         rec = reconstruct_profile(signal, instrument, method=method, q=q, r=r, input_model=input_model,
-                                  correlation_length=correlation_length, highpass_wavelength=highpass)
+                                  correlation_length=correlation_length, highpass_wavelength=highpass, lag_m=lag)
         bar.advance(task)
     std = rec.profile.std
     out = pd.DataFrame(dict(distance_m=rec.profile.distance, elevation_m=rec.profile.elevation[:, 0],
@@ -116,6 +119,8 @@ def reconstruct_command(
                                    highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
         fig.savefig(check_output_path(plot, file), dpi=120)
     extra = "" if rec.q is None else f" (q = {rec.q:.3g} m^2, r = {rec.r:.3g} m^2)"
+    if rec.lag_m is not None:
+        extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"
     console.print(f"reconstructed {signal.n_samples} samples by {method}{extra} -> {output}")
 
 

@@ -16,10 +16,11 @@ daily_angles, DailyAngles   -- outlier removal, linear (§3) or lagged thermal c
 first_order_response        -- first-order thermal lag of a temperature series.
 rigidity_cost_matrix        -- the cost matrix C of Lemma 4.1 (§4.2).
 rigidity_posterior_dense    -- the paper's dense posterior (reference, O(N^3)).
-rigidity_model              -- the same prior as a state-space model (integrated Wiener process).
+rigidity_model              -- the same prior as a state-space model (integrated Wiener process);
+                               penalty_order=3 gives the smoother ||f'''||^2 prior (beyond the paper).
 rigidity_posterior          -- O(N) posterior by RTS smoothing over the stations, batched over days.
 ProfilePosterior            -- posterior means, stds, station and cross covariances.
-measurement_std             -- std of the posterior mean due to the slope noise alone.
+measurement_std             -- std of the posterior mean due to the slope noise alone (a lower bound).
 initial_profile_posterior   -- initial altitudes and angles from a survey on any grid (§4.4), O(N).
 initial_profile_posterior_dense -- §4.4 dense reference (survey at the sensors).
 sample_profiles             -- posterior draws of altitude profiles.
@@ -32,6 +33,8 @@ Beyond the paper
 smooth_through_time         -- settlement smoothed across days per station, daily rates with bands;
                                TemporalSettlement is its result.
 settlement_alarms           -- threshold exceedances with station, date and probability.
+fit_change_prior            -- maximum-likelihood prior (order and r) of the settlement profile;
+                               ChangePriorFit is its result.
 estimate_settlement         -- the whole job, readings to settlement, bands, health and alarms.
 SettlementResult            -- its result (``to_table()`` for the long output table).
 """
@@ -42,7 +45,7 @@ from ._integration import bar_angles_from_profile, integrate_angles
 from ._rigidity import (ProfilePosterior, initial_profile_posterior, initial_profile_posterior_dense,
                         max_settlement_monte_carlo, measurement_std, rigidity_cost_matrix, rigidity_model,
                         rigidity_posterior, rigidity_posterior_dense, sample_profiles)
-from ._settle import SettlementResult, affine_correction, estimate_settlement
+from ._settle import ChangePriorFit, SettlementResult, affine_correction, estimate_settlement, fit_change_prior
 from ._synthetic import SiteTruth, SyntheticSite, simulate_site
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles, first_order_response
@@ -54,4 +57,5 @@ __all__ = [
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
+    "fit_change_prior", "ChangePriorFit",
 ]

@@ -138,7 +138,37 @@ def day_difference_sigma(slopes) -> float:
     return s
 
 
-def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFAULT_SIGMA_Z):
+#: log10 grids of r searched before the Brent refinement, per penalty order (r in m^-2 for 2, m^-4 for 3).
+_LOG10_RIGIDITY_GRID = {2: np.arange(-14.0, -5.0), 3: np.arange(-19.0, -7.0)}
+
+
+def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order):
+    """Maximum marginal likelihood of r (sigma fixed) over the profiles ``rows``: (r, log-likelihood)."""
+
+    def nll(logr):
+        if not -60 < logr < 5:
+            return 1e300
+        ll = rigidity_posterior(x, rows, sigma=sigma, rigidity=float(np.exp(logr)), sigma_z=sigma_z,
+                                penalty_order=penalty_order).log_likelihood
+        return -float(np.sum(ll))
+
+    grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
+    vals = [nll(g) for g in grid]
+    k = int(np.argmin(vals))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
+    best, fun = (res.x, res.fun) if res.fun <= vals[k] else (grid[k], vals[k])
+    return float(np.exp(best)), -float(fun)
+
+
+def _changed_rows(slopes):
+    rows = slopes[np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0]
+    if rows.shape[0] == 0:
+        raise InputError("no day differs from the reference day: the rigidity cannot be estimated; pass it.")
+    return rows
+
+
+def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFAULT_SIGMA_Z, penalty_order: int = 2):
     """Noise sigma (robust day-to-day differences) and rigidity r (maximum marginal likelihood) of the daily slopes.
 
     Parameters
@@ -149,6 +179,8 @@ def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFA
     sigma, rigidity : float, optional
         Fixed values; None = estimate.
     sigma_z : float
+    penalty_order : {2, 3}, default 2
+        Prior of the change profile (:func:`~longprofile.rail.rigidity_model`).
 
     Returns
     -------
@@ -156,32 +188,76 @@ def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFA
 
     Notes
     -----
-    Estimating sigma and r jointly by maximum likelihood is degenerate on real-like data
-    (the stationary prior cannot be right both on quiet days and on days with a bowl: the
-    likelihood then prefers sigma -> 0), so sigma comes from :func:`day_difference_sigma`
-    and only r is fitted, by the Kalman-filter likelihood of the rigidity model summed over
-    the days that differ from the reference day (Brent search on log r).
+    sigma comes from :func:`day_difference_sigma` and only r is fitted, by the Kalman-filter
+    likelihood of the rigidity model summed over the days that differ from the reference day
+    (grid on log r, then Brent). Fitting sigma too is degenerate with the paper's prior
+    (penalty_order 2): its slope is a Brownian motion along the track, whose increments absorb
+    white slope noise, and the joint maximum sends sigma -> 0 (docs/rail.md).
     """
     slopes = np.asarray(slopes, float)
     s = float(sigma) if sigma is not None else day_difference_sigma(slopes)
     if rigidity is not None:
         return s, float(rigidity)
-    fit_rows = slopes[np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0]
-    if fit_rows.shape[0] == 0:
-        raise InputError("no day differs from the reference day: the rigidity cannot be estimated; pass it.")
+    return s, _fit_rigidity(x, _changed_rows(slopes), s, sigma_z, penalty_order)[0]
 
-    def nll(logr):
-        if not -50 < logr < 5:
-            return 1e300
-        ll = rigidity_posterior(x, fit_rows, sigma=s, rigidity=float(np.exp(logr)), sigma_z=sigma_z).log_likelihood
-        return -float(np.sum(ll))
 
-    grid = np.log(np.logspace(-14, -6, 9))
-    vals = [nll(g) for g in grid]
-    k = int(np.argmin(vals))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
-    return s, float(np.exp(res.x if res.fun <= vals[k] else grid[k]))
+@dataclass(frozen=True)
+class ChangePriorFit:
+    """Maximum-likelihood choice of the prior of the change profile (:func:`fit_change_prior`).
+
+    Attributes
+    ----------
+    penalty_order : int
+        The order with the larger maximised likelihood (2 = the paper's ||f''||^2, 3 = ||f‴||^2).
+    rigidity : float
+        Its maximum-likelihood r (m^-2 or m^-4).
+    log_likelihood : dict of int -> float
+        Maximised log-likelihood (summed over days) of each order tried.
+    rigidities : dict of int -> float
+        Maximum-likelihood r of each order tried.
+    sigma : float
+        The fixed slope noise std, rad.
+    """
+
+    penalty_order: int
+    rigidity: float
+    log_likelihood: dict
+    rigidities: dict
+    sigma: float
+
+
+def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_Z,
+                     penalty_orders=PENALTY_ORDERS) -> ChangePriorFit:
+    r"""Fit the prior of the settlement (change) profile by maximum marginal likelihood, sigma fixed.
+
+    For each penalty order (2: the paper's cubic-spline prior exp(-||f''||^2/r); 3: the smoother
+    quintic-spline prior exp(-||f‴||^2/r)) r is fitted by maximising the Kalman-filter likelihood of
+    the slope changes summed over the days (:func:`fit_noise_and_rigidity`); the order with the
+    larger maximised likelihood wins (same number of parameters, so this is also the AIC choice).
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+    sigma : float
+        Slope-change noise std, rad (e.g. :func:`day_difference_sigma`), kept fixed.
+    sigma_z : float
+        End-anchor std, m.
+    penalty_orders : iterable of int
+        Orders to try.
+
+    Returns
+    -------
+    ChangePriorFit
+    """
+    rows = _changed_rows(np.asarray(slopes, float))
+    lls, rs = {}, {}
+    for order in penalty_orders:
+        rs[int(order)], lls[int(order)] = _fit_rigidity(x, rows, float(sigma), sigma_z, int(order))
+    best = max(lls, key=lls.get)
+    return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs, sigma=float(sigma))
 
 
 def affine_correction(x, slopes, usable):
@@ -227,7 +303,8 @@ def _compare_controls(site: SiteData, days, x, dz, dz_std, initial_survey):
 
 
 def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float | None = None,
-                        rigidity: float | None = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z,
+                        rigidity: float | None = None, penalty_order: int | None = None,
+                        survey_rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z,
                         sigma_a: float = DEFAULT_SIGMA_A, reference_temp_c: float = 5.0, quiet_days=None,
                         check_health: bool = True, exclude_sensors=(), use_affine_correction: bool = False,
                         through_time: bool = True, process_std: float | None = None,
@@ -245,8 +322,17 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
         Std of the daily slope changes, rad. Default: estimated from the day-to-day differences
         (:func:`day_difference_sigma`); the paper's 5e-3 deg is the noise of single readings,
         far too wide for daily medians of ~100 readings.
-    rigidity : float or None, default 1e-8
-        r, m^-2 (the paper's value). None: maximum marginal likelihood over the days.
+    rigidity : float or None, default None
+        r of the prior of the change (settlement) profile. None: maximum marginal likelihood over
+        the days, sigma fixed (:func:`fit_change_prior`). A given value is used as is (the paper's
+        1e-8 m^-2 gives bands ≈ 30 times too wide on synthetic truth, docs/rail.md).
+    penalty_order : {None, 2, 3}, default None
+        Prior of the change profile: 2 = the paper's exp(-||f''||^2 / r), 3 = the smoother
+        exp(-||f‴||^2 / r) (beyond the paper). None: the order with the larger maximised likelihood
+        when ``rigidity`` is None, else 2 (a given r is the paper's, m^-2).
+    survey_rigidity : float, default 1e-8
+        r of the track geometry for the initial profile from the survey (§4.4), m^-2: the track
+        itself is much rougher than the settlement bowl, so it keeps the paper's value.
     sigma_z : float, default 1e-5
         Std of the end anchors, m (ends assumed fixed, §2 and §4.2).
     sigma_a : float, default 2e-3
@@ -280,10 +366,11 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     -----
     Steps: daily angles (§3) -> slope changes tan(theta0 + m) - tan(theta0) with the
     initial angles of §4.4 -> sensor health (§6) with sigma and r re-estimated after each
-    exclusion -> rigidity posterior of the slope changes with both ends anchored at 0
-    (§4.2; by linearity this equals the paper's absolute posterior minus the posterior at
-    day 0) -> Monte Carlo of the maximum settlement (§4.3) -> through-time smoothing,
-    rates and alarms (beyond the paper).
+    exclusion -> the prior of the change profile fitted by maximum likelihood (sigma fixed)
+    -> its posterior given the slope changes with both ends anchored at 0 (§4.2 applied to the
+    change itself, so the band is that of the change, not of two independent days) -> Monte
+    Carlo of the maximum settlement (§4.3) -> through-time smoothing, rates and alarms (beyond
+    the paper).
     """
     require_positive("sigma_z", sigma_z)
     require_positive("sigma_a", sigma_a)
@@ -305,14 +392,17 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
         warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
                         f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
     sv = site.survey
+    if penalty_order is not None and penalty_order not in PENALTY_ORDERS:
+        raise InputError(f"penalty_order must be None, 2 or 3; got {penalty_order!r}.")
     initial = initial_profile_posterior(x, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(), sigma_a=sigma_a,
-                                        rigidity=DEFAULT_RIGIDITY if rigidity is None else rigidity)
+                                        rigidity=survey_rigidity)
     theta0 = np.arctan(initial.slope_mean)
     change = np.deg2rad(daily.change_deg)
     slopes = np.tan(theta0[None, :] + change) - np.tan(theta0)[None, :]
     excl_idx = [ids.index(s) for s in exclude_sensors]
     # health checks need a prior as stiff as the data allow (a loose prior predicts nothing from the
-    # neighbours), so they always use the maximum-likelihood rigidity; the settlement uses ``rigidity``.
+    # neighbours), so they always use the maximum-likelihood r of the paper's prior (penalty order 2); the
+    # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
     fit = (lambda M, s, r: fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=None, sigma_z=sigma_z))
     s0, r0 = fit(slopes, None, None)
     if check_health:
@@ -322,8 +412,6 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
         health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sigma_z,
                                           raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, max_flagged=0, fit=fit)
     health = replace(health, sensor_ids=list(ids))
-    M = np.where(health.excluded[None, :], np.nan, slopes)
-    sig, rig = fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")
     if health.excluded[0] or health.excluded[-1]:
@@ -334,10 +422,15 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
         M = affine_correction(x, M, ~health.excluded)
         warnings.append("affine correction of §5.2 applied: end sensors forced to read no change; the paper warns it "
                         "is not robust (it helped one track and degraded the other).")
-        if sigma is None or rigidity is None:
-            sig, rig = fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
-    post = rigidity_posterior(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z)
-    meas_std = measurement_std(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z)
+    sig = float(sigma) if sigma is not None else day_difference_sigma(M)
+    if rigidity is None:
+        prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=sigma_z,
+                                     penalty_orders=PENALTY_ORDERS if penalty_order is None else (penalty_order,))
+        order, rig = prior_fit.penalty_order, prior_fit.rigidity
+    else:
+        prior_fit, order, rig = None, 2 if penalty_order is None else int(penalty_order), float(rigidity)
+    post = rigidity_posterior(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
+    noise_std = measurement_std(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
     # §2 chain integrations on the same slope changes (excluded sensors interpolated from neighbours)
     ok = ~health.excluded
     Mi = np.array([np.interp(x, x[ok & np.isfinite(row)], row[ok & np.isfinite(row)]) for row in M])
@@ -347,27 +440,30 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
                   - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
     if n_monte_carlo > 0:
         mc_mean, mc_std = max_settlement_monte_carlo(x, M, int(n_monte_carlo), sigma=sig, rigidity=rig,
-                                                     sigma_z=sigma_z, rng=rng)
+                                                     sigma_z=sigma_z, rng=rng, penalty_order=order)
     else:
         mc_mean = mc_std = np.full(D, np.nan)
-    smoothed = smooth_through_time(post.z_mean, meas_std, process_std=process_std) if through_time else None
+    dz_std = np.array(post.z_std)
+    smoothed = smooth_through_time(post.z_mean, dz_std, process_std=process_std) if through_time else None
     src_mean = smoothed.mean if smoothed is not None else post.z_mean
-    src_std = smoothed.std if smoothed is not None else meas_std
+    src_std = smoothed.std if smoothed is not None else dz_std
     alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=settlement_threshold_m,
                                rate=None if smoothed is None else smoothed.rate,
                                rate_std=None if smoothed is None else smoothed.rate_std,
                                rate_threshold_m_per_day=rate_threshold_m_per_day, min_probability=alarm_probability)
     controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
     settings = dict(thermal=thermal, sigma_rad=sig, sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
-                    sigma_estimated=sigma is None, rigidity_estimated=rigidity is None, sigma_z=sigma_z,
+                    penalty_order=order, sigma_estimated=sigma is None, rigidity_estimated=rigidity is None,
+                    change_prior_log_likelihood=None if prior_fit is None else prior_fit.log_likelihood,
+                    survey_rigidity=survey_rigidity, sigma_z=sigma_z,
                     sigma_a=sigma_a, reference_temp_c=reference_temp_c, affine_correction=use_affine_correction,
                     through_time=through_time, process_std=None if smoothed is None else smoothed.process_std,
                     settlement_threshold_m=settlement_threshold_m, rate_threshold_m_per_day=rate_threshold_m_per_day,
                     alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo)
-    return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post.z_mean, dz_std=meas_std,
-                            dz_posterior_std=post.z_std,
+    return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post.z_mean, dz_std=dz_std,
+                            dz_noise_std=noise_std,
                             slope_change=post.slope_mean, slope_change_std=post.slope_std, smoothed=smoothed,
                             initial=initial, integrated=integrated, max_settlement_mean=np.atleast_1d(mc_mean),
                             max_settlement_std=np.atleast_1d(mc_std), health=health, daily=daily, sigma=sig,
-                            rigidity=rig, alarms=alarms, controls=controls, warnings=tuple(warnings),
+                            rigidity=rig, penalty_order=order, change_prior=prior_fit, alarms=alarms, controls=controls, warnings=tuple(warnings),
                             settings=settings)

@@ -1,12 +1,17 @@
 """Settlement through time: a second smoothing pass over days per station, rates and alarms (beyond paper 004).
 
-Model (per station i, day d): the daily posterior mean s^obs_{d,i} of the rigidity model is
-an observation of the settlement s_{d,i} with the daily posterior variance v_{d,i}
-(independent across days: each day's posterior uses that day's angles only); the settlement
-itself is a random walk over days, s_{d+1} = s_d + w_d, w_d ~ N(0, q^2), starting at s_0 = 0.
-q (m/day) is one value for the site, chosen by maximum marginal likelihood over a grid.
-The RTS smoother over days (the engine) gives E[s_d | all days] and its std; the daily
-rate s_d - s_{d-1} gets its std from the lag-one cross-covariance.
+Model (per station i, day d >= 1): the daily posterior mean y_{d,i} of the change since the
+reference day 0 is y_d = s_d + a_d - a_0, where s is the settlement and a_d the error the
+angles of day d alone would give. The errors a_d are independent across days, but a_0 (the
+reference day's) is SHARED by every day's change, so the daily errors are correlated; with the
+daily posterior variance v_d split as v_d = rho v + (1 - rho) v_d (rho = ``reference_share``,
+1/2 when every day, the reference included, has the same noise: Var(e_d - e_0) = 2 Var(e)),
+the state is (s_d, a_0): a_0 ~ N(0, rho v) constant, the settlement a random walk over days,
+s_{d+1} = s_d + w_d, w_d ~ N(0, q^2), s_0 = 0, and y_d = s_d - a_0 + noise of variance
+(1 - rho) v_d. q (m/day) is one value for the site, chosen by maximum marginal likelihood
+over a grid. The RTS smoother over days (the engine) gives E[s_d | all days] and its std
+(which keeps the reference day's share: averaging days cannot remove it); the daily rate
+s_d - s_{d-1} gets its std from the lag-one cross-covariance (a_0 cancels).
 """
 
 from __future__ import annotations
@@ -48,14 +53,16 @@ class TemporalSettlement:
     process_std: float
 
 
-def _station_model(var_obs, q):
+def _station_model(var_obs, q, reference_share):
     D = var_obs.size
-    return StateSpaceModel(transition=np.eye(1), observation=np.eye(1), process_cov=np.array([[q**2]]),
-                           obs_cov=var_obs.reshape(D, 1, 1), initial_mean=np.zeros(1),
-                           initial_cov=np.array([[1e-16]]))
+    var_ref = reference_share * float(np.median(var_obs[1:])) if D > 1 else 0.0
+    return StateSpaceModel(transition=np.eye(2), observation=np.array([[1.0, -1.0]]),
+                           process_cov=np.diag([q**2, 0.0]),
+                           obs_cov=((1.0 - reference_share) * var_obs).reshape(D, 1, 1),
+                           initial_mean=np.zeros(2), initial_cov=np.diag([1e-16, max(var_ref, 1e-20)]))
 
 
-def smooth_through_time(daily_mean, daily_std, *, process_std=None) -> TemporalSettlement:
+def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_share: float = 0.5) -> TemporalSettlement:
     """Smooth daily settlement posteriors across days, per station (random-walk model, module docstring).
 
     Parameters
@@ -64,6 +71,9 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None) -> TemporalS
         Daily posterior mean and std of the altitude change, m (day 0 is the reference, mean 0).
     process_std : float, optional
         q, m/day; estimated by maximum likelihood when None.
+    reference_share : float, default 0.5
+        Share of each day's variance due to the reference day's error, common to all days
+        (module docstring); 0 treats the daily errors as independent.
 
     Returns
     -------
@@ -74,11 +84,14 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None) -> TemporalS
     if mu.ndim != 2 or mu.shape != sd.shape:
         raise InputError(f"daily_mean and daily_std must be (D, N) of the same shape; got {mu.shape} and {sd.shape}.")
     D, N = mu.shape
+    if not 0.0 <= reference_share < 1.0:
+        raise InputError(f"reference_share must be in [0, 1); got {reference_share!r}.")
     var = np.maximum(sd, 1e-7) ** 2
+    Y = mu.copy()
+    Y[0] = np.nan  # day 0 is the reference: its change is 0 by construction and carries no information
 
     def run(q, j):
-        y = mu[:, j:j + 1]
-        return shared_covariance_smoother(_station_model(var[:, j], q), y)
+        return shared_covariance_smoother(_station_model(var[:, j], q, reference_share), Y[:, j:j + 1])
 
     if process_std is None:
         ll = [sum(run(q, j).filtered.log_likelihood for j in range(N)) for q in PROCESS_STD_GRID]

@@ -273,8 +273,10 @@ td,th{{border:1px solid #ccc;padding:2px 6px}} img{{max-width:100%}} .warn li{{c
 ({_day_label(result.days[0])} to {_day_label(result.days[-1])}). Method: paper 004 (SNCF / Sorbonne) rigidity
 posterior on the state-space engine; thermal model <b>{html.escape(str(st.get('thermal')))}</b>; slope noise
 sigma = {st.get('sigma_deg', float('nan')):.2e} deg ({'estimated' if st.get('sigma_estimated') else 'given'});
-rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-2</sup>; day-to-day settlement std
-{1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % measurement bands (docs/rail.md).</p>
+settlement prior: penalty order {st.get('penalty_order', 2)} (2 = the paper's ||f''||<sup>2</sup>, 3 = ||f'''||<sup>2</sup>),
+rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-{2 * st.get('penalty_order', 2) - 2}</sup>
+({'maximum likelihood' if st.get('rigidity_estimated') else 'given'}); day-to-day settlement std
+{1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % posterior bands of the fitted model (docs/rail.md).</p>
 <h2>Warnings</h2><ul class="warn">{warn}</ul>
 <h2>Flagged sensors (excluded)</h2>{_table_html(flagged)}
 <h2>Alarms</h2><p>One row per station and kind (first and last day of exceedance with probability at

@@ -63,6 +63,23 @@ def _recompute_small(ring_b, pos, window):
 
 
 @nb.njit(cache=True, nogil=True)
+def _load_state(b, pos, n_seen, last_nan, since, ref, ref_set):
+    """Per-series recursion state of series b: (ring position, samples seen, last NaN, since refresh, ref, ref set)."""
+    return pos[b], n_seen[b], last_nan[b], since[b], ref[b], ref_set[b]
+
+
+@nb.njit(cache=True, nogil=True)
+def _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since_b, rb, rset):
+    """Store the per-series recursion state of series b (inverse of :func:`_load_state`)."""
+    pos[b] = p
+    n_seen[b] = g
+    last_nan[b] = lnan
+    since[b] = since_b
+    ref[b] = rb
+    ref_set[b] = rset
+
+
+@nb.njit(cache=True, nogil=True)
 def _small_kernel(x, window, degree, c, h0, gain, const, npow, refresh,
                   ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
     """Degree <= 3 and at most 3 outputs: moments and coefficients kept in scalars (registers).
@@ -87,12 +104,7 @@ def _small_kernel(x, window, degree, c, h0, gain, const, npow, refresh,
         o1 = out[k1, b]
         o2 = out[k2, b]
         ring_b = ring[b]
-        p = pos[b]
-        g = n_seen[b]
-        lnan = last_nan[b]
-        since_b = since[b]
-        rb = ref[b]
-        rset = ref_set[b]
+        p, g, lnan, since_b, rb, rset = _load_state(b, pos, n_seen, last_nan, since, ref, ref_set)
         e0 = gain[0] * rb + const[0, b]
         e1 = gain[k1] * rb + const[k1, b]
         e2 = gain[k2] * rb + const[k2, b]
@@ -141,12 +153,7 @@ def _small_kernel(x, window, degree, c, h0, gain, const, npow, refresh,
                 if degree < 2:
                     s2 = 0.0
                 since_b = 0
-        pos[b] = p
-        n_seen[b] = g
-        last_nan[b] = lnan
-        since[b] = since_b
-        ref[b] = rb
-        ref_set[b] = rset
+        _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since_b, rb, rset)
         sums[b, 0] = s0
         sums[b, 1] = s1
         if degree >= 2:
@@ -185,12 +192,7 @@ def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
     nan = np.nan
     for b in range(n_series):
         ring_b = ring[b]
-        p = pos[b]
-        g = n_seen[b]
-        lnan = last_nan[b]
-        since_b = since[b]
-        rb = ref[b]
-        rset = ref_set[b]
+        p, g, lnan, since_b, rb, rset = _load_state(b, pos, n_seen, last_nan, since, ref, ref_set)
         for j in range(degree + 1):
             s[j] = sums[b, j]
         for t in range(n_steps):
@@ -255,11 +257,6 @@ def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
             if since_b >= refresh or lnan == g - 1 - window:
                 _recompute(ring_b, p, s, degree, window)
                 since_b = 0
-        pos[b] = p
-        n_seen[b] = g
-        last_nan[b] = lnan
-        since[b] = since_b
-        ref[b] = rb
-        ref_set[b] = rset
+        _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since_b, rb, rset)
         for j in range(degree + 1):
             sums[b, j] = s[j]

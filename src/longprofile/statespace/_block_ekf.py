@@ -14,32 +14,20 @@ that identity — at a cost linear, not cubic, in the number of blocks.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from numba import njit
+from numba import njit, types, typeof
+from numba.core.errors import NumbaError
 
 from .._validation import as_float_array
 from ..errors import InputError, ModelError, ShapeError
-from ._ekf import NonlinearStateSpaceModel, is_jitted
+from ._ekf import NonlinearStateSpaceModel
 from ._results import FilterResult
 
 __all__ = ["block_extended_kalman_filter"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
-_FD_STEP = float(np.finfo(float).eps ** (1.0 / 3.0))
-
-
-@njit
-def _fd(fn, x, u, k, J):
-    xw = x.copy()
-    for j in range(x.shape[0]):
-        step = _FD_STEP * max(abs(x[j]), 1.0)
-        xw[j] = x[j] + step
-        a = fn(xw, u, k)
-        xw[j] = x[j] - step
-        b = fn(xw, u, k)
-        xw[j] = x[j]
-        for i in range(a.shape[0]):
-            J[i, j] = (a[i] - b[i]) / (2.0 * step)
 
 
 @njit(cache=True, inline="always")
@@ -179,7 +167,9 @@ def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov
     for a in range(innov_k.shape[0]):
         innov_k[a] = np.nan
     if store:
-        icov_k[:, :] = 0.0
+        for a in range(icov_k.shape[0]):
+            for b in range(icov_k.shape[1]):
+                icov_k[a, b] = 0.0
     ll = 0.0
     n_obs = 0
     for b in range(sidx.shape[0]):
@@ -206,18 +196,40 @@ def _all_finite(a):
     return True
 
 
-@njit
-def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
-                  mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
-    """The loop compiled per set of model functions; the linear algebra is in cached helpers."""
-    T, m = y.shape
-    n = x0.shape[0]
-    x = x0.copy()
-    P = np.zeros((n, n))
+@njit(cache=True)
+def _copy1(src, dst):
+    for i in range(dst.shape[0]):
+        dst[i] = src[i]
+
+
+@njit(cache=True)
+def _copy2(src, dst):
+    for i in range(dst.shape[0]):
+        for j in range(dst.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@njit(cache=True)
+def _init_cov(P0, sidx, scount, P):
+    for i in range(P.shape[0]):
+        for j in range(P.shape[1]):
+            P[i, j] = 0.0
     for b in range(sidx.shape[0]):
         for i in range(scount[b]):
             for j in range(scount[b]):
                 P[sidx[b, i], sidx[b, j]] = P0[sidx[b, i], sidx[b, j]]
+
+
+@njit
+def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
+                  mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
+    """The loop compiled per set of model functions; everything else is in cached helpers (fast compile)."""
+    T, m = y.shape
+    n = x0.shape[0]
+    x = np.empty(n)
+    _copy1(x0, x)
+    P = np.empty((n, n))
+    _init_cov(P0, sidx, scount, P)
     Jf = np.zeros((n, n))
     Jh = np.zeros((m, n))
     smax, omax = sidx.shape[1], oidx.shape[1]
@@ -229,13 +241,13 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
     for k in range(T):
         uk = u[k]
         R = R3[k if R3.shape[0] > 1 else 0]
-        pmean[k] = x
+        _copy1(x, pmean[k])
         if store:
-            pcov[k] = P
+            _copy2(P, pcov[k])
         yhat = h(x, uk, k)
-        Jh[:, :] = hjac(x, uk, k)
+        _copy2(hjac(x, uk, k), Jh)
         if store:
-            Hj[k] = Jh
+            _copy2(Jh, Hj[k])
         status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
                                      icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
         if status != 0:
@@ -244,11 +256,11 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
             return n_obs
         n_obs += mo
         ll_steps[k] = ll
-        mean[k] = x
+        _copy1(x, mean[k])
         if store:
-            cov[k] = P
+            _copy2(P, cov[k])
         if k < T - 1:
-            Jf[:, :] = fjac(x, uk, k)
+            _copy2(fjac(x, uk, k), Jf)
             xn = f(x, uk, k)
             if not _all_finite(xn):
                 state[0] = 2
@@ -256,10 +268,44 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
                 return n_obs
             _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
             if store:
-                Fj[k] = Jf
-            x[:] = xn
+                _copy2(Jf, Fj[k])
+            _copy1(xn, x)
     state[0] = 0
     return n_obs
+
+
+_VEC = types.Array(types.float64, 1, "C")
+_MAT = types.Array(types.float64, 2, "C")
+_FUNCTION_TYPE = types.FunctionType(_VEC(_VEC, _VEC, types.int64))
+_JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
+
+
+@functools.cache
+def _cached_kernel():
+    """The same loop compiled for first-class function types, so numba can cache it on disk.
+
+    Typed by the model functions' SIGNATURE instead of their identity (numba types a dispatcher argument by
+    identity, which no other process can find in the cache: numba/numba#2956), the loop calls f, h and the
+    Jacobians through function pointers and is compiled once per machine instead of once per process.
+    """
+    return njit(cache=True)(_block_kernel.py_func)
+
+
+def _function_types(model):
+    """Function types of (f, h, f_jac, h_jac) when all compile for the C-contiguous float64 signature, else None."""
+    out = []
+    for fn, ftype in ((model.transition_fn, _FUNCTION_TYPE), (model.observation_fn, _FUNCTION_TYPE),
+                      (model.transition_jacobian, _JACOBIAN_TYPE), (model.observation_jacobian, _JACOBIAN_TYPE)):
+        args = ftype.signature.args
+        try:
+            fn.compile(args)
+        except (NumbaError, TypeError, ValueError):
+            return None
+        cres = fn.overloads.get(args)
+        if cres is None or cres.signature.return_type != ftype.signature.return_type:
+            return None
+        out.append(ftype)
+    return tuple(out)
 
 
 def _labels(name, labels, size):
@@ -310,13 +356,16 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     ``S_b = H_bb P_b H_bb' + R_bb``, ``K_b = P_b H_bb' S_b^-1``, ``x_b += K_b (y_o - yhat_o)``,
     Joseph update of P_b. Then ``x[k+1|k] = f(x[k|k])`` (all blocks, coupled) and
     ``P_b <- F_bb P_b F_bb' + Q_bb``. Thesis 003 (Plancke), §3.1 eq. (3.3): the per-corner filters of a car.
-    The compiled loop needs numba-jitted f, h (and Jacobians); plain Python functions are rejected.
+    The compiled loop needs numba-jitted f, h and analytic Jacobians; plain Python functions are rejected.
     """
     if not isinstance(model, NonlinearStateSpaceModel):
         raise InputError(f"block_extended_kalman_filter needs a NonlinearStateSpaceModel; got {type(model).__name__}.")
     if not model.is_compiled:
         raise InputError("block_extended_kalman_filter runs a compiled loop: transition_fn, observation_fn and the "
                          "given Jacobians must be numba @njit functions.")
+    if model.transition_jacobian is None or model.observation_jacobian is None:
+        raise InputError("block_extended_kalman_filter needs analytic transition_jacobian and observation_jacobian "
+                         "(numba @njit); use extended_kalman_filter for finite-difference Jacobians.")
     n, m = model.n_states, model.n_obs
     Y = as_float_array("y", y, ndim=(1, 2))
     if Y.ndim == 1:
@@ -370,10 +419,16 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
     state = np.zeros(2, np.int64)
-    n_obs = _block_kernel(model.transition_fn, model.observation_fn, model.transition_jacobian,
-                          model.observation_jacobian, Q3, R3, model.initial_mean, model.initial_cov,
-                          np.ascontiguousarray(Y), U, sidx, scount, oidx, ocount, store, mean, cov, pmean, pcov,
-                          innov, icov, ll_steps, Fj, Hj, state)
+    fns = (model.transition_fn, model.observation_fn, model.transition_jacobian, model.observation_jacobian)
+    data = (Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
+            np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
+            cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
+    fn_types = _function_types(model)
+    if fn_types is not None:
+        entry = _cached_kernel().compile(fn_types + tuple(typeof(a) for a in data))
+        n_obs = entry(*fns, *data)
+    else:  # model functions with other signatures: compile the loop for these functions (per process)
+        n_obs = _block_kernel(*fns, *data)
     status, k = int(state[0]), int(state[1])
     if status == 1:
         raise ModelError(f"innovation covariance of a block is not positive definite at step {k}; check R and Q.")

@@ -11,8 +11,8 @@ from scipy.linalg import cho_factor, cho_solve
 from .._validation import as_float_array, require_symmetric_psd
 from ..errors import InputError, ModelError, ShapeError
 from ._ekf_kernels import ekf_kernel
+from ._kalman import as_observation_batch, rts_smoother
 from ._linalg_kernels import FD_REL_STEP
-from ._kalman import rts_smoother
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult
 
@@ -296,21 +296,8 @@ def _prepare(model, y, u):
     if not isinstance(model, NonlinearStateSpaceModel):
         raise InputError(f"extended_kalman_filter needs a NonlinearStateSpaceModel; got {type(model).__name__} "
                          "(use kalman_filter for a linear StateSpaceModel).")
-    m = model.n_obs
-    arr = as_float_array("y", y, ndim=(1, 2, 3))
-    batched = arr.ndim == 3
-    if arr.ndim == 1:
-        if m != 1:
-            raise ShapeError(f"y is 1-D, which is only accepted for m = 1 observation; the model has m = {m}. "
-                             "Pass y with shape (T, m).")
-        arr = arr[:, None]
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.shape[-1] != m:
-        raise ShapeError(f"y must have m = {m} columns (the size of obs_cov); got shape {np.shape(y)}.")
+    arr, batched = as_observation_batch(y, model.n_obs)
     nb, T, _ = arr.shape
-    if T < 1:
-        raise ShapeError("y has no samples.")
     Q, R = model.process_cov, model.obs_cov
     if Q.ndim == 3 and Q.shape[0] != T - 1:
         raise ShapeError(f"process_cov (Q) is time-varying with {Q.shape[0]} steps but y has T = {T} samples; "
@@ -331,7 +318,7 @@ def _prepare(model, y, u):
             U = np.broadcast_to(U[None], (nb,) + U.shape)
         if U.shape[:2] != (nb, T):
             raise ShapeError(f"u must have shape (T, p) = ({T}, p) or (B, T, p) = ({nb}, {T}, p); got {np.shape(u)}.")
-    return np.ascontiguousarray(arr), batched, Q3, R3, np.ascontiguousarray(U)
+    return arr, batched, Q3, R3, np.ascontiguousarray(U)
 
 
 def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,

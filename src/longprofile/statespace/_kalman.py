@@ -15,15 +15,16 @@ from . import _kernels
 from ._model import StateSpaceModel
 from ._results import FilterResult, SmootherResult
 
-__all__ = ["kalman_filter", "rts_smoother", "log_likelihood", "prepare_observations", "prepare_inputs"]
+__all__ = ["kalman_filter", "rts_smoother", "log_likelihood", "prepare_observations", "prepare_inputs",
+           "as_observation_batch"]
 
 
-def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
-    """Validate ``y`` against ``model``; return a (B, T, m) float64 array and whether it was batched.
+def as_observation_batch(y, m: int) -> tuple[np.ndarray, bool]:
+    """Shape-check ``y`` for m observations per step; return a C-contiguous (B, T, m) float64 array and
+    whether it was batched.
 
-    ``y`` may be (T,) when m = 1, (T, m), or (B, T, m). NaN marks a missing component.
+    ``y`` may be (T,) when m = 1, (T, m), or (B, T, m). NaN marks a missing component (kept).
     """
-    m = model.n_obs
     arr = as_float_array("y", y, ndim=(1, 2, 3))
     batched = arr.ndim == 3
     if arr.ndim == 1:
@@ -39,8 +40,17 @@ def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
         raise ShapeError("y has no samples.")
     if arr.shape[0] < 1:
         raise ShapeError(f"y is a batch of 0 series (shape {np.shape(y)}); pass at least one series.")
-    model.check_length(arr.shape[1])
     return np.ascontiguousarray(arr), batched
+
+
+def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
+    """Validate ``y`` against ``model``; return a (B, T, m) float64 array and whether it was batched.
+
+    ``y`` may be (T,) when m = 1, (T, m), or (B, T, m). NaN marks a missing component.
+    """
+    arr, batched = as_observation_batch(y, model.n_obs)
+    model.check_length(arr.shape[1])
+    return arr, batched
 
 
 def _validate_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:

@@ -95,26 +95,30 @@ class EKFTuning:
 
 # ------------------------------------------------------------------------------------------ model functions
 
+# The closures are cached on disk (numba keys closures on the values they capture: the vehicle
+# parameters and dt), and the engine's disk-cached EKF loop calls them through function pointers,
+# so a new process (the CLI) loads everything instead of compiling it.
+
 @functools.lru_cache(maxsize=32)
 def _planar_functions(params: tuple, dt: float):
     p = np.array(params)
 
-    @njit
+    @njit(cache=True)
     def f(x, u, k):
         return ekf_next(x, u, p, dt)
 
-    @njit
+    @njit(cache=True)
     def f_jac(x, u, k):
         return ekf_jacobian(x, u, p, dt)
 
-    @njit
+    @njit(cache=True)
     def h(x, u, k):
         y = np.empty(2)
         y[0] = x[0]
         y[1] = x[2]
         return y
 
-    @njit
+    @njit(cache=True)
     def h_jac(x, u, k):
         H = np.zeros((2, 3))
         H[0, 0] = 1.0
@@ -128,22 +132,22 @@ def _planar_functions(params: tuple, dt: float):
 def _joint_functions(params: tuple, dt: float):
     p = np.array(params)
 
-    @njit
+    @njit(cache=True)
     def f(x, u, k):
         return joint_next(x, u, p, dt)
 
-    @njit
+    @njit(cache=True)
     def f_jac(x, u, k):
         return joint_jacobian(x, u, p, dt)
 
-    @njit
+    @njit(cache=True)
     def h(x, u, k):
         y = np.empty(2)
         y[0] = x[0]
         y[1] = x[2]
         return y
 
-    @njit
+    @njit(cache=True)
     def h_jac(x, u, k):
         H = np.zeros((2, 4))
         H[0, 0] = 1.0
@@ -438,7 +442,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
     vehicle = default_vehicle() if vehicle is None else vehicle
     tuning = EKFTuning.for_method(method) if tuning is None else tuning
-    from ..statespace import extended_kalman_filter
+    from ..statespace import extended_kalman_filter_cached
 
     dt = log.dt
     u = planar_inputs(log, vehicle, friction=friction)
@@ -460,7 +464,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
     else:
         model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
-    filtered = extended_kalman_filter(model, y, u=u)
+    filtered = extended_kalman_filter_cached(model, y, u=u)
     mean, cov = filtered.mean, filtered.cov
     T = y.shape[0]
     p = vehicle.as_array()

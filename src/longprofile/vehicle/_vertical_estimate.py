@@ -20,7 +20,7 @@ from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
 from ._vertical_ekf_model import (corner_observation, corner_observation_jacobian, corner_transition,
                                   corner_transition_jacobian)
-from ._vertical_model import CKBAR, CMW, VerticalVehicleParams, suspension_tensions, vertical_params_arrays
+from ._vertical_model import VerticalVehicleParams, suspension_tensions, vertical_params_arrays
 from ._vertical_sim import SENSOR_CONFIGS, VerticalSensors
 
 __all__ = ["CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model", "vertical_ekf_inputs",
@@ -369,35 +369,6 @@ def _integrate(a, dt):
     out = np.zeros_like(a)
     out[1:] = np.cumsum(0.5 * (a[1:] + a[:-1]) * dt, axis=0)
     return out
-
-
-@njit(cache=True)
-def _handling_model(u, corner, coupling, scalars, dt):
-    """Thesis handling model (4.9): body on its suspensions, wheels held fixed, driven by a_x, a_y, psidd.
-
-    Explicit Euler; returns the corner velocities Z2dot_h (T, 4) and displacements (= relative motion) (T, 4).
-    """
-    T = u.shape[0]
-    z2 = np.zeros(4)
-    z2d = np.zeros(4)
-    vel = np.zeros((T, 4))
-    rel = np.zeros((T, 4))
-    F = np.empty(4)
-    ks = np.empty(4)
-    cd = np.empty(4)
-    zero = np.zeros(4)
-    for k in range(T):
-        suspension_tensions(z2, z2d, zero, corner, scalars[1], F, ks, cd)
-        for c in range(4):
-            vel[k, c] = z2d[c]
-            rel[k, c] = z2[c]
-        for c in range(4):
-            acc = corner[c, 14] * u[k, 0] + corner[c, 15] * u[k, 1] + corner[c, 16] * u[k, 2]
-            for e in range(4):
-                acc -= coupling[c, e] * F[e]
-            z2d[c] += dt * acc
-            z2[c] += dt * vel[k, c]
-    return vel, rel
 
 
 def _handling_response(u, params, dt):

@@ -22,8 +22,7 @@ from numba import njit
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ._vertical_model import (CORNER_NAMES, CX, CY, VerticalVehicleParams, seven_dof_rhs,
-                              suspension_tensions, vertical_params_arrays)
+from ._vertical_model import CORNER_NAMES, CX, CY, VerticalVehicleParams, seven_dof_rhs, vertical_params_arrays
 
 __all__ = [
     "VerticalSimulation",

@@ -1,0 +1,179 @@
+"""EKF with the disk-cached compiled loop: same numbers as the engine's EKF, cache hit in a new process."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from numba import njit
+
+from longprofile.errors import ModelError
+from longprofile.statespace import (NonlinearStateSpaceModel, StateSpaceModel, extended_kalman_filter,
+                                    extended_kalman_filter_cached, kalman_filter)
+from longprofile.statespace._ekf_cached import cached_kernel
+
+_rng = np.random.default_rng(7)
+F_LIN = np.array([[0.9, 0.1, 0.0], [-0.1, 0.8, 0.2], [0.0, 0.05, 0.95]])
+H_LIN = np.array([[1.0, 0.0, 0.5], [0.0, 1.0, -0.3]])
+B_LIN = np.array([[0.5], [0.0], [-0.2]])
+C_OFF = np.array([0.1, -0.2, 0.05])
+Q_LIN = np.diag([0.05, 0.02, 0.03])
+R_LIN = np.array([[0.2, 0.05], [0.05, 0.1]])
+
+
+@njit(cache=True)
+def lin_f(x, u, k):
+    out = C_OFF.copy()
+    for i in range(3):
+        for j in range(3):
+            out[i] += F_LIN[i, j] * x[j]
+        out[i] += B_LIN[i, 0] * u[0]
+    return out
+
+
+@njit(cache=True)
+def lin_h(x, u, k):
+    out = np.zeros(2)
+    for i in range(2):
+        for j in range(3):
+            out[i] += H_LIN[i, j] * x[j]
+    return out
+
+
+@njit(cache=True)
+def lin_fj(x, u, k):
+    return F_LIN.copy()
+
+
+@njit(cache=True)
+def lin_hj(x, u, k):
+    return H_LIN.copy()
+
+
+@njit(cache=True)
+def pend_f(x, u, k):  # pendulum, Euler step
+    out = np.empty(2)
+    out[0] = x[0] + 0.01 * x[1]
+    out[1] = x[1] - 0.01 * 9.81 * np.sin(x[0])
+    return out
+
+
+@njit(cache=True)
+def pend_h(x, u, k):
+    out = np.empty(1)
+    out[0] = np.sin(x[0])
+    return out
+
+
+@njit(cache=True)
+def strided_f(x, u, k):  # returns a non-contiguous array: cannot be typed for the cached loop
+    out = np.empty(2 * x.shape[0])
+    for i in range(x.shape[0]):
+        out[2 * i] = x[i]
+    return out[::2]
+
+
+@njit(cache=True)
+def ident_h(x, u, k):
+    return x.copy()
+
+
+@njit(cache=True)
+def blow_up_f(x, u, k):
+    out = x * 10.0
+    if k == 5:
+        out[0] = np.inf
+    return out
+
+
+def _data(T=200):
+    u = _rng.normal(size=(T, 1))
+    y = _rng.normal(size=(T, 2))
+    y[10:15, 0] = np.nan
+    y[40, :] = np.nan
+    return y, u
+
+
+def test_linear_model_matches_the_kalman_filter_and_the_uncached_ekf():
+    y, u = _data()
+    x0, P0 = np.array([0.5, -0.2, 0.1]), np.eye(3)
+    model = NonlinearStateSpaceModel(lin_f, lin_h, Q_LIN, R_LIN, x0, P0, transition_jacobian=lin_fj,
+                                     observation_jacobian=lin_hj)
+    got = extended_kalman_filter_cached(model, y, u=u)
+    kf = kalman_filter(StateSpaceModel(F_LIN, H_LIN, Q_LIN, R_LIN, x0, P0, input_transition=B_LIN,
+                                       state_offset=C_OFF), y, u=u)
+    np.testing.assert_allclose(got.mean, kf.mean, atol=1e-10)
+    np.testing.assert_allclose(got.cov, kf.cov, atol=1e-10)
+    assert got.log_likelihood == pytest.approx(kf.log_likelihood, abs=1e-8)
+    ref = extended_kalman_filter(model, y, u=u)
+    for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation_cov", "transition_jacobians",
+                 "observation_jacobians", "log_likelihood_steps"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+    np.testing.assert_array_equal(got.innovation, ref.innovation)  # NaN where missing, in both
+    assert got.n_observed == ref.n_observed and got.method == "ekf"
+
+
+def test_finite_difference_jacobians_batches_and_means_only_match_the_uncached_ekf():
+    T = 150
+    truth = 0.3 * np.sin(0.05 * np.arange(T))
+    y = (np.sin(truth) + 0.05 * _rng.normal(size=T))[:, None]
+    model = NonlinearStateSpaceModel(pend_f, pend_h, np.diag([1e-5, 1e-4]), np.array([[0.05 ** 2]]),
+                                     np.array([0.2, 0.0]), np.diag([0.1, 0.1]))
+    yb = np.stack([y, y[::-1]])
+    for store in (True, False):
+        got = extended_kalman_filter_cached(model, yb, store_covariances=store)
+        ref = extended_kalman_filter(model, yb, store_covariances=store)
+        np.testing.assert_array_equal(got.mean, ref.mean)
+        np.testing.assert_array_equal(got.log_likelihood, ref.log_likelihood)
+        assert (got.cov is None) == (not store)
+
+
+def test_models_that_do_not_fit_the_cached_loop_fall_back_to_the_engine_ekf():
+    y = _rng.normal(size=(30, 2))
+    P0 = np.eye(2)
+    strided = NonlinearStateSpaceModel(strided_f, ident_h, np.eye(2) * 0.1, np.eye(2), np.zeros(2), P0)
+    python = NonlinearStateSpaceModel(lambda x, u, k: 0.5 * x, lambda x, u, k: x.copy(), np.eye(2) * 0.1, np.eye(2),
+                                      np.zeros(2), P0)
+    assert strided.is_compiled
+    for model in (strided, python):
+        np.testing.assert_array_equal(extended_kalman_filter_cached(model, y).mean,
+                                      extended_kalman_filter(model, y).mean)
+
+
+def test_non_finite_transition_raises_model_error_with_the_step():
+    model = NonlinearStateSpaceModel(blow_up_f, pend_h, np.eye(2) * 0.1, np.eye(1), np.ones(2), np.eye(2))
+    with pytest.raises(ModelError, match="step 5"):
+        extended_kalman_filter_cached(model, np.zeros(20))
+
+
+_SCRIPT = textwrap.dedent("""
+    import numpy as np
+    from numba import njit
+    from longprofile.statespace import NonlinearStateSpaceModel, extended_kalman_filter_cached
+    from longprofile.statespace._ekf_cached import cached_kernel
+
+    @njit
+    def f(x, u, k):
+        return 0.9 * x
+
+    @njit
+    def h(x, u, k):
+        return x[:1].copy()
+
+    model = NonlinearStateSpaceModel(f, h, np.eye(2) * 0.1, np.eye(1), np.zeros(2), np.eye(2))
+    extended_kalman_filter_cached(model, np.ones((50, 1)))
+    st = cached_kernel().stats
+    print(sum(st.cache_hits.values()), sum(st.cache_misses.values()))
+""")
+
+
+def test_the_compiled_loop_is_loaded_from_disk_by_a_new_process():
+    # the first process may compile and write the cache; the second one must only load it
+    runs = [subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True, timeout=300)
+            for _ in range(2)]
+    for r in runs:
+        assert r.returncode == 0, r.stderr
+    hits, misses = (int(v) for v in runs[1].stdout.split())
+    assert (hits, misses) == (1, 0)
+    assert cached_kernel() is cached_kernel()
