@@ -12,13 +12,37 @@ console = Console(stderr=True)
 
 
 def check_output_path(output: Path, *inputs: Path | None) -> Path:
-    """Refuse to write ``output`` over one of the command's inputs; create its parent folder."""
+    """Refuse to write ``output`` over one of the command's inputs; create its parent folder.
+
+    Raises :class:`OutputError` (one line, exit code 2) when ``output`` is an input, is an existing folder, or
+    its folder cannot be created (a file is in the way, no permission).
+    """
     out = Path(output)
     for inp in inputs:
         if inp is not None and Path(inp).exists() and out.exists() and out.resolve() == Path(inp).resolve():
             raise OutputError(f"output {out} is also an input; choose another output path (inputs are never overwritten).")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.is_dir():
+        raise OutputError(f"output {out} is an existing folder; give a file name, e.g. {out / 'result.csv'}.")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the folder {out.parent} for {out}: {exc.strerror or exc}; "
+                          "choose another output path.") from None
     return out
+
+
+#: Figure formats ``--plot`` accepts (matplotlib's Agg, PDF and SVG writers).
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def check_plot_path(plot: Path | None, *inputs: Path | None) -> Path | None:
+    """Check a ``--plot`` path before any work: a known figure suffix, not an input, folder creatable."""
+    if plot is None:
+        return None
+    if Path(plot).suffix.lower() not in PLOT_SUFFIXES:
+        raise OutputError(f"--plot {plot}: unknown figure format {Path(plot).suffix!r}; use one of "
+                          f"{', '.join(PLOT_SUFFIXES)} (e.g. --plot {Path(plot).with_suffix('.png')}).")
+    return check_output_path(plot, *inputs)
 
 
 def progress():

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console
+from ._common import check_output_path, check_plot_path, console
 
 
 def differentiate(
@@ -16,11 +16,13 @@ def differentiate(
     output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
                                                             "derivative_std (one row per input row)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
-    window: int | None = typer.Option(None, "--window", "-w", help="N, past samples per estimate (ml, polyfit)."),
+    window: int | None = typer.Option(None, "--window", "-w",
+                                      help="N, past samples per estimate; required by ml and polyfit (e.g. 45)."),
     degree: int | None = typer.Option(None, "--degree", "-d",
                                       help="Motion model: 1 velocity, 2 acceleration, 3 jerk (method default)."),
     order: int = typer.Option(1, "--order", help="Derivative order."),
-    q_over_r: float | None = typer.Option(None, "--q-over-r", help="Kalman: jerk variance / noise variance."),
+    q_over_r: float | None = typer.Option(None, "--q-over-r",
+                                          help="Kalman: jerk variance / noise variance; required by kalman (e.g. 1e6)."),
     smooth: bool = typer.Option(False, "--smooth", help="Kalman: RTS smoother (non-causal) instead of the filter."),
     steady_state: bool = typer.Option(False, "--steady-state",
                                       help="Kalman: constant-gain filter/smoother (fast, O(T) memory, no NaN)."),
@@ -30,10 +32,16 @@ def differentiate(
     """Estimate the derivative of a noisy sampled signal and write value, derivative, derivative_std."""
     import pandas as pd
 
+    from ..errors import InputError
     from ..io import read_table, write_table
     from ..signal import derivative
 
+    if method in ("ml", "polyfit") and window is None:
+        raise InputError(f"--method {method} needs --window N (past samples per estimate), e.g. --window 45.")
+    if method == "kalman" and q_over_r is None:
+        raise InputError("--method kalman needs --q-over-r (jerk variance / noise variance), e.g. --q-over-r 1e6.")
     out = check_output_path(output, file)
+    png = check_plot_path(plot, file, output)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
     with console.status(f"differentiating {x.size} samples ({method})..."):
@@ -46,6 +54,5 @@ def differentiate(
     if plot is not None:
         from ..signal._plot import plot_derivative
 
-        png = check_output_path(plot, file, output)
         plot_derivative(x, dt, res, label=column).savefig(png, dpi=110)
         console.print(f"wrote {png}")

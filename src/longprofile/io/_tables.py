@@ -21,13 +21,33 @@ def _format_of(path: Path) -> str:
     return fmt
 
 
+def _read_csv(path: Path) -> pd.DataFrame:
+    """CSV with ``#`` comments, where an empty line inside the data is a row of missing values.
+
+    pandas skips blank lines by default, which silently shifts every later sample of a one-column file
+    written with missing values (pandas writes a NaN as an empty line there). Blank lines before the header
+    and after the last data line are ignored.
+    """
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        leading = 0
+        for line in fh:
+            if line.strip():
+                break
+            leading += 1
+    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading)
+    filled = df.notna().any(axis=1).to_numpy()
+    last = int(filled.nonzero()[0][-1]) + 1 if filled.any() else 0
+    return df.iloc[:last].reset_index(drop=True) if last < len(df) else df
+
+
 def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()) -> pd.DataFrame:
     """Read a CSV or Parquet table.
 
     Parameters
     ----------
     path : path-like
-        ``.csv`` (comma separated, header row; lines starting with ``#`` are comments) or ``.parquet``.
+        ``.csv`` (comma separated, header row; lines starting with ``#`` are comments; an empty line
+        among the data is a row of missing values, as pandas writes a NaN of a one-column table) or ``.parquet``.
     required : iterable of str
         Columns that must be present.
     numeric : iterable of str
@@ -43,8 +63,10 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
     if not path.exists():
         raise InputError(f"{path}: no such file.")
     fmt = _format_of(path)
+    if path.is_file() and path.stat().st_size == 0:
+        raise InputFormatError(f"{path}: the file is empty; expected a header row and one row per sample.")
     try:
-        df = pd.read_csv(path, comment="#", skipinitialspace=True) if fmt == "csv" else pd.read_parquet(path)
+        df = _read_csv(path) if fmt == "csv" else pd.read_parquet(path)
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
     missing = [c for c in required if c not in df.columns]

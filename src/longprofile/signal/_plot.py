@@ -46,7 +46,12 @@ def plot_derivative(x, dt: float, result: DerivativeResult, *, truth=None, label
     if truth is not None:
         ax2.plot(t, np.asarray(truth, dtype=float), lw=1.0, color="k", ls="--", label="true derivative")
     order = result.params.get("order", 1)
-    ax2.set_ylabel(f"d{'^' + str(order) if order > 1 else ''}{label}/dt{'^' + str(order) if order > 1 else ''}")
+    ax2.set_ylabel(f"d{'^' + str(order) if order > 1 else ''}{label}/dt{'^' + str(order) if order > 1 else ''}"
+                   f" ({label} units / s{'^' + str(order) if order > 1 else ''})")
     ax2.set_xlabel("time (s)")
     ax2.legend(loc="best")
+    p = result.params
+    setting = ", ".join(f"{k.replace('_', ' ')} {p[k]:g}" for k in ("window", "degree", "q_over_r") if k in p)
+    fig.suptitle(f"{'derivative' if order == 1 else f'derivative of order {order}'} of {label} by {result.method}"
+                 f" ({setting}{', ' if setting else ''}dt = {dt:g} s); band = noise only, not bias")
     return fig

@@ -28,7 +28,7 @@ def run_demo(outdir) -> list[Path]:
     out = Path(outdir) / "vehicle"
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    sim, sens3 = vertical_test_run(3, test="road", road_class="C", speed=20.0, duration=12.0, seed=0)
+    sim, sens3 = vertical_test_run(3, test="road", road_class="C", speed=20.0, duration=8.0, seed=0)
     log = sensors_to_frame(sens3, sim)
     written.append(write_table(log, out / "vertical_log_config3.csv"))
     rows = []
