@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console, progress
+from ._common import check_output_path, check_plot_path, console, progress
 
 
 def _instrument(speed: float, dx: float, model_file: Path | None):
@@ -37,6 +37,24 @@ def _instrument(speed: float, dx: float, model_file: Path | None):
     return model
 
 
+def _signal_in_metres(file: Path, column: str, values):
+    """The APL signal in metres: converted when the column names its unit (``apl_mm``), refused when implausible."""
+    import numpy as np
+
+    from ..errors import UnitsError
+    from ..io._profiles import _split, unit_factor
+
+    _, unit = _split(column)
+    values = values * (1.0 if unit is None else unit_factor(unit))
+    finite = values[np.isfinite(values)]
+    rms = float(np.sqrt(np.mean(finite**2))) if finite.size else 0.0
+    if rms > 1.0:
+        raise UnitsError(f"{file}: column {column!r} read as metres has an RMS of {rms:.3g} m, impossible for an APL "
+                         "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
+                         "or convert it to metres.")
+    return values
+
+
 def simulate_command(
     output: Path = typer.Option(..., "--output", "-o", help="Recording table (.csv/.parquet): distance_m, true_m, apl_m."),
     profile: str = typer.Option("iso8608", "--profile",
@@ -56,12 +74,13 @@ def simulate_command(
     from ..road._apl_plots import plot_recording
     from ..road.apl import apl_model, simulate_apl_recording
 
+    png = check_plot_path(plot, check_output_path(output))
     rec = simulate_apl_recording(profile, apl_model(speed, dx), length=length, road_class=road_class,
                                  noise_fraction=noise, rng=seed)
     write_table(pd.DataFrame(dict(distance_m=rec.distance, true_m=rec.true_elevation, apl_m=rec.signal)),
                 check_output_path(output))
     if plot is not None:
-        plot_recording(rec.distance, rec.true_elevation, rec.signal).savefig(check_output_path(plot), dpi=120)
+        plot_recording(rec.distance, rec.true_elevation, rec.signal).savefig(png, dpi=120)
     console.print(f"simulated {rec.distance.size} samples ({profile}, {speed:g} m/s, dx {dx:g} m, "
                   f"noise std {rec.noise_std * 1e3:.3g} mm) -> {output}")
 
@@ -94,8 +113,11 @@ def reconstruct_command(
     from ..road._apl_plots import plot_reconstructions
     from ..road.apl import reconstruct_profile
 
+    check_output_path(output, file)
+    png = check_plot_path(plot, file, output)
     table = read_table(file, required=["distance_m", column], numeric=["distance_m", column])
-    signal = Profile(table["distance_m"].to_numpy(), table[column].to_numpy(), name=Path(file).stem)
+    values = _signal_in_metres(file, column, table[column].to_numpy())
+    signal = Profile(table["distance_m"].to_numpy(), values, name=Path(file).stem)
     spacing = signal.spacing
     if spacing is None:
         raise InputError(f"{file}: distance_m is not evenly spaced; the APL samples every dx. Resample first.")
@@ -117,11 +139,15 @@ def reconstruct_command(
         truth = table["true_m"].to_numpy() if "true_m" in table.columns else None
         fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
                                    highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
-        fig.savefig(check_output_path(plot, file), dpi=120)
+        fig.savefig(png, dpi=120)
     extra = "" if rec.q is None else f" (q = {rec.q:.3g} m^2, r = {rec.r:.3g} m^2)"
     if rec.lag_m is not None:
         extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"
     console.print(f"reconstructed {signal.n_samples} samples by {method}{extra} -> {output}")
+    n_missing = int(np.isnan(values).sum())
+    if n_missing:
+        console.print(f"[yellow]note:[/yellow] {n_missing} missing (NaN) sample(s) in {column!r} were bridged by the "
+                      f"{method}; raw_std_m shows the larger uncertainty there.")
 
 
 def identify_command(
