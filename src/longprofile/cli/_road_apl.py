@@ -170,6 +170,8 @@ def identify_command(
     from ..road._apl_plots import plot_identification
     from ..road.apl import apl_model_from_polynomials
 
+    check_output_path(model_out, input, output_file)
+    png = check_plot_path(plot, input, output_file, model_out)
     u = read_table(input, required=[input_column], numeric=[input_column])[input_column].to_numpy()
     y = read_table(output_file, required=[output_column], numeric=[output_column])[output_column].to_numpy()
     if u.size != y.size:
@@ -190,7 +192,7 @@ def identify_command(
     path = check_output_path(model_out, input, output_file)
     path.write_text(json.dumps(dict(model=model.to_dict(), fit=est.to_dict()), indent=2))
     if plot is not None:
-        plot_identification(u, y, est, dt=dt).savefig(check_output_path(plot, input, output_file), dpi=120)
+        plot_identification(u, y, est, dt=dt).savefig(png, dpi=120)
     console.print(f"{structure.upper()} converged in {est.n_iterations} iterations, residual std "
                   f"{est.residual_std:.4g}, simulation fit {est.fit_simulation:.1f} % -> {model_out}")
     sys.stdout.flush()

@@ -7,17 +7,51 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console, progress
+from ._common import check_output_path, check_plot_path, console, progress
 
 _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column per track named with its unit "
               "(left_mm, right_m, ...), or an ERD file.")
 
 
-def _tracks(track: str | None):
+#: Columns of ``longprofile road reconstruct`` output: one profile (``elevation``) plus diagnostics.
+_RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
+
+
+def _tracks(track: str | None, file: Path | None = None):
     if track is None:
+        if file is not None and _is_reconstruct_output(file):
+            console.print(f"note: {file} is a `road reconstruct` output: analysing its profile track 'elevation' "
+                          "(std_m and the undetrended raw_m are not tracks; pass --track to choose).", markup=False)
+            return ["elevation"]
         return None
     names = [t.strip() for t in track.split(",") if t.strip()]
     return names or None
+
+
+def _is_reconstruct_output(file: Path) -> bool:
+    """True when the header is exactly the column set written by ``road reconstruct``."""
+    import pandas as pd
+
+    try:
+        if Path(file).suffix.lower() in (".parquet", ".pq"):
+            import pyarrow.parquet as pq
+
+            names = pq.read_schema(file).names
+        else:
+            names = list(pd.read_csv(file, comment="#", nrows=0).columns)
+    except Exception:  # unreadable: read_profile reports it properly
+        return False
+    return [c for c in names if not str(c).startswith("__")] == list(_RECONSTRUCT_COLUMNS)
+
+
+def _check_plausible(result) -> None:
+    """Warn when the IRI is out of any road's range (an elevation column in mm labelled m is the usual cause)."""
+    import numpy as np
+
+    worst = float(np.nanmax(result.section_iri)) if np.size(result.section_iri) else 0.0
+    if worst > 50.0:
+        console.print(f"[yellow]warning:[/yellow] section IRI {worst:.3g} m/km is beyond any road (unpaved roads "
+                      "are below about 25 m/km): check the elevation unit in the column names (e.g. left_mm).")
 
 
 def iri_command(
@@ -34,18 +68,24 @@ def iri_command(
     from ..report import plot_iri
     from ..road import iri
 
-    profile = read_profile(file, units=units, tracks=_tracks(track))
+    out = None if output == "-" else check_output_path(Path(output), file)
+    png = check_plot_path(plot, file, out)
+    profile = read_profile(file, units=units, tracks=_tracks(track, file))
     result = iri(profile, segment_length=segment, lead_in=lead_in)
+    _check_plausible(result)
     table = result.to_frame()
     if output == "-":
         table.to_csv(sys.stdout, index=False)
     else:
-        write_table(table, check_output_path(Path(output), file))
+        write_table(table, out)
     if plot is not None:
-        plot_iri(result, check_output_path(plot, file))
+        plot_iri(result, png)
     summary = ", ".join(f"{t} {v:.2f}" for t, v in zip(result.tracks, result.section_iri))
     extra = "" if result.section_mri is None else f"; MRI {result.section_mri:.2f}, HRI {result.section_hri:.2f}"
     console.print(f"section IRI (m/km): {summary}{extra} ({len(table)} segment(s) of {segment:g} m)", markup=False)
+    if len(table) == 0:
+        console.print(f"note: the profile ({profile.distance[-1] - profile.distance[0]:g} m) is shorter than one "
+                      f"{segment:g} m segment: only the section IRI is given; use a shorter --segment.", markup=False)
 
 
 def report_command(
@@ -63,15 +103,16 @@ def report_command(
     from ..report import plot_iri, write_road_report
     from ..road import analyse_roughness
 
+    png = check_plot_path(plot, file)
     with progress() as bar:
         task = bar.add_task("road report", total=3)
-        profile = read_profile(file, units=units, tracks=_tracks(track))
+        profile = read_profile(file, units=units, tracks=_tracks(track, file))
         bar.advance(task)
         analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold)
         bar.advance(task)
         files = write_road_report(analysis, output, inputs=(file,))
         if plot is not None:
-            files.append(plot_iri(analysis.iri, check_output_path(plot, file)))
+            files.append(plot_iri(analysis.iri, png))
         bar.advance(task)
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 

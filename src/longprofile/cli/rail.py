@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Optional
+
 from pathlib import Path
 
 import typer
@@ -73,7 +75,10 @@ def settle_command(
                                                         "alarms, flagged sensors) into this folder."),
     thermal: str = typer.Option("linear", "--thermal", help="linear (paper §3), lagged (first-order lag) or none."),
     sigma_deg: float = typer.Option(None, "--sigma-deg", help="Std of daily angle changes, deg (default: estimated)."),
-    rigidity: float = typer.Option(1e-8, "--rigidity", help="Rigidity r, m^-2 (paper: 1e-8); 0 = maximum likelihood."),
+    rigidity: Optional[float] = typer.Option(
+        None, "--rigidity",
+        help="Rigidity r of the settlement prior, m^-2 (the paper uses 1e-8). Default: prior and r fitted by "
+             "maximum likelihood, which gives calibrated 90 % bands (docs/rail.md)."),
     sigma_z: float = typer.Option(1e-5, "--sigma-z", help="Std of the fixed-end anchors, m."),
     sigma_a: float = typer.Option(2e-3, "--sigma-a", help="Survey noise, m."),
     angle_unit: str = typer.Option("deg", "--angle-unit", help="Unit of angle_deg as given: deg or rad."),
@@ -103,7 +108,7 @@ def settle_command(
         task = bar.add_task("settlement", total=1)
         res = estimate_settlement(
             site, thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
-            rigidity=None if rigidity == 0 else rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
+            rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
             quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude), use_affine_correction=affine,
             settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
             rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,

@@ -24,9 +24,9 @@ def _format_of(path: Path) -> str:
 def _read_csv(path: Path) -> pd.DataFrame:
     """CSV with ``#`` comments, where an empty line inside the data is a row of missing values.
 
-    pandas skips blank lines by default, which silently shifts every later sample of a one-column file
-    written with missing values (pandas writes a NaN as an empty line there). Blank lines before the header
-    and after the last data line are ignored.
+    pandas skips blank lines by default, which silently shifts every later sample of a one-column file with
+    missing values (a logger or a spreadsheet writes an empty cell there as an empty line). Blank lines before
+    the header and after the last data line are ignored.
     """
     with open(path, encoding="utf-8", errors="replace") as fh:
         leading = 0
@@ -47,7 +47,7 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
     ----------
     path : path-like
         ``.csv`` (comma separated, header row; lines starting with ``#`` are comments; an empty line
-        among the data is a row of missing values, as pandas writes a NaN of a one-column table) or ``.parquet``.
+        among the data is a row of missing values: an empty cell of a one-column table) or ``.parquet``.
     required : iterable of str
         Columns that must be present.
     numeric : iterable of str

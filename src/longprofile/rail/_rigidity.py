@@ -16,6 +16,11 @@ i.e. the transition density of the integrated Wiener process theta' = w, z' = th
 F(l) = [[1, l], [0, 1]], Q(l) = q Qbar(l). Matching exp(-(1/(r L)) Σ cost) with
 exp(-1/2 Σ e^T Q^{-1} e) gives q = r L / 2, L = x_N - x_1. The posterior of the
 paper is therefore exactly the RTS smoother of that model over the stations.
+
+Beyond the paper, ``penalty_order=3`` penalises ||f'''||^2 instead: the state gains the
+curvature, the process is the twice-integrated Wiener process (quintic Hermite between
+stations), with the same q = r L / 2. It is the smoother prior that the likelihood prefers
+for settlement bowls (docs/rail.md); the paper's order 2 stays the default of these functions.
 """
 
 from __future__ import annotations
@@ -82,9 +87,10 @@ class ProfilePosterior:
         Posterior means of the altitude (m) and slope (rad ≈ m/m); one row per profile.
     z_std, slope_std : (N,) or (D, N) ndarray
         Posterior standard deviations.
-    station_cov : (N, 2, 2) or (D, N, 2, 2) ndarray
-        Posterior covariance of (z_i, theta_i) at each station.
-    cross_cov : (N-1, 2, 2) or (D, N-1, 2, 2) ndarray or None
+    station_cov : (N, k, k) or (D, N, k, k) ndarray
+        Posterior covariance of (z_i, theta_i) at each station (k = 2), or of (z_i, theta_i, kappa_i)
+        with the curvature for ``penalty_order=3`` (k = 3).
+    cross_cov : (N-1, k, k) or (D, N-1, k, k) ndarray or None
         Cov((z_i, theta_i), (z_{i+1}, theta_{i+1})): with ``station_cov`` it determines the
         whole joint posterior (the posterior is Markov along the track). None for the dense reference.
     full_cov : (2N, 2N) ndarray or None

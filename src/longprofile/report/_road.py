@@ -205,6 +205,11 @@ def _condition(v, limits):
     return f' style="background:{colour}22"'
 
 
+#: Files the report writes into its folder (an input with one of these names there would be overwritten).
+_REPORT_FILES = ("index.html", "iri_segments.csv", "localized_roughness.csv", "psd.csv", "iso8608.csv",
+                 "waveband_energy.csv", "profile.png", "iri.png", "localized_roughness.png", "psd.png")
+
+
 def write_road_report(analysis, outdir, *, reference=None, reference_label: str = "reference",
                       limits=IRI_CONDITION_LIMITS, title: str | None = None, inputs=()) -> list[Path]:
     """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables into ``outdir``.
@@ -235,7 +240,15 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     for inp in inputs:
         if inp is not None and Path(inp).resolve() == out.resolve():
             raise OutputError(f"output folder {out} is an input; choose another folder.")
-    out.mkdir(parents=True, exist_ok=True)
+        if inp is not None and Path(inp).resolve().parent == out.resolve() and Path(inp).name in _REPORT_FILES:
+            raise OutputError(f"the report would overwrite its input {inp} (it writes {Path(inp).name} into {out}); "
+                              "choose another folder.")
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; choose another folder.") from None
     written: list[Path] = []
     res = analysis.iri
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"

@@ -274,10 +274,69 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
     return n_obs
 
 
+@njit
+def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
+                        mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
+    """Same loop as :func:`_block_kernel` with fused, in-place model steps (no allocation per step).
+
+    ``hstep(x, u, k, yhat, Jh)`` writes h(x) and its Jacobian, ``fstep(x, u, k, xn, Jf)`` f(x) and its
+    Jacobian; Jf and Jh start at zero and keep their content between calls.
+    """
+    T, m = y.shape
+    n = x0.shape[0]
+    x = np.empty(n)
+    _copy1(x0, x)
+    P = np.empty((n, n))
+    _init_cov(P0, sidx, scount, P)
+    Jf = np.zeros((n, n))
+    Jh = np.zeros((m, n))
+    yhat = np.zeros(m)
+    xn = np.zeros(n)
+    smax, omax = sidx.shape[1], oidx.shape[1]
+    Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
+    S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
+    A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
+    obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
+    n_obs = 0
+    for k in range(T):
+        uk = u[k]
+        R = R3[k if R3.shape[0] > 1 else 0]
+        _copy1(x, pmean[k])
+        if store:
+            _copy2(P, pcov[k])
+        hstep(x, uk, k, yhat, Jh)
+        if store:
+            _copy2(Jh, Hj[k])
+        status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
+                                     icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
+        if status != 0:
+            state[0] = status
+            state[1] = k
+            return n_obs
+        n_obs += mo
+        ll_steps[k] = ll
+        _copy1(x, mean[k])
+        if store:
+            _copy2(P, cov[k])
+        if k < T - 1:
+            fstep(x, uk, k, xn, Jf)
+            if not _all_finite(xn):
+                state[0] = 2
+                state[1] = k
+                return n_obs
+            _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
+            if store:
+                _copy2(Jf, Fj[k])
+            _copy1(xn, x)
+    state[0] = 0
+    return n_obs
+
+
 _VEC = types.Array(types.float64, 1, "C")
 _MAT = types.Array(types.float64, 2, "C")
 _FUNCTION_TYPE = types.FunctionType(_VEC(_VEC, _VEC, types.int64))
 _JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
+_STEP_TYPE = types.FunctionType(types.none(_VEC, _VEC, types.int64, _VEC, _MAT))
 
 
 @functools.cache
@@ -289,6 +348,49 @@ def _cached_kernel():
     Jacobians through function pointers and is compiled once per machine instead of once per process.
     """
     return njit(cache=True)(_block_kernel.py_func)
+
+
+@functools.cache
+def _cached_step_kernel():
+    """:func:`_block_kernel_steps` compiled for first-class function types (cached on disk, see above)."""
+    return njit(cache=True)(_block_kernel_steps.py_func)
+
+
+def _step_function_types(transition_step, observation_step):
+    """Compile the fused step functions for the C-contiguous float64 signature; InputError if they do not."""
+    args = _STEP_TYPE.signature.args
+    for name, fn in (("transition_step", transition_step), ("observation_step", observation_step)):
+        if not hasattr(fn, "compile") or not hasattr(fn, "overloads"):
+            raise InputError(f"{name} must be a numba @njit function g(x, u, k, out, out_jacobian); got "
+                             f"{type(fn).__name__}.")
+        try:
+            fn.compile(args)
+        except (NumbaError, TypeError, ValueError) as exc:
+            raise InputError(f"{name} does not compile for (x (n,), u (p,), k, out, out_jacobian) float64 arrays: "
+                             f"{str(exc).splitlines()[0]}") from None
+    return _STEP_TYPE, _STEP_TYPE
+
+
+def _check_steps(model, transition_step, observation_step, u0, sidx, scount, oidx, ocount):
+    """ModelError unless the fused steps reproduce f, h and the diagonal blocks of their Jacobians at x0."""
+    x0 = np.ascontiguousarray(model.initial_mean, dtype=float)
+    n, m = model.n_states, model.n_obs
+    u0 = np.ascontiguousarray(u0)
+    for name, step, fn, jac, size in (("transition_step", transition_step, model.transition_fn,
+                                       model.transition_jacobian, n),
+                                      ("observation_step", observation_step, model.observation_fn,
+                                       model.observation_jacobian, m)):
+        out, J = np.zeros(size), np.zeros((size, n))
+        step(x0, u0, 0, out, J)
+        ref, Jref = np.asarray(fn(x0, u0, 0), dtype=float), np.asarray(jac(x0, u0, 0), dtype=float)
+        rows, rcount = (sidx, scount) if size == n else (oidx, ocount)
+        ok = np.allclose(out, ref, rtol=1e-10, atol=1e-12)
+        for b in range(sidx.shape[0]):
+            r, c = rows[b, :rcount[b]], sidx[b, :scount[b]]
+            ok = ok and np.allclose(J[np.ix_(r, c)], Jref[np.ix_(r, c)], rtol=1e-10, atol=1e-12)
+        if not ok:
+            raise ModelError(f"{name} disagrees with the model's functions at the initial state (value or diagonal "
+                             "Jacobian blocks): it must compute the same function and Jacobian, fused.")
 
 
 def _function_types(model):
@@ -317,7 +419,8 @@ def _labels(name, labels, size):
 
 
 def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_blocks, obs_blocks, u=None,
-                                 store_covariances: bool = True) -> FilterResult:
+                                 store_covariances: bool = True, transition_step=None,
+                                 observation_step=None) -> FilterResult:
     """Decentralised EKF: one local EKF per state block, coupled through the means (lock-step).
 
     Parameters
@@ -335,6 +438,14 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         Known inputs, row k passed to f and h at step k.
     store_covariances : bool
         If False, the covariance fields and Jacobians of the result are None.
+    transition_step, observation_step : numba @njit functions, optional (give both or neither)
+        Fused, allocation-free versions of the model's functions for speed:
+        ``transition_step(x, u, k, out, out_jacobian)`` writes ``f(x, u, k)`` into ``out`` (n,) and its Jacobian
+        into ``out_jacobian`` (n, n); ``observation_step(x, u, k, out, out_jacobian)`` writes ``h`` (m,) and
+        its Jacobian (m, n). The loop calls them instead of the model's four functions (the pair is evaluated
+        at the same state, so shared sub-expressions are computed once). The Jacobian arrays start at zero and
+        keep their content between calls: entries that are always zero need not be written, and only the
+        diagonal blocks are used. They are checked against the model's functions at the initial state.
 
     Returns
     -------
@@ -358,6 +469,10 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     ``P_b <- F_bb P_b F_bb' + Q_bb``. Thesis 003 (Plancke), §3.1 eq. (3.3): the per-corner filters of a car.
     The compiled loop needs numba-jitted f, h and analytic Jacobians; plain Python functions are rejected.
     """
+    if (transition_step is None) != (observation_step is None):
+        raise InputError("give both transition_step and observation_step (fused model functions), or neither; got "
+                         f"transition_step={'None' if transition_step is None else 'a function'}, observation_step="
+                         f"{'None' if observation_step is None else 'a function'}.")
     if not isinstance(model, NonlinearStateSpaceModel):
         raise InputError(f"block_extended_kalman_filter needs a NonlinearStateSpaceModel; got {type(model).__name__}.")
     if not model.is_compiled:
@@ -423,8 +538,12 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     data = (Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
             np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
             cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
-    fn_types = _function_types(model)
-    if fn_types is not None:
+    if transition_step is not None:
+        step_types = _step_function_types(transition_step, observation_step)
+        _check_steps(model, transition_step, observation_step, U[0], sidx, scount, oidx, ocount)
+        entry = _cached_step_kernel().compile(step_types + tuple(typeof(a) for a in data))
+        n_obs = entry(transition_step, observation_step, *data)
+    elif (fn_types := _function_types(model)) is not None:
         entry = _cached_kernel().compile(fn_types + tuple(typeof(a) for a in data))
         n_obs = entry(*fns, *data)
     else:  # model functions with other signatures: compile the loop for these functions (per process)

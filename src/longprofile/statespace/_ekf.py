@@ -261,23 +261,24 @@ def _not_finite_cov(k):
                       "the states.")
 
 
-def _ekf_compiled(model, Q3, R3, y, u, store):
-    T, m = y.shape
-    n = model.n_states
-    mean = np.empty((T, n))
-    pmean = np.empty((T, n))
-    innov = np.empty((T, m))
-    ll_steps = np.empty(T)
+def ekf_kernel_outputs(T: int, n: int, m: int, store: bool) -> tuple:
+    """Arrays that :func:`._ekf_kernels.ekf_kernel` fills, in its argument order after ``store``:
+    mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state (covariances and Jacobians are
+    (1, ., .) dummies when not ``store``)."""
+    mean, pmean, innov, ll_steps = np.empty((T, n)), np.empty((T, n)), np.empty((T, m)), np.empty(T)
     if store:
         cov, pcov, icov = np.empty((T, n, n)), np.empty((T, n, n)), np.empty((T, m, m))
         Fj, Hj = np.empty((max(T - 1, 0), n, n)), np.empty((T, m, n))
     else:
         cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
-    state = np.zeros(2, dtype=np.int64)
-    n_obs = ekf_kernel(model.transition_fn, model.observation_fn, model.transition_jacobian,
-                       model.observation_jacobian, Q3, R3, model.initial_mean, model.initial_cov, y, u, store,
-                       mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
+    return mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, np.zeros(2, dtype=np.int64)
+
+
+def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
+    """Raise the kernel's status as a ModelError (with the step), else return
+    (mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs, Fj, Hj) with None for what was not stored."""
+    mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state = outputs
     status, k = int(state[0]), int(state[1])
     if status == 1:
         raise _not_pd(k)
@@ -290,6 +291,15 @@ def _ekf_compiled(model, Q3, R3, y, u, store):
     if not store:
         cov = pcov = icov = Fj = Hj = None
     return mean, cov, pmean, pcov, innov, icov, ll_steps, int(n_obs), Fj, Hj
+
+
+def _ekf_compiled(model, Q3, R3, y, u, store):
+    T, m = y.shape
+    outputs = ekf_kernel_outputs(T, model.n_states, m, store)
+    n_obs = ekf_kernel(model.transition_fn, model.observation_fn, model.transition_jacobian,
+                       model.observation_jacobian, Q3, R3, model.initial_mean, model.initial_cov, y, u, store,
+                       *outputs)
+    return ekf_kernel_result(outputs, n_obs, store)
 
 
 def _prepare(model, y, u):

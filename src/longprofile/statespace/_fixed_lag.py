@@ -14,7 +14,7 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.signal import fftconvolve
 
 from .._validation import as_float_array
-from ..errors import InputError, ShapeError
+from ..errors import InputError
 from ._kalman import kalman_filter
 from ._model import StateSpaceModel
 from ._results import FilterResult
@@ -74,12 +74,16 @@ def _check_states(states, n: int) -> np.ndarray:
     return np.mod(idx, n)
 
 
-def _info_terms(H, S, e):
-    """Per-step Omega_t = H_o' S_oo^-1 H_o (T, n, n) and g_t = H_o' S_oo^-1 e_o (T, n) on the observed rows o."""
+def _whitened(H, S, e):
+    """Whitened observation matrices and innovations on the observed rows o of each step.
+
+    With S_oo = L L' (Cholesky): Hw_t = L^-1 H_o and ew_t = L^-1 e_o, zero rows where y is missing, so
+    that H_o' S_oo^-1 H_o = Hw' Hw and H_o' S_oo^-1 e_o = Hw' ew. Returns Hw (T, m, n), ew (T, m).
+    """
     T, m = e.shape
     n = H.shape[-1]
-    Omega = np.zeros((T, n, n))
-    g = np.zeros((T, n))
+    Hw = np.zeros((T, m, n))
+    ew = np.zeros((T, m))
     missing = np.isnan(e)
     patterns, which = np.unique(missing, axis=0, return_inverse=True)
     which = np.asarray(which).reshape(-1)
@@ -88,12 +92,10 @@ def _info_terms(H, S, e):
         if o.size == 0:
             continue  # nothing observed: no information at these steps
         t = np.flatnonzero(which == p)
-        Ho = H[t][:, o, :]
-        Soo = S[t][:, o[:, None], o[None, :]]
-        Si_H = np.linalg.solve(Soo, Ho)  # (k, |o|, n)
-        Omega[t] = np.swapaxes(Ho, 1, 2) @ Si_H
-        g[t] = np.einsum("kon,ko->kn", Si_H, e[t][:, o])
-    return Omega, g
+        chol = np.linalg.cholesky(S[t][:, o[:, None], o[None, :]])
+        Hw[t[:, None], o[None, :]] = np.linalg.solve(chol, H[t][:, o, :])
+        ew[t[:, None], o[None, :]] = np.linalg.solve(chol, e[t][:, o, None])[..., 0]
+    return Hw, ew
 
 
 def _exact(model, Y, u, lag, states):
@@ -102,22 +104,24 @@ def _exact(model, Y, u, lag, states):
     F = model.transition
     H = model.observation
     H = np.broadcast_to(H, (T, *H.shape)) if H.ndim == 2 else H
-    Omega, g = _info_terms(H, filt.innovation_cov, filt.innovation)
+    Hw, ew = _whitened(H, filt.innovation_cov, filt.innovation)
     mean = filt.mean[:, states].copy()
     cov = filt.cov[:, states[:, None], states[None, :]].copy()
     L = min(lag, T - 1)
     if L > 0:
-        # closed loop of the prediction error: eps_{t+1} = F_t (I - P_t|t-1 Omega_t) eps_t + (noise)
-        closed = np.eye(n) - filt.pred_cov[:-1] @ Omega[:-1]
-        closed = (F @ closed) if F.ndim == 2 else np.matmul(F, closed)
-        closed_T = np.ascontiguousarray(np.swapaxes(closed, 1, 2))
-        # Psi[t] = Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)'
+        # closed loop of the prediction error: eps_{t+1} = F_t (I - K_t H_t) eps_t + (noise), K_t H_t = P Hw' Hw
+        HwT = np.ascontiguousarray(np.swapaxes(Hw, 1, 2))
+        closed = np.eye(n) - (filt.pred_cov[:-1] @ HwT[:-1]) @ Hw[:-1]
+        closed_T = np.ascontiguousarray(np.swapaxes(F @ closed, 1, 2))
+        ew = ew[:, :, None]
+        # psi[t] = Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)'
         psi = filt.pred_cov[:, states, :].copy()
         for i in range(1, L + 1):
             rows = T - i
             psi = psi[:rows] @ closed_T[i - 1:i - 1 + rows]
-            mean[:rows] += np.einsum("tkn,tn->tk", psi, g[i:])
-            cov[:rows] -= psi @ Omega[i:] @ np.swapaxes(psi, 1, 2)
+            c = psi @ HwT[i:]  # Cov(x_t[states], e_{t+i}) L^-T, (rows, k, m)
+            mean[:rows] += (c @ ew[i:])[..., 0]
+            cov[:rows] -= c @ np.swapaxes(c, 1, 2)
     return filt, mean, cov
 
 

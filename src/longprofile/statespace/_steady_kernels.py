@@ -89,7 +89,8 @@ def _filter_impl(N, M, P, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean,
             for j in range(M):
                 s += K[i, j] * e[j]
             mean[k, i] = s
-        xp, xn = xn, xp  # the new prediction becomes the current one (no copy)
+        for i in range(N):
+            xp[i] = xn[i]
     return quad
 
 

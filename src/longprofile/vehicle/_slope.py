@@ -6,7 +6,8 @@ Two estimators share one result type (:class:`SlopeEstimate`):
   and the tyre forces, then a Luenberger observer on the longitudinal model (21) estimates the slope;
 * ``"joint"`` -- one EKF on the augmented state (V_x, V_y, r, theta_r) with a random-walk slope.
 
-Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`,
+Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter_cached`, the
+EKF whose compiled loop numba keeps on disk, so a new process does not compile it again,
 :func:`longprofile.statespace.luenberger_gain` and :func:`longprofile.statespace.luenberger_observer`);
 this module only builds models and maps results.
 """

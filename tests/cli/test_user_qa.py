@@ -1,0 +1,184 @@
+"""Bad input the way users get it wrong: one clear line, exit code 2, inputs never overwritten (user QA)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from longprofile.cli.app import main
+from longprofile.io import read_table
+
+
+def _err(capsys):
+    return " ".join(capsys.readouterr().err.split())
+
+
+@pytest.fixture()
+def signal_csv(tmp_path):
+    t = np.arange(400) * 1e-3
+    path = tmp_path / "sig.csv"
+    pd.DataFrame(dict(t=t, x=np.sin(2 * np.pi * 2 * t))).to_csv(path, index=False)
+    return path
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rec") / "rec.csv"
+    assert main(["road", "simulate", "-o", str(path), "--length", "100", "--seed", "3"]) == 0
+    return path
+
+
+# --- output paths ---------------------------------------------------------------------------------------------
+
+def test_output_under_a_file_is_one_line_error(signal_csv, capsys):
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "1e-3", "-w", "10",
+                 "-o", str(signal_csv / "d.csv")]) == 2
+    assert "cannot create the folder" in _err(capsys)
+
+
+def test_output_that_is_a_folder_is_refused(signal_csv, capsys):
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "1e-3", "-w", "10",
+                 "-o", str(signal_csv.parent)]) == 2
+    assert "is an existing folder" in _err(capsys)
+
+
+def test_unknown_plot_format_is_refused_before_any_work(signal_csv, tmp_path, capsys):
+    out = tmp_path / "d.csv"
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "1e-3", "-w", "10", "-o", str(out),
+                 "--plot", str(tmp_path / "d.txt")]) == 2
+    assert "unknown figure format '.txt'" in _err(capsys)
+    assert not out.exists()
+
+
+def test_simulate_refuses_a_plot_named_like_a_table(tmp_path, capsys):
+    out = tmp_path / "rec.csv"
+    assert main(["road", "simulate", "-o", str(out), "--length", "50", "--plot", str(tmp_path / "rec2.csv")]) == 2
+    assert "unknown figure format" in _err(capsys)
+    assert not out.exists()
+
+
+# --- reading tables -------------------------------------------------------------------------------------------
+
+def test_blank_lines_of_a_one_column_csv_are_missing_samples_not_dropped(tmp_path, capsys):
+    x = np.arange(60.0)
+    x[20:25] = np.nan
+    path = tmp_path / "x.csv"
+    # a logger or a spreadsheet exports an empty cell of a one-column table as an empty line
+    path.write_text("x\n" + "".join("\n" if np.isnan(v) else f"{v}\n" for v in x))
+    df = read_table(path, numeric=["x"])
+    assert len(df) == 60 and np.isnan(df["x"][20:25]).all() and df["x"][25] == 25.0
+    out = tmp_path / "d.csv"
+    assert main(["differentiate", str(path), "-c", "x", "--dt", "1", "-m", "backward", "-o", str(out)]) == 0
+    d = pd.read_csv(out)
+    assert len(d) == 60 and d["derivative"][40] == pytest.approx(1.0)
+
+
+def test_empty_file_says_so(tmp_path, capsys):
+    path = tmp_path / "empty.csv"
+    path.write_text("")
+    assert main(["differentiate", str(path), "-c", "x", "--dt", "1e-3", "-w", "10", "-o", str(tmp_path / "d.csv")]) == 2
+    assert "the file is empty" in _err(capsys)
+
+
+# --- differentiate ----------------------------------------------------------------------------------------------
+
+def test_differentiate_names_the_missing_cli_option(signal_csv, tmp_path, capsys):
+    out = str(tmp_path / "d.csv")
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "1e-3", "-o", out]) == 2
+    assert "--window" in _err(capsys)
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "1e-3", "-m", "kalman", "-o", out]) == 2
+    assert "--q-over-r" in _err(capsys)
+
+
+def test_derivative_plot_says_what_was_computed():
+    from longprofile.signal import derivative
+    from longprofile.signal._plot import plot_derivative
+
+    x = np.sin(np.arange(300) * 0.01)
+    fig = plot_derivative(x, 1e-3, derivative(x, 1e-3, method="ml", window=20, degree=2), label="x")
+    title = fig._suptitle.get_text()
+    assert "ml" in title and "window 20" in title and "dt = 0.001 s" in title
+    assert "/ s" in fig.axes[1].get_ylabel()
+
+
+# --- road reconstruct -----------------------------------------------------------------------------------------
+
+def test_reconstruct_converts_a_column_named_in_mm(recording, tmp_path):
+    df = pd.read_csv(recording)
+    mm = tmp_path / "rec_mm.csv"
+    df.assign(apl_mm=df["apl_m"] * 1e3).drop(columns="apl_m").to_csv(mm, index=False)
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    assert main(["road", "reconstruct", str(recording), "--method", "double", "-o", str(a)]) == 0
+    assert main(["road", "reconstruct", str(mm), "--column", "apl_mm", "--method", "double", "-o", str(b)]) == 0
+    np.testing.assert_allclose(pd.read_csv(b)["elevation_m"], pd.read_csv(a)["elevation_m"], rtol=1e-9, atol=1e-12)
+
+
+def test_reconstruct_refuses_millimetres_in_a_metre_column(recording, tmp_path, capsys):
+    df = pd.read_csv(recording)
+    bad = tmp_path / "rec_bad.csv"
+    df.assign(apl_m=df["apl_m"] * 1e3).to_csv(bad, index=False)
+    assert main(["road", "reconstruct", str(bad), "--method", "double", "-o", str(tmp_path / "p.csv")]) == 2
+    assert "impossible for an APL signal" in _err(capsys)
+
+
+def test_reconstruct_says_when_it_bridged_missing_samples(recording, tmp_path, capsys):
+    df = pd.read_csv(recording)
+    df.loc[300:319, "apl_m"] = np.nan
+    gap = tmp_path / "gap.csv"
+    df.to_csv(gap, index=False)
+    assert main(["road", "reconstruct", str(gap), "--q", "2e-6", "--r", "1e-8", "-o", str(tmp_path / "p.csv")]) == 0
+    assert "20 missing (NaN) sample(s)" in _err(capsys)
+
+
+def test_reconstruct_bad_plot_path_fails_before_writing(recording, tmp_path, capsys):
+    out = tmp_path / "p.csv"
+    assert main(["road", "reconstruct", str(recording), "--method", "double", "-o", str(out),
+                 "--plot", str(out)]) == 2
+    assert "unknown figure format '.csv'" in _err(capsys)
+    assert not out.exists()
+
+
+# --- road iri / report ----------------------------------------------------------------------------------------
+
+def test_iri_of_a_reconstruct_output_is_the_iri_of_its_profile(recording, tmp_path, capsys):
+    prof = tmp_path / "p.csv"
+    assert main(["road", "reconstruct", str(recording), "--method", "double", "-o", str(prof)]) == 0
+    iri = tmp_path / "iri.csv"
+    assert main(["road", "iri", str(prof), "--segment", "20", "-o", str(iri)]) == 0
+    assert list(pd.read_csv(iri).columns) == ["start_m", "end_m", "iri_elevation_m_per_km"]
+    assert "analysing its profile track 'elevation'" in _err(capsys)
+
+
+def test_iri_warns_when_elevations_are_mm_labelled_m(tmp_path, capsys):
+    x = np.arange(0, 200, 0.25)
+    z = 2e-3 * np.sin(2 * np.pi * x / 5.0)  # a rough but real road, in m
+    path = tmp_path / "p.csv"
+    pd.DataFrame(dict(distance_m=x, left_m=z * 1e3)).to_csv(path, index=False)  # mm values, header says m
+    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 0
+    assert "beyond any road" in _err(capsys)
+    pd.DataFrame(dict(distance_m=x, left_m=z)).to_csv(path, index=False)
+    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 0
+    assert "beyond any road" not in _err(capsys)
+
+
+def test_iri_segment_longer_than_the_profile_is_explained(tmp_path, capsys):
+    x = np.arange(0, 60, 0.25)
+    path = tmp_path / "p.csv"
+    pd.DataFrame(dict(distance_m=x, left_m=1e-3 * np.sin(x))).to_csv(path, index=False)
+    assert main(["road", "iri", str(path), "--segment", "100", "-o", str(tmp_path / "i.csv")]) == 0
+    assert "shorter than one 100 m segment" in _err(capsys)
+
+
+def test_report_into_a_file_or_over_its_input_is_refused(tmp_path, capsys):
+    x = np.arange(0, 60, 0.25)
+    folder = tmp_path / "rep"
+    folder.mkdir()
+    src = folder / "psd.csv"  # a name the report writes
+    pd.DataFrame(dict(distance_m=x, left_m=1e-3 * np.sin(x))).to_csv(src, index=False)
+    before = src.read_bytes()
+    assert main(["road", "report", str(src), "--segment", "20", "-o", str(folder)]) == 2
+    assert "would overwrite its input" in _err(capsys)
+    assert main(["road", "report", str(src), "--segment", "20", "-o", str(src)]) == 2
+    (tmp_path / "afile").write_text("x")
+    assert main(["road", "report", str(src), "--segment", "20", "-o", str(tmp_path / "afile")]) == 2
+    assert "is a file" in _err(capsys)
+    assert src.read_bytes() == before
