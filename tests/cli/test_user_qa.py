@@ -182,3 +182,10 @@ def test_report_into_a_file_or_over_its_input_is_refused(tmp_path, capsys):
     assert main(["road", "report", str(src), "--segment", "20", "-o", str(tmp_path / "afile")]) == 2
     assert "is a file" in _err(capsys)
     assert src.read_bytes() == before
+
+
+def test_differentiate_refuses_a_dt_contradicting_the_time_column(signal_csv, tmp_path, capsys):
+    out = str(tmp_path / "d.csv")
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.01", "-w", "10", "-o", out]) == 2
+    assert "column 't' steps by 0.001 s but --dt is 0.01 s" in _err(capsys)
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.001", "-w", "10", "-o", out]) == 0

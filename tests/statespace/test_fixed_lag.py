@@ -160,3 +160,20 @@ def test_errors():
     fixed_lag_smoother(blind, y, 2)  # the exact path runs with the growing covariance
     with pytest.raises(InputError, match="NaN|missing"):
         fixed_lag_smoother(model, np.where(np.arange(20) == 3, np.nan, y), 2, stationary=True)
+
+
+@pytest.mark.parametrize("stationary", [False, True], ids=["exact", "steady-state"])
+def test_known_inputs_match_the_smoother_of_the_prefix(stationary):
+    rng = np.random.default_rng(5)
+    T, lag = 200, 7
+    model = random_model(rng, 3, 1, T, p=2, offsets=True)
+    u = rng.normal(size=(T, 2))
+    _x, y = draw(model, T, rng, u=u)
+    res = fixed_lag_smoother(model, y, lag, u=u, stationary=stationary)
+    for t in (150, 170, T - lag - 1):
+        s = t + lag
+        if stationary:  # after the start-up transient the stationary smoother of the prefix is the oracle
+            ref = steady_state_smoother(model, y[:s + 1], u=u[:s + 1]).mean[t]
+        else:
+            ref = rts_smoother(model, kalman_filter(model, y[:s + 1], u=u[:s + 1])).mean[t]
+        assert_allclose(res.mean[t], ref, rtol=0, atol=1e-9)

@@ -80,7 +80,8 @@ def simulate_command(
     write_table(pd.DataFrame(dict(distance_m=rec.distance, true_m=rec.true_elevation, apl_m=rec.signal)),
                 check_output_path(output))
     if plot is not None:
-        plot_recording(rec.distance, rec.true_elevation, rec.signal).savefig(png, dpi=120)
+        plot_recording(rec.distance, rec.true_elevation, rec.signal,
+                       title=f"simulated APL recording: {profile}, {speed:g} m/s, dx {dx:g} m").savefig(png, dpi=120)
     console.print(f"simulated {rec.distance.size} samples ({profile}, {speed:g} m/s, dx {dx:g} m, "
                   f"noise std {rec.noise_std * 1e3:.3g} mm) -> {output}")
 

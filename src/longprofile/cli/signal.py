@@ -9,6 +9,38 @@ import typer
 from ._common import check_output_path, check_plot_path, console
 
 
+#: Time columns whose step is checked against --dt, with their unit in seconds.
+_TIME_COLUMNS = {"t": 1.0, "time": 1.0, "t_s": 1.0, "time_s": 1.0, "t_ms": 1e-3, "time_ms": 1e-3}
+
+
+def _check_time_column(file: Path, frame, column: str, dt: float) -> None:
+    """Refuse a --dt that contradicts the file's own time column (a wrong dt scales the derivative silently)."""
+    import numpy as np
+
+    from ..errors import UnitsError
+
+    for name in frame.columns:
+        scale = _TIME_COLUMNS.get(str(name).strip().lower())
+        if scale is None or name == column:
+            continue
+        t = _numeric(frame[name]) * scale
+        step = np.diff(t[np.isfinite(t)])
+        if step.size == 0 or not np.all(step > 0):
+            return
+        median = float(np.median(step))
+        if abs(median - dt) > 1e-3 * dt:
+            raise UnitsError(f"{file}: column {name!r} steps by {median:g} s but --dt is {dt:g} s; the derivative "
+                             f"would be off by a factor {median / dt:g}. Pass --dt {median:g}.")
+        return
+
+
+def _numeric(series):
+    """Float array of a column, NaN where a cell is not a number."""
+    import pandas as pd
+
+    return pd.to_numeric(series, errors="coerce").to_numpy(dtype=float)
+
+
 def differentiate(
     file: Path = typer.Argument(..., help="Input table (.csv or .parquet) with one row per sample."),
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
@@ -37,13 +69,14 @@ def differentiate(
     from ..signal import derivative
 
     if method in ("ml", "polyfit") and window is None:
-        raise InputError(f"--method {method} needs --window N (past samples per estimate), e.g. --window 45.")
+        raise InputError(f"--method {method} requires window: pass --window N (past samples per estimate), e.g. --window 45.")
     if method == "kalman" and q_over_r is None:
-        raise InputError("--method kalman needs --q-over-r (jerk variance / noise variance), e.g. --q-over-r 1e6.")
+        raise InputError("--method kalman requires q_over_r: pass --q-over-r (jerk variance / noise variance), e.g. --q-over-r 1e6.")
     out = check_output_path(output, file)
     png = check_plot_path(plot, file, output)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
+    _check_time_column(file, frame, column, dt)
     with console.status(f"differentiating {x.size} samples ({method})..."):
         res = derivative(x, dt, method=method, window=window, degree=degree, order=order, noise_std=noise_std,
                          q_over_r=q_over_r, smooth=True if smooth else None,

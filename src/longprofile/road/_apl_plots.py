@@ -14,9 +14,10 @@ def _figure(rows, height=2.6, sharex=True):
     return fig, np.atleast_1d(fig.subplots(rows, 1, sharex=sharex))
 
 
-def plot_recording(distance, true_elevation, signal):
+def plot_recording(distance, true_elevation, signal, *, title=""):
     """The true profile and the simulated APL signal, mm against m."""
     fig, (ax,) = _figure(1, 3.5)
+    ax.set_title(title)
     ax.plot(distance, 1e3 * (np.asarray(true_elevation) - true_elevation[0]), lw=0.8, label="true profile")
     ax.plot(distance, 1e3 * np.asarray(signal), lw=0.8, label="APL signal")
     ax.set_xlabel("distance (m)")
@@ -59,6 +60,7 @@ def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None,
     # zoom on a 60 m window in the middle
     mid = x[x.size // 2]
     ax2.set_xlim(mid - 30, mid + 30)
+    ax2.set_title(f"zoom on {mid - 30:g}-{mid + 30:g} m", fontsize=9)
     ax2.set_ylabel("elevation (mm)")
     ax2.set_xlabel("distance (m)")
     ax2.legend(fontsize=7, ncol=3)
@@ -78,8 +80,14 @@ def plot_identification(u, y, model, *, dt=None):
         ax2.plot(t, simulate_model(model, u), lw=0.8, label=f"simulated (fit {model.fit_simulation:.1f} %)")
         s = step_response(model, len(y))
         ax3.plot(t, s, lw=0.9)
+    else:
+        ax3.text(0.5, 0.5, "unstable model: no simulation or step response", transform=ax3.transAxes,
+                 ha="center", color="C3")
     ax2.legend(fontsize=7)
     ax2.set_ylabel("output y")
-    ax3.set_ylabel("step response")
+    ax3.set_ylabel("step response\n(output per unit input)")
+    orders = ", ".join(f"{k} = {v}" for k, v in model.orders.items())
+    ax1.set_title(f"{model.structure.upper()} identification ({orders}): residual std {model.residual_std:.3g}, "
+                  f"{'converged' if model.converged else 'NOT converged'}, {'stable' if model.stable else 'UNSTABLE'}")
     ax3.set_xlabel("time (s)" if dt else "sample")
     return fig

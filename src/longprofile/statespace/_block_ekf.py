@@ -40,17 +40,24 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
     for a in range(no):
         for j in range(ns):
             Hb[a, j] = Jh[oi[a], si[j]]
+    # Products skip the structural zeros of the block Jacobians (and of I - K H); the terms they skip are
+    # exact zeros and the summation order is kept, so the results are those of the dense products.
     for i in range(ns):
         for a in range(no):
-            t = 0.0
-            for j in range(ns):
-                t += Pb[i, j] * Hb[a, j]
-            PHt[i, a] = t
+            PHt[i, a] = 0.0
+    for a in range(no):
+        for j in range(ns):
+            hv = Hb[a, j]
+            if hv != 0.0:
+                for i in range(ns):
+                    PHt[i, a] += Pb[i, j] * hv
     for a in range(no):
         for b in range(a, no):
             t = 0.5 * (R[oi[a], oi[b]] + R[oi[b], oi[a]])
             for i in range(ns):
-                t += Hb[a, i] * PHt[i, b]
+                hv = Hb[a, i]
+                if hv != 0.0:
+                    t += hv * PHt[i, b]
             S_all[a, b] = t
             S_all[b, a] = t
     if store:
@@ -109,25 +116,35 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
         for j in range(ns):
             t = 1.0 if i == j else 0.0
             for a in range(mo):
-                t -= K[i, a] * Hb[obs[a], j]
+                hv = Hb[obs[a], j]
+                if hv != 0.0:
+                    t -= K[i, a] * hv
             A[i, j] = t
     for i in range(ns):
         for j in range(ns):
-            t = 0.0
-            for q in range(ns):
-                t += A[i, q] * Pb[q, j]
-            AP[i, j] = t
+            AP[i, j] = 0.0
+        for q in range(ns):
+            av = A[i, q]
+            if av != 0.0:
+                for j in range(ns):
+                    AP[i, j] += av * Pb[q, j]
     for i in range(ns):
         for a in range(mo):
             t = 0.0
             for b in range(mo):
                 t += K[i, b] * 0.5 * (R[oi[obs[b]], oi[obs[a]]] + R[oi[obs[a]], oi[obs[b]]])
             KR[i, a] = t
+    for j in range(ns):  # (A P) A' into Pb (upper triangle), P_b no longer needed
+        for i in range(j + 1):
+            Pb[i, j] = 0.0
+        for q in range(ns):
+            av = A[j, q]
+            if av != 0.0:
+                for i in range(j + 1):
+                    Pb[i, j] += AP[i, q] * av
     for i in range(ns):
         for j in range(i, ns):
-            t = 0.0
-            for q in range(ns):
-                t += AP[i, q] * A[j, q]
+            t = Pb[i, j]
             v = 0.0
             for a in range(mo):
                 v += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
@@ -145,17 +162,25 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
         for j in range(ns):
             Fb[i, j] = Jf[si[i], si[j]]
             Pb[i, j] = P[si[i], si[j]]
-    for i in range(ns):
+    for i in range(ns):  # F P, skipping the structural zeros of F (exact zeros; same summation order)
         for j in range(ns):
-            t = 0.0
-            for q in range(ns):
-                t += Fb[i, q] * Pb[q, j]
-            AP[i, j] = t
+            AP[i, j] = 0.0
+        for q in range(ns):
+            fv = Fb[i, q]
+            if fv != 0.0:
+                for j in range(ns):
+                    AP[i, j] += fv * Pb[q, j]
+    for j in range(ns):  # Q + (F P) F' into Pb (upper triangle)
+        for i in range(j + 1):
+            Pb[i, j] = 0.5 * (Q[si[i], si[j]] + Q[si[j], si[i]])
+        for q in range(ns):
+            fv = Fb[j, q]
+            if fv != 0.0:
+                for i in range(j + 1):
+                    Pb[i, j] += AP[i, q] * fv
     for i in range(ns):
         for j in range(i, ns):
-            t = 0.5 * (Q[si[i], si[j]] + Q[si[j], si[i]])
-            for q in range(ns):
-                t += AP[i, q] * Fb[j, q]
+            t = Pb[i, j]
             P[si[i], si[j]] = t
             P[si[j], si[i]] = t
 
@@ -274,6 +299,10 @@ def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, oc
     return n_obs
 
 
+_update_all_inline = njit(inline="always")(_update_all.py_func)
+_predict_all_inline = njit(inline="always")(_predict_all.py_func)
+
+
 @njit
 def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
                         mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
@@ -307,7 +336,7 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
         hstep(x, uk, k, yhat, Jh)
         if store:
             _copy2(Jh, Hj[k])
-        status, mo, ll = _update_all(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
+        status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
                                      icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
         if status != 0:
             state[0] = status
@@ -324,7 +353,7 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
                 state[0] = 2
                 state[1] = k
                 return n_obs
-            _predict_all(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
+            _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
             if store:
                 _copy2(Jf, Fj[k])
             _copy1(xn, x)
