@@ -189,3 +189,33 @@ def test_differentiate_refuses_a_dt_contradicting_the_time_column(signal_csv, tm
     assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.01", "-w", "10", "-o", out]) == 2
     assert "column 't' steps by 0.001 s but --dt is 0.01 s" in _err(capsys)
     assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.001", "-w", "10", "-o", out]) == 0
+
+
+def test_apl_figures_say_what_they_show():
+    from longprofile.identify import fit_output_error
+    from longprofile.road._apl_plots import plot_identification, plot_reconstructions, plot_recording
+
+    x = np.arange(0, 100, 0.05)
+    fig = plot_recording(x, np.sin(x), 0.5 * np.sin(x), title="simulated APL recording: bump")
+    assert fig.axes[0].get_title() == "simulated APL recording: bump"
+    fig = plot_reconstructions(x, np.sin(x), {"double": np.sin(x)}, title="t")
+    assert fig.axes[1].get_title().startswith("zoom on")
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=400)
+    y = np.convolve(u, [0.5, 0.3], mode="full")[:400] + 0.01 * rng.normal(size=400)
+    est = fit_output_error(u, y, na=1, nb=2, nk=0)
+    title = plot_identification(u, y, est, dt=0.01).axes[0].get_title()
+    assert title.startswith("OE identification") and "stable" in title
+
+
+def test_semicolon_csv_from_a_european_spreadsheet_gets_a_hint(tmp_path, capsys):
+    path = tmp_path / "p.csv"
+    path.write_text("distance_m;left_mm\n0,00;1,5\n0,25;1,7\n")
+    assert main(["road", "iri", str(path)]) == 2
+    assert "separated by ';', not commas" in _err(capsys)
+
+
+def test_demo_into_a_file_is_one_line_error(tmp_path, capsys):
+    (tmp_path / "out").write_text("not a folder")
+    assert main(["demo", "-o", str(tmp_path / "out")]) == 2
+    assert "is a file" in _err(capsys)

@@ -11,7 +11,7 @@ from numba import njit
 from longprofile.errors import ModelError
 from longprofile.statespace import (NonlinearStateSpaceModel, StateSpaceModel, extended_kalman_filter,
                                     extended_kalman_filter_cached, kalman_filter)
-from longprofile.statespace._ekf_cached import _model_types, cached_kernel
+from longprofile.statespace._ekf_cached import _engine_compatible, _model_types, cached_kernel
 
 _rng = np.random.default_rng(7)
 F_LIN = np.array([[0.9, 0.1, 0.0], [-0.1, 0.8, 0.2], [0.0, 0.05, 0.95]])
@@ -108,6 +108,7 @@ def test_linear_model_matches_the_kalman_filter_and_the_uncached_ekf():
     x0, P0 = np.array([0.5, -0.2, 0.1]), np.eye(3)
     model = NonlinearStateSpaceModel(lin_f, lin_h, Q_LIN, R_LIN, x0, P0, transition_jacobian=lin_fj,
                                      observation_jacobian=lin_hj)
+    assert _engine_compatible()  # otherwise the cached loop is silently replaced by extended_kalman_filter
     got = extended_kalman_filter_cached(model, y, u=u)
     kf = kalman_filter(StateSpaceModel(F_LIN, H_LIN, Q_LIN, R_LIN, x0, P0, input_transition=B_LIN,
                                        state_offset=C_OFF), y, u=u)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from ..errors import OutputError
 from ._common import console
 
 # Each step is a module with ``run_demo(outdir: Path) -> list[Path]`` (files written).
@@ -23,7 +24,12 @@ DEMO_STEPS = [
 
 def demo(output: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the demo outputs.")):
     """Run every demo on built-in sample data and write plots and tables under OUTPUT."""
-    output.mkdir(parents=True, exist_ok=True)
+    if output.exists() and not output.is_dir():
+        raise OutputError(f"--output {output} is a file; the demo writes into a folder, e.g. -o out.")
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the demo folder {output}: {exc.strerror or exc}.") from None
     written = []
     for title, module in DEMO_STEPS:
         console.print(f"[bold]demo:[/bold] {title}")

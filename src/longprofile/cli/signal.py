@@ -69,9 +69,11 @@ def differentiate(
     from ..signal import derivative
 
     if method in ("ml", "polyfit") and window is None:
-        raise InputError(f"--method {method} requires window: pass --window N (past samples per estimate), e.g. --window 45.")
+        raise InputError(f"--method {method} requires window: pass --window N (past samples per estimate), "
+                         "e.g. --window 45.")
     if method == "kalman" and q_over_r is None:
-        raise InputError("--method kalman requires q_over_r: pass --q-over-r (jerk variance / noise variance), e.g. --q-over-r 1e6.")
+        raise InputError("--method kalman requires q_over_r: pass --q-over-r (jerk variance / noise variance), "
+                         "e.g. --q-over-r 1e6.")
     out = check_output_path(output, file)
     png = check_plot_path(plot, file, output)
     frame = read_table(file, required=[column], numeric=[column])

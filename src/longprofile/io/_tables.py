@@ -69,6 +69,10 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         df = _read_csv(path) if fmt == "csv" else pd.read_parquet(path)
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
+    if fmt == "csv" and df.shape[1] == 1 and any(sep in str(df.columns[0]) for sep in (";", "\t")):
+        sep = ";" if ";" in str(df.columns[0]) else "tab"
+        raise InputFormatError(f"{path}: the header {str(df.columns[0])!r} is separated by {sep!r}, not commas; save the "
+                               "file as comma-separated values with decimal points (e.g. 0.25, not 0,25).")
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise InputFormatError(f"{path}: missing column(s) {missing}; the file has {list(df.columns)}.")

@@ -248,7 +248,8 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; choose another folder.") from None
+        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; "
+                          "choose another folder.") from None
     written: list[Path] = []
     res = analysis.iri
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"

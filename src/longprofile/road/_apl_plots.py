@@ -53,6 +53,7 @@ def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None,
                                  label=f"{name} 90 % band")
         else:
             line, = ax.plot(x, 1e3 * np.asarray(rec), lw=0.8, label=name)
+            ax2.plot(x, 1e3 * np.asarray(rec), lw=0.8, color=line.get_color(), label=name)
     ax.set_ylabel("elevation (mm)")
     ax.set_xlabel("distance (m)")
     ax.legend(fontsize=7, ncol=3)

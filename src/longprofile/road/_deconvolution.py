@@ -671,7 +671,7 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         mean, cov = fl.mean[:, 0], fl.cov[:, 0, 0]
     elif stationary:
         if method == "filter":
-            mean = steady_state_filter(model, y).mean[:, -1]
+            mean = steady_state_filter(model, y, store_predictions=False).mean[:, -1]
             cov = np.broadcast_to(steady_state_gain(model).cov[-1, -1], y.shape)  # constant: a view, no memory
         else:
             mean = steady_state_smoother(model, y, store_filtered=False).mean[:, -1]

@@ -40,24 +40,17 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
     for a in range(no):
         for j in range(ns):
             Hb[a, j] = Jh[oi[a], si[j]]
-    # Products skip the structural zeros of the block Jacobians (and of I - K H); the terms they skip are
-    # exact zeros and the summation order is kept, so the results are those of the dense products.
     for i in range(ns):
         for a in range(no):
-            PHt[i, a] = 0.0
-    for a in range(no):
-        for j in range(ns):
-            hv = Hb[a, j]
-            if hv != 0.0:
-                for i in range(ns):
-                    PHt[i, a] += Pb[i, j] * hv
+            t = 0.0
+            for j in range(ns):
+                t += Pb[i, j] * Hb[a, j]
+            PHt[i, a] = t
     for a in range(no):
         for b in range(a, no):
             t = 0.5 * (R[oi[a], oi[b]] + R[oi[b], oi[a]])
             for i in range(ns):
-                hv = Hb[a, i]
-                if hv != 0.0:
-                    t += hv * PHt[i, b]
+                t += Hb[a, i] * PHt[i, b]
             S_all[a, b] = t
             S_all[b, a] = t
     if store:
@@ -116,35 +109,25 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
         for j in range(ns):
             t = 1.0 if i == j else 0.0
             for a in range(mo):
-                hv = Hb[obs[a], j]
-                if hv != 0.0:
-                    t -= K[i, a] * hv
+                t -= K[i, a] * Hb[obs[a], j]
             A[i, j] = t
     for i in range(ns):
         for j in range(ns):
-            AP[i, j] = 0.0
-        for q in range(ns):
-            av = A[i, q]
-            if av != 0.0:
-                for j in range(ns):
-                    AP[i, j] += av * Pb[q, j]
+            t = 0.0
+            for q in range(ns):
+                t += A[i, q] * Pb[q, j]
+            AP[i, j] = t
     for i in range(ns):
         for a in range(mo):
             t = 0.0
             for b in range(mo):
                 t += K[i, b] * 0.5 * (R[oi[obs[b]], oi[obs[a]]] + R[oi[obs[a]], oi[obs[b]]])
             KR[i, a] = t
-    for j in range(ns):  # (A P) A' into Pb (upper triangle), P_b no longer needed
-        for i in range(j + 1):
-            Pb[i, j] = 0.0
-        for q in range(ns):
-            av = A[j, q]
-            if av != 0.0:
-                for i in range(j + 1):
-                    Pb[i, j] += AP[i, q] * av
     for i in range(ns):
         for j in range(i, ns):
-            t = Pb[i, j]
+            t = 0.0
+            for q in range(ns):
+                t += AP[i, q] * A[j, q]
             v = 0.0
             for a in range(mo):
                 v += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
@@ -162,25 +145,17 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
         for j in range(ns):
             Fb[i, j] = Jf[si[i], si[j]]
             Pb[i, j] = P[si[i], si[j]]
-    for i in range(ns):  # F P, skipping the structural zeros of F (exact zeros; same summation order)
+    for i in range(ns):
         for j in range(ns):
-            AP[i, j] = 0.0
-        for q in range(ns):
-            fv = Fb[i, q]
-            if fv != 0.0:
-                for j in range(ns):
-                    AP[i, j] += fv * Pb[q, j]
-    for j in range(ns):  # Q + (F P) F' into Pb (upper triangle)
-        for i in range(j + 1):
-            Pb[i, j] = 0.5 * (Q[si[i], si[j]] + Q[si[j], si[i]])
-        for q in range(ns):
-            fv = Fb[j, q]
-            if fv != 0.0:
-                for i in range(j + 1):
-                    Pb[i, j] += AP[i, q] * fv
+            t = 0.0
+            for q in range(ns):
+                t += Fb[i, q] * Pb[q, j]
+            AP[i, j] = t
     for i in range(ns):
         for j in range(i, ns):
-            t = Pb[i, j]
+            t = 0.5 * (Q[si[i], si[j]] + Q[si[j], si[i]])
+            for q in range(ns):
+                t += AP[i, q] * Fb[j, q]
             P[si[i], si[j]] = t
             P[si[j], si[i]] = t
 
@@ -303,13 +278,43 @@ _update_all_inline = njit(inline="always")(_update_all.py_func)
 _predict_all_inline = njit(inline="always")(_predict_all.py_func)
 
 
+@njit(inline="always")
+def _update_all_uniform(x, P, Jh, yhat, yk, R, sidx, ns, oidx, no, innov_k, icov_k, store,
+                        Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
+    """:func:`_update_all` for blocks of equal sizes ``ns``, ``no`` (compile-time constants: unrolled loops)."""
+    for a in range(innov_k.shape[0]):
+        innov_k[a] = np.nan
+    if store:
+        for a in range(icov_k.shape[0]):
+            for b in range(icov_k.shape[1]):
+                icov_k[a, b] = 0.0
+    ll = 0.0
+    n_obs = 0
+    for b in range(sidx.shape[0]):
+        status, mo, llb = _block_update(x, P, Jh, yhat, yk, R, sidx[b], ns, oidx[b], no, innov_k,
+                                        icov_k, store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
+        if status != 0:
+            return status, n_obs, ll
+        ll += llb
+        n_obs += mo
+    return 0, n_obs, ll
+
+
+@njit(inline="always")
+def _predict_all_uniform(P, Jf, Q, sidx, ns, Fb, Pb, AP):
+    for b in range(sidx.shape[0]):
+        _block_predict(P, Jf, Q, sidx[b], ns, Fb, Pb, AP)
+
+
 @njit
 def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
-                        mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
+                        mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, ns_uniform, no_uniform):
     """Same loop as :func:`_block_kernel` with fused, in-place model steps (no allocation per step).
 
     ``hstep(x, u, k, yhat, Jh)`` writes h(x) and its Jacobian, ``fstep(x, u, k, xn, Jf)`` f(x) and its
-    Jacobian; Jf and Jh start at zero and keep their content between calls.
+    Jacobian; Jf and Jh start at zero and keep their content between calls. When every block has
+    ``ns_uniform`` states and ``no_uniform`` observations (> 0; passed as numba literals, so the block loops
+    have compile-time trip counts and are unrolled), the uniform block routines are used.
     """
     T, m = y.shape
     n = x0.shape[0]
@@ -336,8 +341,14 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
         hstep(x, uk, k, yhat, Jh)
         if store:
             _copy2(Jh, Hj[k])
-        status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
-                                     icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
+        if ns_uniform > 0:
+            status, mo, ll = _update_all_uniform(x, P, Jh, yhat, y[k], R, sidx, ns_uniform, oidx, no_uniform,
+                                                 innov[k], icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A,
+                                                 AP, KR, obs, e, w)
+        else:
+            status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
+                                                icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR,
+                                                obs, e, w)
         if status != 0:
             state[0] = status
             state[1] = k
@@ -353,7 +364,10 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
                 state[0] = 2
                 state[1] = k
                 return n_obs
-            _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
+            if ns_uniform > 0:
+                _predict_all_uniform(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, ns_uniform, A, Pb, AP)
+            else:
+                _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
             if store:
                 _copy2(Jf, Fj[k])
             _copy1(xn, x)
@@ -570,8 +584,11 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     if transition_step is not None:
         step_types = _step_function_types(transition_step, observation_step)
         _check_steps(model, transition_step, observation_step, U[0], sidx, scount, oidx, ocount)
-        entry = _cached_step_kernel().compile(step_types + tuple(typeof(a) for a in data))
-        n_obs = entry(transition_step, observation_step, *data)
+        uniform = bool(np.all(scount == smax) and np.all(ocount == omax))
+        sizes = (smax, omax) if uniform else (0, 0)
+        size_types = tuple(types.literal(v) if uniform else types.int64 for v in sizes)
+        entry = _cached_step_kernel().compile(step_types + tuple(typeof(a) for a in data) + size_types)
+        n_obs = entry(transition_step, observation_step, *data, *sizes)
     elif (fn_types := _function_types(model)) is not None:
         entry = _cached_kernel().compile(fn_types + tuple(typeof(a) for a in data))
         n_obs = entry(*fns, *data)

@@ -22,18 +22,19 @@ class FilterResult:
         Filtered means E[x_t | y_0..t].
     cov : (T, n, n) ndarray or None
         Filtered covariances; None when the filter ran with ``store_covariances=False``.
-    pred_mean : (T, n) ndarray
+    pred_mean : (T, n) ndarray or None
         Predicted means E[x_t | y_0..t-1]; ``pred_mean[0]`` is the model's initial mean.
+        None only from ``steady_state_filter(..., store_predictions=False)``.
     pred_cov : (T, n, n) ndarray or None
         Predicted covariances; None when covariances were not stored.
-    innovation : (T, m) ndarray
-        y_t - E[y_t | y_0..t-1]; NaN on the missing components.
+    innovation : (T, m) ndarray or None
+        y_t - E[y_t | y_0..t-1]; NaN on the missing components (None as for ``pred_mean``).
     innovation_cov : (T, m, m) ndarray or None
         Covariance of the innovation (over all m components, observed or not).
     log_likelihood : float or (B,) ndarray
         Total Gaussian log-likelihood of the observed components.
-    log_likelihood_steps : (T,) ndarray
-        Per-step contributions (0 where the whole step is missing).
+    log_likelihood_steps : (T,) ndarray or None
+        Per-step contributions (0 where the whole step is missing; None as for ``pred_mean``).
     n_observed : int or (B,) ndarray
         Number of observed scalar components that entered the likelihood.
     method : str
@@ -42,12 +43,12 @@ class FilterResult:
 
     mean: np.ndarray
     cov: np.ndarray | None
-    pred_mean: np.ndarray
+    pred_mean: np.ndarray | None
     pred_cov: np.ndarray | None
-    innovation: np.ndarray
+    innovation: np.ndarray | None
     innovation_cov: np.ndarray | None
     log_likelihood: float | np.ndarray
-    log_likelihood_steps: np.ndarray
+    log_likelihood_steps: np.ndarray | None
     n_observed: int | np.ndarray
     method: str = "joseph"
     # EKF only: the linearisations used at each step (F_k at the filtered mean, H_k at the predicted mean).

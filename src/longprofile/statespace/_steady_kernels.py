@@ -130,7 +130,8 @@ def _smooth_literal(N, P, I_GF, G, GB, Gc, u, xf, xs):
 
 # Per-size trampolines: a jitted closure whose sizes are compile-time constants calls the ``literally``
 # wrapper with literal arguments, so numba resolves the unrolled (disk-cached) specialisation directly.
-# Calling the wrapper from Python instead would re-run type inference on every call (~30 ms).
+# Calling the wrapper from Python instead would re-run type inference on every call (~30 ms). The trampolines
+# are disk-cached too (numba keys a closure's cache entry on its captured sizes), so a new process loads them.
 _TRAMPOLINES: dict = {}
 
 
@@ -141,12 +142,12 @@ def _trampoline(kind, n, m, p):
         return fn
     N, M, P = n, m, p
     if kind == "filter":
-        @njit
+        @njit(cache=True)
         def fn(A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov, ll_steps, store_extra):
             return _filter_literal(N, M, P, A, G, Bc, cc, K, H, D, d, Sinv, x0, y, u, const, mean, pmean, innov,
                                    ll_steps, store_extra)
     else:
-        @njit
+        @njit(cache=True)
         def fn(I_GF, G, GB, Gc, u, xf, xs):
             _smooth_literal(N, P, I_GF, G, GB, Gc, u, xf, xs)
     _TRAMPOLINES[key] = fn
