@@ -219,3 +219,13 @@ def test_demo_into_a_file_is_one_line_error(tmp_path, capsys):
     (tmp_path / "out").write_text("not a folder")
     assert main(["demo", "-o", str(tmp_path / "out")]) == 2
     assert "is a file" in _err(capsys)
+
+
+def test_report_says_how_much_of_the_road_is_above_the_roughness_threshold(tmp_path):
+    x = np.arange(0, 200, 0.25)
+    path = tmp_path / "p.csv"
+    z = np.where((x > 80) & (x < 120), 4e-3 * np.sin(2 * np.pi * x / 3.0), 0.0)  # one rough 40 m patch
+    pd.DataFrame(dict(distance_m=x, left_m=z)).to_csv(path, index=False)
+    assert main(["road", "report", str(path), "--segment", "50", "-o", str(tmp_path / "rep")]) == 0
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "1 location" in page and "% of the length" in page

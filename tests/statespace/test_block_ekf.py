@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from longprofile.errors import InputError, ShapeError
+from longprofile.errors import InputError, ModelError, ShapeError
 from longprofile.statespace import NonlinearStateSpaceModel, block_extended_kalman_filter, extended_kalman_filter
 
 
@@ -47,6 +47,29 @@ def _hjac(x, u, k):
     return H
 
 
+@njit
+def _fstep(x, u, k, out, J):  # fused f + block Jacobian, as the fast path expects (zeros left unwritten)
+    out[:] = _f(x, u, k)
+    J[0, 0], J[0, 1] = 1.0, 0.01
+    J[1, 0], J[1, 1] = -0.01 * (np.cos(x[0]) + 0.3), 1.0
+    J[2, 2], J[2, 3] = 1.0, 0.01
+    J[3, 2], J[3, 3] = -0.01 * (np.cos(x[2]) + 0.3), 1.0
+
+
+@njit
+def _hstep(x, u, k, out, H):
+    out[:] = _h(x, u, k)
+    H[0, 0] = 1.0
+    H[1, 2] = np.cos(x[2])
+    H[2, 1] = 2 * x[1]
+
+
+@njit
+def _hstep_wrong(x, u, k, out, H):
+    _hstep(x, u, k, out, H)
+    H[2, 1] = 2 * x[1] + 0.5  # wrong Jacobian entry
+
+
 def _model(Q=None):
     return NonlinearStateSpaceModel(_f, _h, np.diag([1e-4, 1e-3, 2e-4, 1e-3]) if Q is None else Q,
                                     np.diag([0.01, 0.02, 0.05]), np.array([0.5, 0.0, -0.3, 0.1]),
@@ -83,6 +106,28 @@ def test_block_filter_equals_dense_ekf_with_block_diagonal_structure():
     light = block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, store_covariances=False)
     np.testing.assert_array_equal(light.mean, block.mean)
     assert light.cov is None and light.transition_jacobians is None
+
+
+def test_fused_steps_give_the_same_filter():
+    y, u = _data(T=200)
+    model = _model()
+    ref = block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB)
+    for sb, ob in ((SB, OB), (np.array([0, 1, 1, 1]), np.array([0, 1, 1]))):  # uniform and unequal blocks
+        if sb is not SB:
+            ref = block_extended_kalman_filter(model, y, u=u, state_blocks=sb, obs_blocks=ob)
+        fused = block_extended_kalman_filter(model, y, u=u, state_blocks=sb, obs_blocks=ob, transition_step=_fstep,
+                                             observation_step=_hstep)
+        for name in ("mean", "cov", "pred_mean", "innovation", "innovation_cov", "log_likelihood_steps",
+                     "transition_jacobians", "observation_jacobians"):
+            np.testing.assert_array_equal(getattr(fused, name), getattr(ref, name), err_msg=name)
+    with pytest.raises(InputError, match="both transition_step and observation_step"):
+        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep)
+    with pytest.raises(ModelError, match="observation_step disagrees"):
+        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep,
+                                     observation_step=_hstep_wrong)
+    with pytest.raises(InputError, match="must be a numba"):
+        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep,
+                                     observation_step=lambda x, u, k, out, H: None)
 
 
 def test_cross_block_terms_are_ignored():

@@ -13,7 +13,8 @@ from longprofile.vehicle import (VerticalVehicleParams, bench_sweep_road, corner
                                  sensors_from_frame, sensors_to_frame, simulate_vertical, steering_sine_manoeuvre,
                                  wheel_road_inputs)
 from longprofile.vehicle._vertical_ekf_model import (corner_observation, corner_observation_jacobian,
-                                                     corner_transition, corner_transition_jacobian)
+                                                     corner_observation_step, corner_transition,
+                                                     corner_transition_jacobian, corner_transition_step)
 from longprofile.vehicle._vertical_model import damper_force, spring_force, vertical_params_arrays
 
 DT = 1e-3
@@ -110,6 +111,30 @@ def test_jacobians_match_finite_differences(manoeuvre_sim):
         Hn = _fd(lambda z: corner_observation(z, u, corner, coupling, scalars, config), x, scale)
         H = corner_observation_jacobian(x, u, corner, coupling, scalars, config, False)
         np.testing.assert_allclose(H, Hn, rtol=1e-6, atol=1e-6)
+
+
+def test_fused_steps_equal_the_separate_functions(manoeuvre_sim):
+    # the block EKF's fast path must compute exactly f, h and the decentralised (block-diagonal) Jacobians
+    sim = manoeuvre_sim
+    corner, coupling, scalars = vertical_params_arrays(P)
+    k = 1200
+    x = np.zeros(16)
+    x[0::4], x[1::4], x[3::4] = sim.suspension_velocity[k], sim.suspension_deflection[k], sim.tyre_deflection[k]
+    x[2::4] = [30.0, -20.0, 10.0, 5.0]
+    u = np.r_[sim.ax[k], sim.ay[k], sim.yaw_accel[k], 50.0, -20.0, 0.0, 10.0]
+    out, J = np.zeros(16), np.full((16, 16), 7.0)
+    corner_transition_step(x, u, corner, coupling, scalars, DT, 0.99, 0.9, out, J)
+    np.testing.assert_array_equal(out, corner_transition(x, u, corner, coupling, scalars, DT, 0.99, 0.9))
+    Jd = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, True)
+    nz = Jd != 0
+    np.testing.assert_array_equal(J[nz], Jd[nz])
+    assert np.all(J[~nz] == 7.0)  # structural zeros are not written (the engine keeps them at zero)
+    for config in (1, 2, 3):
+        m = 4 if config == 1 else 8
+        y, H = np.zeros(m), np.zeros((m, 16))
+        corner_observation_step(x, u, corner, coupling, scalars, config, y, H)
+        np.testing.assert_array_equal(y, corner_observation(x, u, corner, coupling, scalars, config))
+        np.testing.assert_array_equal(H, corner_observation_jacobian(x, u, corner, coupling, scalars, config, True))
 
 
 @settings(max_examples=40, deadline=None)

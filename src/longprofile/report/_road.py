@@ -322,8 +322,11 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
                          f'<span class="small">Gd(0.1) = {f.gd_n0 * 1e6:.0f}·10⁻⁶ m³ (w = 2)</span></div>')
     loc = analysis.localized
     n_def = len(loc.defects)
+    above = sum(d.end - d.start for d in loc.defects) / max(len(loc.tracks), 1)
+    span = float(p.distance[-1] - p.distance[0])
+    share = f"; {above:.0f} m = {100 * above / span:.0f} % of the length" if n_def and span > 0 else ""
     cards.append(f'<div class="card">Localised roughness<b>{n_def} location{"s" if n_def != 1 else ""}</b>'
-                 f'<span class="small">{loc.window:g} m IRI &gt; {loc.threshold:g} m/km</span></div>')
+                 f'<span class="small">{loc.window:g} m IRI &gt; {loc.threshold:g} m/km{share}</span></div>')
 
     spacing = p.spacing
     meta = (f"{p.n_samples} samples, stations {p.distance[0]:.2f}–{p.distance[-1]:.2f} m, "

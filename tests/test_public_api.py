@@ -1,0 +1,42 @@
+"""The public surface: every exported name exists, is documented, and the engine's namespace is pinned."""
+
+import importlib
+import inspect
+
+import pytest
+
+SUBPACKAGES = ["statespace", "signal", "identify", "road", "rail", "vehicle", "io", "report", "errors"]
+
+
+@pytest.mark.parametrize("name", SUBPACKAGES)
+def test_exports_exist_and_are_documented(name):
+    mod = importlib.import_module(f"longprofile.{name}")
+    assert mod.__doc__ and mod.__doc__.strip(), f"longprofile.{name} has no index docstring"
+    exported = getattr(mod, "__all__", None)
+    assert exported, f"longprofile.{name} declares no __all__"
+    assert len(set(exported)) == len(exported), f"duplicate names in longprofile.{name}.__all__"
+    undocumented = []
+    for attr in exported:
+        obj = getattr(mod, attr)  # AttributeError here means __all__ names something missing
+        if (inspect.isfunction(obj) or inspect.isclass(obj)) and not (obj.__doc__ or "").strip():
+            undocumented.append(attr)
+    assert not undocumented, f"longprofile.{name}: no docstring on {undocumented}"
+
+
+def test_import_has_no_side_effects_on_warnings_or_logging():
+    # in a fresh interpreter, so that no other test has imported anything yet
+    import subprocess
+    import sys
+
+    code = (
+        "import logging, warnings, importlib\n"
+        "f, h = list(warnings.filters), list(logging.getLogger().handlers)\n"
+        f"for n in {SUBPACKAGES!r}: importlib.import_module('longprofile.' + n)\n"
+        "import longprofile.cli.app\n"
+        "assert list(warnings.filters) == f, 'warnings filters changed by import'\n"
+        "assert list(logging.getLogger().handlers) == h, 'logging handlers changed by import'\n"
+        "import matplotlib\n"
+        "print('ok')\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
