@@ -345,8 +345,9 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     if analysis.waveband is not None:
         wdf = analysis.waveband.to_frame()
         wave_html = (f"<h2>Waveband energies</h2><p>Mean square of the profile band-passed in each wavelength band, "
-                     f"per {analysis.waveband.segment_end[0] - analysis.waveband.segment_start[0]:g} m segment, "
-                     f"in mm². Bands: {', '.join(analysis.waveband.bands)}.</p>"
+                     + (f"per {analysis.waveband.segment_end[0] - analysis.waveband.segment_start[0]:g} m segment, "
+                        if len(analysis.waveband.segment_start) else "per segment, ")
+                     + f"in mm². Bands: {', '.join(analysis.waveband.bands)}.</p>"
                      + (_table_html(wdf, fmt="{:.3g}") if len(wdf) else "<p>No complete segment.</p>"))
     psd_html = ""
     if analysis.psd is not None:
