@@ -229,3 +229,11 @@ def test_report_says_how_much_of_the_road_is_above_the_roughness_threshold(tmp_p
     assert main(["road", "report", str(path), "--segment", "50", "-o", str(tmp_path / "rep")]) == 0
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "1 location" in page and "% of the length" in page
+
+
+def test_report_of_a_profile_shorter_than_one_waveband_segment(tmp_path):
+    x = np.arange(0, 150, 0.25)  # 150 m < the 200 m waveband segment
+    path = tmp_path / "p.csv"
+    pd.DataFrame(dict(distance_m=x, left_mm=2.0 * np.sin(2 * np.pi * x / 7.0))).to_csv(path, index=False)
+    assert main(["road", "report", str(path), "--segment", "50", "-o", str(tmp_path / "rep")]) == 0
+    assert "Waveband energies" in (tmp_path / "rep" / "index.html").read_text()
