@@ -237,3 +237,43 @@ def test_report_of_a_profile_shorter_than_one_waveband_segment(tmp_path):
     pd.DataFrame(dict(distance_m=x, left_mm=2.0 * np.sin(2 * np.pi * x / 7.0))).to_csv(path, index=False)
     assert main(["road", "report", str(path), "--segment", "50", "-o", str(tmp_path / "rep")]) == 0
     assert "Waveband energies" in (tmp_path / "rep" / "index.html").read_text()
+
+
+# --- rail and vehicle commands: output and plot paths are checked before any work -----------------
+
+def test_rail_simulate_into_an_existing_file_is_one_line_error(tmp_path, capsys):
+    from longprofile.cli.app import main
+
+    f = tmp_path / "site.csv"
+    f.write_text("keep me\n")
+    assert main(["rail", "simulate", "-o", str(f)]) == 2
+    assert "existing file" in capsys.readouterr().err
+    assert f.read_text() == "keep me\n"
+
+
+def test_rail_simulate_bad_plot_suffix_fails_before_writing(tmp_path):
+    from longprofile.cli.app import main
+
+    out = tmp_path / "site"
+    assert main(["rail", "simulate", "-o", str(out), "--plot", str(tmp_path / "x.txt")]) == 2
+    assert not out.exists()
+
+
+def test_vehicle_slope_positive_poles_name_the_cli_option(tmp_path, capsys):
+    from longprofile.cli.app import main
+
+    log = tmp_path / "log.csv"
+    assert main(["vehicle", "simulate", "--scenario", "hill", "--duration", "2", "-o", str(log)]) == 0
+    capsys.readouterr()
+    assert main(["vehicle", "slope", str(log), "-o", str(tmp_path / "s.csv"), "--poles", "5,7"]) == 2
+    err = capsys.readouterr().err
+    assert "--poles" in err and "negative" in err
+
+
+def test_vehicle_vertical_bad_plot_suffix_fails_before_writing(tmp_path):
+    from longprofile.cli.app import main
+
+    out = tmp_path / "vlog.csv"
+    assert main(["vehicle", "vertical", "simulate", "--duration", "1", "-o", str(out),
+                 "--plot", str(tmp_path / "p.csv")]) == 2
+    assert not out.exists()

@@ -91,7 +91,7 @@ def reconstruct_command(
     output: Path = typer.Option(..., "--output", "-o", help="Profile table: distance_m, elevation_m, std_m, raw_m, raw_std_m."),
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's distance_m)."),
-    method: str = typer.Option("smoother", "--method", help="smoother, filter, double or fixed-lag (real time)."),
+    method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
     column: str = typer.Option("apl_m", "--column", help="Name of the signal column, in metres."),
     q: float = typer.Option(None, "--q", help="Elevation-increment variance, m^2 (default: maximum likelihood)."),

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console
+from ._common import check_output_path, check_plot_path, console
 
 
 def _parse_poles(text: str):
@@ -16,6 +16,9 @@ def _parse_poles(text: str):
         poles = tuple(float(v) for v in text.split(","))
     except ValueError:
         raise InputError(f"--poles must be two comma-separated numbers in 1/s, e.g. '-4,-6'; got {text!r}.") from None
+    if len(poles) != 2 or any(not p < 0 for p in poles):
+        raise InputError(f"--poles must be two negative numbers (continuous-time observer poles, 1/s), "
+                         f"e.g. '-5,-7'; got {text!r}.")
     return poles
 
 
@@ -47,6 +50,7 @@ def simulate(
 
     car = _vehicle(vehicle)
     out = check_output_path(output, vehicle)
+    check_plot_path(plot, vehicle)
     sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed)
     write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
     console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
@@ -68,6 +72,7 @@ def slope(
 
     car = _vehicle(vehicle)
     out = check_output_path(output, log, vehicle)
+    check_plot_path(plot, log, vehicle)
     frame = read_table(log)
     drive = DriveLog.from_frame(frame, source=str(log))
     with console.status("estimating states and slope..."):

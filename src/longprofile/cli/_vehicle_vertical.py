@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console
+from ._common import check_output_path, check_plot_path, console
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
@@ -36,6 +36,7 @@ def simulate(
     from ..vehicle import sensors_to_frame, vertical_test_run
 
     out = check_output_path(output)
+    check_plot_path(plot)
     with console.status("simulating the 7-DOF car..."):
         sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed, duration=duration,
                                          seed=seed)
@@ -70,6 +71,7 @@ def estimate(
     from ..vehicle import estimate_to_frame, estimate_vertical_states, sensors_from_frame
 
     out = check_output_path(output, log)
+    check_plot_path(plot, log)
     frame = read_table(log)
     sensors = sensors_from_frame(frame, config, source=str(log))
     with console.status("running the corner EKFs..."):

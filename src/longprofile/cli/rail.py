@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, console, progress
+from ._common import check_output_path, check_plot_path, console, progress
 
 rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, with confidence bands (paper 004).",
                        no_args_is_help=True)
@@ -33,8 +33,14 @@ def simulate_command(
     from ..io import write_table
     from ..rail import simulate_site
 
+    from ..errors import OutputError
+
     if fmt not in ("csv", "parquet"):
         raise InputError(f"--format must be csv or parquet; got {fmt!r}.")
+    if Path(output).exists() and not Path(output).is_dir():
+        raise OutputError(f"--output {output} is an existing file; rail simulate writes a folder of tables. "
+                          "Choose a folder path.")
+    check_plot_path(plot)
     site = simulate_site(preset, seed=seed, sampling_minutes=sampling_minutes, n_days=days)
     out = Path(output)
     written = [write_table(site.sensors, out / f"sensors.{fmt}"), write_table(site.readings, out / f"readings.{fmt}"),
@@ -103,6 +109,9 @@ def settle_command(
     from ..report._rail import plot_settlement, write_rail_report
 
     inputs = (sensors, readings, survey, controls)
+    # check every output path before the computation, so a bad path fails at once and writes nothing
+    check_output_path(output, *inputs)
+    check_plot_path(plot, *inputs)
     site = read_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
