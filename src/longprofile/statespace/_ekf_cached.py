@@ -37,7 +37,6 @@ from numba import njit, types, typeof
 from numba.core.errors import NumbaError
 
 from . import _ekf, _ekf_kernels
-from ..errors import ModelError
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, is_jitted
 from ._results import FilterResult
 
@@ -54,8 +53,8 @@ JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
 #: Arguments of ``_ekf_kernels.ekf_kernel`` this module was written against.
 _KERNEL_ARGS = ("f", "h", "fjac", "hjac", "Q3", "R3", "x0", "P0", "y", "u", "store", "mean", "cov", "pmean", "pcov",
                 "innov", "icov", "ll_steps", "Fj", "Hj", "state")
-#: Private helpers of ``_ekf`` reused here (input checks and error messages shared with the engine's EKF).
-_EKF_HELPERS = ("_prepare", "_check_functions", "_not_pd", "_not_finite_cov")
+#: Helpers of ``_ekf`` reused here (input checks, output arrays and status errors shared with the engine's EKF).
+_EKF_HELPERS = ("_prepare", "_check_functions", "ekf_kernel_outputs", "ekf_kernel_result")
 
 
 @functools.cache
@@ -112,36 +111,14 @@ def _model_types(model):
 
 
 def _run_cached(model, fn_types, Q3, R3, y, u, store):
+    """One series through the disk-cached loop; outputs and status handling are the engine EKF's own."""
     T, m = y.shape
-    n = model.n_states
-    mean = np.empty((T, n))
-    pmean = np.empty((T, n))
-    innov = np.empty((T, m))
-    ll_steps = np.empty(T)
-    if store:
-        cov, pcov, icov = np.empty((T, n, n)), np.empty((T, n, n)), np.empty((T, m, m))
-        Fj, Hj = np.empty((max(T - 1, 0), n, n)), np.empty((T, m, n))
-    else:
-        cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
-        Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
-    state = np.zeros(2, dtype=np.int64)
-    data = (Q3, R3, model.initial_mean, model.initial_cov, y, u, store, mean, cov, pmean, pcov, innov, icov,
-            ll_steps, Fj, Hj, state)
+    outputs = _ekf.ekf_kernel_outputs(T, model.n_states, m, store)
+    data = (Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
     entry = cached_kernel().compile(fn_types + tuple(typeof(a) for a in data))
     n_obs = entry(model.transition_fn, model.observation_fn, model.transition_jacobian, model.observation_jacobian,
                   *data)
-    status, k = int(state[0]), int(state[1])
-    if status == 1:
-        raise _ekf._not_pd(k)
-    if status == 2:
-        raise ModelError(f"transition_fn or its Jacobian returned non-finite values at step {k}.")
-    if status == 3:
-        raise ModelError(f"observation_fn or its Jacobian returned non-finite values at step {k}.")
-    if status == 4:
-        raise _ekf._not_finite_cov(k)
-    if not store:
-        cov = pcov = icov = Fj = Hj = None
-    return mean, cov, pmean, pcov, innov, icov, ll_steps, int(n_obs), Fj, Hj
+    return _ekf.ekf_kernel_result(outputs, n_obs, store)
 
 
 def extended_kalman_filter_cached(model: NonlinearStateSpaceModel, y, *, u=None,

@@ -445,14 +445,16 @@ def joint_jacobian(x, u, p, dt):
     return F
 
 
-@njit(cache=True)
-def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std):
-    """Tyre forces at the estimate ``x`` and their std by the delta method through (18)->(15)-(17).
+@njit(cache=True, inline="always")
+def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std, k):
+    """Tyre forces at the estimate ``mean[k]`` and their std by the delta method through (18)->(15)-(17).
 
-    ``cov`` is the covariance of the state (its (V_x, V_y, r) block is used); ``slope`` (rad) enters the
-    loads (19); ``omega_rel_std`` is the relative std of the wheel-speed inputs (independent wheels),
-    whose contribution is added. Writes fx, fy and their stds (4,) and returns ``(F_res, F_res std)``,
-    F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21) in N. Allocation-free.
+    Works on whole arrays at sample ``k`` (indexing them here is cheaper than passing row views):
+    ``mean`` (T, n) and ``cov`` (T, n, n) are the state estimate and covariance (their (V_x, V_y, r)
+    block is used), ``u`` (T, 12) the inputs, ``slope`` (T,) the grade entering the loads (19) (rad),
+    ``omega_rel_std`` the relative std of the wheel-speed inputs (independent wheels), whose
+    contribution is added. Writes row k of fx, fy and their stds (T, 4) and returns
+    ``(F_res, F_res std)``, F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21) in N. Allocation-free.
     """
     m = p[P_MASS]
     lf = p[P_LF]
@@ -463,21 +465,22 @@ def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_
     R = p[P_R]
     cx0 = p[P_CX0]
     cy0 = p[P_CY0]
-    vx = x[0]
-    vy = x[1]
-    r = x[2]
-    delta = u[U_DELTA]
+    vx = mean[k, 0]
+    vy = mean[k, 1]
+    r = mean[k, 2]
+    theta = slope[k]
+    delta = u[k, U_DELTA]
     cd = math.cos(delta)
     sd = math.sin(delta)
     tdelta = sd / cd
-    w = m * p[P_G] * math.cos(slope)
-    dxl = h * m * u[U_AX] / (2.0 * L)
-    c00 = cov[0, 0]
-    c01 = cov[0, 1]
-    c02 = cov[0, 2]
-    c11 = cov[1, 1]
-    c12 = cov[1, 2]
-    c22 = cov[2, 2]
+    w = m * p[P_G] * math.cos(theta)
+    dxl = h * m * u[k, U_AX] / (2.0 * L)
+    c00 = cov[k, 0, 0]
+    c01 = cov[k, 0, 1]
+    c02 = cov[k, 0, 2]
+    c11 = cov[k, 1, 1]
+    c12 = cov[k, 1, 2]
+    c22 = cov[k, 2, 2]
     sfx = 0.0
     g0 = 0.0
     g1 = 0.0
@@ -489,7 +492,7 @@ def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_
         xi = lf if front else -lr
         yi = hb if left else -hb
         lever = lr if front else lf
-        lat = lever * h * m * u[U_AY] / (p[P_TRACK] * L)
+        lat = lever * h * m * u[k, U_AY] / (p[P_TRACK] * L)
         fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
         c = cd if front else 1.0
         s = sd if front else 0.0
@@ -497,7 +500,7 @@ def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_
         vyi = vy + r * xi
         vw = vxi * c + vyi * s
         dvw2 = -yi * c + xi * s
-        omega = u[U_OMEGA + i]
+        omega = u[k, U_OMEGA + i]
         rw = R * omega
         if rw >= vw and rw >= V_MIN:
             lam = (rw - vw) / rw
@@ -520,7 +523,7 @@ def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_
         dt0 = tx
         dt1 = ty
         dt2 = -yi * tx + xi * ty
-        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[U_MU + i], cx0, cy0)
+        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[k, U_MU + i], cx0, cy0)
         a0 = fxl * dl * c + fxt * dt0
         a1 = fxl * dl * s + fxt * dt1
         a2 = fxl * dl * dvw2 + fxt * dt2
@@ -528,14 +531,14 @@ def forces_fused(x, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_
         b1 = fyl * dl * s + fyt * dt1
         b2 = fyl * dl * dvw2 + fyt * dt2
         wv = (omega_rel_std * omega) ** 2
-        fx_out[i] = f_x
-        fy_out[i] = f_y
+        fx_out[k, i] = f_x
+        fy_out[k, i] = f_y
         qx = (a0 * a0 * c00 + a1 * a1 * c11 + a2 * a2 * c22
               + 2.0 * (a0 * a1 * c01 + a0 * a2 * c02 + a1 * a2 * c12)) + fxl * fxl * dlw * dlw * wv
         qy = (b0 * b0 * c00 + b1 * b1 * c11 + b2 * b2 * c22
               + 2.0 * (b0 * b1 * c01 + b0 * b2 * c02 + b1 * b2 * c12)) + fyl * fyl * dlw * dlw * wv
-        fx_std[i] = math.sqrt(max(qx, 0.0))
-        fy_std[i] = math.sqrt(max(qy, 0.0))
+        fx_std[k, i] = math.sqrt(max(qx, 0.0))
+        fy_std[k, i] = math.sqrt(max(qy, 0.0))
         sfx += c * f_x - s * f_y
         g0 += c * a0 - s * b0
         g1 += c * a1 - s * b1

@@ -380,8 +380,7 @@ class SlopeEstimate:
 def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, res, res_std):
     T = mean.shape[0]
     for k in range(T):
-        res[k], res_std[k] = forces_fused(mean[k], cov[k], u[k], p, slope[k], omega_rel_std, fx[k], fy[k],
-                                          fx_std[k], fy_std[k])
+        res[k], res_std[k] = forces_fused(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, k)
 
 
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",

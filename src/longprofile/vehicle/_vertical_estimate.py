@@ -24,8 +24,8 @@ from ._vertical_model import VerticalVehicleParams, suspension_tensions, vertica
 from ._vertical_sim import SENSOR_CONFIGS, VerticalSensors
 
 __all__ = ["CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model", "vertical_ekf_inputs",
-           "VerticalStateEstimate", "estimate_vertical_states", "smooth_vertical_states", "yaw_acceleration",
-           "vertical_linear_model", "estimate_vertical_states_linear"]
+           "vertical_ekf_steps", "VerticalStateEstimate", "estimate_vertical_states", "smooth_vertical_states",
+           "yaw_acceleration", "vertical_linear_model", "estimate_vertical_states_linear"]
 
 _DISP_VAR = 3e-8  # thesis (4.2): (6e-4 m)^2 / 12
 
