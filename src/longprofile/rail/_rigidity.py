@@ -191,7 +191,8 @@ def _as_profiles(name, values, N):
 
 
 def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                             sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0)) -> ProfilePosterior:
+                             sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0),
+                             first_slope_prior_std: float | None = None) -> ProfilePosterior:
     r"""The paper's dense posterior (§4.2), O(N^3): the reference implementation.
 
     Parameters
@@ -208,6 +209,10 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
         Standard deviation of the two end anchors, m (paper: 1e-5 m).
     z_ends : (2,) array_like
         Anchor altitudes (z_1^0, z_N^0), m.
+    first_slope_prior_std : float, optional
+        None (default) is the paper's improper (flat) prior on the slopes. A value, rad, adds the
+        proper N(0, std^2) prior on the first slope that the O(N) state-space form needs to start its
+        recursion (:func:`rigidity_model`, default 1 rad), so that both compute the same posterior.
 
     Returns
     -------
@@ -239,6 +244,8 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
     for i, z0 in ((0, z_ends[0]), (N - 1, z_ends[1])):
         prec[i, i] += 1.0 / sz**2
         rhs[i] += z0 / sz**2
+    if first_slope_prior_std is not None:
+        prec[N, N] += 1.0 / require_positive("first_slope_prior_std", first_slope_prior_std) ** 2
     cov = np.linalg.inv(prec)
     cov = 0.5 * (cov + cov.T)
     mean = cov @ rhs
