@@ -6,6 +6,7 @@ import argparse
 import importlib
 import json
 import pkgutil
+import shutil
 import sys
 from pathlib import Path
 
@@ -46,7 +47,8 @@ def main(argv=None) -> int:
         ok = {True: "[green]yes[/green]", False: "[red]no[/red]", None: "-"}[r.passed]
         tgt = "-" if r.target is None else f"{'>=' if r.higher_is_better else '<='} {r.target:g}"
         table.add_row(r.area, r.name, f"{r.value:.4g}", r.unit, tgt, ok, r.detail)
-    Console().print(table)
+    # wide enough to stay readable when piped to a file (rich would squeeze columns to 80)
+    Console(width=max(200, shutil.get_terminal_size().columns)).print(table)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps([r.as_dict() for r in rows], indent=2))
