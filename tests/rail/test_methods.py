@@ -141,3 +141,4 @@ def test_alarm_probabilities_are_gaussian_tail_probabilities():
     assert len(settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, threshold_m=1.0)) == 0
     with pytest.raises(InputError, match="rate threshold needs"):
         settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, rate_threshold_m_per_day=0.001)
+

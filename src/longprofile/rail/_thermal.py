@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from numba import njit
 from scipy.ndimage import median_filter
 
 from .._validation import require_positive
+from ..statespace import linear_recursion
 from ..errors import InputError
 from ._data import SiteData
 
@@ -82,18 +82,6 @@ class DailyAngles:
     warnings: tuple = ()
 
 
-@njit(cache=True)
-def _first_order(t_h, temp, tau):  # pragma: no cover - compiled
-    out = np.empty_like(temp)
-    out[0] = temp[0]
-    for k in range(1, temp.size):
-        a = np.exp(-(t_h[k] - t_h[k - 1]) / tau)
-        # exact for a temperature linear between samples
-        b = (1.0 - a) * tau / (t_h[k] - t_h[k - 1]) if t_h[k] > t_h[k - 1] else 1.0
-        out[k] = a * out[k - 1] + (1.0 - b) * temp[k] + (b - a) * temp[k - 1]
-    return out
-
-
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     r"""Response T_s of a first-order thermal lag, tau dT_s/dt = T - T_s, to a sampled temperature.
 
@@ -118,7 +106,19 @@ def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     require_positive("tau_hours", tau_hours)
     if T.size == 0:
         return T.copy()
-    return _first_order(t, T, float(tau_hours))
+    if T.size == 1:
+        return T.copy()
+    # exact discretisation between samples for T linear in between:
+    # T_s[k] = a T_s[k-1] + (1 - b) T[k] + (b - a) T[k-1], a = exp(-h/tau), b = (1 - a) tau / h;
+    # run on the engine's deterministic recursion (a repeated time stamp, h = 0, keeps T_s unchanged).
+    h = np.diff(t)
+    a = np.exp(-h / float(tau_hours))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        b = np.where(h > 0, (1.0 - a) * float(tau_hours) / np.where(h > 0, h, 1.0), 1.0)
+    input_matrix = np.stack([1.0 - b, b - a], axis=-1)[:, None, :]
+    inputs = np.column_stack([T[1:], T[:-1]])
+    run = linear_recursion(a[:, None, None], input_matrix, inputs, T[:1])
+    return run.states[:, 0].copy()
 
 
 def _slice_regression(day, a, T, n_days):
