@@ -2,7 +2,7 @@
 
 Rows:
 * real-time factor of the four per-corner EKFs at 1 kHz (engine's block_extended_kalman_filter on the
-  16-state stacked corner model with the fused model steps of ``vertical_ekf_steps``, means only),
+  16-state stacked corner model with its fused model steps, means only),
   configurations 1, 2, 3 (issue 7 target: >= 200), and config 1 through the generic path (the model's four
   separate functions) for comparison;
 * real-time factor of the centralised full-car EKF (engine's dense extended_kalman_filter, same model,
@@ -97,24 +97,23 @@ def run(quick: bool) -> list[BenchRow]:
     from longprofile.statespace import block_extended_kalman_filter, extended_kalman_filter
     from longprofile.vehicle import (estimate_vertical_states, vertical_ekf_inputs, vertical_ekf_model,
                                      vertical_test_run)
-    from longprofile.vehicle._vertical_estimate import STATE_BLOCKS, vertical_ekf_steps
+    from longprofile.vehicle._vertical_estimate import STATE_BLOCKS
 
     duration = 1.0 if quick else 30.0
     repeat = 3 if quick else 7
     rows = []
-    f_step, h_step = vertical_ekf_steps()
     for config in ((1,) if quick else (1, 2, 3)):
         sim, sens = vertical_test_run(config, test="road", road_class="C", speed=20.0, duration=duration, seed=0)
-        model = vertical_ekf_model(config, sens.dt)
+        models = {True: vertical_ekf_model(config, sens.dt), False: vertical_ekf_model(config, sens.dt,
+                                                                                         fused_steps=False)}
         acc = {1: None, 2: sens.body_accel, 3: sens.wheel_accel}[config]
         y = sens.displacement if acc is None else np.hstack([sens.displacement, acc])
         u = vertical_ekf_inputs(sens)
         ob = np.tile(np.arange(4), y.shape[1] // 4)
 
         def corner(fused=True):
-            steps = dict(transition_step=f_step, observation_step=h_step) if fused else {}
-            block_extended_kalman_filter(model, y, u=u, state_blocks=STATE_BLOCKS, obs_blocks=ob,
-                                         store_covariances=False, **steps)
+            block_extended_kalman_filter(models[fused], y, u=u, state_blocks=STATE_BLOCKS, obs_blocks=ob,
+                                         store_covariances=False)
 
         corner()  # compile
         t = _best_cpu_time(corner, repeat=repeat)
@@ -132,7 +131,7 @@ def run(quick: bool) -> list[BenchRow]:
             uc = vertical_ekf_inputs(sens, decentralised=False)
 
             def central():
-                extended_kalman_filter(model, y, u=uc, store_covariances=False)
+                extended_kalman_filter(models[False], y, u=uc, store_covariances=False)
 
             central()
             tc = _best_cpu_time(central, repeat=3)

@@ -74,14 +74,17 @@ def _hstep_wrong(x, u, k, out, H):
     H[2, 1] = 2 * x[1] + 0.5  # wrong Jacobian entry
 
 
-def _model(Q=None, *, python=False):
+def _model(Q=None, *, python=False, steps=(None, None), jacobians=True):
     """The coupled test model; ``python=True``: the same functions as plain Python (the dense engine EKF then
     runs its Python loop, which spares the oracle a per-process numba compile)."""
     fns = (_f, _h, _fjac_block, _hjac)
     f, h, fj, hj = (fn.py_func for fn in fns) if python else fns
+    if not jacobians:
+        fj = hj = None
     return NonlinearStateSpaceModel(f, h, np.diag([1e-4, 1e-3, 2e-4, 1e-3]) if Q is None else Q,
                                     np.diag([0.01, 0.02, 0.05]), np.array([0.5, 0.0, -0.3, 0.1]),
-                                    np.diag([0.1, 0.2, 0.1, 0.2]), transition_jacobian=fj, observation_jacobian=hj)
+                                    np.diag([0.1, 0.2, 0.1, 0.2]), transition_jacobian=fj, observation_jacobian=hj,
+                                    transition_step=steps[0], observation_step=steps[1])
 
 
 def _data(T=300, seed=0):
@@ -123,19 +126,22 @@ def test_fused_steps_give_the_same_filter():
     for sb, ob in ((SB, OB), (np.array([0, 1, 1, 1]), np.array([0, 1, 1]))):  # uniform and unequal blocks
         if sb is not SB:
             ref = block_extended_kalman_filter(model, y, u=u, state_blocks=sb, obs_blocks=ob)
-        fused = block_extended_kalman_filter(model, y, u=u, state_blocks=sb, obs_blocks=ob, transition_step=_fstep,
-                                             observation_step=_hstep)
+        fused = block_extended_kalman_filter(_model(steps=(_fstep, _hstep)), y, u=u, state_blocks=sb, obs_blocks=ob)
         for name in ("mean", "cov", "pred_mean", "innovation", "innovation_cov", "log_likelihood_steps",
                      "transition_jacobians", "observation_jacobians"):
             np.testing.assert_array_equal(getattr(fused, name), getattr(ref, name), err_msg=name)
     with pytest.raises(InputError, match="both transition_step and observation_step"):
-        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep)
+        _model(steps=(_fstep, None))
     with pytest.raises(ModelError, match="observation_step disagrees"):
-        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep,
-                                     observation_step=_hstep_wrong)
+        block_extended_kalman_filter(_model(steps=(_fstep, _hstep_wrong)), y, u=u, state_blocks=SB, obs_blocks=OB)
     with pytest.raises(InputError, match="must be a numba"):
-        block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, transition_step=_fstep,
-                                     observation_step=lambda x, u, k, out, H: None)
+        _model(steps=(_fstep, lambda x, u, k, out, H: None))
+    # the steps write the diagonal blocks only: against the model's true (finite-difference) Jacobian the block
+    # filter accepts them and the dense EKF, which uses the whole Jacobian, refuses them
+    fd_model = _model(steps=(_fstep, _hstep), jacobians=False)
+    block_extended_kalman_filter(fd_model, y[:5], u=u[:5], state_blocks=SB, obs_blocks=OB)
+    with pytest.raises(ModelError, match="transition_step disagrees"):
+        extended_kalman_filter(fd_model, y, u=u)
 
 
 def test_cross_block_terms_are_ignored():
@@ -161,6 +167,12 @@ def test_block_filter_errors():
                                   np.eye(4))
     with pytest.raises(InputError, match="numba"):
         block_extended_kalman_filter(py, y, state_blocks=SB, obs_blocks=OB)
-    no_jac = NonlinearStateSpaceModel(_f, _h, np.eye(4), np.eye(3), np.zeros(4), np.eye(4))
-    with pytest.raises(InputError, match="analytic transition_jacobian"):
-        block_extended_kalman_filter(no_jac, y, u=u, state_blocks=SB, obs_blocks=OB)
+
+
+
+def test_finite_difference_jacobians_give_the_analytic_filter():
+    y, u = _data(T=100)
+    ref = block_extended_kalman_filter(_model(), y, u=u, state_blocks=SB, obs_blocks=OB)
+    fd = block_extended_kalman_filter(_model(jacobians=False), y, u=u, state_blocks=SB, obs_blocks=OB)
+    np.testing.assert_allclose(fd.mean, ref.mean, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(fd.cov, ref.cov, rtol=1e-6, atol=1e-10)

@@ -32,6 +32,11 @@ def test_simulate_then_slope(tmp_path):
     # 4 s of hill drive: flat road, then the start of the acceleration; the estimate follows the truth
     assert (out["slope"] - frame["true_slope"]).abs().max() < 0.01
     assert (tmp_path / "states.png").stat().st_size > 10_000
+    # the paper's measurement on request (same numbers here: front-wheel drive, not braking)
+    paper = tmp_path / "paper.csv"
+    res = runner.invoke(app, ["vehicle", "slope", str(log), "-o", str(paper), "--speed-measurement", "rear-mean"])
+    assert res.exit_code == 0 and "speed measurement rear-mean" in res.output
+    assert (pd.read_csv(paper)["slope"] - frame["true_slope"]).abs().max() < 0.01
 
 
 def test_missing_channel_is_a_clear_error_exit_2(tmp_path, capsys):
@@ -50,3 +55,7 @@ def test_bad_options_exit_2(tmp_path, capsys):
     assert "unknown scenario 'moon'" in capsys.readouterr().err
     assert main(["vehicle", "simulate", "-o", str(tmp_path / "x.csv"), "--vehicle", str(tmp_path / "no.toml")]) == 2
     assert "no such vehicle description file" in capsys.readouterr().err
+    log = tmp_path / "log.csv"
+    assert main(["vehicle", "simulate", "--duration", "1", "-o", str(log)]) == 0
+    assert main(["vehicle", "slope", str(log), "-o", str(tmp_path / "s.csv"), "--speed-measurement", "gps"]) == 2
+    assert "speed_measurement must be 'robust' or 'rear-mean'; got 'gps'" in capsys.readouterr().err

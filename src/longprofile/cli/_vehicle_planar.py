@@ -63,6 +63,7 @@ def slope(
     output: Path = typer.Option(..., "--output", "-o", help="States file to write (.csv or .parquet)."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
     method: str = typer.Option("cascade", "--method", help="cascade (EKF + Luenberger, paper 001) or joint (one EKF with the grade in the state)."),
+    speed_measurement: str = typer.Option("robust", "--speed-measurement", help="V_x measurement: robust (slip-compensated reference speed, missing when no wheel is trustworthy) or rear-mean (the paper's mean rear-wheel speed)."),
     poles: str = typer.Option("-5,-7", "--poles", help="Luenberger observer poles, 1/s (cascade)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
 ):
@@ -76,9 +77,9 @@ def slope(
     frame = read_table(log)
     drive = DriveLog.from_frame(frame, source=str(log))
     with console.status("estimating states and slope..."):
-        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles))
+        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement)
     write_table(est.to_frame(), out)
-    console.print(f"wrote {out} ({est.time.size} samples, method {method})")
+    console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
     if plot is not None:
         truth = _truth_from_frame(frame)
         _save_figure(plot_slope_estimate(est, truth), plot)

@@ -23,9 +23,8 @@ fixed_lag_smoother     -- E[x_t | y_0..t+L]: real-time smoother with a latency o
 
 Nonlinear inference
 -------------------
-NonlinearStateSpaceModel -- x' = f(x, u, k) + w, y = h(x, u, k) + v (numba-jitted f, h run compiled).
-extended_kalman_filter -- EKF (Joseph form, NaN = missing), stores the Jacobians used.
-extended_kalman_filter_cached -- the same EKF with its compiled loop cached on disk (no per-process compile).
+NonlinearStateSpaceModel -- x' = f(x, u, k) + w, y = h(x, u, k) + v (numba-jitted f, h or fused steps run compiled).
+extended_kalman_filter -- EKF (Joseph form, NaN = missing), stores the Jacobians used; compiled loop cached on disk.
 extended_rts_smoother  -- EKF smoother on the stored linearisations and predicted moments.
 block_extended_kalman_filter -- decentralised EKF: local EKFs per state block, coupled through the means (thesis 003).
 
@@ -54,7 +53,6 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 
 from ._block_ekf import block_extended_kalman_filter
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
-from ._ekf_cached import extended_kalman_filter_cached
 from ._fixed_lag import FixedLagResult, fixed_lag_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
 from ._mle import MLEResult, fit_mle
@@ -87,7 +85,6 @@ __all__ = [
     "FixedLagResult",
     "NonlinearStateSpaceModel",
     "extended_kalman_filter",
-    "extended_kalman_filter_cached",
     "extended_rts_smoother",
     "block_extended_kalman_filter",
     "ObserverResult",

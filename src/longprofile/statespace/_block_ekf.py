@@ -12,8 +12,9 @@ the Jacobians, Q, R and P0 set to zero (the covariance then stays block-diagonal
 that identity — at a cost linear, not cubic, in the number of blocks.
 
 Speed: when every block has the same numbers of states and observations, the block routines are compiled
-with those sizes as constants (unrolled loops); optional fused, allocation-free model steps
-(``transition_step``, ``observation_step``) compute a function and its Jacobian in one call.
+with those sizes as constants (unrolled loops); the model's optional fused, allocation-free steps
+(``NonlinearStateSpaceModel.transition_step`` / ``observation_step``) compute a function and its Jacobian
+in one call.
 """
 
 from __future__ import annotations
@@ -22,11 +23,12 @@ import functools
 
 import numpy as np
 from numba import njit, types, typeof
-from numba.core.errors import NumbaError
 
 from .._validation import as_float_array
 from ..errors import InputError, ModelError, ShapeError
-from ._ekf import NonlinearStateSpaceModel
+from ._ekf import NonlinearStateSpaceModel, check_model_steps, model_function_types, model_functions
+from ._ekf_kernels import model_eval
+from ._linalg_kernels import all_finite1, copy1, copy2
 from ._results import FilterResult
 
 __all__ = ["block_extended_kalman_filter"]
@@ -193,27 +195,6 @@ def _predict_all(P, Jf, Q, sidx, scount, Fb, Pb, AP):
 
 
 @njit(cache=True)
-def _all_finite(a):
-    for i in range(a.shape[0]):
-        if not np.isfinite(a[i]):
-            return False
-    return True
-
-
-@njit(cache=True)
-def _copy1(src, dst):
-    for i in range(dst.shape[0]):
-        dst[i] = src[i]
-
-
-@njit(cache=True)
-def _copy2(src, dst):
-    for i in range(dst.shape[0]):
-        for j in range(dst.shape[1]):
-            dst[i, j] = src[i, j]
-
-
-@njit(cache=True)
 def _init_cov(P0, sidx, scount, P):
     for i in range(P.shape[0]):
         for j in range(P.shape[1]):
@@ -257,88 +238,27 @@ def _predict_all_uniform(P, Jf, Q, sidx, ns, Fb, Pb, AP):
 
 
 @njit
-def _block_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
+def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
                   mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, ns_uniform, no_uniform):
-    """The loop over the model's four separate functions (see :func:`_block_kernel_steps` for the sizes)."""
-    T, m = y.shape
-    n = x0.shape[0]
-    x = np.empty(n)
-    _copy1(x0, x)
-    P = np.empty((n, n))
-    _init_cov(P0, sidx, scount, P)
-    Jf = np.zeros((n, n))
-    Jh = np.zeros((m, n))
-    smax, omax = sidx.shape[1], oidx.shape[1]
-    Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
-    S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
-    A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
-    obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
-    n_obs = 0
-    for k in range(T):
-        uk = u[k]
-        R = R3[k if R3.shape[0] > 1 else 0]
-        _copy1(x, pmean[k])
-        if store:
-            _copy2(P, pcov[k])
-        yhat = h(x, uk, k)
-        _copy2(hjac(x, uk, k), Jh)
-        if store:
-            _copy2(Jh, Hj[k])
-        if ns_uniform > 0:
-            status, mo, ll = _update_all_uniform(x, P, Jh, yhat, y[k], R, sidx, ns_uniform, oidx, no_uniform,
-                                                 innov[k], icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A,
-                                                 AP, KR, obs, e, w)
-        else:
-            status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
-                                                icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR,
-                                                obs, e, w)
-        if status != 0:
-            state[0] = status
-            state[1] = k
-            return n_obs
-        n_obs += mo
-        ll_steps[k] = ll
-        _copy1(x, mean[k])
-        if store:
-            _copy2(P, cov[k])
-        if k < T - 1:
-            _copy2(fjac(x, uk, k), Jf)
-            xn = f(x, uk, k)
-            if not _all_finite(xn):
-                state[0] = 2
-                state[1] = k
-                return n_obs
-            if ns_uniform > 0:
-                _predict_all_uniform(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, ns_uniform, A, Pb, AP)
-            else:
-                _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
-            if store:
-                _copy2(Jf, Fj[k])
-            _copy1(xn, x)
-    state[0] = 0
-    return n_obs
+    """The lock-step loop of the local filters.
 
-
-@njit
-def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
-                        mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, ns_uniform, no_uniform):
-    """Same loop as :func:`_block_kernel` with fused, in-place model steps (no allocation per step).
-
-    ``hstep(x, u, k, yhat, Jh)`` writes h(x) and its Jacobian, ``fstep(x, u, k, xn, Jf)`` f(x) and its
-    Jacobian; Jf and Jh start at zero and keep their content between calls. When every block has
-    ``ns_uniform`` states and ``no_uniform`` observations (> 0; passed as numba literals, so the block loops
-    have compile-time trip counts and are unrolled), the uniform block routines are used.
+    The model enters as in :func:`._ekf_kernels.ekf_kernel`: separate functions (``fstep``, ``hstep``
+    None; ``fjac``/``hjac`` None = finite differences) or fused in-place steps (the others None),
+    evaluated through :func:`._ekf_kernels.model_eval`. When every block has ``ns_uniform`` states and
+    ``no_uniform`` observations (> 0; passed as numba literals, so the block loops have compile-time
+    trip counts and are unrolled), the uniform block routines are used.
     """
     T, m = y.shape
     n = x0.shape[0]
     x = np.empty(n)
-    _copy1(x0, x)
+    copy1(x0, x)
     P = np.empty((n, n))
     _init_cov(P0, sidx, scount, P)
     Jf = np.zeros((n, n))
     Jh = np.zeros((m, n))
-    yhat = np.zeros(m)
-    xn = np.zeros(n)
+    y_hat = np.zeros(m)
+    x_next = np.zeros(n)
+    xw = np.empty(n)
     smax, omax = sidx.shape[1], oidx.shape[1]
     Pb, Hb, PHt = np.empty((smax, smax)), np.empty((omax, smax)), np.empty((smax, omax))
     S, L, K = np.empty((omax, omax)), np.zeros((omax, omax)), np.empty((smax, omax))
@@ -348,12 +268,12 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
     for k in range(T):
         uk = u[k]
         R = R3[k if R3.shape[0] > 1 else 0]
-        _copy1(x, pmean[k])
+        copy1(x, pmean[k])
         if store:
-            _copy2(P, pcov[k])
-        hstep(x, uk, k, yhat, Jh)
+            copy2(P, pcov[k])
+        yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
         if store:
-            _copy2(Jh, Hj[k])
+            copy2(Jh, Hj[k])
         if ns_uniform > 0:
             status, mo, ll = _update_all_uniform(x, P, Jh, yhat, y[k], R, sidx, ns_uniform, oidx, no_uniform,
                                                  innov[k], icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A,
@@ -368,12 +288,12 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
             return n_obs
         n_obs += mo
         ll_steps[k] = ll
-        _copy1(x, mean[k])
+        copy1(x, mean[k])
         if store:
-            _copy2(P, cov[k])
+            copy2(P, cov[k])
         if k < T - 1:
-            fstep(x, uk, k, xn, Jf)
-            if not _all_finite(xn):
+            xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
+            if not all_finite1(xn):
                 state[0] = 2
                 state[1] = k
                 return n_obs
@@ -382,86 +302,18 @@ def _block_kernel_steps(fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, 
             else:
                 _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
             if store:
-                _copy2(Jf, Fj[k])
-            _copy1(xn, x)
+                copy2(Jf, Fj[k])
+            copy1(xn, x)
     state[0] = 0
     return n_obs
-
-
-_VEC = types.Array(types.float64, 1, "C")
-_MAT = types.Array(types.float64, 2, "C")
-_FUNCTION_TYPE = types.FunctionType(_VEC(_VEC, _VEC, types.int64))
-_JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
-_STEP_TYPE = types.FunctionType(types.none(_VEC, _VEC, types.int64, _VEC, _MAT))
 
 
 @functools.cache
 def _cached_kernel():
-    """The same loop compiled for first-class function types, so numba can cache it on disk.
-
-    Typed by the model functions' SIGNATURE instead of their identity (numba types a dispatcher argument by
-    identity, which no other process can find in the cache: numba/numba#2956), the loop calls f, h and the
-    Jacobians through function pointers and is compiled once per machine instead of once per process.
-    """
+    """:func:`_block_kernel` compiled for first-class function types (typed by the model functions'
+    signature, not their identity), so numba caches it on disk: compiled once per machine, not per
+    process (see :func:`._ekf.model_function_types`)."""
     return njit(cache=True)(_block_kernel.py_func)
-
-
-@functools.cache
-def _cached_step_kernel():
-    """:func:`_block_kernel_steps` compiled for first-class function types (cached on disk, see above)."""
-    return njit(cache=True)(_block_kernel_steps.py_func)
-
-
-def _step_function_types(transition_step, observation_step):
-    """Compile the fused step functions for the C-contiguous float64 signature; InputError if they do not."""
-    args = _STEP_TYPE.signature.args
-    for name, fn in (("transition_step", transition_step), ("observation_step", observation_step)):
-        if not hasattr(fn, "compile") or not hasattr(fn, "overloads"):
-            raise InputError(f"{name} must be a numba @njit function g(x, u, k, out, out_jacobian); got "
-                             f"{type(fn).__name__}.")
-        try:
-            fn.compile(args)
-        except (NumbaError, TypeError, ValueError) as exc:
-            raise InputError(f"{name} does not compile for (x (n,), u (p,), k, out, out_jacobian) float64 arrays: "
-                             f"{str(exc).splitlines()[0]}") from None
-    return _STEP_TYPE, _STEP_TYPE
-
-
-def _check_steps(model, transition_step, observation_step, u0, state_labels, obs_labels):
-    """ModelError unless the fused steps reproduce f, h and the diagonal blocks of their Jacobians at x0."""
-    x0 = np.ascontiguousarray(model.initial_mean, dtype=float)
-    n = model.n_states
-    u0 = np.ascontiguousarray(u0)
-    for name, step, fn, jac, labels in (("transition_step", transition_step, model.transition_fn,
-                                         model.transition_jacobian, state_labels),
-                                        ("observation_step", observation_step, model.observation_fn,
-                                         model.observation_jacobian, obs_labels)):
-        size = labels.shape[0]
-        out, J = np.zeros(size), np.zeros((size, n))
-        step(x0, u0, 0, out, J)
-        ref, Jref = np.asarray(fn(x0, u0, 0), dtype=float), np.asarray(jac(x0, u0, 0), dtype=float)
-        diag = labels[:, None] == state_labels[None, :]
-        if not (np.allclose(out, ref, rtol=1e-10, atol=1e-12)
-                and np.allclose(J[diag], Jref[diag], rtol=1e-10, atol=1e-12)):
-            raise ModelError(f"{name} disagrees with the model's functions at the initial state (value or diagonal "
-                             "Jacobian blocks): it must compute the same function and Jacobian, fused.")
-
-
-def _function_types(model):
-    """Function types of (f, h, f_jac, h_jac) when all compile for the C-contiguous float64 signature, else None."""
-    out = []
-    for fn, ftype in ((model.transition_fn, _FUNCTION_TYPE), (model.observation_fn, _FUNCTION_TYPE),
-                      (model.transition_jacobian, _JACOBIAN_TYPE), (model.observation_jacobian, _JACOBIAN_TYPE)):
-        args = ftype.signature.args
-        try:
-            fn.compile(args)
-        except (NumbaError, TypeError, ValueError):
-            return None
-        cres = fn.overloads.get(args)
-        if cres is None or cres.signature.return_type != ftype.signature.return_type:
-            return None
-        out.append(ftype)
-    return tuple(out)
 
 
 def _labels(name, labels, size):
@@ -473,8 +325,7 @@ def _labels(name, labels, size):
 
 
 def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_blocks, obs_blocks, u=None,
-                                 store_covariances: bool = True, transition_step=None,
-                                 observation_step=None) -> FilterResult:
+                                 store_covariances: bool = True) -> FilterResult:
     """Decentralised EKF: one local EKF per state block, coupled through the means (lock-step).
 
     Parameters
@@ -492,15 +343,6 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         Known inputs, row k passed to f and h at step k.
     store_covariances : bool
         If False, the covariance fields and Jacobians of the result are None.
-    transition_step, observation_step : numba @njit functions, optional (give both or neither)
-        Fused, allocation-free versions of the model's functions for speed:
-        ``transition_step(x, u, k, out, out_jacobian)`` writes ``f(x, u, k)`` into ``out`` (n,) and its Jacobian
-        into ``out_jacobian`` (n, n); ``observation_step(x, u, k, out, out_jacobian)`` writes ``h`` (m,) and
-        its Jacobian (m, n). The loop calls them instead of the model's four functions (the pair is evaluated
-        at the same state, so shared sub-expressions are computed once). The Jacobian arrays start at zero and
-        keep their content between calls: entries that are always zero need not be written, and only the
-        diagonal blocks are used. They are checked against the model's functions at the initial state.
-
     Returns
     -------
     FilterResult
@@ -521,20 +363,16 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     ``S_b = H_bb P_b H_bb' + R_bb``, ``K_b = P_b H_bb' S_b^-1``, ``x_b += K_b (y_o - yhat_o)``,
     Joseph update of P_b. Then ``x[k+1|k] = f(x[k|k])`` (all blocks, coupled) and
     ``P_b <- F_bb P_b F_bb' + Q_bb``. Thesis 003 (Plancke), §3.1 eq. (3.3): the per-corner filters of a car.
-    The compiled loop needs numba-jitted f, h and analytic Jacobians; plain Python functions are rejected.
+    The compiled loop needs numba-jitted model functions (plain Python functions are rejected); it calls
+    the model's fused steps when it has them (``transition_step``/``observation_step`` of
+    :class:`NonlinearStateSpaceModel`; only the diagonal blocks of the Jacobians they write are used and
+    checked), else f, h and the Jacobians (None = central finite differences).
     """
-    if (transition_step is None) != (observation_step is None):
-        raise InputError("give both transition_step and observation_step (fused model functions), or neither; got "
-                         f"transition_step={'None' if transition_step is None else 'a function'}, observation_step="
-                         f"{'None' if observation_step is None else 'a function'}.")
     if not isinstance(model, NonlinearStateSpaceModel):
         raise InputError(f"block_extended_kalman_filter needs a NonlinearStateSpaceModel; got {type(model).__name__}.")
     if not model.is_compiled:
         raise InputError("block_extended_kalman_filter runs a compiled loop: transition_fn, observation_fn and the "
                          "given Jacobians must be numba @njit functions.")
-    if model.transition_jacobian is None or model.observation_jacobian is None:
-        raise InputError("block_extended_kalman_filter needs analytic transition_jacobian and observation_jacobian "
-                         "(numba @njit); use extended_kalman_filter for finite-difference Jacobians.")
     n, m = model.n_states, model.n_obs
     Y = as_float_array("y", y, ndim=(1, 2))
     if Y.ndim == 1:
@@ -588,7 +426,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
     state = np.zeros(2, np.int64)
-    fns = (model.transition_fn, model.observation_fn, model.transition_jacobian, model.observation_jacobian)
+    fns = model_functions(model)
     data = (Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
             np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
             cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
@@ -596,12 +434,10 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     uniform = bool(np.all(scount == smax) and np.all(ocount == omax))
     sizes = (smax, omax) if uniform else (0, 0)
     size_types = tuple(types.literal(v) if uniform else types.int64 for v in sizes)
-    if transition_step is not None:
-        step_types = _step_function_types(transition_step, observation_step)
-        _check_steps(model, transition_step, observation_step, U[0], sb, ob)
-        entry = _cached_step_kernel().compile(step_types + tuple(typeof(a) for a in data) + size_types)
-        n_obs = entry(transition_step, observation_step, *data, *sizes)
-    elif (fn_types := _function_types(model)) is not None:
+    same_block = (sb[:, None] == sb[None, :], ob[:, None] == sb[None, :])
+    check_model_steps(model, U[0], jacobian_mask=same_block)
+    fn_types = model_function_types(model)
+    if fn_types is not None:
         entry = _cached_kernel().compile(fn_types + tuple(typeof(a) for a in data) + size_types)
         n_obs = entry(*fns, *data, *sizes)
     else:  # model functions with other signatures: compile the loop for these functions (per process)

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from numba import njit, types, typeof
+from numba.core.errors import NumbaError
 from scipy.linalg import cho_factor, cho_solve
 
 from .._validation import as_float_array, require_symmetric_psd
@@ -63,16 +66,32 @@ class NonlinearStateSpaceModel:
         Analytic df/dx. Central finite differences when None.
     observation_jacobian : callable ``h_jac(x, u, k) -> (m, n) ndarray``, optional
         Analytic dh/dx. Central finite differences when None.
+    transition_step, observation_step : numba ``@njit`` functions, optional (both or neither)
+        Fused, allocation-free versions of the model for the compiled loops:
+        ``transition_step(x, u, k, x_next, F)`` writes ``f(x, u, k)`` into
+        ``x_next`` (n,) and its Jacobian into ``F`` (n, n);
+        ``observation_step(x, u, k, y_hat, H)`` writes ``h`` (m,) and its
+        Jacobian (m, n). Both return None. One call computes a function and
+        its Jacobian at the same point, so shared sub-expressions (tyre forces,
+        damper tensions) are evaluated once and nothing is allocated per step.
+        The Jacobian arrays start at zero and keep their content between calls:
+        entries that are always zero need not be written. The filters check the
+        steps against the separate functions at the initial state (ModelError
+        if they disagree); the Python loop and the smoother use the separate
+        functions.
 
     Notes
     -----
-    When ``transition_fn`` and ``observation_fn`` (and the Jacobians that are
-    given) are numba ``@njit`` functions, :func:`extended_kalman_filter` runs a
-    compiled loop that calls them (about a microsecond per step for n = 3,
-    m = 2; compiled once per process for each set of functions). Otherwise
-    the same algorithm runs in a Python loop. Finite differences use the
-    central step h_j = eps^(1/3) max(|x_j|, 1) (error O(h^2) + O(eps/h)), in
-    both paths.
+    When ``transition_fn`` and ``observation_fn`` (and the Jacobians and steps
+    that are given) are numba ``@njit`` functions, :func:`extended_kalman_filter`
+    runs a compiled loop that calls them (about a microsecond per step for n = 3,
+    m = 2). Functions that compile for C-contiguous float64 arrays, i.e.
+    ``(x (n,), u (p,), k int64) -> array``, run in a loop compiled for their
+    *signature* and cached on disk by numba (compiled once per machine; a new
+    process loads it); other jitted functions run in a loop compiled for their
+    identity (once per process). Otherwise the same algorithm runs in a Python
+    loop. Finite differences use the central step h_j = eps^(1/3) max(|x_j|, 1)
+    (error O(h^2) + O(eps/h)), in both paths.
     """
 
     transition_fn: Callable
@@ -83,6 +102,8 @@ class NonlinearStateSpaceModel:
     initial_cov: np.ndarray
     transition_jacobian: Callable | None = None
     observation_jacobian: Callable | None = None
+    transition_step: Callable | None = None
+    observation_step: Callable | None = None
     _compiled: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
@@ -115,6 +136,16 @@ class NonlinearStateSpaceModel:
             v = np.ascontiguousarray(v)
             v.setflags(write=False)
             object.__setattr__(self, k, v)
+        if (self.transition_step is None) != (self.observation_step is None):
+            raise InputError("give both transition_step and observation_step (fused model steps), or neither; got "
+                             f"transition_step={'None' if self.transition_step is None else 'a function'}, "
+                             f"observation_step={'None' if self.observation_step is None else 'a function'}.")
+        for name in ("transition_step", "observation_step"):
+            val = getattr(self, name)
+            if val is not None and not is_jitted(val):
+                raise InputError(f"{name} must be a numba @njit function g(x, u, k, out, out_jacobian) (the compiled "
+                                 f"loops call it); got {type(val).__name__}. Leave it None to use transition_fn / "
+                                 "observation_fn.")
         fns = [self.transition_fn, self.observation_fn]
         fns += [fn for fn in (self.transition_jacobian, self.observation_jacobian) if fn is not None]
         object.__setattr__(self, "_compiled", all(is_jitted(fn) for fn in fns))
@@ -296,10 +327,106 @@ def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
 def _ekf_compiled(model, Q3, R3, y, u, store):
     T, m = y.shape
     outputs = ekf_kernel_outputs(T, model.n_states, m, store)
-    n_obs = ekf_kernel(model.transition_fn, model.observation_fn, model.transition_jacobian,
-                       model.observation_jacobian, Q3, R3, model.initial_mean, model.initial_cov, y, u, store,
-                       *outputs)
+    data = (Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
+    fns = model_functions(model)
+    fn_types = model_function_types(model)
+    if fn_types is None:  # jitted functions of another signature: loop compiled for their identity, per process
+        n_obs = ekf_kernel(*fns, *data)
+    else:
+        n_obs = cached_ekf_kernel().compile(fn_types + tuple(typeof(a) for a in data))(*fns, *data)
     return ekf_kernel_result(outputs, n_obs, store)
+
+
+# ---------------------------------------------------------------- loop typed by signature (cached on disk)
+#
+# numba types a jitted function passed as an argument by its identity (types.Dispatcher), so a loop
+# specialised for it can never be found in the on-disk cache by another process (numba/numba#2956,
+# #6251, #6284) and every new process would pay the compile again (5-20 s for the vehicle models of
+# paper 001 on a loaded machine). Compiled instead for first-class function types -- the functions'
+# signature -- the loop calls them through pointers resolved at call time, its machine code does not
+# depend on which functions are passed, and ``cache=True`` persists it (keyed on the signature and on
+# the loop's source file). Measured on the paper-001 vehicle model the pointer calls cost nothing
+# measurable against the inlined loop (docs/statespace-notes.md).
+
+_VEC = types.Array(types.float64, 1, "C")
+_MAT = types.Array(types.float64, 2, "C")
+#: Type of f and h: (x (n,), u (p,), k) -> (n,) or (m,).
+FUNCTION_TYPE = types.FunctionType(_VEC(_VEC, _VEC, types.int64))
+#: Type of the Jacobians: (x, u, k) -> (n, n) or (m, n).
+JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
+#: Type of the fused steps: (x, u, k, out (n,) or (m,), out_jacobian) -> None.
+STEP_TYPE = types.FunctionType(types.none(_VEC, _VEC, types.int64, _VEC, _MAT))
+
+
+@functools.cache
+def cached_ekf_kernel():
+    """The engine's EKF loop as a ``cache=True`` dispatcher (compiled only for function-typed arguments)."""
+    return njit(cache=True)(ekf_kernel.py_func)
+
+
+def model_functions(model) -> tuple:
+    """The arguments (f, h, f_jac, h_jac, f_step, h_step) of the compiled loops: the fused steps when the
+    model has them (the separate functions then None), else the separate functions (steps None)."""
+    if model.transition_step is not None:
+        return None, None, None, None, model.transition_step, model.observation_step
+    return (model.transition_fn, model.observation_fn, model.transition_jacobian, model.observation_jacobian,
+            None, None)
+
+
+def _function_type(fn, ftype):
+    """``ftype`` if the jitted ``fn`` compiles for it with the exact return type, ``types.none`` for None, else None."""
+    if fn is None:
+        return types.none
+    args = ftype.signature.args
+    try:
+        fn.compile(args)
+    except (NumbaError, TypeError, ValueError):
+        return None
+    cres = fn.overloads.get(args)
+    if cres is None or cres.signature.return_type != ftype.signature.return_type:
+        return None
+    return ftype
+
+
+def model_function_types(model):
+    """numba types of :func:`model_functions` for the signature-typed (disk-cached) loop, or None when a
+    function does not compile for C-contiguous float64 arrays with the exact return type."""
+    kinds = (FUNCTION_TYPE, FUNCTION_TYPE, JACOBIAN_TYPE, JACOBIAN_TYPE, STEP_TYPE, STEP_TYPE)
+    out = tuple(_function_type(fn, ftype) for fn, ftype in zip(model_functions(model), kinds))
+    return None if any(t is None for t in out) else out
+
+
+def check_model_steps(model, u0, jacobian_mask=None):
+    """ModelError unless the fused steps reproduce f, h and their Jacobians at the initial state.
+
+    ``jacobian_mask`` (bool, (n, n) for F and (m, n) for H as a pair) restricts the Jacobian comparison
+    to the entries a filter uses (the block filter uses the diagonal blocks only); None compares all.
+    """
+    if model.transition_step is None:
+        return
+    x0 = np.ascontiguousarray(model.initial_mean, dtype=float)
+    u0 = np.ascontiguousarray(u0, dtype=float)
+    n, m = model.n_states, model.n_obs
+    for name, step, which, size, mask in (
+            ("transition_step", model.transition_step, "f", n, None if jacobian_mask is None else jacobian_mask[0]),
+            ("observation_step", model.observation_step, "h", m, None if jacobian_mask is None else jacobian_mask[1])):
+        out, J = np.zeros(size), np.zeros((size, n))
+        try:
+            step(x0, u0, 0, out, J)
+        except (ValueError, TypeError, IndexError, ArithmeticError, NumbaError) as exc:
+            raise ModelError(f"{name} failed when called as g(x, u, k, out, out_jacobian) with x = initial_mean "
+                             f"(shape ({n},)), u of shape {u0.shape}, k = 0, out ({size},), out_jacobian ({size}, {n})"
+                             f": {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
+        ref = _call(model, which, x0, u0, 0)
+        Jref = _call(model, which.upper(), x0, u0, 0)
+        sel = np.ones(J.shape, bool) if mask is None else mask
+        analytic = (model.transition_jacobian if which == "f" else model.observation_jacobian) is not None
+        rtol, atol = (1e-10, 1e-12) if analytic else (1e-6, 1e-8)  # finite differences: error ~ eps^(2/3)
+        if not (np.allclose(out, ref, rtol=1e-10, atol=1e-12) and np.allclose(J[sel], Jref[sel], rtol=rtol,
+                                                                                 atol=atol)):
+            raise ModelError(f"{name} disagrees with {'transition' if which == 'f' else 'observation'}_fn and its "
+                             "Jacobian at the initial state: the fused step must compute the same function and "
+                             "Jacobian.")
 
 
 def _prepare(model, y, u):
@@ -328,7 +455,10 @@ def _prepare(model, y, u):
             U = np.broadcast_to(U[None], (nb,) + U.shape)
         if U.shape[:2] != (nb, T):
             raise ShapeError(f"u must have shape (T, p) = ({T}, p) or (B, T, p) = ({nb}, {T}, p); got {np.shape(u)}.")
-    return arr, batched, Q3, R3, np.ascontiguousarray(U)
+    U = np.ascontiguousarray(U)
+    if not U.flags.writeable:  # a broadcast view: the compiled loops are typed for writeable arrays
+        U = U.copy()
+    return arr, batched, Q3, R3, U
 
 
 def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
@@ -374,7 +504,9 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
     Vehicle models of paper 001 (eq. 20) and thesis 003 use this filter.
     """
     Y, batched, Q3, R3, U = _prepare(model, y, u)
-    _check_functions(model, U[0, 0] if U.shape[1] else np.zeros(0))
+    u0 = U[0, 0] if U.shape[1] else np.zeros(0)
+    _check_functions(model, u0)
+    check_model_steps(model, u0)
     run = _ekf_compiled if model.is_compiled else _ekf_python
     outs = [run(model, Q3, R3, Y[b], U[b], store_covariances) for b in range(Y.shape[0])]
     if batched:

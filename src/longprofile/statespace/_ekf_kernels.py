@@ -1,14 +1,16 @@
 """Compiled extended-Kalman-filter loop for numba-jitted model functions (private).
 
-The user's ``f``, ``h`` (and optional Jacobians) are numba dispatchers passed
-as arguments; numba specialises the loop for them (calls are direct, usually
-inlined by LLVM). A Jacobian argument that is ``None`` is replaced by central
-finite differences (branch pruned at compile time). The kernel allocates only
-what the user functions return; all scratch arrays are allocated once.
+The model enters as numba functions passed as arguments, in one of two conventions:
 
-Because numba keys such specialisations on the identity of the function
-arguments, they are compiled once per process and model functions
-(``cache=True`` cannot persist them: it would only grow the cache directory).
+* separate functions ``f(x, u, k) -> (n,)``, ``h(x, u, k) -> (m,)`` and optional Jacobians
+  (``None``: central finite differences); each call returns a new array;
+* fused in-place steps ``fstep(x, u, k, x_next, F)`` and ``hstep(x, u, k, y_hat, H)`` that write the
+  function and its Jacobian into the loop's preallocated arrays (no allocation per step).
+
+The arguments of the unused convention are ``None`` and numba prunes their branches at compile
+time, so there is one loop for both. The loop is compiled either for the functions' identity
+(numba dispatchers: calls inlined, compiled once per process) or for their signature
+(first-class function types: calls through pointers, cached on disk; see :mod:`._ekf`).
 
 Status codes returned by :func:`ekf_kernel` (the wrapper turns them into
 exceptions): 0 ok, 1 innovation covariance not positive definite, 2 non-finite
@@ -19,7 +21,8 @@ transition output or Jacobian, 3 non-finite observation output or Jacobian,
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from ._linalg_kernels import (
     FD_REL_STEP,
@@ -35,9 +38,39 @@ from ._linalg_kernels import (
     solve_rows,
 )
 
-__all__ = ["ekf_kernel", "fd_jacobian", "FD_REL_STEP"]
+__all__ = ["ekf_kernel", "model_eval", "fd_jacobian", "FD_REL_STEP"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
+
+
+def model_eval(fn, jac, step, x, u, k, xw, out, J):
+    """Value of a model function at (x, u, k), its Jacobian written into J (compiled code only).
+
+    ``step`` given (fused convention): ``step(x, u, k, out, J)`` and ``out`` is returned; otherwise
+    ``fn(x, u, k)`` is returned and J is ``jac(x, u, k)`` or central finite differences (``jac`` None,
+    ``xw`` scratch). The convention is chosen when numba types the call (see the overload below), so
+    the loop has no run-time branch and the unused functions may be None.
+    """
+    raise NotImplementedError("model_eval runs inside numba-compiled loops only")
+
+
+@overload(model_eval, inline="always")
+def _model_eval_overload(fn, jac, step, x, u, k, xw, out, J):
+    if not isinstance(step, types.NoneType):
+        def fused(fn, jac, step, x, u, k, xw, out, J):
+            step(x, u, k, out, J)
+            return out
+        return fused
+    if isinstance(jac, types.NoneType):
+        def finite_differences(fn, jac, step, x, u, k, xw, out, J):
+            fd_jacobian(fn, x, u, k, xw, J)
+            return fn(x, u, k)
+        return finite_differences
+
+    def analytic(fn, jac, step, x, u, k, xw, out, J):
+        copy2(jac(x, u, k), J)
+        return fn(x, u, k)
+    return analytic
 
 
 @njit(cache=True)
@@ -95,10 +128,13 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
 
 
 @njit
-def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
+def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
                mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
     """EKF over one series. ``store`` False: cov/pcov/icov/Fj/Hj are dummies and not written.
 
+    ``fstep``/``hstep`` None: the model is ``f``, ``h`` and the Jacobians (None = finite differences);
+    otherwise the fused steps are called and ``f``, ``h``, ``fjac``, ``hjac`` are None. The Jacobian
+    arrays the steps write into start at zero and keep their content between calls.
     ``state`` (2,) int64 receives (status, step). Returns the number of observed components.
     Only this loop is compiled per set of model functions; the linear algebra is in cached helpers.
     """
@@ -109,8 +145,10 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
     copy1(x0, x)
     copy2(P0, P)
     xw = np.empty(n)
-    Jf = np.empty((n, n))
-    Jh = np.empty((m, n))
+    x_next = np.empty(n)
+    y_hat = np.empty(m)
+    Jf = np.zeros((n, n))
+    Jh = np.zeros((m, n))
     S = np.empty((m, m))
     L = np.empty((m, m))
     PHt = np.empty((n, m))
@@ -132,11 +170,7 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
         copy1(x, pmean[k])
         if store:
             copy2(P, pcov[k])
-        yhat = h(x, uk, k)
-        if hjac is None:
-            fd_jacobian(h, x, uk, k, xw, Jh)
-        else:
-            copy2(hjac(x, uk, k), Jh)
+        yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
         if not all_finite2(Jh, m, n):
             state[0] = 3
             state[1] = k
@@ -157,17 +191,13 @@ def ekf_kernel(f, h, fjac, hjac, Q3, R3, x0, P0, y, u, store,
         if store:
             copy2(P, cov[k])
         if k < T - 1:
-            if fjac is None:
-                fd_jacobian(f, x, uk, k, xw, Jf)
-            else:
-                copy2(fjac(x, uk, k), Jf)
+            xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
             if not all_finite2(Jf, n, n):
                 state[0] = 2
                 state[1] = k
                 return n_obs
             if store:
                 copy2(Jf, Fj[k])
-            xn = f(x, uk, k)
             for i in range(n):
                 if not np.isfinite(xn[i]):
                     state[0] = 2

@@ -14,6 +14,8 @@ slope_ekf_model       -- augmented EKF model on (V_x, V_y, r, theta_r).
 slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its Luenberger gain.
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
 EKFTuning             -- EKF noise settings.
+speed_reference       -- slip-robust V_x measurement (torque-free / slip-compensated wheels, per-sample std,
+                         missing when no wheel is trustworthy); SpeedReference, SPEED_SOURCES.
 plot_slope_estimate / plot_drive -- figures.
 
 Vertical states (thesis 003, Plancke: 7-DOF model, per-corner EKFs)
@@ -41,6 +43,7 @@ from ._planar_sim import (LOG_COLUMNS, SCENARIOS, DriveLog, DriveScenario, Drive
 from ._slope import (EKFTuning, SlopeEstimate, estimate_slope, planar_ekf_model, planar_inputs, planar_measurements,
                      slope_ekf_model, slope_observer_gain, slope_observer_matrices)
 from ._slope_plot import plot_drive, plot_slope_estimate
+from ._speed_reference import SPEED_SOURCES, SpeedReference, speed_reference
 from ._vertical_estimate import (CornerFilterSettings, VerticalStateEstimate, estimate_vertical_states,
                                  estimate_vertical_states_linear, smooth_vertical_states, thesis_filter_settings,
                                  vertical_ekf_inputs, vertical_ekf_model, vertical_linear_model)
@@ -61,6 +64,7 @@ __all__ = [
     "simulate_drive", "LOG_COLUMNS",
     "EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
+    "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "plot_slope_estimate", "plot_drive",
     "VerticalVehicleParams", "simulate_vertical", "VerticalSimulation", "wheel_road_inputs", "bench_sweep_road",
     "steering_sine_manoeuvre", "measure_vertical", "VerticalSensors", "sensors_to_frame", "sensors_from_frame",

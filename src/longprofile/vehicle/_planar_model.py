@@ -445,6 +445,35 @@ def joint_jacobian(x, u, p, dt):
     return F
 
 
+@njit(cache=True)
+def ekf_step(x, u, p, dt, out, F):
+    """Fused, allocation-free :func:`ekf_next` and :func:`ekf_jacobian`: x[k+1] into ``out`` (3,), F into ``F`` (3, 3).
+
+    One evaluation of the tyre forces serves the step and its Jacobian (the engine's fused-step
+    convention, :class:`longprofile.statespace.NonlinearStateSpaceModel`).
+    """
+    r = planar_fused(x[0], x[1], x[2], u, p, u[U_SLOPE])
+    for i in range(3):
+        out[i] = x[i] + dt * r[i]
+        for j in range(3):
+            F[i, j] = dt * r[3 + 3 * i + j]
+        F[i, i] += 1.0
+
+
+@njit(cache=True)
+def joint_step(x, u, p, dt, out, F):
+    """Fused, allocation-free :func:`joint_next` and :func:`joint_jacobian` (state (V_x, V_y, r, theta_r))."""
+    r = planar_fused(x[0], x[1], x[2], u, p, x[3])
+    for i in range(3):
+        out[i] = x[i] + dt * r[i]
+        for j in range(3):
+            F[i, j] = dt * r[3 + 3 * i + j]
+        F[i, i] += 1.0
+        F[i, 3] = dt * r[12 + i]
+    out[3] = x[3]
+    F[3, 3] = 1.0
+
+
 @njit(cache=True, inline="always")
 def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std, k):
     """Tyre forces at the estimate ``mean[k]`` and their std by the delta method through (18)->(15)-(17).

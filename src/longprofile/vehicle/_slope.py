@@ -6,8 +6,8 @@ Two estimators share one result type (:class:`SlopeEstimate`):
   and the tyre forces, then a Luenberger observer on the longitudinal model (21) estimates the slope;
 * ``"joint"`` -- one EKF on the augmented state (V_x, V_y, r, theta_r) with a random-walk slope.
 
-Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter_cached`, the
-EKF whose compiled loop numba keeps on disk, so a new process does not compile it again,
+Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`, whose
+compiled loop numba keeps on disk, so a new process does not compile it again,
 :func:`longprofile.statespace.luenberger_gain` and :func:`longprofile.statespace.luenberger_observer`);
 this module only builds models and maps results.
 """
@@ -24,7 +24,8 @@ from numba import njit
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ModelError, ShapeError
 from ._car import GRAVITY, Vehicle, default_vehicle
-from ._planar_model import N_INPUTS, U_SLOPE, ekf_jacobian, ekf_next, forces_fused, joint_jacobian, joint_next
+from ._planar_model import (N_INPUTS, U_SLOPE, ekf_jacobian, ekf_next, ekf_step, forces_fused, joint_jacobian,
+                            joint_next, joint_step)
 from ._planar_sim import DriveLog
 
 __all__ = ["EKFTuning", "SlopeEstimate", "planar_ekf_model", "slope_ekf_model", "slope_observer_matrices",
@@ -97,20 +98,29 @@ class EKFTuning:
 # ------------------------------------------------------------------------------------------ model functions
 
 # The closures are cached on disk (numba keys closures on the values they capture: the vehicle
-# parameters and dt), and the engine's disk-cached EKF loop calls them through function pointers,
-# so a new process (the CLI) loads everything instead of compiling it.
+# parameters, dt and the model variant), and the engine's disk-cached EKF loop calls them through
+# function pointers, so a new process (the CLI) loads everything instead of compiling it.
 
 @functools.lru_cache(maxsize=32)
-def _planar_functions(params: tuple, dt: float):
+def _ekf_functions(params: tuple, dt: float, joint: bool):
+    """(f, f_jac, h, h_jac, f_step, h_step) of eq. (20) (``joint``: with the grade as 4th state)."""
     p = np.array(params)
+    n = 4 if joint else 3
 
     @njit(cache=True)
     def f(x, u, k):
-        return ekf_next(x, u, p, dt)
+        return joint_next(x, u, p, dt) if joint else ekf_next(x, u, p, dt)
 
     @njit(cache=True)
     def f_jac(x, u, k):
-        return ekf_jacobian(x, u, p, dt)
+        return joint_jacobian(x, u, p, dt) if joint else ekf_jacobian(x, u, p, dt)
+
+    @njit(cache=True)
+    def f_step(x, u, k, out, F):
+        if joint:
+            joint_step(x, u, p, dt, out, F)
+        else:
+            ekf_step(x, u, p, dt, out, F)
 
     @njit(cache=True)
     def h(x, u, k):
@@ -121,41 +131,19 @@ def _planar_functions(params: tuple, dt: float):
 
     @njit(cache=True)
     def h_jac(x, u, k):
-        H = np.zeros((2, 3))
+        H = np.zeros((2, n))
         H[0, 0] = 1.0
         H[1, 2] = 1.0
         return H
 
-    return f, f_jac, h, h_jac
-
-
-@functools.lru_cache(maxsize=32)
-def _joint_functions(params: tuple, dt: float):
-    p = np.array(params)
-
     @njit(cache=True)
-    def f(x, u, k):
-        return joint_next(x, u, p, dt)
-
-    @njit(cache=True)
-    def f_jac(x, u, k):
-        return joint_jacobian(x, u, p, dt)
-
-    @njit(cache=True)
-    def h(x, u, k):
-        y = np.empty(2)
-        y[0] = x[0]
-        y[1] = x[2]
-        return y
-
-    @njit(cache=True)
-    def h_jac(x, u, k):
-        H = np.zeros((2, 4))
+    def h_step(x, u, k, out, H):  # H keeps its content between calls: the two ones are written each time
+        out[0] = x[0]
+        out[1] = x[2]
         H[0, 0] = 1.0
         H[1, 2] = 1.0
-        return H
 
-    return f, f_jac, h, h_jac
+    return f, f_jac, h, h_jac, f_step, h_step
 
 
 def _nonlinear_model_class():
@@ -181,7 +169,8 @@ def planar_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0
     Returns
     -------
     NonlinearStateSpaceModel
-        numba-jitted ``f``, ``h`` and analytic Jacobians; inputs are rows of :func:`planar_inputs`.
+        numba-jitted ``f``, ``h``, analytic Jacobians and the fused steps (one tyre-force evaluation per
+        step for f and F); inputs are rows of :func:`planar_inputs`.
 
     Notes
     -----
@@ -196,11 +185,12 @@ def planar_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0
     x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
     if x0.shape != (3,):
         raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
-    f, f_jac, h, h_jac = _planar_functions(tuple(vehicle.as_array().tolist()), dt)
+    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(tuple(vehicle.as_array().tolist()), dt, False)
     Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd]) * dt
     R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
     P0 = np.diag(np.square(tuning.initial_std[:3]))
-    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac)
+    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac,
+                                     transition_step=f_step, observation_step=h_step)
 
 
 def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.0, 0.0),
@@ -216,11 +206,12 @@ def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.
     x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
     if x0.shape != (4,):
         raise ShapeError(f"initial_state must be (V_x, V_y, r, theta_r); got shape {x0.shape}.")
-    f, f_jac, h, h_jac = _joint_functions(tuple(vehicle.as_array().tolist()), dt)
+    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(tuple(vehicle.as_array().tolist()), dt, True)
     Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd, tuning.slope_rate_psd]) * dt
     R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
     P0 = np.diag(np.square(tuning.initial_std))
-    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac)
+    return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac,
+                                     transition_step=f_step, observation_step=h_step)
 
 
 def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None) -> np.ndarray:
@@ -261,10 +252,18 @@ def _fill_inputs(steer, wheel, ax, ay, slope, mu, u):
         u[k, U_SLOPE] = slope[k]
 
 
-def planar_measurements(log: DriveLog, vehicle: Vehicle) -> np.ndarray:
-    """Measurements y (T, 2) of eq. (20): V_x as the mean rear-wheel translational speed, and the gyro r."""
-    return np.column_stack([0.5 * vehicle.wheel_radius * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3]),
-                            log.yaw_rate])
+def planar_measurements(log: DriveLog, vehicle: Vehicle, *, speed_measurement: str = "rear-mean") -> np.ndarray:
+    """Measurements y (T, 2) of eq. (20): V_x (m/s) and the gyro r (rad/s).
+
+    ``speed_measurement="rear-mean"`` (default here, the paper's): V_x is the mean rear-wheel
+    translational speed R (omega_RL + omega_RR)/2. ``"robust"``: the slip-robust reference speed of
+    :func:`longprofile.vehicle.speed_reference` (NaN where no wheel is trustworthy; its per-sample std
+    is ``speed_reference(log, vehicle).std``, which :func:`estimate_slope` gives the EKF as R).
+    """
+    from ._speed_reference import speed_reference
+
+    ref = speed_reference(log, vehicle, method=speed_measurement)
+    return np.column_stack([ref.speed, log.yaw_rate])
 
 
 # ------------------------------------------------------------------------------------------ slope observer
@@ -385,7 +384,7 @@ def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std,
 
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
                    poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None,
-                   initial_state=None) -> SlopeEstimate:
+                   initial_state=None, speed_measurement: str = "robust") -> SlopeEstimate:
     r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
 
     Parameters
@@ -407,6 +406,12 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     initial_state : (3,) array_like, optional
         Prior mean of (V_x, V_y, r) (default: first speed reading, 0, first gyro reading); the grade
         starts at 0 in both methods.
+    speed_measurement : {"robust", "rear-mean"}
+        The V_x measurement (:func:`longprofile.vehicle.speed_reference`). ``"rear-mean"``: the paper's
+        mean rear-wheel speed with the fixed std ``tuning.speed_std``. ``"robust"`` (default): the
+        torque-free wheels when there are any, else the slip-compensated four wheels, with a
+        per-sample std (time-varying R), and missing samples (the EKF propagates) when no wheel is
+        trustworthy. On a front-wheel-drive car that is not braking both are the same measurement.
 
     Returns
     -------
@@ -422,7 +427,8 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     Notes
     -----
     Cascade (paper 001, section II and IV): the first observer is the EKF of eq. (20) with
-    measurements V_x = R (omega_rl + omega_rr)/2 and r. Its model is run with theta_r = 0: section
+    measurements V_x (the paper's R (omega_rl + omega_rr)/2, or the slip-robust reference speed, see
+    ``speed_measurement``) and r. Its model is run with theta_r = 0: section
     II requires the first subsystem S1 not to depend on the second observer's state, whereas eq.
     (20) feeds back theta_r-hat, a loop the convergence proof does not cover. The grade acceleration
     is absorbed by the V_x process noise (``vx_rate_psd``), which keeps V_x-hat, hence the slips and
@@ -432,29 +438,36 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     equation with the fixed gain) driven by the EKF's median F_res std and the speed noise, both
     treated as white. It is the noise part only: while the grade changes at a rate rho (rad/s) the
     observer also lags by about rho (-1/p1 - 1/p2) (0.34 s x rho with the default poles), and model
-    errors (mass, adhesion, rear-wheel slip under braking) add biases; see docs/vehicle-slope.md.
+    errors (mass, adhesion; with ``speed_measurement="rear-mean"`` rear-wheel slip under braking) add
+    biases; see docs/vehicle-slope.md.
 
     Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
     """
     if method not in ("cascade", "joint"):
         raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
+    if speed_measurement not in ("robust", "rear-mean"):
+        raise InputError(f"speed_measurement must be 'robust' or 'rear-mean'; got {speed_measurement!r}.")
     if not isinstance(log, DriveLog):
         raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
     vehicle = default_vehicle() if vehicle is None else vehicle
     tuning = EKFTuning.for_method(method) if tuning is None else tuning
-    from ..statespace import extended_kalman_filter_cached
+    from ..statespace import extended_kalman_filter
 
     dt = log.dt
     u = planar_inputs(log, vehicle, friction=friction)
-    y = planar_measurements(log, vehicle)
-    slow = y[:, 0] < _MIN_SPEED
+    from ._speed_reference import speed_reference
+
+    ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
+    y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
+    rear = 0.5 * vehicle.wheel_radius * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+    slow = rear < _MIN_SPEED
     if slow.any():
         k = int(np.argmax(slow))
         raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
-                         f"t = {log.time[k]:g} s ({y[k, 0]:.3g} m/s); the planar model of paper 001 (slips of eq. "
+                         f"t = {log.time[k]:g} s ({rear[k]:.3g} m/s); the planar model of paper 001 (slips of eq. "
                          "(18)) is not valid near standstill: cut those parts of the log.")
     if initial_state is None:
-        x0 = [y[0, 0], 0.0, y[0, 1]]
+        x0 = [float(y[0, 0]) if np.isfinite(y[0, 0]) else float(rear[0]), 0.0, y[0, 1]]
     else:
         x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
         if x0.shape != (3,):
@@ -464,7 +477,14 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
     else:
         model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
-    filtered = extended_kalman_filter_cached(model, y, u=u)
+    if np.any(ref.std != tuning.speed_std):  # per-sample R from the speed std (any value where V_x is missing)
+        from dataclasses import replace
+
+        R_t = np.zeros((y.shape[0], 2, 2))
+        R_t[:, 0, 0] = np.square(np.where(np.isnan(ref.std), tuning.speed_std, ref.std))
+        R_t[:, 1, 1] = tuning.yaw_rate_std ** 2
+        model = replace(model, obs_cov=R_t)
+    filtered = extended_kalman_filter(model, y, u=u)
     mean, cov = filtered.mean, filtered.cov
     T = y.shape[0]
     p = vehicle.as_array()
@@ -481,7 +501,8 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     if method != "cascade":
         slope, slope_std = mean[:, 3].copy(), std[:, 3].copy()
     else:
-        slope, slope_std, gain = _cascade_slope(vehicle, dt, y[:, 0], res, res_std, poles, tuning)
+        speed = np.where(np.isnan(y[:, 0]), mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
+        slope, slope_std, gain = _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning)
     return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,

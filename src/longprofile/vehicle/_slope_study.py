@@ -7,7 +7,8 @@ import pandas as pd
 
 from ._slope import estimate_slope
 
-__all__ = ["accuracy_scores", "PAPER_PROTOTYPE_ERRORS", "sensitivity_study", "plot_sensitivity"]
+__all__ = ["accuracy_scores", "PAPER_PROTOTYPE_ERRORS", "sensitivity_study", "plot_sensitivity",
+           "speed_measurement_study", "plot_speed_measurement"]
 
 #: Relative estimation errors reported on the prototype vehicle (paper 001, section V.B).
 PAPER_PROTOTYPE_ERRORS = {"vx": 0.04, "vy": 0.05, "yaw_rate": 0.075}
@@ -85,4 +86,80 @@ def plot_sensitivity(simulation, errors: dict, *, title: str = ""):
     for a in ax:
         a.grid(alpha=0.3)
     fig.suptitle(title or f"Slope sensitivity to the vehicle model ({simulation.scenario} drive)")
+    return fig
+
+
+def speed_measurement_study(vehicle=None, *, scenarios=("paper", "hill", "low-mu"), seed=0,
+                            settle: float = 2.0) -> tuple[pd.DataFrame, dict]:
+    """Errors of both estimators with the paper's V_x measurement and with the slip-robust one.
+
+    Simulates each scenario with ``vehicle`` (default car) and sensor seed ``seed``, then runs
+    :func:`estimate_slope` with ``speed_measurement="rear-mean"`` and ``"robust"`` for the cascade and
+    the joint EKF.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        One row per (scenario, method, speed_measurement): the :func:`accuracy_scores` after
+        ``settle`` seconds, plus ``speed_rms`` (m/s, error of the V_x measurement where present),
+        ``compensated_fraction`` and ``missing_fraction`` of the samples (see
+        :func:`longprofile.vehicle.speed_reference`).
+    runs : dict
+        scenario -> (simulation, {(method, speed_measurement): SlopeEstimate}) (for plotting).
+    """
+    from ._car import default_vehicle
+    from ._planar_sim import simulate_drive
+    from ._speed_reference import speed_reference
+
+    car = default_vehicle() if vehicle is None else vehicle
+    rows = []
+    runs = {}
+    for scenario in scenarios:
+        sim = simulate_drive(scenario, car, seed=seed)
+        m = sim.log.time >= settle
+        ests = {}
+        for sm in ("rear-mean", "robust"):
+            ref = speed_reference(sim.log, car, method=sm)
+            err = (ref.speed - sim.truth.vx)[m]
+            for method in ("cascade", "joint"):
+                est = estimate_slope(sim.log, car, method=method, speed_measurement=sm)
+                ests[(method, sm)] = est
+                rows.append({"scenario": scenario, "method": method, "speed_measurement": sm}
+                            | accuracy_scores(sim, est, settle=settle)
+                            | {"speed_rms": float(np.sqrt(np.nanmean(err ** 2))),
+                               "compensated_fraction": float(np.mean(ref.source[m] == 2)),
+                               "missing_fraction": float(np.mean(ref.source[m] == 0))})
+        runs[scenario] = (sim, ests)
+    return pd.DataFrame(rows), runs
+
+
+def plot_speed_measurement(simulation, estimates: dict, *, title: str = ""):
+    """Slope error over time with the paper's and the robust V_x measurement (from :func:`speed_measurement_study`).
+
+    ``estimates`` maps (method, speed_measurement) to a SlopeEstimate of ``simulation.log``.
+    """
+    from matplotlib.figure import Figure
+
+    t = simulation.log.time
+    tr = simulation.truth
+    fig = Figure(figsize=(9.0, 6.0), layout="constrained")
+    ax = fig.subplots(2, 1, sharex=True)
+    ax[0].plot(t, np.degrees(tr.slope), color="k", label="true grade [deg]")
+    ax[0].set_ylabel("grade [deg]")
+    ax0b = ax[0].twinx()
+    ax0b.plot(t, tr.accel_x, color="C7", lw=0.8)
+    ax0b.set_ylabel("a_x (specific force) [m/s²]", color="C7")
+    ax[0].legend(loc="upper left", fontsize=7)
+    styles = {"rear-mean": ":", "robust": "-"}
+    for (method, sm), est in estimates.items():
+        ax[1].plot(t, np.degrees(est.slope - tr.slope), ls=styles.get(sm, "-"), lw=1.0,
+                   color="C0" if method == "cascade" else "C3", label=f"{method}, V_x {sm}")
+    ax[1].axhspan(-0.3, 0.3, color="g", alpha=0.1, label="±0.3°")
+    ax[1].set_ylim(-10, 10)
+    ax[1].set_ylabel("slope error [deg] (clipped ±10)")
+    ax[1].set_xlabel("time [s]")
+    ax[1].legend(fontsize=7, ncol=2)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.suptitle(title or f"V_x measurement: paper's rear-wheel mean vs slip-robust ({simulation.scenario} drive)")
     return fig

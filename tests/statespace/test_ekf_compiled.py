@@ -1,4 +1,5 @@
-"""EKF with the disk-cached compiled loop: same numbers as the engine's EKF, cache hit in a new process."""
+"""The EKF's compiled loops: typed by signature (cached on disk, a new process loads it) or by identity, with
+separate model functions or fused in-place steps -- the same numbers as the Python loop everywhere."""
 
 import subprocess
 import sys
@@ -8,10 +9,9 @@ import numpy as np
 import pytest
 from numba import njit
 
-from longprofile.errors import ModelError
-from longprofile.statespace import (NonlinearStateSpaceModel, StateSpaceModel, extended_kalman_filter,
-                                    extended_kalman_filter_cached, kalman_filter)
-from longprofile.statespace._ekf_cached import _engine_compatible, _model_types, cached_kernel
+from longprofile.errors import InputError, ModelError
+from longprofile.statespace import NonlinearStateSpaceModel, StateSpaceModel, extended_kalman_filter, kalman_filter
+from longprofile.statespace._ekf import cached_ekf_kernel, model_function_types
 
 _rng = np.random.default_rng(7)
 F_LIN = np.array([[0.9, 0.1, 0.0], [-0.1, 0.8, 0.2], [0.0, 0.05, 0.95]])
@@ -67,6 +67,42 @@ def pend_h(x, u, k):
 
 
 @njit(cache=True)
+def pend_fj(x, u, k):
+    J = np.empty((2, 2))
+    J[0, 0], J[0, 1] = 1.0, 0.01
+    J[1, 0], J[1, 1] = -0.01 * 9.81 * np.cos(x[0]), 1.0
+    return J
+
+
+@njit(cache=True)
+def pend_hj(x, u, k):
+    H = np.zeros((1, 2))
+    H[0, 0] = np.cos(x[0])
+    return H
+
+
+@njit(cache=True)
+def pend_fstep(x, u, k, out, J):  # fused f and Jacobian, in place (the zero-initialised J keeps its content)
+    c = np.cos(x[0])
+    out[0] = x[0] + 0.01 * x[1]
+    out[1] = x[1] - 0.01 * 9.81 * np.sin(x[0])
+    J[0, 0], J[0, 1] = 1.0, 0.01
+    J[1, 0], J[1, 1] = -0.01 * 9.81 * c, 1.0
+
+
+@njit(cache=True)
+def pend_hstep(x, u, k, out, H):
+    out[0] = np.sin(x[0])
+    H[0, 0] = np.cos(x[0])
+
+
+@njit(cache=True)
+def pend_hstep_wrong(x, u, k, out, H):
+    out[0] = np.sin(x[0])
+    H[0, 0] = 1.0
+
+
+@njit(cache=True)
 def strided_f(x, u, k):  # returns a non-contiguous array: cannot be typed for the cached loop
     out = np.empty(2 * x.shape[0])
     for i in range(x.shape[0]):
@@ -103,13 +139,13 @@ def _python(model):
                                     model.initial_cov, transition_jacobian=py[2], observation_jacobian=py[3])
 
 
-def test_linear_model_matches_the_kalman_filter_and_the_uncached_ekf():
+def test_linear_model_matches_the_kalman_filter_and_the_python_loop():
     y, u = _data()
     x0, P0 = np.array([0.5, -0.2, 0.1]), np.eye(3)
     model = NonlinearStateSpaceModel(lin_f, lin_h, Q_LIN, R_LIN, x0, P0, transition_jacobian=lin_fj,
                                      observation_jacobian=lin_hj)
-    assert _engine_compatible()  # otherwise the cached loop is silently replaced by extended_kalman_filter
-    got = extended_kalman_filter_cached(model, y, u=u)
+    assert model_function_types(model) is not None  # runs the signature-typed (disk-cached) loop
+    got = extended_kalman_filter(model, y, u=u)
     kf = kalman_filter(StateSpaceModel(F_LIN, H_LIN, Q_LIN, R_LIN, x0, P0, input_transition=B_LIN,
                                        state_offset=C_OFF), y, u=u)
     np.testing.assert_allclose(got.mean, kf.mean, atol=1e-10)
@@ -124,7 +160,7 @@ def test_linear_model_matches_the_kalman_filter_and_the_uncached_ekf():
     assert got.n_observed == ref.n_observed and got.method == "ekf"
 
 
-def test_finite_difference_jacobians_batches_and_means_only_match_the_uncached_ekf():
+def test_finite_difference_jacobians_batches_and_means_only_match_the_python_loop():
     T = 150
     truth = 0.3 * np.sin(0.05 * np.arange(T))
     y = (np.sin(truth) + 0.05 * _rng.normal(size=T))[:, None]
@@ -132,36 +168,57 @@ def test_finite_difference_jacobians_batches_and_means_only_match_the_uncached_e
                                      np.array([0.2, 0.0]), np.diag([0.1, 0.1]))
     yb = np.stack([y, y[::-1]])
     for store in (True, False):
-        got = extended_kalman_filter_cached(model, yb, store_covariances=store)
+        got = extended_kalman_filter(model, yb, store_covariances=store)
         ref = extended_kalman_filter(_python(model), yb, store_covariances=store)
         np.testing.assert_allclose(got.mean, ref.mean, rtol=1e-8, atol=1e-10)  # FD amplifies ulp differences
         np.testing.assert_allclose(got.log_likelihood, ref.log_likelihood, rtol=1e-8)
         assert (got.cov is None) == (not store)
 
 
-def test_models_that_do_not_fit_the_cached_loop_fall_back_to_the_engine_ekf():
+def test_fused_steps_give_the_same_filter_as_the_separate_functions():
+    T = 150
+    y = (np.sin(0.3 * np.sin(0.05 * np.arange(T))) + 0.05 * _rng.normal(size=T))[:, None]
+    y[20:25] = np.nan
+    kw = dict(process_cov=np.diag([1e-5, 1e-4]), obs_cov=np.array([[0.05 ** 2]]), initial_mean=np.array([0.2, 0.0]),
+              initial_cov=np.diag([0.1, 0.1]), transition_jacobian=pend_fj, observation_jacobian=pend_hj)
+    separate = NonlinearStateSpaceModel(pend_f, pend_h, **kw)
+    fused = NonlinearStateSpaceModel(pend_f, pend_h, **kw, transition_step=pend_fstep, observation_step=pend_hstep)
+    a, b = extended_kalman_filter(separate, y), extended_kalman_filter(fused, y)
+    for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation", "innovation_cov", "log_likelihood_steps",
+                 "transition_jacobians", "observation_jacobians"):
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+    with pytest.raises(ModelError, match="observation_step disagrees"):
+        extended_kalman_filter(NonlinearStateSpaceModel(pend_f, pend_h, **kw, transition_step=pend_fstep,
+                                                        observation_step=pend_hstep_wrong), y)
+    with pytest.raises(InputError, match="both transition_step and observation_step"):
+        NonlinearStateSpaceModel(pend_f, pend_h, **kw, transition_step=pend_fstep)
+    with pytest.raises(InputError, match="transition_step must be a numba"):
+        NonlinearStateSpaceModel(pend_f, pend_h, **kw, transition_step=pend_fstep.py_func, observation_step=pend_hstep)
+
+
+def test_jitted_functions_of_another_signature_run_the_per_process_loop():
     y = _rng.normal(size=(30, 2))
     P0 = np.eye(2)
     strided = NonlinearStateSpaceModel(strided_f, ident_h, np.eye(2) * 0.1, np.eye(2), np.zeros(2), P0)
-    python = NonlinearStateSpaceModel(lambda x, u, k: 0.5 * x, lambda x, u, k: x.copy(), np.eye(2) * 0.1, np.eye(2),
-                                      np.zeros(2), P0)
     # a jitted function returning a non-contiguous array cannot be typed for the cached loop
-    assert strided.is_compiled and _model_types(strided) is None
-    assert _model_types(NonlinearStateSpaceModel(pend_f, pend_h, np.eye(2), np.eye(1), np.zeros(2), P0)) is not None
-    np.testing.assert_array_equal(extended_kalman_filter_cached(python, y).mean, extended_kalman_filter(python, y).mean)
+    assert strided.is_compiled and model_function_types(strided) is None
+    assert model_function_types(NonlinearStateSpaceModel(pend_f, pend_h, np.eye(2), np.eye(1), np.zeros(2),
+                                                         P0)) is not None
+    np.testing.assert_allclose(extended_kalman_filter(strided, y).mean, extended_kalman_filter(_python(strided), y).mean,
+                               rtol=1e-10, atol=1e-12)
 
 
 def test_non_finite_transition_raises_model_error_with_the_step():
     model = NonlinearStateSpaceModel(blow_up_f, pend_h, np.eye(2) * 0.1, np.eye(1), np.ones(2), np.eye(2))
     with pytest.raises(ModelError, match="step 5"):
-        extended_kalman_filter_cached(model, np.zeros(20))
+        extended_kalman_filter(model, np.zeros(20))
 
 
 _SCRIPT = textwrap.dedent("""
     import numpy as np
     from numba import njit
-    from longprofile.statespace import NonlinearStateSpaceModel, extended_kalman_filter_cached
-    from longprofile.statespace._ekf_cached import cached_kernel
+    from longprofile.statespace import NonlinearStateSpaceModel, extended_kalman_filter
+    from longprofile.statespace._ekf import cached_ekf_kernel
 
     @njit
     def f(x, u, k):
@@ -172,8 +229,8 @@ _SCRIPT = textwrap.dedent("""
         return x[:1].copy()
 
     model = NonlinearStateSpaceModel(f, h, np.eye(2) * 0.1, np.eye(1), np.zeros(2), np.eye(2))
-    extended_kalman_filter_cached(model, np.ones((50, 1)))
-    st = cached_kernel().stats
+    extended_kalman_filter(model, np.ones((50, 1)))
+    st = cached_ekf_kernel().stats
     print(sum(st.cache_hits.values()), sum(st.cache_misses.values()))
 """)
 
@@ -186,4 +243,4 @@ def test_the_compiled_loop_is_loaded_from_disk_by_a_new_process():
         assert r.returncode == 0, r.stderr
     hits, misses = (int(v) for v in runs[1].stdout.split())
     assert (hits, misses) == (1, 0)
-    assert cached_kernel() is cached_kernel()
+    assert cached_ekf_kernel() is cached_ekf_kernel()
