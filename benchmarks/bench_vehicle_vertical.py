@@ -8,6 +8,8 @@ Rows:
 * real-time factor of the centralised full-car EKF (engine's dense extended_kalman_filter, same model,
   full Jacobians) and the speed-up of the per-corner decomposition over it (the thesis's reason for it, §5.3);
 * real-time factor of the whole estimator (EKF + absolute-velocity reconstruction), configuration 1;
+* the car as a road profilometer: IRI from the suspension sensors vs the true wheel-path IRI on ISO 8608
+  class B, C, D roads, configurations 1-3 (issue 7 goal: within 10 %);
 * multiplications and tanh per step of our EKF next to the thesis's Table 6 (config 1: 676 multiplications,
   48 tanh for the four corners including the velocity reconstruction, of which 512 / 16 in the EKF rows).
   Ours are counted analytically from the loops of the kernels, the way the thesis counts (structural zeros
@@ -148,6 +150,7 @@ def run(quick: bool) -> list[BenchRow]:
             rows.append(BenchRow(AREA, "whole estimator real-time factor, config 1", duration / tw, "x real time",
                                  detail="CPU time; EKF + handling/comfort models + output filters, "
                                         "covariances stored"))
+    rows += _profilometer_rows(quick)
     thesis_ekf = {1: 676 - 88 - 76, 2: 1256 - 32 - 32, 3: 1274 - 32 - 32}
     for config in (1, 2, 3):
         thesis = {1: (676, 48), 2: (1256, 16), 3: (1274, 16)}[config]
@@ -160,4 +163,32 @@ def run(quick: bool) -> list[BenchRow]:
         rows.append(BenchRow(AREA, f"tanh per step (4 corners), config {config}", float(_tanh_per_step(config)),
                              "tanh/step", detail=f"EKF only; thesis Table 6: {16 if config == 1 else 32} in its EKF "
                                                  f"rows ({thesis[1]} printed total incl. velocity reconstruction)"))
+    return rows
+
+
+def _profilometer_rows(quick: bool) -> list[BenchRow]:
+    """IRI of the two front wheel paths from the car's sensors vs the true IRI (25 s at 20 m/s, seed 5)."""
+    from longprofile.road import Profile, iri, iso8608_profile
+    from longprofile.vehicle import (estimate_vertical_states, measure_vertical, road_profile_from_suspension,
+                                     simulate_vertical, wheel_road_inputs)
+
+    speed, dt = 20.0, 1e-3
+    duration = 12.0 if quick else 25.0
+    rows = []
+    for road_class in ("C",) if quick else ("B", "C", "D"):
+        prof = iso8608_profile(speed * duration + 10, 0.05, road_class, rng=5, tracks=("left", "right"))
+        sim = simulate_vertical(wheel_road_inputs(prof, speed, dt, duration=duration), dt)
+        for config in (3,) if quick else (1, 2, 3):
+            sens = measure_vertical(sim, config, rng=2)
+            car = road_profile_from_suspension(sens, estimate_vertical_states(sens), speed)
+            true = Profile(distance=car.distance, elevation=sim.road[:, :2], tracks=("left", "right"))
+            ours = iri(car).section_iri  # whole-section IRI per track (left, right)
+            ref = iri(true).section_iri
+            err = 100.0 * (ours / ref - 1.0)
+            rows.append(BenchRow(AREA, f"|IRI error| from car sensors, class {road_class}, config {config}",
+                                 float(np.abs(err).max()), "%",
+                                 target=10.0 if config == 3 else None, higher_is_better=False,
+                                 detail=f"worse of left/right IRI error (left {err[0]:+.1f} %, right {err[1]:+.1f} "
+                                        f"%), true IRI {ref[0]:.2f} / {ref[1]:.2f} m/km, {duration:g} s at "
+                                        f"{speed:g} m/s, RTS-smoothed tyre deflection"))
     return rows

@@ -43,3 +43,20 @@ def test_import_has_no_side_effects_on_warnings_or_logging():
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr
+
+
+def test_lazy_vehicle_namespace_lists_exactly_its_exports_and_stays_light():
+    import subprocess
+    import sys
+
+    import longprofile.vehicle as vehicle
+
+    assert set(vehicle._WHERE) == set(vehicle.__all__)
+    assert set(vehicle.__all__) <= set(dir(vehicle))
+    with pytest.raises(AttributeError, match="no attribute 'estimate_slopes'"):
+        vehicle.estimate_slopes  # noqa: B018
+    # the planar estimator does not drag in the vertical estimators (and scipy.signal)
+    code = ("import sys\nfrom longprofile.vehicle import estimate_slope\n"
+            "print('longprofile.vehicle._vertical_estimate' in sys.modules, 'scipy.signal' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.stdout.split() == ["False", "False"], proc.stdout + proc.stderr

@@ -1,4 +1,4 @@
-"""``longprofile vehicle vertical simulate|estimate`` (thesis 003: vertical states from suspension sensors)."""
+"""``longprofile vehicle vertical simulate|estimate|tables`` (thesis 003: vertical states from suspension sensors)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console
+from ._common import check_output_path, check_plot_path, console, progress
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
@@ -16,6 +16,16 @@ def _save_figure(fig, path: Path):
     out = check_output_path(path)
     fig.savefig(out, dpi=110)
     console.print(f"wrote {out}")
+
+
+def _car_damper(car: str):
+    from ..errors import InputError
+    from ..vehicle._vertical_eval import CARS
+    from ..vehicle._vertical_model import MRDamperParams
+
+    if car not in CARS:
+        raise InputError(f"--car must be one of {list(CARS)}; got {car!r}.")
+    return MRDamperParams() if car == "magneride" else None
 
 
 @vertical_app.command("simulate")
@@ -29,6 +39,8 @@ def simulate(
     speed: float = typer.Option(20.0, "--speed", help="Vehicle speed, m/s."),
     duration: float = typer.Option(20.0, "--duration", help="Length of the run, s."),
     seed: int = typer.Option(0, "--seed", help="Seed of the road and the sensor noise."),
+    car: str = typer.Option("ideal", "--car", help="ideal (passive dampers) or magneride (MR dampers driven by a "
+                                                   "skyhook controller; the log gains current_FL..RR, A)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the true states of the front-left corner (PNG)."),
 ):
     """Simulate the 7-DOF car on a thesis test and write the sensors of one configuration (plus true_* columns)."""
@@ -37,12 +49,13 @@ def simulate(
 
     out = check_output_path(output)
     check_plot_path(plot)
+    mr = _car_damper(car)
     with console.status("simulating the 7-DOF car..."):
         sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed, duration=duration,
-                                         seed=seed)
+                                         seed=seed, mr_damper=mr)
     frame = sensors_to_frame(sensors, sim)
     write_table(frame, out)
-    console.print(f"wrote {out} ({sim.time.size} samples, config {config}, test {test})")
+    console.print(f"wrote {out} ({sim.time.size} samples, config {config}, test {test}, car {car})")
     if plot is not None:
         from types import SimpleNamespace
 
@@ -74,14 +87,56 @@ def estimate(
     check_plot_path(plot, log)
     frame = read_table(log)
     sensors = sensors_from_frame(frame, config, source=str(log))
+    act = None
+    if sensors.damper_current is not None:
+        from ..vehicle._vertical_estimate import damper_velocity_from_displacement, mr_actuator_force
+
+        # MagneRide log: the logged currents through the default nominal map (docs: "MagneRide car")
+        act = mr_actuator_force(sensors.damper_current,
+                                damper_velocity_from_displacement(sensors.displacement, sensors.dt))
+        console.print("log has current_* columns: actuator forces from the nominal MR map")
     with console.status("running the corner EKFs..."):
-        est = estimate_vertical_states(sensors, decentralised=not centralised)
+        est = estimate_vertical_states(sensors, decentralised=not centralised, actuator_force=act)
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
     if plot is not None:
         from ..vehicle import plot_vertical_estimate
 
         _save_figure(plot_vertical_estimate(est, frame), plot)
+
+
+@vertical_app.command("tables")
+def tables(
+    output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): test, config, "
+                                                            "variable, epsilon, epsilon_all_corners, thesis, "
+                                                            "reference, car."),
+    duration: float = typer.Option(30.0, "--duration", help="Length of each test run, s."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the roads and the sensor noises."),
+    reference: str = typer.Option("truth", "--reference", help="Score against the simulator's truth, or against "
+                                                               "the thesis's references rebuilt from measured "
+                                                               "signals (integrated accelerometers): truth|thesis."),
+    car: str = typer.Option("ideal", "--car", help="ideal (passive simulated car) or magneride (MR dampers + "
+                                                   "skyhook; the filters get the logged currents through a nominal "
+                                                   "map with a 12 % force error, no lag)."),
+    plot: Path | None = typer.Option(None, "--plot", help="Also draw ours next to the thesis's numbers (PNG)."),
+):
+    """Reproduce the thesis's result tables 4.4 (bench) and 4.5 (track) on the simulator, configurations 1-3."""
+    from ..io import write_table
+    from ..vehicle import reproduce_thesis_tables
+
+    out = check_output_path(output)
+    check_plot_path(plot)
+    with progress() as bar:
+        task = bar.add_task("bench and track tests, configurations 1-3", total=6)
+        table = reproduce_thesis_tables(duration=duration, seed=seed, reference=reference, car=car,
+                                        progress=lambda done, total: bar.update(task, completed=done))
+    write_table(table, out)
+    console.print(f"wrote {out} ({len(table)} rows, reference {reference}, car {car}, {duration:g} s per test, "
+                  f"seed {seed})")
+    if plot is not None:
+        from ..vehicle._vertical_plot import plot_thesis_tables
+
+        _save_figure(plot_thesis_tables(table), plot)
 
 
 def register(app: typer.Typer) -> None:

@@ -29,6 +29,9 @@ estimate_vertical_states -- per-corner EKFs + absolute velocities; VerticalState
 CornerFilterSettings / thesis_filter_settings -- Q/R/P0 of the thesis per configuration.
 corner_observability  -- SVD observability analysis of the corner models; ObservabilityResult.
 epsilon_score / score_vertical_estimate / reproduce_thesis_tables -- the thesis criterion and Tables 4.4/4.5.
+thesis_references     -- the thesis's evaluation references rebuilt from measured signals (REFERENCES).
+MRDamperParams        -- MagneRide (MR) damper of the "magneride" car (CARS): tanh map, current lag; skyhook_current.
+nominal_mr_map / mr_actuator_force / damper_velocity_from_displacement -- the filter's MR map and actuator input.
 vertical_test_run     -- simulate a thesis test (road / 4-poster sweep / track) and measure one configuration.
 estimate_to_frame / plot_vertical_estimate -- table and figure of a VerticalStateEstimate.
 smooth_vertical_states -- offline extended RTS smoothing of the corner-EKF estimate.
@@ -36,26 +39,48 @@ vertical_linear_model / estimate_vertical_states_linear -- centralised linear fu
 road_profile_from_suspension -- the road under the wheels from the suspension sensors (car as profilometer).
 """
 
-from ._car import Vehicle, default_vehicle, load_vehicle
-from ._dugoff import TyreForces, dugoff_forces
-from ._planar_sim import (LOG_COLUMNS, SCENARIOS, DriveLog, DriveScenario, DriveTruth, PlanarSimulation, SensorSpec,
-                          drive_scenario, simulate_drive)
-from ._slope import (EKFTuning, SlopeEstimate, estimate_slope, planar_ekf_model, planar_inputs, planar_measurements,
-                     slope_ekf_model, slope_observer_gain, slope_observer_matrices)
-from ._slope_plot import plot_drive, plot_slope_estimate
-from ._speed_reference import SPEED_SOURCES, SpeedReference, speed_reference
-from ._vertical_estimate import (CornerFilterSettings, VerticalStateEstimate, estimate_vertical_states,
-                                 estimate_vertical_states_linear, smooth_vertical_states, thesis_filter_settings,
-                                 vertical_ekf_inputs, vertical_ekf_model, vertical_linear_model)
-from ._vertical_eval import (THESIS_BENCH_TABLE, THESIS_TRACK_TABLE, epsilon_score, reproduce_thesis_tables,
-                             score_vertical_estimate)
-from ._vertical_model import VerticalVehicleParams
-from ._vertical_observability import ObservabilityResult, corner_observability
-from ._vertical_plot import estimate_to_frame, plot_vertical_estimate
-from ._vertical_road import road_profile_from_suspension
-from ._vertical_sim import (VerticalSensors, VerticalSimulation, bench_sweep_road, measure_vertical, sensors_from_frame,
-                            sensors_to_frame, simulate_vertical, steering_sine_manoeuvre, vertical_test_run,
-                            wheel_road_inputs)
+from importlib import import_module
+
+# Submodules are imported on first use (PEP 562): ``from longprofile.vehicle import estimate_slope`` loads the
+# planar model only, not the vertical estimators and scipy.signal (a CLI call saves ~1 s of imports).
+_EXPORTS = {
+    "._car": ("Vehicle", "default_vehicle", "load_vehicle",),
+    "._dugoff": ("TyreForces", "dugoff_forces",),
+    "._planar_sim": ("LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation",
+                     "SensorSpec", "drive_scenario", "simulate_drive",),
+    "._slope": ("EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model", "planar_inputs",
+                "planar_measurements", "slope_ekf_model", "slope_observer_gain", "slope_observer_matrices",),
+    "._slope_plot": ("plot_drive", "plot_slope_estimate",),
+    "._speed_reference": ("SPEED_SOURCES", "SpeedReference", "speed_reference",),
+    "._vertical_estimate": ("CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
+                            "estimate_vertical_states_linear", "smooth_vertical_states", "thesis_filter_settings",
+                            "vertical_ekf_inputs", "vertical_ekf_model", "vertical_linear_model", "nominal_mr_map",
+                            "mr_actuator_force", "damper_velocity_from_displacement",),
+    "._vertical_eval": ("REFERENCES", "CARS", "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "epsilon_score",
+                        "reproduce_thesis_tables", "score_vertical_estimate", "thesis_references",),
+    "._vertical_model": ("VerticalVehicleParams", "MRDamperParams", "skyhook_current",),
+    "._vertical_observability": ("ObservabilityResult", "corner_observability",),
+    "._vertical_plot": ("estimate_to_frame", "plot_vertical_estimate",),
+    "._vertical_road": ("road_profile_from_suspension",),
+    "._vertical_sim": ("VerticalSensors", "VerticalSimulation", "bench_sweep_road", "measure_vertical",
+                       "sensors_from_frame", "sensors_to_frame", "simulate_vertical", "steering_sine_manoeuvre",
+                       "vertical_test_run", "wheel_road_inputs",),
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+
+def __getattr__(name):
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle",
@@ -70,7 +95,9 @@ __all__ = [
     "steering_sine_manoeuvre", "measure_vertical", "VerticalSensors", "sensors_to_frame", "sensors_from_frame",
     "vertical_ekf_model", "vertical_ekf_inputs", "estimate_vertical_states", "VerticalStateEstimate",
     "CornerFilterSettings", "thesis_filter_settings", "corner_observability", "ObservabilityResult",
-    "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "THESIS_BENCH_TABLE",
+    "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "thesis_references", "REFERENCES", "CARS",
+    "MRDamperParams", "skyhook_current", "nominal_mr_map", "mr_actuator_force", "damper_velocity_from_displacement",
+    "THESIS_BENCH_TABLE",
     "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
     "smooth_vertical_states", "road_profile_from_suspension", "vertical_linear_model",
     "estimate_vertical_states_linear",

@@ -45,7 +45,8 @@ from numba import njit
 
 from ..errors import InputError
 
-__all__ = ["VerticalVehicleParams", "vertical_params_arrays", "spring_force", "damper_force"]
+__all__ = ["VerticalVehicleParams", "vertical_params_arrays", "spring_force", "damper_force", "MRDamperParams",
+           "mr_controlled_force", "skyhook_current", "THESIS_MR_TIME_CONSTANT"]
 
 N_CORNERS = 4
 CORNER_NAMES = ("FL", "FR", "RL", "RR")
@@ -351,3 +352,100 @@ def _pitch_moment(ax, corner, scalars):
     # -M Hp a_x ; d_ax = x M Hp / Ip
     x = corner[0, CX]
     return -corner[0, CDAX] * ax * scalars[SIP] / x
+
+
+# ----------------------------------------------------------------------------------------------- MR damper
+#: Thesis §1.2.4 / Fig. 1.36-1.38: the test car's MagneRide damper has a bandwidth of about 80 Hz, i.e. a
+#: first-order current-to-force time constant 1 / (2 pi 80 Hz) = 2.0 ms.
+THESIS_MR_TIME_CONSTANT = 1.0 / (2.0 * math.pi * 80.0)
+
+
+@dataclass(frozen=True)
+class MRDamperParams:
+    """A magnetorheological (MagneRide-like) damper per corner and its comfort controller (thesis 003 §1.2.4, §1.4.2).
+
+    The damper force is the passive (off-state, zero-current) damper of :class:`VerticalVehicleParams` plus
+    the controlled force of the current ``i`` (A) at damper velocity ``v = dZ21dot`` (m/s)::
+
+        F_mr(i, v) = F_y(i) tanh(v / v_y),      F_y(i) = F_max (1 - exp(-i / i_sat))
+
+    (tension sign convention of :mod:`._vertical_model`: the force opposes the damper velocity, dissipative
+    for every current). This is the hyperbolic-tangent MR model (Kwok et al., Sensors Actuators A 132, 2006;
+    Guo et al., J. Intell. Mater. Syst. Struct. 17, 2006) without its pre-yield stiffness and hysteresis
+    terms, with a yield force saturating in current (magnetic saturation of the fluid/piston, e.g. Gavin et
+    al., US-Japan workshop 2001). The thesis's own map (Delphi's, §1.2.4: ``F_act = mu(i, T, v) v`` with
+    ``mu_min <= mu <= mu_max``, mapped on a bench) is proprietary and not printed.
+
+    The force follows the commanded current through a first-order lag: the "effective" current ``i_eff``
+    obeys ``di_eff/dt = (i_cmd - i_eff) / time_constant`` (coil inductance and fluid chain formation) and
+    ``F = F_mr(i_eff, v)`` (velocity dependence instantaneous).
+
+    Attributes
+    ----------
+    max_force : float
+        F_max, N (default 3000 N). ASSUMPTION: about the passive rebound force at 1 m/s (3175 N) -- MR
+        dampers reach a dynamic range of ~10 over their off state (Gavin et al. 2001); the thesis's Fig. 1.36
+        compares ranges without numbers.
+    saturation_current : float
+        i_sat, A (default 2 A: 63 % of F_max at 2 A, 92 % at 5 A). ASSUMPTION (order of magnitude of
+        automotive MR coils driven 0-5 A).
+    yield_velocity : float
+        v_y, m/s, width of the tanh (default 0.03 m/s). ASSUMPTION: "an MR damper delivers large forces at low
+        velocity" (thesis §2.2); below the passive damper's 0.05 m/s compression/rebound transition.
+    time_constant : float
+        Current-to-force first-order time constant, s (default :data:`THESIS_MR_TIME_CONSTANT` = 2.0 ms,
+        the thesis's ~80 Hz bandwidth; Koo et al., ASME IDETC 2003, measured 13.9-15.4 ms on an automotive MR
+        damper: see the sensitivity in docs/vehicle-vertical.md). 0 = no lag.
+    max_current : float
+        Current limit, A (default 5 A).
+    skyhook_gain : float
+        c_sky, N s/m, of the car's comfort controller (default 3000 N s/m). ASSUMPTION: ~0.3 of the critical
+        damping of a front body corner (2 sqrt(40 000 x 514) = 9 070 N s/m).
+    """
+
+    max_force: float = 3000.0
+    saturation_current: float = 2.0
+    yield_velocity: float = 0.03
+    time_constant: float = THESIS_MR_TIME_CONSTANT
+    max_current: float = 5.0
+    skyhook_gain: float = 3000.0
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise InputError(f"MRDamperParams.{f.name} must be a finite number; got {v!r}.")
+            if f.name == "time_constant" or f.name == "skyhook_gain" or f.name == "max_force":
+                if v < 0:
+                    raise InputError(f"MRDamperParams.{f.name} must be >= 0; got {v!r}.")
+            elif v <= 0:
+                raise InputError(f"MRDamperParams.{f.name} must be > 0; got {v!r}.")
+
+    def as_array(self) -> np.ndarray:
+        """(6,) array [F_max, i_sat, v_y, time constant, i_max, c_sky] for the compiled kernels."""
+        return np.array([self.max_force, self.saturation_current, self.yield_velocity, self.time_constant,
+                         self.max_current, self.skyhook_gain])
+
+
+@njit(cache=True)
+def mr_controlled_force(current, v, max_force, saturation_current, yield_velocity):
+    """Controlled MR force ``F_y(i) tanh(v / v_y)``, N, with ``F_y(i) = F_max (1 - exp(-i / i_sat))`` (i >= 0)."""
+    i = current if current > 0.0 else 0.0
+    return max_force * (1.0 - math.exp(-i / saturation_current)) * math.tanh(v / yield_velocity)
+
+
+@njit(cache=True)
+def skyhook_current(body_velocity, damper_velocity, mr):
+    """Current (A) of a clipped continuous skyhook (thesis §1.4.2): request ``c_sky Z2dot`` when dissipative.
+
+    When ``Z2dot dZ21dot > 0`` the requested tension ``c_sky Z2dot`` has the sign of the damper velocity and
+    the MR map is inverted at the current damper velocity, ``i = -i_sat ln(1 - F / (F_max |tanh(v/v_y)|))``,
+    clipped to [0, i_max]; otherwise 0 A (the damper cannot push). ``mr`` = :meth:`MRDamperParams.as_array`.
+    """
+    if body_velocity * damper_velocity <= 0.0 or mr[0] <= 0.0:
+        return 0.0
+    want = mr[5] * abs(body_velocity)
+    cap = mr[0] * abs(math.tanh(damper_velocity / mr[2]))
+    if want >= cap * (1.0 - math.exp(-mr[4] / mr[1])):
+        return mr[4]
+    return -mr[1] * math.log(1.0 - want / cap)

@@ -7,7 +7,7 @@ import pandas as pd
 from ._vertical_estimate import VerticalStateEstimate
 from ._vertical_model import CORNER_NAMES
 
-__all__ = ["estimate_to_frame", "plot_vertical_estimate"]
+__all__ = ["estimate_to_frame", "plot_vertical_estimate", "plot_thesis_tables"]
 
 _FIELDS = (("suspension_deflection", "dz21", "m"), ("suspension_velocity", "dz21dot", "m/s"),
            ("vehicle_disturbance", "disturbance", "N"), ("tyre_deflection", "dz10", "m"),
@@ -69,4 +69,57 @@ def plot_vertical_estimate(estimate: VerticalStateEstimate, truth: pd.DataFrame 
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(f"Vertical states, corner {name} — {estimate.method} (thesis 003)")
     fig.tight_layout()
+    return fig
+
+
+_TABLE_LABELS = {"suspension_deflection": "ΔZ21", "suspension_velocity": "ΔŻ21", "tyre_force": "tyre load",
+                 "body_velocity": "Ż2 (body)", "wheel_velocity": "Ż1 (wheel)"}
+
+
+def plot_thesis_tables(table: pd.DataFrame):
+    """Bar chart of :func:`reproduce_thesis_tables`: ours (solid) next to the thesis (hatched), per test.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`reproduce_thesis_tables` (columns ``test, config, variable, epsilon, thesis``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per test; eps (%) clipped at -50 % for readability (the bar is labelled with its value).
+    """
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    tests = list(dict.fromkeys(table["test"]))
+    colours = {1: "tab:blue", 2: "tab:orange", 3: "tab:green"}
+    fig = Figure(figsize=(10, 4 * len(tests)))
+    axes = np.atleast_1d(fig.subplots(len(tests), 1))
+    ref = table["reference"].iloc[0] if "reference" in table.columns else "truth"
+    for ax, test in zip(axes, tests):
+        sub = table[table["test"] == test]
+        variables = list(dict.fromkeys(sub["variable"]))
+        x = np.arange(len(variables))
+        w = 0.13
+        for j, config in enumerate((1, 2, 3)):
+            rows = sub[sub["config"] == config].set_index("variable").reindex(variables)
+            ours = rows["epsilon"].to_numpy(float)
+            ax.bar(x + (2 * j - 2.5) * w, np.maximum(ours, -50.0), w, color=colours[config],
+                   label=f"ours, config {config}")
+            for xi, v in zip(x + (2 * j - 2.5) * w, ours):
+                if v < -50.0:
+                    ax.annotate(f"{v:.0f}", (xi, -50.0), fontsize=7, ha="center", va="bottom", rotation=90)
+            ax.bar(x + (2 * j - 1.5) * w, rows["thesis"].to_numpy(float), w, color=colours[config], alpha=0.45,
+                   hatch="//", label=f"thesis, config {config}")
+        ax.set_xticks(x, [_TABLE_LABELS.get(v, v) for v in variables])
+        ax.set_ylabel("ε (%)")
+        ax.set_ylim(min(-5.0, float(np.nanmin(np.maximum(sub["epsilon"], -50.0))) - 5), 105)
+        ax.axhline(0.0, color="0.4", lw=0.8)
+        ax.grid(axis="y", alpha=0.3)
+        ax.set_title(f"{test} test (front-left corner) — thesis Table {'4.4' if test == 'bench' else '4.5'}")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, ncol=6, fontsize=7, loc="lower center")
+    fig.suptitle(f"Thesis 003 result tables reproduced on the simulator (reference: {ref})")
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
     return fig

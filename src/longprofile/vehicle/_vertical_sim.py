@@ -16,13 +16,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 import pandas as pd
 from numba import njit
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ._vertical_model import CORNER_NAMES, CX, CY, VerticalVehicleParams, seven_dof_rhs, vertical_params_arrays
+from ._vertical_model import (CORNER_NAMES, CX, CY, MRDamperParams, VerticalVehicleParams, mr_controlled_force,
+                              seven_dof_rhs, skyhook_current, vertical_params_arrays)
 
 __all__ = [
     "VerticalSimulation",
@@ -61,6 +64,11 @@ class VerticalSimulation:
     yaw_rate : (T,) ndarray, rad/s -- integral of ``yaw_accel`` from 0.
     dt : float, s
     params : VerticalVehicleParams
+    damper_current : (T, 4) ndarray or None, A -- MagneRide car only: the commanded MR current (held over each
+        sample); None for the passive (ideal) car.
+    actuator_force : (T, 4) ndarray or None, N -- MagneRide car only: the true controlled MR force at each sample
+        (lagged current, true damper velocity).
+    mr_damper : MRDamperParams or None -- the MR damper of the run (None: passive car).
     """
 
     time: np.ndarray
@@ -80,6 +88,9 @@ class VerticalSimulation:
     yaw_rate: np.ndarray
     dt: float
     params: VerticalVehicleParams
+    damper_current: np.ndarray | None = None
+    actuator_force: np.ndarray | None = None
+    mr_damper: MRDamperParams | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +107,8 @@ class VerticalSensors:
     body_accel : (T, 4) ndarray or None, m/s^2 -- config 2 only (gravity removed, as mounted on the body).
     wheel_accel : (T, 4) ndarray or None, m/s^2 -- config 3 only.
     dt : float, s
+    damper_current : (T, 4) ndarray or None, A -- the logged commanded MR current (MagneRide car; the thesis's
+        car logs "4 courants dans les amortisseurs", §3.5.2); None on a passive car.
     """
 
     config: int
@@ -107,13 +120,31 @@ class VerticalSensors:
     body_accel: np.ndarray | None
     wheel_accel: np.ndarray | None
     dt: float
+    damper_current: np.ndarray | None = None
 
 
 # ------------------------------------------------------------------------------------------------ integrator
 
 
 @njit(cache=True)
-def _rk4_run(state0, road, ax, ay, psidd, actuator, corner, scalars, dt, substeps, out_state, out_acc):
+def _mr_rhs(s, r, ax, ay, ps, imposed, ieff, mr, corner, scalars, act, out):
+    # actuator = imposed force + controlled MR force at the stage's damper velocity and effective current
+    for c in range(4):
+        v = s[7] + corner[c, CY] * s[8] - corner[c, CX] * s[9] - s[10 + c]
+        act[c] = imposed[c] + mr_controlled_force(ieff[c], v, mr[0], mr[1], mr[2])
+    seven_dof_rhs(s, r, ax, ay, ps, act, corner, scalars, out)
+
+
+@njit(cache=True)
+def _rk4_run(state0, road, ax, ay, psidd, imposed, mr, corner, scalars, dt, substeps, out_state, out_acc, out_cmd,
+             out_force):
+    """RK4 of the 7-DOF model with an imposed actuator force (T, 4) plus the MR damper and its skyhook
+    controller in the loop (see simulate_vertical); a passive car is ``mr`` with F_max = 0 (no MR force, 0 A).
+
+    Inputs are linearly interpolated between samples k and k+1 at the RK4 stages. The current command is computed at each sample from the true body-corner and damper velocities and held
+    over the sample (1 kHz ECU); the effective current follows it with the exact first-order response
+    ``i_eff(t_k + s) = i_cmd + (i_eff(t_k) - i_cmd) exp(-s / tau)`` (tau = 0: no lag).
+    """
     n = state0.shape[0]
     T = road.shape[0]
     h = dt / substeps
@@ -124,9 +155,22 @@ def _rk4_run(state0, road, ax, ay, psidd, actuator, corner, scalars, dt, substep
     k4 = np.empty(n)
     tmp = np.empty(n)
     r = np.empty(4)
+    act = np.empty(4)
+    ieff0 = np.zeros(4)
+    icmd = np.zeros(4)
+    ie = np.empty(4)
+    tau = mr[3]
     for k in range(T):
         out_state[k] = s
-        seven_dof_rhs(s, road[k], ax[k], ay[k], psidd[k], actuator[k], corner, scalars, k1)
+        for c in range(4):
+            x, y = corner[c, CX], corner[c, CY]
+            z2d = s[7] + y * s[8] - x * s[9]
+            icmd[c] = skyhook_current(z2d, z2d - s[10 + c], mr)
+            if tau <= 0.0:
+                ieff0[c] = icmd[c]
+        out_cmd[k] = icmd
+        _mr_rhs(s, road[k], ax[k], ay[k], psidd[k], imposed[k], ieff0, mr, corner, scalars, act, k1)
+        out_force[k] = act
         out_acc[k] = k1[7:]
         if k == T - 1:
             break
@@ -134,34 +178,43 @@ def _rk4_run(state0, road, ax, ay, psidd, actuator, corner, scalars, dt, substep
             a0 = j / substeps
             am = (j + 0.5) / substeps
             a1 = (j + 1.0) / substeps
-            # inputs linearly interpolated between samples k and k+1
             for c in range(4):
                 r[c] = road[k, c] + a0 * (road[k + 1, c] - road[k, c])
+                ie[c] = icmd[c] if tau <= 0.0 else icmd[c] + (ieff0[c] - icmd[c]) * math.exp(-a0 * dt / tau)
             axs = ax[k] + a0 * (ax[k + 1] - ax[k])
             ays = ay[k] + a0 * (ay[k + 1] - ay[k])
             ps = psidd[k] + a0 * (psidd[k + 1] - psidd[k])
-            seven_dof_rhs(s, r, axs, ays, ps, actuator[k], corner, scalars, k1)
+            _mr_rhs(s, r, axs, ays, ps, imposed[k], ie, mr, corner, scalars, act, k1)
             for c in range(4):
                 r[c] = road[k, c] + am * (road[k + 1, c] - road[k, c])
+                ie[c] = icmd[c] if tau <= 0.0 else icmd[c] + (ieff0[c] - icmd[c]) * math.exp(-am * dt / tau)
             axs = ax[k] + am * (ax[k + 1] - ax[k])
             ays = ay[k] + am * (ay[k + 1] - ay[k])
             ps = psidd[k] + am * (psidd[k + 1] - psidd[k])
             for i in range(n):
                 tmp[i] = s[i] + 0.5 * h * k1[i]
-            seven_dof_rhs(tmp, r, axs, ays, ps, actuator[k], corner, scalars, k2)
+            _mr_rhs(tmp, r, axs, ays, ps, imposed[k], ie, mr, corner, scalars, act, k2)
             for i in range(n):
                 tmp[i] = s[i] + 0.5 * h * k2[i]
-            seven_dof_rhs(tmp, r, axs, ays, ps, actuator[k], corner, scalars, k3)
+            _mr_rhs(tmp, r, axs, ays, ps, imposed[k], ie, mr, corner, scalars, act, k3)
             for c in range(4):
                 r[c] = road[k, c] + a1 * (road[k + 1, c] - road[k, c])
+                ie[c] = icmd[c] if tau <= 0.0 else icmd[c] + (ieff0[c] - icmd[c]) * math.exp(-a1 * dt / tau)
             axs = ax[k] + a1 * (ax[k + 1] - ax[k])
             ays = ay[k] + a1 * (ay[k + 1] - ay[k])
             ps = psidd[k] + a1 * (psidd[k + 1] - psidd[k])
             for i in range(n):
                 tmp[i] = s[i] + h * k3[i]
-            seven_dof_rhs(tmp, r, axs, ays, ps, actuator[k], corner, scalars, k4)
+            _mr_rhs(tmp, r, axs, ays, ps, imposed[k], ie, mr, corner, scalars, act, k4)
             for i in range(n):
                 s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        if tau > 0.0:
+            for c in range(4):
+                ieff0[c] = icmd[c] + (ieff0[c] - icmd[c]) * math.exp(-dt / tau)
+
+
+#: A passive car for the integrator: no MR force, no current.
+_PASSIVE = MRDamperParams(max_force=0.0, time_constant=0.0)
 
 
 def _series(name, value, T, default=0.0):
@@ -176,7 +229,8 @@ def _series(name, value, T, default=0.0):
 
 
 def simulate_vertical(road, dt: float, *, params: VerticalVehicleParams | None = None, ax=None, ay=None,
-                      yaw_accel=None, actuator_force=None, substeps: int = 4) -> VerticalSimulation:
+                      yaw_accel=None, actuator_force=None, substeps: int = 4,
+                      mr_damper: MRDamperParams | None = None) -> VerticalSimulation:
     """Simulate the 7-DOF vertical car model (thesis 003, §1.1) from rest at static equilibrium.
 
     Parameters
@@ -196,10 +250,19 @@ def simulate_vertical(road, dt: float, *, params: VerticalVehicleParams | None =
         Extra actuator tension force per corner, N (semi-active / active suspension); default 0.
     substeps : int
         RK4 steps per sample (inputs linearly interpolated inside a sample); default 4.
+    mr_damper : MRDamperParams, optional
+        The "MagneRide car" (thesis §1.2.4): each corner's damper becomes the passive (zero-current) damper
+        of ``params`` plus the controlled MR force ``F_mr(i_eff, dZ21dot)`` of :class:`MRDamperParams`, the
+        current commanded by a clipped skyhook controller fed with the TRUE body-corner and damper velocities
+        (ASSUMPTION: an ideal controller -- only the logged current matters to the estimator), held over each
+        sample and lagged by the first-order current-to-force response. Cannot be combined with
+        ``actuator_force``. Default None: the passive ("ideal") car.
 
     Returns
     -------
     VerticalSimulation
+        With ``damper_current`` (commanded current, A) and ``actuator_force`` (true MR force, N) for the
+        MagneRide car.
 
     Notes
     -----
@@ -233,7 +296,18 @@ def simulate_vertical(road, dt: float, *, params: VerticalVehicleParams | None =
     state0[0:3] = np.linalg.lstsq(A, R[0], rcond=None)[0]
     X = np.empty((T, 14))
     acc = np.empty((T, 7))
-    _rk4_run(state0, R, AX, AY, PS, np.ascontiguousarray(U), corner, scalars, dt, int(substeps), X, acc)
+    if mr_damper is not None:
+        if not isinstance(mr_damper, MRDamperParams):
+            raise InputError(f"mr_damper must be an MRDamperParams; got {type(mr_damper).__name__}.")
+        if actuator_force is not None:
+            raise InputError("give either actuator_force (an imposed force) or mr_damper (the MR car), not both.")
+    mr = (mr_damper or _PASSIVE).as_array()
+    cmd = np.empty((T, 4))
+    force = np.empty((T, 4))
+    _rk4_run(state0, R, AX, AY, PS, np.ascontiguousarray(U), mr, corner, scalars, dt, int(substeps), X, acc, cmd,
+             force)
+    if mr_damper is None:
+        cmd = force = None
     xs, ys = corner[:, CX], corner[:, CY]
     z2 = X[:, [0]] + ys * X[:, [1]] - xs * X[:, [2]]
     z2d = X[:, [7]] + ys * X[:, [8]] - xs * X[:, [9]]
@@ -245,7 +319,8 @@ def simulate_vertical(road, dt: float, *, params: VerticalVehicleParams | None =
     return VerticalSimulation(
         time=time, road=R, state=X, suspension_deflection=dz, suspension_velocity=z2d - X[:, 10:14],
         tyre_deflection=tyre, tyre_force=-p.tyre_stiffness * tyre, body_velocity=z2d, wheel_velocity=X[:, 10:14],
-        body_accel=z2dd, wheel_accel=acc[:, 3:7], ax=AX, ay=AY, yaw_accel=PS, yaw_rate=yaw_rate, dt=dt, params=p)
+        body_accel=z2dd, wheel_accel=acc[:, 3:7], ax=AX, ay=AY, yaw_accel=PS, yaw_rate=yaw_rate, dt=dt, params=p,
+        damper_current=cmd, actuator_force=force, mr_damper=mr_damper)
 
 
 # ------------------------------------------------------------------------------------------------ inputs
@@ -435,6 +510,8 @@ def measure_vertical(sim: VerticalSimulation, config: int, *, rng=None, displace
     Returns
     -------
     VerticalSensors
+        With ``damper_current`` = the commanded MR current of a MagneRide run (logged by the ECU: ASSUMPTION
+        exact, no noise), None for a passive car.
     """
     if config not in SENSOR_CONFIGS:
         raise InputError(f"config must be 1, 2 or 3 (thesis sensor configurations); got {config!r}.")
@@ -455,8 +532,9 @@ def measure_vertical(sim: VerticalSimulation, config: int, *, rng=None, displace
                          _BODY_STEP)
     if config == 3:
         wheel = _quantise(sim.wheel_accel + wheel_accel_noise * gen.standard_normal((T, 4)), _WHEEL_STEP)
+    current = None if sim.damper_current is None else sim.damper_current.copy()  # logged command, exact
     return VerticalSensors(config=int(config), time=sim.time.copy(), displacement=disp, ax=ax, ay=ay, yaw_rate=yaw,
-                           body_accel=body, wheel_accel=wheel, dt=sim.dt)
+                           body_accel=body, wheel_accel=wheel, dt=sim.dt, damper_current=current)
 
 
 # ------------------------------------------------------------------------------------------------ tables
@@ -472,12 +550,14 @@ def sensors_to_frame(sensors: VerticalSensors, sim: VerticalSimulation | None = 
     """One table (one row per sample) of the sensor signals, plus the true states when ``sim`` is given.
 
     Columns: ``time, ax, ay, yaw_rate, dz21_FL..RR`` (+ ``body_accel_*`` config 2, ``wheel_accel_*``
-    config 3) and ``true_<quantity>_<corner>`` for the truth (used to score estimates).
+    config 3, ``current_*`` (A) on a MagneRide car) and ``true_<quantity>_<corner>`` for the truth (used to
+    score estimates).
     """
     cols = {"time": sensors.time, "ax": sensors.ax, "ay": sensors.ay, "yaw_rate": sensors.yaw_rate}
     for c, name in enumerate(CORNER_NAMES):
         cols[f"dz21_{name}"] = sensors.displacement[:, c]
-    for attr, prefix in (("body_accel", "body_accel"), ("wheel_accel", "wheel_accel")):
+    for attr, prefix in (("body_accel", "body_accel"), ("wheel_accel", "wheel_accel"),
+                         ("damper_current", "current")):
         arr = getattr(sensors, attr)
         if arr is not None:
             for c, name in enumerate(CORNER_NAMES):
@@ -526,9 +606,15 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
     def stack(prefix):
         return np.column_stack([arr[f"{prefix}_{n}"] for n in CORNER_NAMES])
 
+    current = None
+    cur_cols = [f"current_{n}" for n in CORNER_NAMES]
+    if all(c in df.columns for c in cur_cols):  # optional: the logged MR currents of a MagneRide car
+        current = np.column_stack([pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float) for c in cur_cols])
+        if not np.all(np.isfinite(current)):
+            raise InputFormatError(f"{source}: the current_* columns have a missing or non-numeric value.")
     return VerticalSensors(config=int(config), time=t, displacement=stack("dz21"), ax=arr["ax"], ay=arr["ay"],
                            yaw_rate=arr["yaw_rate"], body_accel=stack("body_accel") if config == 2 else None,
-                           wheel_accel=stack("wheel_accel") if config == 3 else None, dt=dt)
+                           wheel_accel=stack("wheel_accel") if config == 3 else None, dt=dt, damper_current=current)
 
 
 _TESTS = ("road", "sweep", "track")
@@ -536,7 +622,8 @@ _TESTS = ("road", "sweep", "track")
 
 def vertical_test_run(config: int, *, test: str = "road", road_class: str = "C", speed: float = 20.0,
                       duration: float = 20.0, seed: int = 0, dt: float = 1e-3,
-                      params: VerticalVehicleParams | None = None) -> tuple[VerticalSimulation, VerticalSensors]:
+                      params: VerticalVehicleParams | None = None,
+                      mr_damper: MRDamperParams | None = None) -> tuple[VerticalSimulation, VerticalSensors]:
     """Simulate one of the thesis's tests and measure it with the sensors of ``config``.
 
     Parameters
@@ -560,6 +647,9 @@ def vertical_test_run(config: int, *, test: str = "road", road_class: str = "C",
         Sample period, s.
     params : VerticalVehicleParams, optional
         The simulated car (default thesis set).
+    mr_damper : MRDamperParams, optional
+        Simulate the MagneRide car (MR dampers + skyhook, see :func:`simulate_vertical`); the sensors then log
+        the commanded currents. Default None: passive car.
 
     Returns
     -------
@@ -575,14 +665,14 @@ def vertical_test_run(config: int, *, test: str = "road", road_class: str = "C",
     duration = require_positive("duration", duration)
     speed = require_positive("speed", speed)
     if test == "sweep":
-        sim = simulate_vertical(bench_sweep_road(dt, duration=duration), dt, params=p)
+        sim = simulate_vertical(bench_sweep_road(dt, duration=duration), dt, params=p, mr_damper=mr_damper)
     else:
         length = speed * duration + p.wheelbase + 10.0
         prof = iso8608_profile(length, min(0.05, speed * dt * 10), road_class, rng=seed, tracks=("left", "right"))
         road = wheel_road_inputs(prof, speed, dt, duration=duration, params=p)
         if test == "road":
-            sim = simulate_vertical(road, dt, params=p)
+            sim = simulate_vertical(road, dt, params=p, mr_damper=mr_damper)
         else:
             ax, ay, psidd = steering_sine_manoeuvre(dt, duration=(road.shape[0] - 1) * dt, speed=speed)
-            sim = simulate_vertical(road, dt, params=p, ax=ax, ay=ay, yaw_accel=psidd)
+            sim = simulate_vertical(road, dt, params=p, ax=ax, ay=ay, yaw_accel=psidd, mr_damper=mr_damper)
     return sim, measure_vertical(sim, config, rng=seed + 1)
