@@ -120,6 +120,7 @@ def plot_thesis_tables(table: pd.DataFrame):
         ax.set_title(f"{test} test (front-left corner) — thesis Table {'4.4' if test == 'bench' else '4.5'}")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, ncol=6, fontsize=7, loc="lower center")
-    fig.suptitle(f"Thesis 003 result tables reproduced on the simulator (reference: {ref})")
+    car = f"car: {table['car'].iloc[0]}, " if "car" in table.columns and len(table) else ""
+    fig.suptitle(f"Thesis 003 result tables reproduced on the simulator ({car}reference: {ref})")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
     return fig
