@@ -435,11 +435,12 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     the forces, close to the wheel-speed data. The second observer is the Luenberger observer on (21)
     with input F_res-hat and output the measured V_x, discretised exactly, gain by pole placement.
     The slope std of the cascade is the stationary std of the observer error (discrete Lyapunov
-    equation with the fixed gain) driven by the EKF's median F_res std and the speed noise, both
-    treated as white. It is the noise part only: while the grade changes at a rate rho (rad/s) the
-    observer also lags by about rho (-1/p1 - 1/p2) (0.34 s x rho with the default poles), and model
-    errors (mass, adhesion; with ``speed_measurement="rear-mean"`` rear-wheel slip under braking) add
-    biases; see docs/vehicle-slope.md.
+    equation with the fixed gain) driven by the EKF's median F_res std and the median std of the speed
+    input (the measurement's per-sample std; the EKF's V_x std where it is missing), both treated as
+    white. It is the noise part only: while the grade changes at a rate rho (rad/s) the observer also
+    lags by about rho (-1/p1 - 1/p2) (0.34 s x rho with the default poles), and model errors (mass,
+    adhesion; with ``speed_measurement="rear-mean"`` rear-wheel slip under braking) add biases; see
+    docs/vehicle-slope.md.
 
     Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
     """
@@ -501,8 +502,10 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     if method != "cascade":
         slope, slope_std = mean[:, 3].copy(), std[:, 3].copy()
     else:
-        speed = np.where(np.isnan(y[:, 0]), mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
-        slope, slope_std, gain = _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning)
+        missing = np.isnan(y[:, 0])
+        speed = np.where(missing, mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
+        speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
+        slope, slope_std, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles)
     return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
@@ -510,8 +513,11 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          observer_gain=gain)
 
 
-def _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning):
-    """Luenberger observer on (21) run by the engine (exact zero-order-hold integration of its ODE)."""
+def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles):
+    """Luenberger observer on (21) run by the engine (exact zero-order-hold integration of its ODE).
+
+    ``speed_std`` (m/s) is the median std of the observer's speed input (the V_x measurement, or the EKF's
+    V_x where the measurement is missing)."""
     from scipy.linalg import solve_continuous_lyapunov
 
     from ..statespace import luenberger_observer
@@ -528,7 +534,7 @@ def _cascade_slope(vehicle, dt, speed, res, res_std, poles, tuning):
     # error dynamics de/dt = (A - L C) e + B w_F - L v with white noises of PSD var * dt (sampled at dt)
     var_f = float(np.median(res_std) ** 2)
     M = A - L @ C
-    P = solve_continuous_lyapunov(M, -(B @ B.T * var_f + L @ L.T * tuning.speed_std ** 2) * dt)
+    P = solve_continuous_lyapunov(M, -(B @ B.T * var_f + L @ L.T * speed_std ** 2) * dt)
     s_std = math.sqrt(max(P[1, 1], 0.0))
     slope_std = s_std / np.sqrt(1.0 - s ** 2)
     return slope, slope_std, L
