@@ -12,7 +12,7 @@ from longprofile.road import Profile
 from longprofile.vehicle import (VerticalVehicleParams, bench_sweep_road, corner_observability, measure_vertical,
                                  sensors_from_frame, sensors_to_frame, simulate_vertical, steering_sine_manoeuvre,
                                  wheel_road_inputs)
-from longprofile.vehicle._vertical_ekf_model import (corner_observation, corner_observation_jacobian,
+from longprofile.vehicle._vertical_ekf_model import (NO_MR, corner_observation, corner_observation_jacobian,
                                                      corner_observation_step, corner_transition,
                                                      corner_transition_jacobian, corner_transition_step)
 from longprofile.vehicle._vertical_model import damper_force, spring_force, vertical_params_arrays
@@ -76,10 +76,10 @@ def test_corner_model_reproduces_the_seven_dof_accelerations(manoeuvre_sim):
         x = np.zeros(16)
         x[0::4], x[1::4], x[3::4] = sim.suspension_velocity[k], sim.suspension_deflection[k], sim.tyre_deflection[k]
         u = np.r_[sim.ax[k], sim.ay[k], sim.yaw_accel[k], np.zeros(4)]
-        np.testing.assert_allclose(corner_observation(x, u, corner, coupling, scalars, 2)[4:], sim.body_accel[k],
-                                   atol=1e-9)
-        np.testing.assert_allclose(corner_observation(x, u, corner, coupling, scalars, 3)[4:], sim.wheel_accel[k],
-                                   atol=1e-9)
+        np.testing.assert_allclose(corner_observation(x, u, corner, coupling, scalars, 2, NO_MR)[4:],
+                                   sim.body_accel[k], atol=1e-9)
+        np.testing.assert_allclose(corner_observation(x, u, corner, coupling, scalars, 3, NO_MR)[4:],
+                                   sim.wheel_accel[k], atol=1e-9)
 
 
 def _fd(fn, x, scale):
@@ -101,15 +101,15 @@ def test_jacobians_match_finite_differences(manoeuvre_sim):
     x[2::4] = [30.0, -20.0, 10.0, 5.0]
     u = np.r_[sim.ax[k], sim.ay[k], sim.yaw_accel[k], np.zeros(4)]
     scale = np.tile([1.0, 1.0, 1e4, 1.0], 4)
-    Jn = _fd(lambda z: corner_transition(z, u, corner, coupling, scalars, DT, 0.99, 0.9), x, scale)
-    J = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, False)
+    Jn = _fd(lambda z: corner_transition(z, u, corner, coupling, scalars, DT, 0.99, 0.9, NO_MR), x, scale)
+    J = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, False, NO_MR)
     np.testing.assert_allclose(J, Jn, rtol=1e-6, atol=1e-9)
-    Jd = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, True)
+    Jd = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, True, NO_MR)
     mask = np.kron(np.eye(4), np.ones((4, 4))) > 0
     assert np.all(Jd[~mask] == 0)
     for config in (2, 3):
-        Hn = _fd(lambda z: corner_observation(z, u, corner, coupling, scalars, config), x, scale)
-        H = corner_observation_jacobian(x, u, corner, coupling, scalars, config, False)
+        Hn = _fd(lambda z: corner_observation(z, u, corner, coupling, scalars, config, NO_MR), x, scale)
+        H = corner_observation_jacobian(x, u, corner, coupling, scalars, config, False, NO_MR)
         np.testing.assert_allclose(H, Hn, rtol=1e-6, atol=1e-6)
 
 
@@ -123,18 +123,19 @@ def test_fused_steps_equal_the_separate_functions(manoeuvre_sim):
     x[2::4] = [30.0, -20.0, 10.0, 5.0]
     u = np.r_[sim.ax[k], sim.ay[k], sim.yaw_accel[k], 50.0, -20.0, 0.0, 10.0]
     out, J = np.zeros(16), np.full((16, 16), 7.0)
-    corner_transition_step(x, u, corner, coupling, scalars, DT, 0.99, 0.9, out, J)
-    np.testing.assert_array_equal(out, corner_transition(x, u, corner, coupling, scalars, DT, 0.99, 0.9))
-    Jd = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, True)
+    corner_transition_step(x, u, corner, coupling, scalars, DT, 0.99, 0.9, NO_MR, out, J)
+    np.testing.assert_array_equal(out, corner_transition(x, u, corner, coupling, scalars, DT, 0.99, 0.9, NO_MR))
+    Jd = corner_transition_jacobian(x, u, corner, coupling, scalars, DT, 0.99, 0.9, True, NO_MR)
     nz = Jd != 0
     np.testing.assert_array_equal(J[nz], Jd[nz])
     assert np.all(J[~nz] == 7.0)  # structural zeros are not written (the engine keeps them at zero)
     for config in (1, 2, 3):
         m = 4 if config == 1 else 8
         y, H = np.zeros(m), np.zeros((m, 16))
-        corner_observation_step(x, u, corner, coupling, scalars, config, y, H)
-        np.testing.assert_array_equal(y, corner_observation(x, u, corner, coupling, scalars, config))
-        np.testing.assert_array_equal(H, corner_observation_jacobian(x, u, corner, coupling, scalars, config, True))
+        corner_observation_step(x, u, corner, coupling, scalars, config, NO_MR, y, H)
+        np.testing.assert_array_equal(y, corner_observation(x, u, corner, coupling, scalars, config, NO_MR))
+        np.testing.assert_array_equal(H, corner_observation_jacobian(x, u, corner, coupling, scalars, config, True,
+                                                                     NO_MR))
 
 
 @settings(max_examples=40, deadline=None)

@@ -28,6 +28,20 @@ def _car_damper(car: str):
     return MRDamperParams() if car == "magneride" else None
 
 
+_MR_VELOCITY_HELP = ("MagneRide: damper velocity of the filter's MR map -- displacement (causal derivative of the "
+                     "measured displacement, a precomputed input; default) or filter (the EKF's own velocity "
+                     "state, the map inside the model as in the thesis).")
+
+
+def _mr_map_velocity(value: str) -> str:
+    from ..errors import InputError
+    from ..vehicle._vertical_estimate import MR_MAP_VELOCITIES
+
+    if value not in MR_MAP_VELOCITIES:
+        raise InputError(f"--mr-map-velocity must be one of {list(MR_MAP_VELOCITIES)}; got {value!r}.")
+    return value
+
+
 @vertical_app.command("simulate")
 def simulate(
     output: Path = typer.Option(..., "--output", "-o", help="Sensor log to write (.csv or .parquet)."),
@@ -76,6 +90,7 @@ def estimate(
     config: int = typer.Option(1, "--config", help="Sensor configuration of the log (1, 2 or 3)."),
     centralised: bool = typer.Option(False, "--centralised/--per-corner",
                                      help="Centralised full-car EKF instead of the thesis's four corner EKFs."),
+    mr_map_velocity: str = typer.Option("displacement", "--mr-map-velocity", help=_MR_VELOCITY_HELP),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG); the truth is "
                                                           "overlaid when the log has true_* columns."),
 ):
@@ -85,18 +100,21 @@ def estimate(
 
     out = check_output_path(output, log)
     check_plot_path(plot, log)
+    mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     frame = read_table(log)
     sensors = sensors_from_frame(frame, config, source=str(log))
-    act = None
+    mr_map = None
     if sensors.damper_current is not None:
-        from ..vehicle._vertical_estimate import damper_velocity_from_displacement, mr_actuator_force
+        from ..vehicle._vertical_estimate import nominal_mr_map
+        from ..vehicle._vertical_model import MRDamperParams
 
         # MagneRide log: the logged currents through the default nominal map (docs: "MagneRide car")
-        act = mr_actuator_force(sensors.damper_current,
-                                damper_velocity_from_displacement(sensors.displacement, sensors.dt))
-        console.print("log has current_* columns: actuator forces from the nominal MR map")
+        mr_map = nominal_mr_map(MRDamperParams())
+        console.print(f"log has current_* columns: actuator forces from the nominal MR map, evaluated at the "
+                      f"{'filter' if mr_map_velocity == 'filter' else 'displacement'}-derived damper velocity")
     with console.status("running the corner EKFs..."):
-        est = estimate_vertical_states(sensors, decentralised=not centralised, actuator_force=act)
+        est = estimate_vertical_states(sensors, decentralised=not centralised, mr_map=mr_map,
+                                       mr_map_velocity=mr_map_velocity)
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
     if plot is not None:
@@ -118,6 +136,7 @@ def tables(
     car: str = typer.Option("ideal", "--car", help="ideal (passive simulated car) or magneride (MR dampers + "
                                                    "skyhook; the filters get the logged currents through a nominal "
                                                    "map with a 12 % force error, no lag)."),
+    mr_map_velocity: str = typer.Option("displacement", "--mr-map-velocity", help=_MR_VELOCITY_HELP),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw ours next to the thesis's numbers (PNG)."),
 ):
     """Reproduce the thesis's result tables 4.4 (bench) and 4.5 (track) on the simulator, configurations 1-3."""
@@ -126,13 +145,16 @@ def tables(
 
     out = check_output_path(output)
     check_plot_path(plot)
+    mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     with progress() as bar:
         task = bar.add_task("bench and track tests, configurations 1-3", total=6)
         table = reproduce_thesis_tables(duration=duration, seed=seed, reference=reference, car=car,
+                                        mr_map_velocity=mr_map_velocity,
                                         progress=lambda done, total: bar.update(task, completed=done))
     write_table(table, out)
-    console.print(f"wrote {out} ({len(table)} rows, reference {reference}, car {car}, {duration:g} s per test, "
-                  f"seed {seed})")
+    mr_note = f", MR map at the {mr_map_velocity} velocity" if car == "magneride" else ""
+    console.print(f"wrote {out} ({len(table)} rows, reference {reference}, car {car}{mr_note}, {duration:g} s per "
+                  f"test, seed {seed})")
     if plot is not None:
         from ..vehicle._vertical_plot import plot_thesis_tables
 

@@ -31,7 +31,8 @@ corner_observability  -- SVD observability analysis of the corner models; Observ
 epsilon_score / score_vertical_estimate / reproduce_thesis_tables -- the thesis criterion and Tables 4.4/4.5.
 thesis_references     -- the thesis's evaluation references rebuilt from measured signals (REFERENCES).
 MRDamperParams        -- MagneRide (MR) damper of the "magneride" car (CARS): tanh map, current lag; skyhook_current.
-nominal_mr_map / mr_actuator_force / damper_velocity_from_displacement -- the filter's MR map and actuator input.
+nominal_mr_map / mr_actuator_force / damper_velocity_from_displacement -- the filter's MR map and actuator input
+                         (evaluated before the run, or inside the EKF's model: MR_MAP_VELOCITIES).
 vertical_test_run     -- simulate a thesis test (road / 4-poster sweep / track) and measure one configuration.
 estimate_to_frame / plot_vertical_estimate -- table and figure of a VerticalStateEstimate.
 smooth_vertical_states -- offline extended RTS smoothing of the corner-EKF estimate.
@@ -55,7 +56,7 @@ _EXPORTS = {
     "._vertical_estimate": ("CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
                             "estimate_vertical_states_linear", "smooth_vertical_states", "thesis_filter_settings",
                             "vertical_ekf_inputs", "vertical_ekf_model", "vertical_linear_model", "nominal_mr_map",
-                            "mr_actuator_force", "damper_velocity_from_displacement",),
+                            "mr_actuator_force", "damper_velocity_from_displacement", "MR_MAP_VELOCITIES",),
     "._vertical_eval": ("REFERENCES", "CARS", "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "epsilon_score",
                         "reproduce_thesis_tables", "score_vertical_estimate", "thesis_references",),
     "._vertical_model": ("VerticalVehicleParams", "MRDamperParams", "skyhook_current",),
@@ -97,6 +98,7 @@ __all__ = [
     "CornerFilterSettings", "thesis_filter_settings", "corner_observability", "ObservabilityResult",
     "epsilon_score", "score_vertical_estimate", "reproduce_thesis_tables", "thesis_references", "REFERENCES", "CARS",
     "MRDamperParams", "skyhook_current", "nominal_mr_map", "mr_actuator_force", "damper_velocity_from_displacement",
+    "MR_MAP_VELOCITIES",
     "THESIS_BENCH_TABLE",
     "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
     "smooth_vertical_states", "road_profile_from_suspension", "vertical_linear_model",

@@ -24,6 +24,14 @@ stacked filter equals the four local filters). With ``decentralised=False`` the 
 force coupling) gives a centralised full-car EKF on the same model.
 
 Observations: config 1 ``y = dZ21`` (4,); config 2 ``[dZ21, Z2dd]`` (8,); config 3 ``[dZ21, Z1dd]`` (8,).
+
+MR actuator map inside the model (thesis §1.2.4, §3.1: ``F_act = mu(i, T, dZ21dot_hat) dZ21dot_hat``, the
+actuator force evaluated at the filter's OWN damper-velocity estimate). Every function takes ``mr`` (5,) =
+``[F_y,FL, F_y,FR, F_y,RL, F_y,RR, v_y]``: the map's yield force at the logged current of each corner (N,
+``F_max (1 - exp(-i / i_sat))``, computed before the run) and its yield velocity (m/s). With ``v_y > 0`` the
+tension of corner c gains ``F_y,c tanh(dZ21dot_c / v_y)`` (on top of the known input ``U_c``) and the damper
+slope of every Jacobian gains ``F_y,c / v_y (1 - tanh^2)`` (:func:`._vertical_model.mr_map_force`);
+``v_y <= 0`` (e.g. :data:`NO_MR`) skips it: the passive / precomputed-input arithmetic is untouched.
 """
 
 from __future__ import annotations
@@ -32,14 +40,16 @@ import numpy as np
 from numba import njit
 
 from ._vertical_model import (CAC, CAR, CBC, CBETA, CBR, CCC, CCR, CDAX, CDAY, CDPSI, CFNAX, CFNAY, CK, CKBAR,
-                              CMW, SKT, STAU, damper_force, spring_force, suspension_tensions)
+                              CMW, SKT, STAU, damper_force, mr_map_force, spring_force, suspension_tensions)
 
 N_STATE = 16
 N_INPUT = 7
+#: ``mr`` argument meaning "no MR map in the model" (v_y = 0): the passive / precomputed-input path.
+NO_MR = np.zeros(5)
 
 
 @njit(cache=True)
-def _forces(x, u, corner, scalars):
+def _forces(x, u, corner, scalars, mr):
     dz = np.empty(4)
     dzd = np.empty(4)
     for c in range(4):
@@ -49,6 +59,11 @@ def _forces(x, u, corner, scalars):
     ks = np.empty(4)
     cd = np.empty(4)
     suspension_tensions(dz, dzd, u[3:7], corner, scalars[STAU], F, ks, cd)
+    if mr[4] > 0.0:  # MR map inside the model, at the state's own damper velocity
+        for c in range(4):
+            fa, ca = mr_map_force(dzd[c], mr[c], mr[4])
+            F[c] += fa
+            cd[c] += ca
     return F, ks, cd
 
 
@@ -70,9 +85,9 @@ def _accels(x, u, corner, coupling, scalars, F):
 
 
 @njit(cache=True)
-def corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road):
-    """Stacked Euler transition x[k] -> x[k+1] (16,) of the four corner models."""
-    F, ks, cd = _forces(x, u, corner, scalars)
+def corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, mr):
+    """Stacked Euler transition x[k] -> x[k+1] (16,) of the four corner models (``mr``: module docstring)."""
+    F, ks, cd = _forces(x, u, corner, scalars, mr)
     z2dd, z1dd = _accels(x, u, corner, coupling, scalars, F)
     out = np.empty(16)
     for c in range(4):
@@ -85,9 +100,9 @@ def corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road
 
 
 @njit(cache=True)
-def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, decentralised):
-    """Jacobian A_d = I + Te A_c (16, 16) of :func:`corner_transition` (analytic spring and damper slopes)."""
-    F, ks, cd = _forces(x, u, corner, scalars)
+def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, decentralised, mr):
+    """Jacobian A_d = I + Te A_c (16, 16) of :func:`corner_transition` (analytic spring, damper, MR-map slopes)."""
+    F, ks, cd = _forces(x, u, corner, scalars, mr)
     kt = scalars[SKT]
     J = np.zeros((16, 16))
     if decentralised:  # fast path: own corner only (the other corners' forces are inputs)
@@ -140,14 +155,14 @@ def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, a
 
 
 @njit(cache=True)
-def corner_observation(x, u, corner, coupling, scalars, config):
+def corner_observation(x, u, corner, coupling, scalars, config, mr):
     """Stacked observation: dZ21 (4,) for config 1; [dZ21, Z2dd] (8,) config 2; [dZ21, Z1dd] (8,) config 3."""
     m = 4 if config == 1 else 8
     y = np.empty(m)
     for c in range(4):
         y[c] = x[4 * c + 1]
     if config != 1:
-        F, ks, cd = _forces(x, u, corner, scalars)
+        F, ks, cd = _forces(x, u, corner, scalars, mr)
         z2dd, z1dd = _accels(x, u, corner, coupling, scalars, F)
         for c in range(4):
             y[4 + c] = z2dd[c] if config == 2 else z1dd[c]
@@ -155,7 +170,7 @@ def corner_observation(x, u, corner, coupling, scalars, config):
 
 
 @njit(cache=True)
-def corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentralised):
+def corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentralised, mr):
     """Jacobian C (m, 16) of :func:`corner_observation`."""
     m = 4 if config == 1 else 8
     H = np.zeros((m, 16))
@@ -163,7 +178,7 @@ def corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentr
         H[c, 4 * c + 1] = 1.0
     if config == 1:
         return H
-    F, ks, cd = _forces(x, u, corner, scalars)
+    F, ks, cd = _forces(x, u, corner, scalars, mr)
     kt = scalars[SKT]
     for c in range(4):
         row = 4 + c
@@ -199,23 +214,28 @@ def corner_observation_jacobian(x, u, corner, coupling, scalars, config, decentr
 
 
 @njit(cache=True, inline="always")
-def _tension(x, u, corner, tau, c):
+def _tension(x, u, corner, tau, c, mr):
     """Tension F_c, spring slope and damper slope of corner c from the stacked state (no allocation)."""
     o = c + 1 if c % 2 == 0 else c - 1
     dz = x[4 * c + 1]
     fs, ks = spring_force(dz, corner[c, CK], corner[c, CBETA])
     fd, cd = damper_force(x[4 * c], corner[c, CAR], corner[c, CBR], corner[c, CCR],
                           corner[c, CAC], corner[c, CBC], corner[c, CCC], tau)
-    return fs + fd + u[3 + c] + corner[c, CKBAR] * (dz - x[4 * o + 1]), ks, cd
+    f = fs + fd + u[3 + c] + corner[c, CKBAR] * (dz - x[4 * o + 1])
+    if mr[4] > 0.0:  # same operations, same order as _forces
+        fa, ca = mr_map_force(x[4 * c], mr[c], mr[4])
+        f += fa
+        cd += ca
+    return f, ks, cd
 
 
 @njit(cache=True, inline="always")
-def _tensions(x, u, corner, scalars):
+def _tensions(x, u, corner, scalars, mr):
     tau = scalars[STAU]
-    f0, k0, c0 = _tension(x, u, corner, tau, 0)
-    f1, k1, c1 = _tension(x, u, corner, tau, 1)
-    f2, k2, c2 = _tension(x, u, corner, tau, 2)
-    f3, k3, c3 = _tension(x, u, corner, tau, 3)
+    f0, k0, c0 = _tension(x, u, corner, tau, 0, mr)
+    f1, k1, c1 = _tension(x, u, corner, tau, 1, mr)
+    f2, k2, c2 = _tension(x, u, corner, tau, 2, mr)
+    f3, k3, c3 = _tension(x, u, corner, tau, 3, mr)
     return (f0, f1, f2, f3), (k0, k1, k2, k3), (c0, c1, c2, c3)
 
 
@@ -235,13 +255,13 @@ def _wheel_accel(x, u, corner, kt, F, c):
 
 
 @njit(cache=True)
-def corner_transition_step(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, out, J):
+def corner_transition_step(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, mr, out, J):
     """:func:`corner_transition` into ``out`` (16,) and its block-diagonal Jacobian into ``J`` (16, 16), fused.
 
     Only the 8 structurally non-zero entries of each corner's 4 x 4 block are written
     (``decentralised=True`` Jacobian of :func:`corner_transition_jacobian`); the rest of ``J`` is not touched.
     """
-    F, ks, cd = _tensions(x, u, corner, scalars)
+    F, ks, cd = _tensions(x, u, corner, scalars, mr)
     kt = scalars[SKT]
     for c in range(4):
         i = 4 * c
@@ -264,7 +284,7 @@ def corner_transition_step(x, u, corner, coupling, scalars, dt, alpha_veh, alpha
 
 
 @njit(cache=True)
-def corner_observation_step(x, u, corner, coupling, scalars, config, out, H):
+def corner_observation_step(x, u, corner, coupling, scalars, config, mr, out, H):
     """:func:`corner_observation` into ``out`` (m,) and its block-diagonal Jacobian into ``H`` (m, 16), fused.
 
     Only the structurally non-zero entries of the decentralised Jacobian are written.
@@ -274,7 +294,7 @@ def corner_observation_step(x, u, corner, coupling, scalars, config, out, H):
         H[c, 4 * c + 1] = 1.0
     if config == 1:
         return
-    F, ks, cd = _tensions(x, u, corner, scalars)
+    F, ks, cd = _tensions(x, u, corner, scalars, mr)
     kt = scalars[SKT]
     for c in range(4):
         row = 4 + c

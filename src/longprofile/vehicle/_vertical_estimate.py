@@ -118,10 +118,15 @@ STATE_BLOCKS = np.repeat(np.arange(4), 4)
 
 # Columns of the EKF's known-input row: the measured manoeuvre inputs, the actuator forces, then the filter
 # settings. Carrying the settings in the input row lets ONE compiled kernel serve every configuration
-# (numba compiles the engine's loop once per set of model functions).
+# (numba compiles the engine's loop once per set of model functions). The last five columns are the MR map
+# evaluated INSIDE the model (``mr_map_velocity="filter"``): the map's yield force at the logged current per
+# corner (N) and its yield velocity (m/s; 0 = no in-model map, the passive / precomputed-input path).
 U_AX, U_AY, U_PSIDD, U_ACT = 0, 1, 2, 3
 U_DT, U_ALPHA_VEH, U_ALPHA_ROAD, U_CONFIG, U_DECENTRALISED = 7, 8, 9, 10, 11
-N_U = 12
+U_MR_FY, U_MR_VY = 12, 16
+N_U = 17
+#: Where the MR map's velocity comes from (:func:`estimate_vertical_states`).
+MR_MAP_VELOCITIES = ("displacement", "filter")
 
 
 @functools.lru_cache(maxsize=8)
@@ -131,31 +136,34 @@ def _compiled_functions(corner_b: bytes, coupling_b: bytes, scalars_b: bytes):
     coupling = np.frombuffer(coupling_b).reshape(4, 4).copy()
     scalars = np.frombuffer(scalars_b).copy()
 
+    # u[U_MR_FY:U_MR_VY + 1] is the ``mr`` argument of the model functions (a view, no copy)
     @njit
     def f(x, u, k):
-        return corner_transition(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD])
+        return corner_transition(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
+                                 u[U_MR_FY:U_MR_VY + 1])
 
     @njit
     def jf(x, u, k):
         return corner_transition_jacobian(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH],
-                                          u[U_ALPHA_ROAD], u[U_DECENTRALISED] > 0.5)
+                                          u[U_ALPHA_ROAD], u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
 
     @njit
     def h(x, u, k):
-        return corner_observation(x, u, corner, coupling, scalars, int(u[U_CONFIG]))
+        return corner_observation(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1])
 
     @njit
     def jh(x, u, k):
         return corner_observation_jacobian(x, u, corner, coupling, scalars, int(u[U_CONFIG]),
-                                           u[U_DECENTRALISED] > 0.5)
+                                           u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
 
     @njit
     def f_step(x, u, k, out, J):
-        corner_transition_step(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD], out, J)
+        corner_transition_step(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
+                               u[U_MR_FY:U_MR_VY + 1], out, J)
 
     @njit
     def h_step(x, u, k, out, H):
-        corner_observation_step(x, u, corner, coupling, scalars, int(u[U_CONFIG]), out, H)
+        corner_observation_step(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1], out, H)
 
     return f, jf, h, jh, f_step, h_step
 
@@ -191,8 +199,9 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
     -------
     NonlinearStateSpaceModel
         Transition/observation functions are numba-jitted (``f(x, u, k)``, ``h(x, u, k)``); the known
-        input row (12,) is ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR, dt, alpha_veh, alpha_route, config,
-        decentralised]`` — build it with :func:`vertical_ekf_inputs`. State order per corner c:
+        input row (17,) is ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR, dt, alpha_veh, alpha_route, config,
+        decentralised, F_y,FL, F_y,FR, F_y,RL, F_y,RR, v_y]`` — build it with :func:`vertical_ekf_inputs`
+        (the last five: the MR map inside the model, ``v_y = 0`` = none). State order per corner c:
         ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``.
     """
     NonlinearStateSpaceModel = _engine()[0]
@@ -263,10 +272,11 @@ def damper_velocity_from_displacement(displacement, dt: float, *, cutoff: float 
     """Causal damper velocity from the measured suspension displacement: backward difference + 2nd-order low-pass.
 
     The thesis's filter feeds its actuator map with the damper velocities ESTIMATED at the previous step
-    (§3.1, Fig. 3.2); the engine takes the actuator force as a known input row, computed before the run, so we
-    use a causal stand-in: the backward difference of the measured (10-bit) displacement, Butterworth low-pass
-    at ``cutoff`` Hz (default 20 Hz: the quantisation steps of 0.29 mm differentiate to 0.29 m/s jumps at 1 kHz;
-    ASSUMPTION, not tuned). Returns (T, 4) m/s.
+    (§3.1, Fig. 3.2) -- ``mr_map_velocity="filter"`` of :func:`estimate_vertical_states` does that, the map
+    inside the model; the default precomputes the actuator force as a known input row with a causal stand-in:
+    the backward difference of the measured (10-bit) displacement, Butterworth low-pass at ``cutoff`` Hz
+    (default 20 Hz: the quantisation steps of 0.29 mm differentiate to 0.29 m/s jumps at 1 kHz; ASSUMPTION,
+    not tuned). Returns (T, 4) m/s.
     """
     d = as_float_array("displacement", displacement, ndim=2, allow_nan=False)
     dt = require_positive("dt", dt)
@@ -301,7 +311,12 @@ def mr_actuator_force(current, damper_velocity, mr: MRDamperParams | None = None
     v = as_float_array("damper_velocity", damper_velocity, ndim=2, allow_nan=False)
     if i.shape != v.shape or i.shape[1] != 4:
         raise ShapeError(f"current and damper_velocity must both have shape (T, 4); got {i.shape} and {v.shape}.")
-    return m.max_force * (1.0 - np.exp(-np.maximum(i, 0.0) / m.saturation_current)) * np.tanh(v / m.yield_velocity)
+    return _mr_yield_force(i, m) * np.tanh(v / m.yield_velocity)
+
+
+def _mr_yield_force(current, mr: MRDamperParams) -> np.ndarray:
+    """Yield force of the map at the current, ``F_max (1 - exp(-max(i, 0) / i_sat))``, N (same shape)."""
+    return mr.max_force * (1.0 - np.exp(-np.maximum(current, 0.0) / mr.saturation_current))
 
 
 # ------------------------------------------------------------------------------------------------ results
@@ -324,6 +339,9 @@ class VerticalStateEstimate:
     config : int
     method : str -- "corner-ekf" (thesis, decentralised) or "full-ekf" (centralised).
     filtered : FilterResult -- the engine's output (stacked 16 states).
+    actuator_force : (T, 4) ndarray or None, N -- the actuator forces the filter used at each step: the known
+        input plus, with ``mr_map_velocity="filter"``, the in-model MR map at the filtered velocity
+        ``F_y(i[k]) tanh(dZ21dot[k|k] / v_y)`` (the force the transition from step k applied).
     """
 
     time: np.ndarray
@@ -338,14 +356,25 @@ class VerticalStateEstimate:
     config: int
     method: str
     filtered: object
+    actuator_force: np.ndarray | None = None
 
 
 def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSettings | None = None,
-                        decentralised: bool = True, actuator_force=None, yaw_cutoff: float = 5.0) -> np.ndarray:
-    """The (T, 12) known-input rows of :func:`vertical_ekf_model` for a sensor record.
+                        decentralised: bool = True, actuator_force=None, yaw_cutoff: float = 5.0,
+                        mr_map: MRDamperParams | None = None, mr_map_velocity: str = "displacement",
+                        mr_velocity_cutoff: float = 20.0) -> np.ndarray:
+    """The (T, 17) known-input rows of :func:`vertical_ekf_model` for a sensor record.
 
     Columns: a_x, a_y (measured), psidd (:func:`yaw_acceleration` of the measured yaw rate), the four actuator
-    forces (default 0), then dt, alpha_veh, alpha_route, config, decentralised (constants).
+    forces (default 0), then dt, alpha_veh, alpha_route, config, decentralised (constants), then the in-model
+    MR map: yield force per corner and yield velocity (0 unless ``mr_map_velocity="filter"``).
+
+    With ``mr_map`` (the filter's MR map, e.g. :func:`nominal_mr_map`; needs ``sensors.damper_current``):
+    ``mr_map_velocity="displacement"`` adds :func:`mr_actuator_force` at
+    :func:`damper_velocity_from_displacement` (low-pass ``mr_velocity_cutoff`` Hz) to the actuator-force
+    columns (precomputed input); ``"filter"`` writes the map's yield force at the logged current,
+    ``F_max (1 - exp(-i / i_sat))``, and ``v_y`` into the last five columns: the model evaluates
+    ``F_y tanh(dZ21dot / v_y)`` at its own velocity state (thesis §3.1).
     """
     T = sensors.time.shape[0]
     s = settings or thesis_filter_settings(sensors.config, sensors.dt)
@@ -358,6 +387,22 @@ def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSetti
         if U.shape != (T, 4):
             raise ShapeError(f"actuator_force must have shape (T, 4) = ({T}, 4); got {U.shape}.")
         u[:, U_ACT:U_ACT + 4] = U
+    if mr_map_velocity not in MR_MAP_VELOCITIES:
+        raise InputError(f"mr_map_velocity must be one of {MR_MAP_VELOCITIES}; got {mr_map_velocity!r}.")
+    if mr_map is not None:
+        if not isinstance(mr_map, MRDamperParams):
+            raise InputError(f"mr_map must be an MRDamperParams (e.g. nominal_mr_map(...)); "
+                             f"got {type(mr_map).__name__}.")
+        if sensors.damper_current is None:
+            raise InputError("mr_map needs the logged damper currents (sensors.damper_current, columns "
+                             "current_FL..RR of a MagneRide log); this record has none.")
+        if mr_map_velocity == "displacement":
+            vel = damper_velocity_from_displacement(sensors.displacement, sensors.dt, cutoff=mr_velocity_cutoff)
+            act = mr_actuator_force(sensors.damper_current, vel, mr_map)
+            u[:, U_ACT:U_ACT + 4] = act if actuator_force is None else u[:, U_ACT:U_ACT + 4] + act
+        else:
+            u[:, U_MR_FY:U_MR_FY + 4] = _mr_yield_force(np.asarray(sensors.damper_current, float), mr_map)
+            u[:, U_MR_VY] = mr_map.yield_velocity
     av, ar = s.alphas(sensors.dt)
     u[:, U_DT], u[:, U_ALPHA_VEH], u[:, U_ALPHA_ROAD] = sensors.dt, av, ar
     u[:, U_CONFIG] = sensors.config
@@ -368,7 +413,9 @@ def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSetti
 def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
                              settings: CornerFilterSettings | None = None, decentralised: bool = True,
                              actuator_force=None, yaw_cutoff: float = 5.0,
-                             accel_compensation: tuple[float, float] = (0.0, 0.0)) -> VerticalStateEstimate:
+                             accel_compensation: tuple[float, float] = (0.0, 0.0),
+                             mr_map: MRDamperParams | None = None,
+                             mr_map_velocity: str = "displacement") -> VerticalStateEstimate:
     """Estimate damper displacement/velocity, tyre deflection/force, body and wheel velocities (thesis 003).
 
     Parameters
@@ -388,6 +435,16 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     accel_compensation : (float, float)
         Gains (1) subtracted as ``g_x a_x + g_y a_y`` from the vertical accelerometers before they are
         integrated (thesis Figs. 4.18, 4.32; gains not given there, default 0).
+    mr_map : MRDamperParams, optional
+        The filter's MR map (e.g. :func:`nominal_mr_map` of the car's damper) for a MagneRide record
+        (``sensors.damper_current`` needed): the actuator force is the map at the logged current, added to
+        ``actuator_force``.
+    mr_map_velocity : {"displacement", "filter"}
+        Damper velocity the map is evaluated at. ``"displacement"`` (default): the causal derivative of the
+        measured displacement (:func:`damper_velocity_from_displacement`, a precomputed input; DEVIATION from
+        the thesis). ``"filter"``: the filter's own velocity state, the map being part of the model's
+        transition and observation functions with its analytic slope in the Jacobians (thesis §1.2.4, §3.1;
+        see docs/vehicle-vertical.md, "MagneRide car", for its stability).
 
     Returns
     -------
@@ -418,7 +475,7 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     s = settings or thesis_filter_settings(config, sensors.dt)
     model = vertical_ekf_model(config, sensors.dt, params=p, settings=s, fused_steps=decentralised)
     u = vertical_ekf_inputs(sensors, settings=s, decentralised=decentralised, actuator_force=actuator_force,
-                            yaw_cutoff=yaw_cutoff)
+                            yaw_cutoff=yaw_cutoff, mr_map=mr_map, mr_map_velocity=mr_map_velocity)
     y = sensors.displacement
     if config == 2:
         y = np.hstack([y, sensors.body_accel])
@@ -437,7 +494,18 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     return VerticalStateEstimate(
         time=sensors.time.copy(), suspension_deflection=disp, suspension_velocity=vel, vehicle_disturbance=dist,
         tyre_deflection=tyre, tyre_force=-p.tyre_stiffness * tyre, body_velocity=body, wheel_velocity=wheel,
-        state_std=std, config=config, method="corner-ekf" if decentralised else "full-ekf", filtered=res)
+        state_std=std, config=config, method="corner-ekf" if decentralised else "full-ekf", filtered=res,
+        actuator_force=_actuator_forces(u, vel))
+
+
+def _actuator_forces(u, damper_velocity):
+    """Actuator forces (T, 4) of the input rows: the known input plus the in-model MR map at ``damper_velocity``."""
+    act = u[:, U_ACT:U_ACT + 4].copy()
+    vy = u[:, U_MR_VY:U_MR_VY + 1]
+    if np.any(vy > 0.0):
+        act += np.where(vy > 0.0, u[:, U_MR_FY:U_MR_FY + 4] * np.tanh(damper_velocity / np.where(vy > 0.0, vy, 1.0)),
+                        0.0)
+    return act
 
 
 # ------------------------------------------------------------------------------------------------ velocities
@@ -533,13 +601,16 @@ def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspens
     """Body and wheel vertical velocities (T, 4) rebuilt outside the EKF per configuration (thesis §6.5).
 
     All chains are causal (real time). Config 1 (displacement sensors only; DEVIATIONS from the thesis's
-    §4.3.4.4 named): the relative velocity fed to the chain is :func:`_blended_relative_velocity` (crossover
-    :data:`CONFIG1_CROSSOVER_HZ`): in driver manoeuvres the config-1 EKF's velocity state departs from the
-    derivative of its own deflection in the 0-3 Hz band (track test: eps 25 % vs 99.9 % after a 3 Hz
-    low-pass), and the damper slope (~2e4 N s/m near 0) turns that into body forces; the comfort model
-    integrates with a 0.2 Hz leak (:data:`CONFIG1_COMFORT_LEAK_HZ`); the wheel velocity is
-    ``Z1dot_handling + Z2dot_comfort - dZ21dot_road`` (the thesis keeps the road-induced relative velocity
-    only; the handling term adds the manoeuvre load-transfer motion of the wheel).
+    §4.3.4.4 named): the actuator forces of the comfort model are the known inputs ``u[:, U_ACT:U_ACT+4]``
+    plus, when the model carries the MR map (``mr_map_velocity="filter"``), that map at the causal
+    displacement-derivative velocity (:func:`damper_velocity_from_displacement`; at the EKF's or the blended
+    velocity the track-test body velocity collapses, docs "MagneRide car"); the relative velocity fed to the
+    chain is :func:`_blended_relative_velocity` (crossover :data:`CONFIG1_CROSSOVER_HZ`): in driver manoeuvres
+    the config-1 EKF's velocity state departs from the derivative of its own deflection in the 0-3 Hz band
+    (track test: eps 25 % vs 99.9 % after a 3 Hz low-pass), and the damper slope (~2e4 N s/m near 0) turns
+    that into body forces; the comfort model integrates with a 0.2 Hz leak (:data:`CONFIG1_COMFORT_LEAK_HZ`);
+    the wheel velocity is ``Z1dot_handling + Z2dot_comfort - dZ21dot_road`` (the thesis keeps the road-induced
+    relative velocity only; the handling term adds the manoeuvre load-transfer motion of the wheel).
     """
     dt = sensors.dt
     config = sensors.config
@@ -551,7 +622,13 @@ def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspens
         vel = _blended_relative_velocity(np.asarray(suspension_deflection, float),
                                          np.asarray(suspension_velocity, float), dt, CONFIG1_CROSSOVER_HZ)
         leak = math.exp(-2 * math.pi * CONFIG1_COMFORT_LEAK_HZ * dt)
-        act = np.ascontiguousarray(np.asarray(u, dtype=float)[:, U_ACT:U_ACT + 4])
+        # known actuator input + the in-model MR map (mr_map_velocity="filter") evaluated, for this open-loop
+        # chain, at the displacement-derivative velocity (docs: "MagneRide car", in-filter map)
+        u = np.asarray(u, dtype=float)
+        act = u[:, U_ACT:U_ACT + 4]
+        if np.any(u[:, U_MR_VY] > 0.0):
+            act = _actuator_forces(u, damper_velocity_from_displacement(sensors.displacement, dt))
+        act = np.ascontiguousarray(act)
         cv = _comfort_model(np.ascontiguousarray(suspension_deflection, dtype=float), np.ascontiguousarray(vel),
                             hdz, hdzd, act, corner, coupling, scalars, dt, leak)
         road_dzd = vel - hdzd
@@ -608,7 +685,7 @@ def smooth_vertical_states(estimate: VerticalStateEstimate, *, params: VerticalV
         time=estimate.time, suspension_deflection=x[:, 1::4], suspension_velocity=x[:, 0::4],
         vehicle_disturbance=x[:, 2::4], tyre_deflection=x[:, 3::4], tyre_force=-p.tyre_stiffness * x[:, 3::4],
         body_velocity=estimate.body_velocity, wheel_velocity=estimate.wheel_velocity, state_std=std,
-        config=estimate.config, method=estimate.method + "+rts", filtered=sm)
+        config=estimate.config, method=estimate.method + "+rts", filtered=sm, actuator_force=estimate.actuator_force)
 
 
 def vertical_linear_model(config: int, dt: float = 1e-3, *, params: VerticalVehicleParams | None = None,

@@ -17,8 +17,8 @@ from scipy import signal
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ._vertical_estimate import (MR_MAP_FORCE_ERROR, VerticalStateEstimate, damper_velocity_from_displacement,
-                                 estimate_vertical_states, mr_actuator_force, nominal_mr_map)
+from ._vertical_estimate import (MR_MAP_FORCE_ERROR, MR_MAP_VELOCITIES, VerticalStateEstimate,
+                                 estimate_vertical_states, nominal_mr_map)
 from ._vertical_model import MRDamperParams, VerticalVehicleParams
 from ._vertical_sim import (VerticalSimulation, measure_vertical, simulate_vertical, steering_sine_manoeuvre,
                             wheel_road_inputs)
@@ -210,7 +210,7 @@ def reproduce_thesis_tables(*, duration: float = 20.0, seed: int = 0, true_param
                             filter_params: VerticalVehicleParams | None = None, dt: float = 1e-3,
                             decentralised: bool = True, reference: str = "truth", car: str = "ideal",
                             mr_damper: MRDamperParams | None = None, map_force_error: float = MR_MAP_FORCE_ERROR,
-                            progress=None) -> pd.DataFrame:
+                            mr_map_velocity: str = "displacement", progress=None) -> pd.DataFrame:
     """Re-run the thesis's two evaluation tests on the simulator for configurations 1-3 and score them.
 
     * bench "road input" test (Table 4.4): a 4-poster replays an ISO 8608 class C road driven at 20 m/s
@@ -242,12 +242,16 @@ def reproduce_thesis_tables(*, duration: float = 20.0, seed: int = 0, true_param
         ``"ideal"`` (default): the passive simulated car above. ``"magneride"``: the same car with an MR damper
         per corner driven by a skyhook controller (``simulate_vertical(mr_damper=...)``, thesis §1.2.4); the
         filters receive the logged currents turned into actuator forces by the filter's NOMINAL map
-        (:func:`nominal_mr_map`: static, force scale off by ``map_force_error``) evaluated at the causal damper
-        velocity of the measured displacement (:func:`damper_velocity_from_displacement`).
+        (:func:`nominal_mr_map`: static, force scale off by ``map_force_error``) evaluated at the damper velocity
+        chosen by ``mr_map_velocity``.
     mr_damper : MRDamperParams, optional
         The true MR damper of the MagneRide car (default :class:`MRDamperParams`()); ignored for ``"ideal"``.
     map_force_error : float
         Relative force-scale error of the filter's map (default :data:`MR_MAP_FORCE_ERROR` = 0.12).
+    mr_map_velocity : {"displacement", "filter"}
+        MagneRide car: the damper velocity the filter's map is evaluated at -- the causal derivative of the
+        measured displacement (default, a precomputed input) or the filter's own velocity state (the map
+        inside the model, as the thesis; ``estimate_vertical_states(mr_map_velocity="filter")``).
     progress : callable, optional
         Called as ``progress(done, total)`` after each of the 6 (test, configuration) runs.
 
@@ -262,7 +266,10 @@ def reproduce_thesis_tables(*, duration: float = 20.0, seed: int = 0, true_param
         raise InputError(f"reference must be one of {REFERENCES}; got {reference!r}.")
     if car not in CARS:
         raise InputError(f"car must be one of {CARS}; got {car!r}.")
+    if mr_map_velocity not in MR_MAP_VELOCITIES:
+        raise InputError(f"mr_map_velocity must be one of {MR_MAP_VELOCITIES}; got {mr_map_velocity!r}.")
     mr = None
+    mr_map = None
     if car == "magneride":
         mr = mr_damper if mr_damper is not None else MRDamperParams()
         if not isinstance(mr, MRDamperParams):
@@ -277,12 +284,8 @@ def reproduce_thesis_tables(*, duration: float = 20.0, seed: int = 0, true_param
         sensors = {config: measure_vertical(sim, config, rng=seed + 10 * config) for config in (1, 2, 3)}
         for config in (1, 2, 3):
             sens = sensors[config]
-            act = None
-            if mr is not None:
-                act = mr_actuator_force(sens.damper_current, damper_velocity_from_displacement(sens.displacement, dt),
-                                        mr_map)
             est = estimate_vertical_states(sens, params=filter_params, decentralised=decentralised,
-                                           actuator_force=act)
+                                           mr_map=mr_map, mr_map_velocity=mr_map_velocity)
             variables = VERTICAL_VARIABLES if test == "bench" else tuple(v for v in VERTICAL_VARIABLES
                                                                          if v != "tyre_force")
             refs = None

@@ -46,7 +46,7 @@ from numba import njit
 from ..errors import InputError
 
 __all__ = ["VerticalVehicleParams", "vertical_params_arrays", "spring_force", "damper_force", "MRDamperParams",
-           "mr_controlled_force", "skyhook_current", "THESIS_MR_TIME_CONSTANT"]
+           "mr_controlled_force", "mr_map_force", "skyhook_current", "THESIS_MR_TIME_CONSTANT"]
 
 N_CORNERS = 4
 CORNER_NAMES = ("FL", "FR", "RL", "RR")
@@ -432,6 +432,18 @@ def mr_controlled_force(current, v, max_force, saturation_current, yield_velocit
     """Controlled MR force ``F_y(i) tanh(v / v_y)``, N, with ``F_y(i) = F_max (1 - exp(-i / i_sat))`` (i >= 0)."""
     i = current if current > 0.0 else 0.0
     return max_force * (1.0 - math.exp(-i / saturation_current)) * math.tanh(v / yield_velocity)
+
+
+@njit(cache=True, inline="always")
+def mr_map_force(v, yield_force, yield_velocity):
+    """MR map at a given yield force: ``F = F_y tanh(v / v_y)`` and its slope ``dF/dv = F_y / v_y (1 - tanh^2)``.
+
+    ``F_y = F_max (1 - exp(-i / i_sat))`` is the yield force of the current (see :func:`mr_controlled_force`);
+    the filter's in-model actuator force (``mr_map_velocity="filter"`` of the estimator) evaluates this at its
+    own damper-velocity state. Returns (force N, slope N s/m).
+    """
+    t = math.tanh(v / yield_velocity)
+    return yield_force * t, yield_force / yield_velocity * (1.0 - t * t)
 
 
 @njit(cache=True)
