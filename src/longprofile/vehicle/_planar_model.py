@@ -28,6 +28,21 @@ N_INPUTS = 12
 V_MIN = 0.5
 
 
+@njit(cache=True, inline="always")
+def slip_ratio(rw, vw, R):
+    """Longitudinal slip of eq. (18) and its derivatives: ``(lambda, d lambda/d v_w, d lambda/d omega)``.
+
+    ``rw`` = R omega (m/s), ``vw`` the wheel-plane speed (m/s). Driving (R omega >= v_w): (R omega - v_w)/(R omega);
+    braking: R omega / v_w - 1; below :data:`V_MIN` the denominator is held at V_MIN (the model is not meant for
+    standstill). The one definition every kernel of this module uses.
+    """
+    if rw >= vw and rw >= V_MIN:
+        return (rw - vw) / rw, -1.0 / rw, R * vw / (rw * rw)
+    if vw >= V_MIN:
+        return rw / vw - 1.0, -rw / (vw * vw), R / vw
+    return (rw - vw) / V_MIN, -1.0 / V_MIN, R / V_MIN
+
+
 @njit(cache=True)
 def normal_loads(p, ax, ay, slope, out):
     """Eq. (19): static load, longitudinal and lateral load transfer; ``out`` (4,) in N.
@@ -80,18 +95,7 @@ def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, 
         dvw1 = s
         dvw2 = -yi * c + xi * s
         rw = R * omega[i]
-        if rw >= vw and rw >= V_MIN:
-            lam = (rw - vw) / rw
-            dl = -1.0 / rw
-            dlw = R * vw / (rw * rw)
-        elif vw >= V_MIN:
-            lam = rw / vw - 1.0
-            dl = -rw / (vw * vw)
-            dlw = R / vw
-        else:
-            lam = (rw - vw) / V_MIN
-            dl = -1.0 / V_MIN
-            dlw = R / V_MIN
+        lam, dl, dlw = slip_ratio(rw, vw, R)
         beta = math.atan2(vyi, vxi)
         a = di - beta
         t = math.tan(a)
@@ -272,15 +276,7 @@ def planar_fused(vx, vy, r, u, p, slope):
         vw = vxi * c + vyi * s
         dvw2 = -yi * c + xi * s
         rw = R * u[U_OMEGA + i]
-        if rw >= vw and rw >= V_MIN:
-            lam = (rw - vw) / rw
-            dl = -1.0 / rw
-        elif vw >= V_MIN:
-            lam = rw / vw - 1.0
-            dl = -rw / (vw * vw)
-        else:
-            lam = (rw - vw) / V_MIN
-            dl = -1.0 / V_MIN
+        lam, dl, _ = slip_ratio(rw, vw, R)
         # tan(alpha) = tan(delta_i - atan(vyi / vxi)) = (td vxi - vyi) / (vxi + td vyi), no trig per wheel
         td = tdelta if front else 0.0
         num = td * vxi - vyi
@@ -373,12 +369,7 @@ def planar_rates_fast(vx, vy, r, u, p, slope):
         vyi = vy + r * xi
         vw = vxi * c + vyi * s
         rw = R * u[U_OMEGA + i]
-        if rw >= vw and rw >= V_MIN:
-            lam = (rw - vw) / rw
-        elif vw >= V_MIN:
-            lam = rw / vw - 1.0
-        else:
-            lam = (rw - vw) / V_MIN
+        lam = slip_ratio(rw, vw, R)[0]
         td = tdelta if front else 0.0
         t = (td * vxi - vyi) / (vxi + td * vyi)
         f_x, f_y = dugoff_values(lam, t, fn, u[U_MU + i], p[P_CX0], p[P_CY0])
@@ -531,18 +522,7 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
         dvw2 = -yi * c + xi * s
         omega = u[k, U_OMEGA + i]
         rw = R * omega
-        if rw >= vw and rw >= V_MIN:
-            lam = (rw - vw) / rw
-            dl = -1.0 / rw
-            dlw = R * vw / (rw * rw)
-        elif vw >= V_MIN:
-            lam = rw / vw - 1.0
-            dl = -rw / (vw * vw)
-            dlw = R / vw
-        else:
-            lam = (rw - vw) / V_MIN
-            dl = -1.0 / V_MIN
-            dlw = R / V_MIN
+        lam, dl, dlw = slip_ratio(rw, vw, R)
         td = tdelta if front else 0.0
         num = td * vxi - vyi
         den = vxi + td * vyi
