@@ -14,8 +14,8 @@ from scipy import linalg, optimize, signal
 
 from .._validation import as_float_array, require_positive
 from ..errors import ConvergenceError, InputError, ModelError, NotDetectableError, ShapeError
-from ..statespace import (StateSpaceModel, fixed_lag_smoother, kalman_filter, rts_smoother, steady_state_filter,
-                          steady_state_gain, steady_state_smoother)
+from ..statespace import (StateSpaceModel, chunked_kalman_filter, fixed_lag_smoother, kalman_filter,
+                          long_record_log_likelihood, long_record_smoother, rts_smoother, steady_state_gain)
 from ._apl import APLModel, _check_profile_spacing
 from ._double_filter import double_filter
 from ._profile import Profile
@@ -23,6 +23,7 @@ from ._profile import Profile
 __all__ = [
     "instrument_state_space",
     "apl_deconvolution_model",
+    "increment_deconvolution_model",
     "is_detectable",
     "detrend_profile",
     "fit_noise_variances",
@@ -34,7 +35,12 @@ __all__ = [
     "default_fixed_lag",
     "FIXED_LAG_CORRELATION_LENGTH",
     "FIXED_LAG_TIME_CONSTANTS",
+    "LONG_RECORD_SAMPLES",
 ]
+
+#: Records longer than this many samples take the long-record path by default (``stationary=None``): exact
+#: start, constant gains once converged, chunked, O(chunk) working memory. Both paths give the same profile.
+LONG_RECORD_SAMPLES = 200_000
 
 RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
 
@@ -253,6 +259,81 @@ def apl_deconvolution_model(instrument: APLModel, q: float, r: float, *, input_m
     return StateSpaceModel(F, H, Q, np.array([[r]]), np.zeros(n + 1), P0)
 
 
+def increment_deconvolution_model(instrument: APLModel, q: float, r: float, *, dx: float | None = None) -> StateSpaceModel:
+    r"""The Wiener model of :func:`apl_deconvolution_model` in a detectable form: instrument state and elevation step.
+
+    For an instrument with a zero at z = 1 (eq. 1 has three), the Wiener model (eq. 7) is not detectable and has
+    no stationary Kalman filter (§5.2). It is rewritten here, exactly, with the deviation of the instrument state
+    from its steady state, xi_k = x_k - M u_k (M = (I - A)^{-1} B), and the elevation increment
+    v_{k-1} = u_k - u_{k-1}:
+
+        xi_{k+1} = A xi_k - M v_k,    y_k = C xi_k + H(1) u_k + e_k,    H(1) = C M + D = 0,
+
+    so the state s_k = [xi_k; v_{k-1}] (n + 1) has the transition [[A, 0], [0, 0]] (stable: the eigenvalues of
+    A and 0), process noise q g g' with g = [-M; 1], and the observation [C, 0]. The elevation is recovered as
+    u_k = sum_{j=1..k} s_j[n] (u_0 = 0, the reference), and E[u_k | y] is the same sum of E[s_j[n] | y]: the
+    smoothed elevation of this model equals that of the Wiener model (linear estimation commutes with sums).
+    The prior xi_0 ~ N(0, Pxi) is the one of :func:`apl_deconvolution_model`, so the two models give the same
+    distribution of y and the same likelihood.
+
+    Parameters
+    ----------
+    instrument : APLModel
+        Stable, with H(1) = 0 to working precision (:class:`ModelError` otherwise: such an instrument's Wiener
+        model is detectable and needs no rewriting).
+    q, r, dx
+        As :func:`apl_deconvolution_model`.
+
+    Returns
+    -------
+    StateSpaceModel
+        n + 1 states, one observation; the elevation increment is the last state.
+    """
+    q = require_positive("q", q)
+    r = require_positive("r", r)
+    h = dx if dx is not None else instrument.dx
+    if h is None:
+        raise InputError("the instrument has no spacing dx (bench model); pass dx=... in m.")
+    require_positive("dx", h)
+    if not instrument.is_stable:
+        raise ModelError(f"the instrument model {instrument.name!r} is unstable; deconvolution needs a stable one.")
+    A, B, C, D = instrument_state_space(instrument)
+    n = A.shape[0]
+    M = np.linalg.solve(np.eye(n) - A, B)
+    dc = float((C @ M + D)[0, 0])
+    if abs(dc) > 1e-9 * max(float(np.abs(M).max()), 1.0):
+        raise ModelError(f"the instrument {instrument.name!r} has a static gain H(1) = {dc:.3g} (no zero at z = 1): "
+                         "its Wiener model is detectable as it is; use apl_deconvolution_model.")
+    F = np.zeros((n + 1, n + 1))
+    F[:n, :n] = A
+    g = np.vstack([-M, [[1.0]]])
+    H = np.hstack([C, np.zeros((1, 1))])
+    Pxi = linalg.solve_discrete_lyapunov(A, q * (M @ M.T))
+    P0 = np.zeros((n + 1, n + 1))
+    P0[:n, :n] = 0.5 * (Pxi + Pxi.T)
+    return StateSpaceModel(F, H, q * (g @ g.T), np.array([[r]]), np.zeros(n + 1), P0)
+
+
+def _long_record_model(instrument, q, r, input_model, correlation_length, dx):
+    """The model the long-record path runs, and whether its last state is the elevation step (True) or the
+    elevation itself (False)."""
+    model = apl_deconvolution_model(instrument, q, r, input_model=input_model,
+                                    correlation_length=correlation_length, dx=dx)
+    if input_model == "wiener" and not is_detectable(model):
+        return increment_deconvolution_model(instrument, q, r, dx=dx), True
+    return model, False
+
+
+def _elevation_from_last_state(last, increments: bool) -> np.ndarray:
+    """u_k from the last state's estimates: itself, or the running sum of the steps (u_0 = 0)."""
+    if not increments:
+        return np.ascontiguousarray(last)
+    u = np.empty_like(last)
+    u[0] = 0.0
+    np.cumsum(last[1:], out=u[1:])
+    return u
+
+
 def is_detectable(model: StateSpaceModel, *, tol: float = 1e-9) -> bool:
     """PBH test: every mode with |lambda| >= 1 of the transition is observable through H.
 
@@ -272,13 +353,6 @@ def is_detectable(model: StateSpaceModel, *, tol: float = 1e-9) -> bool:
         if s[-1] < tol * scale:
             return False
     return True
-
-
-def _not_detectable_message(instrument: APLModel) -> str:
-    return (f"no stationary Kalman filter exists for the Wiener input model with {instrument.name!r}: its zero at "
-            "z = 1 cancels the integrator of the input, so (F, H) is not detectable (paper 000, §5.2). Use "
-            "input_model='ar1' (§5.2 option 1, e.g. correlation_length=500 m), an identified model whose zeros are "
-            "slightly off 1 (option 2), or the time-varying filter/smoother (stationary=False).")
 
 
 def detrend_profile(elevation, dx: float, *, highpass_wavelength: float | None = 100.0, axis: int = 0) -> np.ndarray:
@@ -364,17 +438,18 @@ class NoiseFit:
 
 def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx, stationary):
     lam = 10.0 ** log10_ratio
+    if stationary:
+        model, _ = _long_record_model(instrument, lam, 1.0, input_model, correlation_length, dx)
+        res = long_record_log_likelihood(model, y)
+        r_hat = res.quadratic_form / res.n_observed
+        ll = -0.5 * (res.n_observed * (np.log(2 * np.pi * r_hat) + 1.0) + res.log_det_sum)
+        return float(ll), float(r_hat)
     model = apl_deconvolution_model(instrument, lam, 1.0, input_model=input_model,
                                     correlation_length=correlation_length, dx=dx)
-    if stationary:
-        res = steady_state_filter(model, y)
-        e = res.innovation[:, 0]
-        s = np.full(e.shape, steady_state_gain(model).innovation_cov[0, 0])
-    else:
-        res = kalman_filter(model, y)
-        obs = ~np.isnan(res.innovation[:, 0])
-        e = res.innovation[obs, 0]
-        s = res.innovation_cov[obs, 0, 0]
+    res = kalman_filter(model, y)
+    obs = ~np.isnan(res.innovation[:, 0])
+    e = res.innovation[obs, 0]
+    s = res.innovation_cov[obs, 0, 0]
     nobs = e.size
     r_hat = float(np.mean(e * e / s))
     ll = -0.5 * (nobs * (np.log(2 * np.pi * r_hat) + 1.0) + np.sum(np.log(s)))
@@ -396,8 +471,11 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     bounds_log10_ratio : (float, float)
         Search interval for log10(q / r).
     stationary : bool
-        Use the steady-state filter's (asymptotic) likelihood: O(T) and fast for long records;
-        needs a detectable model and a complete signal (default False: exact time-varying filter).
+        Use the long-record likelihood (:func:`longprofile.statespace.long_record_log_likelihood`: exact
+        start, constant gain once converged, O(chunk) memory) on the detectable form of the model
+        (:func:`increment_deconvolution_model` for the Wiener model of an instrument with a zero at 1); needs
+        a complete signal. It equals the exact likelihood to round-off. Default False: the exact time-varying
+        filter (NaN allowed).
 
     Returns
     -------
@@ -576,10 +654,14 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     min_length : float, optional
         Shortest accepted record, m (default: one highpass_wavelength, and at least 200 samples).
     stationary : bool or None
-        True: constant-gain steady-state filter/smoother (O(T n) memory, compiled; needs a
-        detectable model and no NaN). False: exact time-varying filter/RTS smoother with
-        per-sample covariances (O(T n^2) memory). None (default): stationary when the record has
-        more than 200 000 samples, time-varying otherwise.
+        True: the long-record path — exact start, constant gains once the filter has converged, chunked
+        (:func:`longprofile.statespace.long_record_smoother`; O(chunk) working memory, no NaN), on the
+        detectable form of the model (:func:`increment_deconvolution_model` for the Wiener model of an
+        instrument with a zero at 1); the causal ``"filter"`` runs the exact filter in chunks
+        (:func:`longprofile.statespace.chunked_kalman_filter`). False: exact time-varying filter/RTS smoother
+        with per-sample covariances (O(T n^2) memory, NaN bridged). None (default): the long-record path
+        above LONG_RECORD_SAMPLES (200 000) samples. Both paths give the same profile (to round-off) and work
+        with the same models; only ``raw_std`` differs (None on the long-record smoother path).
     lag_m : float, optional
         ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default
         :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s).
@@ -596,15 +678,12 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         Signal spacing differs from the instrument's dx.
     ConvergenceError
         The ML estimate of q/r lies on its search bound.
-    NotDetectableError
-        A stationary run was requested (or chosen for a long record) but no stationary Kalman
-        filter exists (Wiener input with an exact zero at 1, paper 000 §5.2).
 
     Notes
     -----
-    With the stationary path, ``raw_std`` is the constant steady-state posterior std
-    (filter: sqrt of the steady filtered variance; smoother: :func:`smoother_error_std`),
-    valid away from the ends. ``"fixed-lag"`` returns the per-sample fixed-lag posterior std in
+    On the long-record path the smoother's ``raw_std`` is None (the per-sample std of the undetrended
+    elevation grows without bound with the Wiener model and would need the cross-covariances of all the
+    increments); ``profile.std``, the std of what the user gets, is the same on both paths. ``"fixed-lag"`` returns the per-sample fixed-lag posterior std in
     ``raw_std`` and ``profile.std = None``; its ``profile`` is detrended like the others, which is
     an offline (zero-phase) step: the real-time output is ``raw_elevation``.
     """
@@ -645,15 +724,10 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     if (q is None) != (r is None):
         raise InputError("give both q and r (m^2), or neither to estimate them by maximum likelihood.")
     if stationary is None:
-        stationary = y.size > 200_000
-    if stationary:
-        if np.isnan(y).any():
-            raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); the stationary filter needs a "
-                             "complete record: use stationary=False (exact filter across gaps) or cut the record.")
-        probe = apl_deconvolution_model(instrument, 1.0, 1.0, input_model=input_model,
-                                        correlation_length=correlation_length, dx=dx)
-        if not is_detectable(probe):
-            raise NotDetectableError(_not_detectable_message(instrument))
+        stationary = y.size > LONG_RECORD_SAMPLES
+    if stationary and np.isnan(y).any():
+        raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); the long-record path needs a "
+                         "complete record: use stationary=False (exact filter across gaps) or cut the record.")
     fit = None
     if q is None:
         fit = fit_noise_variances(y, instrument, input_model=input_model, correlation_length=correlation_length,
@@ -667,20 +741,19 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     if method == "fixed-lag":
         lag = int(round(lag_m / dx))
         lag_m = lag * dx
-        fl = fixed_lag_smoother(model, y, lag, stationary=stationary, states=[-1])
+        # a stationary fixed-lag smoother needs a detectable model; the Wiener model of an instrument with a
+        # zero at 1 runs with the exact gains (its elevation is not a running sum of fixed-lag increments)
+        fl = fixed_lag_smoother(model, y, lag, stationary=bool(stationary and is_detectable(model)), states=[-1])
         mean, cov = fl.mean[:, 0], fl.cov[:, 0, 0]
+    elif stationary and method == "filter":
+        # the causal estimate of u_k is not a running sum of causal increment estimates: the exact filter of
+        # the model as it is, in chunks (O(chunk n^2) memory), whatever its detectability
+        res = chunked_kalman_filter(model, y, states=[-1])
+        mean, cov = res.mean[:, 0], res.var[:, 0]
     elif stationary:
-        if method == "filter":
-            mean = steady_state_filter(model, y, store_predictions=False).mean[:, -1]
-            cov = np.broadcast_to(steady_state_gain(model).cov[-1, -1], y.shape)  # constant: a view, no memory
-        else:
-            mean = steady_state_smoother(model, y, store_filtered=False).mean[:, -1]
-            # the constant smoothed variance, from the spectral (Wiener smoother) formula: the engine's
-            # steady_state_smoothed_cov needs the inverse of a predicted covariance that is numerically
-            # singular for this model (condition ~1e15)
-            cov = np.broadcast_to(smoother_error_std(instrument, q, r, input_model=input_model,
-                                                     correlation_length=correlation_length, dx=dx) ** 2, y.shape)
-        mean = np.ascontiguousarray(mean)
+        lr_model, increments = _long_record_model(instrument, q, r, input_model, correlation_length, dx)
+        mean = _elevation_from_last_state(long_record_smoother(lr_model, y, states=[-1]).mean[:, 0], increments)
+        cov = None
     else:
         filt = kalman_filter(model, y)
         if method == "filter":
@@ -695,10 +768,7 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
                                dx=dx, highpass_wavelength=highpass_wavelength)
         std = np.broadcast_to(s, y.shape)
     prof = Profile(distance, elevation, std=std, name=f"{method} reconstruction of {name}".strip())
-    if stationary and method != "fixed-lag":
-        raw_std = np.broadcast_to(np.sqrt(max(float(cov[0]), 0.0)), y.shape)
-    else:
-        raw_std = np.sqrt(np.maximum(cov, 0.0))
+    raw_std = None if cov is None else np.sqrt(np.maximum(cov, 0.0))
     return Reconstruction(profile=prof, raw_elevation=mean, raw_std=raw_std, method=method,
                           q=float(q), r=float(r), noise_fit=fit, input_model=input_model,
                           highpass_wavelength=highpass_wavelength, lag_m=lag_m if method == "fixed-lag" else None,

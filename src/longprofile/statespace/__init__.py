@@ -21,6 +21,12 @@ steady_state_smoother  -- zero-lag fixed-interval counterpart, O(T n) memory.
 steady_state_smoothed_cov -- the constant smoothed covariance of steady_state_smoother.
 fixed_lag_smoother     -- E[x_t | y_0..t+L]: real-time smoother with a latency of L samples; FixedLagResult.
 
+Records of any length (exact, bounded working memory)
+-----------------------------------------------------
+long_record_smoother   -- RTS smoother: exact start, constant gains once converged, chunked; LongRecordResult.
+long_record_filter     -- the same forward pass as a filter; long_record_log_likelihood -- its exact likelihood.
+chunked_kalman_filter  -- the exact time-varying filter chunk by chunk (no detectability needed).
+
 Nonlinear inference
 -------------------
 NonlinearStateSpaceModel -- x' = f(x, u, k) + w, y = h(x, u, k) + v (numba-jitted f, h or fused steps run compiled).
@@ -55,6 +61,8 @@ from ._block_ekf import block_extended_kalman_filter
 from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
 from ._fixed_lag import FixedLagResult, fixed_lag_smoother
 from ._kalman import kalman_filter, log_likelihood, rts_smoother
+from ._long_record import (ChunkedFilterResult, LongRecordResult, chunked_kalman_filter, long_record_filter,
+                           long_record_log_likelihood, long_record_smoother)
 from ._mle import MLEResult, fit_mle
 from ._model import StateSpaceModel
 from ._observer import ObserverResult, luenberger_gain, luenberger_observer
@@ -83,6 +91,12 @@ __all__ = [
     "steady_state_smoothed_cov",
     "fixed_lag_smoother",
     "FixedLagResult",
+    "long_record_smoother",
+    "long_record_filter",
+    "long_record_log_likelihood",
+    "LongRecordResult",
+    "chunked_kalman_filter",
+    "ChunkedFilterResult",
     "NonlinearStateSpaceModel",
     "extended_kalman_filter",
     "extended_rts_smoother",

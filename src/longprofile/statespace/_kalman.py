@@ -7,6 +7,8 @@ C-contiguous float64 batches and the dispatch to the compiled loops of
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .._validation import as_float_array
@@ -210,6 +212,18 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
     >>> res.mean.shape, res.cov.shape
     ((50, 1), (50, 1, 1))
     """
+    return _kalman_filter(model, y, u, store_covariances, None)
+
+
+def kalman_filter_final_cov(model: StateSpaceModel, y) -> tuple[FilterResult, np.ndarray, np.ndarray]:
+    """Means-only :func:`kalman_filter` of one series that also keeps the innovation covariances (T, m, m) and
+    returns the last step's filtered covariance P_(T-1|T-1): a chunk of a long record, to be continued."""
+    final: list = []
+    res = _kalman_filter(model, y, None, False, final)
+    return replace(res, innovation_cov=final[2]), final[0]
+
+
+def _kalman_filter(model, y, u, store_covariances, final):
     Y, batched = prepare_observations(model, y)
     nb, T, m = Y.shape
     U = _validate_inputs(model, u, T, nb)
@@ -219,8 +233,9 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
     n = model.n_states
     store = bool(store_covariances)
     cshape = (nb, T) if store else (1, 1)
+    ishape = (nb, T) if store or final is not None else (1, 1)
     mean, pmean, innov, ll, cov, pcov, icov = _carve(
-        (nb, T, n), (nb, T, n), (nb, T, m), (nb, T), cshape + (n, n), cshape + (n, n), cshape + (m, m))
+        (nb, T, n), (nb, T, n), (nb, T, m), (nb, T), cshape + (n, n), cshape + (n, n), ishape + (m, m))
     nobs = np.empty(nb, dtype=np.int64)
     status = np.empty(3, dtype=np.int64)
     _kernels.kalman_filter_kernel(
@@ -228,6 +243,8 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
         terms["x0"], terms["P0"], _readonly(Y), _readonly(U), store,
         mean, cov, pmean, pcov, innov, icov, ll, nobs, status)
     _raise_status(status, batched)
+    if final is not None:  # means-only: the last step's covariances, from the kernel's scratch; the S_k
+        final.extend([cov[0, 0].copy(), pcov[0, 0].copy(), icov[0]])
     if not batched:
         mean, pmean, innov, ll = mean[0], pmean[0], innov[0], ll[0]
         if store:

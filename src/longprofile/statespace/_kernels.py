@@ -14,7 +14,8 @@ Conventions shared by all kernels
   zeros of shape (1, n) / (1, m), so one kernel serves every model.
 * Known inputs ``u`` are (1, T, p) when shared by the whole batch, else (NB, T, p).
 * Output covariance arrays are (NB, T, ., .) when stored and (1, 1, ., .)
-  scratch otherwise (``store`` flag): one kernel gives the full and the
+  scratch otherwise (``store`` flag; the scratch then holds the last step's
+  filtered and predicted covariances of the last series): one kernel gives the full and the
   means-only filter.
 * Errors are reported through ``status`` = [batch, step, code] (code 0 = ok);
   the wrapper raises the matching :mod:`longprofile.errors` exception.
@@ -102,7 +103,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                 st = t if store else 0
                 for i in range(n):
                     pmean[b, t, i] = x[i]
-                if store:
+                if store or t == T - 1:  # means-only: the last step's covariances are kept in the scratch
                     for i in range(n):
                         for j in range(n):
                             pcov[sb, st, i, j] = P[i, j]
@@ -126,10 +127,10 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                             s += H[kh, i, l] * PHt[l, j]
                         S[i, j] = s
                         S[j, i] = s
-                if store:
+                if store or icov.shape[1] == T:  # means-only runs may still keep the (small) S_k
                     for i in range(m):
                         for j in range(m):
-                            icov[sb, st, i, j] = S[i, j]
+                            icov[b if icov.shape[0] > 1 else 0, t, i, j] = S[i, j]
                 mo = 0
                 for i in range(m):
                     v = y[b, t, i]
@@ -209,7 +210,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                 ll[b, t] = llt
                 for i in range(n):
                     mean[b, t, i] = x[i]
-                if store:
+                if store or t == T - 1:
                     for i in range(n):
                         for j in range(n):
                             cov[sb, st, i, j] = P[i, j]

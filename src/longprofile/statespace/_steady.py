@@ -105,6 +105,41 @@ def _fmt_mode(lam, v):
         return f"eigenvalue {lam_s} (|.| = {abs(lam):.6g}), direction {np.asarray(v)}"
 
 
+def _dare_doubling(F, H, Q, R, *, max_iter: int = 200, rtol: float = 1e-15):
+    """Filtering DARE P = F P (I + H' R^-1 H P)^-1 F' + Q by the structure-preserving doubling algorithm.
+
+    E. K.-W. Chu, H.-Y. Fan, W.-W. Lin, "A structure-preserving doubling algorithm for continuous-time algebraic
+    Riccati equations", Linear Algebra Appl. 396 (2005) (the discrete-time form, their eq. (2.3)): with
+    A_0 = F', G_0 = H' R^-1 H, H_0 = Q, W = I + G_k H_k,
+    A_{k+1} = A_k W^-1 A_k, G_{k+1} = G_k + A_k W^-1 G_k A_k', H_{k+1} = H_k + A_k' H_k W^-1 A_k, and H_k -> P
+    quadratically for a detectable, stabilisable model. Returns None if it does not converge.
+    """
+    n = F.shape[0]
+    A = F.T.copy()
+    G = H.T @ np.linalg.solve(R, H)
+    X = Q.copy()
+    eye = np.eye(n)
+    for _ in range(max_iter):
+        W = eye + G @ X
+        try:
+            WA = np.linalg.solve(W, A)
+            WG = np.linalg.solve(W, G)
+        except np.linalg.LinAlgError:
+            return None
+        X_new = X + A.T @ X @ WA
+        G = G + A @ WG @ A.T
+        A = A @ WA
+        G = 0.5 * (G + G.T)
+        X_new = 0.5 * (X_new + X_new.T)
+        if not np.all(np.isfinite(X_new)):
+            return None
+        done = np.abs(X_new - X).max() <= rtol * max(np.abs(X_new).max(), np.finfo(float).tiny)
+        X = X_new
+        if done:
+            return X
+    return None
+
+
 def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     """Stationary Kalman gain and covariances of a time-invariant model (discrete algebraic Riccati equation).
 
@@ -179,9 +214,14 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     try:
         P = solve_discrete_are(F.T, H.T, Q, R)
     except (LinAlgError, ValueError, np.linalg.LinAlgError) as exc:
-        raise NotDetectableError(f"the discrete algebraic Riccati equation has no stabilising solution for this "
-                                 f"model (scipy.linalg.solve_discrete_are: {exc}). Check that (F, H) is "
-                                 "detectable and Q excites every marginally stable mode.") from None
+        # scipy's QZ-based solver can fail on ill-conditioned pencils (e.g. a state with eigenvalue 0 beside poles
+        # near 1); the structure-preserving doubling algorithm needs no reordering and is checked the same way
+        P = _dare_doubling(F, H, Q, R)
+        if P is None:
+            raise NotDetectableError(f"the discrete algebraic Riccati equation has no stabilising solution for "
+                                     f"this model (scipy.linalg.solve_discrete_are: {exc}; the doubling algorithm "
+                                     "did not converge either). Check that (F, H) is detectable and Q excites "
+                                     "every marginally stable mode.") from None
     P = _sym(P)
     S = _sym(H @ P @ H.T + R)
     try:
@@ -196,12 +236,26 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
         raise NotDetectableError(f"the Riccati solution is inaccurate (relative residual "
                                  f"{float(np.abs(resid).max()) / scale:.3g} > {_DARE_RTOL:g}): the model is close to "
                                  "undetectable or badly scaled. Rescale the states, or use kalman_filter.")
-    A = (np.eye(n) - K @ H) @ F
-    rho = float(np.max(np.abs(np.linalg.eigvals(A)), initial=0.0))
-    if not np.all(np.isfinite(P)) or rho >= 1.0:
+    ss = gain_from_pred_cov(model, P)
+    if ss.closed_loop_radius >= 1.0:
         raise NotDetectableError(f"the Riccati solution is not stabilising (spectral radius of (I - K H) F = "
-                                 f"{rho:.6g} >= 1); the model is not detectable/stabilisable to working precision.")
+                                 f"{ss.closed_loop_radius:.6g} >= 1); the model is not detectable/stabilisable to "
+                                 "working precision.")
+    return ss
+
+
+def gain_from_pred_cov(model: StateSpaceModel, P: np.ndarray) -> SteadyStateGain:
+    """The constant-gain filter of a predicted covariance P (the DARE solution, or a converged Riccati iterate).
+
+    S = H P H' + R, K = P H' S^-1 (Cholesky), Joseph-form filtered covariance, closed-loop spectral radius.
+    """
+    F, H, R = model.transition, model.observation, model.obs_cov
+    n = model.n_states
+    P = _sym(np.array(P, dtype=float))
+    S = _sym(H @ P @ H.T + R)
+    K = cho_solve(cho_factor(S, lower=True), H @ P).T
     IKH = np.eye(n) - K @ H
+    rho = float(np.max(np.abs(np.linalg.eigvals(IKH @ F)), initial=0.0))
     Pf = _sym(IKH @ P @ IKH.T + K @ R @ K.T)
     for arr in (K, P, Pf, S):
         arr.setflags(write=False)
@@ -311,8 +365,9 @@ def _prepare(model, y, u, what):
                            np.ascontiguousarray(d))
 
 
-def _run_filter(model, ss, Y, U, terms, store_extra):
-    """Run the compiled constant-gain filter on every series of Y (B, T, m).
+def _run_filter(model, ss, Y, U, terms, store_extra, x0=None):
+    """Run the compiled constant-gain filter on every series of Y (B, T, m), from the predicted mean ``x0``
+    (default: the model's initial mean).
 
     Returns mean (B, T, n), pmean (B, T, n), innov (B, T, m), ll_steps (B, T) — the last three
     None unless ``store_extra`` — and the total log-likelihoods ll (B,).
@@ -329,7 +384,7 @@ def _run_filter(model, ss, Y, U, terms, store_extra):
     # closed loop x[k+1|k] = A x[k|k-1] + G y[k] + Bc u[k] + cc (see _steady_kernels._filter_impl)
     A, G, Bc, cc = F - FK @ model.observation, FK, B - FK @ D, c - FK @ d
     A, G, Bc, cc, K, H, x0 = (np.ascontiguousarray(a) for a in (A, G, Bc, cc, K, model.observation,
-                                                                 model.initial_mean))
+                                                                 model.initial_mean if x0 is None else x0))
     mean = np.empty((nb, T, n))
     if store_extra:
         pmean, innov, ll_steps = np.empty((nb, T, n)), np.empty((nb, T, m)), np.empty((nb, T))
