@@ -190,15 +190,15 @@ def _result(fw, mean, idx):
                             n_exact=int(fw.E), converged=bool(fw.converged))
 
 
-_COMMON_PARAMETERS = """
-    model : StateSpaceModel
+_COMMON_PARAMETERS = """model : StateSpaceModel
         Time-invariant, detectable (a stationary Kalman filter exists), without known inputs, R > 0.
     y : (T,) or (T, m) array_like
         Observations, complete (no NaN).
     tol : float
         The exact time-varying filter runs, chunk by chunk, until its predicted covariance is within ``tol``
-        (max-abs, relative to the stationary one) of the stationary covariance (default 1e-7: the smoothed profile then differs from the exact one by a few 1e-9 of its band RMS, measured in docs/road-apl.md); the
-        constant-gain recursion takes over from there.
+        (max-abs, relative) of its limit, estimated from its change over a chunk; the constant gain of that
+        converged iterate takes over from there. Default 1e-7: on the APL deconvolution model the smoothed profile
+        then differs from the exact one by ~2e-9 of its RMS (docs/road-apl.md).
     chunk_size : int
         Samples per chunk of the constant-gain part (working memory about 16 chunk_size n bytes).
     exact_chunk : int
@@ -208,17 +208,25 @@ _COMMON_PARAMETERS = """
         (``converged`` False in the result)."""
 
 
+def _with_common_parameters(fn):
+    """Put the parameters shared by the three long-record functions into ``fn``'s docstring."""
+    fn.__doc__ = fn.__doc__.replace("{common}", _COMMON_PARAMETERS)
+    return fn
+
+
 def _forward(model, y, states, tol, chunk_size, exact_chunk, max_exact, what):
     Y, U, terms, idx, chunk_size = _checked(model, y, states, chunk_size, what)
     return _Forward(model, Y, U, terms, tol, chunk_size, exact_chunk, max_exact), idx
 
 
+@_with_common_parameters
 def long_record_log_likelihood(model: StateSpaceModel, y, *, tol: float = 1e-7, chunk_size: int = DEFAULT_CHUNK,
                                exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
     """Exact Gaussian log-likelihood of a complete record of any length in bounded memory (``mean`` is None).
 
     Parameters
-    ----------""" + _COMMON_PARAMETERS + """
+    ----------
+    {common}
 
     Returns
     -------
@@ -231,12 +239,14 @@ def long_record_log_likelihood(model: StateSpaceModel, y, *, tol: float = 1e-7, 
     return _result(fw, None, idx)
 
 
+@_with_common_parameters
 def long_record_filter(model: StateSpaceModel, y, *, states=None, tol: float = 1e-7, chunk_size: int = DEFAULT_CHUNK,
                        exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
     """Kalman filter of a complete record of any length: exact start, constant gain once converged.
 
     Parameters
-    ----------""" + _COMMON_PARAMETERS + """
+    ----------
+    {common}
     states : int or sequence of int, optional
         State indices to return (default all): the output takes 8 T k bytes.
 
@@ -270,12 +280,14 @@ def _with_terminal(filt, x_smoothed, pred_mean, pred_cov):
                    pred_cov=np.concatenate([filt.pred_cov, pred_cov[None]]))
 
 
+@_with_common_parameters
 def long_record_smoother(model: StateSpaceModel, y, *, states=None, tol: float = 1e-7,
                          chunk_size: int = DEFAULT_CHUNK, exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
     """Fixed-interval (RTS) smoother of a complete record of any length in bounded working memory.
 
     Parameters
-    ----------""" + _COMMON_PARAMETERS + """
+    ----------
+    {common}
     states : int or sequence of int, optional
         State indices to return (default all).
 
