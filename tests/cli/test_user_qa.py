@@ -144,7 +144,7 @@ def test_iri_of_a_reconstruct_output_is_the_iri_of_its_profile(recording, tmp_pa
     assert main(["road", "reconstruct", str(recording), "--method", "double", "-o", str(prof)]) == 0
     iri = tmp_path / "iri.csv"
     assert main(["road", "iri", str(prof), "--segment", "20", "-o", str(iri)]) == 0
-    assert list(pd.read_csv(iri).columns) == ["start_m", "end_m", "iri_elevation_m_per_km"]
+    assert list(pd.read_csv(iri, comment="#").columns) == ["start_m", "end_m", "iri_elevation_m_per_km"]
     assert "analysing its profile track 'elevation'" in _err(capsys)
 
 

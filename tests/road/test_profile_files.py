@@ -25,11 +25,14 @@ def test_round_trip(tmp_path, units, suffix, with_std):
     p = _two_track(std=with_std and suffix != ".erd")
     path = write_profile(p, tmp_path / f"p{suffix}", units=units)
     q = read_profile(path)
-    np.testing.assert_allclose(q.distance, p.distance, rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(q.elevation, p.elevation, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(q.distance, p.distance, rtol=0, atol=1e-9)
+    if suffix == ".erd":  # printed to 1e-7 m (write_erd): within half of it
+        np.testing.assert_allclose(q.elevation, p.elevation, rtol=0, atol=5e-8 + 1e-12)
+    else:  # CSV / Parquet: the same float64 after the unit conversion both ways
+        np.testing.assert_allclose(q.elevation, p.elevation, rtol=4e-16, atol=0)
     assert q.tracks == p.tracks
     if p.std is not None:
-        np.testing.assert_allclose(q.std, p.std, rtol=1e-12)
+        np.testing.assert_allclose(q.std, p.std, rtol=4e-16)
 
 
 def test_apl_demo_contract_columns(tmp_path):
@@ -47,7 +50,7 @@ def test_apl_demo_contract_columns(tmp_path):
 def test_units_are_never_guessed(tmp_path):
     f = tmp_path / "p.csv"
     f.write_text("distance_m,left\n0,1.5\n0.25,1.7\n")
-    with pytest.raises(UnitsError, match="pass --units m\\|mm"):
+    with pytest.raises(UnitsError, match="pass --elevation-unit m\\|mm"):
         read_profile(f)
     np.testing.assert_allclose(read_profile(f, units="mm").elevation[:, 0], [1.5e-3, 1.7e-3])
     g = tmp_path / "q.csv"
@@ -97,7 +100,8 @@ def test_erd_reads_ltpp_style_header(tmp_path):
     f.write_text(LTPP_LIKE)
     p = read_erd(f)
     assert p.tracks == ("left", "right", "center") and p.name == "LTPP-style section: Run 1"
-    np.testing.assert_allclose(p.distance, 0.025 * np.arange(5))  # integer field 7 is a flag, not a station
+    # field 7 is X0, the first station, whatever its notation (an integer here): stations -1 + 0.025 i
+    np.testing.assert_allclose(p.distance, -1.0 + 0.025 * np.arange(5), rtol=0, atol=1e-12)
     np.testing.assert_allclose(p.elevation[:, 1], -1e-3 * np.arange(5))
     assert read_profile(f, tracks=["right"]).tracks == ("right",)
 
@@ -119,7 +123,7 @@ def test_erd_malformed(tmp_path, edit, match):
 def test_erd_units(tmp_path):
     f = tmp_path / "nounits.erd"
     f.write_text(LTPP_LIKE.replace("UNITSNAMmm      mm      mm\n", ""))
-    with pytest.raises(UnitsError, match="no UNITSNAM line; pass --units"):
+    with pytest.raises(UnitsError, match="no UNITSNAM line; pass --elevation-unit"):
         read_erd(f)
     assert read_erd(f, units="m").elevation[1, 0] == 1.0
     g = tmp_path / "inch.erd"
@@ -127,7 +131,7 @@ def test_erd_units(tmp_path):
         "XUNITS  m", "XUNITS  ft"))
     p = read_erd(g)
     np.testing.assert_allclose(p.elevation[1, 0], 0.0254)
-    np.testing.assert_allclose(p.distance[1], 0.025 * 0.3048)
+    np.testing.assert_allclose(p.distance[:2], np.array([-1.0, -1.0 + 0.025]) * 0.3048)  # X0, DX in XUNITS
 
 
 def test_erd_write_refuses_irregular(tmp_path):

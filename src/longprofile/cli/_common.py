@@ -11,24 +11,61 @@ from ..errors import OutputError
 console = Console(stderr=True)
 
 
-def check_output_path(output: Path, *inputs: Path | None) -> Path:
+#: Table formats a ``-o`` table output accepts (written by :func:`longprofile.io.write_table`).
+TABLE_SUFFIXES = (".csv", ".parquet")
+#: Profile formats a ``-o`` profile output accepts (:func:`longprofile.io.write_profile`): tables or ERD.
+PROFILE_SUFFIXES = TABLE_SUFFIXES + (".erd",)
+
+
+def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, ...] | None = None) -> Path:
     """Refuse to write ``output`` over one of the command's inputs; create its parent folder.
 
-    Raises :class:`OutputError` (one line, exit code 2) when ``output`` is an input, is an existing folder, or
-    its folder cannot be created (a file is in the way, no permission).
+    Raises :class:`OutputError` (one line, exit code 2) when ``output`` is an input, is an existing folder, its
+    folder cannot be created (a file is in the way, no permission), or — with ``suffixes`` — its suffix is not
+    one of them (checked before any work, so a long computation never ends on an unwritable format).
     """
     out = Path(output)
     for inp in inputs:
         if inp is not None and Path(inp).exists() and out.exists() and out.resolve() == Path(inp).resolve():
             raise OutputError(f"output {out} is also an input; choose another output path (inputs are never overwritten).")
     if out.is_dir():
-        raise OutputError(f"output {out} is an existing folder; give a file name, e.g. {out / 'result.csv'}.")
+        example = f"result{suffixes[0]}" if suffixes else "result.csv"
+        raise OutputError(f"output {out} is an existing folder; give a file name, e.g. {out / example}.")
+    if suffixes is not None and out.suffix.lower() not in suffixes:
+        raise OutputError(f"output {out}: unknown format {out.suffix!r}; use one of {', '.join(suffixes)} "
+                          f"(e.g. {out.with_suffix(suffixes[0])}).")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"cannot create the folder {out.parent} for {out}: {exc.strerror or exc}; "
                           "choose another output path.") from None
     return out
+
+
+#: Columns of ``longprofile road reconstruct`` CSV/Parquet output: one profile (``elevation``) plus diagnostics.
+RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
+
+
+def is_reconstruct_output(file: Path) -> bool:
+    """True when the header of a CSV/Parquet file is exactly the column set written by ``road reconstruct``.
+
+    Such a file holds one profile, ``elevation``; ``std_m`` and ``raw_m`` would otherwise be read as tracks.
+    """
+    suffix = Path(file).suffix.lower()
+    try:
+        if suffix in (".parquet", ".pq"):
+            import pyarrow.parquet as pq
+
+            names = pq.read_schema(file).names
+        elif suffix in (".csv", ".txt"):
+            import pandas as pd
+
+            names = list(pd.read_csv(file, comment="#", nrows=0).columns)
+        else:
+            return False
+    except Exception:  # unreadable: the reader reports it properly
+        return False
+    return [c for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
 
 
 #: Figure formats ``--plot`` accepts (matplotlib's Agg, PDF and SVG writers).

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console, progress
+from ._common import (PROFILE_SUFFIXES, RECONSTRUCT_COLUMNS, TABLE_SUFFIXES, check_output_path, check_plot_path,
+                      console, progress)
 
 
 def _instrument(speed: float, dx: float, model_file: Path | None):
@@ -74,7 +75,7 @@ def simulate_command(
     from ..road._apl_plots import plot_recording
     from ..road.apl import apl_model, simulate_apl_recording
 
-    png = check_plot_path(plot, check_output_path(output))
+    png = check_plot_path(plot, check_output_path(output, suffixes=TABLE_SUFFIXES))
     rec = simulate_apl_recording(profile, apl_model(speed, dx), length=length, road_class=road_class,
                                  noise_fraction=noise, rng=seed)
     write_table(pd.DataFrame(dict(distance_m=rec.distance, true_m=rec.true_elevation, apl_m=rec.signal)),
@@ -88,7 +89,10 @@ def simulate_command(
 
 def reconstruct_command(
     file: Path = typer.Argument(..., help="APL recording: CSV/Parquet with distance_m and the signal column (m)."),
-    output: Path = typer.Option(..., "--output", "-o", help="Profile table: distance_m, elevation_m, std_m, raw_m, raw_std_m."),
+    output: Path = typer.Option(..., "--output", "-o",
+                                help="Profile to write: .csv/.parquet table with distance_m, elevation_m, std_m, raw_m, "
+                                     "raw_std_m; or .erd (ProVAL/UMTRI text) with the elevation track only, in mm "
+                                     "(the std and raw columns go to CSV/Parquet only)."),
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's distance_m)."),
     method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
@@ -109,12 +113,12 @@ def reconstruct_command(
     import pandas as pd
 
     from ..errors import InputError, UnitsError
-    from ..io import read_table, write_table
+    from ..io import read_table, write_erd, write_table
     from ..road import Profile
     from ..road._apl_plots import plot_reconstructions
     from ..road.apl import reconstruct_profile
 
-    check_output_path(output, file)
+    check_output_path(output, file, suffixes=PROFILE_SUFFIXES)
     png = check_plot_path(plot, file, output)
     table = read_table(file, required=["distance_m", column], numeric=["distance_m", column])
     values = _signal_in_metres(file, column, table[column].to_numpy())
@@ -130,12 +134,16 @@ def reconstruct_command(
         rec = reconstruct_profile(signal, instrument, method=method, q=q, r=r, input_model=input_model,
                                   correlation_length=correlation_length, highpass_wavelength=highpass, lag_m=lag)
         bar.advance(task)
-    std = rec.profile.std
-    out = pd.DataFrame(dict(distance_m=rec.profile.distance, elevation_m=rec.profile.elevation[:, 0],
-                            std_m=np.full(signal.n_samples, np.nan) if std is None else std[:, 0],
-                            raw_m=rec.raw_elevation,
-                            raw_std_m=np.full(signal.n_samples, np.nan) if rec.raw_std is None else rec.raw_std))
-    write_table(out, check_output_path(output, file))
+    if Path(output).suffix.lower() == ".erd":
+        write_erd(Profile(rec.profile.distance, rec.profile.elevation[:, 0], tracks=("elevation",),
+                          name=f"{method} reconstruction of {Path(file).name}"), check_output_path(output, file),
+                  units="mm")
+    else:
+        std = rec.profile.std
+        nan = np.full(signal.n_samples, np.nan)
+        columns = (rec.profile.distance, rec.profile.elevation[:, 0], nan if std is None else std[:, 0],
+                   rec.raw_elevation, nan if rec.raw_std is None else rec.raw_std)
+        write_table(pd.DataFrame(dict(zip(RECONSTRUCT_COLUMNS, columns))), check_output_path(output, file))
     if plot is not None:
         truth = table["true_m"].to_numpy() if "true_m" in table.columns else None
         fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
@@ -171,7 +179,7 @@ def identify_command(
     from ..road._apl_plots import plot_identification
     from ..road.apl import apl_model_from_polynomials
 
-    check_output_path(model_out, input, output_file)
+    check_output_path(model_out, input, output_file, suffixes=(".json",))
     png = check_plot_path(plot, input, output_file, model_out)
     u = read_table(input, required=[input_column], numeric=[input_column])[input_column].to_numpy()
     y = read_table(output_file, required=[output_column], numeric=[output_column])[output_column].to_numpy()

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console, progress
+from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
 
 _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column per track named with its unit "
               "(left_mm, right_m, ...), or an ERD file.")
@@ -49,43 +49,100 @@ def _check_plausible(result) -> None:
     import numpy as np
 
     worst = float(np.nanmax(result.section_iri)) if np.size(result.section_iri) else 0.0
+    if getattr(result, "units", "si") == "us":
+        worst /= 63.36
     if worst > 50.0:
         console.print(f"[yellow]warning:[/yellow] section IRI {worst:.3g} m/km is beyond any road (unpaved roads "
                       "are below about 25 m/km): check the elevation unit in the column names (e.g. left_mm).")
 
 
+#: Length units the deprecated ``--units`` still accepts as the elevation unit (before ``--units si|us``).
+_ELEVATION_UNITS = ("m", "mm", "cm", "km", "in", "ft", "mi")
+
+
+def _split_units(units: str | None, elevation_unit: str | None, *, report_units: bool = True):
+    """(report units "si"/"us", elevation unit) from ``--units`` and ``--elevation-unit``.
+
+    ``--units si|us`` chooses the report units; a length unit there is the old meaning (elevation unit of
+    columns without one), still accepted with a one-line deprecation note.
+    """
+    from ..errors import UnitsError
+
+    if units is None:
+        return "si", elevation_unit
+    key = units.strip().lower()
+    if key in ("si", "us"):
+        if not report_units and key == "us":
+            raise UnitsError("`road report` is written in SI units only; --units us is not available here (use "
+                             "`longprofile road iri FILE --units us` for a US-units IRI table).")
+        return key, elevation_unit
+    if key in _ELEVATION_UNITS:
+        if elevation_unit is not None and elevation_unit.strip().lower() != key:
+            raise UnitsError(f"--units {units} (deprecated elevation unit) contradicts --elevation-unit "
+                             f"{elevation_unit}; give only --elevation-unit.")
+        console.print(f"note: --units {units} as the elevation unit is deprecated; use --elevation-unit {units} "
+                      "(--units now takes si|us, the report units).", markup=False)
+        return "si", key
+    raise UnitsError(f"--units must be si or us (report units); got {units!r}. The elevation unit of columns "
+                     "without one is --elevation-unit (m, mm, cm, in, ft).")
+
+
 def iri_command(
     file: Path = typer.Argument(..., help=_FILE_HELP),
-    output: str = typer.Option("-", "--output", "-o", help="IRI table (.csv or .parquet); '-' = CSV on stdout."),
-    segment: float = typer.Option(100.0, "--segment", help="Segment length, m."),
+    output: str = typer.Option("-", "--output", "-o", help="IRI table (.csv or .parquet) with the metadata in its "
+                               "header; '-' = CSV on stdout."),
+    mode: str = typer.Option("fixed", "--mode", help="fixed (consecutive segments), continuous (sliding window) or "
+                             "overlapping (windows every --step < --window)."),
+    segment: float = typer.Option(None, "--segment", help="Fixed segment length in the report's length unit "
+                                  "(default 100 m, or 528 ft = 0.1 mi with --units us)."),
+    window: float = typer.Option(None, "--window", help="Window length, continuous/overlapping (default: continuous "
+                                 "25 ft = 7.62 m; overlapping the segment length)."),
+    step: float = typer.Option(None, "--step", help="Distance between window starts (default: continuous one "
+                               "sample; overlapping half the window)."),
+    start: float = typer.Option(None, "--start", help="Station of the first interval, report length unit "
+                                "(default: the first station)."),
+    units: str = typer.Option(None, "--units", help="Report units: si (m, m/km; default) or us (ft, in/mi)."),
+    elevation_unit: str = typer.Option(None, "--elevation-unit", help="Elevation unit of columns without one "
+                                       "(m, mm, cm, in, ft)."),
+    moving_average: str = typer.Option("auto", "--moving-average", help="250 mm moving average: auto (ASTM E1926 "
+                                       "rule), on or off."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all), e.g. left,right."),
-    units: str = typer.Option(None, "--units", help="Elevation unit for columns without one (m, mm, in, ft)."),
     lead_in: float = typer.Option(11.0, "--lead-in", help="Initialisation length, m (ASTM E1926: 11)."),
-    plot: Path = typer.Option(None, "--plot", help="Also draw the IRI per segment to this PNG."),
+    plot: Path = typer.Option(None, "--plot", help="Also draw the report (segments or IRI along the road)."),
 ):
-    """IRI per segment (ASTM E1926), with MRI and HRI for two tracks."""
-    from ..io import read_profile, write_table
-    from ..report import plot_iri
-    from ..road import iri
+    """IRI per fixed segment, continuous or overlapping window (ASTM E1926), SI or US units, MRI/HRI."""
+    from ..io import read_profile
+    from ..io._report_tables import write_report_table
+    from ..report import plot_iri_report
+    from ..road import iri_report
 
-    out = None if output == "-" else check_output_path(Path(output), file)
+    out = None if output == "-" else check_output_path(Path(output), file, suffixes=TABLE_SUFFIXES)
     png = check_plot_path(plot, file, out)
-    profile = read_profile(file, units=units, tracks=_tracks(track, file))
-    result = iri(profile, segment_length=segment, lead_in=lead_in)
-    _check_plausible(result)
-    table = result.to_frame()
-    if output == "-":
-        table.to_csv(sys.stdout, index=False)
-    else:
-        write_table(table, out)
-    if plot is not None:
-        plot_iri(result, png)
-    summary = ", ".join(f"{t} {v:.2f}" for t, v in zip(result.tracks, result.section_iri))
-    extra = "" if result.section_mri is None else f"; MRI {result.section_mri:.2f}, HRI {result.section_hri:.2f}"
-    console.print(f"section IRI (m/km): {summary}{extra} ({len(table)} segment(s) of {segment:g} m)", markup=False)
+    report_units, elevation = _split_units(units, elevation_unit)
+    interval = segment if segment is not None else (528.0 if report_units == "us" else 100.0)
+    profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
+    rep = iri_report(profile, mode=mode, interval=interval, window=window, step=step, start=start,
+                     units=report_units, lead_in=lead_in, moving_average=moving_average)
+    _check_plausible(rep)
+    table = rep.to_frame()
+    write_report_table(table, sys.stdout if out is None else out, rep.metadata)
+    if png is not None:
+        plot_iri_report(rep, png)
+    meta, lu, iu = rep.metadata, rep.length_unit, rep.iri_unit
+    prec = 0 if report_units == "us" else 2  # in/mi to the unit, m/km to 0.01 (as agencies print them)
+    summary = ", ".join(f"{t} {v:.{prec}f}" for t, v in zip(rep.tracks, rep.section_iri))
+    extra = "" if rep.section_mri is None else f"; MRI {rep.section_mri:.{prec}f}, HRI {rep.section_hri:.{prec}f}"
+    what = (f"{len(table)} segment(s) of {meta['interval']:g} {lu}" if rep.mode == "fixed" else
+            f"{len(table)} {rep.mode} window(s) of {meta['window']:g} {lu} every {meta['step']:.4g} {lu}")
+    console.print(f"section IRI ({iu}): {summary}{extra} ({what} from {meta['start']:g} {lu})", markup=False,
+                  soft_wrap=True)
+    console.print(f"moving average: {'applied' if meta['moving_average_applied'] else 'not applied'} "
+                  f"({meta['moving_average_reason']})", markup=False, soft_wrap=True)
     if len(table) == 0:
-        console.print(f"note: the profile ({profile.distance[-1] - profile.distance[0]:g} m) is shorter than one "
-                      f"{segment:g} m segment: only the section IRI is given; use a shorter --segment.", markup=False)
+        span = meta["last_station"] - meta["start"]
+        console.print(f"note: the profile from {meta['start']:g} {lu} ({span:g} {lu}) is shorter than one "
+                      f"{meta['interval']:g} {lu} segment: only the section IRI is given; use a shorter --segment.",
+                      markup=False)
 
 
 def report_command(
@@ -93,7 +150,9 @@ def report_command(
     output: Path = typer.Option(..., "--output", "-o", help="Report folder (index.html, PNG figures, CSV tables)."),
     segment: float = typer.Option(100.0, "--segment", help="IRI segment length, m."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all)."),
-    units: str = typer.Option(None, "--units", help="Elevation unit for columns without one (m, mm, in, ft)."),
+    units: str = typer.Option(None, "--units", help="Deprecated alias of --elevation-unit (the report is in SI)."),
+    elevation_unit: str = typer.Option(None, "--elevation-unit", help="Elevation unit of columns without one "
+                                       "(m, mm, cm, in, ft)."),
     window: float = typer.Option(25.0, "--window", help="Localised roughness window, m."),
     threshold: float = typer.Option(2.7, "--threshold", help="Localised roughness threshold, m/km."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the IRI per segment to this PNG."),
@@ -104,9 +163,10 @@ def report_command(
     from ..road import analyse_roughness
 
     png = check_plot_path(plot, file)
+    _, elevation = _split_units(units, elevation_unit, report_units=False)
     with progress() as bar:
         task = bar.add_task("road report", total=3)
-        profile = read_profile(file, units=units, tracks=_tracks(track, file))
+        profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
         bar.advance(task)
         analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold)
         bar.advance(task)

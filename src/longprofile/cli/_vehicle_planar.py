@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console
+from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console
 
 
 def _parse_poles(text: str):
@@ -48,9 +48,9 @@ def simulate(
     from ..io import write_table
     from ..vehicle import drive_scenario, plot_drive, simulate_drive
 
-    car = _vehicle(vehicle)
-    out = check_output_path(output, vehicle)
+    out = check_output_path(output, vehicle, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot, vehicle)
+    car = _vehicle(vehicle)
     sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed)
     write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
     console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
@@ -71,9 +71,9 @@ def slope(
     from ..io import read_table, write_table
     from ..vehicle import DriveLog, estimate_slope, plot_slope_estimate
 
-    car = _vehicle(vehicle)
-    out = check_output_path(output, log, vehicle)
+    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot, log, vehicle)
+    car = _vehicle(vehicle)
     frame = read_table(log)
     drive = DriveLog.from_frame(frame, source=str(log))
     with console.status("estimating states and slope..."):

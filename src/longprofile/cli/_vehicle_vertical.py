@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console, progress
+from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
@@ -61,7 +61,7 @@ def simulate(
     from ..io import write_table
     from ..vehicle import sensors_to_frame, vertical_test_run
 
-    out = check_output_path(output)
+    out = check_output_path(output, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot)
     mr = _car_damper(car)
     with console.status("simulating the 7-DOF car..."):
@@ -98,7 +98,7 @@ def estimate(
     from ..io import read_table, write_table
     from ..vehicle import estimate_to_frame, estimate_vertical_states, sensors_from_frame
 
-    out = check_output_path(output, log)
+    out = check_output_path(output, log, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot, log)
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     frame = read_table(log)
@@ -143,7 +143,7 @@ def tables(
     from ..io import write_table
     from ..vehicle import reproduce_thesis_tables
 
-    out = check_output_path(output)
+    out = check_output_path(output, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot)
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     with progress() as bar:

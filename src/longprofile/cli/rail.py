@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console, progress
+from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
 
 rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, with confidence bands (paper 004).",
                        no_args_is_help=True)
@@ -110,7 +110,7 @@ def settle_command(
 
     inputs = (sensors, readings, survey, controls)
     # check every output path before the computation, so a bad path fails at once and writes nothing
-    check_output_path(output, *inputs)
+    check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot, *inputs)
     site = read_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
     with progress() as bar:

@@ -1,13 +1,14 @@
-"""``longprofile road ...``: road profile reconstruction (APL, paper 000) and roughness indices."""
+"""``longprofile road ...``: road profile reconstruction (APL, paper 000), roughness indices, profile files."""
 
 from __future__ import annotations
 
 import typer
 
-from . import _road_apl, _road_indices
+from . import _road_apl, _road_convert, _road_indices
 
-road_app = typer.Typer(help="Road profiles: APL trailer reconstruction, IRI and roughness reports.",
+road_app = typer.Typer(help="Road profiles: APL trailer reconstruction, IRI and roughness reports, file conversion.",
                        no_args_is_help=True)
 
 _road_apl.register(road_app)
 _road_indices.register(road_app)
+_road_convert.register(road_app)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import check_output_path, check_plot_path, console
+from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console
 
 
 #: Time columns whose step is checked against --dt, with their unit in seconds.
@@ -74,7 +74,7 @@ def differentiate(
     if method == "kalman" and q_over_r is None:
         raise InputError("--method kalman requires q_over_r: pass --q-over-r (jerk variance / noise variance), "
                          "e.g. --q-over-r 1e6.")
-    out = check_output_path(output, file)
+    out = check_output_path(output, file, suffixes=TABLE_SUFFIXES)
     png = check_plot_path(plot, file, output)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)

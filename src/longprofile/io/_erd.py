@@ -1,37 +1,185 @@
-"""ERD files (UMTRI text format used by ProVAL, RoadRuf and the LTPP profile data).
+"""ERD files: the UMTRI text format used by ProVAL, RoadRuf and the LTPP profile data.
 
-Layout read and written here (text data only)::
+Layout read and written here (text data only; UMTRI, *The ERD File Specification*, and the LTPP files)::
 
-    ERDFILEV2.00
-    NCHAN, NPTS, -1, 1, 5, DX, X0,          <- 7 comma-separated fields; DX = station step
+    ERDFILEV2.00                            <- line 1: identifies the format
+    NCHAN, NPTS, -1, 1, 5, DX, X0,          <- line 2: 7 comma-separated fields (a trailing comma is usual)
     TITLE   free text
-    SHORTNAMleft    right                   <- 8-character fields, one per channel
-    UNITSNAMmm      mm                      <- elevation unit of each channel
-    XUNITS  m                               <- station unit
+    SHORTNAMleft    right                   <- channel names, one 8-character field per channel
+    UNITSNAMmm      mm                      <- elevation unit of each channel, 8-character fields
+    XUNITS  m                               <- unit of the stations (of DX and X0)
     END
-    v11 v12                                 <- NPTS rows of NCHAN numbers (blank / comma separated)
+    v11 v12                                 <- NPTS records of NCHAN numbers (blank or comma separated)
 
-Header keyword lines have the keyword in columns 1-8 and the value after it.
+Line 2: field 1 NCHAN = number of channels, field 2 NPTS = number of records (samples per channel),
+field 6 DX = station step and field 7 X0 = station of the first record, both in ``XUNITS``: the stations are
+``X0 + i DX``. Each is a plain number in any notation (``0``, ``100``, ``100.0``, ``1.0E+02``). Fields 3-5
+describe how the data are stored (text here; the LTPP and ProVAL files carry ``-1, 1, 5``); they are not
+interpreted, and binary data (a companion ``.bin`` file) are not supported.
+
+Header keyword lines have the keyword in columns 1-8 and the value after it; unknown keywords (``DATE``,
+``LONGNAME``...) are ignored. The records are read in order, NCHAN values each, whatever the line breaks.
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import math
+import re
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, InputFormatError, UnitsError
+from ..errors import InputError, InputFormatError, OutputError, UnitsError
 from ._profiles import unit_factor
 
 __all__ = ["read_erd", "write_erd"]
 
+#: The END line closing the header (columns around it may hold blanks; CRLF files allowed).
+_END = re.compile(rb"^[ \t]*END[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
+#: An empty value of a comma-separated body: two commas in a row, or a comma opening a line.
+_EMPTY_FIELD = re.compile(rb",[ \t]*,|^[ \t]*,", re.MULTILINE)
+#: Text a body cell may hold for a missing sample.
+_NAN_TOKENS = ["nan", "NaN", "NAN", "-nan", "+nan"]
+#: Station error tolerated when a profile is written as X0 + i DX, m.
+_STATION_TOLERANCE = 1e-6
+#: Resolution of the written elevations, m: the number of decimals is chosen per unit so that a written and
+#: read-back elevation is within half of this (5e-8 m) of the original.
+_RESOLUTION = 1e-7
 
-def _fields8(value: str, n: int) -> list[str]:
-    """Split a value into n 8-character fields (the ERD convention), falling back to whitespace."""
-    parts = [value[i:i + 8].strip() for i in range(0, 8 * n, 8)]
-    if all(parts) and len(parts) == n:
-        return parts
-    return value.split()
+
+def _fields8(path: Path, key: str, value: str, n: int) -> list[str]:
+    """The ``n`` per-channel fields of a SHORTNAM/UNITSNAM value.
+
+    The ERD convention is one 8-character field per channel. ``n`` blank-separated words one of which is longer
+    than 8 characters (long track names, as :func:`write_erd` writes them) are read as the names.
+    """
+    value = value.rstrip("\r\n ")
+    words = value.split()
+    if len(words) == n and any(len(w) > 8 for w in words):
+        return words
+    if len(value) <= 8 * n:
+        parts = [value[i:i + 8].strip() for i in range(0, 8 * n, 8)]
+        if all(parts):
+            return parts
+    if len(words) == n:
+        return words
+    raise InputFormatError(f"{path}: {key} gives {len(words)} field(s) {words} but line 2 says NCHAN = {n}; write "
+                           "one 8-character field per channel.")
+
+
+def _line2(path: Path, line: str) -> tuple[int, int, float, float]:
+    """NCHAN, NPTS, DX, X0 from line 2 (any numeric notation)."""
+    fields = [f.strip() for f in line.split(",")]
+    fields = [f for f in fields if f != ""]
+    expected = "expected 7 comma-separated fields 'NCHAN, NPTS, f3, f4, f5, DX, X0'"
+    if len(fields) < 7:
+        raise InputFormatError(f"{path}: line 2: {expected}; got {len(fields)} in {line.strip()!r}.")
+
+    def number(k: int, name: str) -> float:
+        try:
+            v = float(fields[k])
+        except ValueError:
+            raise InputFormatError(f"{path}: line 2: field {k + 1} ({name}) is not a number: {fields[k]!r} "
+                                   f"({expected}).") from None
+        if not math.isfinite(v):
+            raise InputFormatError(f"{path}: line 2: field {k + 1} ({name}) must be finite; got {fields[k]!r}.")
+        return v
+
+    def count(k: int, name: str) -> int:
+        v = number(k, name)
+        if not v.is_integer():
+            raise InputFormatError(f"{path}: line 2: field {k + 1} ({name}) must be a whole number; got {fields[k]!r}.")
+        return int(v)
+
+    nchan, npts = count(0, "NCHAN"), count(1, "NPTS")
+    dx, x0 = number(5, "DX"), number(6, "X0")
+    if nchan < 1 or npts < 2 or not dx > 0:
+        raise InputFormatError(f"{path}: line 2: need NCHAN >= 1, NPTS >= 2 and DX > 0; got NCHAN = {nchan}, "
+                               f"NPTS = {npts}, DX = {dx:g}.")
+    return nchan, npts, dx, x0
+
+
+def _split_header(path: Path, raw: bytes) -> tuple[list[str], int, int]:
+    """Header lines (line 1 .. the line before END), the byte offset of the data and the file line of END."""
+    if not raw[:4096].strip() and not raw.strip():
+        raise InputFormatError(f"{path}: empty file; expected an ERD file starting with 'ERDFILEV2.00'.")
+    first = raw[:raw.find(b"\n") if b"\n" in raw else len(raw)]
+    if b"\x00" in raw[:4096]:
+        raise InputFormatError(f"{path}: not a text file (binary ERD data are not supported; export the profile as "
+                               "text ERD, CSV or Parquet).")
+    if not first.strip().upper().startswith(b"ERDFILEV2"):
+        raise InputFormatError(f"{path}: line 1: expected 'ERDFILEV2.00', got "
+                               f"{first[:20].decode('latin-1').strip()!r}.")
+    m = _END.search(raw, len(first))
+    if m is None:
+        raise InputFormatError(f"{path}: no END line closing the header (a line holding only END must follow the "
+                               "keyword lines).")
+    head = raw[:m.start()]
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        text = head.decode("latin-1")  # Windows tools write titles in a code page
+    lines = [ln.rstrip("\r") for ln in text.split("\n")]
+    if lines and lines[-1] == "":
+        lines.pop()
+    end_line = head.count(b"\n") + 1
+    return lines, m.end() + 1, end_line
+
+
+def _parse_body_fast(raw: bytes, start: int, nchan: int, npts: int) -> np.ndarray | None:
+    """The ``(npts, nchan)`` records by pandas' C parser, or None when anything is off (then the slow pass)."""
+    import pandas as pd
+
+    body = raw[start:]
+    if b"," in body:
+        if _EMPTY_FIELD.search(body):
+            return None
+        body = body.replace(b",", b" ")
+    try:
+        frame = pd.read_csv(io.BytesIO(body), sep=r"\s+", header=None, dtype=np.float64, engine="c",
+                            keep_default_na=False, na_values=_NAN_TOKENS, quoting=csv.QUOTE_NONE,
+                            skip_blank_lines=True)
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
+        return None
+    values = frame.to_numpy(dtype=np.float64)
+    if values.shape == (npts, nchan):
+        return values
+    return values.reshape(npts, nchan) if values.size == nchan * npts else None
+
+
+def _tokens(path: Path, lineno: int, line: str) -> list[str]:
+    if "," not in line:
+        return line.split()
+    parts = [p.strip() for p in line.split(",")]
+    if parts and parts[-1] == "":
+        parts.pop()  # trailing comma
+    if any(p == "" for p in parts):
+        raise InputFormatError(f"{path}: line {lineno}: empty value between commas in {line.strip()!r}; write a "
+                               "number (or nan for a missing sample) in every field.")
+    return [t for p in parts for t in p.split()]
+
+
+def _parse_body_slow(path: Path, raw: bytes, start: int, first_line: int, nchan: int, npts: int) -> np.ndarray:
+    """Line-by-line pass: the values, or an error naming the first bad line of the file."""
+    expected = nchan * npts
+    values: list[float] = []
+    for k, line in enumerate(raw[start:].decode("utf-8", errors="replace").split("\n")):
+        lineno = first_line + k
+        tokens = _tokens(path, lineno, line)
+        for t in tokens:
+            try:
+                values.append(float(t))
+            except ValueError:
+                raise InputFormatError(f"{path}: line {lineno}: {t!r} is not a number.") from None
+        if len(values) > expected:
+            raise InputFormatError(f"{path}: line {lineno}: more values than NCHAN x NPTS = {nchan} x {npts} = "
+                                   f"{expected} announced on line 2.")
+    if len(values) != expected:
+        raise InputFormatError(f"{path}: the data have {len(values)} values; line 2 announces NCHAN x NPTS = "
+                               f"{nchan} x {npts} = {expected}.")
+    return np.asarray(values, dtype=np.float64)
 
 
 def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str | None = None):
@@ -41,122 +189,92 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     ----------
     path : path-like
     units : str, optional
-        Elevation unit to use when the header has no ``UNITSNAM`` line (never guessed). If the header
-        gives units and ``units`` disagrees, :class:`UnitsError`.
+        Elevation unit (m, mm, cm, in, ft...) to use when the header has no ``UNITSNAM`` line (never guessed).
+        If the header gives units and ``units`` disagrees, :class:`UnitsError`.
     tracks : str or sequence of str, optional
         Channels to keep, by ``SHORTNAM`` (default all; unnamed channels are ``ch1``, ``ch2``...).
     distance_units : str, optional
-        Station unit when the header has no ``XUNITS`` line.
+        Station unit when the header has no ``XUNITS`` line; if both are given they must agree.
 
     Returns
     -------
     Profile
-        Stations ``X0 + i DX`` and elevations, in metres.
+        Stations ``(X0 + i DX) * xunit``, i = 0 .. NPTS-1, and elevations ``(NPTS, K)``, in metres; named by
+        the ``TITLE`` line (else the file name).
 
     Raises
     ------
     InputFormatError
-        Not an ERD file, bad second line, missing END, wrong number of values (line named).
+        Not an ERD file, bad line 2, missing END, a non-number in the data, or not NCHAN x NPTS values: the
+        message names the file line.
     UnitsError
-        Units missing (and not given) or unknown.
+        Units missing (and not given), unknown or contradicting the header.
 
     Notes
     -----
-    Second line: ``NCHAN, NPTS, ..., DX, X0``: fields 1, 2, 6 are the number of channels, the number of
-    samples and the station step. Field 7 is used as the first station only when written as a real
-    number (with a decimal point); an integer there (e.g. ``-1`` in LTPP files) is a flag and the first
-    station is 0. Fields 3-5 (storage flags) are not interpreted; only text data are supported.
+    Layout: module docstring (UMTRI ERD specification; the LTPP and ProVAL text files). Every header field
+    that defines a number is honoured: NCHAN, NPTS, DX, X0 (line 2), ``UNITSNAM`` and ``XUNITS``. The data are
+    parsed by pandas' C reader; only when that fails, or the count of values is not NCHAN x NPTS, a line-by-line
+    pass finds and names the offending line (it also reads records broken over several lines).
     """
     from ..road import Profile
 
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file.")
-    try:
-        lines = path.read_text(errors="strict").splitlines()
-    except UnicodeDecodeError:
-        raise InputFormatError(f"{path}: not a text file (binary ERD data are not supported).") from None
-    if not lines or not lines[0].strip().upper().startswith("ERDFILEV2"):
-        raise InputFormatError(f"{path}: line 1: expected 'ERDFILEV2.00', got {lines[0][:20]!r}." if lines else
-                               f"{path}: empty file.")
-    if len(lines) < 3:
-        raise InputFormatError(f"{path}: the file ends after line {len(lines)}; an ERD header has at least 3 lines.")
-    fields = [f.strip() for f in lines[1].split(",")]
-    fields = [f for f in fields if f != ""]
-    try:
-        nchan, npts = int(fields[0]), int(fields[1])
-        dx = float(fields[5])
-    except (ValueError, IndexError):
-        raise InputFormatError(f"{path}: line 2: expected 'NCHAN, NPTS, f3, f4, f5, DX, X0'; got {lines[1]!r}.") from None
-    if nchan < 1 or npts < 2 or not dx > 0:
-        raise InputFormatError(f"{path}: line 2: need NCHAN >= 1, NPTS >= 2, DX > 0; got {nchan}, {npts}, {dx}.")
-    x0 = 0.0
-    if len(fields) > 6 and any(ch in fields[6] for ch in ".eE"):
-        try:
-            x0 = float(fields[6])
-        except ValueError:
-            raise InputFormatError(f"{path}: line 2: field 7 (first station) is not a number: {fields[6]!r}.") from None
+    if path.is_dir():
+        raise InputError(f"{path} is a folder; give an ERD file.")
+    raw = path.read_bytes()
+    lines, start, end_line = _split_header(path, raw)
+    if len(lines) < 2:
+        raise InputFormatError(f"{path}: line 2: expected 'NCHAN, NPTS, f3, f4, f5, DX, X0' before END.")
+    nchan, npts, dx, x0 = _line2(path, lines[1])
     keys: dict[str, str] = {}
-    end = None
-    for i in range(2, len(lines)):
-        line = lines[i]
-        if line.strip().upper() == "END":
-            end = i
-            break
+    for line in lines[2:]:
         if line.strip():
             keys.setdefault(line[:8].strip().upper(), line[8:])
-    if end is None:
-        raise InputFormatError(f"{path}: no END line closing the header.")
-    names = _fields8(keys["SHORTNAM"], nchan) if "SHORTNAM" in keys else [f"ch{k + 1}" for k in range(nchan)]
-    if len(names) != nchan:
-        raise InputFormatError(f"{path}: SHORTNAM names {len(names)} channel(s) but line 2 says NCHAN = {nchan}.")
+    names = (_fields8(path, "SHORTNAM", keys["SHORTNAM"], nchan) if "SHORTNAM" in keys
+             else [f"ch{k + 1}" for k in range(nchan)])
+    keep = list(range(nchan)) if tracks is None else [_index(path, names, t) for t in
+                                                      ([tracks] if isinstance(tracks, str) else tracks)]
     if "UNITSNAM" in keys:
-        chan_units = _fields8(keys["UNITSNAM"], nchan)
-        if len(chan_units) != nchan:
-            raise InputFormatError(f"{path}: UNITSNAM gives {len(chan_units)} unit(s) for {nchan} channel(s).")
-        if units is not None and any(u.lower() != units.lower() for u in chan_units):
+        chan_units = _fields8(path, "UNITSNAM", keys["UNITSNAM"], nchan)
+        wrong = [chan_units[k] for k in keep if units is not None and chan_units[k].lower() != units.lower()]
+        if wrong:
             raise UnitsError(f"{path}: the header gives units {chan_units} but units={units!r} was given; remove the "
                              "option or fix the header.")
     elif units is None:
-        raise UnitsError(f"{path}: the ERD header has no UNITSNAM line; pass --units m|mm (units=...) or add the "
-                         "line. Units are never guessed.")
+        raise UnitsError(f"{path}: the ERD header has no UNITSNAM line; pass --elevation-unit m|mm (units=...) or "
+                         "add the line. Units are never guessed.")
     else:
         chan_units = [units] * nchan
-    factors = [unit_factor(u) for u in chan_units]
-    xunit = keys.get("XUNITS", "").strip() or distance_units
+    factors = np.array([_unit(path, chan_units[k], "UNITSNAM", "elevation") for k in keep])
+    xunit = keys.get("XUNITS", "").strip()
+    if xunit and distance_units is not None and xunit.lower() != distance_units.lower():
+        raise UnitsError(f"{path}: XUNITS is {xunit!r} but distance_units={distance_units!r} was given; remove the "
+                         "option or fix the header.")
+    xunit = xunit or distance_units
     if not xunit:
         raise UnitsError(f"{path}: the ERD header has no XUNITS line; pass distance_units or add 'XUNITS  m'.")
-    xfactor = unit_factor(xunit, what="distance")
-    values = []
-    for i in range(end + 1, len(lines)):
-        text = lines[i].replace(",", " ").split()
-        if not text:
-            continue
-        try:
-            row = [float(t) for t in text]
-        except ValueError:
-            bad = next(t for t in text if not _is_float(t))
-            raise InputFormatError(f"{path}: line {i + 1}: {bad!r} is not a number.") from None
-        values.extend(row)
-        if len(values) > nchan * npts:
-            raise InputFormatError(f"{path}: line {i + 1}: more values than NCHAN x NPTS = {nchan} x {npts}.")
-    if len(values) != nchan * npts:
-        raise InputFormatError(f"{path}: the data have {len(values)} values; line 2 announces NCHAN x NPTS = "
-                               f"{nchan} x {npts} = {nchan * npts}.")
-    data = np.asarray(values).reshape(npts, nchan) * np.asarray(factors)
-    keep = list(range(nchan)) if tracks is None else [_index(path, names, t) for t in
-                                                      ([tracks] if isinstance(tracks, str) else tracks)]
+    xfactor = _unit(path, xunit, "XUNITS", "distance")
+    binary = [b for b in (path.with_suffix(".bin"), path.with_name(path.name + ".bin")) if b.exists()]
+    if binary and not raw[start:].strip():
+        raise InputFormatError(f"{path}: the data are in the binary file {binary[0].name}, which is not supported; "
+                               "export the profile as text ERD, CSV or Parquet.")
+    values = _parse_body_fast(raw, start, nchan, npts)
+    if values is None:
+        values = _parse_body_slow(path, raw, start, end_line + 1, nchan, npts).reshape(npts, nchan)
+    data = values[:, keep] * factors
     x = (x0 + dx * np.arange(npts)) * xfactor
     title = keys.get("TITLE", "").strip() or path.stem
-    return Profile(distance=x, elevation=data[:, keep], tracks=tuple(names[k] for k in keep), name=title)
+    return Profile(distance=x, elevation=data, tracks=tuple(names[k] for k in keep), name=title)
 
 
-def _is_float(t: str) -> bool:
+def _unit(path: Path, unit: str, key: str, what: str) -> float:
     try:
-        float(t)
-        return True
-    except ValueError:
-        return False
+        return unit_factor(unit, what=what)
+    except UnitsError as exc:
+        raise UnitsError(f"{path}: {key}: {exc}") from None
 
 
 def _index(path, names, t):
@@ -165,35 +283,97 @@ def _index(path, names, t):
     return names.index(t)
 
 
+def _decimals(factor: float) -> int:
+    """Decimals of a value in a unit of ``factor`` m so that the printed resolution is <= _RESOLUTION."""
+    return max(0, math.ceil(math.log10(factor / _RESOLUTION) - 1e-9))
+
+
+def _shortest_step(x0: float, x1: float, n: int) -> float:
+    """The step from ``x0`` to ``x1`` in ``n - 1`` steps, with the fewest significant digits that still lands on
+    ``x1`` within 1e-9 m (0.025, not the 0.02499999999999858 that the subtraction gives)."""
+    exact = (x1 - x0) / (n - 1)
+    for digits in range(1, 17):
+        dx = float(f"{exact:.{digits}g}")
+        if abs(x0 + dx * (n - 1) - x1) <= 1e-9:
+            return dx
+    return exact
+
+
 def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> Path:
     """Write a regularly spaced profile as a text ERD file (stations in m, elevations in ``units``).
+
+    Parameters
+    ----------
+    profile : Profile
+        Stations ``X0 + i DX`` (checked to 1e-6 m) and one channel per track. ``profile.std`` is not written
+        (ERD holds elevations only; write CSV or Parquet to keep it).
+    path : path-like
+    units : str
+        Elevation unit of the file (m, mm, cm, in, ft...; ProVAL and LTPP use mm or in).
+    title : str, optional
+        ``TITLE`` line (default: the profile name).
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    Read back by :func:`read_erd`, stations are identical to 1e-9 m and elevations to half the printed
+    resolution: 1e-7 m, i.e. 4 decimals in mm, 7 in m, 6 in inches (error <= 5e-8 m). DX and X0 are written
+    in their shortest exact form (``repr``). Track names of up to 8 characters fill the 8-character
+    ``SHORTNAM`` fields; longer names are written blank-separated (read back whole by :func:`read_erd`; other
+    readers may cut them at 8 characters). NaN elevations are written ``nan``. The body is formatted by
+    pyarrow's CSV writer (values rounded to the decimals first, then printed in their shortest form).
 
     Raises
     ------
     InputError
-        Irregular stations (ERD stores a constant step; write CSV/Parquet instead) or track names longer than
-        8 characters or with blanks (the ERD name field).
+        Irregular stations (ERD stores a constant step; write CSV/Parquet instead), fewer than 2 samples, or a
+        track name that is empty or holds blanks.
     """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
     path = Path(path)
     factor = unit_factor(units)
-    dx = profile.spacing
-    if dx is None:
-        raise InputError("ERD files store a constant station step; this profile is irregular. Write it as CSV or "
-                         "Parquet instead.")
-    for t in profile.tracks:
-        if len(t) > 8 or " " in t:
-            raise InputError(f"track name {t!r} does not fit the 8-character ERD name field; rename the track.")
+    x = profile.distance
     n, k = profile.elevation.shape
-    head = [
+    if n < 2:
+        raise InputError("an ERD file needs at least 2 samples (the step DX is implied by them).")
+    x0 = float(x[0])
+    dx = _shortest_step(x0, float(x[-1]), n)
+    deviation = np.abs(x - (x0 + dx * np.arange(n)))
+    worst = int(np.argmax(deviation))
+    if deviation[worst] > _STATION_TOLERANCE:
+        raise InputError(f"ERD files store a constant station step; this profile is irregular (station "
+                         f"{x[worst]:.6f} m is {deviation[worst]:.3g} m off the grid X0 + i DX, DX = {dx:.9g} m). "
+                         "Write it as CSV or Parquet instead, or resample it.")
+    for t in profile.tracks:
+        if not t or any(c.isspace() for c in t):
+            raise InputError(f"track name {t!r} cannot be an ERD channel name (empty or with blanks); rename the "
+                             "track.")
+    names = "".join(f"{t:<8}" for t in profile.tracks)
+    if any(len(t) > 8 for t in profile.tracks):
+        names = " ".join(f"{t:<8}" for t in profile.tracks)
+    name = (title or profile.name or "longprofile").replace("\r", " ").replace("\n", " ")
+    head = "\n".join([
         "ERDFILEV2.00",
-        f"{k:>6},{n:>10},{-1:>6},{1:>6},{5:>6},{dx:>16.9E},{profile.distance[0]:>16.9E},",
-        f"TITLE   {title or profile.name or 'longprofile'}",
-        "SHORTNAM" + "".join(f"{t:<8}" for t in profile.tracks),
+        f"{k:>6},{n:>10},{-1:>6},{1:>6},{5:>6},{dx!r:>24},{x0!r:>24},",
+        f"TITLE   {name}",
+        "SHORTNAM" + names,
         "UNITSNAM" + "".join(f"{units:<8}" for _ in profile.tracks),
         "XUNITS  m",
         "END",
-    ]
-    body = "\n".join(" ".join(f"{v:.10g}" for v in row) for row in profile.elevation / factor)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(head) + "\n" + body + "\n")
+        "",
+    ])
+    z = np.round(profile.elevation / factor, _decimals(factor))
+    table = pa.table({f"c{j}": z[:, j] for j in range(k)})
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as fh:
+            fh.write(head.encode("utf-8"))
+            pacsv.write_csv(table, fh, write_options=pacsv.WriteOptions(include_header=False, delimiter=" "))
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}.") from None
     return path

@@ -41,7 +41,8 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     Parameters
     ----------
     path : path-like
-        ``.csv``/``.txt`` (header row; ``#`` lines are comments), ``.parquet``, or ``.erd``.
+        ``.csv`` (``.txt`` is read as CSV; header row; ``#`` lines are comments), ``.parquet``, or ``.erd``
+        (:func:`longprofile.io.read_erd`).
     units : {"m", "mm", "cm", "in", "ft"}, optional
         Unit of the elevation columns that do not carry one in their name. Never guessed: if a column has
         no unit and ``units`` is not given, :class:`UnitsError` is raised. If a column names its unit and
@@ -101,7 +102,7 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
             continue
         if unit is None:
             if units is None:
-                raise UnitsError(f"{path}: column {c!r} does not give its elevation unit; pass --units m|mm "
+                raise UnitsError(f"{path}: column {c!r} does not give its elevation unit; pass --elevation-unit m|mm "
                                  f"(units=...) or name the column e.g. {c}_mm. Units are never guessed.")
             unit = units
         elif units is not None and unit != units.lower():
@@ -147,8 +148,24 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
 def write_profile(profile, path, *, units: str = "m") -> Path:
     """Write a profile as CSV, Parquet or ERD (by suffix) with its units in the header.
 
-    Columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the profile has a
-    standard deviation. ERD: see :func:`longprofile.io.write_erd`. Returns the path.
+    Parameters
+    ----------
+    profile : Profile
+    path : path-like
+        ``.csv``, ``.parquet`` or ``.erd``; any other suffix raises :class:`OutputError`.
+    units : str
+        Elevation unit written (m, mm, cm, in, ft...).
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    CSV/Parquet columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the
+    profile has a standard deviation (read back by :func:`read_profile` to the same float64 values). ERD
+    (:func:`longprofile.io.write_erd`) holds regular stations and elevations only: the standard deviation is
+    not written.
     """
     path = Path(path)
     factor = unit_factor(units)

@@ -5,17 +5,21 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Iterable
 
+import numpy as np
 import pandas as pd
 
-from ..errors import InputError, InputFormatError
+from ..errors import InputError, InputFormatError, OutputError
 
 __all__ = ["read_table", "write_table"]
 
-_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
+#: Suffixes read: ``.txt`` is read as CSV (instrument exports), never written.
+_READ_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
+#: Suffixes written.
+_WRITE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 
 
 def _format_of(path: Path) -> str:
-    fmt = _FORMATS.get(path.suffix.lower())
+    fmt = _READ_FORMATS.get(path.suffix.lower())
     if fmt is None:
         raise InputError(f"{path}: unknown table format {path.suffix!r}; use .csv or .parquet.")
     return fmt
@@ -26,7 +30,8 @@ def _read_csv(path: Path) -> pd.DataFrame:
 
     pandas skips blank lines by default, which silently shifts every later sample of a one-column file with
     missing values (a logger or a spreadsheet writes an empty cell there as an empty line). Blank lines before
-    the header and after the last data line are ignored.
+    the header and after the last data line are ignored; a last row of empty cells (``,,``, or ``""`` in a
+    one-column file) is a row of missing values and is kept.
     """
     with open(path, encoding="utf-8", errors="replace") as fh:
         leading = 0
@@ -35,9 +40,34 @@ def _read_csv(path: Path) -> pd.DataFrame:
                 break
             leading += 1
     df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading)
-    filled = df.notna().any(axis=1).to_numpy()
-    last = int(filled.nonzero()[0][-1]) + 1 if filled.any() else 0
-    return df.iloc[:last].reset_index(drop=True) if last < len(df) else df
+    trailing = _trailing_blank_lines(path)
+    if trailing:
+        filled = df.notna().any(axis=1).to_numpy()
+        empty_tail = len(df) - (int(filled.nonzero()[0][-1]) + 1 if filled.any() else 0)
+        drop = min(trailing, empty_tail)
+        if drop:
+            return df.iloc[:len(df) - drop].reset_index(drop=True)
+    return df
+
+
+def _trailing_blank_lines(path: Path) -> int:
+    """Number of whitespace-only lines at the end of a text file (comment lines between them not counted)."""
+    with open(path, "rb") as fh:
+        size = fh.seek(0, 2)
+        fh.seek(max(0, size - 65536))
+        tail = fh.read()
+    lines = tail.split(b"\n")
+    if lines and lines[-1] == b"":
+        lines.pop()  # the final newline ends the last line
+    count = 0
+    for line in reversed(lines):
+        text = line.strip()
+        if text.startswith(b"#"):
+            continue
+        if text:
+            break
+        count += 1
+    return count
 
 
 def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()) -> pd.DataFrame:
@@ -90,12 +120,91 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
 
 
 def write_table(df: pd.DataFrame, path) -> Path:
-    """Write ``df`` as CSV or Parquet according to the suffix of ``path``; return the path."""
+    """Write ``df`` as CSV or Parquet according to the suffix of ``path``; return the path.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Written without its index; column names are written as they are.
+    path : path-like
+        ``.csv`` or ``.parquet`` (``.pq``). Any other suffix (``.txt`` included: it would be ambiguous) is
+        refused before anything is written.
+
+    Raises
+    ------
+    OutputError
+        Unknown suffix, or the file cannot be written.
+
+    Notes
+    -----
+    CSV of a table whose columns are all numbers (profiles, estimates) is formatted by pyarrow's CSV writer,
+    several times faster than ``DataFrame.to_csv``: floats in their shortest exact form, so the text reads back
+    (:func:`read_table`, pandas, numpy) to the same float64 values; NaN as an empty cell; a float column
+    whose values are all whole numbers keeps its ``.0`` so it reads back as floats. Other tables (text,
+    dates, booleans) are written by ``DataFrame.to_csv``, as before.
+    """
     path = Path(path)
-    fmt = _format_of(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if fmt == "csv":
-        df.to_csv(path, index=False)
-    else:
-        df.to_parquet(path, index=False)
+    fmt = _WRITE_FORMATS.get(path.suffix.lower())
+    if fmt is None:
+        raise OutputError(f"{path}: unknown table format {path.suffix!r} for writing; use .csv or .parquet "
+                          f"(e.g. {path.with_suffix('.csv')}).")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if fmt == "parquet":
+            df.to_parquet(path, index=False)
+        elif not _write_numeric_csv(df, path):
+            df.to_csv(path, index=False)
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}.") from None
     return path
+
+
+def _numeric_columns(df: pd.DataFrame) -> list[np.ndarray] | None:
+    """The columns as float/int NumPy arrays, or None when one is anything else (then pandas writes it)."""
+    if df.shape[1] == 0 or isinstance(df.columns, pd.MultiIndex):
+        return None
+    columns = []
+    for j in range(df.shape[1]):
+        col = df.iloc[:, j]
+        if not isinstance(col.dtype, np.dtype) or col.dtype.kind not in "fiu":
+            return None
+        columns.append(col.to_numpy())
+    return columns
+
+
+def _arrow_column(values: np.ndarray):
+    """A pyarrow array printing like ``DataFrame.to_csv`` reads: NaN as an empty cell, whole floats with ``.0``."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    if values.dtype.kind != "f":
+        return pa.array(values)
+    if values.size and np.all(np.isfinite(values)) and np.all(values == np.trunc(values)) \
+            and np.max(np.abs(values)) < 2.0**53:
+        # pyarrow prints 3.0 as "3": that column would read back as integers
+        text = pc.binary_join_element_wise(pc.cast(pa.array(values.astype(np.int64)), pa.string()), ".0", "")
+        negative_zero = (values == 0) & np.signbit(values)
+        return pc.if_else(pa.array(negative_zero), "-0.0", text) if negative_zero.any() else text
+    return pa.array(values, from_pandas=True)
+
+
+def _write_numeric_csv(df: pd.DataFrame, path: Path) -> bool:
+    """Write an all-numeric frame with pyarrow's CSV writer (header by the csv module); False if not numeric."""
+    import csv
+    import io
+
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    columns = _numeric_columns(df)
+    if columns is None or (len(columns) == 1 and columns[0].dtype.kind == "f" and np.isnan(columns[0]).any()):
+        return False  # one column with NaN: an empty cell would be a blank line, which pandas writes as ""
+    names = [str(c) for c in df.columns]
+    header = io.StringIO()
+    csv.writer(header, lineterminator="\n").writerow(names)
+    table = pa.Table.from_arrays([_arrow_column(v) for v in columns], names=[f"c{j}" for j in range(len(names))])
+    with open(path, "wb") as fh:
+        fh.write(header.getvalue().encode("utf-8"))
+        pacsv.write_csv(table, fh, write_options=pacsv.WriteOptions(include_header=False,
+                                                                   quoting_style="none"))
+    return True

@@ -2,9 +2,12 @@
 
 write_road_report -- road roughness report (profile, IRI per segment, localised roughness, PSD + ISO 8608).
 plot_iri -- PNG bar chart of the IRI per segment with condition limits.
+plot_iri_report -- an IRIReport drawn in its units: bars per segment, or continuous IRI along the road.
 IRI_CONDITION_LIMITS -- default good/poor IRI limits, m/km (FHWA).
+plot_profile -- figure of a profile's tracks along the road (envelope for long profiles).
 """
 
-from ._road import IRI_CONDITION_LIMITS, plot_iri, write_road_report
+from ._road import IRI_CONDITION_LIMITS, plot_iri, plot_iri_report, write_road_report
+from ._profile_plot import plot_profile
 
-__all__ = ["write_road_report", "plot_iri", "IRI_CONDITION_LIMITS"]
+__all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LIMITS", "plot_profile"]

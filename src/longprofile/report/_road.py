@@ -15,7 +15,7 @@ import pandas as pd
 
 from ..errors import OutputError
 
-__all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "write_road_report"]
+__all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report"]
 
 #: IRI condition limits in m/km: good below 1.50 (95 in/mi), poor above 2.68 (170 in/mi) -- the FHWA pavement
 #: condition thresholds for IRI (23 CFR 490.313). Used for the colours of the report; configurable.
@@ -81,6 +81,62 @@ def plot_iri(result, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
     """Bar chart of the IRI per segment with the condition limits, saved as PNG."""
     fig = _figure()
     _iri_axes(fig.add_subplot(), result, limits)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    return path
+
+
+def plot_iri_report(report, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
+    """Draw an :class:`~longprofile.road.IRIReport` in its own units, with the condition limits; return the path.
+
+    Fixed segments: bars per segment and track (MRI as a step line). Continuous and overlapping windows: the
+    IRI of each window against the station of its centre (IRI along the road), one line per track. The
+    limits are given in m/km (default FHWA good < 1.50, poor > 2.68 m/km) and converted to the report's IRI
+    unit (x 63.36 for in/mi).
+    """
+    factor = 63.36 if report.units == "us" else 1.0
+    good, poor = (float(v) * factor for v in limits)
+    lu, iu = report.length_unit, report.iri_unit
+    fig = _figure()
+    ax = fig.add_subplot()
+    values = report.iri
+    top = max(float(np.nanmax(values, initial=0.0)), poor) * 1.15
+    ax.axhspan(0, good, color=_GOOD, alpha=0.10, lw=0)
+    ax.axhspan(good, poor, color=_FAIR, alpha=0.12, lw=0)
+    ax.axhspan(poor, top, color=_POOR, alpha=0.10, lw=0)
+    ax.axhline(good, color=_GOOD, lw=1, ls="--", label=f"good < {good:.3g} {iu}")
+    ax.axhline(poor, color=_POOR, lw=1, ls="--", label=f"poor > {poor:.3g} {iu}")
+    start, end = report.interval_start, report.interval_end
+    meta = report.metadata
+    if report.mode == "fixed":
+        k = len(report.tracks)
+        width = (end - start) / (k + 1)
+        for j, t in enumerate(report.tracks):
+            ax.bar(start + (j + 0.5) * width, values[:, j], width=width * 0.95, align="edge", label=f"IRI {t}",
+                   alpha=0.9)
+        if report.mri is not None and start.size:
+            ax.step(np.append(start, end[-1:]), np.append(report.mri, report.mri[-1:]), where="post", color="0.2",
+                    lw=1.2, ls=":", label="MRI")
+        title = f"IRI per {meta.get('interval', 0):g} {lu} segment"
+    else:
+        centre = 0.5 * (start + end)
+        for j, t in enumerate(report.tracks):
+            xb, lo, hi = _envelope(centre, values[:, j])
+            ax.plot(xb, hi, lw=0.9, label=f"IRI {t}")
+        if report.mri is not None:
+            xb, lo, hi = _envelope(centre, report.mri)
+            ax.plot(xb, hi, lw=1.0, color="0.2", ls=":", label="MRI")
+        title = (f"{report.mode.capitalize()} IRI: {meta.get('window', 0):g} {lu} window every "
+                 f"{meta.get('step', 0):.4g} {lu}")
+    if start.size:
+        ax.set_xlim(float(start[0]), float(end[-1]))
+    ax.set_ylim(0, top)
+    ax.set_xlabel(f"station [{lu}]" + (" (window centre)" if report.mode != "fixed" else ""))
+    ax.set_ylabel(f"IRI [{iu}]")
+    ma = "moving average applied" if meta.get("moving_average_applied") else "no moving average"
+    ax.set_title(f"{title} ({ma})")
+    ax.legend(loc="upper right", fontsize=8, ncol=3)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
@@ -356,6 +412,8 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
                     "linear detrend. Gd(n0) at n0 = 0.1 cycle/m fitted over 0.011–2.83 cycle/m with w = 2 (the "
                     "ISO 8608 classification) and with a free waviness w.</p>" + iso_table)
     ma = "applied" if res.moving_average else "not needed at this spacing"
+    if getattr(res, "moving_average_reason", ""):
+        ma = f"{'applied' if res.moving_average else 'not applied'} ({html.escape(res.moving_average_reason)})"
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}</style></head>
 <body>

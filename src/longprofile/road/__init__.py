@@ -5,6 +5,7 @@ iso8608_profile -- random road profile of an ISO 8608 class (A..H), seedable.
 
 Roughness indices and spectra (ASTM E1926 / WTP-46, ISO 8608)
 iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
+iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 localized_roughness -- continuous short-interval IRI and defects above a threshold.
@@ -18,7 +19,8 @@ apl -- submodule: instrument model, apl_response, double_filter, reconstruct_pro
 apl_model, apl_response, double_filter, reconstruct_profile, Reconstruction -- the main entry points.
 """
 
-from ._iri import GOLDEN_CAR, IRIResult, RectifiedSlope, golden_car_matrices, iri, rectified_slope
+from ._iri import (GOLDEN_CAR, IRIReport, IRIResult, RectifiedSlope, golden_car_matrices, iri, iri_report,
+                   rectified_slope)
 from ._iso8608 import (ISO8608_BAND, ISO8608_CLASSES, ISO8608Fit, ProfilePSD, fit_iso8608, iso8608_class,
                        iso8608_gd, iso8608_profile, profile_psd)
 from ._summary import RoughnessAnalysis, analyse_roughness
@@ -29,7 +31,8 @@ from . import apl
 from .apl import Reconstruction, apl_model, apl_response, double_filter, reconstruct_profile
 
 __all__ = ["Profile", "iso8608_profile",
-    "iri", "IRIResult", "rectified_slope", "RectifiedSlope", "golden_car_matrices", "GOLDEN_CAR",
+    "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
+    "GOLDEN_CAR",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

@@ -493,29 +493,41 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     With u_0 fixed and the instrument-state prior proportional to q, every covariance of the
     model scales with r for a fixed ratio q / r, so r is concentrated out in closed form
     (r_hat = mean of e_k^2 / s_k over the innovations of the r = 1 filter) and only log10(q / r)
-    is searched (bounded scalar minimisation). This replaces the paper's hand tuning (§5.3,
-    q = 10 or 100 with r = 1).
+    is searched: a 13-point grid over ``bounds_log10_ratio`` brackets the optimum (on the first
+    LONG_RECORD_SAMPLES samples of a longer record, with the bracket widened until the whole record's
+    optimum is strictly inside it), then a bounded scalar minimisation on the whole record. This replaces
+    the paper's hand tuning (§5.3, q = 10 or 100 with r = 1).
     """
     y = as_float_array("signal", signal_, ndim=1)
     lo, hi = bounds_log10_ratio
     count = [0]
 
-    def neg(t):
+    def neg(t, data=y):
         count[0] += 1
         try:
-            return -_concentrated_ll(instrument, y, t, input_model, correlation_length, dx, stationary)[0]
+            return -_concentrated_ll(instrument, data, t, input_model, correlation_length, dx, stationary)[0]
         except NotDetectableError:
             # the Riccati equation is numerically unsolvable at this extreme ratio: treat it as infeasible
             return np.inf
 
     grid = np.linspace(lo, hi, 13)
-    vals = np.array([neg(t) for t in grid])
+    # the coarse grid only brackets the optimum: on a long record it is evaluated on the first
+    # LONG_RECORD_SAMPLES samples (whatever the path, so both paths fit the same q, r); the bracket is widened
+    # until the whole record's optimum lies strictly inside it
+    vals = np.array([neg(t, y[:LONG_RECORD_SAMPLES]) for t in grid])
     if not np.isfinite(vals).any():
         raise ConvergenceError("the likelihood could not be evaluated at any q/r ratio in the search interval.")
     i = int(np.argmin(vals))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    res = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
-    t = float(res.x)
+    ia, ib = max(i - 1, 0), min(i + 1, grid.size - 1)
+    while True:
+        a, b = grid[ia], grid[ib]
+        res = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
+        t = float(res.x)
+        widen_lo = ia > 0 and t - a < 0.01
+        widen_hi = ib < grid.size - 1 and b - t < 0.01
+        if y.size <= LONG_RECORD_SAMPLES or not (widen_lo or widen_hi):
+            break
+        ia, ib = ia - widen_lo, ib + widen_hi
     ll, r_hat = _concentrated_ll(instrument, y, t, input_model, correlation_length, dx, stationary)
     h = 0.05
     curv = (neg(t + h) - 2 * (-ll) + neg(t - h)) / h ** 2

@@ -17,12 +17,17 @@ from ..statespace import linear_recursion
 from ._profile import Profile
 
 __all__ = [
+    "AUTO_MOVING_AVERAGE_SHARE",
+    "CONTINUOUS_WINDOW_M",
     "GOLDEN_CAR",
     "IRI_SPEED",
     "golden_car_continuous",
     "golden_car_matrices",
     "IRIResult",
+    "IRIReport",
     "iri",
+    "iri_report",
+    "REPORT_UNITS",
     "rectified_slope",
     "RectifiedSlope",
 ]
@@ -134,6 +139,8 @@ class RectifiedSlope:
         Whether the 250 mm moving average was applied.
     method : str
         ``"constant-step"`` (one ST/PR) or ``"per-step"`` (irregular stations).
+    moving_average_reason : str
+        Why the moving average was (not) applied, in one sentence.
     """
 
     station: np.ndarray
@@ -142,6 +149,7 @@ class RectifiedSlope:
     tracks: tuple[str, ...]
     moving_average: bool
     method: str
+    moving_average_reason: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,6 +183,8 @@ class IRIResult:
         Initialisation length, m.
     method : str
         ``"constant-step"`` or ``"per-step"``.
+    moving_average_reason : str
+        Why the moving average was (not) applied, in one sentence.
     """
 
     segment_start: np.ndarray
@@ -193,6 +203,7 @@ class IRIResult:
     base_length: float
     lead_in: float
     method: str
+    moving_average_reason: str = ""
 
     def to_frame(self) -> pd.DataFrame:
         """One row per segment: ``start_m, end_m, iri_<track>_m_per_km`` (and ``mri_m_per_km, hri_m_per_km``)."""
@@ -220,61 +231,133 @@ def _select_tracks(profile: Profile, tracks) -> tuple[np.ndarray, tuple[str, ...
     return z, names
 
 
+#: Share of the steps (by count) that must be short enough for the standard's rule to average them before the
+#: "auto" moving average is applied to an irregular profile (a longprofile assumption; see :func:`iri_report`).
+AUTO_MOVING_AVERAGE_SHARE = 0.10
+#: Largest station interval of the smoothed irregular profile, as a fraction of the moving-average base.
+_SMOOTH_SUBSTEP = 1.0 / 8.0
+
+
+def _moving_average_mode(value) -> str:
+    """Normalise ``moving_average``: "auto"/"on"/"off", or None/True/False of the :func:`iri` API."""
+    if value is None:
+        return "auto"
+    if isinstance(value, (bool, np.bool_)):
+        return "on" if value else "off"
+    if isinstance(value, str) and value.strip().lower() in ("auto", "on", "off"):
+        return value.strip().lower()
+    raise InputError(f"moving_average must be 'auto', 'on' or 'off' (or None/True/False); got {value!r}.")
+
+
+def _averaged_steps(h: np.ndarray, base: float) -> np.ndarray:
+    """Steps the standard's rule would smooth: ``k = round(base / h) >= 2`` samples in the base (h <= base/1.5)."""
+    return np.floor(base / h + 0.5) >= 2
+
+
+def _moving_average_rule(base: float) -> str:
+    return (f"ASTM E1926 / WTP-46: {base * 1000:g} mm moving average over k = round({base:g} m / dx) samples, "
+            f"which smooths only when k >= 2 (dx <= {base / 1.5:.4g} m); irregular stations: applied when at least "
+            f"{AUTO_MOVING_AVERAGE_SHARE:.0%} of the steps are that short (longprofile assumption), as the exact "
+            f"{base * 1000:g} mm average of the linearly interpolated profile")
+
+
+def _decide_moving_average(x: np.ndarray, regular_dx: float | None, mode: str, base: float) -> tuple[bool, str]:
+    """Whether to apply the moving average, and why (one sentence for the metadata and the CLI summary)."""
+    if regular_dx is not None:
+        k = max(1, int(np.floor(base / regular_dx + 0.5)))
+        plural = "s" if k > 1 else ""
+        where = f"constant step {regular_dx:.6g} m: the {base * 1000:g} mm base holds k = {k} sample{plural}"
+        if mode == "on":
+            return True, f"forced on; {where}" + (" (a 1-sample average leaves the profile unchanged)" * (k == 1))
+        if mode == "off":
+            return False, f"forced off; {where}"
+        return (k >= 2), f"{where} -> " + ("applied" if k >= 2 else "not needed (k = 1), as in the standard's program")
+    h = np.diff(x)
+    short = _averaged_steps(h, base)
+    count_share = float(short.mean())
+    length_share = float(h[short].sum() / h.sum())
+    where = (f"irregular stations: {count_share:.1%} of the steps ({length_share:.1%} of the length) are "
+             f"<= {base / 1.5:.4g} m, short enough for the standard to average them")
+    if mode == "on":
+        return True, f"forced on; {where}"
+    if mode == "off":
+        return False, f"forced off; {where}"
+    apply = count_share >= AUTO_MOVING_AVERAGE_SHARE
+    return apply, f"{where} -> {'>=' if apply else '<'} {AUTO_MOVING_AVERAGE_SHARE:.0%}: " + (
+        "applied" if apply else "not applied")
+
+
 def _box_average_irregular(x: np.ndarray, z: np.ndarray, base: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact centred moving average of the linear interpolant of z over ``base``, at the stations whose
-    window lies inside the profile."""
+    """Exact centred moving average ``S(q) = (1/base) * integral of the interpolant over [q - base/2, q + base/2]``.
+
+    S is piecewise quadratic with knots at the stations and at the stations +- base/2; it is sampled at every
+    knot whose window lies inside the profile and, between knots, at most ``base / 8`` apart, so that the
+    car driven by its linear interpolant sees S within about 0.05 % in IRI (measured against a 5 mm grid).
+    """
+    lo, hi = x[0] + 0.5 * base, x[-1] - 0.5 * base
+    if hi - lo <= 1e-9 * base:
+        raise InputError(f"the profile ({x[-1] - x[0]:.3f} m) is shorter than the moving-average base ({base:g} m).")
+    knots = np.concatenate([x[(x > lo) & (x < hi)], x[x < hi] + 0.5 * base, x[x > lo] - 0.5 * base, [lo, hi]])
+    knots = np.unique(knots[(knots >= lo) & (knots <= hi)])
+    knots = knots[np.concatenate([[True], np.diff(knots) > 1e-6 * base])]
+    gaps = np.diff(knots)
+    n = np.maximum(1, np.ceil(gaps / (_SMOOTH_SUBSTEP * base) - 1e-9).astype(np.int64))
+    first = np.repeat(np.cumsum(n) - n, n)
+    frac = (np.arange(int(n.sum())) - first) / np.repeat(n, n)
+    q = np.append(np.repeat(knots[:-1], n) + frac * np.repeat(gaps, n), knots[-1])
     h = np.diff(x)
     cum = np.concatenate([np.zeros((1, z.shape[1])), np.cumsum(0.5 * h[:, None] * (z[1:] + z[:-1]), axis=0)])
 
-    def integral(q):
-        i = np.clip(np.searchsorted(x, q, side="right") - 1, 0, x.size - 2)
-        t = (q - x[i])[:, None]
+    def integral(p):
+        i = np.clip(np.searchsorted(x, p, side="right") - 1, 0, x.size - 2)
+        t = (p - x[i])[:, None]
         slope = (z[i + 1] - z[i]) / h[i][:, None]
         return cum[i] + z[i] * t + 0.5 * slope * t * t
 
-    keep = (x - 0.5 * base >= x[0] - 1e-12) & (x + 0.5 * base <= x[-1] + 1e-12)
-    xs = x[keep]
-    zs = (integral(np.minimum(xs + 0.5 * base, x[-1])) - integral(np.maximum(xs - 0.5 * base, x[0]))) / base
-    return xs, zs
+    zs = (integral(np.minimum(q + 0.5 * base, x[-1])) - integral(np.maximum(q - 0.5 * base, x[0]))) / base
+    return q, zs
 
 
 def _smooth(x, z, regular_dx, moving_average, base_length):
-    """Apply the 250 mm moving average where the standard asks for it; return (x, z, applied)."""
-    dx_ref = regular_dx if regular_dx is not None else float(np.median(np.diff(x)))
-    n_base = max(1, int(np.floor(base_length / dx_ref + 0.5)))
-    apply = (n_base > 1) if moving_average is None else bool(moving_average)
+    """Apply the 250 mm moving average where the rule asks for it; return (x, z, applied, reason)."""
+    apply, reason = _decide_moving_average(x, regular_dx, _moving_average_mode(moving_average), base_length)
     if not apply:
-        return x, z, False
+        return x, z, False, reason
     if regular_dx is not None:
+        n_base = max(1, int(np.floor(base_length / regular_dx + 0.5)))
         if n_base == 1:
-            return x, z, True
+            return x, z, True, reason
         lo = (n_base - 1) // 2 if n_base % 2 else n_base // 2
         hi = n_base - 1 - lo
         if x.size <= n_base:
             raise InputError(f"the profile ({x.size} samples) is shorter than the moving-average base "
                              f"({n_base} samples of {regular_dx:g} m).")
         zs = np.lib.stride_tricks.sliding_window_view(z, n_base, axis=0).mean(axis=-1)  # no running-sum drift
-        return x[lo:x.size - hi], zs, True
+        return x[lo:x.size - hi], zs, True, reason
     xs, zs = _box_average_irregular(x, z, base_length)
-    if xs.size < 2:
-        raise InputError(f"the profile is shorter than the moving-average base ({base_length:g} m).")
-    return xs, zs, True
+    return xs, zs, True, reason
 
 
-def _insert_stations(x: np.ndarray, z: np.ndarray, new: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """Insert stations (linear interpolation; the simulated profile is linear between samples)."""
-    new = new[(new > x[0] + tol) & (new < x[-1] - tol)]
+def _insert_stations(x: np.ndarray, z: np.ndarray, new: np.ndarray,
+                     tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Insert stations (linear interpolation; the simulated profile is linear between samples).
+
+    Returns the stations, elevations and a mask of the inserted stations (None when nothing was inserted)."""
+    new = np.unique(new[(new > x[0] + tol) & (new < x[-1] - tol)])
+    new = new[np.concatenate([[True], np.diff(new) > tol])] if new.size else new  # no near-duplicate stations
     if new.size == 0:
-        return x, z
+        return x, z, None
     i = np.clip(np.searchsorted(x, new), 1, x.size - 1)
     near = np.minimum(np.abs(x[i] - new), np.abs(x[i - 1] - new)) <= tol
     new = new[~near]
     if new.size == 0:
-        return x, z
+        return x, z, None
     zn = np.column_stack([np.interp(new, x, z[:, j]) for j in range(z.shape[1])])
     xa = np.concatenate([x, new])
     order = np.argsort(xa, kind="stable")
-    return xa[order], np.concatenate([z, zn])[order]
+    mask = np.zeros(xa.size, dtype=bool)
+    mask[x.size:] = True
+    return xa[order], np.concatenate([z, zn])[order], mask[order]
 
 
 def _run_golden_car(x: np.ndarray, z: np.ndarray, lead_in: float, regular: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -339,6 +422,11 @@ def rectified_slope(profile: Profile, *, tracks=None, lead_in: float = 11.0, mov
 
 def _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx):
     """rectified_slope with the constant step ``dx`` already known (None: irregular or not yet checked)."""
+    return _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx)[0]
+
+
+def _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx):
+    """(RectifiedSlope, mask of the inserted stations or None)."""
     lead_in = require_positive("lead_in", lead_in)
     base_length = require_positive("base_length", base_length)
     z, names = _select_tracks(profile, tracks)
@@ -348,17 +436,15 @@ def _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extr
         raise InputError("the profile needs at least 2 stations.")
     if dx is None:
         dx = _is_regular(x)
-    xs, zs, applied = _smooth(x, z, dx, moving_average, base_length)
+    xs, zs, applied, reason = _smooth(x, z, dx, moving_average, base_length)
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
-    inserted = False
+    mask = None
     if extra_stations is not None:
-        before = xs
-        xs, zs = _insert_stations(xs, zs, np.asarray(extra_stations, dtype=float), tol)
-        inserted = xs is not before
-    regular = dx is not None and not inserted  # smoothing keeps a constant step; inserted stations break it
+        xs, zs, mask = _insert_stations(xs, zs, np.asarray(extra_stations, dtype=float), tol)
+    regular = dx is not None and mask is None  # smoothing keeps a constant step; inserted stations break it
     h, rs = _run_golden_car(xs, zs, lead_in, regular)
     return RectifiedSlope(station=xs, step=h, rectified=rs, tracks=names, moving_average=applied,
-                          method="constant-step" if regular else "per-step")
+                          method="constant-step" if regular else "per-step", moving_average_reason=reason), mask
 
 
 def _segment_means(station, step, values, bounds, tol):
@@ -399,9 +485,11 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
         at the first station; only the reporting grid moves.
     lead_in : float
         Length over which the initial slope is taken, m (ASTM E1926 / WTP-46: 11 m, i.e. 0.5 s at 80 km/h).
-    moving_average : bool, optional
-        Apply the 250 mm moving average. Default (None): as the standard asks, when the base covers at least
-        two samples (``round(base_length / dx) >= 2``, i.e. dx < 0.167 m; median step for irregular stations).
+    moving_average : {None, True, False, "auto", "on", "off"}
+        Apply the 250 mm moving average. Default (None = "auto"): as the standard's program does, when the base
+        covers at least two samples (``round(base_length / dx) >= 2``, i.e. dx <= 0.167 m); on irregular
+        stations when at least 10 % of the steps are that short (:data:`AUTO_MOVING_AVERAGE_SHARE`). The
+        decision and its reason are in ``moving_average`` and ``moving_average_reason`` of the result.
     base_length : float
         Moving-average base, m (default 0.25).
 
@@ -421,8 +509,8 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
 
     1. smoothing (if applied): centred moving average over ``k = round(base/dx)`` samples on a constant step
        (equivalent to the WTP-46 slope ``(y[i+k] - y[i]) / (k dx)``); on irregular stations, the exact centred
-       average of the linearly interpolated profile over ``base`` (assumption: the standard defines only the
-       regular case);
+       average of the linearly interpolated profile over ``base``, sampled at its knots and at most base/8
+       apart (assumption: the standard defines only the regular case);
     2. initial state ``z = [s0, 0, s0, 0]`` with ``s0`` the slope between the first station and the
        (interpolated) point ``lead_in`` metres ahead;
     3. for each step, ``z = ST z + PR s`` with ``s`` the profile slope over the step and ST/PR the exact
@@ -468,4 +556,328 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
                      section_iri=section, section_start=float(rs.station[0]), section_end=float(rs.station[-1]),
                      mri=mri, hri=hri, section_mri=section_mri, section_hri=section_hri,
                      segment_length=segment_length, moving_average=rs.moving_average,
-                     base_length=float(base_length), lead_in=float(lead_in), method=rs.method)
+                     base_length=float(base_length), lead_in=float(lead_in), method=rs.method,
+                     moving_average_reason=rs.moving_average_reason)
+
+
+def _window_means(station, step, values, inserted, starts, ends, tol):
+    """Length-weighted mean of per-step values over each window ``[starts[j], ends[j]]``, O(M + S).
+
+    Every window limit inside the station range is a station of the run (inserted before it; ``inserted`` marks
+    them, None when none was). The quadrature is that of a run in which only the window's own two limits were
+    inserted -- exactly what :func:`iri` computes for a segment with these limits -- although all windows share
+    one run: a step split by other windows' limits keeps the value at the end of its unsplit step, and the step
+    split by the window's end takes the value at that end (the inserted station). Cumulative-sum differences.
+    """
+    m = station.size
+    if inserted is None:
+        inserted = np.zeros(m, dtype=bool)
+    orig = np.flatnonzero(~inserted)  # first and last stations are never inserted
+    end_orig = orig[np.searchsorted(orig, np.arange(1, m), side="left")]  # end of the unsplit step of each step
+    v_orig = values[end_orig - 1]
+    cum = np.zeros((m, values.shape[1]))
+    np.cumsum(step[:, None] * v_orig, axis=0, out=cum[1:])
+    ia = np.clip(np.searchsorted(station, starts - tol, side="left"), 0, m - 1)
+    ib = np.clip(np.searchsorted(station, ends - tol, side="left"), 0, m - 1)
+    total = cum[ib] - cum[ia]
+    cut = np.flatnonzero(inserted[ib] & (ib > ia))
+    if cut.size:
+        k = ib[cut]
+        before = orig[np.searchsorted(orig, k) - 1]  # last unsplit station before the window's end
+        lo = np.maximum(station[before], station[ia[cut]])
+        total[cut] += (station[k] - lo)[:, None] * (values[k - 1] - v_orig[k - 1])
+    length = station[ib] - station[ia]
+    out = np.full_like(total, np.nan)
+    ok = length > 0
+    out[ok] = total[ok] / length[ok, None]
+    return out
+
+
+#: Report unit systems: length unit, its value in m, IRI unit, its value per m/km, column suffix.
+REPORT_UNITS = {
+    "si": {"length_unit": "m", "metres_per_unit": 1.0, "iri_unit": "m/km", "iri_per_m_per_km": 1.0,
+           "iri_column": "m_per_km"},
+    "us": {"length_unit": "ft", "metres_per_unit": 0.3048, "iri_unit": "in/mi", "iri_per_m_per_km": 63.36,
+           "iri_column": "in_per_mi"},
+}
+#: Default continuous-IRI window: 25 ft (7.62 m), the short base length of ProVAL's continuous IRI
+#: (Smoothness Assurance module, FHWA); the same physical length in both unit systems.
+CONTINUOUS_WINDOW_M = 7.62
+REPORT_MODES = ("fixed", "continuous", "overlapping")
+
+
+@dataclass(frozen=True, eq=False)
+class IRIReport:
+    """IRI as a road agency reports it: per reported interval (fixed, continuous or overlapping windows).
+
+    Every length is in the report's length unit (m for ``units="si"``, ft for ``"us"``) and every IRI in its
+    IRI unit (m/km or in/mi); the profile itself stays in SI.
+
+    Attributes
+    ----------
+    interval_start, interval_end : (S,) ndarray
+        Limits of each reported interval (segment or window), length unit.
+    iri : (S, K) ndarray
+        IRI per interval and track, IRI unit.
+    tracks : tuple of str
+    mri, hri : (S,) ndarray or None
+        Mean of the two tracks' IRI and half-car IRI (two tracks only).
+    section_iri : (K,) ndarray
+        IRI over the whole simulated profile, IRI unit.
+    section_mri, section_hri : float or None
+    section_start, section_end : float
+        Limits of the whole-section IRI, length unit.
+    mode : str
+        ``"fixed"``, ``"continuous"`` or ``"overlapping"``.
+    units : str
+        ``"si"`` or ``"us"``.
+    metadata : dict
+        Everything needed to reproduce the numbers (JSON-serialisable scalars): mode, interval/window/step,
+        units, start station, moving average applied with its rule and reason, base length, lead-in, number of
+        samples, method, section values. Written into CSV/Parquet outputs by
+        :func:`longprofile.io._report_tables.write_report_table`.
+    """
+
+    interval_start: np.ndarray
+    interval_end: np.ndarray
+    iri: np.ndarray
+    tracks: tuple[str, ...]
+    mri: np.ndarray | None
+    hri: np.ndarray | None
+    section_iri: np.ndarray
+    section_mri: float | None
+    section_hri: float | None
+    section_start: float
+    section_end: float
+    mode: str
+    units: str
+    metadata: dict
+
+    @property
+    def length_unit(self) -> str:
+        return REPORT_UNITS[self.units]["length_unit"]
+
+    @property
+    def iri_unit(self) -> str:
+        return REPORT_UNITS[self.units]["iri_unit"]
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per interval: ``start_<u>, end_<u>, iri_<track>_<iri-u>`` (+ ``mri_<iri-u>, hri_<iri-u>``).
+
+        SI: ``start_m, end_m, iri_left_m_per_km``; US: ``start_ft, end_ft, iri_left_in_per_mi``. The metadata are
+        attached as ``frame.attrs["longprofile"]``.
+        """
+        lu, iu = self.length_unit, REPORT_UNITS[self.units]["iri_column"]
+        cols = {f"start_{lu}": self.interval_start, f"end_{lu}": self.interval_end}
+        for j, t in enumerate(self.tracks):
+            cols[f"iri_{t}_{iu}"] = self.iri[:, j]
+        if self.mri is not None:
+            cols[f"mri_{iu}"] = self.mri
+            cols[f"hri_{iu}"] = self.hri
+        frame = pd.DataFrame(cols)
+        frame.attrs["longprofile"] = dict(self.metadata)
+        return frame
+
+
+def _report_length(name, value, unit):
+    return require_positive(f"{name} ({unit})", value)
+
+
+def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0, window: float | None = None,
+               step: float | None = None, start: float | None = None, units: str = "si", tracks=None,
+               lead_in: float = 11.0, moving_average="auto", base_length: float = 0.25) -> IRIReport:
+    """The whole IRI report of a profile as road agencies make it: fixed, continuous or overlapping intervals.
+
+    Parameters
+    ----------
+    profile : Profile
+        Longitudinal profile in SI (stations and elevations in m); stations may be irregular; no NaN in the
+        tracks used.
+    mode : {"fixed", "continuous", "overlapping"}
+        ``"fixed"``: consecutive segments of ``interval`` from ``start`` (complete segments only).
+        ``"continuous"``: a sliding window of ``window`` reported every ``step`` (continuous IRI, e.g. ProVAL's
+        Smoothness Assurance analysis). ``"overlapping"``: windows of ``window`` every ``step < window``.
+    interval : float
+        Fixed segment length, in the length unit of ``units`` (default 100: 100 m in SI; in US units give it,
+        e.g. 528 ft = 0.1 mi). Also the default window of ``"overlapping"``; unused by ``"continuous"``.
+    window : float, optional
+        Window length, length unit. Default: ``"continuous"`` 25 ft = 7.62 m (the same length in both unit
+        systems); ``"overlapping"`` ``interval``. Not accepted by ``"fixed"``.
+    step : float, optional
+        Distance between the starts of consecutive windows, length unit. Default: ``"continuous"`` one sample
+        (the constant step of the profile; the mean step for irregular stations); ``"overlapping"`` half the
+        window. ``"continuous"`` needs ``step <= window``, ``"overlapping"`` ``step < window``.
+    start : float, optional
+        Station where the first interval starts, length unit (default: the first station of the profile). The
+        simulation always starts at the first station; only the reporting grid moves.
+    units : {"si", "us"}
+        Report units: ``"si"`` stations in m and IRI in m/km; ``"us"`` stations in ft and IRI in in/mi
+        (1 m/km = 63.36 in/mi exactly).
+    tracks : str or sequence of str, optional
+        Tracks to analyse (default all); with exactly two the MRI and HRI are reported too.
+    lead_in : float
+        Initialisation length, **m** in both unit systems (a constant of the index definition; ASTM E1926: 11 m).
+    moving_average : {"auto", "on", "off"} or {None, True, False}
+        The 250 mm moving average (see Notes). None/True/False are the :func:`iri` spellings.
+    base_length : float
+        Moving-average base, **m** in both unit systems (default 0.25).
+
+    Returns
+    -------
+    IRIReport
+        Per-interval IRI (and MRI/HRI), section values and ``metadata``; ``to_frame()`` gives the table.
+
+    Raises
+    ------
+    InputError
+        Unknown mode or units; a non-positive interval, window or step; a window longer than the profile from
+        ``start``; ``step`` not below the window for overlapping windows; ``window``/``step`` given to
+        ``"fixed"``; a start outside the profile; NaN elevations; a profile shorter than the lead-in.
+
+    Notes
+    -----
+    *Computation.* One golden-car run over the whole profile (ASTM E1926 / WTP-46, state carried through,
+    exactly as :func:`iri`), with every interval limit that falls between samples inserted as a station
+    (exact: the simulated profile is linear between samples). Fixed segments are the segment means of
+    :func:`iri`; sliding and overlapping windows are differences of the cumulative length-weighted rectified
+    slope (O(N + S), no loop of :func:`iri` calls), with the quadrature :func:`iri` would use for a segment with
+    the same limits, so a window equals the fixed-interval IRI of the segment it coincides with.
+
+    *Stations.* The profile's own stations are used (not re-zeroed); in US units they are the SI stations
+    divided by 0.3048, and the interval limits are ``start + j * step`` computed in ft, so a profile recorded in
+    ft reports its own round stations. Only windows lying entirely inside the profile are reported (the last
+    incomplete segment or window is left out; the section IRI covers the whole profile). With the moving
+    average the first and last half-base of the profile have no smoothed elevation: intervals touching them
+    are averaged over the part that has one.
+
+    *Moving average ("auto").* ASTM E1926 / WTP-46 smooth the profile with a 250 mm moving average computed
+    over ``k = round(0.25 m / dx)`` samples; for k = 1 (dx > 0.167 m) it leaves the profile unchanged, so "auto"
+    applies it exactly when ``k >= 2``. For irregular stations (assumption: the standard defines only a
+    constant step) a step "would be averaged" when ``round(base / h) >= 2``; the average is applied when at
+    least 10 % of the steps are such (:data:`AUTO_MOVING_AVERAGE_SHARE`), as the exact 250 mm average of the
+    linearly interpolated profile. The decision, its rule and its reason (the shares measured) are in
+    ``metadata``.
+
+    References
+    ----------
+    ASTM E1926-08 (R2015); Sayers, Gillespie, Paterson, World Bank Technical Paper 46 (1986); Sayers, TRR 1501
+    (1995) for MRI/HRI; FHWA ProVAL (continuous IRI, 25 ft base length).
+    """
+    mode_key = str(mode).strip().lower() if isinstance(mode, str) else mode
+    if mode_key not in REPORT_MODES:
+        raise InputError(f"unknown mode {mode!r}; use one of {', '.join(REPORT_MODES)}.")
+    units_key = str(units).strip().lower() if isinstance(units, str) else units
+    if units_key not in REPORT_UNITS:
+        raise InputError(f"unknown units {units!r}; use 'si' (m, m/km) or 'us' (ft, in/mi). (The elevation unit "
+                         "of a file is given when reading it, e.g. read_profile(..., units='mm').)")
+    u = REPORT_UNITS[units_key]
+    lu, scale = u["length_unit"], u["metres_per_unit"]
+    ma_mode = _moving_average_mode(moving_average)
+    lead_in = require_positive("lead_in (m)", lead_in)
+    base_length = require_positive("base_length (m)", base_length)
+    x = profile.distance
+    if x.size < 2:
+        raise InputError("the profile needs at least 2 stations.")
+    x0, x1 = float(x[0]) / scale, float(x[-1]) / scale  # profile limits in the report unit
+    dx = _is_regular(x)
+    tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
+    tol_u = tol / scale
+    first = x0 if start is None else start
+    try:
+        first = float(first)
+    except (TypeError, ValueError):
+        raise InputError(f"start must be a number ({lu}); got {start!r}.") from None
+    if not np.isfinite(first) or first < x0 - tol_u or first >= x1 - tol_u:
+        raise InputError(f"start must lie within the profile ({x0:.3f} .. {x1:.3f} {lu}); got {start!r}.")
+    first = max(first, x0)
+    if mode_key == "fixed":
+        if window is not None or step is not None:
+            raise InputError("window and step are for mode='continuous' or 'overlapping'; mode='fixed' reports "
+                             "consecutive segments of `interval`.")
+        length = _report_length("interval", interval, lu)
+        n = int(np.floor((x1 - first) / length + 1e-9))
+        bounds_u = first + length * np.arange(n + 1)
+        starts_u, ends_u = bounds_u[:-1], bounds_u[1:]
+        grid = {"interval": length}
+    else:
+        if window is None:
+            window = CONTINUOUS_WINDOW_M / scale if mode_key == "continuous" else interval
+        length = _report_length("window", window, lu)
+        if step is None:
+            step = ((dx if dx is not None else (x[-1] - x[0]) / (x.size - 1)) / scale if mode_key == "continuous"
+                    else 0.5 * length)
+        stride = _report_length("step", step, lu)
+        if mode_key == "overlapping" and stride >= length:
+            raise InputError(f"overlapping windows need step < window; got step {stride:g} {lu} >= window "
+                             f"{length:g} {lu} (use mode='fixed' for consecutive segments).")
+        if mode_key == "continuous" and stride > length * (1 + 1e-12):
+            raise InputError(f"a continuous report needs step <= window (got step {stride:g} {lu} > window "
+                             f"{length:g} {lu}): the windows would leave gaps; use mode='fixed' or a shorter step.")
+        if x1 - first < length - tol_u:
+            raise InputError(f"the window ({length:g} {lu}) is longer than the profile from the start station "
+                             f"({x1 - first:.3f} {lu}, {first:g} .. {x1:g} {lu}); use a shorter window or an "
+                             "earlier start.")
+        n = int(np.floor((x1 - first - length) / stride + 1e-9)) + 1
+        if n > 4 * x.size + 1000:
+            raise InputError(f"step {stride:g} {lu} gives {n} windows, more than 4 per sample of the profile "
+                             f"({x.size} samples): a window every sample is the finest report; use a longer step.")
+        starts_u = first + stride * np.arange(n)
+        ends_u = starts_u + length
+        bounds_u = np.union1d(starts_u, ends_u)
+        grid = {"window": length, "step": stride}
+    bounds_m = np.minimum(bounds_u * scale, x[-1])
+    rs, inserted = _run(profile, tracks, lead_in, ma_mode, base_length, bounds_m, dx)
+
+    def per_interval(r, mask):
+        if mode_key == "fixed":
+            return _segment_means(r.station, r.step, r.rectified, bounds_m, tol)
+        return _window_means(r.station, r.step, r.rectified, mask, np.minimum(starts_u * scale, x[-1]),
+                             np.minimum(ends_u * scale, x[-1]), tol)
+
+    k_iri = u["iri_per_m_per_km"]
+    values = per_interval(rs, inserted) * k_iri
+    section = (rs.step @ rs.rectified) / rs.step.sum() * k_iri
+    mri = hri = None
+    section_mri = section_hri = None
+    if len(rs.tracks) == 2:
+        mri = values.mean(axis=1)
+        section_mri = float(section.mean())
+        zh = np.column_stack([profile.track(t) for t in rs.tracks]).mean(axis=1)
+        half = Profile(distance=x, elevation=zh, tracks=("half-car",))
+        rh, mh = _run(half, None, lead_in, ma_mode, base_length, bounds_m, dx)
+        hri = per_interval(rh, mh)[:, 0] * k_iri
+        section_hri = float((rh.step @ rh.rectified[:, 0]) / rh.step.sum() * k_iri)
+    from .. import __version__
+
+    meta = {
+        "software": f"longprofile {__version__}",
+        "standard": "ASTM E1926-08 (R2015) / World Bank Technical Paper 46 (1986); MRI, HRI: Sayers, TRR 1501 (1995)",
+        "method": f"golden quarter car at 80 km/h, exact discretisation ({rs.method}), state carried through",
+        "mode": mode_key,
+        "units": units_key,
+        "length_unit": lu,
+        "iri_unit": u["iri_unit"],
+        **grid,
+        "start": float(first),
+        "first_station": x0,
+        "last_station": x1,
+        "n_samples": int(x.size),
+        "n_intervals": int(starts_u.size),
+        "tracks": ",".join(rs.tracks),
+        "moving_average": ma_mode,
+        "moving_average_applied": bool(rs.moving_average),
+        "moving_average_rule": _moving_average_rule(base_length),
+        "moving_average_reason": rs.moving_average_reason,
+        "base_length_m": float(base_length),
+        "lead_in_m": float(lead_in),
+        "section_start": float(rs.station[0] / scale),
+        "section_end": float(rs.station[-1] / scale),
+    }
+    for t, v in zip(rs.tracks, section):
+        meta[f"section_iri_{t}"] = float(v)
+    if section_mri is not None:
+        meta["section_mri"], meta["section_hri"] = section_mri, section_hri
+    return IRIReport(interval_start=starts_u, interval_end=ends_u, iri=values, tracks=rs.tracks, mri=mri, hri=hri,
+                     section_iri=section, section_mri=section_mri, section_hri=section_hri,
+                     section_start=float(rs.station[0] / scale), section_end=float(rs.station[-1] / scale),
+                     mode=mode_key, units=units_key, metadata=meta)

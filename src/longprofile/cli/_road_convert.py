@@ -1,0 +1,56 @@
+"""``longprofile road convert``: a profile file from one format to another (CSV, Parquet, ERD), by suffix."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ._common import PROFILE_SUFFIXES, check_output_path, check_plot_path, console, is_reconstruct_output
+
+
+def convert_command(
+    file: Path = typer.Argument(..., help="Profile to read: CSV/Parquet with a distance_m column and one column per "
+                                          "track named with its unit (left_mm, right_m, ...), or an ERD file."),
+    output: Path = typer.Argument(..., help="Profile to write, format by suffix: .csv, .parquet or .erd (ERD: "
+                                            "regular stations and elevations only; std columns are not kept)."),
+    units: str = typer.Option(None, "--units", help="Elevation unit written: m, mm, cm, in, ft (default: mm for "
+                                                    "ERD, m for CSV/Parquet)."),
+    input_units: str = typer.Option(None, "--elevation-unit", "--input-units",
+                                    help="Elevation unit of input columns that do not give one (m, mm, in, ft), as "
+                                         "in `road iri`; never guessed."),
+    track: str = typer.Option(None, "--track", help="Comma-separated tracks to keep (default: all), e.g. left,right."),
+    plot: Path = typer.Option(None, "--plot", help="Also draw the profile to this PNG."),
+):
+    """Convert a profile file (CSV, Parquet, ERD) into another; values kept exactly (CSV/Parquet) or to 1e-7 m (ERD)."""
+    from ..io import read_profile, write_profile
+    from ..io._profiles import unit_factor
+    from ..report import plot_profile
+
+    out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES)
+    png = check_plot_path(plot, file, out)
+    erd = out.suffix.lower() == ".erd"
+    units = units or ("mm" if erd else "m")
+    unit_factor(units)
+    tracks = [t.strip() for t in track.split(",") if t.strip()] if track else None
+    if tracks is None and is_reconstruct_output(file):
+        console.print(f"note: {file} is a `road reconstruct` output: converting its profile track 'elevation' "
+                      "(std_m and raw_m are not tracks; pass --track to choose).", markup=False)
+        tracks = ["elevation"]
+    profile = read_profile(file, units=input_units, tracks=tracks)
+    write_profile(profile, out, units=units)
+    if plot is not None:
+        plot_profile(profile, png)
+    x = profile.distance
+    step = profile.spacing
+    console.print(f"converted {profile.n_samples} samples x {len(profile.tracks)} track(s) "
+                  f"({', '.join(profile.tracks)}; stations {x[0]:g} .. {x[-1]:g} m"
+                  f"{'' if step is None else f', dx {step:g} m'}) in {units} -> {out}", markup=False)
+    if erd and profile.std is not None:
+        console.print("note: the standard deviation columns are not written to ERD (elevations only); convert to "
+                      "CSV or Parquet to keep them.", markup=False)
+
+
+def register(app: typer.Typer) -> None:
+    """Attach ``convert`` to the ``road`` group."""
+    app.command("convert")(convert_command)

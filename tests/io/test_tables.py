@@ -1,0 +1,115 @@
+"""write_table / read_table: strict suffixes for writing, exact float64 round trip of the fast CSV writer.
+
+Oracles: pandas (``DataFrame.to_csv`` text for non-numeric tables, ``pandas.read_csv``) and the Python
+``csv`` module for the header.
+"""
+
+import csv
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError, OutputError
+from longprofile.io import read_table, write_table
+
+
+@pytest.mark.parametrize("name", ["t.txt", "t.xlsx", "t.json", "t", "t.csv.gz", "t.TXT"])
+def test_unknown_suffix_is_refused_for_writing_and_nothing_is_written(tmp_path, name):
+    with pytest.raises(OutputError, match="unknown table format .* for writing; use .csv or .parquet"):
+        write_table(pd.DataFrame({"a": [1.0]}), tmp_path / "sub" / name)
+    assert not (tmp_path / "sub").exists()
+
+
+def test_txt_is_still_read_as_csv(tmp_path):
+    f = tmp_path / "export.txt"
+    f.write_text("distance_m,left_mm\n0,1.5\n0.25,1.75\n")
+    df = read_table(f, numeric=["left_mm"])
+    assert list(df.columns) == ["distance_m", "left_mm"] and df["left_mm"].tolist() == [1.5, 1.75]
+    (tmp_path / "x.dat").write_text("a\n1\n")
+    with pytest.raises(InputError, match="unknown table format '.dat'"):
+        read_table(tmp_path / "x.dat")
+
+
+_floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
+_names = st.text(st.characters(codec="utf-8", exclude_categories=("Cs", "Cc")), min_size=1, max_size=12)
+
+
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data(), n=st.integers(0, 40), ncols=st.integers(1, 5), suffix=st.sampled_from([".csv", ".parquet"]))
+def test_numeric_round_trip_is_exact(tmp_path, data, n, ncols, suffix):
+    # names as read_table reads them: no '#' (comments), no blanks around them (skipinitialspace), no ';'
+    # or tab (read_table refuses a one-column header holding them: a file separated by ';')
+    names = data.draw(st.lists(_names.filter(lambda s: s.strip() == s and not set(s) & set("#;\t")),
+                               min_size=ncols, max_size=ncols, unique=True))
+    columns = {}
+    for name in names:
+        kind = data.draw(st.sampled_from(["float", "whole", "int"]))
+        if kind == "float":
+            columns[name] = np.array(data.draw(st.lists(_floats, min_size=n, max_size=n)), dtype=np.float64)
+        elif kind == "whole":  # floats that are whole numbers: must stay floats
+            columns[name] = np.array(data.draw(st.lists(st.integers(-2**53 + 1, 2**53 - 1), min_size=n,
+                                                        max_size=n)), dtype=np.float64)
+        else:
+            columns[name] = np.array(data.draw(st.lists(st.integers(-2**63, 2**63 - 1), min_size=n, max_size=n)),
+                                     dtype=np.int64)
+    df = pd.DataFrame(columns)
+    path = write_table(df, tmp_path / f"t{suffix}")
+    if suffix == ".csv":
+        with open(path, newline="", encoding="utf-8") as fh:
+            assert next(csv.reader(fh)) == names  # header names unchanged
+    back = pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+    assert list(back.columns) == names
+    for name in names:
+        want, got = df[name].to_numpy(), back[name].to_numpy()
+        if n and want.dtype.kind == "f" and not np.isnan(want).all():
+            assert got.dtype == np.float64, name
+        if n and want.dtype.kind == "i":
+            assert got.dtype == np.int64, name
+        assert len(got) == n and np.array_equal(got.astype(np.float64) if want.dtype.kind == "f" else got, want,
+                                                equal_nan=want.dtype.kind == "f"), name
+        if want.dtype.kind == "f":  # the sign of zero too
+            zero = want == 0
+            assert np.array_equal(np.signbit(got.astype(np.float64)[zero]), np.signbit(want[zero])), name
+    # and through our own reader, which the CLI uses
+    ours = read_table(path)
+    for name in names:
+        assert np.array_equal(ours[name].to_numpy(), back[name].to_numpy(), equal_nan=back[name].dtype.kind == "f")
+
+
+def test_csv_text_of_a_profile(tmp_path):
+    df = pd.DataFrame({"distance_m": [0.0, 0.25, 0.5], "left_mm": [1.5, np.nan, -0.001], "n": [1, 2, 3],
+                       "flat_m": [-0.0, 1.0, 2.0]})
+    text = write_table(df, tmp_path / "p.csv").read_text()
+    assert text == "distance_m,left_mm,n,flat_m\n0,1.5,1,-0.0\n0.25,,2,1.0\n0.5,-0.001,3,2.0\n"
+    back = read_table(tmp_path / "p.csv")
+    assert back["flat_m"].dtype == np.float64 and back["distance_m"].dtype == np.float64
+
+
+def test_non_numeric_tables_are_written_as_pandas_writes_them(tmp_path):
+    df = pd.DataFrame({"date": pd.to_datetime(["2020-01-01", "2020-01-02"]), "sensor_id": ["S1", "S,2"],
+                       "ok": [True, False], "dz_m": [0.1, np.nan]})
+    assert write_table(df, tmp_path / "t.csv").read_text() == df.to_csv(index=False)
+
+
+def test_one_column_with_missing_values_keeps_its_rows(tmp_path):
+    df = pd.DataFrame({"x": [np.nan, 1.0, np.nan]})
+    path = write_table(df, tmp_path / "x.csv")
+    assert path.read_text() == df.to_csv(index=False)  # "" for the empty cells, not blank lines
+    np.testing.assert_array_equal(pd.read_csv(path)["x"].to_numpy(), df["x"].to_numpy())
+
+
+def test_a_last_row_of_missing_values_is_kept_but_trailing_blank_lines_are_not(tmp_path):
+    df = pd.DataFrame({"a": [1.0, np.nan], "b": [2.0, np.nan]})
+    back = read_table(write_table(df, tmp_path / "t.csv"))
+    assert len(back) == 2 and back.iloc[1].isna().all()
+    f = tmp_path / "u.csv"
+    f.write_text("a,b\n1,2\n,\n\n  \n# end\n\n")
+    assert len(read_table(f)) == 2
+
+
+def test_parquet_still_written(tmp_path):
+    df = pd.DataFrame({"a": [0.1, 0.2], "b": ["x", "y"]})
+    pd.testing.assert_frame_equal(read_table(write_table(df, tmp_path / "t.parquet")), df)
