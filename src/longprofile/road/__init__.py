@@ -17,6 +17,16 @@ analyse_roughness -- every analysis of a roughness report in one call (Roughness
 APL trailer (paper 000; full index in longprofile.road.apl)
 apl -- submodule: instrument model, apl_response, double_filter, reconstruct_profile, synthetic profiles.
 apl_model, apl_response, double_filter, reconstruct_profile, Reconstruction -- the main entry points.
+
+Other indices, comparison and acceptance (ProVAL features; definitions and sources in docs/road-acceptance.md)
+ride_number -- Ride Number (ASTM E1489) from a quarter-car Profile Index (RideNumberResult).
+rolling_straightedge -- rolling straightedge deviation and defects (StraightedgeResult).
+profilograph_trace, profilograph_index -- California profilograph simulation and Profile Index (CT 526).
+joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASHTO R 36 practice).
+compare_profiles, certify_profiler -- Karamihas cross-correlation with offset search; R 56 certification.
+resample_profile -- explicit linear resampling onto a regular grid.
+smoothness_acceptance, read_spec, default_spec -- lots, localized roughness, exclusions, pay (AcceptanceResult).
+simulate_grinding -- must-grind areas and the shallowest grind below a localized-roughness threshold.
 """
 
 from ._iri import (GOLDEN_CAR, IRIReport, IRIResult, RectifiedSlope, golden_car_matrices, iri, iri_report,
@@ -29,6 +39,14 @@ from ._roughness import (APL_BANDS, LocalizedRoughness, RoughnessDefect, Waveban
 from ._profile import Profile
 from . import apl
 from .apl import Reconstruction, apl_model, apl_response, double_filter, reconstruct_profile
+from ._ride_number import RideNumberResult, ride_number
+from ._straightedge import StraightedgeDefect, StraightedgeResult, rolling_straightedge
+from ._profilograph import ProfileIndexResult, ProfilographTrace, profilograph_index, profilograph_trace
+from ._faulting import FaultingResult, find_joints, joint_faulting, step_statistic
+from ._compare import (R56_THRESHOLDS, CertificationResult, ProfileComparison, certify_profiler, compare_profiles,
+                       resample_profile)
+from ._acceptance import AcceptanceResult, AcceptanceSpec, default_spec, read_spec, smoothness_acceptance
+from ._grinding import GrindingResult, simulate_grinding
 
 __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
@@ -37,3 +55,8 @@ __all__ = ["Profile", "iso8608_profile",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",
     "apl", "apl_model", "apl_response", "double_filter", "reconstruct_profile", "Reconstruction"]
+__all__ += ["ride_number", "RideNumberResult", "rolling_straightedge", "StraightedgeResult", "StraightedgeDefect",
+            "profilograph_trace", "ProfilographTrace", "profilograph_index", "ProfileIndexResult", "joint_faulting",
+            "FaultingResult", "find_joints", "step_statistic", "compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
+            "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
+            "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]

@@ -1,0 +1,98 @@
+"""Smoothness acceptance report speed (issue 16): lots, localized roughness, grinding simulation and the HTML
+report of a two-track profile; and the cross-correlation comparison of a run with a reference.
+
+Full run: 10 km, two tracks, 25 mm step (400,001 samples per track), US spec (0.1 mi lots, 25 ft window,
+threshold, pay schedule, one exclusion), a few bumps to grind. Target: the whole report (computation + HTML and
+figures) <= 2 s. Reading the file is timed separately (ERD reader, reported only).
+Quick mode: 1 km.
+
+Run: ``.venv/bin/python -m benchmarks road_acceptance`` (full) or ``--quick``.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._common import BenchRow, best_time
+
+AREA = "road_acceptance"
+
+
+def _profile(length_m: float):
+    from longprofile.road import Profile, iso8608_profile
+
+    dx = 0.025
+    a = iso8608_profile(length_m, dx, "A", rng=11)
+    b = iso8608_profile(length_m, dx, "A", rng=12)
+    x = a.distance
+    bumps = sum(6e-3 * np.exp(-((x - s) / 0.4) ** 2) for s in np.linspace(0.1, 0.9, 5) * length_m)
+    z = np.column_stack([a.elevation[:, 0] * 0.3 + bumps, b.elevation[:, 0] * 0.3 + bumps])
+    return Profile(distance=x, elevation=z, tracks=("left", "right"), name="bench")
+
+
+def run(quick: bool) -> list[BenchRow]:
+    from longprofile.io import read_profile, write_profile
+    from longprofile.report._acceptance import write_acceptance_report
+    from longprofile.road import iri_report
+    from longprofile.road._acceptance import smoothness_acceptance, spec_from_dict
+    from longprofile.road._compare import compare_profiles
+    from longprofile.road._grinding import simulate_grinding
+
+    length = 1000.0 if quick else 10000.0
+    prof = _profile(length)
+    base = iri_report(prof, mode="continuous", step=0.3048).iri
+    threshold_us = float(np.percentile(base.mean(axis=1), 99.0)) * 63.36
+    ft = length / 0.3048
+    spec = spec_from_dict({"units": "us", "lot": {"length": 528.0},
+                           "localized": {"threshold": round(threshold_us, 1)},
+                           "exclusions": {"zones": [[0.30 * ft, 0.30 * ft + 100.0]]},
+                           "pay": {"schedule": [[40, 1.05], [60, 1.0], [90, 0.95], [400, 0.9]]}})
+    smoothness_acceptance(_profile(200.0), spec_from_dict({"units": "us", "lot": {"length": 100.0}}))  # warm
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        def report():
+            res = smoothness_acceptance(prof, spec)
+            g = simulate_grinding(prof, spec, acceptance=res)
+            out["files"] = write_acceptance_report(res, Path(tmp) / "report", grinding=g)
+            out["g"] = g
+
+        t_report = best_time(report, repeat=2)
+        c0 = time.process_time()
+        report()
+        cpu_report = time.process_time() - c0  # CPU used by this process only (other jobs share the machine)
+        erd = write_profile(prof, Path(tmp) / "bench.erd")
+        t0 = time.perf_counter()
+        read_profile(erd)
+        t_read = time.perf_counter() - t0
+    g = out["g"]
+    n = prof.n_samples
+    x, z = prof.distance, prof.elevation
+    from longprofile.road import Profile
+
+    k = 40
+    ref = Profile(distance=x[:n - k], elevation=z[:n - k, 0])
+    rng = np.random.default_rng(0)
+    run_p = Profile(distance=x[:n - k], elevation=z[k:, 0] + rng.normal(0, 1e-4, n - k))
+    compare_profiles(Profile(distance=x[:20000], elevation=z[:20000, 0]),
+                     Profile(distance=x[:20000], elevation=z[:20000, 0]))
+    res_c = {}
+    t_cmp = best_time(lambda: res_c.setdefault("c", compare_profiles(ref, run_p)), repeat=1 if not quick else 2)
+    c = res_c["c"]
+    km = length / 1000.0
+    return [
+        BenchRow(AREA, f"acceptance report, {km:g} km two-track profile (compute + HTML)", t_report, "s",
+                 target=2.0 if not quick else None, higher_is_better=False,
+                 detail=f"{n} samples/track at 25 mm; {g.metadata['areas']} grind area(s); "
+                        f"{len(out['files'])} files written"),
+        BenchRow(AREA, f"acceptance report, {km:g} km two-track profile, CPU time of this process", cpu_report,
+                 "s", detail="process_time; on a loaded shared machine the wall time adds the wait for a core"),
+        BenchRow(AREA, f"read the {km:g} km two-track ERD file", t_read, "s", detail="reported only (ERD reader)"),
+        BenchRow(AREA, f"cross-correlation run vs reference, {km:g} km, +-5 m offset search", t_cmp, "s",
+                 detail=f"offset found {c.offset:+.3f} m (injected {k * 0.025:+.3f} m), rho {c.correlation:.4f}"),
+        BenchRow(AREA, "|offset found - injected|", abs(c.offset - k * 0.025), "m", target=0.025,
+                 higher_is_better=False, detail="must be within one sample (25 mm)"),
+    ]

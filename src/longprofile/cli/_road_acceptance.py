@@ -1,0 +1,58 @@
+"""``longprofile road acceptance``: smoothness acceptance report (lots, localized roughness, grinding)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ._common import console
+
+_FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
+
+
+def acceptance_command(
+    file: Path = typer.Argument(..., help=_FILE_HELP),
+    spec: Path = typer.Option(None, "--spec", help="Spec file (TOML): units and the tables lot, localized, exclusions, "
+                              "pay, grinding (docs/road-acceptance.md); unknown keys are errors. Default: SI defaults."),
+    output: Path = typer.Option(..., "--output", "-o", help="Report folder (index.html, PNG, CSV, summary.json, "
+                                "ground profile)."),
+    track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all)."),
+    elevation_unit: str = typer.Option(None, "--elevation-unit", help="Elevation unit of columns without one "
+                                       "(m, mm, cm, in, ft)."),
+    grind: bool = typer.Option(True, "--grind/--no-grind", help="Run the grinding simulation when the spec "
+                               "gives a threshold."),
+):
+    """Smoothness acceptance: lot IRI/MRI, localized roughness, exclusions, pay factors, grinding, one HTML page."""
+    from ..errors import OutputError
+    from ..io import read_profile, write_profile
+    from ..report._acceptance import write_acceptance_report
+    from ..road._acceptance import default_spec, read_spec, smoothness_acceptance
+    from ..road._grinding import simulate_grinding
+
+    out = Path(output)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"output {out} is a file; the report needs a folder.")
+    s = read_spec(spec) if spec is not None else default_spec()
+    tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
+    profile = read_profile(file, units=elevation_unit, tracks=tracks)
+    result = smoothness_acceptance(profile, s)
+    grinding = None
+    if grind and (s.grind_threshold or s.localized_threshold):
+        grinding = simulate_grinding(profile, s, acceptance=result)
+    files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
+                                    inputs=(file, spec))
+    if grinding is not None and len(grinding.grinds):
+        files.append(write_profile(grinding.profile, out / "profile_ground.csv"))
+    ps = result.pay_summary
+    pay = "" if ps["mean_pay_factor"] is None else f", mean pay factor {ps['mean_pay_factor']:.4f}"
+    console.print(f"{ps['lots']} lot(s){pay}; {ps['localized_defects']} localized roughness area(s)"
+                  + ("" if grinding is None else f"; grinding {'reaches' if grinding.achieved else 'CANNOT reach'} "
+                     f"{grinding.threshold:g} {s.iri_unit} in {grinding.metadata['areas']} area(s)"),
+                  markup=False, soft_wrap=True)
+    console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
+
+
+def register(app: typer.Typer) -> None:
+    """Attach ``acceptance`` to the ``road`` group."""
+    app.command("acceptance")(acceptance_command)
