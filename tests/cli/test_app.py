@@ -35,3 +35,15 @@ def test_library_error_is_one_line_exit_2():
 
 def test_usage_error_exit_2(capsys):
     assert main(["no-such-command"]) == 2
+
+
+def test_error_text_is_printed_as_written_not_as_markup():
+    # a message naming a TOML table ("[lot]") or a unit ("[m]") must not be eaten by rich's markup parser
+    code = ("import sys; from longprofile.cli.app import app, main\n"
+            "from longprofile.errors import InputError\n"
+            "@app.command('boom')\n"
+            "def boom():\n    raise InputError('set index in the spec ([lot] index), stations [m]')\n"
+            "sys.exit(main(['boom']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "([lot] index), stations [m]" in " ".join(proc.stderr.split())

@@ -84,7 +84,9 @@ def test_zone_outside_profile_and_mri_needs_two_tracks():
     with pytest.raises(InputError, match="outside the profile"):
         smoothness_acceptance(prof, spec_from_dict({"index": "iri", "exclusions": {"zones": [[250, 400]]}}))
     with pytest.raises(InputError, match="MRI needs exactly two tracks"):
-        smoothness_acceptance(prof, default_spec())
+        smoothness_acceptance(prof, spec_from_dict({"index": "mri"}))
+    # the default index is "auto": the IRI for one track (MRI for two), resolved in the result
+    assert smoothness_acceptance(prof, default_spec()).spec.index == "iri"
 
 
 def _cli():

@@ -32,9 +32,10 @@ class AcceptanceSpec:
     ----------
     units : {"si", "us"}
         ``"si"``: m and m/km; ``"us"``: ft and in/mi.
-    index : {"mri", "iri"}
+    index : {"auto", "mri", "iri"}
         Lot index: MRI (mean of the two tracks' IRI; needs two tracks) or the IRI of each track (the worst
-        track decides the pay).
+        track decides the pay); ``"auto"`` (default): MRI for two tracks, IRI otherwise (resolved in the
+        result's spec).
     lot_length : float
         Fixed lot (sublot) length (default 0.1 mi = 528 ft, or 100 m in SI -- common agency choices).
     localized_window, localized_threshold : float
@@ -60,7 +61,7 @@ class AcceptanceSpec:
     """
 
     units: str = "si"
-    index: str = "mri"
+    index: str = "auto"
     lot_length: float = 100.0
     localized_window: float = 7.62
     localized_threshold: float | None = None
@@ -198,8 +199,8 @@ def read_exclusion_events(path, *, units: str = "si") -> list[tuple[float, float
 
 def validate_spec(spec: AcceptanceSpec) -> AcceptanceSpec:
     """Check values (positive lengths, ordered schedule, ordered zones); return the spec."""
-    if spec.index not in ("mri", "iri"):
-        raise InputError(f"lot index must be 'mri' or 'iri'; got {spec.index!r}.")
+    if spec.index not in ("auto", "mri", "iri"):
+        raise InputError(f"lot index must be 'auto', 'mri' or 'iri'; got {spec.index!r}.")
     for name in ("lot_length", "localized_window", "grinder_length", "grind_max_depth"):
         require_positive(f"{name} ({spec.length_unit})", getattr(spec, name))
     for name in ("localized_threshold", "localized_step", "histogram_bin", "grind_threshold"):
@@ -378,6 +379,8 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     bounds_u = x0u + spec.lot_length * np.arange(n_lots + 1)
     zones = _merge(spec.exclusions)
     rs = rectified_slope(profile, tracks=tracks)  # no inserted limits: keeps the fast constant-step run
+    if spec.index == "auto":
+        spec = replace(spec, index="mri" if len(rs.tracks) == 2 else "iri")
     if spec.index == "mri" and len(rs.tracks) != 2:
         raise InputError(f"the MRI needs exactly two tracks; the profile has {list(rs.tracks)}: set index = "
                          "\"iri\" in the spec ([lot] index) or choose two tracks.")
