@@ -5,7 +5,7 @@ import inspect
 
 import pytest
 
-SUBPACKAGES = ["statespace", "signal", "identify", "road", "rail", "vehicle", "io", "report", "errors"]
+SUBPACKAGES = ["statespace", "signal", "identify", "road", "rail", "vehicle", "io", "report", "batch", "errors"]
 
 
 @pytest.mark.parametrize("name", SUBPACKAGES)

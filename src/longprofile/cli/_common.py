@@ -42,32 +42,6 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     return out
 
 
-#: Columns of ``longprofile road reconstruct`` CSV/Parquet output: one profile (``elevation``) plus diagnostics.
-RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
-
-
-def is_reconstruct_output(file: Path) -> bool:
-    """True when the header of a CSV/Parquet file is exactly the column set written by ``road reconstruct``.
-
-    Such a file holds one profile, ``elevation``; ``std_m`` and ``raw_m`` would otherwise be read as tracks.
-    """
-    suffix = Path(file).suffix.lower()
-    try:
-        if suffix in (".parquet", ".pq"):
-            import pyarrow.parquet as pq
-
-            names = pq.read_schema(file).names
-        elif suffix in (".csv", ".txt"):
-            import pandas as pd
-
-            names = list(pd.read_csv(file, comment="#", nrows=0).columns)
-        else:
-            return False
-    except Exception:  # unreadable: the reader reports it properly
-        return False
-    return [c for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
-
-
 #: Figure formats ``--plot`` accepts (matplotlib's Agg, PDF and SVG writers).
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 

@@ -8,8 +8,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import (PROFILE_SUFFIXES, RECONSTRUCT_COLUMNS, TABLE_SUFFIXES, check_output_path, check_plot_path,
-                      console, progress)
+from ._common import PROFILE_SUFFIXES, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
 
 
 def _instrument(speed: float, dx: float, model_file: Path | None):
@@ -38,22 +37,12 @@ def _instrument(speed: float, dx: float, model_file: Path | None):
     return model
 
 
-def _signal_in_metres(file: Path, column: str, values):
-    """The APL signal in metres: converted when the column names its unit (``apl_mm``), refused when implausible."""
-    import numpy as np
+def _truth_column(file: Path):
+    """The ``true_m`` column of a simulated recording, for the plot (None when the file has none)."""
+    from ..io import read_table
 
-    from ..errors import UnitsError
-    from ..io._profiles import _split, unit_factor
-
-    _, unit = _split(column)
-    values = values * (1.0 if unit is None else unit_factor(unit))
-    finite = values[np.isfinite(values)]
-    rms = float(np.sqrt(np.mean(finite**2))) if finite.size else 0.0
-    if rms > 1.0:
-        raise UnitsError(f"{file}: column {column!r} read as metres has an RMS of {rms:.3g} m, impossible for an APL "
-                         "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
-                         "or convert it to metres.")
-    return values
+    table = read_table(file)
+    return table["true_m"].to_numpy(dtype=float) if "true_m" in table.columns else None
 
 
 def simulate_command(
@@ -110,19 +99,17 @@ def reconstruct_command(
 ):
     """Reconstruct the road profile from an APL signal (smoother, Kalman filter, double filtering or fixed lag)."""
     import numpy as np
-    import pandas as pd
 
     from ..errors import InputError, UnitsError
-    from ..io import read_table, write_erd, write_table
+    from ..io import read_apl_signal, write_erd, write_table
     from ..road import Profile
     from ..road._apl_plots import plot_reconstructions
     from ..road.apl import reconstruct_profile
 
     check_output_path(output, file, suffixes=PROFILE_SUFFIXES)
     png = check_plot_path(plot, file, output)
-    table = read_table(file, required=["distance_m", column], numeric=["distance_m", column])
-    values = _signal_in_metres(file, column, table[column].to_numpy())
-    signal = Profile(table["distance_m"].to_numpy(), values, name=Path(file).stem)
+    signal = read_apl_signal(file, column=column)
+    values = signal.elevation[:, 0]
     spacing = signal.spacing
     if spacing is None:
         raise InputError(f"{file}: distance_m is not evenly spaced; the APL samples every dx. Resample first.")
@@ -139,13 +126,9 @@ def reconstruct_command(
                           name=f"{method} reconstruction of {Path(file).name}"), check_output_path(output, file),
                   units="mm")
     else:
-        std = rec.profile.std
-        nan = np.full(signal.n_samples, np.nan)
-        columns = (rec.profile.distance, rec.profile.elevation[:, 0], nan if std is None else std[:, 0],
-                   rec.raw_elevation, nan if rec.raw_std is None else rec.raw_std)
-        write_table(pd.DataFrame(dict(zip(RECONSTRUCT_COLUMNS, columns))), check_output_path(output, file))
+        write_table(rec.to_frame(), check_output_path(output, file))
     if plot is not None:
-        truth = table["true_m"].to_numpy() if "true_m" in table.columns else None
+        truth = _truth_column(file)
         fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
                                    highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
         fig.savefig(png, dpi=120)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import PROFILE_SUFFIXES, check_output_path, check_plot_path, console, is_reconstruct_output
+from ._common import PROFILE_SUFFIXES, check_output_path, check_plot_path, console
 
 
 def convert_command(
@@ -33,6 +33,8 @@ def convert_command(
     units = units or ("mm" if erd else "m")
     unit_factor(units)
     tracks = [t.strip() for t in track.split(",") if t.strip()] if track else None
+    from ..io import is_reconstruct_output
+
     if tracks is None and is_reconstruct_output(file):
         console.print(f"note: {file} is a `road reconstruct` output: converting its profile track 'elevation' "
                       "(std_m and raw_m are not tracks; pass --track to choose).", markup=False)

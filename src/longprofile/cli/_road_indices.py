@@ -13,35 +13,17 @@ _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column
               "(left_mm, right_m, ...), or an ERD file.")
 
 
-#: Columns of ``longprofile road reconstruct`` output: one profile (``elevation``) plus diagnostics.
-_RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
-
-
 def _tracks(track: str | None, file: Path | None = None):
     if track is None:
-        if file is not None and _is_reconstruct_output(file):
+        from ..io import is_reconstruct_output
+
+        if file is not None and is_reconstruct_output(file):
             console.print(f"note: {file} is a `road reconstruct` output: analysing its profile track 'elevation' "
                           "(std_m and the undetrended raw_m are not tracks; pass --track to choose).", markup=False)
             return ["elevation"]
         return None
     names = [t.strip() for t in track.split(",") if t.strip()]
     return names or None
-
-
-def _is_reconstruct_output(file: Path) -> bool:
-    """True when the header is exactly the column set written by ``road reconstruct``."""
-    import pandas as pd
-
-    try:
-        if Path(file).suffix.lower() in (".parquet", ".pq"):
-            import pyarrow.parquet as pq
-
-            names = pq.read_schema(file).names
-        else:
-            names = list(pd.read_csv(file, comment="#", nrows=0).columns)
-    except Exception:  # unreadable: read_profile reports it properly
-        return False
-    return [c for c in names if not str(c).startswith("__")] == list(_RECONSTRUCT_COLUMNS)
 
 
 def _check_plausible(result) -> None:

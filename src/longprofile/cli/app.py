@@ -60,6 +60,9 @@ def _register():
 
     app.add_typer(rail.rail_app, name="rail")
     app.add_typer(vehicle.vehicle_app, name="vehicle")
+    from .batch import batch_app
+
+    app.add_typer(batch_app, name="batch")
 
 
 _register()
@@ -68,7 +71,8 @@ _register()
 def main(argv: list[str] | None = None) -> int:
     """Console-script entry point: run the app, turn library errors into one red line and exit code 2."""
     try:
-        app(args=argv, standalone_mode=False)
+        # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
+        code = app(args=argv, standalone_mode=False)
     except LongprofileError as exc:
         # the message is text, not rich markup: "[lot]" or "[units]" in a message must print as written
         console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True)
@@ -84,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             exc.show()
             return exc.exit_code
         raise
-    return 0
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":  # pragma: no cover

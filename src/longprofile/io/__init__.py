@@ -3,6 +3,8 @@
 read_table   -- read a CSV or Parquet table with required/numeric column checks.
 write_table  -- write a table as CSV or Parquet by suffix.
 read_profile -- read a road profile (CSV/Parquet with unit-suffixed columns, or ERD); units never guessed.
+read_apl_signal -- read an APL recording (distance_m + signal column, unit checked) as a Profile.
+is_reconstruct_output -- whether a table is a `road reconstruct` output (one profile track, 'elevation').
 write_profile -- write a profile as CSV, Parquet or ERD with its units in the header.
 read_erd, write_erd -- UMTRI/ProVAL ERD text files (ERDFILEV2.00, several channels).
 write_report_table, read_report_table -- a result table with its metadata ('#' header lines in CSV, schema
@@ -10,9 +12,9 @@ write_report_table, read_report_table -- a result table with its metadata ('#' h
 """
 
 from ._erd import read_erd, write_erd
-from ._profiles import read_profile, write_profile
+from ._profiles import is_reconstruct_output, read_apl_signal, read_profile, write_profile
 from ._report_tables import read_report_table, write_report_table
 from ._tables import read_table, write_table
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
-           "write_report_table", "read_report_table"]
+           "write_report_table", "read_report_table", "read_apl_signal", "is_reconstruct_output"]

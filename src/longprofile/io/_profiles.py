@@ -11,7 +11,11 @@ import pandas as pd
 from ..errors import InputError, InputFormatError, UnitsError
 from ._tables import read_table, write_table
 
-__all__ = ["LENGTH_UNITS", "read_profile", "write_profile", "unit_factor"]
+__all__ = ["LENGTH_UNITS", "read_profile", "write_profile", "unit_factor", "read_apl_signal", "RECONSTRUCT_COLUMNS",
+           "is_reconstruct_output"]
+
+#: Columns of a ``road reconstruct`` output table: one profile (``elevation``) plus diagnostics.
+RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
 
 #: Length units understood in file headers, with their value in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
@@ -180,3 +184,62 @@ def write_profile(profile, path, *, units: str = "m") -> Path:
         for j, t in enumerate(profile.tracks):
             cols[f"{t}_std_{units}"] = profile.std[:, j] / factor
     return write_table(pd.DataFrame(cols), path)
+
+
+def is_reconstruct_output(path) -> bool:
+    """True when the header of a CSV/Parquet file is exactly the column set written by ``road reconstruct``.
+
+    Such a file holds one profile, ``elevation``; ``std_m`` and ``raw_m`` would otherwise be read as tracks.
+    An unreadable file gives False (its reader reports the problem).
+    """
+    suffix = Path(path).suffix.lower()
+    try:
+        if suffix in (".parquet", ".pq"):
+            import pyarrow.parquet as pq
+
+            names = pq.read_schema(path).names
+        elif suffix in (".csv", ".txt"):
+            names = list(pd.read_csv(path, comment="#", nrows=0).columns)
+        else:
+            return False
+    except Exception:  # unreadable: the reader reports it properly
+        return False
+    return [c for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
+
+
+def read_apl_signal(path, *, column: str = "apl_m"):
+    """Read an APL recording: ``distance_m`` and the signal column, in metres, as a one-track Profile.
+
+    Parameters
+    ----------
+    path : path-like
+        CSV or Parquet with ``distance_m`` and ``column``.
+    column : str
+        The signal column; a unit suffix (``apl_mm``) converts it, none means metres.
+
+    Returns
+    -------
+    Profile
+        Stations and the signal (NaN = missing sample), m; ``name`` is the file stem.
+
+    Raises
+    ------
+    UnitsError
+        The signal read as metres has an RMS above 1 m (impossible for an APL signal: a few cm at most; usually
+        millimetres under a metre label).
+    InputFormatError
+        Missing columns, non-numeric cells (line named).
+    """
+    from ..road import Profile
+
+    path = Path(path)
+    table = read_table(path, required=["distance_m", column], numeric=["distance_m", column])
+    _, unit = _split(column)
+    values = table[column].to_numpy() * (1.0 if unit is None else unit_factor(unit))
+    finite = values[np.isfinite(values)]
+    rms = float(np.sqrt(np.mean(finite**2))) if finite.size else 0.0
+    if rms > 1.0:
+        raise UnitsError(f"{path}: column {column!r} read as metres has an RMS of {rms:.3g} m, impossible for an APL "
+                         "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
+                         "or convert it to metres.")
+    return Profile(table["distance_m"].to_numpy(), values, name=path.stem)

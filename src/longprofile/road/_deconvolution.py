@@ -622,6 +622,17 @@ class Reconstruction:
     lag_m: float | None = None
     correlation_length: float | None = None
 
+    def to_frame(self):
+        """The ``road reconstruct`` table: ``distance_m, elevation_m, std_m, raw_m, raw_std_m`` (NaN where a std
+        was not computed)."""
+        import pandas as pd
+
+        nan = np.full(self.profile.n_samples, np.nan)
+        std = self.profile.std
+        return pd.DataFrame(dict(distance_m=self.profile.distance, elevation_m=self.profile.elevation[:, 0],
+                                 std_m=nan if std is None else std[:, 0], raw_m=self.raw_elevation,
+                                 raw_std_m=nan if self.raw_std is None else self.raw_std))
+
 
 def _signal_of(signal_, instrument):
     if isinstance(signal_, Profile):

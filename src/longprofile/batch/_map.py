@@ -1,0 +1,387 @@
+"""Map a function over files on any executor: in-process, ``concurrent.futures`` pools or a Dask client.
+
+Nothing here imports numpy: a spawned worker process unpickles this module (and the task) before its
+initializer pins the BLAS thread count, which must happen before numpy is first imported.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from multiprocessing.context import SpawnContext, SpawnProcess
+from typing import Any, Callable, Iterable, Iterator
+
+from ..errors import DependencyError, InputError, LongprofileError
+
+__all__ = ["BLAS_ENV", "FileResult", "iter_files", "map_files", "process_executor", "dask_client", "open_executor",
+           "SCHEDULERS", "error_message"]
+
+#: Environment variables that set the BLAS / OpenMP thread count; workers set each of them to 1.
+BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: Names accepted by :func:`open_executor` besides a Dask scheduler address (``tcp://HOST:PORT``).
+SCHEDULERS = ("processes", "threads", "serial")
+_DASK_PREFIXES = ("tcp://", "tls://", "ucx://", "inproc://")
+_MAX_MESSAGE = 2000
+
+
+@dataclass(frozen=True, eq=False)
+class FileResult:
+    """The outcome of one file of a batch.
+
+    Attributes
+    ----------
+    index : int
+        Position of the file in the input list.
+    path : str
+        The path as given.
+    value : object
+        What the function returned (None when it failed).
+    error : str or None
+        None on success; otherwise the message of a :class:`~longprofile.errors.LongprofileError`, or
+        ``"<ExceptionType>: <message>"`` for any other exception (one line).
+    seconds : float
+        Wall time of the call in the worker, s (excluding the once-per-worker warm-up); NaN when the worker
+        itself was lost.
+    """
+
+    index: int
+    path: str
+    value: Any = None
+    error: str | None = None
+    seconds: float = float("nan")
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def error_message(exc: BaseException) -> str:
+    """One line for a failed file: a library error's own message, else ``"TypeName: message"``."""
+    text = str(exc) if isinstance(exc, LongprofileError) else f"{type(exc).__name__}: {exc}".rstrip(": ")
+    text = " ".join(text.split())
+    return text if len(text) <= _MAX_MESSAGE else text[:_MAX_MESSAGE - 3] + "..."
+
+
+# ---- once-per-worker warm-up ---------------------------------------------------------------------------------
+
+_WARM_LOCK = threading.Lock()
+_WARMED: set = set()
+_NUMPY_BEFORE_INIT: bool | None = None  # set by the process-pool initializer (diagnostics, tests)
+
+
+def _warm(func) -> None:
+    """Call ``func.warm()`` once per process (numba kernels compiled or loaded from their disk cache).
+
+    A failing warm-up is not an error here: the same problem is reported by the call on each file.
+    """
+    hook = getattr(func, "warm", None)
+    if hook is None:
+        return
+    try:
+        key = hash(func)
+    except TypeError:
+        key = id(func)
+    with _WARM_LOCK:
+        if key in _WARMED:
+            return
+        _WARMED.add(key)
+        try:
+            hook()
+        except Exception:
+            pass
+
+
+def _init_process_worker(func=None) -> None:
+    """Process-pool initializer: BLAS threads pinned to 1 (already so since exec, see _PinnedSpawnProcess), then
+    the task warmed once."""
+    global _NUMPY_BEFORE_INIT
+    _NUMPY_BEFORE_INIT = "numpy" in sys.modules
+    for name in BLAS_ENV:
+        os.environ[name] = "1"
+    if func is not None:
+        _warm(func)
+
+
+def _worker_info(_path=None) -> dict:
+    """Worker diagnostics: pid, the BLAS environment the process was started with, and whether numpy was
+    already imported when the initializer ran (True is harmless: the environment was set at exec)."""
+    return {"pid": os.getpid(), "numpy_before_init": _NUMPY_BEFORE_INIT,
+            **{name: _ENV_AT_START.get(name) for name in BLAS_ENV}}
+
+
+#: The BLAS environment this interpreter started with (before anything here changed it).
+_ENV_AT_START = {name: os.environ.get(name) for name in BLAS_ENV}
+_ENV_LOCK = threading.Lock()
+
+
+class _PinnedSpawnProcess(SpawnProcess):
+    """A ``spawn`` process exec'd with the BLAS variables set to 1.
+
+    Setting them in the initializer is too late when the parent's ``__main__`` (re-run by ``spawn``) imports
+    numpy; so they are exported, under a lock, only for the instant of the exec, then restored here.
+    """
+
+    def start(self):
+        with _ENV_LOCK:
+            saved = {name: os.environ.get(name) for name in BLAS_ENV}
+            os.environ.update({name: "1" for name in BLAS_ENV})
+            try:
+                super().start()
+            finally:
+                for name, value in saved.items():
+                    if value is None:
+                        os.environ.pop(name, None)
+                    else:
+                        os.environ[name] = value
+
+
+class _PinnedSpawnContext(SpawnContext):
+    Process = _PinnedSpawnProcess
+
+
+@dataclass(frozen=True)
+class _Guarded:
+    """Runs ``func(path)`` in the worker and turns any exception into a recorded message."""
+
+    func: Callable
+
+    def __call__(self, path):
+        _warm(self.func)
+        t0 = time.perf_counter()
+        try:
+            value = self.func(path)
+        except Exception as exc:
+            return None, error_message(exc), time.perf_counter() - t0
+        return value, None, time.perf_counter() - t0
+
+
+# ---- mapping ---------------------------------------------------------------------------------------------------
+
+def _is_dask_client(executor) -> bool:
+    return callable(getattr(executor, "gather", None)) and callable(getattr(executor, "scheduler_info", None))
+
+
+def iter_files(func: Callable, paths: Iterable, executor=None) -> Iterator[FileResult]:
+    """Apply ``func`` to each path and yield a :class:`FileResult` per file, in completion order.
+
+    Parameters
+    ----------
+    func : callable
+        ``func(path) -> value``; must be picklable for process pools and Dask (a module-level function or a
+        frozen dataclass task such as :class:`longprofile.batch.IRITask`). If it has a ``warm()`` method,
+        that is called once per worker process before its first file.
+    paths : iterable of path-like
+    executor : concurrent.futures.Executor, dask.distributed.Client or None
+        Where to run: None = serially in this process; a ``ProcessPoolExecutor`` (see
+        :func:`process_executor` for BLAS pinning), a ``ThreadPoolExecutor``, or a Dask client (duck-typed:
+        anything with ``submit``, ``gather`` and ``scheduler_info``).
+
+    Yields
+    ------
+    FileResult
+        One per path. A file that raises gives a result with ``error`` set; the batch goes on. A worker that
+        dies (a crashed process pool, a Dask ``KilledWorker``) gives the error of the lost futures.
+
+    Notes
+    -----
+    Stopping the iteration early (an exception or ``KeyboardInterrupt`` in the consumer) cancels the files
+    not yet started.
+    """
+    paths = [os.fspath(p) for p in paths]
+    job = _Guarded(func)
+    if executor is None:
+        for i, p in enumerate(paths):
+            yield _result(i, p, job(p))
+        return
+    if _is_dask_client(executor):
+        yield from _iter_dask(executor, job, paths)
+        return
+    if not callable(getattr(executor, "submit", None)):
+        raise InputError(f"executor must be a concurrent.futures.Executor, a dask.distributed.Client or None; "
+                         f"got {type(executor).__name__}.")
+    from concurrent.futures import as_completed
+
+    pending = {}
+    try:
+        for i, p in enumerate(paths):
+            pending[executor.submit(job, p)] = i
+        for fut in as_completed(list(pending)):
+            i = pending.pop(fut)
+            yield _result(i, paths[i], _outcome(fut))
+    finally:
+        for fut in pending:
+            fut.cancel()
+
+
+def _iter_dask(client, job, paths) -> Iterator[FileResult]:
+    from distributed import as_completed
+
+    futures = [client.submit(job, p, pure=False) for p in paths]
+    index = {f.key: i for i, f in enumerate(futures)}
+    done = set()
+    try:
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            out = _outcome(fut)
+            done.add(i)
+            futures[i] = None  # drop the reference: the value lives in the result only
+            fut.release()
+            yield _result(i, paths[i], out)
+    finally:
+        left = [f for f in futures if f is not None]
+        if left:
+            client.cancel(left)
+
+
+def _outcome(fut):
+    try:
+        return fut.result()
+    except Exception as exc:  # the worker itself failed (pool broken, worker killed): not the task
+        return None, error_message(exc), float("nan")
+
+
+def _result(index, path, outcome) -> FileResult:
+    value, error, seconds = outcome
+    return FileResult(index=index, path=path, value=value, error=error, seconds=seconds)
+
+
+def map_files(func: Callable, paths: Iterable, executor=None) -> list[FileResult]:
+    """Apply ``func`` to each path on ``executor``; the results come back in input order.
+
+    Parameters and semantics as :func:`iter_files` (which yields them as they complete). A failing file gives
+    a :class:`FileResult` with its ``error``, never an exception that stops the batch.
+
+    Examples
+    --------
+    >>> from concurrent.futures import ThreadPoolExecutor
+    >>> with ThreadPoolExecutor(2) as pool:                                  # doctest: +SKIP
+    ...     results = map_files(IRITask(interval=100.0), paths, executor=pool)
+    >>> [r.error for r in results if not r.ok]                                 # doctest: +SKIP
+    """
+    paths = list(paths)
+    out: list[FileResult | None] = [None] * len(paths)
+    for r in iter_files(func, paths, executor):
+        out[r.index] = r
+    return out  # type: ignore[return-value]
+
+
+# ---- executors ---------------------------------------------------------------------------------------------
+
+def default_workers() -> int:
+    """CPUs this process may use (its affinity set where the platform has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+def process_executor(max_workers: int | None = None, *, warm=None):
+    """A ``ProcessPoolExecutor`` whose workers run with one BLAS thread and a warmed numba cache.
+
+    Workers are started with the ``spawn`` method (a fresh interpreter: no inherited locks or threads) with
+    ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` and ``MKL_NUM_THREADS`` set to 1 in their environment from
+    the start (so before numpy is imported, even by a re-imported ``__main__``; this process's own environment
+    is left as it was). Their initializer then calls ``warm.warm()`` once (e.g. a task run on a tiny synthetic
+    profile, which compiles or loads the numba kernels) so the first file is not charged for it.
+
+    As with any ``spawn`` pool, a script that creates one must guard its work with
+    ``if __name__ == "__main__":``.
+
+    Parameters
+    ----------
+    max_workers : int, optional
+        Default: the CPUs available to this process.
+    warm : object with a ``warm()`` method, optional
+        Usually the task the pool will run.
+    """
+    from concurrent.futures import ProcessPoolExecutor
+
+    workers = default_workers() if max_workers is None else _positive_workers(max_workers)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=_PinnedSpawnContext(),
+                               initializer=_init_process_worker, initargs=(warm,))
+
+
+def _positive_workers(n) -> int:
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise InputError(f"workers must be an integer >= 1; got {n!r}.")
+    return n
+
+
+def dask_client(address: str, *, timeout: float = 10.0):
+    """Connect a ``dask.distributed.Client`` to a running scheduler (``tcp://HOST:PORT``).
+
+    Raises
+    ------
+    DependencyError
+        Dask is not installed (``pip install longprofile[dask]``).
+    InputError
+        No scheduler answers at ``address`` within ``timeout`` seconds.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise DependencyError(f"scheduler {address} is a Dask scheduler and Dask is not installed; "
+                              "install it with: pip install longprofile[dask] (or use --scheduler processes).") from None
+    try:
+        return Client(address, timeout=f"{timeout:g}s")
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot connect to the Dask scheduler at {address} ({error_message(exc)}); start one with "
+                         "`dask scheduler` and workers with `dask worker ADDRESS`, or use --scheduler processes.") from None
+
+
+def check_scheduler(scheduler) -> None:
+    """Refuse an unknown scheduler name before any work (a Dask address is checked when connecting)."""
+    if scheduler is None or not isinstance(scheduler, str):
+        return
+    if scheduler not in SCHEDULERS and not scheduler.startswith(_DASK_PREFIXES):
+        raise InputError(f"unknown scheduler {scheduler!r}; use one of {', '.join(SCHEDULERS)} or a Dask scheduler "
+                         "address tcp://HOST:PORT.")
+
+
+@contextmanager
+def open_executor(scheduler: str = "processes", workers: int | None = None, *, warm=None):
+    """Open the executor named by ``scheduler`` for the duration of a ``with`` block.
+
+    Parameters
+    ----------
+    scheduler : str
+        ``"processes"`` (a local :func:`process_executor`, the default), ``"threads"`` (a
+        ``ThreadPoolExecutor``: the BLAS threads are those of this process), ``"serial"`` (None: in this
+        process), or a Dask scheduler address ``tcp://HOST:PORT`` (:func:`dask_client`; ``workers`` is then
+        the cluster's business).
+    workers : int, optional
+        Pool size (default: the CPUs available to this process).
+    warm : object with a ``warm()`` method, optional
+        Warmed once per process-pool worker at start.
+
+    Yields
+    ------
+    concurrent.futures.Executor, dask.distributed.Client or None
+    """
+    check_scheduler(scheduler)
+    if workers is not None:
+        _positive_workers(workers)
+    if scheduler == "serial":
+        yield None
+        return
+    if scheduler == "threads":
+        from concurrent.futures import ThreadPoolExecutor
+
+        ex = ThreadPoolExecutor(max_workers=workers or default_workers())
+    elif scheduler == "processes":
+        ex = process_executor(workers, warm=warm)
+    else:
+        client = dask_client(scheduler)
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    try:
+        yield ex
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)

@@ -1,0 +1,240 @@
+"""Reading a results folder back, and the network summary the network report renders."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import InputFormatError
+from ._run import PROFILES, SEGMENTS, partition_file, read_manifest
+
+__all__ = ["BatchResults", "read_results", "NetworkSummary", "summarize_network", "IRI_UNITS"]
+
+#: Unit suffix of an IRI column -> unit label, and the factor from m/km.
+IRI_UNITS = {"m_per_km": ("m/km", 1.0), "mm_per_m": ("mm/m", 1.0), "in_per_mi": ("in/mi", 63.36)}
+_VALUE = re.compile(r"^(?P<kind>iri|mri|hri)(?:_(?P<track>.+?))?_(?P<unit>m_per_km|mm_per_m|in_per_mi)$")
+_START = re.compile(r"^(?:segment_)?start(?:_(?P<unit>[a-z]+))?$")
+_END = re.compile(r"^(?:segment_)?end(?:_(?P<unit>[a-z]+))?$")
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResults:
+    """A results folder read back.
+
+    Attributes
+    ----------
+    folder : Path
+    task : str
+        ``"iri"`` or ``"reconstruct"``.
+    options : dict
+        The task options of the run.
+    manifest : pandas.DataFrame
+        One row per input (columns: :data:`longprofile.batch.MANIFEST_COLUMNS`), sorted by route.
+    segments : pandas.DataFrame
+        The segment tables of the inputs with status ok or skipped, in manifest order: ``route, file`` then the
+        IRI report columns. Partitions without an ok manifest row (left by an interrupted run) are not read.
+    """
+
+    folder: Path
+    task: str
+    options: dict
+    manifest: object
+    segments: object
+
+    def profile(self, route: str):
+        """The per-sample table of one route (``reconstruct``: the reconstructed profile), as a DataFrame."""
+        import pandas as pd
+
+        path = partition_file(self.folder, route, PROFILES)
+        if not path.is_file():
+            raise InputFormatError(f"{self.folder} has no profile for route {route!r} (only `batch reconstruct` "
+                                   "writes profiles, and only for files that succeeded).")
+        return pd.read_parquet(path)
+
+
+def read_results(folder) -> BatchResults:
+    """Read the manifest and the segment dataset of a ``longprofile batch`` results folder.
+
+    Raises
+    ------
+    InputError
+        Not a results folder.
+    InputFormatError
+        A damaged folder (a partition listed as done is missing or unreadable).
+    """
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    folder = Path(folder)
+    manifest, info = read_manifest(folder)
+    done = manifest[manifest["status"].isin(["ok", "skipped"])]
+    tables = []
+    for route in done["route"]:
+        path = partition_file(folder, route, SEGMENTS)
+        try:
+            t = pq.read_table(path)
+        except Exception as exc:
+            raise InputFormatError(f"{path} (route {route!r}) is listed as done but cannot be read ({exc}); rerun the "
+                                   "batch with --resume (it recomputes missing results) or --overwrite.") from None
+        tables.append(t.add_column(0, "route", pa.array([route] * t.num_rows, pa.string())))
+    if tables:
+        segments = pa.concat_tables(tables, promote_options="default").to_pandas()
+    else:
+        segments = pd.DataFrame({"route": pd.Series(dtype=str), "file": pd.Series(dtype=str)})
+    return BatchResults(folder=folder, task=info.get("task", ""), options=info.get("options", {}),
+                        manifest=manifest, segments=segments)
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkSummary:
+    """Network-level tables of a batch (what :func:`longprofile.report.write_network_report` draws).
+
+    Attributes
+    ----------
+    results : BatchResults
+    segments : pandas.DataFrame
+        ``route, file, start, end`` (station unit), the IRI columns, ``segment_iri`` and ``condition``
+        (good / fair / poor / none).
+    routes : pandas.DataFrame
+        Per route, worst mean first: ``route, file, start, end, length, segments, mean_iri`` (length-weighted),
+        ``max_iri, good, fair, poor`` (share of the length, 0..1).
+    worst : pandas.DataFrame
+        The ``n_worst`` segments with the highest segment IRI.
+    failed, warnings : pandas.DataFrame
+        ``path, route, error`` of the files that failed; ``path, route, warning`` of flagged results.
+    value_columns : tuple of str
+        IRI columns of the report table (per track, then MRI/HRI).
+    segment_iri : str
+        How ``segment_iri`` is defined (which column, or the mean of the tracks).
+    segment_iri_column : str or None
+        The column ``segment_iri`` copies (MRI, or the only track), None when it is the mean of the tracks.
+    iri_unit, station_unit : str
+        ``"m/km"`` or ``"in/mi"``; ``"m"``, ``"ft"``...
+    limits : (float, float)
+        Good/poor condition limits in ``iri_unit``.
+    length, mean_iri : float
+        Network length (station unit) and its length-weighted mean segment IRI (NaN without segments).
+    share : dict
+        Share of the length per condition (good, fair, poor, none).
+    """
+
+    results: BatchResults
+    segments: object
+    routes: object
+    worst: object
+    failed: object
+    warnings: object
+    value_columns: tuple[str, ...]
+    segment_iri: str
+    segment_iri_column: str | None
+    iri_unit: str
+    station_unit: str
+    limits: tuple[float, float]
+    length: float
+    mean_iri: float
+    share: dict
+
+    @property
+    def counts(self) -> dict:
+        """Files by manifest status (ok, skipped, error)."""
+        s = self.results.manifest["status"].value_counts()
+        return {k: int(s.get(k, 0)) for k in ("ok", "skipped", "error")}
+
+
+def _find(columns, pattern, what):
+    for c in columns:
+        m = pattern.match(str(c))
+        if m:
+            return c, (m.group("unit") or "")
+    raise InputFormatError(f"the segment table has no {what} column (columns: {list(columns)}).")
+
+
+def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: int = 20) -> NetworkSummary:
+    """Per-route and network tables of a batch: condition shares, length-weighted means, worst segments.
+
+    Parameters
+    ----------
+    results : BatchResults
+        From :func:`read_results`.
+    limits_m_per_km : (float, float), optional
+        Good/poor IRI limits in m/km (default :data:`longprofile.report.IRI_CONDITION_LIMITS`, FHWA 1.50 / 2.68),
+        converted to the table's unit.
+    n_worst : int
+        Rows of the worst-segments table.
+
+    Notes
+    -----
+    The *segment IRI* ranked and counted here is the MRI column when the table has one (two tracks), the
+    track's IRI for one track, and otherwise the mean of the tracks' IRIs. A segment is good below the first
+    limit, poor above the second, fair in between (the rule of the single-file report).
+    """
+    import numpy as np
+    import pandas as pd
+
+    if limits_m_per_km is None:
+        from ..report._road import IRI_CONDITION_LIMITS as limits_m_per_km
+    seg = results.segments.copy()
+    manifest = results.manifest
+    failed = manifest.loc[manifest["status"] == "error", ["path", "route", "error"]].reset_index(drop=True)
+    flagged = manifest.loc[(manifest["warning"].fillna("") != ""), ["path", "route", "warning"]].reset_index(drop=True)
+    values = [c for c in seg.columns if _VALUE.match(str(c))]
+    tracks = [c for c in values if _VALUE.match(str(c)).group("kind") == "iri"]
+    unit_key = _VALUE.match(str(values[0])).group("unit") if values else "m_per_km"
+    iri_unit, factor = IRI_UNITS[unit_key]
+    limits = (float(limits_m_per_km[0]) * factor, float(limits_m_per_km[1]) * factor)
+    if len(seg) and not values:
+        raise InputFormatError(f"the segment table of {results.folder} has no IRI column (columns: {list(seg.columns)}).")
+    if values:
+        start, station_unit = _find(seg.columns, _START, "segment start")
+        end, _ = _find(seg.columns, _END, "segment end")
+    else:
+        start, end, station_unit = "start", "end", "m"
+        seg = seg.assign(start=pd.Series(dtype=float), end=pd.Series(dtype=float))
+    mri = [c for c in values if _VALUE.match(str(c)).group("kind") == "mri"]
+    source = mri[0] if mri else (tracks[0] if len(tracks) == 1 else None)
+    if source is not None:
+        seg_iri = seg[source].astype(float)
+        how = f"{source} (MRI: mean of the two tracks)" if mri else source
+    else:
+        seg_iri = seg[tracks].astype(float).mean(axis=1) if tracks else pd.Series(dtype=float)
+        how = f"mean of {', '.join(tracks)}"
+    good, poor = limits
+    v = seg_iri.to_numpy(dtype=float)
+    condition = np.where(~np.isfinite(v), "none", np.where(v < good, "good", np.where(v > poor, "poor", "fair")))
+    out = pd.DataFrame({"route": seg["route"].astype(str), "file": seg["file"].astype(str),
+                        "start": seg[start].astype(float), "end": seg[end].astype(float)})
+    for c in values:
+        out[c] = seg[c].astype(float)
+    out["segment_iri"] = v
+    out["condition"] = condition
+    length = (out["end"] - out["start"]).to_numpy(dtype=float)
+    out["_len"] = length
+    out["_w"] = np.where(np.isfinite(v), v * length, 0.0)
+    out["_wl"] = np.where(np.isfinite(v), length, 0.0)
+    for c in ("good", "fair", "poor", "none"):
+        out[f"_{c}"] = np.where(condition == c, length, 0.0)
+    g = out.groupby("route", sort=False)
+    routes = pd.DataFrame({
+        "route": list(g.groups),
+        "file": g["file"].first().to_numpy(),
+        "start": g["start"].min().to_numpy(), "end": g["end"].max().to_numpy(),
+        "length": g["_len"].sum().to_numpy(), "segments": g.size().to_numpy(),
+        "mean_iri": (g["_w"].sum() / g["_wl"].sum().where(g["_wl"].sum() > 0)).to_numpy(),
+        "max_iri": g["segment_iri"].max().to_numpy(),
+        **{c: (g[f"_{c}"].sum() / g["_len"].sum().where(g["_len"].sum() > 0)).to_numpy() for c in ("good", "fair", "poor")},
+    })
+    routes = routes.sort_values(["mean_iri", "route"], ascending=[False, True], na_position="last").reset_index(drop=True)
+    total = float(length.sum())
+    weighted = float(out["_wl"].sum())
+    share = {c: (float(out[f"_{c}"].sum()) / total if total > 0 else float("nan")) for c in ("good", "fair", "poor", "none")}
+    out = out.drop(columns=[c for c in out.columns if c.startswith("_")])
+    worst = (out[np.isfinite(v)].sort_values(["segment_iri", "route", "start"], ascending=[False, True, True])
+             .head(int(n_worst)).reset_index(drop=True))
+    return NetworkSummary(results=results, segments=out, routes=routes, worst=worst, failed=failed, warnings=flagged,
+                          value_columns=tuple(values), segment_iri=how,
+                          segment_iri_column=source, iri_unit=iri_unit, station_unit=station_unit,
+                          limits=limits, length=total,
+                          mean_iri=float(out["segment_iri"].mul(length).sum() / weighted) if weighted > 0 else float("nan"),
+                          share=share)

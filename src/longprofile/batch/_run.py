@@ -1,0 +1,506 @@
+"""Run a task over a survey network into a results folder: a partitioned Parquet dataset plus a manifest.
+
+Layout of a results folder::
+
+    manifest.parquet                    one row per input (MANIFEST_COLUMNS); task and options in its metadata
+    segments/route=<id>/part-0.parquet  the segment table of each input (Hive partitioning, id URL-encoded)
+    profiles/route=<id>/part-0.parquet  per-sample tables (``reconstruct``: the reconstructed profile)
+
+Crash safety: a partition is written to a hidden temporary name and renamed over ``part-0.parquet`` (atomic),
+and a manifest row says ``ok`` only once its partition exists; the manifest itself is replaced atomically. An
+interrupted run therefore leaves, at worst, partitions whose files ``--resume`` recomputes.
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import os
+import shutil
+import time
+from contextlib import ExitStack
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Callable, Iterable
+from urllib.parse import quote
+
+from ..errors import InputError, InputFormatError, OutputError
+from ._map import _WARM_LOCK, _WARMED, check_scheduler, error_message, iter_files, open_executor
+from ._tasks import options_hash
+
+__all__ = ["EXIT_SOME_FAILED", "MANIFEST", "MANIFEST_COLUMNS", "SEGMENTS", "PROFILES", "BatchSummary",
+           "expand_paths", "run_batch", "read_manifest", "file_digest"]
+
+#: Exit code of ``longprofile batch iri|reconstruct`` when the batch completed but some files failed
+#: (2 stays "nothing was done": bad options, refused output folder).
+EXIT_SOME_FAILED = 3
+MANIFEST = "manifest.parquet"
+SEGMENTS = "segments"
+PROFILES = "profiles"
+_PART = "part-0.parquet"
+_META_KEY = b"longprofile.batch"
+_FLUSH_SECONDS = 2.0
+
+#: Manifest columns: name -> (pyarrow type name, meaning).
+MANIFEST_COLUMNS = {
+    "path": ("string", "input file, absolute path"),
+    "route": ("string", "route id = partition key of the dataset (path relative to the inputs' common folder, "
+                        "without suffix)"),
+    "status": ("string", "ok (computed in this run), skipped (unchanged since an ok run: results kept), error"),
+    "error": ("string", "why the file failed (one line), empty otherwise"),
+    "warning": ("string", "a result to look at (implausible IRI, no complete segment), empty otherwise"),
+    "sha256": ("string", "sha256 of the input's bytes when it was processed"),
+    "size_bytes": ("int64", "input size"),
+    "seconds": ("float64", "wall time of the task on this file in its worker, s"),
+    "rows": ("int64", "segments written"),
+    "task": ("string", "iri or reconstruct"),
+    "options_hash": ("string", "hash of the task and its options (what --resume compares)"),
+    "longprofile_version": ("string", "version that computed the row"),
+    "finished_utc": ("string", "when the file was processed (ISO 8601, UTC)"),
+    "metadata": ("string", "JSON facts from the task (IRI report metadata, fitted q and r...)"),
+}
+
+
+@dataclass(frozen=True, eq=False)
+class BatchSummary:
+    """What a :func:`run_batch` call did.
+
+    Attributes
+    ----------
+    output : Path
+        The results folder.
+    task : str
+    n_inputs, n_ok, n_error, n_skipped : int
+        Inputs, computed now, failed, kept from an earlier run (``--resume``).
+    seconds : float
+        Wall time of the call, s.
+    failed : tuple of (path, error)
+    warnings : tuple of (path, warning)
+    """
+
+    output: Path
+    task: str
+    n_inputs: int
+    n_ok: int
+    n_error: int
+    n_skipped: int
+    seconds: float
+    failed: tuple[tuple[str, str], ...]
+    warnings: tuple[tuple[str, str], ...]
+
+    @property
+    def ok(self) -> bool:
+        """True when no file failed."""
+        return self.n_error == 0
+
+    def line(self) -> str:
+        """One-line summary (the last line the CLI prints)."""
+        text = (f"batch {self.task}: {self.n_ok} ok, {self.n_error} failed, {self.n_skipped} skipped of "
+                f"{self.n_inputs} file(s) in {self.seconds:.1f} s -> {self.output}")
+        if self.warnings:
+            text += f"; {len(self.warnings)} with a warning"
+        if self.failed:
+            path, err = self.failed[0]
+            err = err if len(err) <= 160 else err[:157] + "..."
+            text += f"; first failure {Path(path).name}: {err} (all in {self.output / MANIFEST})"
+        return text
+
+
+# ---- inputs ---------------------------------------------------------------------------------------------------
+
+def expand_paths(patterns: Iterable[str]) -> list[Path]:
+    """Files matched by glob patterns (``**`` = any depth), sorted per pattern, duplicates dropped.
+
+    A pattern without wildcard is a file name that must exist. Raises :class:`InputError` for a pattern
+    matching no file or naming a folder.
+    """
+    if isinstance(patterns, (str, os.PathLike)):
+        patterns = [patterns]
+    out, seen = [], set()
+    for pattern in patterns:
+        pattern = os.fspath(pattern)
+        if glob.has_magic(pattern):
+            found = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
+            if not found:
+                raise InputError(f"{pattern!r} matches no file; check the folder, and quote the pattern so that "
+                                 "longprofile expands it ('surveys/**/*.erd').")
+        elif os.path.isdir(pattern):
+            raise InputError(f"{pattern} is a folder; give a pattern such as '{Path(pattern) / '**' / '*.erd'}'.")
+        elif not os.path.isfile(pattern):
+            raise InputError(f"{pattern}: no such file.")
+        else:
+            found = [pattern]
+        for p in found:
+            key = os.path.realpath(p)
+            if key not in seen:
+                seen.add(key)
+                out.append(Path(p))
+    return out
+
+
+def _route_ids(paths: list[Path]) -> list[str]:
+    """Path relative to the inputs' common folder, without suffix (with it where two would clash)."""
+    if not paths:
+        return []
+    base = Path(os.path.commonpath([str(p.parent) for p in paths]))
+    rel = [p.relative_to(base) for p in paths]
+    ids = [r.with_suffix("").as_posix() for r in rel]
+    counts: dict[str, int] = {}
+    for i in ids:
+        counts[i] = counts.get(i, 0) + 1
+    return [r.as_posix() if counts[i] > 1 else i for i, r in zip(ids, rel)]
+
+
+def file_digest(path) -> tuple[str, int]:
+    """sha256 (hex) and size in bytes of a file's content."""
+    with open(path, "rb") as fh:
+        digest = hashlib.file_digest(fh, "sha256").hexdigest()
+        size = os.fstat(fh.fileno()).st_size
+    return digest, size
+
+
+@dataclass(frozen=True)
+class _Job:
+    """Worker side of one file: the task, then the hash of the bytes it read."""
+
+    task: object
+
+    def warm(self):
+        self.task.warm()
+
+    def __call__(self, path):
+        out = self.task(path)
+        digest, size = file_digest(path)
+        return digest, size, out
+
+
+# ---- the manifest ---------------------------------------------------------------------------------------------
+
+def _manifest_schema(meta: dict):
+    import pyarrow as pa
+
+    types = {"string": pa.string(), "int64": pa.int64(), "float64": pa.float64()}
+    return pa.schema([(k, types[t]) for k, (t, _) in MANIFEST_COLUMNS.items()],
+                     metadata={_META_KEY: json.dumps(meta, sort_keys=True).encode()})
+
+
+def _write_atomic(table, path: Path) -> None:
+    """Write a pyarrow table to Parquet at ``path`` through a hidden temporary file and an atomic rename."""
+    import pyarrow.parquet as pq
+
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        pq.write_table(table, fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def read_manifest(folder) -> tuple:
+    """The manifest of a results folder: ``(DataFrame, info)`` with info = task, options, options_hash, version.
+
+    Raises :class:`InputError` when the folder has no manifest, :class:`InputFormatError` when it is damaged.
+    """
+    import pyarrow.parquet as pq
+
+    path = Path(folder) / MANIFEST
+    if not path.is_file():
+        raise InputError(f"{folder} is not a longprofile batch results folder (no {MANIFEST}); give the -o folder "
+                         "of a `longprofile batch iri|reconstruct` run.")
+    try:
+        table = pq.read_table(path)
+        info = json.loads((table.schema.metadata or {})[_META_KEY])
+    except Exception as exc:
+        raise InputFormatError(f"{path} cannot be read ({error_message(exc)}); the folder is damaged: rerun the "
+                               "batch with --overwrite.") from None
+    return table.to_pandas(), info
+
+
+class _Manifest:
+    """Rows by input path, rewritten atomically (at most every few seconds, and at the end)."""
+
+    def __init__(self, folder: Path, info: dict, rows: dict[str, dict]):
+        self.path = folder / MANIFEST
+        self.info = info
+        self.rows = rows
+        self._last = float("-inf")
+
+    def set(self, row: dict) -> None:
+        self.rows[row["path"]] = row
+
+    def flush(self, force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self._last < _FLUSH_SECONDS:
+            return
+        import pyarrow as pa
+
+        schema = _manifest_schema(self.info)
+        rows = sorted(self.rows.values(), key=lambda r: r["route"])  # deterministic, whatever the completion order
+        cols = {k: [r.get(k) for r in rows] for k in MANIFEST_COLUMNS}
+        _write_atomic(pa.table(cols, schema=schema), self.path)
+        self._last = now
+
+
+def _row(path, route, status, *, task, opts_hash, version, error="", warning="", digest="", size=0,
+         seconds=float("nan"), rows=0, metadata=None) -> dict:
+    return {"path": path, "route": route, "status": status, "error": error, "warning": warning, "sha256": digest,
+            "size_bytes": int(size), "seconds": float(seconds), "rows": int(rows), "task": task,
+            "options_hash": opts_hash, "longprofile_version": version,
+            "finished_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "metadata": json.dumps(metadata or {}, sort_keys=True, default=_json_default)}
+
+
+def _json_default(v):
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return str(v)
+
+
+# ---- partitions -----------------------------------------------------------------------------------------------
+
+def partition_file(folder, route: str, kind: str = SEGMENTS) -> Path:
+    """Path of a route's partition file in a results folder (Hive layout, route URL-encoded)."""
+    return Path(folder) / kind / f"route={quote(route, safe='')}" / _PART
+
+
+def _write_partition(folder: Path, route: str, kind: str, frame, metadata: dict) -> None:
+    """One route's table, with the task's metadata as JSON under the Parquet schema key ``b"longprofile"`` (the
+    key :func:`longprofile.io.read_report_table` reads)."""
+    import pyarrow as pa
+
+    path = partition_file(folder, route, kind)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[b"longprofile"] = json.dumps(metadata, sort_keys=True, default=_json_default).encode()
+    _write_atomic(table.replace_schema_metadata(meta), path)
+
+
+def _remove_partitions(folder: Path, route: str) -> None:
+    for kind in (SEGMENTS, PROFILES):
+        path = partition_file(folder, route, kind)
+        if path.exists():
+            path.unlink()
+
+
+def _store(folder: Path, route: str, path: str, output) -> None:
+    """Profile partition, then segment partition (the manifest row comes after both)."""
+    if output.profile is not None:
+        _write_partition(folder, route, PROFILES, output.profile, output.metadata)
+    seg = output.segments.copy()
+    seg.attrs = {}
+    seg.insert(0, "file", path)
+    _write_partition(folder, route, SEGMENTS, seg, output.metadata)
+
+
+# ---- output folder checks -------------------------------------------------------------------------------------
+
+def _check_output(out: Path, inputs: list[Path], resume: bool, overwrite: bool):
+    """Refuse what would overwrite a user's files or mix runs; return the existing manifest (or None)."""
+    if resume and overwrite:
+        raise InputError("--resume and --overwrite exclude each other: resume continues the results in the folder, "
+                         "overwrite replaces them; pass one.")
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"output {out} is a file; the batch writes a folder, e.g. -o {out.with_suffix('')}_results/.")
+    root = out.resolve()
+    for p in inputs:
+        if root in p.resolve().parents:
+            raise OutputError(f"input {p} is inside the output folder {out}; choose an output folder outside the "
+                              "inputs (inputs are never overwritten).")
+    if not (out.is_dir() and any(out.iterdir())):
+        return None
+    if not (out / MANIFEST).is_file():
+        raise OutputError(f"output folder {out} exists and is not a longprofile batch results folder (no {MANIFEST}); "
+                          "choose a new or empty folder.")
+    if not (resume or overwrite):
+        raise OutputError(f"output folder {out} already holds batch results; pass --resume to continue them (files "
+                          "already done are skipped) or --overwrite to replace them.")
+    return None if overwrite else read_manifest(out)
+
+
+def _clear(out: Path) -> None:
+    """--overwrite: remove what a batch wrote (and only that)."""
+    for kind in (SEGMENTS, PROFILES):
+        if (out / kind).is_dir():
+            shutil.rmtree(out / kind)
+    (out / MANIFEST).unlink(missing_ok=True)
+
+
+# ---- the run --------------------------------------------------------------------------------------------------
+
+def _warm_checked(job: _Job) -> None:
+    """Warm the task in this process, letting its errors through (options checked before any work)."""
+    job.warm()
+    with _WARM_LOCK:
+        _WARMED.add(hash(job))
+
+
+def run_batch(task, paths: Iterable, output, *, executor=None, workers: int | None = None, resume: bool = False,
+              overwrite: bool = False, on_start: Callable[[int], None] | None = None,
+              on_result: Callable[[dict], None] | None = None) -> BatchSummary:
+    """Run ``task`` on every input and write the results folder (dataset + manifest).
+
+    Parameters
+    ----------
+    task : IRITask, ReconstructTask or compatible
+        A picklable callable ``task(path) -> TaskOutput`` with ``name``, ``options()`` and ``warm()``.
+    paths : iterable of path-like
+        Input files (see :func:`expand_paths` for glob patterns).
+    output : path-like
+        Results folder. A folder that already holds results needs ``resume`` or ``overwrite``; a non-empty
+        folder that is not a results folder is refused.
+    executor : str, concurrent.futures.Executor, dask.distributed.Client or None
+        None = serial in this process; a scheduler name for :func:`open_executor` (``"processes"``,
+        ``"threads"``, ``"serial"``, ``"tcp://HOST:PORT"``), opened and closed here; or an executor object
+        (used as is, not closed).
+    workers : int, optional
+        Pool size when ``executor`` is a name.
+    resume : bool
+        Skip inputs whose manifest row is ok with the same content hash and options (and whose partition is
+        there); recompute the others. The folder's task and options must be those of ``task``.
+    overwrite : bool
+        Remove the folder's previous results first (only the manifest and the dataset folders).
+    on_start : callable, optional
+        Called with the number of inputs once the checks passed and the executor is open (start a progress bar).
+    on_result : callable, optional
+        Called with each manifest row (a dict) as files finish or are skipped (progress bars).
+
+    Returns
+    -------
+    BatchSummary
+
+    Raises
+    ------
+    InputError, OutputError, DependencyError
+        Before any work: no input, bad options, refused output folder, different task/options on resume, an
+        unknown scheduler, no Dask scheduler at the address (or Dask not installed).
+    """
+    t0 = time.perf_counter()
+    inputs = [Path(p).resolve() for p in paths]
+    if not inputs:
+        raise InputError("no input file; give at least one file or glob pattern.")
+    if len({str(p) for p in inputs}) != len(inputs):
+        raise InputError("the same input file is given twice; remove the duplicate.")
+    if isinstance(executor, str):
+        check_scheduler(executor)
+    out = Path(output)
+    name, opts = task.name, task.options()
+    opts_hash = options_hash(name, opts)
+    existing = _check_output(out, inputs, resume, overwrite)
+    if existing is not None:
+        old, info = existing
+        if info.get("options_hash") != opts_hash:
+            raise InputError(f"{out} holds `{info.get('task')}` results with options {info.get('options')}; this run "
+                             f"asks `{name}` with {opts}. --resume needs the same task and options: pass --overwrite "
+                             "to replace the results, or choose another output folder.")
+        rows = {r["path"]: r for r in old.to_dict("records")}
+    else:
+        rows = {}
+    job = _Job(task)
+    _warm_checked(job)  # bad options fail here, once, before anything is written
+    with ExitStack() as stack:
+        ex = stack.enter_context(open_executor(executor, workers, warm=job)) if isinstance(executor, str) else executor
+        summary = _run(job, inputs, out, rows, ex, resume=resume, overwrite=overwrite, on_start=on_start,
+                       on_result=on_result, t0=t0)
+    return summary
+
+
+def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_result, t0) -> BatchSummary:
+    from .. import __version__
+
+    task = job.task
+    name, opts = task.name, task.options()
+    opts_hash = options_hash(name, opts)
+    try:
+        if overwrite:
+            _clear(out)
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot prepare the output folder {out}: {exc.strerror or exc}; choose another folder.") from None
+    info = {"task": name, "options": opts, "options_hash": opts_hash, "version": __version__}
+    manifest = _Manifest(out, info, rows)
+    manifest.flush(force=True)  # the folder is a results folder from now on (resumable even if killed now)
+    routes = _assign_routes(inputs, rows)
+    if on_start is not None:
+        on_start(len(inputs))
+
+    common = dict(task=name, opts_hash=opts_hash, version=__version__)
+    todo: list[int] = []
+    n_skipped = 0
+    for i, p in enumerate(inputs):
+        prev = rows.get(str(p))
+        if resume and prev is not None and prev["status"] in ("ok", "skipped") \
+                and _has_results(out, routes[i]) and _same_content(p, prev["sha256"]):
+            row = dict(prev, status="skipped")
+            manifest.set(row)
+            n_skipped += 1
+            if on_result is not None:
+                on_result(row)
+        else:
+            todo.append(i)
+
+    failed, warnings = [], []
+    n_ok = 0
+    try:
+        for result in iter_files(job, [str(inputs[i]) for i in todo], executor) if todo else ():
+            i = todo[result.index]
+            path, route = str(inputs[i]), routes[i]
+            if result.ok:
+                digest, size, output = result.value
+                _store(out, route, path, output)
+                row = _row(path, route, "ok", digest=digest, size=size, seconds=result.seconds,
+                           rows=len(output.segments), warning=output.warning, metadata=output.metadata, **common)
+                n_ok += 1
+                if output.warning:
+                    warnings.append((path, output.warning))
+            else:
+                _remove_partitions(out, route)
+                try:
+                    digest, size = file_digest(path)
+                except OSError:
+                    digest, size = "", 0
+                row = _row(path, route, "error", error=result.error, digest=digest, size=size,
+                           seconds=result.seconds, **common)
+                failed.append((path, result.error))
+            manifest.set(row)
+            manifest.flush()
+            if on_result is not None:
+                on_result(row)
+    finally:
+        manifest.flush(force=True)
+    return BatchSummary(output=out, task=name, n_inputs=len(inputs), n_ok=n_ok, n_error=len(failed),
+                        n_skipped=n_skipped, seconds=time.perf_counter() - t0, failed=tuple(failed),
+                        warnings=tuple(warnings))
+
+
+def _assign_routes(inputs: list[Path], rows: dict) -> list[str]:
+    """Route ids: the one recorded in the manifest for a known input, else a new unique one."""
+    used = {r["route"] for r in rows.values()}
+    routes = []
+    for p, proposed in zip(inputs, _route_ids(inputs)):
+        prev = rows.get(str(p))
+        if prev is not None:
+            routes.append(prev["route"])
+            continue
+        route, k = proposed, 2
+        while route in used:
+            route, k = f"{proposed}~{k}", k + 1
+        used.add(route)
+        routes.append(route)
+    return routes
+
+
+def _has_results(out: Path, route: str) -> bool:
+    if not partition_file(out, route, SEGMENTS).is_file():
+        return False
+    return not (out / PROFILES).is_dir() or partition_file(out, route, PROFILES).is_file()
+
+
+def _same_content(path: Path, digest: str) -> bool:
+    try:
+        return file_digest(path)[0] == digest
+    except OSError:
+        return False

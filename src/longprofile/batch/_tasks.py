@@ -1,0 +1,313 @@
+"""Batch tasks: the library calls of the single-file commands, as picklable per-file callables.
+
+``IRITask`` is ``longprofile road iri`` (read_profile -> the IRI report -> segment table) and
+``ReconstructTask`` is ``longprofile road reconstruct`` (APL recording -> reconstruct_profile with the CLI's
+defaults) followed by the IRI of the reconstruction. Numpy is imported lazily (see ``_map``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+from ..errors import InputError
+
+__all__ = ["TaskOutput", "IRITask", "ReconstructTask", "options_hash", "TASKS"]
+
+#: Above this segment IRI (m/km) a result is flagged: beyond any road (unpaved roads stay below ~25 m/km);
+#: the usual cause is an elevation column in mm labelled m. Same limit as ``longprofile road iri``.
+IMPLAUSIBLE_IRI = 50.0
+
+
+@dataclass(frozen=True, eq=False)
+class TaskOutput:
+    """What a task returns for one file.
+
+    Attributes
+    ----------
+    segments : pandas.DataFrame
+        One row per segment, the columns of the IRI report table (``start_m, end_m, iri_<track>_m_per_km``...).
+    profile : pandas.DataFrame or None
+        A per-sample table (the reconstructed profile for :class:`ReconstructTask`), else None.
+    metadata : dict
+        JSON-serialisable facts about the run (the IRI report's metadata, the fitted noise variances...).
+    warning : str
+        Empty, or one line about a suspicious result (an implausible IRI, no complete segment).
+    """
+
+    segments: Any
+    profile: Any = None
+    metadata: dict = field(default_factory=dict)
+    warning: str = ""
+
+
+def options_hash(name: str, options: dict) -> str:
+    """Short sha256 of the task name and its options (canonical JSON): the key ``--resume`` compares."""
+    text = json.dumps({"task": name, **options}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _finite_positive(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise InputError(f"{name} must be a finite number > 0; got {value!r}.")
+    return float(value)
+
+
+def _optional_float(name, value):
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{name} must be a finite number or None; got {value!r}.")
+    return float(value)
+
+
+def _tracks_tuple(tracks):
+    if tracks is None:
+        return None
+    names = (tracks,) if isinstance(tracks, str) else tuple(tracks)
+    names = tuple(t.strip() for t in names if t and t.strip())
+    if not names:
+        raise InputError("tracks must name at least one track (or be None for all of them).")
+    return names
+
+
+# ---- the IRI report table ------------------------------------------------------------------------------------
+
+#: Report units of ``iri_report``: length unit, metres per length unit, IRI unit, IRI per m/km, default interval.
+_UNITS = {"si": ("m", 1.0, "m/km", 1.0, 100.0), "us": ("ft", 0.3048, "in/mi", 63.36, 528.0)}
+
+
+def _iri_table(profile, task):
+    """Segment table and metadata from :func:`longprofile.road.iri_report` (the function ``road iri`` calls)."""
+    from ..road import iri_report
+
+    report = iri_report(profile, mode=task.mode, interval=task.interval, window=task.window, step=task.step,
+                        start=task.start, units=task.units, tracks=task.tracks, lead_in=task.lead_in,
+                        moving_average=task.moving_average)
+    return report.to_frame(), dict(report.metadata)
+
+
+def _warning(table, task, length_m: float) -> str:
+    """One line about a result a user should look at (the notes of ``longprofile road iri``)."""
+    import numpy as np
+
+    lu, per_m, iu, factor, _ = _UNITS[task.units]
+    if len(table) == 0:
+        return (f"the profile ({length_m / per_m:g} {lu}) is shorter than one {task.window or task.interval:g} {lu} "
+                "interval: no interval IRI; use a shorter --segment.")
+    cols = [c for c in table.columns if str(c).startswith("iri_")]
+    if not cols:
+        return ""
+    worst = float(np.nanmax(table[cols].to_numpy(dtype=float)))
+    if worst > IMPLAUSIBLE_IRI * factor:
+        return (f"IRI up to {worst:.3g} {iu} is beyond any road: check the elevation unit in the column names "
+                "(e.g. left_mm).")
+    return ""
+
+
+def _tiny_profile(tracks, length):
+    """A short smooth synthetic profile to compile the kernels on (ISO 8608 class A, 0.25 m)."""
+    from ..road import iso8608_profile
+
+    return iso8608_profile(length, 0.25, "A", rng=0, tracks=tracks)
+
+
+def _default_tracks(path):
+    """The rule of ``road iri``: a ``road reconstruct`` output is analysed on its profile track only."""
+    from ..io import is_reconstruct_output
+
+    return ("elevation",) if is_reconstruct_output(Path(path)) else None
+
+
+def _check_units(units):
+    if units not in _UNITS:
+        raise InputError(f"units must be 'si' (m, m/km) or 'us' (ft, in/mi); got {units!r}. The elevation unit of "
+                         "file columns without one is elevation_unit (--elevation-unit).")
+
+
+@dataclass(frozen=True)
+class IRITask:
+    """``longprofile road iri`` as a batch task: profile file -> :func:`~longprofile.road.iri_report` table.
+
+    Parameters
+    ----------
+    mode : {"fixed", "continuous", "overlapping"}
+        As ``iri_report`` (``--mode``).
+    interval : float, optional
+        Fixed segment length in the report's length unit (``--segment``; default 100 m, or 528 ft = 0.1 mi
+        with ``units="us"``, as ``road iri``).
+    window, step, start
+        As ``iri_report``, report length unit.
+    units : {"si", "us"}
+        Report units: m and m/km, or ft and in/mi.
+    tracks : sequence of str, optional
+        Tracks to analyse (default: all tracks of each file; a ``road reconstruct`` output: ``elevation``).
+    lead_in : float
+        Initialisation length, m (ASTM E1926: 11 m).
+    moving_average : {"auto", "on", "off"}
+        The 250 mm moving average (``auto``: the ASTM E1926 rule).
+    elevation_unit : str, optional
+        Elevation unit of file columns that do not name one (``read_profile(units=...)``); never guessed.
+
+    Calling the task on a path returns a :class:`TaskOutput`.
+    """
+
+    mode: str = "fixed"
+    interval: float | None = None
+    window: float | None = None
+    step: float | None = None
+    start: float | None = None
+    units: str = "si"
+    tracks: tuple[str, ...] | None = None
+    lead_in: float = 11.0
+    moving_average: str = "auto"
+    elevation_unit: str | None = None
+
+    name: ClassVar[str] = "iri"
+
+    def __post_init__(self):
+        _check_units(self.units)
+        interval = _UNITS[self.units][4] if self.interval is None else self.interval
+        object.__setattr__(self, "interval", _finite_positive("interval", interval))
+        object.__setattr__(self, "lead_in", _finite_positive("lead_in", self.lead_in))
+        for key in ("start", "window", "step"):
+            object.__setattr__(self, key, _optional_float(key, getattr(self, key)))
+        object.__setattr__(self, "tracks", _tracks_tuple(self.tracks))
+        if self.moving_average not in ("auto", "on", "off"):
+            raise InputError(f"moving_average must be 'auto', 'on' or 'off'; got {self.moving_average!r}.")
+
+    def options(self) -> dict:
+        """The options as a JSON-ready dict (stored in the manifest; their hash keys ``--resume``)."""
+        d = dataclasses.asdict(self)
+        d["tracks"] = None if self.tracks is None else list(self.tracks)
+        return d
+
+    def __call__(self, path) -> TaskOutput:
+        from ..io import read_profile
+
+        tracks = self.tracks if self.tracks is not None else _default_tracks(path)
+        task = self if tracks == self.tracks else dataclasses.replace(self, tracks=tracks)
+        return task.analyse(read_profile(path, units=self.elevation_unit, tracks=tracks))
+
+    def analyse(self, profile) -> TaskOutput:
+        """The task on a :class:`~longprofile.road.Profile` already in memory."""
+        table, meta = _iri_table(profile, self)
+        length = float(profile.distance[-1] - profile.distance[0])
+        return TaskOutput(segments=table, metadata=meta, warning=_warning(table, self, length))
+
+    def warm(self) -> None:
+        """Run the task once on a tiny synthetic profile (compiles or loads the numba kernels; checks options)."""
+        from ..io import is_reconstruct_output, read_profile  # noqa: F401  (imports of __call__, paid here)
+
+        task = self if self.start is None else dataclasses.replace(self, start=None)
+        span = (self.window or self.interval) * _UNITS[self.units][1]
+        task.analyse(_tiny_profile(self.tracks or ("left", "right"), 2.0 * (self.lead_in + span) + 1.0))
+
+
+# ---- APL reconstruction ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ReconstructTask:
+    """``longprofile road reconstruct`` as a batch task, plus the IRI of the reconstruction per segment.
+
+    Reads an APL recording (CSV/Parquet with ``distance_m`` and the signal ``column``), calls
+    :func:`longprofile.road.reconstruct_profile` with the defaults of ``longprofile road reconstruct`` (Table 1
+    instrument for ``speed``/``dx``; q and r by maximum likelihood unless given; ``stationary`` chosen by the
+    library), and runs the IRI report (as :class:`IRITask`) on the reconstructed ``elevation`` track.
+
+    Parameters
+    ----------
+    speed : float
+        Towing speed, m/s. dx : float -- spacing, m (must match the files' ``distance_m``).
+    method : str
+        ``"smoother"`` (default), ``"fixed-lag"``, ``"double"`` or ``"filter"``.
+    column : str
+        Signal column (metres, or named with its unit, e.g. ``apl_mm``).
+    q, r, input_model, correlation_length, highpass_wavelength, lag
+        As ``reconstruct_profile`` (``lag`` is its ``lag_m``).
+    interval, start, units, lead_in
+        The IRI report (fixed segments) of the reconstruction, as :class:`IRITask`.
+    """
+
+    speed: float = 20.0
+    dx: float = 0.05
+    method: str = "smoother"
+    column: str = "apl_m"
+    q: float | None = None
+    r: float | None = None
+    input_model: str | None = None
+    correlation_length: float | None = None
+    highpass_wavelength: float | None = 100.0
+    lag: float | None = None
+    interval: float | None = None
+    start: float | None = None
+    units: str = "si"
+    lead_in: float = 11.0
+
+    name: ClassVar[str] = "reconstruct"
+
+    def __post_init__(self):
+        from ..road.apl import RECONSTRUCTION_METHODS
+
+        _check_units(self.units)
+        if self.interval is None:
+            object.__setattr__(self, "interval", _UNITS[self.units][4])
+        for key in ("speed", "dx", "interval", "lead_in"):
+            object.__setattr__(self, key, _finite_positive(key, getattr(self, key)))
+        for key in ("q", "r", "correlation_length", "highpass_wavelength", "lag", "start"):
+            object.__setattr__(self, key, _optional_float(key, getattr(self, key)))
+        if self.method not in RECONSTRUCTION_METHODS:
+            raise InputError(f"method must be one of {', '.join(RECONSTRUCTION_METHODS)}; got {self.method!r}.")
+
+    def options(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @property
+    def iri_task(self) -> IRITask:
+        return IRITask(interval=self.interval, start=self.start, units=self.units, tracks=("elevation",),
+                       lead_in=self.lead_in)
+
+    def __call__(self, path) -> TaskOutput:
+        from ..io import read_apl_signal
+
+        return self.analyse(read_apl_signal(path, column=self.column))
+
+    def analyse(self, signal) -> TaskOutput:
+        """The task on an APL signal :class:`~longprofile.road.Profile` already in memory."""
+        import numpy as np
+
+        from ..road import Profile
+        from ..road.apl import apl_model, reconstruct_profile
+
+        rec = reconstruct_profile(signal, apl_model(self.speed, self.dx), method=self.method, q=self.q, r=self.r,
+                                  input_model=self.input_model, correlation_length=self.correlation_length,
+                                  highpass_wavelength=self.highpass_wavelength, lag_m=self.lag)
+        profile = Profile(rec.profile.distance, rec.profile.elevation, tracks=("elevation",), name=signal.name)
+        iri_out = self.iri_task.analyse(profile)
+        meta = dict(iri_out.metadata, method=rec.method, q_m2=rec.q, r_m2=rec.r, input_model=rec.input_model,
+                    lag_m=rec.lag_m, n_samples=signal.n_samples,
+                    n_missing=int(np.isnan(signal.elevation[:, 0]).sum()))
+        return TaskOutput(segments=iri_out.segments, profile=rec.to_frame(), metadata=meta,
+                          warning=iri_out.warning)
+
+    def warm(self) -> None:
+        """Reconstruct a short simulated recording once (compiles or loads the kernels; checks the options)."""
+        from ..io import read_apl_signal  # noqa: F401  (imports of __call__, paid here)
+        from ..road import Profile
+        from ..road.apl import apl_model, simulate_apl_recording
+
+        span = self.interval * _UNITS[self.units][1]
+        length = max(1.5 * (self.highpass_wavelength or 0.0), 250.0 * self.dx, 2.0 * (self.lead_in + span) + 1.0)
+        rec = simulate_apl_recording("iso8608", apl_model(self.speed, self.dx), length=length, road_class="B",
+                                     noise_fraction=0.02, rng=0)
+        task = self if self.start is None else dataclasses.replace(self, start=None)
+        task.analyse(Profile(rec.distance, rec.signal, name="warm-up"))
+
+
+#: Batch tasks by name (the ``longprofile batch`` sub-commands).
+TASKS = {IRITask.name: IRITask, ReconstructTask.name: ReconstructTask}

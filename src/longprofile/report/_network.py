@@ -1,0 +1,298 @@
+"""Network roughness report: one HTML page over a batch results folder, its PNG figures and CSV tables.
+
+Rendering only: every number comes from :func:`longprofile.batch.summarize_network`. The page is built like the
+single-file report (f-strings with :func:`html.escape`, figures embedded as PNG), so no template engine is
+needed.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OutputError
+from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _png, _table_html
+
+__all__ = ["write_network_report", "plot_network_routes", "plot_iri_histogram"]
+
+_NONE = "#bdbdbd"
+_COLOURS = {"good": _GOOD, "fair": _FAIR, "poor": _POOR, "none": _NONE}
+#: Routes per condition-strip figure, and at most this many routes drawn (the worst, when there are more).
+ROUTES_PER_FIGURE = 40
+MAX_ROUTES_DRAWN = 200
+_EXTRA_CSS = """
+.card.bad{border-color:#c62828;background:#c6282815}td.err{text-align:left;font-family:ui-monospace,monospace;
+font-size:0.85em;white-space:normal;max-width:720px}th.l{text-align:left}td.path{text-align:left;word-break:break-all;max-width:380px}
+"""
+
+
+def _legend_handles(limits, unit):
+    from matplotlib.patches import Patch
+
+    good, poor = limits
+    labels = {"good": f"good < {good:.3g} {unit}", "fair": "fair", "poor": f"poor > {poor:.3g} {unit}",
+              "none": "no value"}
+    return [Patch(color=_COLOURS[c], label=labels[c]) for c in ("good", "fair", "poor", "none")]
+
+
+def plot_network_routes(summary, routes, *, title: str = ""):
+    """Condition strip chart: one row per route, each segment coloured good / fair / poor along its stations.
+
+    Parameters
+    ----------
+    summary : NetworkSummary
+    routes : sequence of str
+        Routes to draw, top to bottom.
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    seg = summary.segments
+    fig = _figure(height=1.1 + 0.26 * max(len(routes), 1))
+    ax = fig.add_subplot()
+    lo, hi = np.inf, -np.inf
+    for row, route in enumerate(routes):
+        s = seg[seg["route"] == route]
+        if len(s) == 0:
+            continue
+        spans = list(zip(s["start"].to_numpy(), (s["end"] - s["start"]).to_numpy()))
+        ax.broken_barh(spans, (row - 0.38, 0.76), facecolors=[_COLOURS[c] for c in s["condition"]], linewidth=0)
+        lo, hi = min(lo, float(s["start"].min())), max(hi, float(s["end"].max()))
+    if np.isfinite(lo) and hi > lo:
+        ax.set_xlim(lo, hi)
+    ax.set_yticks(range(len(routes)))
+    ax.set_yticklabels([r if len(r) <= 34 else "…" + r[-33:] for r in routes], fontsize=8)
+    ax.set_ylim(len(routes) - 0.5, -0.5)
+    ax.set_xlabel(f"station [{summary.station_unit}]")
+    ax.set_title(title or "Condition along each route", loc="left", fontsize=10)
+    ax.grid(axis="x", color="0.9", lw=0.8)
+    ax.set_axisbelow(True)
+    ax.legend(handles=_legend_handles(summary.limits, summary.iri_unit), loc="lower right", fontsize=8, ncol=4,
+              bbox_to_anchor=(1.0, 1.0), borderaxespad=0.1, frameon=False, handlelength=1.2)
+    return fig
+
+
+def plot_worst_routes(summary, routes):
+    """Segment IRI against station for a few routes (one panel each), with the condition bands."""
+    seg = summary.segments
+    good, poor = summary.limits
+    n = max(len(routes), 1)
+    fig = _figure(height=0.6 + 1.55 * n)
+    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    top = max(float(np.nanmax(seg["segment_iri"], initial=0.0)) if len(seg) else 0.0, poor) * 1.12
+    for ax, route in zip(axes, routes):
+        s = seg[seg["route"] == route]
+        x = np.append(s["start"].to_numpy(), s["end"].to_numpy()[-1:])
+        y = s["segment_iri"].to_numpy()
+        ax.axhspan(0, good, color=_GOOD, alpha=0.10, lw=0)
+        ax.axhspan(good, poor, color=_FAIR, alpha=0.12, lw=0)
+        ax.axhspan(poor, top, color=_POOR, alpha=0.10, lw=0)
+        if y.size:
+            ax.stairs(y, x, color="0.15", lw=1.2)
+            ax.set_xlim(x[0], x[-1])
+        ax.set_ylim(0, top)
+        ax.set_ylabel(summary.iri_unit, fontsize=8)
+        ax.set_title(route, fontsize=9, loc="left")
+        ax.tick_params(labelsize=8)
+    axes[-1].set_xlabel(f"station [{summary.station_unit}]")
+    return fig
+
+
+def plot_iri_histogram(summary, *, bins: int = 40):
+    """Distribution of the segment IRI: segments per bin, bins coloured by condition, limits marked."""
+    v = summary.segments["segment_iri"].to_numpy(dtype=float)
+    v = v[np.isfinite(v)]
+    good, poor = summary.limits
+    fig = _figure(height=3.4)
+    ax = fig.add_subplot()
+    hi = max(float(np.quantile(v, 0.995)) * 1.05 if v.size else 0.0, poor * 1.4)
+    width = hi / bins
+    edges = np.unique(np.concatenate([np.arange(0.0, hi + width, width), [good, poor]]))
+    edges = np.append(edges, max(edges[-1], float(v.max()) if v.size else 0.0) + width)  # the tail in the last bin
+    counts, _ = np.histogram(v, bins=edges)
+    mid = 0.5 * (edges[:-1] + edges[1:])
+    colours = [_GOOD if m < good else (_POOR if m > poor else _FAIR) for m in mid]
+    ax.bar(edges[:-1], counts, width=np.diff(edges), align="edge", color=colours, edgecolor="white", lw=0.4)
+    ax.axvline(good, color=_GOOD, ls="--", lw=1, label=f"good < {good:.3g}")
+    ax.axvline(poor, color=_POOR, ls="--", lw=1, label=f"poor > {poor:.3g}")
+    ax.set_xlim(0, edges[-1])
+    ax.set_xlabel(f"segment IRI [{summary.iri_unit}]  ({summary.segment_iri})")
+    ax.set_ylabel("segments")
+    ax.set_title(f"Distribution of the segment IRI ({v.size} segments)")
+    ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def _num(x) -> str:
+    return "–" if not np.isfinite(x) else f"{x:.2f}"
+
+
+def _pct(x) -> str:
+    return "–" if not np.isfinite(x) else f"{100 * x:.0f} %"
+
+
+def _failed_html(failed, limit=500) -> str:
+    if len(failed) == 0:
+        return "<p>No file failed.</p>"
+    rows = "".join(f'<tr><td class="path">{html.escape(str(r.path))}</td><td class="err">{html.escape(str(r.error))}'
+                   "</td></tr>" for r in failed.head(limit).itertuples())
+    more = (f"<p class='small'>{len(failed) - limit} more in failed.csv.</p>" if len(failed) > limit else "")
+    return f"<table><thead><tr><th>file</th><th class='l'>error</th></tr></thead><tbody>{rows}</tbody></table>{more}"
+
+
+_REPORT_FILES = ("index.html", "iri_histogram.png", "worst_routes.png", "routes.csv", "worst_segments.csv",
+                 "failed.csv")
+
+
+def write_network_report(summary, outdir, *, title: str | None = None, inputs=()) -> list[Path]:
+    """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables of a network into ``outdir``.
+
+    Parameters
+    ----------
+    summary : NetworkSummary
+        From :func:`longprofile.batch.summarize_network`.
+    outdir : path-like
+        Report folder (created; files of an earlier report there are replaced).
+    title : str, optional
+    inputs : sequence of path-like
+        The results folder(s) read, to refuse writing into them.
+
+    Returns
+    -------
+    list of Path
+        Files written, ``index.html`` first.
+    """
+    out = Path(outdir)
+    for inp in inputs:
+        if inp is not None and Path(inp).resolve() == out.resolve():
+            raise OutputError(f"the report folder {out} is the results folder; choose another, e.g. -o "
+                              f"{Path(inp).name}_report/.")
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; choose another folder.") from None
+    res = summary.results
+    counts = summary.counts
+    n_files = len(res.manifest)
+    good, poor = summary.limits
+    unit, su = summary.iri_unit, summary.station_unit
+
+    # tables
+    tables = {"routes.csv": summary.routes, "worst_segments.csv": summary.worst, "failed.csv": summary.failed}
+    written = []
+    for fname, df in tables.items():
+        df.to_csv(out / fname, index=False)
+        written.append(out / fname)
+
+    # figures: condition strips (all routes up to MAX_ROUTES_DRAWN, by name), a few worst routes, the histogram
+    routes = summary.routes
+    drawn = sorted(routes["route"].head(MAX_ROUTES_DRAWN)) if len(routes) else []
+    figs = {}
+    for k in range(0, len(drawn), ROUTES_PER_FIGURE):
+        chunk = drawn[k:k + ROUTES_PER_FIGURE]
+        name = f"routes-{k // ROUTES_PER_FIGURE + 1:02d}.png"
+        label = (f" (routes {k + 1}–{k + len(chunk)} of {len(drawn)})" if len(drawn) > ROUTES_PER_FIGURE else "")
+        figs[name] = plot_network_routes(summary, chunk, title="Condition along each route" + label)
+    worst_routes = list(routes["route"].head(6)) if len(routes) else []
+    if worst_routes:
+        figs["worst_routes.png"] = plot_worst_routes(summary, worst_routes)
+    if len(summary.segments):
+        figs["iri_histogram.png"] = plot_iri_histogram(summary)
+    for stale in out.glob("routes-*.png"):  # an earlier report of a bigger network
+        if stale.name not in figs:
+            stale.unlink()
+    images = {}
+    for fname, f in figs.items():
+        data = _png(f)
+        (out / fname).write_bytes(data)
+        written.append(out / fname)
+        images[fname] = base64.b64encode(data).decode("ascii")
+
+    def img(fname, alt):
+        return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{images[fname]}">'
+
+    # cards
+    km = summary.length / (1000.0 if su == "m" else (5280.0 if su == "ft" else 1.0))
+    length_unit = {"m": "km", "ft": "mi"}.get(su, su)
+    cards = [f'<div class="card">Network<b>{km:.1f} {length_unit}</b><span class="small">{len(summary.segments)} '
+             f"segments, {len(routes)} routes</span></div>",
+             f'<div class="card"{_condition(summary.mean_iri, summary.limits)}>'
+             f'Mean segment IRI<b>{_num(summary.mean_iri)} {unit}</b><span class="small">length-weighted</span></div>']
+    shares = " · ".join(f'<span style="color:{colour}">{_pct(summary.share[c])}</span>'
+                        for c, colour in (("good", _GOOD), ("fair", _FAIR), ("poor", _POOR)))
+    cards.append(f'<div class="card">Condition, share of the length<b>{shares}</b><span class="small">good · fair · '
+                 f'poor (good &lt; {good:.3g}, poor &gt; {poor:.3g} {unit})</span></div>')
+    bad = " bad" if counts["error"] else ""
+    cards.insert(0, f'<div class="card{bad}">Files<b>{counts["ok"] + counts["skipped"]} / {n_files} done</b>'
+                 f'<span class="small">{counts["error"]} failed'
+                 + (f", {counts['skipped']} kept from an earlier run" if counts["skipped"] else "") + "</span></div>")
+
+    # tables as HTML
+    highlight = (lambda c, v: _condition(float(v), summary.limits)
+                 if (str(c) in summary.value_columns or c in ("segment_iri", "mean_iri", "max_iri"))
+                 and isinstance(v, (float, np.floating)) else "")
+    dup = ["segment_iri"] if summary.segment_iri_column is not None else []  # a copy of a column shown
+    worst = summary.worst.drop(columns=["file", "condition"] + dup, errors="ignore")
+    worst = worst.rename(columns={"start": f"start_{su}", "end": f"end_{su}"})
+    worst_html = (_table_html(worst, fmt="{:.2f}", highlight=highlight) if len(worst)
+                  else "<p>No segment.</p>")
+    rtab = routes.head(100).copy()
+    for c in ("good", "fair", "poor"):
+        rtab[c] = [_pct(x) for x in rtab[c]]
+    rtab = rtab.drop(columns=["file"]).rename(columns={"start": f"start_{su}", "end": f"end_{su}",
+                                                       "length": f"length_{su}"})
+    routes_html = (_table_html(rtab, fmt="{:.2f}", highlight=highlight) if len(rtab) else "<p>No route.</p>")
+    more_routes = (f"<p class='small'>{len(routes) - 100} more routes in routes.csv.</p>" if len(routes) > 100 else "")
+    warn_html = ""
+    if len(summary.warnings):
+        rows = "".join(f'<tr><td class="path">{html.escape(str(r.path))}</td><td class="err">'
+                       f"{html.escape(str(r.warning))}</td></tr>" for r in summary.warnings.head(500).itertuples())
+        warn_html = (f"<h2>Results to check ({len(summary.warnings)})</h2><table><thead><tr><th>file</th>"
+                     f"<th class='l'>warning</th></tr></thead><tbody>{rows}</tbody></table>")
+    strips = "".join(img(f, "condition along each route") for f in figs if f.startswith("routes-"))
+    drawn_note = (f"<p class='small'>The {len(drawn)} routes with the highest mean IRI of {len(routes)} are drawn; "
+                  "all are in routes.csv.</p>" if len(routes) > len(drawn) else "")
+    version = res.manifest["longprofile_version"].iloc[0] if n_files else ""
+    name = title or f"Network roughness report — {res.folder.name}"
+    meta = (f"{n_files} input files, task {res.task}; IRI in {unit} per segment (the IRI report of each file); "
+            f"segment IRI = {summary.segment_iri}.")
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}{_EXTRA_CSS}</style></head>
+<body>
+<h1>{html.escape(name)}</h1>
+<p class="sub">{html.escape(meta)}</p>
+<div class="cards">{''.join(cards)}</div>
+<h2>Condition along each route</h2>
+{strips or '<p>No route has results.</p>'}
+{drawn_note}
+<p class="small">Each row is a route (a file), each coloured block a segment: good below {good:.3g} {unit},
+poor above {poor:.3g} {unit} (FHWA condition limits), fair in between; grey = no value.</p>
+{'<h2>IRI along the worst routes</h2>' + img('worst_routes.png', 'worst routes') if 'worst_routes.png' in images else ''}
+<h2>Distribution of the segment IRI</h2>
+{img('iri_histogram.png', 'histogram') if 'iri_histogram.png' in images else '<p>No segment.</p>'}
+<h2>Worst segments</h2>
+{worst_html}
+<h2>Routes, worst mean IRI first</h2>
+{routes_html}
+{more_routes}
+<h2>Files that failed ({counts['error']})</h2>
+{_failed_html(summary.failed)}
+{warn_html}
+<h2>Run</h2>
+<p class="small">Results folder {html.escape(str(res.folder))}; options {html.escape(json.dumps(res.options))};
+longprofile {html.escape(str(version))}. Files in this folder: {' · '.join(html.escape(f) for f in list(tables) + list(figs))}.
+Definitions and assumptions: docs/batch.md.</p>
+</body></html>
+"""
+    index = out / "index.html"
+    index.write_text(page, encoding="utf-8")
+    written.insert(0, index)
+    return written

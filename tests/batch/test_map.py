@@ -1,0 +1,120 @@
+"""map_files on every executor: input order, recorded errors, BLAS pinning, Dask optional."""
+
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.batch import (IRITask, ReconstructTask, error_message, map_files, open_executor,
+                               process_executor)
+from longprofile.batch._map import _worker_info
+from longprofile.errors import DependencyError, InputError, UnitsError
+
+from ._helpers import boom
+
+
+@settings(max_examples=40)
+@given(st.lists(st.booleans(), max_size=30), st.sampled_from(["serial", "threads"]))
+def test_results_in_input_order_and_errors_exactly_where_files_fail(bad, scheduler):
+    paths = [f"{'bad' if b else 'good'}-{i}" for i, b in enumerate(bad)]
+    with open_executor(scheduler, 3) as ex:
+        res = map_files(boom, paths, executor=ex)
+    assert [r.index for r in res] == list(range(len(paths)))
+    assert [r.path for r in res] == paths
+    for r, b in zip(res, bad):
+        assert r.ok is (not b)
+        if b:
+            assert r.value is None and r.error == f"ZeroDivisionError: boom on {r.path}"
+        else:
+            assert r.value == r.path.upper() and r.seconds >= 0
+
+
+def test_error_messages_library_error_verbatim_others_typed_one_line():
+    assert error_message(UnitsError("bad unit\n  in column x")) == "bad unit in column x"
+    assert error_message(KeyError("k")) == "KeyError: 'k'"
+    assert error_message(RuntimeError()) == "RuntimeError"
+    assert len(error_message(ValueError("x" * 10_000))) <= 2000
+
+
+def test_process_pool_pins_blas_threads_to_one_and_keeps_order(monkeypatch):
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "7")  # the parent's own setting must not leak into workers
+    with process_executor(2) as ex:
+        res = map_files(_worker_info, [f"p{i}" for i in range(6)], executor=ex)
+    assert all(r.ok for r in res)
+    for r in res:
+        assert r.value["OPENBLAS_NUM_THREADS"] == r.value["OMP_NUM_THREADS"] == r.value["MKL_NUM_THREADS"] == "1"
+    assert len({r.value["pid"] for r in res}) <= 2
+    import os
+
+    assert os.environ["OPENBLAS_NUM_THREADS"] == "7"  # and the parent's environment is left as it was
+
+
+def test_unknown_executor_and_scheduler_are_refused():
+    with pytest.raises(InputError, match="executor must be"):
+        map_files(boom, ["a"], executor=object())
+    with pytest.raises(InputError, match="unknown scheduler 'cluster'"):
+        with open_executor("cluster"):
+            pass
+    with pytest.raises(InputError, match="workers must be"):
+        with open_executor("threads", 0):
+            pass
+
+
+def test_dask_scheduler_without_dask_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(DependencyError, match=r"pip install longprofile\[dask\]"):
+        with open_executor("tcp://127.0.0.1:8786"):
+            pass
+
+
+def test_dask_scheduler_that_does_not_answer_is_one_clear_error():
+    pytest.importorskip("distributed", reason="dask[distributed] not installed (pip install longprofile[dask])")
+    import socket
+
+    with socket.socket() as s:  # a free loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    from longprofile.batch import dask_client
+
+    with pytest.raises(InputError, match=f"cannot connect to the Dask scheduler at tcp://127.0.0.1:{port}"):
+        dask_client(f"tcp://127.0.0.1:{port}", timeout=1.0)
+
+
+def test_bad_task_options_fail_at_construction():
+    with pytest.raises(InputError, match="units must be 'si'"):
+        IRITask(units="mm")
+    with pytest.raises(InputError, match="interval must be"):
+        IRITask(interval=-1.0)
+    with pytest.raises(InputError, match="moving_average"):
+        IRITask(moving_average="maybe")
+    with pytest.raises(InputError, match="method must be one of"):
+        ReconstructTask(method="magic")
+    assert IRITask(units="us").interval == 528.0 and IRITask().interval == 100.0
+
+
+def test_tasks_are_picklable_and_hashable_with_stable_options():
+    import pickle
+
+    t = IRITask(tracks=["left", "right"], start=5)
+    assert pickle.loads(pickle.dumps(t)) == t and hash(t) == hash(pickle.loads(pickle.dumps(t)))
+    assert t.options()["tracks"] == ["left", "right"] and t.options()["start"] == 5.0
+    with ThreadPoolExecutor(1) as ex:  # a user's own pool works too
+        assert map_files(boom, ["x"], executor=ex)[0].value == "X"
+
+
+def test_package_exports_are_documented_and_importing_it_does_not_import_numpy():
+    import inspect
+    import subprocess
+
+    import longprofile.batch as batch
+
+    assert batch.__doc__.strip() and len(set(batch.__all__)) == len(batch.__all__)
+    for name in batch.__all__:
+        obj = getattr(batch, name)
+        if inspect.isfunction(obj) or inspect.isclass(obj):
+            assert (obj.__doc__ or "").strip(), name
+    # spawned workers unpickle the task (this package) before pinning BLAS threads: no numpy at import
+    code = "import sys, longprofile.batch; print('numpy' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout.strip() == "False"
