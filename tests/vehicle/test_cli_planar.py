@@ -59,3 +59,61 @@ def test_bad_options_exit_2(tmp_path, capsys):
     assert main(["vehicle", "simulate", "--duration", "1", "-o", str(log)]) == 0
     assert main(["vehicle", "slope", str(log), "-o", str(tmp_path / "s.csv"), "--speed-measurement", "gps"]) == 2
     assert "speed_measurement must be 'robust' or 'rear-mean'; got 'gps'" in capsys.readouterr().err
+
+
+def test_slope_units_signs_resampling_and_speed_reference_columns(tmp_path, capsys):
+    import numpy as np
+
+    log = tmp_path / "log.csv"
+    assert main(["vehicle", "simulate", "--duration", "12", "--no-truth", "-o", str(log)]) == 0  # steering from ~3.5 s
+    frame = pd.read_csv(log)
+    # a log in the units a car's logger writes: time in ms (by --units), yaw rate in deg/s (by its header)
+    car_log = frame.assign(time=1000 * frame.time, yaw_rate=np.degrees(frame.yaw_rate)).rename(
+        columns={"yaw_rate": "yaw_rate [deg/s]"})
+    car_log.to_csv(tmp_path / "car.csv", index=False)
+    ref, conv = tmp_path / "ref.csv", tmp_path / "conv.csv"
+    assert main(["vehicle", "slope", str(log), "-o", str(ref)]) == 0
+    assert main(["vehicle", "slope", str(tmp_path / "car.csv"), "--units", "time=ms", "-o", str(conv)]) == 0
+    a, b = pd.read_csv(ref), pd.read_csv(conv)
+    assert np.allclose(a["slope"], b["slope"], atol=1e-9, rtol=0)
+    # the V_x measurement per sample: value, std, which source (1 = torque-free wheels on this FWD car)
+    assert {"vx_measured", "vx_measured_std", "vx_measured_source"} <= set(a.columns)
+    assert set(a["vx_measured_source"]) == {1}
+    assert (a["vx_measured"] - a["vx"]).abs().max() < 0.05
+    capsys.readouterr()
+    # undeclared deg/s: exit 2, one line naming the channel and the likely unit
+    car_log.rename(columns={"yaw_rate [deg/s]": "yaw_rate"}).to_csv(tmp_path / "bad.csv", index=False)
+    assert main(["vehicle", "slope", str(tmp_path / "bad.csv"), "--units", "time=ms", "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "yaw_rate in deg/s" in err and not (tmp_path / "x.csv").exists()
+    # opposite steering sign
+    frame.assign(steering_angle=-frame.steering_angle).to_csv(tmp_path / "sign.csv", index=False)
+    assert main(["vehicle", "slope", str(tmp_path / "sign.csv"), "-o", str(tmp_path / "x.csv")]) == 2
+    assert "steering_angle has the opposite sign" in capsys.readouterr().err
+    # 0.2 ms timestamp jitter: refused with the hint, then resampled explicitly
+    jit = frame.assign(time=frame.time + np.random.default_rng(3).uniform(-2e-4, 2e-4, len(frame)))
+    jit.to_csv(tmp_path / "jit.csv", index=False)
+    assert main(["vehicle", "slope", str(tmp_path / "jit.csv"), "-o", str(tmp_path / "x.csv")]) == 2
+    assert "--resample 1000" in capsys.readouterr().err
+    assert main(["vehicle", "slope", str(tmp_path / "jit.csv"), "-o", str(tmp_path / "x.csv"), "--resample",
+                 "1000"]) == 0
+
+
+def test_slope_warns_on_missing_speed_and_implausible_slope():
+    from dataclasses import replace
+
+    import numpy as np
+
+    from longprofile.vehicle import estimate_slope, simulate_drive
+
+    est = estimate_slope(simulate_drive("paper", seed=0, ).log, default_vehicle())
+    assert est.warnings() == []
+    ref = est.speed_reference
+    src = ref.source.copy()
+    src[1000:1600] = 0  # 600 of 40 000 samples = 1.5 % missing
+    bad = replace(est, speed_reference=replace(ref, source=src))
+    assert bad.warnings() == [] and len(bad.warnings(max_missing=0.01)) == 1
+    assert "missing at 1.5 % of the samples" in bad.warnings(max_missing=0.01)[0]
+    steep = replace(est, slope=np.where(est.time > 30, 0.3, est.slope))
+    (w,) = steep.warnings()
+    assert "slope leaves the plausible range" in w and "t = 30.001" in w

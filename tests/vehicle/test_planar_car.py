@@ -74,3 +74,28 @@ def test_vehicle_is_a_dataclass_with_all_fields_in_toml():
     for name in names - {"name", "description"}:
         key = {"wheel_radius": "radius", "wheel_inertia": "inertia"}.get(name, name)
         assert f"{key} = " in text, name
+
+
+def test_simulator_only_keys_may_be_omitted_for_estimation(tmp_path):
+    import re
+
+    import numpy as np
+
+    from longprofile.errors import InputError
+    from longprofile.vehicle import estimate_slope, simulate_drive
+
+    text = default_vehicle().to_toml()
+    text = re.sub(r"\ninertia = .*", "", text)
+    text = re.sub(r"\nbrake_front_share = .*", "", text)
+    assert "\ninertia" not in text and "brake_front_share" not in text
+    path = tmp_path / "estimation_only.toml"
+    path.write_text(text)
+    car = load_vehicle(path)
+    assert car.wheel_inertia is None and car.brake_front_share is None
+    assert "\ninertia" not in car.to_toml()  # written back without them
+    log = simulate_drive("hill", default_vehicle(), seed=0).log
+    a, b = estimate_slope(log, car), estimate_slope(log, default_vehicle())
+    np.testing.assert_array_equal(a.slope, b.slope)  # the estimators never read them
+    with pytest.raises(InputError, match=r"simulator needs wheels.inertia \(kg m\^2\) and "
+                                         r"drivetrain.brake_front_share"):
+        simulate_drive("hill", car)

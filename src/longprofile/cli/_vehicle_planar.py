@@ -66,22 +66,35 @@ def slope(
     speed_measurement: str = typer.Option("robust", "--speed-measurement", help="V_x measurement: robust (slip-compensated reference speed, missing when no wheel is trustworthy) or rear-mean (the paper's mean rear-wheel speed)."),
     poles: str = typer.Option("-5,-7", "--poles", help="Luenberger observer poles, 1/s (cascade)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
+    units: str | None = typer.Option(None, "--units", help="Units of the log's columns when not SI, e.g. "
+                                     "'time=ms,yaw_rate=deg/s,wheel_speed_fl=km/h,accel_x=g' (or in the header: "
+                                     "'yaw_rate [deg/s]'); see docs/vehicle-slope.md."),
+    resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
+                                          "(linear interpolation; gaps are refused)."),
+    max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
+                                      "has no V_x measurement."),
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
     from ..io import read_table, write_table
-    from ..vehicle import DriveLog, estimate_slope, plot_slope_estimate
+    from ..vehicle import estimate_slope, plot_slope_estimate
+    from ..vehicle._logs import parse_units, read_drive_log
 
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES)
     check_plot_path(plot, log, vehicle)
     car = _vehicle(vehicle)
     frame = read_table(log)
-    drive = DriveLog.from_frame(frame, source=str(log))
+    drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, source=str(log))
+    unchecked = [c.name for c in checks if c.ok is None]
+    if unchecked:
+        console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
     with console.status("estimating states and slope..."):
         est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
+    for w in est.warnings(max_missing=max_missing):
+        console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:
-        truth = _truth_from_frame(frame)
+        truth = _truth_from_frame(frame) if resample is None else None  # the truth is on the original time base
         _save_figure(plot_slope_estimate(est, truth), plot)
 
 

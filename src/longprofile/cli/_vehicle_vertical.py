@@ -42,6 +42,37 @@ def _mr_map_velocity(value: str) -> str:
     return value
 
 
+def _vertical_params(path: Path | None):
+    from ..vehicle import load_vertical_params
+
+    return None if path is None else load_vertical_params(path)
+
+
+_VEHICLE_HELP = ("Vehicle description (TOML): its [vertical] table (fields of VerticalVehicleParams, SI units); "
+                 "the thesis car if omitted.")
+
+
+def _run_on_profile(road: Path, config: int, speed: float, duration: float, seed: int, mr, params=None):
+    """Simulate the car over a profile file (road test at constant speed), front axle at its first station."""
+    from ..io import read_profile
+    from ..vehicle import measure_vertical, simulate_vertical, wheel_road_inputs
+    from ..vehicle._vertical_model import VerticalVehicleParams
+
+    prof = read_profile(road)
+    if prof.elevation.shape[1] > 2:
+        from ..errors import InputError
+
+        raise InputError(f"--road {road}: {prof.elevation.shape[1]} tracks; give one (both wheel paths) or two "
+                          "(left, right).")
+    p = params or VerticalVehicleParams()
+    dt = 1e-3
+    available = (prof.distance[-1] - prof.distance[0] - p.wheelbase) / speed
+    inputs = wheel_road_inputs(prof, speed, dt, duration=min(duration, available), start=float(prof.distance[0]),
+                               params=p)
+    sim = simulate_vertical(inputs, dt, params=p, mr_damper=mr)
+    return sim, measure_vertical(sim, config, rng=seed + 1)
+
+
 @vertical_app.command("simulate")
 def simulate(
     output: Path = typer.Option(..., "--output", "-o", help="Sensor log to write (.csv or .parquet)."),
@@ -56,17 +87,25 @@ def simulate(
     car: str = typer.Option("ideal", "--car", help="ideal (passive dampers) or magneride (MR dampers driven by a "
                                                    "skyhook controller; the log gains current_FL..RR, A)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the true states of the front-left corner (PNG)."),
+    road: Path | None = typer.Option(None, "--road", help="Drive over this road profile (.csv, .parquet with "
+                                     "unit-suffixed columns, or .erd; two tracks = left and right wheel paths, one "
+                                     "= both) instead of an ISO 8608 road; --duration is then capped by its length."),
+    vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
 ):
     """Simulate the 7-DOF car on a thesis test and write the sensors of one configuration (plus true_* columns)."""
     from ..io import write_table
     from ..vehicle import sensors_to_frame, vertical_test_run
 
-    out = check_output_path(output, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot)
+    out = check_output_path(output, road, vehicle, suffixes=TABLE_SUFFIXES)
+    check_plot_path(plot, road, vehicle)
     mr = _car_damper(car)
+    params = _vertical_params(vehicle)
     with console.status("simulating the 7-DOF car..."):
-        sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed, duration=duration,
-                                         seed=seed, mr_damper=mr)
+        if road is not None:
+            sim, sensors = _run_on_profile(road, config, speed, duration, seed, mr, params)
+        else:
+            sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed,
+                                             duration=duration, seed=seed, mr_damper=mr, params=params)
     frame = sensors_to_frame(sensors, sim)
     write_table(frame, out)
     console.print(f"wrote {out} ({sim.time.size} samples, config {config}, test {test}, car {car})")
@@ -87,22 +126,41 @@ def estimate(
     log: Path = typer.Argument(..., help="Sensor log (.csv or .parquet): time, ax, ay, yaw_rate, dz21_FL..RR "
                                          "(+ body_accel_* or wheel_accel_*), see docs/vehicle-vertical.md."),
     output: Path = typer.Option(..., "--output", "-o", help="States file to write (.csv or .parquet)."),
-    config: int = typer.Option(1, "--config", help="Sensor configuration of the log (1, 2 or 3)."),
+    config: int | None = typer.Option(None, "--config", help="Sensor configuration of the log (1, 2 or 3); default: "
+                                      "inferred from the columns (wheel_accel_* -> 3, body_accel_* -> 2, else 1)."),
     centralised: bool = typer.Option(False, "--centralised/--per-corner",
                                      help="Centralised full-car EKF instead of the thesis's four corner EKFs."),
     mr_map_velocity: str = typer.Option("displacement", "--mr-map-velocity", help=_MR_VELOCITY_HELP),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG); the truth is "
                                                           "overlaid when the log has true_* columns."),
+    units: str | None = typer.Option(None, "--units", help="Units of columns that are not SI, e.g. "
+                                     "'time=ms,dz21_FL=mm,wheel_accel_FL=g' (or in the header: 'dz21_FL [mm]')."),
+    resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
+                                          "(linear interpolation; gaps are refused)."),
+    profile: Path | None = typer.Option(None, "--profile", help="Also write the road profile under each wheel "
+                                        "(fl, fr, rl, rr) with its chainage (.csv, .parquet or .erd); needs --speed."),
+    speed: float | None = typer.Option(None, "--speed", help="Constant vehicle speed of the log, m/s (for --profile)."),
+    chainage: float = typer.Option(0.0, "--chainage", help="Chainage of the front axle at the first sample, m."),
+    segment: float = typer.Option(100.0, "--segment", help="IRI segment length for --profile, m."),
+    vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
 ):
     """Estimate damper displacement/velocity, tyre load, body and wheel velocities from a sensor log."""
+    from ..errors import InputError
     from ..io import read_table, write_table
-    from ..vehicle import estimate_to_frame, estimate_vertical_states, sensors_from_frame
+    from ..vehicle import estimate_to_frame, estimate_vertical_states
+    from ..vehicle._logs import parse_units, read_vertical_log
+    from ._common import PROFILE_SUFFIXES
 
-    out = check_output_path(output, log, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, log)
+    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES)
+    check_plot_path(plot, log, vehicle)
+    params = _vertical_params(vehicle)
+    if profile is not None:
+        check_output_path(profile, log, output, suffixes=PROFILE_SUFFIXES)
+        if speed is None or not speed > 0:
+            raise InputError("--profile needs --speed (the constant speed of the log, m/s): stations are speed x time.")
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     frame = read_table(log)
-    sensors = sensors_from_frame(frame, config, source=str(log))
+    sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, source=str(log))
     mr_map = None
     if sensors.damper_current is not None:
         from ..vehicle._vertical_estimate import nominal_mr_map
@@ -113,10 +171,28 @@ def estimate(
         console.print(f"log has current_* columns: actuator forces from the nominal MR map, evaluated at the "
                       f"{'filter' if mr_map_velocity == 'filter' else 'displacement'}-derived damper velocity")
     with console.status("running the corner EKFs..."):
-        est = estimate_vertical_states(sensors, decentralised=not centralised, mr_map=mr_map,
+        est = estimate_vertical_states(sensors, params=params, decentralised=not centralised, mr_map=mr_map,
                                        mr_map_velocity=mr_map_velocity)
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
+    if profile is not None:
+        from ..io import write_profile
+        from ..road import iri
+        from ..vehicle import wheel_profiles
+
+        if config != 3:
+            console.print("[yellow]warning: configurations 1 and 2 underestimate the IRI by 8-20 % (wheel motion from "
+                          "the reconstructed velocity); configuration 3 (wheel accelerometers) is within 3 %, see "
+                          "docs/vehicle-vertical.md[/yellow]")
+        prof = wheel_profiles(sensors, est, speed, start=chainage, params=params)
+        write_profile(prof, profile)
+        res = iri(prof, segment_length=segment)
+        iri_out = Path(profile).with_name(Path(profile).stem + "_iri.csv")
+        check_output_path(iri_out, log, output)
+        write_table(res.to_frame(), iri_out)
+        sec = ", ".join(f"{t} {v:.2f}" for t, v in zip(res.tracks, res.section_iri))
+        console.print(f"wrote {profile} (chainage {prof.distance[0]:g}..{prof.distance[-1]:.4g} m) and {iri_out} "
+                      f"({res.segment_start.size} segments of {segment:g} m); section IRI m/km: {sec}")
     if plot is not None:
         from ..vehicle import plot_vertical_estimate
 

@@ -3,7 +3,7 @@
 Planar states and road slope (paper 001, Sebsadji, Glaser, Mammar)
 ------------------------------------------------------------------
 Vehicle               -- validated vehicle description (TOML via load_vehicle; default_vehicle()).
-load_vehicle          -- read a vehicle description (TOML).
+load_vehicle          -- read a vehicle description (TOML); load_vertical_params reads its [vertical] table.
 default_vehicle       -- the documented default car (vehicle/data/default_car.toml).
 dugoff_forces         -- Dugoff tyre model, eq. (15)-(17); TyreForces result.
 drive_scenario        -- built-in drives ("paper", "hill", "low-mu"); DriveScenario, SCENARIOS.
@@ -38,6 +38,16 @@ estimate_to_frame / plot_vertical_estimate -- table and figure of a VerticalStat
 smooth_vertical_states -- offline extended RTS smoothing of the corner-EKF estimate.
 vertical_linear_model / estimate_vertical_states_linear -- centralised linear full-car KF / RTS for comparison.
 road_profile_from_suspension -- the road under the wheels from the suspension sensors (car as profilometer).
+wheel_profiles        -- the road under each of the four wheels on one chainage grid.
+
+Sensor logs (issue 14)
+----------------------
+read_drive_log / read_vertical_log -- logs with declared units (header 'name [unit]' or a mapping), conversion
+                         to SI, explicit resampling, sample-rate and plausibility checks; UNIT_FACTORS, parse_units.
+check_drive_log       -- unit/sign checks from redundant channels (gyro vs wheels, a_y vs V r, steering vs yaw
+                         rate, a_x vs dV/dt); LogCheck.
+resample_log          -- linear resampling of a jittered log onto a uniform time base (gaps refused).
+infer_vertical_config -- thesis sensor configuration from the columns.
 """
 
 from importlib import import_module
@@ -45,7 +55,7 @@ from importlib import import_module
 # Submodules are imported on first use (PEP 562): ``from longprofile.vehicle import estimate_slope`` loads the
 # planar model only, not the vertical estimators and scipy.signal (a CLI call saves ~1 s of imports).
 _EXPORTS = {
-    "._car": ("Vehicle", "default_vehicle", "load_vehicle",),
+    "._car": ("Vehicle", "default_vehicle", "load_vehicle", "load_vertical_params", "SIMULATOR_ONLY",),
     "._dugoff": ("TyreForces", "dugoff_forces",),
     "._planar_sim": ("LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation",
                      "SensorSpec", "drive_scenario", "simulate_drive",),
@@ -62,7 +72,9 @@ _EXPORTS = {
     "._vertical_model": ("VerticalVehicleParams", "MRDamperParams", "skyhook_current",),
     "._vertical_observability": ("ObservabilityResult", "corner_observability",),
     "._vertical_plot": ("estimate_to_frame", "plot_vertical_estimate",),
-    "._vertical_road": ("road_profile_from_suspension",),
+    "._vertical_road": ("road_profile_from_suspension", "wheel_profiles",),
+    "._logs": ("LogCheck", "UNIT_FACTORS", "check_drive_log", "infer_vertical_config", "parse_units", "read_drive_log",
+               "read_vertical_log", "resample_log",),
     "._vertical_sim": ("VerticalSensors", "VerticalSimulation", "bench_sweep_road", "measure_vertical",
                        "sensors_from_frame", "sensors_to_frame", "simulate_vertical", "steering_sine_manoeuvre",
                        "vertical_test_run", "wheel_road_inputs",),
@@ -84,7 +96,7 @@ def __dir__():
 
 
 __all__ = [
-    "Vehicle", "load_vehicle", "default_vehicle",
+    "Vehicle", "load_vehicle", "default_vehicle", "load_vertical_params", "SIMULATOR_ONLY",
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
     "simulate_drive", "LOG_COLUMNS",
@@ -92,6 +104,8 @@ __all__ = [
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "plot_slope_estimate", "plot_drive",
+    "read_drive_log", "check_drive_log", "LogCheck", "UNIT_FACTORS", "parse_units", "resample_log",
+    "read_vertical_log", "infer_vertical_config",
     "VerticalVehicleParams", "simulate_vertical", "VerticalSimulation", "wheel_road_inputs", "bench_sweep_road",
     "steering_sine_manoeuvre", "measure_vertical", "VerticalSensors", "sensors_to_frame", "sensors_from_frame",
     "vertical_ekf_model", "vertical_ekf_inputs", "estimate_vertical_states", "VerticalStateEstimate",
@@ -101,6 +115,6 @@ __all__ = [
     "MR_MAP_VELOCITIES",
     "THESIS_BENCH_TABLE",
     "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
-    "smooth_vertical_states", "road_profile_from_suspension", "vertical_linear_model",
+    "smooth_vertical_states", "road_profile_from_suspension", "wheel_profiles", "vertical_linear_model",
     "estimate_vertical_states_linear",
 ]

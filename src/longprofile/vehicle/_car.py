@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InputError, InputFormatError
 
-__all__ = ["Vehicle", "load_vehicle", "default_vehicle", "WHEELS", "GRAVITY"]
+__all__ = ["Vehicle", "load_vehicle", "default_vehicle", "load_vertical_params", "WHEELS", "GRAVITY"]
 
 #: Wheel order used everywhere (paper 001, eq. (14) and (19)): front-left, front-right, rear-left, rear-right.
 WHEELS = ("fl", "fr", "rl", "rr")
@@ -37,6 +37,8 @@ _TOML_LAYOUT = {
     "drivetrain": {"driven_axle": "driven_axle", "brake_front_share": "brake_front_share",
                    "engine_brake_torque": "engine_brake_torque"},
 }
+#: Keys only the simulator reads (wheel dynamics, brake balance); a description for estimation may omit them.
+SIMULATOR_ONLY = ("wheel_inertia", "brake_front_share")
 _UNITS = {
     "mass": "kg", "yaw_inertia": "kg m^2", "cg_to_front_axle": "m", "cg_to_rear_axle": "m", "track": "m",
     "cg_height": "m", "aero_longitudinal": "N s^2/m^2", "aero_lateral": "N s^2/m^2", "wheel_radius": "m",
@@ -65,8 +67,9 @@ class Vehicle:
         C_x and C_y of eq. (11), N s^2/m^2 (drag force = C V|V|).
     wheel_radius : float
         R, effective rolling radius, m (eq. (18)).
-    wheel_inertia : float
-        I_w, rotational inertia of one wheel, kg m^2 (simulator wheel dynamics).
+    wheel_inertia : float or None
+        I_w, rotational inertia of one wheel, kg m^2 (simulator wheel dynamics). None (key ``wheels.inertia``
+        omitted): the estimators do not need it, :func:`simulate_drive` refuses the car.
     longitudinal_stiffness : float
         C_x0 of the Dugoff model (15)-(17), N per unit slip, common to the four tyres.
     cornering_stiffness : float
@@ -76,7 +79,8 @@ class Vehicle:
     driven_axle : {"front", "rear", "all"}
         Where the simulator applies the drive torque.
     brake_front_share : float
-        Share of the brake torque on the front axle, in [0, 1] (simulator).
+        Share of the brake torque on the front axle, in [0, 1] (simulator; None when the key
+        ``drivetrain.brake_front_share`` is omitted, which only the simulator refuses).
     engine_brake_torque : float
         Largest overrun (engine-braking) torque, N m in total at the driven wheels; the simulator's
         driver brakes with the engine up to it and with the service brakes beyond.
@@ -103,12 +107,12 @@ class Vehicle:
     aero_longitudinal: float
     aero_lateral: float
     wheel_radius: float
-    wheel_inertia: float
+    wheel_inertia: float | None
     longitudinal_stiffness: float
     cornering_stiffness: float
     friction: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
     driven_axle: str = "front"
-    brake_front_share: float = 0.7
+    brake_front_share: float | None = 0.7
     engine_brake_torque: float = 300.0
     name: str = ""
     description: str = ""
@@ -116,6 +120,8 @@ class Vehicle:
     def __post_init__(self):
         for key in ("mass", "yaw_inertia", "cg_to_front_axle", "cg_to_rear_axle", "track", "cg_height",
                     "wheel_radius", "wheel_inertia", "longitudinal_stiffness", "cornering_stiffness"):
+            if key in SIMULATOR_ONLY and getattr(self, key) is None:
+                continue
             _check_number(key, getattr(self, key), positive=True)
             object.__setattr__(self, key, float(getattr(self, key)))
         for key in ("aero_longitudinal", "aero_lateral"):
@@ -131,10 +137,11 @@ class Vehicle:
         object.__setattr__(self, "friction", mu)
         if self.driven_axle not in ("front", "rear", "all"):
             raise InputError(f"driven_axle must be 'front', 'rear' or 'all'; got {self.driven_axle!r}.")
-        _check_number("brake_front_share", self.brake_front_share, positive=False)
-        if not 0.0 <= float(self.brake_front_share) <= 1.0:
-            raise InputError(f"brake_front_share must be in [0, 1]; got {self.brake_front_share!r}.")
-        object.__setattr__(self, "brake_front_share", float(self.brake_front_share))
+        if self.brake_front_share is not None:
+            _check_number("brake_front_share", self.brake_front_share, positive=False)
+            if not 0.0 <= float(self.brake_front_share) <= 1.0:
+                raise InputError(f"brake_front_share must be in [0, 1]; got {self.brake_front_share!r}.")
+            object.__setattr__(self, "brake_front_share", float(self.brake_front_share))
         _check_number("engine_brake_torque", self.engine_brake_torque, positive=False)
         object.__setattr__(self, "engine_brake_torque", float(self.engine_brake_torque))
 
@@ -161,7 +168,7 @@ class Vehicle:
         p[P_CYA] = self.aero_lateral
         p[P_CX0] = self.longitudinal_stiffness
         p[P_CY0] = self.cornering_stiffness
-        p[P_IW] = self.wheel_inertia
+        p[P_IW] = 0.0 if self.wheel_inertia is None else self.wheel_inertia  # read by the simulator only
         p[P_G] = GRAVITY
         return p
 
@@ -172,6 +179,8 @@ class Vehicle:
             lines.append(f"\n[{section}]")
             for key, attr in keys.items():
                 value = getattr(self, attr)
+                if value is None:  # an omitted simulator-only key stays omitted
+                    continue
                 if isinstance(value, str):
                     text = _toml_str(value)
                 elif isinstance(value, tuple):
@@ -200,9 +209,10 @@ def _check_number(name: str, value, *, positive: bool) -> None:
 def _from_mapping(data: dict, source: str) -> Vehicle:
     kwargs = {}
     for key in data:
-        if key not in _TOML_LAYOUT and key not in ("name", "description"):
+        if key not in _TOML_LAYOUT and key not in ("name", "description", "vertical"):
             raise InputFormatError(f"{source}: unknown key {key!r}; expected the tables "
-                                   f"{sorted(_TOML_LAYOUT)} and the keys 'name', 'description'.")
+                                   f"{sorted(_TOML_LAYOUT)}, the optional table 'vertical' and the keys 'name', "
+                                   "'description'.")
     for section, keys in _TOML_LAYOUT.items():
         table = data.get(section)
         if not isinstance(table, dict):
@@ -211,6 +221,9 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
             if key not in keys:
                 raise InputFormatError(f"{source}: unknown key {key!r} in table '{section}'; expected {sorted(keys)}.")
         for key, attr in keys.items():
+            if key not in table and attr in SIMULATOR_ONLY:
+                kwargs[attr] = None
+                continue
             if key not in table:
                 raise InputFormatError(f"{source}: missing key {key!r} in table '{section}' "
                                        f"({_UNITS.get(attr, 'see docs/vehicle-slope.md')}).")
@@ -230,7 +243,8 @@ def load_vehicle(path) -> Vehicle:
     ----------
     path : path-like
         TOML file with the tables ``[body]``, ``[wheels]``, ``[drivetrain]`` laid out as in
-        ``longprofile/vehicle/data/default_car.toml`` (every key required, SI units).
+        ``longprofile/vehicle/data/default_car.toml`` (SI units; every key required except the
+        simulator-only ``wheels.inertia`` and ``drivetrain.brake_front_share``, see :data:`SIMULATOR_ONLY`).
 
     Returns
     -------
@@ -268,3 +282,44 @@ def default_vehicle() -> Vehicle:
     """
     text = resources.files("longprofile.vehicle").joinpath("data/default_car.toml").read_text(encoding="utf-8")
     return _from_mapping(tomllib.loads(text), "default_car.toml")
+
+
+def load_vertical_params(path):
+    """The vertical (7-DOF, thesis 003) parameters of a vehicle description: its optional ``[vertical]`` table.
+
+    The same TOML file describes the car for the planar commands (tables ``[body]``, ``[wheels]``,
+    ``[drivetrain]``, paper 001) and for the vertical ones (table ``[vertical]``). Its keys are the fields of
+    :class:`~longprofile.vehicle.VerticalVehicleParams`, in SI units (masses kg, stiffnesses N/m, lengths m,
+    inertias kg m^2, ``spring_beta_*`` m^-4, ``damper_*`` = [A N s/m, B N, C m/s], ``damper_transition`` s/m,
+    ``suspension_friction`` N, simulator only); a key left out keeps the thesis value. A file without
+    ``[vertical]`` gives the thesis car (the default of every vertical command).
+
+    Raises
+    ------
+    InputError
+        If the file does not exist.
+    InputFormatError
+        Invalid TOML, an unknown key in ``[vertical]`` (the valid ones are listed) or an invalid value (named).
+    """
+    from dataclasses import fields
+
+    from ._vertical_model import VerticalVehicleParams
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such vehicle description file.")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputFormatError(f"{path}: not valid TOML: {exc}") from None
+    table = data.get("vertical", {})
+    if not isinstance(table, dict):
+        raise InputFormatError(f"{path}: 'vertical' must be a table ([vertical]).")
+    valid = [f.name for f in fields(VerticalVehicleParams)]
+    unknown = [k for k in table if k not in valid]
+    if unknown:
+        raise InputFormatError(f"{path}: unknown key(s) {unknown} in table 'vertical'; expected some of {valid}.")
+    try:
+        return VerticalVehicleParams(**table)
+    except (InputError, TypeError) as exc:
+        raise InputFormatError(f"{path}: [vertical]: {exc}") from None

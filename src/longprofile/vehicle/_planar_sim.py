@@ -611,6 +611,12 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
     vehicle = default_vehicle() if vehicle is None else vehicle
     if not isinstance(vehicle, Vehicle):
         raise InputError(f"vehicle must be a Vehicle; got {type(vehicle).__name__}.")
+    keys = {"wheel_inertia": "wheels.inertia (kg m^2)", "brake_front_share": "drivetrain.brake_front_share (0..1)"}
+    missing = [text for attr, text in keys.items() if getattr(vehicle, attr) is None]
+    if missing:
+        named = f" {vehicle.name!r}" if vehicle.name else ""
+        raise InputError(f"the simulator needs {' and '.join(missing)}, which the vehicle description{named} omits "
+                         "(the estimators do not need them); add them to simulate.")
     sensors = SensorSpec() if sensors is None else sensors
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     p = vehicle.as_array()

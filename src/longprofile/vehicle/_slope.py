@@ -339,6 +339,9 @@ class SlopeEstimate:
         The engine's EKF result.
     observer_gain : (2, 1) ndarray or None
         Luenberger gain (cascade only).
+    speed_reference : SpeedReference or None
+        The V_x measurement the EKF was given, per sample: speed, std (NaN = missing) and source code
+        (:data:`~longprofile.vehicle.SPEED_SOURCES`: which wheels were trusted, slip-compensated or missing).
     """
 
     time: np.ndarray
@@ -359,6 +362,7 @@ class SlopeEstimate:
     method: str
     filtered: object
     observer_gain: np.ndarray | None = None
+    speed_reference: object = None
 
     def to_frame(self):
         """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
@@ -372,7 +376,41 @@ class SlopeEstimate:
             for i, w in enumerate(("fl", "fr", "rl", "rr")):
                 cols[f"{k}_{w}"] = getattr(self, k)[:, i]
                 cols[f"{k}_{w}_std"] = getattr(self, f"{k}_std")[:, i]
+        if self.speed_reference is not None:  # the V_x measurement: value, std (NaN = missing), source code
+            cols["vx_measured"] = self.speed_reference.speed
+            cols["vx_measured_std"] = self.speed_reference.std
+            cols["vx_measured_source"] = self.speed_reference.source.astype(np.int8)
         return pd.DataFrame(cols)
+
+    def warnings(self, *, max_missing: float = 0.05, max_slope: float = 0.2) -> list:
+        """Plausibility warnings (strings) about this estimate; empty when none.
+
+        Parameters
+        ----------
+        max_missing : float
+            Largest acceptable share of samples without a V_x measurement (``vx_measured_source`` 0: no
+            trustworthy wheel, the EKF only propagates), default 5 %.
+        max_slope : float
+            Largest plausible |grade angle|, rad (default 0.2 rad = 11.5 deg = 20 %: steeper than nearly
+            every public road; beyond it the usual causes are a wrong mass, adhesion or wheel radius).
+        """
+        out = []
+        ref = self.speed_reference
+        if ref is not None:
+            share = ref.missing_fraction
+            if share > max_missing:
+                k = int(np.argmax(ref.source == 0))
+                out.append(f"V_x measurement missing at {100 * share:.1f} % of the samples (> {100 * max_missing:g} %; "
+                           f"first at t = {self.time[k]:.6g} s): no wheel was trustworthy (hard braking or traction "
+                           "beyond the tyre model), so the EKF only propagated there; check vehicle.driven_axle and "
+                           "the friction, or treat those parts of the estimate as unreliable.")
+        s = np.abs(self.slope)
+        if np.any(s > max_slope):
+            k = int(np.argmax(s > max_slope))
+            out.append(f"slope leaves the plausible range |theta| <= {max_slope:g} rad at {int(np.sum(s > max_slope))} "
+                       f"sample(s), first at t = {self.time[k]:.6g} s ({self.slope[k]:.3g} rad): check the vehicle "
+                       "mass, wheels.radius and the friction (see docs/vehicle-slope.md, Measured results).")
+        return out
 
 
 @njit(cache=True)
@@ -510,7 +548,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
-                         observer_gain=gain)
+                         observer_gain=gain, speed_reference=ref)
 
 
 def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles):

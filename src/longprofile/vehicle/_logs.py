@@ -1,0 +1,455 @@
+"""Vehicle sensor logs: declared units, conversion to SI, explicit resampling and plausibility checks (issue 14).
+
+A real car's log rarely arrives in the SI units and the axes of paper 001 (x forward, y left, z up, yaw
+rate positive counter-clockwise, road-wheel steering angle positive to the left). Units are never guessed:
+each column is SI unless a unit is declared, either in its header (``yaw_rate [deg/s]``, ``time[ms]``) or
+by a mapping (``units={"yaw_rate": "deg/s"}``, the CLI's ``--units yaw_rate=deg/s,time=ms``). The values are
+then converted, and the physics checks the result: the channels of a car are redundant, so a wrong unit or
+sign shows up as a ratio between two channels far from 1, and the error names the channel and the likely
+mistake (:func:`check_drive_log`).
+
+Redundancies used (planar model of paper 001, eq. (11) and (18), body axes x forward, y left):
+
+* yaw rate vs rear-wheel speed difference: r = R (omega_RR - omega_RL) / S_b (undriven, unsteered axle;
+  eq. (18) for a left/right pair), ratio gyro / wheels, expected 1;
+* lateral acceleration vs V_x r: a_y = dV_y/dt + V_x r (eq. (11)), expected about 1 (body roll tilts the
+  accelerometer: a few per cent per 0.1 g);
+* steering vs yaw rate in turns: r = V_x delta / (L (1 + K V_x^2)) (steady-state bicycle model), so the
+  ratio gyro / (V_x delta / L) lies in (0, 1.3] for an understeering car; negative is an opposite steering
+  sign, below 0.3 a steering-WHEEL angle (or degrees);
+* longitudinal acceleration vs dV_x/dt (eq. (11), the grade only offsets it), expected about 1.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, InputFormatError, UnitsError
+
+__all__ = ["UNIT_FACTORS", "LogCheck", "parse_units", "split_unit_headers", "convert_units", "resample_log",
+           "read_drive_log", "check_drive_log", "check_sample_rate", "infer_vertical_config", "read_vertical_log"]
+
+GRAVITY = 9.80665
+
+#: Accepted units of each physical quantity and their factor to SI (value_SI = value * factor).
+UNIT_FACTORS = {
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
+    "angle": {"rad": 1.0, "deg": math.pi / 180.0, "mrad": 1e-3},
+    "rate": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0},
+    "accel": {"m/s^2": 1.0, "m/s2": 1.0, "g": GRAVITY},
+    "length": {"m": 1.0, "mm": 1e-3, "cm": 1e-2},
+    "current": {"a": 1.0, "ma": 1e-3},
+    # wheel speeds may also be logged as the wheel's translational speed R omega (needs the rolling radius)
+    "wheel": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0, "m/s": None, "km/h": None},
+}
+
+_PLANAR_QUANTITY = {"time": "time", "steering_angle": "angle", "yaw_rate": "rate", "accel_x": "accel",
+                    "accel_y": "accel", "wheel_speed_fl": "wheel", "wheel_speed_fr": "wheel",
+                    "wheel_speed_rl": "wheel", "wheel_speed_rr": "wheel"}
+_CORNERS = ("FL", "FR", "RL", "RR")
+_VERTICAL_QUANTITY = {"time": "time", "ax": "accel", "ay": "accel", "yaw_rate": "rate",
+                      **{f"dz21_{c}": "length" for c in _CORNERS}, **{f"body_accel_{c}": "accel" for c in _CORNERS},
+                      **{f"wheel_accel_{c}": "accel" for c in _CORNERS}, **{f"current_{c}": "current" for c in _CORNERS}}
+
+_HEADER = re.compile(r"^\s*(?P<name>[^\[\]]*?)\s*\[(?P<unit>[^\[\]]+)\]\s*$")
+
+
+def _norm_unit(u: str) -> str:
+    return u.strip().lower().replace(" ", "").replace("²", "^2").replace("µ", "u")
+
+
+def parse_units(text: str | None) -> dict:
+    """Parse a ``--units`` mapping ``"col=unit,col=unit"`` into a dict (empty for None or "")."""
+    if not text:
+        return {}
+    out = {}
+    for item in text.split(","):
+        if "=" not in item:
+            raise InputError(f"--units must be comma-separated column=unit pairs, e.g. 'yaw_rate=deg/s,time=ms'; "
+                             f"got {item!r}.")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def split_unit_headers(frame):
+    """Strip ``name [unit]`` headers: returns (frame with plain names, {name: unit} declared in the header)."""
+    declared, rename = {}, {}
+    for c in frame.columns:
+        m = _HEADER.match(str(c))
+        if m:
+            rename[c] = m.group("name")
+            declared[m.group("name")] = m.group("unit")
+    return (frame.rename(columns=rename) if rename else frame), declared
+
+
+def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float | None = None, source: str = "log"):
+    """Convert the columns of ``frame`` named in ``units`` to SI (a copy); columns not named are SI already.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The log, plain column names.
+    units : dict
+        {column: unit} as declared (header or ``--units``).
+    quantities : dict
+        {column: quantity} of the channels this reader knows (keys of :data:`UNIT_FACTORS`).
+    wheel_radius : float, optional
+        Rolling radius R (m) to turn a translational wheel speed (m/s, km/h) into a spin rate (rad/s).
+
+    Raises
+    ------
+    UnitsError
+        For a column this log type does not have, or a unit that is not one of the column's quantity.
+    """
+    if not units:
+        return frame
+    converted = {}
+    for col, unit in units.items():
+        if col not in quantities:
+            raise UnitsError(f"{source}: a unit is declared for {col!r}, which is not a channel of this log "
+                             f"(channels: {', '.join(quantities)}).")
+        if col not in frame.columns:
+            continue
+        q = quantities[col]
+        table = UNIT_FACTORS[q]
+        u = _norm_unit(unit)
+        if u not in table:
+            raise UnitsError(f"{source}: column {col!r}: unknown unit {unit!r} for a {q} channel; use one of "
+                             f"{', '.join(table)}.")
+        factor = table[u]
+        if factor is None:  # translational wheel speed -> spin rate
+            if wheel_radius is None:
+                raise UnitsError(f"{source}: column {col!r} in {unit}: a wheel radius is needed to convert it.")
+            factor = (1.0 if u == "m/s" else 1.0 / 3.6) / wheel_radius
+        import pandas as pd
+
+        converted[col] = pd.to_numeric(frame[col], errors="coerce") * factor
+    return frame.assign(**converted)
+
+
+def resample_log(frame, rate: float | None = None, *, max_gap_steps: float = 3.0, source: str = "log"):
+    """Resample a jittered log onto a uniform time base by linear interpolation of every numeric column.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Log with a ``time`` column in s (increasing).
+    rate : float, optional
+        Output rate, Hz (default: 1 / mean step, the step rounded to 1e-6 s).
+    max_gap_steps : float
+        A step longer than this many output periods is a gap (lost samples): interpolating across it
+        would invent data, so it is an error naming the time.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Same columns, ``time`` = t0 + k / rate covering [t0, t_end].
+    """
+    import pandas as pd
+
+    t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(float)
+    d = np.diff(t)
+    if t.size < 3 or not np.all(np.isfinite(t)) or np.any(d <= 0):
+        raise InputFormatError(f"{source}: cannot resample: 'time' must be finite and strictly increasing.")
+    if rate is not None and not (math.isfinite(float(rate)) and float(rate) > 0):
+        raise InputError(f"--resample rate must be a positive number of Hz; got {rate!r}.")
+    step = round(float((t[-1] - t[0]) / (t.size - 1)), 6) if rate is None else 1.0 / float(rate)
+    k = int(np.argmax(d))
+    if d[k] > max_gap_steps * step:
+        raise InputFormatError(f"{source}: the log has a gap of {d[k]:.4g} s at t = {t[k]:.6g} s (> {max_gap_steps:g} "
+                               f"periods of {step:.4g} s); resampling would invent data: cut the log there.")
+    n = int(math.floor((t[-1] - t[0]) / step + 1e-9)) + 1
+    tn = t[0] + step * np.arange(n)
+    cols = {"time": tn}
+    for c in frame.columns:
+        if c == "time":
+            continue
+        v = pd.to_numeric(frame[c], errors="coerce").to_numpy(float)
+        cols[c] = np.interp(tn, t, v)  # a NaN spreads to its neighbours and is reported by the log's reader
+    return pd.DataFrame(cols)
+
+
+def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", jitter_rtol: float = 1e-3) -> float:
+    """Check the time base: increasing, uniform (else suggest ``--resample``), and fast enough; return dt (s).
+
+    A median step of 0.5 s or more in a vehicle log is almost always milliseconds read as seconds, and the
+    message says so.
+    """
+    t = np.asarray(time, float)
+    d = np.diff(t)
+    if t.size < 3 or np.any(~np.isfinite(t)) or np.any(d <= 0):
+        raise InputFormatError(f"{source}: column 'time' must be finite and strictly increasing.")
+    dt = float(np.median(d))
+    if dt >= 0.5:
+        raise UnitsError(f"{source}: column 'time': median step {dt:g} s ({1 / dt:.3g} Hz) is implausible for a vehicle "
+                         "log; if the time is in milliseconds declare it: header 'time [ms]' or --units time=ms.")
+    if np.ptp(d) > jitter_rtol * dt + 1e-9:
+        raise InputFormatError(f"{source}: column 'time' is not uniformly sampled (steps {d.min():.6g} to {d.max():.6g} s, "
+                               f"median {dt:.6g} s); the filters use a fixed step: resample it explicitly with "
+                               f"--resample {round((t.size - 1) / (t[-1] - t[0])):g} (Hz; linear interpolation, gaps refused).")
+    if 1.0 / dt < minimum:
+        raise InputError(f"{source}: sample rate {1 / dt:.4g} Hz is below the {minimum:g} Hz that {what}.")
+    return dt
+
+
+# ------------------------------------------------------------------------------------------ planar logs
+
+@dataclass(frozen=True)
+class LogCheck:
+    """One redundancy check of a drive log: ``ratio`` of a channel to its prediction from other channels.
+
+    ``ok`` is None when the log did not excite the check enough (``samples`` below the minimum).
+    """
+
+    name: str
+    ratio: float
+    expected: tuple
+    samples: int
+    ok: bool | None
+
+
+def _slope_through_origin(x, y, mask, min_samples):
+    n = int(mask.sum())
+    if n < min_samples:
+        return math.nan, n
+    xx, yy = x[mask], y[mask]
+    return float(np.dot(xx, yy) / np.dot(xx, xx)), n
+
+
+def _moving_average(x, n):
+    """Centred moving average over n samples (odd width 2 (n // 2) + 1), shrinking at the ends."""
+    h = n // 2
+    if h == 0 or x.size <= 2 * h + 1:
+        return x
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    out = np.empty_like(x)
+    w = 2 * h + 1
+    out[h:x.size - h] = (c[w:] - c[:x.size - 2 * h]) / w
+    for k in range(h):  # the ends: the window is cut by the record
+        out[k] = c[k + h + 1] / (k + h + 1)
+        j = x.size - 1 - k
+        out[j] = (c[x.size] - c[j - h]) / (x.size - j + h)
+    return out
+
+
+def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool = True) -> tuple:
+    """Plausibility of a drive log's units and signs from its redundant channels (see the module notes).
+
+    Parameters
+    ----------
+    log : DriveLog
+        SI log (after :func:`convert_units`).
+    vehicle : Vehicle
+        R, S_b, L of the car.
+    raise_on_error : bool
+        Raise on a failed check (default), else only return the checks.
+
+    Returns
+    -------
+    tuple of LogCheck
+        ``yaw_rate_vs_wheels``, ``accel_y_vs_vx_r``, ``steering_vs_yaw_rate``, ``accel_x_vs_dvx``.
+
+    Raises
+    ------
+    UnitsError
+        Naming the channel(s), the ratio measured and the likely mistake (units, sign convention,
+        steering-wheel angle), for every failed check in one message; also for out-of-range channels.
+    """
+    R, Sb, L = vehicle.wheel_radius, vehicle.track, vehicle.wheelbase
+    dt = log.dt
+    w = log.wheel_speeds
+    v = R * 0.5 * (w[:, 2] + w[:, 3])
+    problems = []
+    vmax = float(np.max(R * w))
+    if vmax > 95.0:
+        problems.append(f"wheel_speed_*: R omega reaches {vmax:.4g} m/s (> 95 m/s): wheel speeds in rpm or deg/s? "
+                        "declare the unit (e.g. 'wheel_speed_fl [rpm]'), or check wheels.radius")
+    smax = float(np.max(np.abs(log.steering_angle)))
+    if smax > 0.8:
+        problems.append(f"steering_angle reaches {smax:.3g} rad ({math.degrees(smax):.0f} deg), beyond a road wheel's "
+                        "lock (~0.7 rad): a steering-WHEEL angle (divide by the steering ratio) or degrees "
+                        "('steering_angle [deg]')?")
+    rmax = float(np.max(np.abs(log.yaw_rate)))
+    if rmax > 3.0:
+        problems.append(f"yaw_rate reaches {rmax:.3g} rad/s (> 3 rad/s): deg/s? declare 'yaw_rate [deg/s]'")
+    for k in ("accel_x", "accel_y"):
+        amax = float(np.max(np.abs(getattr(log, k))))
+        if amax > 20.0:
+            problems.append(f"{k} reaches {amax:.3g} m/s^2 (> 2 g): check its unit")
+    smooth = max(1, int(round(0.2 / dt)))  # 0.2 s moving average: the checks are about gains, not noise
+    rw = _moving_average(R * (w[:, 3] - w[:, 2]) / Sb, smooth)
+    r = _moving_average(log.yaw_rate, smooth)
+    vs = _moving_average(v, smooth)
+    ay = _moving_average(log.accel_y, smooth)
+    ax = _moving_average(log.accel_x, smooth)
+    delta = _moving_average(log.steering_angle, smooth)
+    min_n = max(3, int(round(0.5 / dt)))  # half a second of turning (or accelerating)
+    moving = vs > 3.0
+    checks = []
+
+    k1, n1 = _slope_through_origin(rw, r, moving & (np.abs(rw) > 0.03), min_n)
+    ok1 = None if math.isnan(k1) else bool(0.93 <= k1 <= 1.07)
+    checks.append(LogCheck("yaw_rate_vs_wheels", k1, (0.93, 1.07), n1, ok1))
+    if ok1 is False:
+        hint = _likely_factor(k1, {
+            "yaw_rate in deg/s (declare 'yaw_rate [deg/s]')": 180 / math.pi,
+            "yaw_rate of opposite sign: a z-down / y-to-the-right (SAE) frame or a clockwise-positive gyro; negate "
+            "yaw_rate and accel_y (and steering_angle if positive to the right)": -1.0,
+            # a wheel column holding X = c omega is read as omega' = c omega, so the ratio is 1/c
+            "wheel speeds in m/s (declare 'wheel_speed_* [m/s]')": 1.0 / R,
+            "wheel speeds in km/h (declare 'wheel_speed_* [km/h]')": 1.0 / (3.6 * R),
+            "wheel speeds in rpm (declare 'wheel_speed_* [rpm]')": 2 * math.pi / 60,
+            "left and right wheel columns swapped": -1.0,
+        })
+        if 0.8 <= k1 <= 1.25:
+            hint += "; or wrong wheels.radius / body.track in the vehicle file"
+        problems.append(f"yaw_rate / (R (omega_rr - omega_rl) / track) = {k1:.3g}, expected 1 (eq. (18)): {hint}")
+    vr = vs * r
+    k2, n2 = _slope_through_origin(vr, ay, moving & (np.abs(vr) > 0.5), min_n)
+    ok2 = None if math.isnan(k2) else bool(0.75 <= k2 <= 1.3)
+    yaw_ok = ok1 is not False  # a wrong gyro spoils the next two ratios: report it alone
+    checks.append(LogCheck("accel_y_vs_vx_r", k2, (0.75, 1.3), n2, ok2))
+    if ok2 is False and yaw_ok:
+        hint = _likely_factor(k2, {"accel_y in g (declare 'accel_y [g]')": 1 / GRAVITY,
+                                   "accel_y of opposite sign (y to the right): negate accel_y": -1.0,
+                                   "yaw_rate in deg/s (declare 'yaw_rate [deg/s]')": math.pi / 180}, (0.75, 1.3))
+        problems.append(f"accel_y / (V_x yaw_rate) = {k2:.3g}, expected about 1 (eq. (11)): {hint}")
+    kin = vs * delta / L
+    k3, n3 = _slope_through_origin(kin, r, moving & (np.abs(kin) > 0.03), min_n)
+    ok3 = None if math.isnan(k3) else bool(0.3 <= k3 <= 1.3)
+    checks.append(LogCheck("steering_vs_yaw_rate", k3, (0.3, 1.3), n3, ok3))
+    if ok3 is False and yaw_ok:
+        if k3 < 0:
+            hint = ("steering_angle has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
+                    "negate steering_angle")
+        elif k3 < 0.3:
+            hint = (f"steering_angle is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
+                    "steering-WHEEL angle (divide by the steering ratio) or degrees ('steering_angle [deg]')")
+        else:
+            hint = "steering_angle too small: in mrad? or a steering ratio applied twice"
+        problems.append(f"yaw_rate / (V_x steering_angle / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
+                        f"model, understeering car): {hint}")
+    dv = np.gradient(vs, dt)
+    dv = _moving_average(dv, smooth)
+    k4, n4 = _slope_through_origin(dv, ax, moving & (np.abs(dv) > 0.5), min_n)
+    ok4 = None if math.isnan(k4) else bool(0.7 <= k4 <= 1.4)
+    checks.append(LogCheck("accel_x_vs_dvx", k4, (0.7, 1.4), n4, ok4))
+    if ok4 is False:
+        hint = _likely_factor(k4, {"accel_x in g (declare 'accel_x [g]')": 1 / GRAVITY,
+                                   "accel_x of opposite sign (x backward): negate accel_x": -1.0}, (0.7, 1.4))
+        problems.append(f"accel_x / (dV_x/dt) = {k4:.3g}, expected about 1 (eq. (11); the grade only offsets it): "
+                        f"{hint}")
+    if problems and raise_on_error:
+        raise UnitsError(f"{source}: implausible channels (units or signs): " + "; ".join(problems) + ".")
+    return tuple(checks)
+
+
+def _likely_factor(ratio: float, candidates: dict, band=(0.9, 1.1)) -> str:
+    """The candidate mistakes whose factor f explains ``ratio``: ratio / f within ``band`` (the check's range)."""
+    hits = [name for name, f in candidates.items() if band[0] <= ratio / f <= band[1]]
+    return " or ".join(dict.fromkeys(hits)) if hits else "a unit or sign mistake in one of these channels"
+
+
+def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float | None = None,
+                   check: bool = True, source: str = "log"):
+    """Build a :class:`DriveLog` from a table with declared units, explicit resampling and plausibility checks.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The channels of docs/vehicle-slope.md, headers optionally ``name [unit]``.
+    vehicle : Vehicle
+        Needed for wheel speeds logged in m/s or km/h (R) and for the checks.
+    units : dict, optional
+        {column: unit}, overrides the header units.
+    resample : float, optional
+        Resample onto this rate (Hz) by linear interpolation first (jittered time stamps).
+    check : bool
+        Run :func:`check_drive_log` (default True).
+
+    Returns
+    -------
+    (DriveLog, tuple of LogCheck)
+    """
+    from ._planar_sim import DriveLog
+
+    frame, declared = split_unit_headers(frame)
+    declared.update(units or {})
+    frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=vehicle.wheel_radius, source=source)
+    if "time" in frame.columns:
+        if resample is not None:
+            frame = resample_log(frame, resample, source=source)
+        import pandas as pd
+
+        check_sample_rate(pd.to_numeric(frame["time"], errors="coerce").to_numpy(float), minimum=50.0,
+                          what="the planar EKF of eq. (20) needs (explicit Euler step; ABS logs run at 100 Hz to 1 kHz)",
+                          source=source, jitter_rtol=1e-6)
+    log = DriveLog.from_frame(frame, source=source)
+    checks = check_drive_log(log, vehicle, source=source) if check else ()
+    return log, checks
+
+
+# ------------------------------------------------------------------------------------------ vertical logs
+
+def infer_vertical_config(columns, *, source: str = "log") -> int:
+    """Sensor configuration (thesis 003) from the columns: 3 with wheel_accel_*, 2 with body_accel_*, else 1."""
+    cols = set(map(str, columns))
+    wheel = all(f"wheel_accel_{c}" in cols for c in _CORNERS)
+    body = all(f"body_accel_{c}" in cols for c in _CORNERS)
+    if wheel and body:
+        raise InputError(f"{source}: the log has both body_accel_* and wheel_accel_* columns; choose the "
+                         "configuration with --config 2 or --config 3.")
+    return 3 if wheel else 2 if body else 1
+
+
+#: Lowest sample rate accepted by the vertical estimators (the thesis's filters run at Te = 1 ms).
+VERTICAL_MIN_RATE = 500.0
+
+
+def read_vertical_log(frame, config: int | None = None, *, units: dict | None = None, resample: float | None = None,
+                      source: str = "log"):
+    """Build :class:`VerticalSensors` from a table with declared units, resampling, rate and range checks.
+
+    Returns (sensors, config). ``config`` None infers it from the columns (:func:`infer_vertical_config`).
+
+    Raises
+    ------
+    UnitsError
+        For a suspension deflection beyond +-0.3 m (the sensor range: a log in mm read as m), or an
+        accelerometer beyond 50 g.
+    InputError
+        Below :data:`VERTICAL_MIN_RATE` Hz: the corner EKFs' coloured noises (tau = 10 ms for the tyre
+        deflection, thesis 003 section 4.3) and the 13 Hz wheel hop are not resolved by explicit Euler at
+        Te >= 2 ms.
+    """
+    import pandas as pd
+
+    from ._vertical_sim import sensors_from_frame
+
+    frame, declared = split_unit_headers(frame)
+    declared.update(units or {})
+    frame = convert_units(frame, declared, _VERTICAL_QUANTITY, source=source)
+    if config is None:
+        config = infer_vertical_config(frame.columns, source=source)
+    if "time" in frame.columns:
+        if resample is not None:
+            frame = resample_log(frame, resample, source=source)
+        check_sample_rate(pd.to_numeric(frame["time"], errors="coerce").to_numpy(float), minimum=VERTICAL_MIN_RATE,
+                          what="the corner EKFs of thesis 003 need (tuned for Te = 1 ms)", source=source)
+    sensors = sensors_from_frame(frame, config, source=source)
+    dmax = float(np.max(np.abs(sensors.displacement)))
+    if dmax > 0.3:
+        raise UnitsError(f"{source}: dz21_*: suspension deflection reaches {dmax:.4g} m (> 0.3 m, the sensor range): "
+                         "in mm? declare 'dz21_FL [mm]' or --units dz21_FL=mm,...")
+    for name, a in (("body_accel_*", sensors.body_accel), ("wheel_accel_*", sensors.wheel_accel)):
+        if a is not None and float(np.max(np.abs(a))) > 50 * GRAVITY:
+            raise UnitsError(f"{source}: {name} exceeds 50 g: check its unit.")
+    for name in ("ax", "ay"):
+        if float(np.max(np.abs(getattr(sensors, name)))) > 20.0:
+            raise UnitsError(f"{source}: {name} exceeds 20 m/s^2 (2 g): check its unit.")
+    return sensors, int(config)

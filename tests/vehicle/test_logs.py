@@ -1,0 +1,190 @@
+"""Vehicle sensor logs (issue 14): declared units, conversion, resampling, unit/sign plausibility checks."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError, InputFormatError, UnitsError
+from longprofile.vehicle import default_vehicle, estimate_slope, simulate_drive
+from longprofile.vehicle._logs import (UNIT_FACTORS, check_drive_log, convert_units, infer_vertical_config,
+                                       parse_units, read_drive_log, read_vertical_log, resample_log)
+
+CAR = default_vehicle()
+WHEELS = [f"wheel_speed_{w}" for w in ("fl", "fr", "rl", "rr")]
+
+
+@pytest.fixture(scope="module")
+def paper():
+    """12 s of the paper-like drive (sine steering): excites the yaw, lateral and steering checks."""
+    return simulate_drive("paper", seed=0).log.to_frame().iloc[:12000].reset_index(drop=True)
+
+
+@pytest.fixture(scope="module")
+def hill():
+    """The hill drive (straight, accelerating then braking): excites the a_x check."""
+    return simulate_drive("hill", seed=0).log.to_frame()
+
+
+def test_correct_logs_pass_and_report_which_checks_ran(paper, hill):
+    _, checks = read_drive_log(paper, CAR)
+    by = {c.name: c for c in checks}
+    assert by["yaw_rate_vs_wheels"].ok and abs(by["yaw_rate_vs_wheels"].ratio - 1) < 0.02
+    assert by["accel_y_vs_vx_r"].ok and by["steering_vs_yaw_rate"].ok
+    assert by["accel_x_vs_dvx"].ok is None  # constant speed: not excited, reported as not checked
+    _, checks = read_drive_log(hill, CAR)
+    by = {c.name: c for c in checks}
+    assert by["accel_x_vs_dvx"].ok and by["yaw_rate_vs_wheels"].ok is None
+
+
+def _wheels_times(frame, factor):
+    g = frame.copy()
+    for c in WHEELS:
+        g[c] = g[c] * factor
+    return g
+
+
+# (name, transform of the SI log, text the error must contain)
+MISTAKES = [
+    ("yaw rate in deg/s", lambda f: f.assign(yaw_rate=np.degrees(f.yaw_rate)), "yaw_rate in deg/s"),
+    ("SAE frame (z down, y right)", lambda f: f.assign(yaw_rate=-f.yaw_rate, accel_y=-f.accel_y),
+     "yaw_rate of opposite sign"),
+    ("y to the right (a_y only)", lambda f: f.assign(accel_y=-f.accel_y), "accel_y of opposite sign"),
+    ("opposite steering sign", lambda f: f.assign(steering_angle=-f.steering_angle),
+     "steering_angle has the opposite sign"),
+    ("steering-wheel angle (ratio 15)", lambda f: f.assign(steering_angle=15 * f.steering_angle),
+     "steering-WHEEL angle"),
+    ("steering in degrees", lambda f: f.assign(steering_angle=np.degrees(f.steering_angle)), "steering_angle"),
+    ("wheel speeds in km/h", lambda f: _wheels_times(f, CAR.wheel_radius * 3.6), "wheel speeds in km/h"),
+    ("wheel speeds in m/s", lambda f: _wheels_times(f, CAR.wheel_radius), "wheel speeds in m/s"),
+    ("wheel speeds in rpm", lambda f: _wheels_times(f, 60 / (2 * math.pi)), "rpm"),
+    ("lateral acceleration in g", lambda f: f.assign(accel_y=f.accel_y / 9.80665), "accel_y in g"),
+    ("time in ms", lambda f: f.assign(time=1000 * f.time), "time [ms]"),
+]
+
+
+@pytest.mark.parametrize("name,transform,message", MISTAKES, ids=[m[0] for m in MISTAKES])
+def test_each_unit_or_sign_mistake_is_a_clear_error_naming_the_channel(paper, name, transform, message):
+    with pytest.raises(UnitsError, match="implausible|time") as exc:
+        read_drive_log(transform(paper), CAR, source="car.csv")
+    assert message in str(exc.value) and str(exc.value).startswith("car.csv: ")
+
+
+def test_longitudinal_acceleration_in_g_is_caught_on_an_accelerating_drive(hill):
+    with pytest.raises(UnitsError, match=r"accel_x in g"):
+        read_drive_log(hill.assign(accel_x=hill.accel_x / 9.80665), CAR)
+
+
+DECLARED = [
+    ("yaw_rate", "deg/s", lambda f: f.assign(yaw_rate=np.degrees(f.yaw_rate))),
+    ("time", "ms", lambda f: f.assign(time=1000 * f.time)),
+    ("accel_y", "g", lambda f: f.assign(accel_y=f.accel_y / 9.80665)),
+    ("steering_angle", "deg", lambda f: f.assign(steering_angle=np.degrees(f.steering_angle))),
+]
+
+
+@pytest.mark.parametrize("col,unit,transform", DECLARED, ids=[d[0] for d in DECLARED])
+def test_declared_units_are_converted_back_exactly(paper, col, unit, transform):
+    ref, _ = read_drive_log(paper, CAR)
+    g = transform(paper)
+    via_header, _ = read_drive_log(g.rename(columns={col: f"{col} [{unit}]"}), CAR)
+    via_mapping, _ = read_drive_log(g, CAR, units={col: unit})
+    for log in (via_header, via_mapping):
+        np.testing.assert_allclose(log.to_frame()[col], ref.to_frame()[col], rtol=1e-12, atol=1e-12)
+
+
+def test_wheel_speeds_in_kmh_declared_use_the_rolling_radius(paper):
+    g = _wheels_times(paper, CAR.wheel_radius * 3.6)
+    log, _ = read_drive_log(g, CAR, units=dict.fromkeys(WHEELS, "km/h"))
+    np.testing.assert_allclose(log.wheel_speeds, paper[WHEELS].to_numpy(), rtol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(q=st.sampled_from(["time", "angle", "rate", "accel", "length"]), data=st.data(),
+       values=st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=20))
+def test_conversion_multiplies_by_the_documented_factor(q, data, values):
+    unit = data.draw(st.sampled_from(sorted(UNIT_FACTORS[q])))
+    frame = pd.DataFrame({"c": values})
+    out = convert_units(frame, {"c": unit}, {"c": q})
+    np.testing.assert_allclose(out["c"], np.asarray(values) * UNIT_FACTORS[q][unit], rtol=1e-15, atol=0)
+    assert frame["c"].tolist() == values  # the input is not modified
+
+
+def test_unknown_unit_or_channel_is_a_units_error(paper):
+    with pytest.raises(UnitsError, match=r"unknown unit 'furlong/s'.*rad/s, deg/s, rpm"):
+        read_drive_log(paper, CAR, units={"yaw_rate": "furlong/s"})
+    with pytest.raises(UnitsError, match="not a channel of this log"):
+        read_drive_log(paper, CAR, units={"speed": "km/h"})
+    with pytest.raises(InputError, match="column=unit pairs"):
+        parse_units("yaw_rate:deg/s")
+    assert parse_units("time=ms, yaw_rate = deg/s") == {"time": "ms", "yaw_rate": "deg/s"}
+
+
+def test_jitter_is_refused_with_the_resample_hint_and_resampling_recovers_the_estimate(paper):
+    rng = np.random.default_rng(0)
+    g = paper.assign(time=paper.time + rng.uniform(-2e-4, 2e-4, len(paper)))  # 0.2 ms timestamp jitter
+    with pytest.raises(InputFormatError, match=r"not uniformly sampled.*--resample 1000 "):
+        read_drive_log(g, CAR)
+    log, _ = read_drive_log(g, CAR, resample=1000.0)
+    assert log.dt == pytest.approx(1e-3, rel=1e-9)
+    ref, _ = read_drive_log(paper, CAR)
+    a, b = estimate_slope(log, CAR), estimate_slope(ref, CAR)
+    n = min(a.time.size, b.time.size)
+    err = np.degrees(np.sqrt(np.mean((a.slope[2000:n] - b.slope[2000:n]) ** 2)))
+    assert err < 0.01  # degrees; measured 0.0006 on the 40 s drive
+
+
+def test_resampling_refuses_gaps():
+    t = np.r_[np.arange(0, 1, 1e-3), np.arange(1.1, 2, 1e-3)]
+    with pytest.raises(InputFormatError, match=r"gap of 0.1.* at t = 0.999"):
+        resample_log(pd.DataFrame({"time": t, "x": t}), 1000.0)
+    with pytest.raises(InputError, match="positive number of Hz"):
+        resample_log(pd.DataFrame({"time": t, "x": t}), 0.0)
+
+
+def test_check_can_return_instead_of_raising(paper):
+    from longprofile.vehicle import DriveLog
+
+    bad = DriveLog.from_frame(paper.assign(steering_angle=-paper.steering_angle))
+    checks = check_drive_log(bad, CAR, raise_on_error=False)
+    assert {c.name: c.ok for c in checks}["steering_vs_yaw_rate"] is False
+
+
+# ------------------------------------------------------------------------------------------ vertical logs
+
+@pytest.fixture(scope="module")
+def vertical_frame():
+    from longprofile.vehicle import sensors_to_frame, vertical_test_run
+
+    sim, sensors = vertical_test_run(3, duration=3.0, seed=0)
+    return sensors_to_frame(sensors, sim)
+
+
+def test_vertical_config_is_inferred_from_the_columns(vertical_frame):
+    assert infer_vertical_config(vertical_frame.columns) == 3
+    body = vertical_frame.rename(columns=lambda c: c.replace("wheel_accel", "body_accel"))
+    assert infer_vertical_config(body.columns) == 2
+    assert infer_vertical_config(vertical_frame.drop(columns=[c for c in vertical_frame if "accel_" in c])) == 1
+    both = pd.concat([vertical_frame, body.filter(like="body_accel")], axis=1)
+    with pytest.raises(InputError, match="both body_accel"):
+        infer_vertical_config(both.columns)
+    sensors, config = read_vertical_log(vertical_frame)
+    assert config == 3 and sensors.wheel_accel is not None
+
+
+def test_vertical_log_in_mm_is_refused_unless_declared(vertical_frame):
+    dz = [f"dz21_{c}" for c in ("FL", "FR", "RL", "RR")]
+    g = vertical_frame.copy()
+    g[dz] = 1000 * g[dz]
+    with pytest.raises(UnitsError, match=r"dz21_\*.*in mm"):
+        read_vertical_log(g)
+    sensors, _ = read_vertical_log(g, units=dict.fromkeys(dz, "mm"))
+    np.testing.assert_allclose(sensors.displacement, vertical_frame[dz].to_numpy(), rtol=1e-12)
+
+
+def test_vertical_log_at_100_hz_is_refused(vertical_frame):
+    with pytest.raises(InputError, match=r"sample rate 100 Hz is below the 500 Hz"):
+        read_vertical_log(vertical_frame.iloc[::10].reset_index(drop=True))
