@@ -113,3 +113,20 @@ def test_a_last_row_of_missing_values_is_kept_but_trailing_blank_lines_are_not(t
 def test_parquet_still_written(tmp_path):
     df = pd.DataFrame({"a": [0.1, 0.2], "b": ["x", "y"]})
     pd.testing.assert_frame_equal(read_table(write_table(df, tmp_path / "t.parquet")), df)
+
+
+def test_a_reconstruct_output_is_read_as_its_one_profile_track(tmp_path):
+    """`road reconstruct` writes distance_m, elevation_m, std_m, raw_m, raw_std_m: one track with its std."""
+    import numpy as np
+    import pandas as pd
+
+    from longprofile.io import read_profile
+
+    x = np.arange(0.0, 10.0, 0.05)
+    path = tmp_path / "profile.csv"
+    pd.DataFrame(dict(distance_m=x, elevation_m=np.sin(x), std_m=np.full(x.size, 1e-3), raw_m=x * 1e-3,
+                      raw_std_m=np.nan)).to_csv(path, index=False)
+    prof = read_profile(path)
+    assert prof.tracks == ("elevation",)
+    np.testing.assert_array_equal(prof.std[:, 0], 1e-3)
+    assert read_profile(path, tracks="raw").tracks == ("raw",)

@@ -61,7 +61,9 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     -------
     Profile
         Stations and elevations converted to metres. Columns ``<track>_std_<u>`` become ``Profile.std``
-        (NaN for tracks without one).
+        (NaN for tracks without one). A ``road reconstruct`` output (columns exactly ``distance_m, elevation_m,
+        std_m, raw_m, raw_std_m``) is read as its one profile track ``elevation`` with ``std_m`` as its std,
+        unless ``tracks`` names others.
 
     Raises
     ------
@@ -116,6 +118,12 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
             std_columns[base[:-4]] = (c, unit)
         else:
             columns[base] = (c, unit)
+    if [c for c in df.columns if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS):
+        # a `road reconstruct` output holds one profile: elevation_m with its std_m (raw_m is the undetrended
+        # estimate, a diagnostic, not a track)
+        std_columns["elevation"] = ("std_m", "m")
+        if tracks is None:
+            tracks = ("elevation",)
     names = list(columns) if tracks is None else ([tracks] if isinstance(tracks, str) else list(tracks))
     for t in names:
         if t not in columns:
