@@ -115,7 +115,7 @@ def test_nothing_succeeded_still_gives_a_page_of_failures(tmp_path):
 
 def test_report_folder_must_not_be_the_results_folder_or_a_file(tmp_path):
     summary = summarize_network(_results({"a": (0.0, 100.0, [1.0, 2.0])}))
-    with pytest.raises(OutputError, match="is the results folder"):
+    with pytest.raises(OutputError, match="is an input"):
         write_network_report(summary, tmp_path, inputs=(tmp_path,))
     (tmp_path / "f").write_text("")
     with pytest.raises(OutputError, match="is a file"):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
+from ._html import report_folder
 
 __all__ = ["plot_certification", "write_acceptance_report"]
 
@@ -33,22 +33,7 @@ def _figure(width=10.0, height=3.4):
 
 
 def _prepare(outdir, inputs, names):
-    out = Path(outdir)
-    for inp in inputs:
-        if inp is None:
-            continue
-        p = Path(inp).resolve()
-        if p == out.resolve():
-            raise OutputError(f"output folder {out} is an input; choose another folder.")
-        if p.parent == out.resolve() and p.name in names:
-            raise OutputError(f"the report would overwrite its input {inp}; choose another folder.")
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}.") from None
-    return out
+    return report_folder(outdir, inputs, writes=names)
 
 
 def _envelope(x, y, max_points=3000):

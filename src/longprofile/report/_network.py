@@ -7,15 +7,14 @@ needed.
 
 from __future__ import annotations
 
-import base64
 import html
 import json
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
-from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _png, _table_html
+from ._html import img_tag, report_folder, write_figures
+from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _table_html
 
 __all__ = ["write_network_report", "plot_network_routes", "plot_iri_histogram"]
 
@@ -168,17 +167,7 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     list of Path
         Files written, ``index.html`` first.
     """
-    out = Path(outdir)
-    for inp in inputs:
-        if inp is not None and Path(inp).resolve() == out.resolve():
-            raise OutputError(f"the report folder {out} is the results folder; choose another, e.g. -o "
-                              f"{Path(inp).name}_report/.")
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; choose another folder.") from None
+    out = report_folder(outdir, inputs)
     res = summary.results
     counts = summary.counts
     n_files = len(res.manifest)
@@ -209,15 +198,11 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     for stale in out.glob("routes-*.png"):  # an earlier report of a bigger network
         if stale.name not in figs:
             stale.unlink()
-    images = {}
-    for fname, f in figs.items():
-        data = _png(f)
-        (out / fname).write_bytes(data)
-        written.append(out / fname)
-        images[fname] = base64.b64encode(data).decode("ascii")
+    paths, images = write_figures(figs, out)
+    written.extend(paths)
 
     def img(fname, alt):
-        return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{images[fname]}">'
+        return img_tag(images, fname, alt)
 
     # cards
     km = summary.length / (1000.0 if su == "m" else (5280.0 if su == "ft" else 1.0))

@@ -5,15 +5,13 @@ Rendering only: every number comes from :func:`longprofile.road.analyse_roughnes
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..errors import OutputError
+from ._html import img_tag, report_folder, write_figures
 
 __all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report"]
 
@@ -141,12 +139,6 @@ def plot_iri_report(report, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     return path
-
-
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    return buf.getvalue()
 
 
 def _profile_figure(analysis, reference_profile=None, reference_label="reference"):
@@ -293,19 +285,7 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
         Files written.
     """
     out = Path(outdir)
-    for inp in inputs:
-        if inp is not None and Path(inp).resolve() == out.resolve():
-            raise OutputError(f"output folder {out} is an input; choose another folder.")
-        if inp is not None and Path(inp).resolve().parent == out.resolve() and Path(inp).name in _REPORT_FILES:
-            raise OutputError(f"the report would overwrite its input {inp} (it writes {Path(inp).name} into {out}); "
-                              "choose another folder.")
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; "
-                          "choose another folder.") from None
+    report_folder(out, inputs, writes=_REPORT_FILES)
     written: list[Path] = []
     res = analysis.iri
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
@@ -347,15 +327,11 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     figs["localized_roughness.png"] = _localized_figure(analysis.localized)
     if analysis.psd is not None:
         figs["psd.png"] = _psd_figure(analysis)
-    images = {}
-    for fname, f in figs.items():
-        data = _png(f)
-        (out / fname).write_bytes(data)
-        written.append(out / fname)
-        images[fname] = base64.b64encode(data).decode("ascii")
+    paths, images = write_figures(figs, out)
+    written.extend(paths)
 
     def img(fname, alt):
-        return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{images[fname]}">'
+        return img_tag(images, fname, alt)
 
     # summary cards
     p = analysis.profile

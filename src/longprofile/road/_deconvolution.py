@@ -15,7 +15,7 @@ from scipy import linalg, optimize, signal
 from .._validation import as_float_array, require_positive
 from ..errors import ConvergenceError, InputError, ModelError, NotDetectableError, ShapeError
 from ..statespace import (StateSpaceModel, chunked_kalman_filter, fixed_lag_smoother, kalman_filter,
-                          long_record_log_likelihood, long_record_smoother, rts_smoother, steady_state_gain)
+                          long_record_log_likelihood, long_record_smoother, rts_smoother)
 from ._apl import APLModel, _check_profile_spacing
 from ._double_filter import double_filter
 from ._profile import Profile

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import InputError, ModelError
+from ..errors import InputError
 from ._kalman import kalman_filter, kalman_filter_final_cov, rts_smoother
 from ._model import StateSpaceModel
 from ._steady import (_prepare, _require_time_invariant, _run_filter, _smoother_gain, gain_from_pred_cov,
