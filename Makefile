@@ -17,7 +17,7 @@ $(VENV)/bin/python:
 	$(PY) -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(VENV)/bin/python
-	$(PY) -m pip install --quiet -e .
+	$(PY) -m pip install --quiet -e ".[serve]"
 	touch $@
 
 $(STAMP_TEST): pyproject.toml | $(VENV)/bin/python

@@ -17,6 +17,7 @@ DEMO_STEPS = [
     ("road profile from the APL trailer (paper 000)", "longprofile.road._demo_apl"),
     ("IRI report on the APL reconstruction (ASTM E1926, ISO 8608)", "longprofile.road._demo_report"),
     ("rail settlement from inclinometers (paper 004)", "longprofile.rail._demo"),
+    ("rail monitoring service: day-by-day replay through the ingestion API (issue 15)", "longprofile.rail.service._serve"),
     ("road slope and vehicle states (paper 001)", "longprofile.vehicle._demo_slope"),
     ("vertical vehicle states (thesis 003)", "longprofile.vehicle._demo_vertical"),
 ]

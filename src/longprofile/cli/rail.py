@@ -134,3 +134,13 @@ def settle_command(
     console.print(f"{len(res.sensor_ids)} sensors, {res.days.size} days; {int(res.health.excluded.sum())} sensor(s) "
                   f"excluded; max settlement on the last day {1e3 * worst:.1f} mm; {len(res.alarms)} alarm(s) "
                   f"-> {output}")
+
+
+def _register_service() -> None:
+    """``rail serve`` and ``rail site ...``: the monitoring service (issue 15; needs the ``serve`` extra to run)."""
+    from . import _rail_serve
+
+    _rail_serve.register(rail_app)
+
+
+_register_service()

@@ -1,0 +1,250 @@
+"""``longprofile rail serve`` and ``longprofile rail site ...``: the settlement monitoring service (issue 15).
+
+Thin commands: each reads its options, makes one call to ``longprofile.rail.service`` and prints the outcome.
+"""
+
+from __future__ import annotations
+
+import getpass
+import json
+from pathlib import Path
+
+import typer
+
+from ._common import console
+
+__all__ = ["register", "site_app"]
+
+site_app = typer.Typer(help="Manage monitored sites: sensors, survey, thresholds, loggers, channels, users, audit.",
+                       no_args_is_help=True)
+
+DB_OPT = typer.Option(..., "--db", help="Database URL: sqlite:///site.db or postgresql://user@host:port/db.")
+ACTOR_OPT = typer.Option(None, "--actor", help="Name recorded in the audit trail (default: cli:<login>).")
+
+
+def _db(url):
+    from ..errors import DependencyError
+
+    try:
+        from ..rail.service._db import Database
+    except ImportError as exc:
+        raise DependencyError(f"the service needs the serve extra: pip install 'longprofile[serve]' ({exc}).") from None
+    return Database(url)
+
+
+def _actor(actor):
+    if actor:
+        return actor
+    try:
+        return f"cli:{getpass.getuser()}"
+    except Exception:  # noqa: BLE001
+        return "cli"
+
+
+def _rows(path: Path):
+    from ..io import read_table
+
+    return read_table(path).to_dict("records")
+
+
+def _print(obj):
+    typer.echo(json.dumps(obj, indent=2, default=str))
+
+
+def serve_command(
+    db: str = typer.Option(None, "--db", help="Database URL: sqlite:///site.db (default for --demo: a temporary "
+                                              "file) or postgresql://user@host:port/db."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Interface to listen on."),
+    port: int = typer.Option(8000, "--port", help="TCP port."),
+    demo: bool = typer.Option(False, "--demo", help="Seed a synthetic site, replay its readings day by day through "
+                                                    "the API and keep serving (log in as demo / demo-password)."),
+    smtp_host: str = typer.Option("127.0.0.1", "--smtp-host", help="SMTP server for e-mail channels."),
+    smtp_port: int = typer.Option(25, "--smtp-port", help="SMTP port."),
+    smtp_from: str = typer.Option("longprofile@localhost", "--smtp-from", help="Sender of notification e-mails."),
+    tick: float = typer.Option(2.0, "--tick", help="Seconds between recompute / no-data / outbox passes."),
+):
+    """Serve the monitoring service: ingestion API, dashboard, recompute worker and notification outbox."""
+    from ..errors import InputError
+
+    from ..rail.service._alarms import Notifier
+
+    notifier = Notifier(smtp_host=smtp_host, smtp_port=smtp_port, smtp_from=smtp_from)
+    if not demo:
+        if db is None:
+            raise InputError("--db is required (e.g. --db sqlite:///site.db), unless --demo.")
+        from ..rail.service._serve import serve
+
+        console.print(f"serving {db} on http://{host}:{port}/ (Ctrl-C stops)")
+        serve(db, host=host, port=port, notifier=notifier, tick_s=tick)
+        return
+    import tempfile
+    import time
+
+    from ..rail.service._serve import DEMO_PASSWORD, DEMO_USER, ServerThread, replay_demo, seed_demo_site
+
+    if db is None:
+        db = f"sqlite:///{tempfile.mkdtemp(prefix='longprofile-demo-')}/site.db"
+    database = _db(db)
+    key, readings, _ = seed_demo_site(database)
+    with ServerThread(database, port=port, tick_s=min(tick, 0.5), notifier=notifier) as srv:
+        console.print(f"demo service on {srv.url}/ ({db}); log in as {DEMO_USER} / {DEMO_PASSWORD}")
+        replay_demo(database, srv.url, key, readings, echo=console.print)
+        console.print(f"replay finished; the service keeps running on {srv.url}/ (Ctrl-C stops)")
+        try:
+            while True:
+                time.sleep(1)
+        except KeyboardInterrupt:
+            pass
+
+
+@site_app.command("create")
+def site_create(name: str = typer.Argument(..., help="Site name (letters, digits, _ . -)."), db: str = DB_OPT,
+                title: str = typer.Option("", "--title"),
+                baseline_start: str = typer.Option(None, "--baseline-start", help="Reference start (ISO date/time)."),
+                baseline_end: str = typer.Option(None, "--baseline-end",
+                                                 help="End of the baseline (days before it are quiet days)."),
+                no_data_hours: float = typer.Option(6.0, "--no-data-hours", help="Alarm after this long without data."),
+                clock: str = typer.Option("wall", "--clock", help="wall, or data (staleness vs the newest reading)."),
+                actor: str = ACTOR_OPT):
+    """Create a site."""
+    from ..rail.service import _core
+
+    _print(_core.create_site(_db(db), _actor(actor), name, title=title, baseline_start=baseline_start,
+                             baseline_end=baseline_end, no_data_hours=no_data_hours, clock=clock))
+
+
+@site_app.command("update")
+def site_update(name: str = typer.Argument(...), db: str = DB_OPT,
+                set_: list[str] = typer.Option([], "--set", help="FIELD=VALUE (title, baseline_start, baseline_end, "
+                                                                 "no_data_hours, clock; settings=JSON)."),
+                actor: str = ACTOR_OPT):
+    """Change site fields (recorded in the audit trail, old -> new)."""
+    from ..errors import InputError
+    from ..rail.service import _core
+
+    fields = {}
+    for item in set_:
+        k, sep, v = item.partition("=")
+        if not sep:
+            raise InputError(f"--set {item!r}: expected FIELD=VALUE.")
+        fields[k] = json.loads(v) if k == "settings" else (None if v == "" else v)
+    _print(_core.update_site(_db(db), _actor(actor), name, **fields))
+
+
+@site_app.command("list")
+def site_list(db: str = DB_OPT):
+    """List the sites."""
+    from ..rail.service import _core
+
+    for n in _core.list_sites(_db(db)):
+        typer.echo(n)
+
+
+@site_app.command("show")
+def site_show(name: str = typer.Argument(...), db: str = DB_OPT):
+    """Print a site: fields, sensors, survey, thresholds, loggers, channels."""
+    from ..rail.service import _core
+
+    _print(_core.get_site(_db(db), name))
+
+
+@site_app.command("sensors")
+def site_sensors(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="sensors table "
+                                                                                               "(sensor_id, x_m [, z_m])."),
+                 db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Add or update the sensors of a site from a table."""
+    from ..rail.service import _core
+
+    _print(_core.put_sensors(_db(db), _actor(actor), name, _rows(file)))
+
+
+@site_app.command("survey")
+def site_survey(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="survey table (x_m, z_m)."),
+                db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Replace the initial survey of a site."""
+    from ..rail.service import _core
+
+    _print(_core.put_survey(_db(db), _actor(actor), name, _rows(file)))
+
+
+@site_app.command("threshold")
+def site_threshold(name: str = typer.Argument(...),
+                   quantity: str = typer.Argument(..., help="settlement, rate or twist."),
+                   level: str = typer.Argument(..., help="alert, action or alarm."),
+                   value_mm: float = typer.Argument(None, help="|value| in mm (rate: mm/day); omit to remove."),
+                   db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Set one of the three levels of a quantity's threshold."""
+    from ..rail.service import _core
+
+    _print(_core.set_threshold(_db(db), _actor(actor), name, quantity, level,
+                               None if value_mm is None else value_mm * 1e-3))
+
+
+@site_app.command("logger")
+def site_logger(name: str = typer.Argument(...), logger: str = typer.Argument(..., help="Logger name."),
+                db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Create a logger and print its API key (shown once)."""
+    from ..rail.service import _core
+
+    typer.echo(_core.add_logger(_db(db), _actor(actor), name, logger))
+
+
+@site_app.command("channel")
+def site_channel(name: str = typer.Argument(...), kind: str = typer.Argument(..., help="webhook or smtp."),
+                 target: str = typer.Argument(..., help="URL or e-mail address."), db: str = DB_OPT,
+                 actor: str = ACTOR_OPT):
+    """Send the site's alarm notifications to a webhook or an e-mail address."""
+    from ..rail.service import _core
+
+    _print(_core.add_channel(_db(db), _actor(actor), name, kind, target))
+
+
+@site_app.command("user")
+def site_user(username: str = typer.Argument(...), role: str = typer.Option("viewer", "--role",
+                                                                          help="viewer, engineer or admin."),
+              db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Create a person or change their role (password asked on the terminal, or read from stdin)."""
+    from ..rail.service import _core
+
+    pw = typer.prompt("password", hide_input=True, confirmation_prompt=False)
+    _print(_core.add_user(_db(db), _actor(actor), username, pw, role))
+
+
+@site_app.command("audit")
+def site_audit(name: str = typer.Argument(...), db: str = DB_OPT, limit: int = typer.Option(100, "--limit")):
+    """Print the audit trail of a site (newest first)."""
+    from ..rail.service import _core
+
+    _print(_core.audit_trail(_db(db), name, limit))
+
+
+@site_app.command("ingest")
+def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="readings table."),
+                db: str = DB_OPT, angle_unit: str = typer.Option("deg", "--angle-unit")):
+    """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
+    from ..io import read_table
+    from ..rail.service import _core
+
+    t = read_table(file)
+    if "timestamp" in t.columns:
+        t["timestamp"] = t["timestamp"].astype(str)
+    res = _core.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit)
+    _print({k: v for k, v in res.as_dict().items() if k != "rows"})
+    for r in res.rows:
+        if r["outcome"] == "rejected":
+            console.print(f"[yellow]row {r['row']} rejected:[/yellow] {r['reason']}", highlight=False)
+
+
+@site_app.command("recompute")
+def site_recompute(name: str = typer.Argument(...), db: str = DB_OPT,
+                   force: bool = typer.Option(False, "--force", help="Even if nothing changed.")):
+    """Recompute the settlement of a site now (the server's worker does this when data arrive)."""
+    from ..rail.service._recompute import recompute
+
+    _print(recompute(_db(db), name, force=force))
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``serve`` and the ``site`` group to the ``rail`` command group."""
+    app.command("serve")(serve_command)
+    app.add_typer(site_app, name="site")

@@ -1,0 +1,261 @@
+"""Alarm lifecycle (raise -> acknowledge -> clear, on transitions only) and the notification outbox.
+
+Levels are decided by :func:`longprofile.rail.settlement_alarms` — the function ``rail settle`` uses — on the
+latest day of a run: a level holds when the exceedance probability of its threshold is >= the site's
+``alarm_probability`` (default 0.5) at some station (settlement, rate) or between two neighbouring sensors
+(twist: the difference of their altitude changes).
+
+Notifications are rows of the ``outbox`` table written in the SAME transaction as the alarm change, so a
+crash cannot lose one; the deliverer marks a row sent after the receiver accepted it, and every delivery
+carries the row's idempotency key (HTTP header ``Idempotency-Key``, e-mail ``Message-ID``) so that the one
+repeat a crash between "sent" and "marked" can cause is recognisable by the receiver.
+"""
+
+from __future__ import annotations
+
+import json
+import smtplib
+import urllib.request
+from dataclasses import dataclass
+from email.message import EmailMessage
+
+import numpy as np
+import pandas as pd
+from sqlalchemy import func, select, update
+
+from .._temporal import settlement_alarms
+from ._db import LEVELS, Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
+
+__all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
+           "list_alarms"]
+
+
+def quantity_levels(res, thresholds: dict, *, probability: float = 0.5) -> dict:
+    """{quantity: (level or None, value, threshold, where)} on the last day of a SettlementResult."""
+    sm = res.smoothed
+    mean = (sm.mean if sm is not None else res.dz)[-1:]
+    std = (sm.std if sm is not None else res.dz_std)[-1:]
+    day = res.days[-1:]
+    ids, x = list(res.sensor_ids), np.asarray(res.x)
+    series = {"settlement": dict(ids=ids, x=x, mean=mean, std=std)}
+    pair_ids = [f"{a}|{b}" for a, b in zip(ids[:-1], ids[1:])]
+    # twist-like: difference of neighbouring changes; std as for independent errors (neighbours' errors are
+    # positively correlated, so this overstates the std: conservative on the mean, optimistic on the band)
+    series["twist"] = dict(ids=pair_ids, x=0.5 * (x[1:] + x[:-1]), mean=np.diff(mean, axis=1),
+                           std=np.sqrt(std[:, 1:] ** 2 + std[:, :-1] ** 2))
+    out = {}
+    for q in ("settlement", "rate", "twist"):
+        levels = thresholds.get(q, {})
+        found = (None, None, None, None)
+        for lv in LEVELS:
+            thr = levels.get(lv)
+            if thr is None:
+                continue
+            if q == "rate":
+                if sm is None:
+                    continue
+                a = settlement_alarms(day, ids, x, mean, std, rate=sm.rate[-1:], rate_std=sm.rate_std[-1:],
+                                      rate_threshold_m_per_day=thr, min_probability=probability)
+            else:
+                d = series[q]
+                a = settlement_alarms(day, d["ids"], d["x"], d["mean"], d["std"], threshold_m=thr,
+                                      min_probability=probability)
+            if len(a):
+                j = int(np.argmax(np.abs(a["value"].to_numpy())))
+                found = (lv, float(a["value"].iloc[j]), float(thr), str(a["sensor_id"].iloc[j]))
+        out[q] = found
+    return out
+
+
+def _payload(site: Site, alarm: Alarm, event: str) -> dict:
+    return {"site": site.name, "event": event, "alarm_id": alarm.id, "quantity": alarm.quantity,
+            "subject": alarm.subject, "level": alarm.level, "value": alarm.value, "threshold": alarm.threshold,
+            "day": alarm.day, "message": alarm.message, "state": alarm.state}
+
+
+def _enqueue(s, site: Site, alarm: Alarm, event: str):
+    for ch in s.scalars(select(Channel).where(Channel.site_id == site.id).order_by(Channel.id)):
+        key = f"lp-{site.id}-{alarm.id}-{event}-{ch.id}"
+        s.add(Outbox(key=key, alarm_id=alarm.id, event=event, kind=ch.kind, target=ch.target,
+                     payload_json=json.dumps(_payload(site, alarm, event)), created_ts=now_ts(), attempts=0,
+                     next_try_ts=0))
+
+
+def transition(s, site: Site, quantity: str, subject: str, level: str | None, *, value=None, threshold=None,
+               day=None, message="", run_id=None) -> str:
+    """Move the open alarm of (site, quantity, subject) to ``level`` (None = clear).
+
+    Returns what happened: "none" (same level: de-duplicated), "raised", "changed" (cleared + raised) or
+    "cleared". Notifications go to the outbox in the caller's transaction.
+    """
+    key = f"{site.id}:{quantity}:{subject}"
+    cur = s.scalar(select(Alarm).where(Alarm.open_key == key))
+    if cur is not None and cur.level == level:
+        cur.value, cur.day = value, day  # the latest value, no new alarm
+        return "none"
+    if cur is None and level is None:
+        return "none"
+    what = "raised"
+    if cur is not None:
+        cur.state, cur.open_key, cur.cleared_ts = "cleared", None, now_ts()
+        cur.cleared_reason = "back within thresholds" if level is None else f"level changed to {level}"
+        s.flush()
+        _enqueue(s, site, cur, "cleared")
+        what = "cleared" if level is None else "changed"
+    if level is not None:
+        a = Alarm(site_id=site.id, quantity=quantity, subject=subject, level=level, state="raised", open_key=key,
+                  value=value, threshold=threshold, day=day, message=message, raised_ts=now_ts(), raised_run_id=run_id)
+        s.add(a)
+        s.flush()
+        _enqueue(s, site, a, "raised")
+    return what
+
+
+def thresholds_of(s, site: Site) -> dict:
+    out: dict = {}
+    for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id)):
+        out.setdefault(t.quantity, {})[t.level] = t.value
+    return out
+
+
+def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list[str]:
+    """Alarm transitions after a run: the three quantities and the sensor-health alarms."""
+    events = []
+    day = pd.Timestamp(res.days[-1]).strftime("%Y-%m-%d")
+    unit = {"settlement": "mm", "rate": "mm/day", "twist": "mm"}
+    for q, (lv, val, thr, where) in quantity_levels(res, thresholds_of(s, site), probability=probability).items():
+        msg = "" if lv is None else (f"{q} {1e3 * val:+.1f} {unit[q]} at {where} on {day} "
+                                     f"(|{q}| > {1e3 * thr:.1f} {unit[q]}, {lv} level)")
+        w = transition(s, site, q, "site", lv, value=val, threshold=thr, day=day, message=msg, run_id=run_id)
+        if w != "none":
+            events.append(f"{q}:{w}")
+    for sid, st, detail in zip(res.health.sensor_ids, res.health.status, res.health.detail):
+        lv = None if st == "ok" else "action"
+        w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id,
+                       message="" if lv is None else f"sensor {sid} {st}: {detail}")
+        if w != "none":
+            events.append(f"health:{sid}:{w}")
+    return events
+
+
+def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
+    """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data")."""
+    last = dict(s.execute(select(Sensor.sensor_id, func.max(Reading.ts)).join(Reading, Reading.sensor_pk == Sensor.id,
+                                                                             isouter=True)
+                          .where(Sensor.site_id == site.id, Sensor.active.is_(True)).group_by(Sensor.sensor_id)).all())
+    if not last:
+        return []
+    seen = [t for t in last.values() if t is not None]
+    if site.clock == "data":
+        if not seen:
+            return []
+        ref = max(seen)
+    else:
+        ref = now_ts() if now is None else int(now)
+    limit = site.no_data_hours * 3600.0
+    events = []
+    for sid, t in sorted(last.items()):
+        stale = t is None or ref - t > limit
+        lv = "alert" if stale else None
+        msg = "" if not stale else (f"no data from sensor {sid} for {site.no_data_hours:g} h" if t is None else
+                                    f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
+                                    f"(limit {site.no_data_hours:g} h)")
+        w = transition(s, site, "no_data", sid, lv, value=None if t is None else (ref - t) / 3600.0,
+                       threshold=site.no_data_hours, message=msg)
+        if w != "none":
+            events.append(f"no_data:{sid}:{w}")
+    return events
+
+
+def acknowledge(db: Database, alarm_id: int, user: str, comment: str = "", *, site: str | None = None) -> dict:
+    """Record who acknowledged an open alarm, when, and why (an alarm is acknowledged once)."""
+    from ._core import NotFound, _audit
+    from ...errors import InputError
+
+    with db.write() as s:
+        a = s.get(Alarm, int(alarm_id))
+        st = None if a is None else s.get(Site, a.site_id)
+        if a is None or (site is not None and st.name != site):
+            raise NotFound(f"unknown alarm {alarm_id!r}.")
+        if a.state != "raised":
+            raise InputError(f"alarm {alarm_id} is {a.state}; only a raised alarm can be acknowledged.")
+        a.state, a.ack_by, a.ack_ts, a.ack_comment = ("acknowledged", user, now_ts(),
+                                                      str(comment).replace("\x00", "")[:2000])
+        _audit(s, user, a.site_id, "alarm", str(a.id), "acknowledge", {"state": "raised"},
+               {"state": "acknowledged", "comment": a.ack_comment})
+        return alarm_dict(a)
+
+
+def alarm_dict(a: Alarm) -> dict:
+    return {"id": a.id, "quantity": a.quantity, "subject": a.subject, "level": a.level, "state": a.state,
+            "value": a.value, "threshold": a.threshold, "day": a.day, "message": a.message, "raised_ts": a.raised_ts,
+            "ack_by": a.ack_by, "ack_ts": a.ack_ts, "ack_comment": a.ack_comment, "cleared_ts": a.cleared_ts,
+            "cleared_reason": a.cleared_reason}
+
+
+def list_alarms(db: Database, site: str, *, open_only: bool = False, limit: int = 500) -> list[dict]:
+    from ._core import _site
+
+    with db.read() as s:
+        st = _site(s, site)
+        q = select(Alarm).where(Alarm.site_id == st.id)
+        if open_only:
+            q = q.where(Alarm.state != "cleared")
+        return [alarm_dict(a) for a in s.scalars(q.order_by(Alarm.id.desc()).limit(limit))]
+
+
+@dataclass
+class Notifier:
+    """How notifications leave: SMTP server for "smtp" channels, timeouts."""
+
+    smtp_host: str = "127.0.0.1"
+    smtp_port: int = 25
+    smtp_from: str = "longprofile@localhost"
+    timeout_s: float = 10.0
+
+    def send(self, row: Outbox):
+        payload = json.loads(row.payload_json)
+        if row.kind == "webhook":
+            req = urllib.request.Request(row.target, data=json.dumps(payload).encode(), method="POST",
+                                         headers={"Content-Type": "application/json", "Idempotency-Key": row.key})
+            with urllib.request.urlopen(req, timeout=self.timeout_s) as r:  # noqa: S310 (configured by an admin)
+                if not 200 <= r.status < 300:
+                    raise OSError(f"webhook answered {r.status}")
+        elif row.kind == "smtp":
+            msg = EmailMessage()
+            msg["From"], msg["To"] = self.smtp_from, row.target
+            msg["Subject"] = (f"[{payload['site']}] {payload['level']} {payload['quantity']} {payload['event']}"
+                              f" ({payload['subject']})")
+            msg["Message-ID"] = f"<{row.key}@longprofile>"
+            msg.set_content(json.dumps(payload, indent=2))
+            with smtplib.SMTP(self.smtp_host, self.smtp_port, timeout=self.timeout_s) as smtp:
+                smtp.send_message(msg)
+        else:
+            raise OSError(f"unknown channel kind {row.kind!r}")
+
+
+def deliver_outbox(db: Database, notifier: Notifier, *, limit: int = 100, now: int | None = None,
+                   _after_send=None) -> dict:
+    """Send pending notifications in order; a failure is retried later with back-off (nothing is dropped)."""
+    now = now_ts() if now is None else int(now)
+    with db.read() as s:
+        pending = list(s.scalars(select(Outbox).where(Outbox.sent_ts.is_(None), Outbox.next_try_ts <= now)
+                                 .order_by(Outbox.id).limit(limit)))
+    sent = failed = 0
+    for row in pending:
+        try:
+            notifier.send(row)
+        except Exception as exc:  # noqa: BLE001 - any delivery failure is recorded and retried
+            with db.write() as s:
+                att = row.attempts + 1
+                s.execute(update(Outbox).where(Outbox.id == row.id).values(
+                    attempts=att, last_error=f"{type(exc).__name__}: {exc}"[:500],
+                    next_try_ts=now_ts() + min(5 * 2 ** att, 3600)))
+            failed += 1
+            continue
+        if _after_send is not None:
+            _after_send(row)  # tests: simulate a crash between sending and marking
+        with db.write() as s:
+            s.execute(update(Outbox).where(Outbox.id == row.id).values(sent_ts=now_ts(), attempts=row.attempts + 1))
+        sent += 1
+    return {"sent": sent, "failed": failed}

@@ -1,0 +1,590 @@
+"""Service operations shared by the HTTP API and the ``longprofile rail site`` CLI: sites, sensors, survey,
+thresholds, loggers, channels and users, every change written to the audit trail (who, when, old -> new),
+and the ingestion of reading batches (idempotent on (sensor, timestamp), revisions kept, per-row outcomes).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import hmac
+import io
+import json
+import math
+import re
+import secrets
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+
+import numpy as np
+import pandas as pd
+from sqlalchemy import func, select, tuple_, update
+from sqlalchemy.exc import IntegrityError
+
+from ...errors import InputError, InputFormatError
+from .._data import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, _robust_noise
+from ._db import (LEVELS, QUANTITIES, ROLES, Audit, Batch, Channel, Database, Logger, Reading, ReadingRevision,
+                  Sensor, Site, SurveyPoint, Threshold, User, now_ts)
+
+__all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "set_threshold",
+           "add_logger", "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
+           "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
+
+NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+SENSOR_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:-]{0,63}$")
+#: A reading later than the server clock by more than this is refused (clock-skewed logger).
+MAX_FUTURE_SKEW_S = 300
+MAX_BATCH_ROWS = 50_000
+
+
+class NotFound(InputError):
+    """An unknown site, sensor, alarm or user."""
+
+
+class Forbidden(InputError):
+    """The caller may not do this (wrong API key for the site, role too low)."""
+
+
+def check_name(name: str, what: str = "site name") -> str:
+    if not isinstance(name, str) or not NAME_RE.match(name):
+        raise InputError(f"{what} {name!r}: use 1-64 letters, digits, '_', '.', '-' (starting with a letter or digit).")
+    return name
+
+
+def _audit(s, actor, site_id, entity, key, action, old, new):
+    s.add(Audit(ts=now_ts(), actor=actor, site_id=site_id, entity=entity, key=str(key), action=action,
+                old_json=None if old is None else json.dumps(old, sort_keys=True),
+                new_json=None if new is None else json.dumps(new, sort_keys=True)))
+
+
+def _site(s, name: str, *, lock: bool = False) -> Site:
+    q = select(Site).where(Site.name == name)
+    site = s.scalar(q.with_for_update() if lock else q) if isinstance(name, str) else None
+    if site is None:
+        raise NotFound(f"unknown site {name!r}.")
+    return site
+
+
+def _ts(value, what: str) -> int | None:
+    if value is None or value == "":
+        return None
+    try:
+        t = pd.Timestamp(value)
+    except (ValueError, TypeError):
+        raise InputError(f"{what}: {value!r} is not an ISO 8601 date/time.") from None
+    if t.tzinfo is not None:
+        t = t.tz_convert("UTC").tz_localize(None)
+    return int(t.value // 10**9)
+
+
+SITE_FIELDS = ("title", "baseline_start", "baseline_end", "no_data_hours", "clock", "settings")
+
+
+def _site_dict(site: Site) -> dict:
+    iso = (lambda t: None if t is None else datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"))
+    return {"name": site.name, "title": site.title, "baseline_start": iso(site.baseline_start_ts),
+            "baseline_end": iso(site.baseline_end_ts), "no_data_hours": site.no_data_hours, "clock": site.clock,
+            "settings": site.settings}
+
+
+def _apply_site_fields(site: Site, fields: dict):
+    unknown = sorted(set(fields) - set(SITE_FIELDS))
+    if unknown:
+        raise InputError(f"unknown site field(s) {unknown}; known: {list(SITE_FIELDS)}.")
+    if "title" in fields:
+        site.title = str(fields["title"] or "").replace("\x00", "")[:200]
+    if "baseline_start" in fields:
+        site.baseline_start_ts = _ts(fields["baseline_start"], "baseline_start")
+    if "baseline_end" in fields:
+        site.baseline_end_ts = _ts(fields["baseline_end"], "baseline_end")
+    if site.baseline_start_ts is not None and site.baseline_end_ts is not None \
+            and site.baseline_end_ts <= site.baseline_start_ts:
+        raise InputError("baseline_end must be after baseline_start.")
+    if "no_data_hours" in fields:
+        v = float(fields["no_data_hours"])
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"no_data_hours must be > 0; got {fields['no_data_hours']!r}.")
+        site.no_data_hours = v
+    if "clock" in fields:
+        if fields["clock"] not in ("wall", "data"):
+            raise InputError(f"clock must be 'wall' or 'data'; got {fields['clock']!r}.")
+        site.clock = fields["clock"]
+    if "settings" in fields:
+        st = fields["settings"] or {}
+        if not isinstance(st, dict):
+            raise InputError("settings must be an object.")
+        from ._recompute import check_settings
+
+        site.settings_json = json.dumps(check_settings(st), sort_keys=True)
+
+
+def create_site(db: Database, actor: str, name: str, **fields) -> dict:
+    """Create a site (``fields``: title, baseline_start, baseline_end, no_data_hours, clock, settings)."""
+    check_name(name)
+    with db.write() as s:
+        if s.scalar(select(Site).where(Site.name == name)) is not None:
+            raise InputError(f"site {name!r} already exists.")
+        site = Site(name=name, title="", no_data_hours=6.0, clock="wall", settings_json="{}", data_version=0,
+                    created_ts=now_ts())
+        _apply_site_fields(site, fields)
+        s.add(site)
+        s.flush()
+        new = _site_dict(site)
+        _audit(s, actor, site.id, "site", name, "create", None, new)
+    return new
+
+
+def update_site(db: Database, actor: str, name: str, **fields) -> dict:
+    with db.write() as s:
+        site = _site(s, name)
+        old = _site_dict(site)
+        _apply_site_fields(site, fields)
+        new = _site_dict(site)
+        if new != old:
+            site.dirty_from_ts = site.baseline_start_ts or 0  # settings change: recompute everything
+            site.data_version = (site.data_version or 0) + 1
+            _audit(s, actor, site.id, "site", name, "update", old, new)
+    return new
+
+
+def get_site(db: Database, name: str) -> dict:
+    with db.read() as s:
+        site = _site(s, name)
+        out = _site_dict(site)
+        out["sensors"] = [{"sensor_id": x.sensor_id, "x_m": x.x_m, "z_m": x.z_m, "active": x.active}
+                          for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id).order_by(Sensor.x_m))]
+        out["survey"] = [{"x_m": p.x_m, "z_m": p.z_m} for p in
+                         s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id).order_by(SurveyPoint.x_m))]
+        out["thresholds"] = {f"{t.quantity}.{t.level}": t.value for t in
+                             s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
+        out["loggers"] = [lg.name for lg in s.scalars(select(Logger).where(Logger.site_id == site.id))]
+        out["channels"] = [{"kind": c.kind, "target": c.target} for c in
+                           s.scalars(select(Channel).where(Channel.site_id == site.id))]
+    return out
+
+
+def list_sites(db: Database) -> list[str]:
+    with db.read() as s:
+        return list(s.scalars(select(Site.name).order_by(Site.name)))
+
+
+def _finite(v, what):
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number; got {v!r}.") from None
+    if not math.isfinite(f):
+        raise InputError(f"{what} must be finite; got {v!r}.")
+    return f
+
+
+def put_sensors(db: Database, actor: str, name: str, rows) -> dict:
+    """Add or update sensors (``sensor_id``, ``x_m``, optional ``z_m``, ``active``); returns counts."""
+    rows = list(rows)
+    if not rows:
+        raise InputError("no sensors given.")
+    clean = {}
+    for i, r in enumerate(rows):
+        if not isinstance(r, dict) or "sensor_id" not in r or "x_m" not in r:
+            raise InputError(f"sensor row {i}: needs sensor_id and x_m.")
+        sid = str(r["sensor_id"]).strip()
+        if not SENSOR_RE.match(sid):
+            raise InputError(f"sensor row {i}: sensor id {sid!r} must be 1-64 letters, digits, '_', '.', ':', '-'.")
+        z = r.get("z_m")
+        clean[sid] = {"x_m": _finite(r["x_m"], f"sensor row {i}: x_m"),
+                      "z_m": None if z in (None, "") else _finite(z, f"sensor row {i}: z_m"),
+                      "active": bool(r.get("active", True)) if not isinstance(r.get("active"), str)
+                      else r["active"].strip().lower() not in ("0", "false", "no")}
+    added = changed = 0
+    with db.write() as s:
+        site = _site(s, name)
+        have = {x.sensor_id: x for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id))}
+        for sid, v in clean.items():
+            cur = have.get(sid)
+            if cur is None:
+                s.add(Sensor(site_id=site.id, sensor_id=sid, **v))
+                _audit(s, actor, site.id, "sensor", sid, "create", None, v)
+                added += 1
+            else:
+                old = {"x_m": cur.x_m, "z_m": cur.z_m, "active": cur.active}
+                if old != v:
+                    cur.x_m, cur.z_m, cur.active = v["x_m"], v["z_m"], v["active"]
+                    _audit(s, actor, site.id, "sensor", sid, "update", old, v)
+                    changed += 1
+        s.flush()
+        xs = sorted(x.x_m for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id)))
+        if len(set(xs)) != len(xs):
+            raise InputError("two sensors of the site are at the same station x_m; each sensor needs its own.")
+        if added or changed:
+            site.dirty_from_ts = site.baseline_start_ts or 0
+            site.data_version = (site.data_version or 0) + 1
+    return {"added": added, "changed": changed}
+
+
+def put_survey(db: Database, actor: str, name: str, rows) -> dict:
+    """Replace the initial survey (``x_m``, ``z_m`` rows)."""
+    pts = []
+    for i, r in enumerate(rows):
+        if not isinstance(r, dict):
+            raise InputError(f"survey row {i}: needs x_m and z_m.")
+        pts.append((_finite(r.get("x_m"), f"survey row {i}: x_m"), _finite(r.get("z_m"), f"survey row {i}: z_m")))
+    if len(pts) < 2:
+        raise InputError("a survey needs at least 2 points.")
+    if len({p[0] for p in pts}) != len(pts):
+        raise InputError("survey: two altitudes at the same x_m.")
+    with db.write() as s:
+        site = _site(s, name)
+        old = [(p.x_m, p.z_m) for p in s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id)
+                                                 .order_by(SurveyPoint.x_m))]
+        new = sorted(pts)
+        if old != new:
+            for p in s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id)):
+                s.delete(p)
+            s.flush()
+            s.add_all([SurveyPoint(site_id=site.id, x_m=x, z_m=z) for x, z in new])
+            _audit(s, actor, site.id, "survey", name, "replace", old or None, new)
+            site.dirty_from_ts = site.baseline_start_ts or 0
+            site.data_version = (site.data_version or 0) + 1
+    return {"points": len(pts)}
+
+
+def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str, value) -> dict:
+    """Set (value > 0) or remove (value None) one of the three levels of a quantity (m, m/day for rate)."""
+    if quantity not in QUANTITIES:
+        raise InputError(f"quantity must be one of {list(QUANTITIES)}; got {quantity!r}.")
+    if level not in LEVELS:
+        raise InputError(f"level must be one of {list(LEVELS)}; got {level!r}.")
+    v = None if value is None else _finite(value, "threshold value")
+    if v is not None and v <= 0:
+        raise InputError(f"a threshold is on |value| and must be > 0; got {v}.")
+    with db.write() as s:
+        site = _site(s, name)
+        cur = s.scalar(select(Threshold).where(Threshold.site_id == site.id, Threshold.quantity == quantity,
+                                               Threshold.level == level))
+        old = None if cur is None else cur.value
+        if old == v:
+            return {"quantity": quantity, "level": level, "value": v}
+        if cur is None:
+            s.add(Threshold(site_id=site.id, quantity=quantity, level=level, value=v))
+        elif v is None:
+            s.delete(cur)
+        else:
+            cur.value = v
+        s.flush()
+        levels = {t.level: t.value for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id,
+                                                                                 Threshold.quantity == quantity))}
+        vals = [levels[lv] for lv in LEVELS if lv in levels]
+        if vals != sorted(vals):
+            raise InputError(f"{quantity} thresholds must grow alert <= action <= alarm; they would be {levels}.")
+        _audit(s, actor, site.id, "threshold", f"{quantity}.{level}", "set", old, v)
+        site.data_version = (site.data_version or 0) + 1
+        if site.dirty_from_ts is None:
+            site.dirty_from_ts = site.baseline_start_ts or 0
+    return {"quantity": quantity, "level": level, "value": v}
+
+
+def _key_hash(secret: str) -> str:
+    # API keys are 32 random bytes: a plain SHA-256 is enough (no dictionary to attack), and fast per request
+    return hashlib.sha256(secret.encode()).hexdigest()
+
+
+def add_logger(db: Database, actor: str, name: str, logger: str) -> str:
+    """Create a logger of a site and return its API key (shown once; only a hash is stored)."""
+    check_name(logger, "logger name")
+    key_id = secrets.token_hex(8)
+    secret = secrets.token_urlsafe(32)
+    with db.write() as s:
+        site = _site(s, name)
+        if s.scalar(select(Logger).where(Logger.site_id == site.id, Logger.name == logger)) is not None:
+            raise InputError(f"logger {logger!r} already exists on site {name!r}.")
+        s.add(Logger(site_id=site.id, name=logger, key_id=key_id, key_hash=_key_hash(secret), active=True))
+        _audit(s, actor, site.id, "logger", logger, "create", None, {"key_id": key_id})
+    return f"lpk_{key_id}_{secret}"
+
+
+def authenticate_logger(db: Database, key: str | None) -> tuple[int, int] | None:
+    """(logger id, site id) of an API key, or None."""
+    if not key or not isinstance(key, str) or not key.startswith("lpk_") or key.count("_") < 2:
+        return None
+    _, key_id, secret = key.split("_", 2)
+    with db.read() as s:
+        lg = s.scalar(select(Logger).where(Logger.key_id == key_id[:32]))
+        if lg is None or not lg.active or not hmac.compare_digest(lg.key_hash, _key_hash(secret)):
+            return None
+        return lg.id, lg.site_id
+
+
+def add_channel(db: Database, actor: str, name: str, kind: str, target: str) -> dict:
+    if kind not in ("webhook", "smtp"):
+        raise InputError(f"channel kind must be webhook or smtp; got {kind!r}.")
+    target = str(target).strip()
+    if kind == "webhook" and not re.match(r"^https?://[^\s]+$", target):
+        raise InputError(f"webhook target must be an http(s) URL; got {target!r}.")
+    if kind == "smtp" and not re.match(r"^[^@\s,;<>]+@[^@\s,;<>]+$", target):
+        raise InputError(f"smtp target must be one e-mail address; got {target!r}.")
+    with db.write() as s:
+        site = _site(s, name)
+        if s.scalar(select(Channel).where(Channel.site_id == site.id, Channel.kind == kind,
+                                          Channel.target == target)) is None:
+            s.add(Channel(site_id=site.id, kind=kind, target=target))
+            _audit(s, actor, site.id, "channel", f"{kind}:{target}", "create", None, {"kind": kind, "target": target})
+    return {"kind": kind, "target": target}
+
+
+def add_user(db: Database, actor: str, username: str, password: str, role: str) -> dict:
+    from ._auth import hash_password
+
+    check_name(username, "user name")
+    if role not in ROLES:
+        raise InputError(f"role must be one of {list(ROLES)}; got {role!r}.")
+    if not isinstance(password, str) or len(password) < 8:
+        raise InputError("a password needs at least 8 characters.")
+    with db.write() as s:
+        cur = s.scalar(select(User).where(User.username == username))
+        if cur is None:
+            s.add(User(username=username, password_hash=hash_password(password), role=role, active=True))
+            _audit(s, actor, None, "user", username, "create", None, {"role": role})
+        else:
+            old = {"role": cur.role}
+            cur.password_hash, cur.role, cur.active = hash_password(password), role, True
+            _audit(s, actor, None, "user", username, "update", old, {"role": role, "password": "changed"})
+    return {"username": username, "role": role}
+
+
+def audit_trail(db: Database, name: str | None = None, limit: int = 500) -> list[dict]:
+    with db.read() as s:
+        q = select(Audit).order_by(Audit.id.desc()).limit(max(1, min(int(limit), 10_000)))
+        if name is not None:
+            q = q.where(Audit.site_id == _site(s, name).id)
+        return [{"ts": datetime.fromtimestamp(a.ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "actor": a.actor,
+                 "entity": a.entity, "key": a.key, "action": a.action,
+                 "old": None if a.old_json is None else json.loads(a.old_json),
+                 "new": None if a.new_json is None else json.loads(a.new_json)} for a in s.scalars(q)]
+
+
+# ----------------------------------------------------------------------------------------------- ingestion
+
+@dataclass
+class IngestResult:
+    """Outcome of one batch: counts and one entry per input row (row index, outcome, reason)."""
+
+    batch_id: int | None
+    counts: dict
+    rows: list = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"batch_id": self.batch_id, **self.counts, "rows": self.rows}
+
+
+def parse_batch(body: bytes, content_type: str | None, *, required=("timestamp", "sensor_id"),
+                expected=READING_COLUMNS) -> list[dict]:
+    """Rows of a CSV (header: the ``rail settle`` readings columns) or JSON (list or {"readings": [...]}) batch."""
+    ct = (content_type or "").split(";")[0].strip().lower()
+    if len(body) > 64 * 2**20:
+        raise InputFormatError("batch larger than 64 MiB; send smaller batches (e.g. 1 000 readings).")
+    try:
+        text = body.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputFormatError("the batch is not UTF-8 text.") from None
+    if ct in ("text/csv", "application/csv", "text/plain"):
+        reader = csv.DictReader(io.StringIO(text))
+        if reader.fieldnames is None:
+            raise InputFormatError("empty CSV batch: expected a header line "
+                                   f"{','.join(expected)} and one line per row.")
+        names = [n.strip() for n in reader.fieldnames]
+        missing = [c for c in required if c not in names]
+        if missing:
+            raise InputFormatError(f"CSV batch: missing column(s) {missing}; expected {list(expected)}.")
+        reader.fieldnames = names
+        rows = [dict(r) for r in reader]
+    elif ct in ("application/json", ""):
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputFormatError(f"the JSON batch does not parse: {exc.msg} at line {exc.lineno} "
+                                   f"column {exc.colno}.") from None
+        if isinstance(data, dict):
+            data = data.get("readings")
+        if not isinstance(data, list):
+            raise InputFormatError('JSON batch: expected a list of readings or {"readings": [...]}.')
+        rows = data
+    else:
+        raise InputFormatError(f"unsupported content type {ct!r}; send text/csv or application/json.")
+    if len(rows) > MAX_BATCH_ROWS:
+        raise InputFormatError(f"batch of {len(rows)} rows; at most {MAX_BATCH_ROWS} per batch.")
+    return rows
+
+
+def _parse_time(v) -> int:
+    if not isinstance(v, str) or not v.strip():
+        raise ValueError("timestamp is missing or not a string")
+    s = v.strip()
+    try:
+        t = datetime.fromisoformat(s[:-1] + "+00:00" if s.endswith(("Z", "z")) else s)
+    except ValueError:
+        raise ValueError(f"timestamp {v[:40]!r} is not ISO 8601 (e.g. 2019-11-18T08:10:00Z)") from None
+    if t.tzinfo is not None:
+        t = t.astimezone(timezone.utc).replace(tzinfo=None)
+    if t.microsecond:
+        raise ValueError("sub-second timestamps are not supported (one reading per sensor and second)")
+    return int((t - datetime(1970, 1, 1)).total_seconds())
+
+
+def _parse_num(v, what, lo, hi) -> float:
+    if isinstance(v, bool) or v is None or (isinstance(v, str) and not v.strip()):
+        raise ValueError(f"{what} is missing")
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} {str(v)[:40]!r} is not a number") from None
+    if not math.isfinite(f):
+        raise ValueError(f"{what} must be finite")
+    if not lo <= f <= hi:
+        raise ValueError(f"{what} {f:g} is outside the plausible range {lo:g}..{hi:g}")
+    return f
+
+
+def _same(a, b) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None and (a == b or (a != a and b != b)))
+
+
+def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle_unit: str = "deg",
+           check_units: bool = True, now: int | None = None) -> IngestResult:
+    """Store a batch of readings; returns after the commit (acknowledge only then).
+
+    Per row: ``accepted`` (new key), ``duplicate`` (same key and values: nothing written), ``revised``
+    (same key, new values: the old ones are kept in reading_revisions) or ``rejected`` (with the reason).
+    Idempotent: sending a batch twice gives ``duplicate`` for every row the second time.
+    """
+    if angle_unit not in ("deg", "rad"):
+        raise InputError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
+    now = now_ts() if now is None else int(now)
+    rows = list(rows)
+    out: list = [None] * len(rows)
+    parsed = []  # (i, sensor_id, ts, angle, temp)
+    for i, r in enumerate(rows):
+        if not isinstance(r, dict):
+            out[i] = {"row": i, "outcome": "rejected", "reason": "a reading must be an object with "
+                      f"{list(READING_COLUMNS)}"}
+            continue
+        try:
+            extra = sorted(set(r) - set(READING_COLUMNS))
+            if "angle_rad" in r or "angle" in r:
+                raise ValueError("angles must be in column angle_deg (degrees); for radians send angle_deg with "
+                                 "?angle_unit=rad")
+            if extra:
+                raise ValueError(f"unknown column(s) {extra[:3]}; expected {list(READING_COLUMNS)}")
+            sid = r.get("sensor_id")
+            sid = str(sid).strip() if sid is not None else ""
+            if not sid:
+                raise ValueError("sensor_id is missing")
+            ts = _parse_time(r.get("timestamp"))
+            if ts > now + MAX_FUTURE_SKEW_S:
+                raise ValueError(f"timestamp is {(ts - now) / 60:.0f} min in the future of the server clock "
+                                 "(logger clock skew?)")
+            lim = (-90, 90) if angle_unit == "deg" else (-math.pi / 2, math.pi / 2)
+            ang = _parse_num(r.get("angle_deg"), "angle_deg", *lim)
+            if angle_unit == "rad":
+                ang = math.degrees(ang)
+            tmp = _parse_num(r.get("temperature_c"), "temperature_c", -80, 120)
+        except ValueError as exc:
+            out[i] = {"row": i, "outcome": "rejected", "reason": str(exc)}
+            continue
+        parsed.append((i, sid, ts, ang, tmp))
+    for attempt in range(5):
+        try:
+            return _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units)
+        except IntegrityError:  # PostgreSQL: a concurrent batch inserted the same key; start again
+            if attempt == 4:
+                raise
+    raise AssertionError("unreachable")
+
+
+def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> IngestResult:
+    out = list(out)
+    with db.write() as s:
+        site = _site(s, name, lock=True)  # PostgreSQL: concurrent batches of a site update its watermark in turn
+        sensors = {x.sensor_id: (x.id, x.active) for x in s.execute(
+            select(Sensor.sensor_id, Sensor.id, Sensor.active).where(Sensor.site_id == site.id))}
+        good = []
+        for i, sid, ts, ang, tmp in parsed:
+            if sid not in sensors:
+                out[i] = {"row": i, "outcome": "rejected", "reason": f"unknown sensor {sid[:64]!r} on this site"}
+            elif not sensors[sid][1]:
+                out[i] = {"row": i, "outcome": "rejected", "reason": f"sensor {sid[:64]!r} is not active"}
+            else:
+                good.append((i, sensors[sid][0], sid, ts, ang, tmp))
+        if good and angle_unit == "deg" and check_units:
+            df = pd.DataFrame({"sensor_id": [g[2] for g in good], "ts": [g[3] for g in good],
+                               "angle_deg": [g[4] for g in good]}).sort_values(["sensor_id", "ts"])
+            noise = _robust_noise(df)  # the same check validate_site makes on files
+            if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
+                for g in good:
+                    out[g[0]] = {"row": g[0], "outcome": "rejected",
+                                 "reason": f"the batch's angle noise {noise:.2g} is implausibly small for degrees: "
+                                           "the angles look like radians (send ?angle_unit=rad)"}
+                good = []
+        # duplicates inside the batch
+        first = {}
+        uniq = []
+        for g in good:
+            k = (g[1], g[3])
+            if k in first:
+                f = first[k]
+                if f[4] == g[4] and f[5] == g[5]:
+                    out[g[0]] = {"row": g[0], "outcome": "duplicate", "reason": f"same as row {f[0]} of this batch"}
+                else:
+                    out[g[0]] = {"row": g[0], "outcome": "rejected",
+                                 "reason": f"conflicts with row {f[0]} of this batch (same sensor and timestamp)"}
+                continue
+            first[k] = g
+            uniq.append(g)
+        existing = {}
+        keys = [(g[1], g[3]) for g in uniq]
+        for c in range(0, len(keys), 400):
+            chunk = keys[c:c + 400]
+            for rid, spk, ts, a, t, rev, bid in s.execute(
+                    select(Reading.id, Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c,
+                           Reading.revision, Reading.batch_id)
+                    .where(Reading.site_id == site.id, tuple_(Reading.sensor_pk, Reading.ts).in_(chunk))):
+                existing[(spk, ts)] = (rid, a, t, rev, bid)
+        batch = Batch(site_id=site.id, logger_id=logger_id, received_ts=now_ts())
+        s.add(batch)
+        s.flush()
+        new, revs, changed_ts = [], [], []
+        for i, spk, sid, ts, ang, tmp in uniq:
+            e = existing.get((spk, ts))
+            if e is None:
+                new.append({"site_id": site.id, "sensor_pk": spk, "ts": ts, "angle_deg": ang, "temperature_c": tmp,
+                            "revision": 0, "batch_id": batch.id})
+                out[i] = {"row": i, "outcome": "accepted"}
+                changed_ts.append(ts)
+            elif _same(e[1], ang) and _same(e[2], tmp):
+                out[i] = {"row": i, "outcome": "duplicate", "reason": "already stored"}
+            else:
+                revs.append((e, ang, tmp))
+                out[i] = {"row": i, "outcome": "revised", "reason": f"revision {e[3] + 1}; previous value kept",
+                          "previous": {"angle_deg": e[1], "temperature_c": e[2]}}
+                changed_ts.append(ts)
+        if new:
+            s.execute(Reading.__table__.insert(), new)
+        for (rid, a, t, rev, bid), ang, tmp in revs:
+            s.add(ReadingRevision(reading_id=rid, revision=rev, angle_deg=a, temperature_c=t, batch_id=bid,
+                                  superseded_by_batch_id=batch.id))
+            s.execute(update(Reading).where(Reading.id == rid).values(angle_deg=ang, temperature_c=tmp,
+                                                                       revision=rev + 1, batch_id=batch.id))
+        counts = {k: sum(1 for o in out if o and o["outcome"] == k)
+                  for k in ("accepted", "duplicate", "revised", "rejected")}
+        batch.n_accepted, batch.n_duplicate = counts["accepted"], counts["duplicate"]
+        batch.n_revised, batch.n_rejected = counts["revised"], counts["rejected"]
+        if changed_ts:
+            lo = min(changed_ts)
+            site.dirty_from_ts = lo if site.dirty_from_ts is None else min(site.dirty_from_ts, lo)
+            site.data_version = (site.data_version or 0) + 1
+        bid = batch.id
+    return IngestResult(batch_id=bid, counts=counts, rows=out)
+
+
+def reading_count(db: Database, name: str) -> int:
+    with db.read() as s:
+        return int(s.scalar(select(func.count()).select_from(Reading).where(Reading.site_id == _site(s, name).id)))

@@ -1,0 +1,629 @@
+"""FastAPI application: the ingestion and management API (/api/v1) and the server-rendered dashboard."""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import re
+import secrets
+import tempfile
+import threading
+from collections import OrderedDict
+from contextlib import asynccontextmanager
+from datetime import datetime, timezone
+from pathlib import Path
+
+import pandas as pd
+from fastapi import FastAPI, Request
+from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
+from jinja2 import Environment, FileSystemLoader, select_autoescape
+from sqlalchemy import func, select
+from starlette.concurrency import run_in_threadpool
+
+from ... import __version__
+from ...errors import InputError, LongprofileError
+from . import _core as core
+from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, list_alarms
+from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
+from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site
+from ._recompute import latest_run, recompute
+
+__all__ = ["create_app", "ServiceWorker"]
+
+DAY_RE = re.compile(r"^\d{4}-\d{2}-\d{2}$")
+TEMPLATES = Path(__file__).with_name("templates")
+
+
+class HTTPError(Exception):
+    def __init__(self, status: int, detail: str):
+        self.status, self.detail = status, detail
+
+
+def _iso(ts):
+    return "" if ts is None else datetime.fromtimestamp(ts, timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+
+
+class ServiceWorker:
+    """Background loop: recompute sites with new data, "no data" alarms, deliver the outbox."""
+
+    def __init__(self, db: Database, notifier: Notifier, *, tick_s: float = 2.0):
+        self.db, self.notifier, self.tick_s = db, notifier, tick_s
+        self._stop = threading.Event()
+        self._thread = None
+        self.errors: list[str] = []
+        self.after_run = None  # callable(site name): e.g. pre-render the newest profile PNG
+
+    def tick(self):
+        with self.db.read() as s:
+            sites = list(s.execute(select(Site.name, Site.dirty_from_ts)))
+        for name, dirty in sites:
+            try:
+                if dirty is not None:
+                    out = recompute(self.db, name)
+                    if out["status"] == "ok" and self.after_run is not None:
+                        self.after_run(name)
+                else:
+                    with self.db.write() as s:
+                        evaluate_no_data(s, s.scalar(select(Site).where(Site.name == name)))
+            except Exception as exc:  # noqa: BLE001 - keep the loop alive, report on /healthz
+                self.errors = (self.errors + [f"{name}: {type(exc).__name__}: {exc}"])[-20:]
+        deliver_outbox(self.db, self.notifier)
+
+    def _run(self):
+        while not self._stop.wait(self.tick_s):
+            try:
+                self.tick()
+            except Exception as exc:  # noqa: BLE001
+                self.errors = (self.errors + [f"{type(exc).__name__}: {exc}"])[-20:]
+
+    def start(self):
+        self._thread = threading.Thread(target=self._run, name="longprofile-worker", daemon=True)
+        self._thread.start()
+
+    def stop(self):
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=30)
+
+
+def _figure(width, height):
+    """A plain Agg figure with fixed margins (constrained layout costs ~0.4 s per page view)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=100)
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=0.07, right=0.99, bottom=0.15, top=0.92)
+    return fig
+
+
+def _fig_png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def profile_png(rows: pd.DataFrame, alarms: list[dict], title: str) -> bytes:
+    """Settlement profile of one day: posterior mean, 90 % band, excluded sensors and open alarms marked."""
+    z90 = 1.6448536269514722
+    fig = _figure(10, 3.8)
+    ax = fig.add_subplot()
+    x = rows["x_m"].to_numpy(float)
+    m = rows["smoothed_dz_m"].fillna(rows["dz_m"]).to_numpy(float) * 1e3
+    sd = rows["smoothed_std_m"].fillna(rows["dz_std_m"]).to_numpy(float) * 1e3
+    ax.fill_between(x, m - z90 * sd, m + z90 * sd, color="tab:blue", alpha=0.25, label="90 % band")
+    ax.plot(x, m, color="tab:blue", lw=1.5, label="altitude change")
+    bad = rows["status"].to_numpy() != "ok"
+    if bad.any():
+        ax.plot(x[bad], m[bad], "x", color="tab:red", label="excluded sensor")
+    styles = {"alert": ("gold", ":"), "action": ("orange", "--"), "alarm": ("red", "-")}
+    drawn = set()
+    for a in alarms:
+        if a["quantity"] == "settlement" and a["threshold"] and a["level"] not in drawn:
+            c, ls = styles.get(a["level"], ("red", "-"))
+            ax.axhline(-1e3 * a["threshold"], color=c, ls=ls, lw=1, label=f"{a['level']} threshold")
+            drawn.add(a["level"])
+    ax.set_xlabel("station x (m)")
+    ax.set_ylabel("altitude change (mm)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, loc="lower left")
+    return _fig_png(fig)
+
+
+def sensor_png(rows: pd.DataFrame, title: str) -> bytes:
+    z90 = 1.6448536269514722
+    fig = _figure(10, 3.5)
+    ax = fig.add_subplot()
+    d = pd.to_datetime(rows["day"])
+    m = rows["smoothed_dz_m"].fillna(rows["dz_m"]).to_numpy(float) * 1e3
+    sd = rows["smoothed_std_m"].fillna(rows["dz_std_m"]).to_numpy(float) * 1e3
+    ax.fill_between(d, m - z90 * sd, m + z90 * sd, color="tab:blue", alpha=0.25, label="90 % band")
+    ax.plot(d, m, color="tab:blue", label="smoothed altitude change")
+    ax.plot(d, rows["dz_m"].to_numpy(float) * 1e3, ".", color="k", ms=3, label="daily posterior")
+    ax.set_ylabel("altitude change (mm)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7)
+    fig.autofmt_xdate()
+    return _fig_png(fig)
+
+
+class _LRU(OrderedDict):
+    def __init__(self, n=256):
+        super().__init__()
+        self.n = n
+        self.lock = threading.Lock()
+
+    def get_or(self, key, make):
+        with self.lock:
+            if key in self:
+                self.move_to_end(key)
+                return self[key]
+        val = make()
+        with self.lock:
+            self[key] = val
+            while len(self) > self.n:
+                self.popitem(last=False)
+        return val
+
+
+def create_app(db: Database | str, *, notifier: Notifier | None = None, background: bool = True,
+               tick_s: float = 2.0, report_dir: str | Path | None = None, secure_cookies: bool = False) -> FastAPI:
+    """The service as an ASGI app (``uvicorn`` runs it; tests use ``TestClient``)."""
+    if isinstance(db, str):
+        db = Database(db)
+    notifier = notifier or Notifier()
+    signer = SessionSigner(db)
+    worker = ServiceWorker(db, notifier, tick_s=tick_s)
+    report_root = Path(report_dir) if report_dir else Path(tempfile.mkdtemp(prefix="longprofile-reports-"))
+    env = Environment(loader=FileSystemLoader(str(TEMPLATES)), autoescape=select_autoescape(["html"]))
+    png_cache = _LRU()
+    report_lock = threading.Lock()
+
+    @asynccontextmanager
+    async def lifespan(app):
+        if background:
+            worker.start()
+        yield
+        worker.stop()
+
+    app = FastAPI(title="longprofile rail monitoring", version=__version__, lifespan=lifespan, docs_url=None,
+                  redoc_url=None, openapi_url=None)
+    app.state.db, app.state.worker, app.state.notifier = db, worker, notifier
+
+    def prerender(name):
+        """Draw the newest day's profile into the PNG cache, so the first page view after a run is fast."""
+        st, run, days = _run_days(name)
+        if days:
+            _profile_bytes(st, run, days[-1])
+
+    worker.after_run = prerender
+
+    # ------------------------------------------------------------------ errors (no internals in bodies)
+    @app.exception_handler(HTTPError)
+    async def _http_error(request, exc: HTTPError):
+        return JSONResponse({"detail": exc.detail}, status_code=exc.status,
+                            headers={"WWW-Authenticate": "Basic"} if exc.status == 401 else None)
+
+    @app.exception_handler(core.NotFound)
+    async def _nf(request, exc):
+        return JSONResponse({"detail": str(exc)}, status_code=404)
+
+    @app.exception_handler(core.Forbidden)
+    async def _fb(request, exc):
+        return JSONResponse({"detail": "forbidden"}, status_code=403)
+
+    @app.exception_handler(LongprofileError)
+    async def _lp(request, exc):
+        return JSONResponse({"detail": str(exc)}, status_code=422)
+
+    @app.exception_handler(Exception)
+    async def _any(request, exc):
+        return JSONResponse({"detail": "internal error"}, status_code=500)
+
+    # ------------------------------------------------------------------ who is calling
+    def person(request: Request, needed: str = "viewer", *, api: bool = True) -> tuple[str, str]:
+        user = signer.user(request.cookies.get(SESSION_COOKIE))
+        via_cookie = user is not None
+        auth = request.headers.get("authorization", "")
+        if user is None and api and auth.lower().startswith("basic "):
+            try:
+                name, _, pw = base64.b64decode(auth[6:]).decode().partition(":")
+            except Exception:  # noqa: BLE001
+                raise HTTPError(401, "authentication required") from None
+            cookie = signer.login(name, pw)
+            user = signer.user(cookie) if cookie else None
+        if user is None:
+            raise HTTPError(401, "authentication required")
+        if not role_at_least(user[1], needed):
+            raise HTTPError(403, "forbidden")
+        if api and via_cookie and request.method not in ("GET", "HEAD") and not signer.check_csrf(
+                request.cookies.get(SESSION_COOKIE), request.headers.get("x-csrf-token")):
+            raise HTTPError(403, "forbidden")
+        return user
+
+    def site_name(name: str) -> str:
+        if not core.NAME_RE.match(name or ""):
+            raise core.NotFound("unknown site.")
+        return name
+
+    async def json_body(request: Request):
+        try:
+            return json.loads(await request.body() or b"null")
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            raise InputError("the request body is not valid JSON.") from None
+
+    # ------------------------------------------------------------------ ingestion
+    @app.post("/api/v1/sites/{site}/readings")
+    async def post_readings(site: str, request: Request, angle_unit: str = "deg"):
+        who = await run_in_threadpool(core.authenticate_logger, db, request.headers.get("x-api-key"))
+        if who is None:
+            raise HTTPError(401, "a valid X-API-Key is required")
+        if not core.NAME_RE.match(site):
+            raise HTTPError(403, "forbidden")
+        logger_id, site_id = who
+
+        def run(body, ctype):
+            with db.read() as s:
+                st = s.scalar(select(Site).where(Site.name == site))
+                if st is None or st.id != site_id:
+                    raise core.Forbidden("key not valid for this site")
+            rows = core.parse_batch(body, ctype)
+            return core.ingest(db, site, rows, logger_id=logger_id, angle_unit=angle_unit)
+
+        res = await run_in_threadpool(run, await request.body(), request.headers.get("content-type"))
+        # sent only after the commit inside ingest(); json.dumps directly (FastAPI's encoder walks every row)
+        return Response(json.dumps(res.as_dict()), media_type="application/json")
+
+    # ------------------------------------------------------------------ management API
+    @app.get("/api/v1/sites")
+    def api_sites(request: Request):
+        person(request)
+        return {"sites": core.list_sites(db)}
+
+    @app.post("/api/v1/sites")
+    async def api_create_site(request: Request):
+        user = person(request, "admin")
+        body = await json_body(request)
+        if not isinstance(body, dict) or "name" not in body:
+            raise InputError('expected {"name": ..., "title": ..., ...}.')
+        fields = {k: v for k, v in body.items() if k != "name"}
+        return await run_in_threadpool(lambda: core.create_site(db, user[0], body["name"], **fields))
+
+    @app.get("/api/v1/sites/{site}")
+    def api_site(site: str, request: Request):
+        person(request)
+        return core.get_site(db, site_name(site))
+
+    @app.patch("/api/v1/sites/{site}")
+    async def api_patch_site(site: str, request: Request):
+        user = person(request, "engineer")
+        body = await json_body(request)
+        if not isinstance(body, dict):
+            raise InputError("expected an object of site fields.")
+        return await run_in_threadpool(lambda: core.update_site(db, user[0], site_name(site), **body))
+
+    @app.put("/api/v1/sites/{site}/sensors")
+    async def api_sensors(site: str, request: Request):
+        user = person(request, "engineer")
+        raw = await request.body()
+        rows = core.parse_batch(raw, request.headers.get("content-type"), required=("sensor_id", "x_m"),
+                                expected=("sensor_id", "x_m", "z_m", "active")) if raw else []
+        return await run_in_threadpool(lambda: core.put_sensors(db, user[0], site_name(site), rows))
+
+    @app.put("/api/v1/sites/{site}/survey")
+    async def api_survey(site: str, request: Request):
+        user = person(request, "engineer")
+        raw = await request.body()
+        rows = core.parse_batch(raw, request.headers.get("content-type"), required=("x_m", "z_m"),
+                                expected=("x_m", "z_m")) if raw else []
+        return await run_in_threadpool(lambda: core.put_survey(db, user[0], site_name(site), rows))
+
+    @app.put("/api/v1/sites/{site}/thresholds/{quantity}/{level}")
+    async def api_threshold(site: str, quantity: str, level: str, request: Request):
+        user = person(request, "engineer")
+        body = await json_body(request)
+        if not isinstance(body, dict) or "value" not in body:
+            raise InputError('expected {"value": <m or m/day, or null to remove>}.')
+        return await run_in_threadpool(
+            lambda: core.set_threshold(db, user[0], site_name(site), quantity, level, body["value"]))
+
+    @app.post("/api/v1/sites/{site}/loggers")
+    async def api_logger(site: str, request: Request):
+        user = person(request, "admin")
+        body = await json_body(request)
+        if not isinstance(body, dict) or "name" not in body:
+            raise InputError('expected {"name": ...}.')
+        key = await run_in_threadpool(lambda: core.add_logger(db, user[0], site_name(site), str(body["name"])))
+        return {"name": body["name"], "api_key": key}
+
+    @app.post("/api/v1/sites/{site}/channels")
+    async def api_channel(site: str, request: Request):
+        user = person(request, "admin")
+        body = await json_body(request)
+        if not isinstance(body, dict):
+            raise InputError('expected {"kind": "webhook"|"smtp", "target": ...}.')
+        return await run_in_threadpool(
+            lambda: core.add_channel(db, user[0], site_name(site), body.get("kind"), body.get("target", "")))
+
+    @app.get("/api/v1/sites/{site}/audit")
+    def api_audit(site: str, request: Request, limit: int = 500):
+        person(request, "engineer")
+        return {"audit": core.audit_trail(db, site_name(site), limit)}
+
+    @app.post("/api/v1/sites/{site}/recompute")
+    def api_recompute(site: str, request: Request):
+        person(request, "engineer")
+        return recompute(db, site_name(site), force=True)
+
+    @app.get("/api/v1/sites/{site}/alarms")
+    def api_alarms(site: str, request: Request, open_only: bool = False):
+        person(request)
+        return {"alarms": list_alarms(db, site_name(site), open_only=open_only)}
+
+    @app.post("/api/v1/sites/{site}/alarms/{alarm_id}/ack")
+    async def api_ack(site: str, alarm_id: int, request: Request):
+        user = person(request, "engineer")
+        body = await json_body(request) or {}
+        return await run_in_threadpool(lambda: acknowledge(db, alarm_id, user[0], str(body.get("comment", "")),
+                                                           site=site_name(site)))
+
+    @app.get("/api/v1/sites/{site}/settlement")
+    def api_settlement(site: str, request: Request, day: str | None = None):
+        person(request)
+        st, run, days = _run_days(site_name(site))
+        d = _pick_day(days, day)
+        return {"run": _run_info(run), "day": d, "rows": _day_rows(run, d).to_dict("records") if d else []}
+
+    @app.post("/api/v1/users")
+    async def api_user(request: Request):
+        user = person(request, "admin")
+        body = await json_body(request)
+        if not isinstance(body, dict):
+            raise InputError('expected {"username", "password", "role"}.')
+        return await run_in_threadpool(lambda: core.add_user(db, user[0], str(body.get("username", "")),
+                                                             body.get("password"), str(body.get("role", ""))))
+
+    @app.get("/healthz")
+    def healthz():
+        with db.read() as s:
+            s.execute(select(1))
+        return {"ok": True, "version": __version__, "worker_errors": len(worker.errors)}
+
+    # ------------------------------------------------------------------ data for pages
+    def _run_days(name):
+        with db.read() as s:
+            st = s.scalar(select(Site).where(Site.name == name))
+            if st is None:
+                raise core.NotFound("unknown site.")
+            run = latest_run(s, st)
+            days = [] if run is None else list(s.scalars(select(ResultRow.day).where(ResultRow.run_id == run.id)
+                                                         .distinct().order_by(ResultRow.day)))
+            s.expunge_all()
+        return st, run, days
+
+    def _pick_day(days, day):
+        if day is None:
+            return days[-1] if days else None
+        if not DAY_RE.match(day) or day not in days:
+            raise core.NotFound("no result for this day.")
+        return day
+
+    def _day_rows(run, day) -> pd.DataFrame:
+        with db.read() as s:
+            rows = s.execute(select(ResultRow.sensor_id, ResultRow.x_m, ResultRow.status, ResultRow.dz_m,
+                                    ResultRow.dz_std_m, ResultRow.smoothed_dz_m, ResultRow.smoothed_std_m,
+                                    ResultRow.rate_m_per_day, ResultRow.rate_std_m_per_day)
+                             .where(ResultRow.run_id == run.id, ResultRow.day == day).order_by(ResultRow.x_m)).all()
+        return pd.DataFrame(rows, columns=["sensor_id", "x_m", "status", "dz_m", "dz_std_m", "smoothed_dz_m",
+                                           "smoothed_std_m", "rate_m_per_day", "rate_std_m_per_day"])
+
+    def _run_info(run):
+        if run is None:
+            return None
+        return {"id": run.id, "code_version": run.code_version, "settings_hash": run.settings_hash,
+                "data_version": run.data_version, "data_complete_to": _iso(run.data_complete_to_ts),
+                "changed_from": _iso(run.changed_from_ts), "n_readings": run.n_readings, "n_days": run.n_days,
+                "finished": _iso(run.finished_ts)}
+
+    # ------------------------------------------------------------------ pages
+    def page_user(request):
+        try:
+            return person(request, api=False)
+        except HTTPError:
+            return None
+
+    def csrf_for(request):
+        return signer.csrf(request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE) or "")
+
+    def render(request, name, status=200, **ctx):
+        ctx.setdefault("user", page_user(request))
+        ctx["csrf"] = csrf_for(request)
+        return HTMLResponse(env.get_template(name).render(**ctx), status_code=status)
+
+    def to_login(request):
+        return RedirectResponse("/login?next=" + request.url.path, status_code=303)
+
+    def check_form_csrf(request, form):
+        bound = request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE)
+        if not signer.check_csrf(bound, form.get("csrf")):
+            raise HTTPError(403, "forbidden")
+
+    @app.get("/login", response_class=HTMLResponse)
+    def login_page(request: Request, next: str = "/"):
+        pre = request.cookies.get(PRE_COOKIE) or secrets.token_hex(16)
+        nxt = next if next.startswith("/") and not next.startswith("//") else "/"
+        resp = HTMLResponse(env.get_template("login.html").render(user=None, csrf=signer.csrf(pre), next=nxt,
+                                                                  error=None))
+        resp.set_cookie(PRE_COOKIE, pre, httponly=True, samesite="strict", secure=secure_cookies)
+        return resp
+
+    @app.post("/login")
+    async def login_post(request: Request):
+        form = await request.form()
+        pre = request.cookies.get(PRE_COOKIE)
+        if not signer.check_csrf(pre, form.get("csrf")):
+            raise HTTPError(403, "forbidden")
+        cookie = await run_in_threadpool(signer.login, str(form.get("username", "")), str(form.get("password", "")))
+        nxt = str(form.get("next") or "/")
+        nxt = nxt if nxt.startswith("/") and not nxt.startswith("//") else "/"
+        if cookie is None:
+            return HTMLResponse(env.get_template("login.html").render(user=None, csrf=signer.csrf(pre), next=nxt,
+                                                                      error="unknown user or wrong password"),
+                                status_code=401)
+        resp = RedirectResponse(nxt, status_code=303)
+        resp.set_cookie(SESSION_COOKIE, cookie, httponly=True, samesite="lax", secure=secure_cookies,
+                        max_age=signer.max_age_s)
+        return resp
+
+    @app.post("/logout")
+    async def logout(request: Request):
+        form = await request.form()
+        check_form_csrf(request, form)
+        resp = RedirectResponse("/login", status_code=303)
+        resp.delete_cookie(SESSION_COOKIE)
+        return resp
+
+    @app.get("/", response_class=HTMLResponse)
+    def sites_page(request: Request):
+        if page_user(request) is None:
+            return to_login(request)
+        rows = []
+        with db.read() as s:
+            for st in s.scalars(select(Site).order_by(Site.name)):
+                run = latest_run(s, st)
+                last_any = latest_run(s, st, ok_only=False)
+                open_levels = list(s.scalars(select(Alarm.level).where(Alarm.site_id == st.id,
+                                                                       Alarm.state != "cleared")))
+                worst = max(open_levels, key=LEVELS.index, default=None)
+                rows.append({"name": st.name, "title": st.title, "status": worst or "ok",
+                             "n_open": len(open_levels),
+                             "complete_to": _iso(run.data_complete_to_ts) if run else "no result yet",
+                             "last_status": last_any.status if last_any else "-"})
+        return render(request, "sites.html", sites=rows)
+
+    @app.get("/sites/{site}", response_class=HTMLResponse)
+    def site_page(request: Request, site: str, day: str | None = None):
+        if page_user(request) is None:
+            return to_login(request)
+        st, run, days = _run_days(site_name(site))
+        d = _pick_day(days, day)
+        alarms = list_alarms(db, st.name, limit=200)
+        with db.read() as s:
+            last_any = latest_run(s, st, ok_only=False)
+            health = [] if run is None else [
+                {"sensor_id": h.sensor_id, "status": h.status, "reason": h.reason,
+                 "last": _iso(h.last_reading_ts)}
+                for h in s.scalars(select(HealthRow).where(HealthRow.run_id == run.id).order_by(HealthRow.id))]
+        for a in alarms:
+            a["raised"] = _iso(a["raised_ts"])
+            a["acked"] = _iso(a["ack_ts"])
+        return render(request, "site.html", site=st, run=_run_info(run), last_any=last_any, days=days, day=d,
+                      alarms=alarms, health=health, can_ack=role_at_least(page_user(request)[1], "engineer"))
+
+    @app.get("/sites/{site}/profile.png")
+    def profile_image(request: Request, site: str, day: str | None = None):
+        person(request, api=False)
+        st, run, days = _run_days(site_name(site))
+        d = _pick_day(days, day)
+        if d is None:
+            raise core.NotFound("no result yet.")
+        return Response(_profile_bytes(st, run, d), media_type="image/png")
+
+    def _profile_bytes(st, run, d):
+        alarms = list_alarms(db, st.name, open_only=True)
+
+        def make():
+            return profile_png(_day_rows(run, d), alarms, f"{st.name}: altitude change on {d} "
+                                                          f"(data complete to {_iso(run.data_complete_to_ts)})")
+
+        key = ("profile", run.id, d, tuple(sorted((a["id"], a["level"]) for a in alarms)))
+        return png_cache.get_or(key, make)
+
+    @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
+    def sensor_page(request: Request, site: str, sensor: str):
+        if page_user(request) is None:
+            return to_login(request)
+        st, run, days = _run_days(site_name(site))
+        if not core.SENSOR_RE.match(sensor):
+            raise core.NotFound("unknown sensor.")
+        with db.read() as s:
+            h = None if run is None else s.scalar(select(HealthRow).where(HealthRow.run_id == run.id,
+                                                                          HealthRow.sensor_id == sensor))
+            n = s.scalar(select(func.count()).select_from(Reading).join(
+                core.Sensor, core.Sensor.id == Reading.sensor_pk).where(core.Sensor.site_id == st.id,
+                                                                        core.Sensor.sensor_id == sensor))
+        if h is None and not n:
+            raise core.NotFound("unknown sensor.")
+        return render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n, run=_run_info(run))
+
+    @app.get("/sites/{site}/sensors/{sensor}/series.png")
+    def sensor_image(request: Request, site: str, sensor: str):
+        person(request, api=False)
+        st, run, days = _run_days(site_name(site))
+        if run is None or not core.SENSOR_RE.match(sensor):
+            raise core.NotFound("no result yet.")
+
+        def make():
+            with db.read() as s:
+                rows = s.execute(select(ResultRow.day, ResultRow.dz_m, ResultRow.dz_std_m, ResultRow.smoothed_dz_m,
+                                        ResultRow.smoothed_std_m).where(ResultRow.run_id == run.id,
+                                                                        ResultRow.sensor_id == sensor)
+                                 .order_by(ResultRow.day)).all()
+            if not rows:
+                raise core.NotFound("unknown sensor.")
+            df = pd.DataFrame(rows, columns=["day", "dz_m", "dz_std_m", "smoothed_dz_m", "smoothed_std_m"])
+            return sensor_png(df, f"{st.name} / {sensor}: altitude change at the sensor, 90 % band")
+
+        return Response(png_cache.get_or(("sensor", run.id, sensor), make), media_type="image/png")
+
+    @app.post("/sites/{site}/alarms/{alarm_id}/ack")
+    async def ack_form(request: Request, site: str, alarm_id: int):
+        form = await request.form()
+        check_form_csrf(request, form)
+        user = person(request, "engineer", api=False)
+        await run_in_threadpool(lambda: acknowledge(db, alarm_id, user[0], str(form.get("comment", "")),
+                                                    site=site_name(site)))
+        return RedirectResponse(f"/sites/{site}#alarms", status_code=303)
+
+    @app.get("/sites/{site}/report/{day}", response_class=HTMLResponse)
+    def report_page(request: Request, site: str, day: str):
+        if page_user(request) is None:
+            return to_login(request)
+        st, run, days = _run_days(site_name(site))
+        if not DAY_RE.match(day) or day not in days:
+            raise core.NotFound("no result for this day.")
+        folder = report_root / str(st.id) / str(run.id) / day
+        page = folder / "index.html"
+        with report_lock:
+            if not page.exists():
+                _write_day_report(db, st.name, day, folder)
+        return HTMLResponse(page.read_text(encoding="utf-8"),
+                            headers={"Content-Disposition": f'inline; filename="{st.name}-{day}.html"'})
+
+    return app
+
+
+def _write_day_report(db: Database, name: str, day: str, folder: Path):
+    """The ``rail settle --report`` HTML report of the readings up to the end of ``day``."""
+    from ...report._rail import write_rail_report
+    from .._data import validate_site
+    from .._settle import estimate_settlement
+    from ._alarms import thresholds_of
+    from ._recompute import DEFAULT_SETTINGS, load_site_data
+
+    with db.read() as s:
+        st = s.scalar(select(Site).where(Site.name == name))
+        settings = {**DEFAULT_SETTINGS, **st.settings}
+        thr = thresholds_of(s, st)
+        sensors, readings, survey = load_site_data(s, st)
+    end = pd.Timestamp(day) + pd.Timedelta(days=1)
+    readings = readings[readings["timestamp"] < end]
+    res = estimate_settlement(validate_site(sensors, readings, survey), thermal=settings["thermal"],
+                              n_monte_carlo=max(int(settings["n_monte_carlo"]), 500),
+                              settlement_threshold_m=thr.get("settlement", {}).get("alert"),
+                              rate_threshold_m_per_day=thr.get("rate", {}).get("alert"),
+                              alarm_probability=float(settings["alarm_probability"]))
+    tmp = folder.with_name(folder.name + ".tmp")
+    write_rail_report(res, tmp, title=f"Track settlement report: {name}, data to {day}")
+    tmp.replace(folder) if not folder.exists() else None

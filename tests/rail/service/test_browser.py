@@ -1,0 +1,111 @@
+"""A real Chromium (Selenium, Debian's chromium + chromium-driver): log in, see a site, see an alarm appear after
+an ingested day, acknowledge it. Screenshots go to LONGPROFILE_SCREENSHOTS_DIR when set (docs/img/)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+from longprofile.rail.service import _core
+from longprofile.rail.service._alarms import list_alarms
+from longprofile.rail.service._serve import HttpSession, ServerThread
+
+from .conftest import missing_service, synthetic
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+
+
+@pytest.fixture
+def browser():
+    if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
+        missing_service(f"Chromium browser tests need {CHROMIUM} and {DRIVER} (apt-get install chromium "
+                        "chromium-driver)")
+    webdriver = pytest.importorskip("selenium.webdriver")
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1280,1100"):
+        opts.add_argument(a)
+    drv = webdriver.Chrome(service=Service(DRIVER), options=opts)
+    yield drv
+    drv.quit()
+
+
+def _shot(drv, tmp_path, name):
+    drv.save_screenshot(str(tmp_path / name))
+    out = os.environ.get("LONGPROFILE_SCREENSHOTS_DIR")
+    if out:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        shutil.copy(tmp_path / name, Path(out) / name)
+
+
+def _wait(pred, timeout=90):
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        if pred():
+            return True
+        time.sleep(0.2)
+    return False
+
+
+def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    db, key, r = site
+    _core.add_user(db, "t", "eng1", "eng1-password", "engineer")
+    syn, _ = synthetic()
+    worst = -syn.truth.settlement[-1].min()
+    _core.set_threshold(db, "t", "mitt", "settlement", "alert", 0.4 * worst)
+    _core.set_threshold(db, "t", "mitt", "settlement", "action", 0.6 * worst)
+    _core.set_threshold(db, "t", "mitt", "settlement", "alarm", 2.0 * worst)
+    days = r["timestamp"].str[:10]
+    last = sorted(days.unique())[-1]
+    with ServerThread(db, tick_s=0.3) as srv:
+        http = HttpSession(srv.url)
+
+        def send(part):
+            for i in range(0, len(part), 1000):
+                st, _ = http.request("POST", "/api/v1/sites/mitt/readings",
+                                     part.iloc[i:i + 1000].to_csv(index=False).encode(),
+                                     {"Content-Type": "text/csv", "X-API-Key": key})
+                assert st == 200
+
+        send(r[days < "2019-11-21"])  # before the works: no settlement alarm
+        assert _wait(lambda: bool(list_alarms(db, "mitt")))  # the first run (health alarms) is there
+        drv = browser
+        drv.get(srv.url + "/")
+        assert "/login" in drv.current_url  # nothing readable without logging in
+        drv.find_element(By.ID, "username").send_keys("eng1")
+        drv.find_element(By.ID, "password").send_keys("eng1-password")
+        drv.find_element(By.ID, "login").click()
+        assert drv.find_element(By.ID, "sites").text.find("mitt") >= 0
+        _shot(drv, tmp_path, "rail-service-sites.png")
+        drv.find_element(By.LINK_TEXT, "mitt").click()
+        assert "Data complete to" in drv.find_element(By.ID, "complete").text
+        assert "settlement" not in drv.find_element(By.ID, "alarm-table").text
+        # the days of the works arrive through the ingestion API
+        send(r[days >= "2019-11-21"])
+        assert _wait(lambda: any(a["quantity"] == "settlement" for a in list_alarms(db, "mitt")))
+        drv.refresh()
+        assert last in drv.find_element(By.ID, "complete").text
+        row = [e for e in drv.find_elements(By.CSS_SELECTOR, "#alarm-table tr") if "settlement" in e.text][0]
+        assert "action" in row.text and "raised" in row.text
+        img = drv.find_element(By.ID, "profile")
+        assert drv.execute_script("return arguments[0].naturalWidth", img) > 500  # the PNG loaded
+        _shot(drv, tmp_path, "rail-service-site-alarm.png")
+        row.find_element(By.NAME, "comment").send_keys("track crew informed")
+        row.find_element(By.CSS_SELECTOR, "button.ack").click()
+        row = [e for e in drv.find_elements(By.CSS_SELECTOR, "#alarm-table tr") if "settlement" in e.text][0]
+        assert "acknowledged" in row.text and "eng1" in row.text and "track crew informed" in row.text
+        _shot(drv, tmp_path, "rail-service-acknowledged.png")
+        drv.find_element(By.LINK_TEXT, "S30").click()
+        assert drv.execute_script("return document.getElementById('series').naturalWidth") > 500
+        _shot(drv, tmp_path, "rail-service-sensor.png")
+    a = [x for x in list_alarms(db, "mitt") if x["quantity"] == "settlement"][0]
+    assert (a["state"], a["ack_by"], a["ack_comment"]) == ("acknowledged", "eng1", "track crew informed")

@@ -1,0 +1,62 @@
+"""``rail serve`` / ``rail site ...`` commands (registered on a Typer app as cli/rail.py does)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from longprofile.cli._rail_serve import register
+from longprofile.errors import LongprofileError
+
+from .conftest import synthetic
+
+
+@pytest.fixture
+def cli():
+    app = typer.Typer()
+    register(app)
+    runner = CliRunner()
+
+    def run(*args, input=None):
+        res = runner.invoke(app, list(args), input=input, catch_exceptions=True)
+        return res
+
+    return run
+
+
+def test_site_commands_manage_a_site_end_to_end(cli, tmp_path):
+    syn, r = synthetic()
+    url = f"sqlite:///{tmp_path}/cli.db"
+    syn.sensors.to_csv(tmp_path / "sensors.csv", index=False)
+    syn.survey.to_csv(tmp_path / "survey.csv", index=False)
+    r.to_csv(tmp_path / "readings.csv", index=False)
+    assert cli("site", "create", "mitt", "--db", url, "--clock", "data", "--actor", "alice").exit_code == 0
+    assert json.loads(cli("site", "sensors", "mitt", "--file", str(tmp_path / "sensors.csv"), "--db", url).stdout) \
+        == {"added": 58, "changed": 0}
+    assert cli("site", "survey", "mitt", "--file", str(tmp_path / "survey.csv"), "--db", url).exit_code == 0
+    assert cli("site", "threshold", "mitt", "settlement", "alert", "3", "--db", url, "--actor", "bob").exit_code == 0
+    key = cli("site", "logger", "mitt", "lg1", "--db", url).stdout.strip()
+    assert key.startswith("lpk_")
+    out = cli("site", "ingest", "mitt", "--file", str(tmp_path / "readings.csv"), "--db", url)
+    assert out.exit_code == 0 and json.loads(out.stdout)["accepted"] == len(r)
+    out = cli("site", "recompute", "mitt", "--db", url)
+    assert out.exit_code == 0 and json.loads(out.stdout)["status"] == "ok"
+    show = json.loads(cli("site", "show", "mitt", "--db", url).stdout)
+    assert show["thresholds"] == {"settlement.alert": 0.003} and len(show["sensors"]) == 58
+    audit = json.loads(cli("site", "audit", "mitt", "--db", url).stdout)
+    assert [a["actor"] for a in audit if a["entity"] == "threshold"] == ["bob"] and audit[-1]["actor"] == "alice"
+    assert cli("site", "user", "carol", "--role", "engineer", "--db", url, input="carol-password\n").exit_code == 0
+    assert cli("site", "list", "--db", url).stdout.split() == ["mitt"]
+
+
+def test_errors_are_library_errors(cli, tmp_path):
+    url = f"sqlite:///{tmp_path}/cli.db"
+    res = cli("site", "create", "../etc", "--db", url)
+    assert isinstance(res.exception, LongprofileError)
+    res = cli("site", "threshold", "nosuch", "settlement", "alert", "3", "--db", url)
+    assert isinstance(res.exception, LongprofileError) and "unknown site" in str(res.exception)
+    res = cli("serve")
+    assert isinstance(res.exception, LongprofileError) and "--db" in str(res.exception)

@@ -1,0 +1,174 @@
+"""Ingestion: idempotent on (sensor, timestamp), revisions kept, late data, per-row rejection reasons."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from sqlalchemy import func, select
+
+from longprofile.rail.service import _core
+from longprofile.rail.service._db import Reading, ReadingRevision, Site
+
+from .conftest import count_readings
+
+NOW = 2_000_000_000  # 2033: every synthetic reading is in the past
+
+
+def test_migrations_match_the_models(db):
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+
+    from longprofile.rail.service._db import Base
+
+    with db.engine.connect() as c:
+        diffs = compare_metadata(MigrationContext.configure(c), Base.metadata)
+    assert diffs == []
+    db.migrate()  # idempotent at start-up
+
+
+def test_sqlite_is_in_wal_mode(tmp_path):
+    from longprofile.rail.service._db import Database
+
+    d = Database(f"sqlite:///{tmp_path}/w.db")
+    with d.engine.connect() as c:
+        assert c.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+    d.dispose()
+
+
+def test_resent_batch_creates_no_duplicate(site):
+    db, _, r = site
+    rows = r.iloc[:1000].to_dict("records")
+    a = _core.ingest(db, "mitt", rows, now=NOW)
+    assert a.counts == {"accepted": 1000, "duplicate": 0, "revised": 0, "rejected": 0}
+    b = _core.ingest(db, "mitt", rows, now=NOW)
+    assert b.counts == {"accepted": 0, "duplicate": 1000, "revised": 0, "rejected": 0}
+    assert count_readings(db) == 1000
+
+
+def test_changed_value_is_a_revision_not_an_overwrite(site):
+    db, _, r = site
+    rows = r.iloc[:10].to_dict("records")
+    _core.ingest(db, "mitt", rows, now=NOW)
+    changed = [dict(x) for x in rows[:3]]
+    for x in changed:
+        x["angle_deg"] += 0.01
+    res = _core.ingest(db, "mitt", changed, now=NOW)
+    assert res.counts["revised"] == 3 and all(o["outcome"] == "revised" for o in res.rows)
+    assert res.rows[0]["previous"]["angle_deg"] == pytest.approx(rows[0]["angle_deg"])
+    assert count_readings(db) == 10
+    with db.read() as s:
+        revs = s.execute(select(ReadingRevision.angle_deg, ReadingRevision.revision)).all()
+        cur = s.execute(select(func.max(Reading.revision))).scalar()
+    assert sorted(a for a, _ in revs) == pytest.approx(sorted(x["angle_deg"] for x in rows[:3]))
+    assert cur == 1
+    # the revised value sent again is a duplicate
+    assert _core.ingest(db, "mitt", changed, now=NOW).counts["duplicate"] == 3
+
+
+def test_out_of_order_and_late_data_are_stored_by_measurement_time(site):
+    db, _, r = site
+    from sqlalchemy import update
+
+    with db.write() as s:  # as after a recompute: nothing pending
+        s.execute(update(Site).values(dirty_from_ts=None))
+    r = r.sort_values("timestamp", kind="stable")
+    late = r.iloc[2000:2500].to_dict("records")
+    early = r.iloc[:500].to_dict("records")
+    _core.ingest(db, "mitt", late, now=NOW)
+    with db.read() as s:
+        first_dirty = s.scalar(select(Site.dirty_from_ts))
+    rng = np.random.default_rng(0)
+    shuffled = [early[i] for i in rng.permutation(len(early))]
+    res = _core.ingest(db, "mitt", shuffled, now=NOW)
+    assert res.counts["accepted"] == 500
+    with db.read() as s:
+        dirty = s.scalar(select(Site.dirty_from_ts))
+        keys = s.execute(select(Reading.sensor_pk, Reading.ts)).all()
+    ts = [k[1] for k in keys]
+    assert dirty < first_dirty
+    assert dirty == min(ts)
+    assert len(keys) == 1000 == len(set(keys))
+
+
+def test_bad_rows_are_rejected_with_reasons_and_nothing_else_is_lost(site):
+    db, _, r = site
+    good = r.iloc[:20].to_dict("records")
+    bad = [
+        {"timestamp": "yesterday", "sensor_id": "S1", "angle_deg": 0.1, "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "NOPE", "angle_deg": 0.1, "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "S1", "angle_deg": "abc", "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "S1", "angle_deg": float("nan"), "temperature_c": 5},
+        {"timestamp": "2040-01-01T00:00:00Z", "sensor_id": "S1", "angle_deg": 0.1, "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "S1", "angle_rad": 0.001, "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "S1", "angle_deg": 120.0, "temperature_c": 5},
+        {"timestamp": "2019-11-18T00:00:00.5Z", "sensor_id": "S1", "angle_deg": 0.1, "temperature_c": 5},
+        "not an object",
+        {**good[0], "angle_deg": good[0]["angle_deg"] + 1.0},  # conflicts with row 0 in the same batch
+        dict(good[1]),  # exact repeat inside the batch
+    ]
+    res = _core.ingest(db, "mitt", good + bad, now=NOW)
+    out = res.rows[20:]
+    assert [o["outcome"] for o in out] == ["rejected"] * 10 + ["duplicate"]
+    reasons = [o["reason"] for o in out]
+    for needle, reason in zip(["ISO 8601", "unknown sensor", "not a number", "finite", "future", "angle_deg",
+                               "plausible range", "sub-second", "object", "conflicts with row 0"], reasons):
+        assert needle in reason, (needle, reason)
+    assert res.counts["accepted"] == 20 and count_readings(db) == 20
+
+
+def test_radians_are_rejected_unless_declared(site):
+    db, _, r = site
+    rows = r.iloc[:1000].to_dict("records")
+    rad = [{**x, "angle_deg": float(np.deg2rad(x["angle_deg"]))} for x in rows]
+    res = _core.ingest(db, "mitt", rad, now=NOW)
+    assert res.counts["rejected"] == 1000 and "radians" in res.rows[0]["reason"]
+    assert count_readings(db) == 0
+    res = _core.ingest(db, "mitt", rad, angle_unit="rad", now=NOW)
+    assert res.counts["accepted"] == 1000
+    with db.read() as s:
+        got = sorted(s.scalars(select(Reading.angle_deg)))
+    assert got == pytest.approx(sorted(x["angle_deg"] for x in rows), rel=1e-12)
+
+
+def test_csv_and_json_batches_parse_to_the_same_rows(site):
+    db, _, r = site
+    part = r.iloc[:50]
+    a = _core.parse_batch(part.to_csv(index=False).encode(), "text/csv")
+    b = _core.parse_batch(json.dumps({"readings": part.to_dict("records")}).encode(), "application/json")
+    assert _core.ingest(db, "mitt", a, now=NOW).counts["accepted"] == 50
+    assert _core.ingest(db, "mitt", b, now=NOW).counts["duplicate"] == 50
+    for body, ctype in ((b"{", "application/json"), (b"a,b\n1,2\n", "text/csv"), (b"x", "image/png"),
+                        (b'{"readings": 3}', "application/json")):
+        with pytest.raises(_core.InputFormatError):
+            _core.parse_batch(body, ctype)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_any_resending_pattern_stores_each_key_exactly_once(tmp_path_factory, data):
+    from longprofile.rail.service._db import Database
+
+    from .conftest import synthetic
+
+    syn, r = synthetic()
+    db = Database(f"sqlite:///{tmp_path_factory.mktemp('h')}/h.db")
+    _core.create_site(db, "t", "mitt")
+    _core.put_sensors(db, "t", "mitt", syn.sensors.to_dict("records"))
+    pool = r.iloc[:300].to_dict("records")
+    idx = data.draw(st.lists(st.integers(0, len(pool) - 1), min_size=1, max_size=600))
+    cuts = sorted(data.draw(st.lists(st.integers(0, len(idx)), max_size=6)))
+    sent = set()
+    acked = 0
+    for a, b in zip([0] + cuts, cuts + [len(idx)]):
+        batch = [pool[i] for i in idx[a:b]]
+        if batch:
+            res = _core.ingest(db, "mitt", batch, now=NOW)
+            acked += res.counts["accepted"]
+            assert res.counts["rejected"] == 0 and res.counts["revised"] == 0
+            sent.update(idx[a:b])
+    assert count_readings(db) == len(sent) == acked
+    db.dispose()

@@ -1,0 +1,131 @@
+"""Recompute through estimate_settlement, versioned runs, three-level alarms on transitions, ack, clear, outbox."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from sqlalchemy import select
+
+from longprofile.rail import estimate_settlement, validate_site
+from longprofile.rail.service import _core
+from longprofile.rail.service._alarms import acknowledge, list_alarms
+from longprofile.rail.service._db import Outbox, ResultRow, Run
+from longprofile.rail.service._recompute import recompute
+
+from .conftest import synthetic
+
+NOW = 2_000_000_000
+
+
+def _ingest_days(db, r, upto_day):
+    days = r["timestamp"].str[:10]
+    part = r[days <= upto_day]
+    for i in range(0, len(part), 2000):
+        _core.ingest(db, "mitt", part.iloc[i:i + 2000].to_dict("records"), now=NOW)
+
+
+def test_stored_results_are_those_of_estimate_settlement(site):
+    db, _, r = site
+    syn, _ = synthetic()
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0)
+    with db.read() as s:
+        rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m,
+                                             ResultRow.smoothed_dz_m, ResultRow.rate_m_per_day)
+                                      .where(ResultRow.run_id == out["run_id"])).all(),
+                            columns=["date", "sensor_id", "dz_m", "dz_std_m", "smoothed_dz_m", "rate_m_per_day"])
+    tab = ref.to_table()
+    got = rows.merge(tab, on=["date", "sensor_id"], suffixes=("", "_ref"))
+    assert len(got) == len(tab) == ref.days.size * len(ref.sensor_ids)
+    for c in ("dz_m", "dz_std_m", "smoothed_dz_m"):
+        np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
+    assert out["data_complete_to"] == r["timestamp"].max()
+
+
+def test_runs_are_versioned_and_skip_when_nothing_changed(site):
+    db, _, r = site
+    _ingest_days(db, r, "2019-11-22")
+    a = recompute(db, "mitt")
+    assert a["status"] == "ok"
+    assert recompute(db, "mitt")["status"] == "unchanged"
+    # one late reading of an early day: a new run that records the earliest changed time
+    late = r[r["timestamp"].str[:10] == "2019-11-23"].iloc[:1].to_dict("records")
+    late[0]["timestamp"] = "2019-11-19T12:34:56Z"
+    _core.ingest(db, "mitt", late, now=NOW)
+    b = recompute(db, "mitt")
+    assert b["status"] == "ok" and b["run_id"] > a["run_id"]
+    with db.read() as s:
+        runs = list(s.scalars(select(Run).order_by(Run.id)))
+    assert runs[-1].changed_from_ts == int(pd.Timestamp("2019-11-19T12:34:56").value // 10**9)
+    assert runs[-1].data_version > runs[0].data_version
+    assert runs[-1].code_version and len(runs[-1].settings_hash) == 32
+    # a settings change is a new settings hash
+    _core.update_site(db, "t", "mitt", settings={"thermal": "none"})
+    c = recompute(db, "mitt")
+    with db.read() as s:
+        assert s.get(Run, c["run_id"]).settings_hash != runs[-1].settings_hash
+
+
+def test_too_little_data_is_a_waiting_run(site):
+    db, _, r = site
+    _ingest_days(db, r, "2019-11-18")
+    out = recompute(db, "mitt")
+    assert out["status"] == "waiting" and "2 days" in out["message"]
+
+
+def test_alarm_levels_raise_on_transitions_ack_and_clear(site):
+    db, _, r = site
+    _core.add_channel(db, "t", "mitt", "webhook", "http://127.0.0.1:9/hook")
+    _core.add_channel(db, "t", "mitt", "smtp", "track@example.org")
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    out = recompute(db, "mitt")
+    syn, _ = synthetic()
+    worst = -syn.truth.settlement[-1].min()  # ~ 0.015 m on day 8 of the preset
+    for lv, f in (("alert", 0.2), ("action", 0.4), ("alarm", 3.0)):
+        _core.set_threshold(db, "t", "mitt", "settlement", lv, f * worst)
+    out = recompute(db, "mitt")
+    al = [a for a in list_alarms(db, "mitt") if a["quantity"] == "settlement"]
+    assert [(a["level"], a["state"]) for a in al] == [("action", "raised")], al
+    assert "at S" in al[0]["message"]
+    # same level again: de-duplicated, no new alarm, no new notification
+    with db.read() as s:
+        n_out = len(list(s.scalars(select(Outbox))))
+    recompute(db, "mitt", force=True)
+    assert len([a for a in list_alarms(db, "mitt") if a["quantity"] == "settlement"]) == 1
+    with db.read() as s:
+        assert len(list(s.scalars(select(Outbox)))) == n_out
+    acked = acknowledge(db, al[0]["id"], "eng1", "crew informed")
+    assert (acked["state"], acked["ack_by"], acked["ack_comment"]) == ("acknowledged", "eng1", "crew informed")
+    with pytest.raises(_core.InputError):
+        acknowledge(db, al[0]["id"], "eng1", "twice")
+    # thresholds raised above the value: the alarm clears (a transition, notified)
+    _core.set_threshold(db, "t", "mitt", "settlement", "alarm", 10 * worst)
+    _core.set_threshold(db, "t", "mitt", "settlement", "action", 9 * worst)
+    _core.set_threshold(db, "t", "mitt", "settlement", "alert", 8 * worst)
+    recompute(db, "mitt")
+    al = [a for a in list_alarms(db, "mitt") if a["quantity"] == "settlement"]
+    assert [a["state"] for a in al] == ["cleared"]
+    with db.read() as s:
+        ev = [(o.event, o.kind) for o in s.scalars(select(Outbox).order_by(Outbox.id))
+              if '"settlement"' in o.payload_json]
+    assert ev == [("raised", "webhook"), ("raised", "smtp"), ("cleared", "webhook"), ("cleared", "smtp")]
+    # the reversed and the dead sensor of the preset are sensor-health alarms
+    health = {a["subject"] for a in list_alarms(db, "mitt") if a["quantity"] == "health"}
+    assert set(syn.truth.bad_sensors) <= health
+
+
+def test_no_data_alarm_for_a_silent_sensor(site):
+    db, _, r = site
+    quiet = r[~((r["sensor_id"] == "S40") & (r["timestamp"] >= "2019-11-24"))]
+    _core.update_site(db, "t", "mitt", no_data_hours=12)
+    _core.ingest(db, "mitt", quiet.to_dict("records"), now=NOW)
+    recompute(db, "mitt")
+    nd = [a for a in list_alarms(db, "mitt") if a["quantity"] == "no_data"]
+    assert [a["subject"] for a in nd] == ["S40"] and "no data from sensor S40" in nd[0]["message"]
+    # the data arrive: the alarm clears
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    recompute(db, "mitt")
+    assert [a["state"] for a in list_alarms(db, "mitt") if a["quantity"] == "no_data"] == ["cleared"]
