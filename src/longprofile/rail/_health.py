@@ -34,6 +34,11 @@ IMPROBABLE_P = 1e-6
 #: daily changes of one sensor share the reference day's error, so its days are not independent
 #: and the chi-square test alone over-flags (seen on the farebersviller-like preset).
 IMPROBABLE_SCORE = 9.0
+#: Reversal test: a sensor is flagged "reversed" when z_rev = -sum_d m_d mu_d / sqrt(sum_d mu_d^2 v_d) exceeds
+#: this (m its changes, mu and v the leave-one-out prediction from the neighbours and its variance) and
+#: sum (m + mu)^2 < 0.25 sum (m - mu)^2 (minus the prediction explains the changes). Set from
+#: the healthy sensors of the "faults" scenario family (docs/rail.md, "Calibration on independent scenarios").
+REVERSED_Z = 8.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +57,9 @@ class SensorHealth:
     loo_score : (N,) ndarray
         Mean squared standardised leave-one-out residual over days (≈1 for a healthy sensor);
         NaN for dead sensors.
+    reversal_z : (N,) ndarray or None
+        Reversal statistic z_rev (:data:`REVERSED_Z`): ~N(0, 1) or very negative for a healthy
+        sensor, large and positive when its changes follow minus the neighbours' prediction.
     """
 
     sensor_ids: list
@@ -59,6 +67,7 @@ class SensorHealth:
     detail: np.ndarray
     excluded: np.ndarray
     loo_score: np.ndarray
+    reversal_z: np.ndarray | None = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -158,6 +167,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         status[j], detail[j] = "improbable", "excluded by the user"
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
     score = np.full(N, np.nan)
+    rev = np.full(N, np.nan)
     n_flag = 0
     while True:
         bad = status != "ok"
@@ -168,15 +178,32 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         k = np.isfinite(z).sum(axis=0)
         score = np.where(k > 0, np.nansum(z**2, axis=0) / np.maximum(k, 1), np.nan)
         pval = np.where(k > 0, gammaincc(np.maximum(k, 1) / 2.0, score * k / 2.0), 1.0)  # chi-square sf
-        cand = np.nonzero((pval < IMPROBABLE_P / N) & (score > IMPROBABLE_SCORE) & ~bad)[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e = M - pred
+            v = np.where(np.abs(z) > 0, (e / np.where(z == 0, 1.0, z)) ** 2, np.nan)  # LOO variance sigma^2/(1-h)
+            rev = -np.nansum(M * pred, axis=0) / np.sqrt(np.nansum(pred**2 * v, axis=0))
+            # ... and only when minus the prediction explains the changes (not a drift or a jump)
+            looks_reversed = np.nansum((M + pred) ** 2, axis=0) < 0.25 * np.nansum((M - pred) ** 2, axis=0)
+        rev = np.where((k > 0) & looks_reversed, rev, np.nan)
+        cand = np.nonzero(((pval < IMPROBABLE_P / N) & (score > IMPROBABLE_SCORE) | (np.nan_to_num(rev) > REVERSED_Z))
+                          & ~bad)[0]
         if cand.size == 0 or n_flag >= max_flagged or (~bad).sum() <= 3:
             break
-        j = int(cand[np.argmax(score[cand])])
+        j = int(cand[np.argmax(np.maximum(score[cand], np.nan_to_num(rev[cand]) ** 2))])
+        if rev[j] > REVERSED_Z:
+            kind = "reversed"
+            why = (f"angle changes follow {np.nansum(M[:, j] * pred[:, j]) / np.nansum(pred[:, j] ** 2):+.2f} x the "
+                   f"neighbours' prediction (expected +1): reversal z {rev[j]:.3g} > {REVERSED_Z:g}")
+            status[j] = kind
+            detail[j] = f"{why}; mean squared LOO z-score {score[j]:.3g} over {k[j]} days"
+            n_flag += 1
+            continue
         kind, why = _classify(slopes[:, j], pred[:, j], z[:, j])
         status[j] = kind
         detail[j] = (f"{why}; mean squared LOO z-score {score[j]:.3g} over {k[j]} days "
                      f"(> {IMPROBABLE_SCORE:g} and p < {IMPROBABLE_P:g}/N)")
         n_flag += 1
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(status, dtype=str),
-                          detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score)
+                          detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
+                          reversal_z=rev)
     return health, float(sigma), float(rigidity)

@@ -19,7 +19,13 @@ from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_tim
 from ._thermal import DailyAngles, daily_angles
 
 __all__ = ["SettlementResult", "estimate_settlement", "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit",
-           "day_difference_sigma", "affine_correction"]
+           "day_difference_sigma", "affine_correction", "daily_noise_sigma", "ERROR_MODELS"]
+
+#: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
+#: reference and with the temperature difference from it, :func:`daily_noise_sigma`) or "white" (one std).
+ERROR_MODELS = ("drift", "white")
+#: Relative width of the noise-level groups that share one covariance pass (log scale).
+_SIGMA_LEVEL_STEP = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,6 +75,9 @@ class SettlementResult:
         Everything the user must know (input fixes, excluded sensors, affine correction...).
     settings : dict
         The options used (for reports).
+    sigma_by_day : (D,) ndarray or None
+        Slope-change noise std of each day, rad (``error_model="drift"``: :func:`daily_noise_sigma`;
+        ``sigma`` is then its median); constant for ``error_model="white"``.
     """
 
     days: np.ndarray
@@ -94,6 +103,7 @@ class SettlementResult:
     controls: pd.DataFrame | None
     warnings: tuple
     settings: dict = field(default_factory=dict)
+    sigma_by_day: np.ndarray | None = None
 
     def to_table(self) -> pd.DataFrame:
         """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
@@ -138,6 +148,108 @@ def day_difference_sigma(slopes) -> float:
     return s
 
 
+def _neighbour_residuals(x, slopes):
+    """Departure of each interior sensor's slope change from the line through its two neighbours' (same day),
+    divided by its std under independent noise of unit std (the line's own error included)."""
+    hl, hr = x[1:-1] - x[:-2], x[2:] - x[1:-1]
+    pred = (hr * slopes[:, :-2] + hl * slopes[:, 2:]) / (hl + hr)
+    return (slopes[:, 1:-1] - pred) / np.sqrt(1.0 + (hl**2 + hr**2) / (hl + hr) ** 2)
+
+
+def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, floor: float = 0.0):
+    r"""Std of each day's slope-change errors, robust to settlement, for drifting and thermally biased sensors.
+
+    The estimator's basic model (paper 004 §4.2) has one white noise std for all days. Real
+    inclinometers drift (a random-walk-like bias) and keep a thermal residual, so the error of
+    the change m_d = theta_d - theta_0 + e_d - e_0 grows with the days since the reference day and
+    with the temperature difference from it. Per day, the sensors' departures from the line
+    through their two neighbours (a settlement bowl spanning a few sensors hardly departs from it)
+    give a robust variance v_d (mean square after setting aside departures beyond 5 MAD, which
+    are the bowl's curvature); the model
+
+        sigma_d^2 = a + b t_d + c dT_d^2,   a, b, c >= 0 (non-negative least squares over days),
+
+    with t_d the days since the reference (random-walk drift: variance linear in time) and dT_d
+    the site-mean daily temperature minus the reference day's (thermal residual), smooths the
+    per-day values (a few tens of sensors each).
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+    day_offsets : (D,) array_like, optional
+        Days since the reference day (default 0, 1, ..., D-1).
+    temperature_change : (D,) array_like, optional
+        dT_d, °C (default: no thermal term).
+    floor : float, default 0
+        Lower bound of sigma_d, rad (:func:`estimate_settlement` uses half the day-difference sigma).
+
+    Returns
+    -------
+    (D,) ndarray
+        sigma_d, rad (day 0 gets the day-1 value: its change is 0 by construction).
+    """
+    from scipy.optimize import nnls
+
+    M = np.asarray(slopes, float)
+    D = M.shape[0]
+    ok = np.isfinite(M).sum(axis=0) > 0
+    xs, Ms = np.asarray(x, float)[ok], M[:, ok]
+    if xs.size < 5 or D < 2:
+        raise InputError("too few usable sensors or days to estimate the daily noise; use error_model='white'.")
+    r = _neighbour_residuals(xs, Ms)
+    with np.errstate(invalid="ignore"):
+        mad = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
+        kept = np.where(np.abs(r) <= 5.0 * mad, r, np.nan)
+    n = np.isfinite(kept).sum(axis=1)
+    v = np.where(n >= 3, np.nansum(kept**2, axis=1) / np.maximum(n, 1), np.nan)
+    t = np.arange(D, dtype=float) if day_offsets is None else np.asarray(day_offsets, float)
+    cols = [np.ones(D), t]
+    if temperature_change is not None:
+        dT = np.nan_to_num(np.asarray(temperature_change, float))
+        cols.append(dT**2)
+    A = np.column_stack(cols)
+    use = np.isfinite(v) & (np.arange(D) >= 1) & (v > 0)
+    if use.sum() < 2:
+        raise InputError("too few days with a measurable noise; use error_model='white'.")
+    # weights ~ 1/v_d: the per-day variances are chi-square-like, their spread grows with their level
+    w = 1.0 / np.maximum(v[use], 1e-300)
+    coef, _ = nnls(A[use] * w[:, None], v[use] * w)
+    fitted = A @ coef
+    fitted[0] = fitted[1] if D > 1 else fitted[0]
+    return np.sqrt(np.maximum(fitted, max(floor, 1e-12) ** 2))
+
+
+def _site_temperature_change(site: SiteData, days):
+    """Site-mean daily mean temperature of each day minus the reference day's, °C (0 where unknown)."""
+    r = site.readings
+    t = r.groupby(r["timestamp"].dt.normalize())["temperature_c"].mean()
+    T = t.reindex(pd.DatetimeIndex(days)).to_numpy(float)
+    return np.nan_to_num(T - T[0]) if np.isfinite(T[0]) else np.zeros(len(days))
+
+
+def _noise_groups(sig_d):
+    """Index arrays of the days sharing one noise level (log step :data:`_SIGMA_LEVEL_STEP`) and that level."""
+    key = np.round(np.log(sig_d) / _SIGMA_LEVEL_STEP).astype(int)
+    return [(idx, float(np.exp(np.median(np.log(sig_d[idx])))))
+            for idx in (np.nonzero(key == k)[0] for k in np.unique(key))]
+
+
+def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order):
+    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day."""
+    D, N = M.shape
+    out = {k: np.empty((D, N)) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
+    for idx, s in _noise_groups(sig_d):
+        post = rigidity_posterior(x, M[idx], sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order)
+        for k in ("z_mean", "z_std", "slope_mean", "slope_std"):
+            out[k][idx] = getattr(post, k)
+        out["noise_std"][idx] = measurement_std(x, M[idx], sigma=s, rigidity=rigidity, sigma_z=sigma_z,
+                                                penalty_order=penalty_order)
+    return out
+
+
 #: log10 grids of r searched before the Brent refinement, per penalty order (r in m^-2 for 2, m^-4 for 3).
 _LOG10_RIGIDITY_GRID = {2: np.arange(-14.0, -5.0), 3: np.arange(-19.0, -7.0)}
 
@@ -145,12 +257,15 @@ _LOG10_RIGIDITY_GRID = {2: np.arange(-14.0, -5.0), 3: np.arange(-19.0, -7.0)}
 def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order):
     """Maximum marginal likelihood of r (sigma fixed) over the profiles ``rows``: (r, log-likelihood)."""
 
+    groups = ([(np.arange(rows.shape[0]), float(sigma))] if np.ndim(sigma) == 0
+              else _noise_groups(np.asarray(sigma, float)))
+
     def nll(logr):
         if not -60 < logr < 5:
             return 1e300
-        ll = rigidity_posterior(x, rows, sigma=sigma, rigidity=float(np.exp(logr)), sigma_z=sigma_z,
-                                penalty_order=penalty_order).log_likelihood
-        return -float(np.sum(ll))
+        return -float(sum(np.sum(rigidity_posterior(x, rows[idx], sigma=s, rigidity=float(np.exp(logr)),
+                                                    sigma_z=sigma_z, penalty_order=penalty_order).log_likelihood)
+                          for idx, s in groups))
 
     grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
     vals = [nll(g) for g in grid]
@@ -161,11 +276,14 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order):
     return float(np.exp(best)), -float(fun)
 
 
-def _changed_rows(slopes):
-    rows = slopes[np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0]
+def _changed_rows(slopes, sigma=None):
+    keep = np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0
+    rows = slopes[keep]
     if rows.shape[0] == 0:
         raise InputError("no day differs from the reference day: the rigidity cannot be estimated; pass it.")
-    return rows
+    if sigma is None:
+        return rows
+    return rows, (sigma if np.ndim(sigma) == 0 else np.asarray(sigma, float)[keep])
 
 
 def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFAULT_SIGMA_Z, penalty_order: int = 2):
@@ -241,8 +359,9 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
         Stations, m.
     slopes : (D, N) ndarray
         Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
-    sigma : float
-        Slope-change noise std, rad (e.g. :func:`day_difference_sigma`), kept fixed.
+    sigma : float or (D,) array_like
+        Slope-change noise std, rad (e.g. :func:`day_difference_sigma`), kept fixed; one value per
+        day (:func:`daily_noise_sigma`) is allowed.
     sigma_z : float
         End-anchor std, m.
     penalty_orders : iterable of int
@@ -252,12 +371,13 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
     -------
     ChangePriorFit
     """
-    rows = _changed_rows(np.asarray(slopes, float))
+    rows, sig = _changed_rows(np.asarray(slopes, float), sigma if np.ndim(sigma) else float(sigma))
     lls, rs = {}, {}
     for order in penalty_orders:
-        rs[int(order)], lls[int(order)] = _fit_rigidity(x, rows, float(sigma), sigma_z, int(order))
+        rs[int(order)], lls[int(order)] = _fit_rigidity(x, rows, sig, sigma_z, int(order))
     best = max(lls, key=lls.get)
-    return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs, sigma=float(sigma))
+    return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs,
+                          sigma=float(sigma) if np.ndim(sigma) == 0 else float(np.median(sigma)))
 
 
 def affine_correction(x, slopes, usable):
@@ -309,7 +429,8 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
                         check_health: bool = True, exclude_sensors=(), use_affine_correction: bool = False,
                         through_time: bool = True, process_std: float | None = None,
                         settlement_threshold_m: float | None = None, rate_threshold_m_per_day: float | None = None,
-                        alarm_probability: float = 0.5, n_monte_carlo: int = 1000, rng=0) -> SettlementResult:
+                        alarm_probability: float = 0.5, n_monte_carlo: int = 1000, rng=0,
+                        error_model: str = "drift") -> SettlementResult:
     r"""Altitude change of the track, day by day, with 90 % bands, from sleeper inclinometers (paper 004).
 
     Parameters
@@ -357,6 +478,12 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     n_monte_carlo : int, default 1000
         Posterior draws per day for the maximum settlement (0 = skip, NaN results).
     rng : int or Generator, default 0
+    error_model : {"drift", "white"}, default "drift"
+        "white": one noise std for all days (sigma, the paper's model). "drift": one std per day,
+        growing with the days since the reference day and with the temperature difference from it
+        (:func:`daily_noise_sigma`: drifting inclinometers and thermal residuals, calibrated on
+        independent scenarios, docs/rail.md); the through-time model then carries the drift as a
+        random walk of the error. A given ``sigma`` implies "white".
 
     Returns
     -------
@@ -374,6 +501,8 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     """
     require_positive("sigma_z", sigma_z)
     require_positive("sigma_a", sigma_a)
+    if error_model not in ERROR_MODELS:
+        raise InputError(f"error_model must be one of {ERROR_MODELS}; got {error_model!r}.")
     warnings = list(site.warnings)
     ids = site.sensor_ids
     x = site.x
@@ -423,14 +552,34 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
         warnings.append("affine correction of §5.2 applied: end sensors forced to read no change; the paper warns it "
                         "is not robust (it helped one track and degraded the other).")
     sig = float(sigma) if sigma is not None else day_difference_sigma(M)
+    drift = error_model == "drift" and sigma is None
+    if drift:
+        t_days = (pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1)
+        # floor at half the day-to-day noise: a fit driven by the thermal term alone would otherwise give the
+        # days at the reference temperature no noise at all (a floor at the full day-difference sigma made
+        # mittersheim-like over-cover: 95.6 %)
+        sig_days = daily_noise_sigma(x, M, day_offsets=np.asarray(t_days, float),
+                                     temperature_change=_site_temperature_change(site, days), floor=0.5 * sig)
+        sig = float(np.median(sig_days[1:]))
+    else:
+        sig_days = np.full(D, sig)
     if rigidity is None:
-        prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=sigma_z,
-                                     penalty_orders=PENALTY_ORDERS if penalty_order is None else (penalty_order,))
+        orders = PENALTY_ORDERS if penalty_order is None else (penalty_order,)
+        prior_fit = fit_change_prior(x, M, sigma=sig_days if drift else sig, sigma_z=sigma_z, penalty_orders=orders)
         order, rig = prior_fit.penalty_order, prior_fit.rigidity
+        if drift and rig <= 1.01 * 10.0 ** _LOG10_RIGIDITY_GRID[order][0]:
+            # the stiffest prior of the grid: the daily noise estimate has absorbed the settlement (a bowl
+            # spanning most of a sparse site departs from the neighbours' lines) -> back to one sigma
+            warnings.append("error_model='drift': the per-day noise absorbed the settlement (maximum-likelihood "
+                            "prior at its stiffest); the white noise model (one sigma) is used instead.")
+            drift, sig = False, float(day_difference_sigma(M))
+            sig_days = np.full(D, sig)
+            prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=sigma_z, penalty_orders=orders)
+            order, rig = prior_fit.penalty_order, prior_fit.rigidity
     else:
         prior_fit, order, rig = None, 2 if penalty_order is None else int(penalty_order), float(rigidity)
-    post = rigidity_posterior(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
-    noise_std = measurement_std(x, M, sigma=sig, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
+    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
+    noise_std = post["noise_std"]
     # §2 chain integrations on the same slope changes (excluded sensors interpolated from neighbours)
     ok = ~health.excluded
     Mi = np.array([np.interp(x, x[ok & np.isfinite(row)], row[ok & np.isfinite(row)]) for row in M])
@@ -439,20 +588,28 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     integrated = {meth: integrate_angles(x, np.arctan(np.tan(bar0)[None, :] + bar_change), method=meth)
                   - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
     if n_monte_carlo > 0:
-        mc_mean, mc_std = max_settlement_monte_carlo(x, M, int(n_monte_carlo), sigma=sig, rigidity=rig,
-                                                     sigma_z=sigma_z, rng=rng, penalty_order=order)
+        mc_mean, mc_std = np.empty(D), np.empty(D)
+        gen = np.random.default_rng(rng)
+        for idx, s in _noise_groups(sig_days):
+            mc_mean[idx], mc_std[idx] = max_settlement_monte_carlo(x, M[idx], int(n_monte_carlo), sigma=s,
+                                                                   rigidity=rig, sigma_z=sigma_z, rng=gen,
+                                                                   penalty_order=order)
     else:
         mc_mean = mc_std = np.full(D, np.nan)
-    dz_std = np.array(post.z_std)
-    smoothed = smooth_through_time(post.z_mean, dz_std, process_std=process_std) if through_time else None
-    src_mean = smoothed.mean if smoothed is not None else post.z_mean
+    dz_std = np.array(post["z_std"])
+    if through_time:
+        smoothed = smooth_through_time(post["z_mean"], dz_std, process_std=process_std,
+                                       noise_variance_by_day=sig_days**2 if drift else None)
+    else:
+        smoothed = None
+    src_mean = smoothed.mean if smoothed is not None else post["z_mean"]
     src_std = smoothed.std if smoothed is not None else dz_std
     alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=settlement_threshold_m,
                                rate=None if smoothed is None else smoothed.rate,
                                rate_std=None if smoothed is None else smoothed.rate_std,
                                rate_threshold_m_per_day=rate_threshold_m_per_day, min_probability=alarm_probability)
     controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
-    settings = dict(thermal=thermal, sigma_rad=sig, sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
+    settings = dict(thermal=thermal, error_model="drift" if drift else "white", sigma_rad=sig, sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
                     penalty_order=order, sigma_estimated=sigma is None, rigidity_estimated=rigidity is None,
                     change_prior_log_likelihood=None if prior_fit is None else prior_fit.log_likelihood,
                     survey_rigidity=survey_rigidity, sigma_z=sigma_z,
@@ -460,10 +617,10 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
                     through_time=through_time, process_std=None if smoothed is None else smoothed.process_std,
                     settlement_threshold_m=settlement_threshold_m, rate_threshold_m_per_day=rate_threshold_m_per_day,
                     alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo)
-    return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post.z_mean, dz_std=dz_std,
+    return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
                             dz_noise_std=noise_std,
-                            slope_change=post.slope_mean, slope_change_std=post.slope_std, smoothed=smoothed,
+                            slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
                             initial=initial, integrated=integrated, max_settlement_mean=np.atleast_1d(mc_mean),
                             max_settlement_std=np.atleast_1d(mc_std), health=health, daily=daily, sigma=sig,
                             rigidity=rig, penalty_order=order, change_prior=prior_fit, alarms=alarms, controls=controls, warnings=tuple(warnings),
-                            settings=settings)
+                            settings=settings, sigma_by_day=sig_days)

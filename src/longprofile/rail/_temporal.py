@@ -62,7 +62,8 @@ def _station_model(var_obs, q, reference_share):
                            initial_mean=np.zeros(2), initial_cov=np.diag([1e-16, max(var_ref, 1e-20)]))
 
 
-def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_share: float = 0.5) -> TemporalSettlement:
+def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_share: float = 0.5,
+                        noise_variance_by_day=None) -> TemporalSettlement:
     """Smooth daily settlement posteriors across days, per station (random-walk model, module docstring).
 
     Parameters
@@ -74,6 +75,16 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_sh
     reference_share : float, default 0.5
         Share of each day's variance due to the reference day's error, common to all days
         (module docstring); 0 treats the daily errors as independent.
+    noise_variance_by_day : (D,) array_like, optional
+        Variance of the daily slope-change noise of each day (``error_model="drift"`` of
+        :func:`~longprofile.rail.estimate_settlement`). The share of each day's variance above the
+        smallest day's, v_d (1 - min_d sigma_d^2 / sigma_d^2), is then an error that persists from day
+        to day (sensor drift, thermal residual) and that smoothing across days cannot average away:
+        the smoother runs on the remainder (split into the reference share and independent daily
+        noise) and the persistent share is added to the smoothed variance; the rate variance gets
+        the day-to-day growth of that share (a random walk of the error: its increments).
+        (A joint state (s_d, a_0, c_d) with c a random walk of the error is not identifiable from one
+        station's series: the error walk absorbs the settlement.)
 
     Returns
     -------
@@ -89,9 +100,18 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_sh
     var = np.maximum(sd, 1e-7) ** 2
     Y = mu.copy()
     Y[0] = np.nan  # day 0 is the reference: its change is 0 by construction and carries no information
+    if noise_variance_by_day is not None:
+        nv = np.asarray(noise_variance_by_day, float)
+        if nv.shape != (D,) or not np.all(np.isfinite(nv) & (nv > 0)):
+            raise InputError(f"noise_variance_by_day must be (D,) = ({D},) positive values.")
+        white_share = np.minimum(np.min(nv[1:]) / nv, 1.0) if D > 1 else np.ones(D)
+        white_share[0] = 1.0  # the reference day: no persistent error yet
+        var_white, var_drift = var * white_share[:, None], var * (1.0 - white_share[:, None])
+    else:
+        var_white, var_drift = var, None
 
     def run(q, j):
-        return shared_covariance_smoother(_station_model(var[:, j], q, reference_share), Y[:, j:j + 1])
+        return shared_covariance_smoother(_station_model(var_white[:, j], q, reference_share), Y[:, j:j + 1])
 
     if process_std is None:
         ll = [sum(run(q, j).filtered.log_likelihood for j in range(N)) for q in PROCESS_STD_GRID]
@@ -106,10 +126,15 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_sh
         sm = run(q, j)
         mean[:, j] = sm.mean[:, 0]
         P = sm.cov[:, 0, 0]
+        Pr = P[1:] + P[:-1] - 2 * sm.cross_cov[:, 0, 0] if D > 1 else None
+        if var_drift is not None:
+            walk = np.maximum.accumulate(var_drift[:, j])
+            P = P + walk
+            Pr = Pr + np.diff(walk) if D > 1 else None
         std[:, j] = np.sqrt(P)
         if D > 1:
             rate[1:, j] = np.diff(sm.mean[:, 0])
-            rate_std[1:, j] = np.sqrt(np.maximum(P[1:] + P[:-1] - 2 * sm.cross_cov[:, 0, 0], 0.0))
+            rate_std[1:, j] = np.sqrt(np.maximum(Pr, 0.0))
     return TemporalSettlement(mean=mean, std=std, rate=rate, rate_std=rate_std, process_std=q)
 
 

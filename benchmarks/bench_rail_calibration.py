@@ -1,0 +1,71 @@
+"""Rail settlement calibration on independent scenarios (issue 13): coverage, PIT, RMS of z, health rates.
+
+Each scenario family (``longprofile.rail._scenarios``: thermal lag, random-walk drift, temperature
+swings and fronts, sensor faults, different sensor counts/spacings — effects the estimator does
+not model) is drawn for several seeds and estimated with the ``rail settle`` call
+(``estimate_settlement`` defaults, Monte Carlo 200 draws); the harness is
+``longprofile.rail._calibration.calibrate_family``.
+
+Run: ``python -m benchmarks rail_calibration`` (full: 12 draws per family + 100 faulty sites) or
+``python -m benchmarks --quick rail_calibration`` (3 small sites, seconds).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from benchmarks._common import BenchRow
+
+AREA = "rail_calibration"
+INTERVALS = ("daily", "smoothed", "rate", "max_settlement")
+
+
+def family_rows(cal, elapsed: float, quick: bool) -> list[BenchRow]:
+    """One row per printed interval (coverage, target 85-95 %) + RMS + health rows of a FamilyCalibration."""
+    rows = []
+    for key in INTERVALS:
+        sc = cal.intervals.get(key)
+        if sc is None or sc.n == 0:
+            continue
+        byd = np.array(sc.coverage_by_draw) * 100
+        rows.append(BenchRow(AREA, f"{cal.family}: {key} 90 % coverage", 100 * sc.coverage, "%",
+                             target=None if quick else 85.0,
+                             detail=f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / "
+                                    f"max {byd.max():.0f} %; RMS z {sc.rms_z:.2f}; PIT deciles "
+                                    f"{' '.join(f'{100 * p:.0f}' for p in sc.pit)} %; n = {sc.n}"))
+    r = np.array(cal.rms_mm_by_draw)
+    rows.append(BenchRow(AREA, f"{cal.family}: settlement RMS error (median over draws)", float(np.median(r)), "mm",
+                         target=None if quick else 1.0, higher_is_better=False,
+                         detail=f"{len(r)} draws, min {r.min():.2f} / max {r.max():.2f} mm; {elapsed:.1f} s"))
+    if cal.detected:
+        rows.append(BenchRow(AREA, f"{cal.family}: faulty sensors detected", 100 * cal.detection_rate, "%",
+                             target=None if quick else 99.0,
+                             detail=", ".join(f"{k} {h}/{t}" for k, (h, t) in sorted(cal.detected.items()))))
+    rows.append(BenchRow(AREA, f"{cal.family}: healthy sensors flagged", 100 * cal.false_alarm_rate, "%",
+                         target=None if quick else 1.0, higher_is_better=False,
+                         detail=f"{cal.false_alarms[0]} of {cal.false_alarms[1]}"))
+    return rows
+
+
+def run(quick: bool) -> list[BenchRow]:
+    """Benchmark rows of the rail calibration (module docstring)."""
+    from longprofile.rail._calibration import calibrate_family
+    from longprofile.rail._scenarios import SCENARIO_FAMILIES
+
+    rows = []
+    if quick:
+        plan = [("drift", (0,)), ("faults", (1,)), ("sparse-drift", (2,))]
+    else:
+        plan = [(name, range(100, 112)) for name in SCENARIO_FAMILIES if name != "faults"]
+        plan.append(("faults", range(200, 300)))
+    for name, seeds in plan:
+        fam = SCENARIO_FAMILIES[name]
+        if quick:
+            from dataclasses import replace
+            fam = replace(fam, n_sensors=(12, 16), n_days=(10, 12), sampling_minutes=60.0)
+        t0 = time.perf_counter()
+        cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200)
+        rows.extend(family_rows(cal, time.perf_counter() - t0, quick))
+    return rows
