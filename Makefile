@@ -28,7 +28,7 @@ demo: $(STAMP)
 	$(VENV)/bin/longprofile demo --output out
 
 test: $(STAMP_TEST)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=15
 
 bench: $(STAMP_TEST)
 	$(PY) -m benchmarks
