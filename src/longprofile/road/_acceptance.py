@@ -15,7 +15,7 @@ import pandas as pd
 
 from .._validation import require_positive
 from ..errors import InputError, InputFormatError, UnitsError
-from ._iri import REPORT_UNITS, rectified_slope
+from ._iri import REPORT_UNITS, ReportUnits, rectified_slope
 from ._profile import Profile
 
 __all__ = ["AcceptanceResult", "AcceptanceSpec", "default_spec", "read_spec", "smoothness_acceptance",
@@ -25,7 +25,7 @@ _FT = 0.3048
 
 
 @dataclass(frozen=True)
-class AcceptanceSpec:
+class AcceptanceSpec(ReportUnits):
     """A smoothness specification (all lengths in the spec's length unit, IRI in its IRI unit).
 
     Attributes
@@ -73,23 +73,6 @@ class AcceptanceSpec:
     grinder_length: float = 4 * _FT
     grind_max_depth: float = 10.0
     min_lot_fraction: float = 0.5
-
-    @property
-    def length_unit(self) -> str:
-        return REPORT_UNITS[self.units]["length_unit"]
-
-    @property
-    def iri_unit(self) -> str:
-        return REPORT_UNITS[self.units]["iri_unit"]
-
-    @property
-    def metres_per_unit(self) -> float:
-        return REPORT_UNITS[self.units]["metres_per_unit"]
-
-    @property
-    def iri_factor(self) -> float:
-        """IRI unit per m/km."""
-        return REPORT_UNITS[self.units]["iri_per_m_per_km"]
 
     @property
     def depth_factor(self) -> float:

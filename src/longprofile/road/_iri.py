@@ -606,8 +606,31 @@ CONTINUOUS_WINDOW_M = 7.62
 REPORT_MODES = ("fixed", "continuous", "overlapping")
 
 
+class ReportUnits:
+    """Unit properties of anything with a ``units`` attribute ("si" or "us"), from :data:`REPORT_UNITS`."""
+
+    units: str
+
+    @property
+    def length_unit(self) -> str:
+        return REPORT_UNITS[self.units]["length_unit"]
+
+    @property
+    def iri_unit(self) -> str:
+        return REPORT_UNITS[self.units]["iri_unit"]
+
+    @property
+    def metres_per_unit(self) -> float:
+        return REPORT_UNITS[self.units]["metres_per_unit"]
+
+    @property
+    def iri_factor(self) -> float:
+        """IRI unit per m/km."""
+        return REPORT_UNITS[self.units]["iri_per_m_per_km"]
+
+
 @dataclass(frozen=True, eq=False)
-class IRIReport:
+class IRIReport(ReportUnits):
     """IRI as a road agency reports it: per reported interval (fixed, continuous or overlapping windows).
 
     Every length is in the report's length unit (m for ``units="si"``, ft for ``"us"``) and every IRI in its
@@ -652,14 +675,6 @@ class IRIReport:
     mode: str
     units: str
     metadata: dict
-
-    @property
-    def length_unit(self) -> str:
-        return REPORT_UNITS[self.units]["length_unit"]
-
-    @property
-    def iri_unit(self) -> str:
-        return REPORT_UNITS[self.units]["iri_unit"]
 
     def to_frame(self) -> pd.DataFrame:
         """One row per interval: ``start_<u>, end_<u>, iri_<track>_<iri-u>`` (+ ``mri_<iri-u>, hri_<iri-u>``).
