@@ -54,8 +54,26 @@ def _wait(pred, timeout=90):
     return False
 
 
+def _alarm_row(drv, quantity, *needles, timeout=30):
+    """The alarm-table row of ``quantity`` once it contains every needle. Rows are looked up afresh on each try:
+    a form post reloads the page, and an element found before the reload is stale afterwards."""
+    from selenium.common.exceptions import StaleElementReferenceException
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    def find(d):
+        for e in d.find_elements(By.CSS_SELECTOR, "#alarm-table tr"):
+            if quantity in e.text and all(n in e.text for n in needles):
+                return e
+        return False
+
+    return WebDriverWait(drv, timeout, ignored_exceptions=(StaleElementReferenceException,)).until(find)
+
+
 def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_path):
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as ec
+    from selenium.webdriver.support.ui import WebDriverWait
 
     db, key, r = site
     _core.add_user(db, "t", "eng1", "eng1-password", "engineer")
@@ -94,15 +112,15 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         assert _wait(lambda: any(a["quantity"] == "settlement" for a in list_alarms(db, "mitt")))
         drv.refresh()
         assert last in drv.find_element(By.ID, "complete").text
-        row = [e for e in drv.find_elements(By.CSS_SELECTOR, "#alarm-table tr") if "settlement" in e.text][0]
+        row = _alarm_row(drv, "settlement")
         assert "action" in row.text and "raised" in row.text
         img = drv.find_element(By.ID, "profile")
         assert drv.execute_script("return arguments[0].naturalWidth", img) > 500  # the PNG loaded
         _shot(drv, tmp_path, "rail-service-site-alarm.png")
         row.find_element(By.NAME, "comment").send_keys("track crew informed")
         row.find_element(By.CSS_SELECTOR, "button.ack").click()
-        row = [e for e in drv.find_elements(By.CSS_SELECTOR, "#alarm-table tr") if "settlement" in e.text][0]
-        assert "acknowledged" in row.text and "eng1" in row.text and "track crew informed" in row.text
+        WebDriverWait(drv, 30).until(ec.staleness_of(row))  # the post reloaded the page
+        row = _alarm_row(drv, "settlement", "acknowledged", "eng1", "track crew informed")
         _shot(drv, tmp_path, "rail-service-acknowledged.png")
         drv.find_element(By.LINK_TEXT, "S30").click()
         assert drv.execute_script("return document.getElementById('series').naturalWidth") > 500
