@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from longprofile.batch import (IRITask, ReconstructTask, error_message, map_files, open_executor,
-                               process_executor)
+from longprofile.batch import IRITask, ReconstructTask, error_message, map_files, open_executor, process_executor
 from longprofile.batch._map import _worker_info
 from longprofile.errors import DependencyError, InputError, UnitsError
 
@@ -118,3 +117,32 @@ def test_package_exports_are_documented_and_importing_it_does_not_import_numpy()
     # spawned workers unpickle the task (this package) before pinning BLAS threads: no numpy at import
     code = "import sys, longprofile.batch; print('numpy' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout.strip() == "False"
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 5000), st.integers(1, 64))
+def test_dask_files_per_task_keeps_enough_tasks_per_worker_and_a_bounded_size(n_files, n_workers):
+    from longprofile.batch._map import DASK_MAX_FILES_PER_TASK, DASK_TASKS_PER_WORKER, dask_files_per_task
+
+    size = dask_files_per_task(n_files, n_workers)
+    assert 1 <= size <= DASK_MAX_FILES_PER_TASK
+    limit = DASK_TASKS_PER_WORKER * n_workers
+    if size < DASK_MAX_FILES_PER_TASK:  # not capped: at most `limit` tasks ...
+        assert -(-n_files // size) <= limit
+    if size > 1:  # ... and the smallest size that gives so few (one file less per task would exceed it)
+        assert -(-n_files // (size - 1)) > limit
+
+
+def test_dask_groups_files_per_task_yet_records_each_file_own_outcome():
+    distributed = pytest.importorskip("distributed", reason="dask[distributed] not installed "
+                                                            "(pip install longprofile[dask])")
+    paths = [f"{'bad' if i % 3 == 1 else 'good'}-{i}" for i in range(37)]  # 37 files: chunks of 3, a short last one
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) \
+            as cluster, distributed.Client(cluster) as client:
+        res = map_files(boom, paths, executor=client)
+    assert [r.path for r in res] == paths
+    for i, r in enumerate(res):
+        if i % 3 == 1:
+            assert r.error == f"ZeroDivisionError: boom on {r.path}" and r.value is None
+        else:
+            assert r.ok and r.value == r.path.upper()
