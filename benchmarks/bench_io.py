@@ -33,8 +33,8 @@ AREA = "io"
 
 # --- PEER: the ERD reader before issue 11 (src/longprofile/io/_erd.py at 0a2b73b), verbatim but for the names
 
+from longprofile.core import unit_factor  # noqa: E402
 from longprofile.errors import InputError, InputFormatError, UnitsError  # noqa: E402
-from longprofile.io._profiles import unit_factor  # noqa: E402
 
 
 def _old_fields8(value: str, n: int) -> list[str]:

@@ -58,9 +58,9 @@ def _setup(db, sensors, survey, name="bench"):
 
 
 def _ingest_rows(quick, tmp) -> list[BenchRow]:
+    from longprofile.rail.service._core import reading_count
     from longprofile.rail.service._db import Database
     from longprofile.rail.service._serve import ServerThread
-    from longprofile.rail.service._core import reading_count
 
     rows = []
     n_sensors, n_days, minutes = (50, 1, 15) if quick else (100, 14, 10)

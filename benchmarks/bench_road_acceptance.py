@@ -38,9 +38,9 @@ def run(quick: bool) -> list[BenchRow]:
     from longprofile.io import read_profile, write_profile
     from longprofile.report._acceptance import write_acceptance_report
     from longprofile.road import iri_report
-    from longprofile.road._acceptance import smoothness_acceptance, spec_from_dict
-    from longprofile.road._compare import compare_profiles
-    from longprofile.road._grinding import simulate_grinding
+    from longprofile.road.smoothness._acceptance import smoothness_acceptance, spec_from_dict
+    from longprofile.road.smoothness._compare import compare_profiles
+    from longprofile.road.smoothness._grinding import simulate_grinding
 
     length = 1000.0 if quick else 10000.0
     prof = _profile(length)

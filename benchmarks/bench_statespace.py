@@ -56,8 +56,12 @@ def _ours(model, y):
 
 
 def _statsmodels_setup(model, y):
-    from statsmodels.tsa.statespace.kalman_smoother import (SMOOTHER_STATE, SMOOTHER_STATE_AUTOCOV,
-                                                            SMOOTHER_STATE_COV, KalmanSmoother)
+    from statsmodels.tsa.statespace.kalman_smoother import (
+        SMOOTHER_STATE,
+        SMOOTHER_STATE_AUTOCOV,
+        SMOOTHER_STATE_COV,
+        KalmanSmoother,
+    )
     T, m = y.shape
     n = model.n_states
     ks = KalmanSmoother(k_endog=m, k_states=n, k_posdef=n)

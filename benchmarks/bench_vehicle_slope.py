@@ -92,9 +92,16 @@ def _cold_start_rows():
 
 def run(quick: bool) -> list[BenchRow]:
     from longprofile.statespace import extended_kalman_filter
-    from longprofile.vehicle import (default_vehicle, drive_scenario, estimate_slope, planar_ekf_model, planar_inputs,
-                                     planar_measurements, simulate_drive)
-    from longprofile.vehicle._slope_study import PAPER_PROTOTYPE_ERRORS, accuracy_scores
+    from longprofile.vehicle import (
+        default_vehicle,
+        drive_scenario,
+        estimate_slope,
+        planar_ekf_model,
+        planar_inputs,
+        planar_measurements,
+        simulate_drive,
+    )
+    from longprofile.vehicle.planar import PAPER_PROTOTYPE_ERRORS, accuracy_scores
 
     car = default_vehicle()
     rows = []

@@ -43,7 +43,7 @@ AREA = "vehicle_vertical"
 _F_PATTERN = ((2, 2, 2, 2), (2, 1, 0, 0), (0, 0, 2, 0), (0, 0, 0, 2))
 _H_PATTERN = {1: ((0, 1, 0, 0),), 2: ((0, 1, 0, 0), (2, 2, 2, 0)), 3: ((0, 1, 0, 0), (2, 2, 0, 2))}
 # Model multiplications per corner (divisions by constants counted as multiplications by reciprocals, products
-# of constants precomputed), from _vertical_ekf_model.corner_transition_step / corner_observation_step:
+# of constants precomputed), from vehicle/vertical/_model.corner_transition_step / corner_observation_step:
 # spring value + slope 8, damper value + slope 20 (3 tanh), anti-roll term 1, body acceleration 8, wheel
 # acceleration 4, Euler 4, Jacobian 2; observation: config 2 tensions 29 + body acceleration 8 + Jacobian 2,
 # config 3 tensions 29 + wheel acceleration 4 + Jacobian 2.
@@ -97,10 +97,8 @@ def _tanh_per_step(config: int) -> int:
 
 def run(quick: bool) -> list[BenchRow]:
     from longprofile.statespace import block_extended_kalman_filter, extended_kalman_filter
-    from longprofile.vehicle import (estimate_vertical_states, vertical_ekf_inputs, vertical_ekf_model,
-                                     vertical_test_run)
-    from longprofile.vehicle._vertical_estimate import STATE_BLOCKS, nominal_mr_map
-    from longprofile.vehicle._vertical_model import MRDamperParams
+    from longprofile.vehicle import estimate_vertical_states, vertical_ekf_inputs, vertical_ekf_model, vertical_test_run
+    from longprofile.vehicle.vertical import STATE_BLOCKS, MRDamperParams, nominal_mr_map
 
     duration = 1.0 if quick else 30.0
     repeat = 3 if quick else 7
@@ -187,8 +185,13 @@ def run(quick: bool) -> list[BenchRow]:
 def _profilometer_rows(quick: bool) -> list[BenchRow]:
     """IRI of the two front wheel paths from the car's sensors vs the true IRI (25 s at 20 m/s, seed 5)."""
     from longprofile.road import Profile, iri, iso8608_profile
-    from longprofile.vehicle import (estimate_vertical_states, measure_vertical, road_profile_from_suspension,
-                                     simulate_vertical, wheel_road_inputs)
+    from longprofile.vehicle import (
+        estimate_vertical_states,
+        measure_vertical,
+        road_profile_from_suspension,
+        simulate_vertical,
+        wheel_road_inputs,
+    )
 
     speed, dt = 20.0, 1e-3
     duration = 12.0 if quick else 25.0

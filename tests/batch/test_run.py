@@ -7,8 +7,15 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from longprofile.batch import (IRITask, ReconstructTask, expand_paths, open_executor, read_manifest, read_results,
-                               run_batch)
+from longprofile.batch import (
+    IRITask,
+    ReconstructTask,
+    expand_paths,
+    open_executor,
+    read_manifest,
+    read_results,
+    run_batch,
+)
 from longprofile.batch._run import partition_file
 from longprofile.errors import InputError, OutputError
 

@@ -90,8 +90,8 @@ def test_differentiate_names_the_missing_cli_option(signal_csv, tmp_path, capsys
 
 
 def test_derivative_plot_says_what_was_computed():
+    from longprofile.report import plot_derivative
     from longprofile.signal import derivative
-    from longprofile.signal._plot import plot_derivative
 
     x = np.sin(np.arange(300) * 0.01)
     fig = plot_derivative(x, 1e-3, derivative(x, 1e-3, method="ml", window=20, degree=2), label="x")
@@ -156,7 +156,7 @@ def test_iri_warns_when_elevations_are_mm_labelled_m(tmp_path, capsys):
     assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 0
     assert "beyond any road" in _err(capsys)
     pd.DataFrame(dict(distance_m=x, left_m=z)).to_csv(path, index=False)
-    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 0
+    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv"), "--overwrite"]) == 0
     assert "beyond any road" not in _err(capsys)
 
 
@@ -176,6 +176,9 @@ def test_report_into_a_file_or_over_its_input_is_refused(tmp_path, capsys):
     pd.DataFrame(dict(distance_m=x, left_m=1e-3 * np.sin(x))).to_csv(src, index=False)
     before = src.read_bytes()
     assert main(["road", "report", str(src), "--segment", "20", "-o", str(folder)]) == 2
+    assert "exists and is not empty" in _err(capsys)
+    # the input is protected even with --overwrite
+    assert main(["road", "report", str(src), "--segment", "20", "-o", str(folder), "--overwrite"]) == 2
     assert "would overwrite its input" in _err(capsys)
     assert main(["road", "report", str(src), "--segment", "20", "-o", str(src)]) == 2
     (tmp_path / "afile").write_text("x")
@@ -193,7 +196,7 @@ def test_differentiate_refuses_a_dt_contradicting_the_time_column(signal_csv, tm
 
 def test_apl_figures_say_what_they_show():
     from longprofile.identify import fit_output_error
-    from longprofile.road._apl_plots import plot_identification, plot_reconstructions, plot_recording
+    from longprofile.report import plot_identification, plot_reconstructions, plot_recording
 
     x = np.arange(0, 100, 0.05)
     fig = plot_recording(x, np.sin(x), 0.5 * np.sin(x), title="simulated APL recording: bump")

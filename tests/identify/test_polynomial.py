@@ -8,7 +8,7 @@ from scipy import signal, stats
 
 from longprofile.errors import ConvergenceError, InputError, ShapeError
 from longprofile.identify import fit_armax, fit_arx, fit_output_error, simulate_model, step_response
-from longprofile.road._apl import paper_identified_model
+from longprofile.road.apl._model import paper_identified_model
 
 N = 5000
 

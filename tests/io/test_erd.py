@@ -13,10 +13,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from longprofile.core import LENGTH_UNITS
 from longprofile.errors import InputError, InputFormatError, UnitsError
 from longprofile.io import read_erd, read_profile, write_erd
 from longprofile.io._erd import _parse_body_fast, _parse_body_slow
-from longprofile.io._profiles import LENGTH_UNITS
 from longprofile.road import Profile
 
 HEADER = """ERDFILEV2.00

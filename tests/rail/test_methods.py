@@ -9,8 +9,16 @@ from scipy.integrate import solve_ivp
 from scipy.stats import norm
 
 from longprofile.errors import InputError
-from longprofile.rail import (bar_angles_from_profile, daily_angles, first_order_response, integrate_angles,
-                              settlement_alarms, simulate_site, smooth_through_time, validate_site)
+from longprofile.rail import (
+    bar_angles_from_profile,
+    daily_angles,
+    first_order_response,
+    integrate_angles,
+    settlement_alarms,
+    simulate_site,
+    smooth_through_time,
+    validate_site,
+)
 
 
 @settings(max_examples=30, deadline=None)

@@ -1,8 +1,6 @@
 """The rigidity model of paper 004 §4: Lemma 4.1, the dense formula, and its O(N) state-space form."""
 
 import numpy as np
-
-from longprofile.rail._rigidity import FIRST_SLOPE_PRIOR_STD
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -10,10 +8,17 @@ from scipy.integrate import quad
 from scipy.interpolate import CubicHermiteSpline
 
 from longprofile.errors import InputError, ShapeError
-from longprofile.rail import (initial_profile_posterior, initial_profile_posterior_dense, measurement_std,
-                              rigidity_cost_matrix, rigidity_model, rigidity_posterior, rigidity_posterior_dense,
-                              sample_profiles)
-from longprofile.rail._rigidity import segment_rigidity_cost
+from longprofile.rail import (
+    initial_profile_posterior,
+    initial_profile_posterior_dense,
+    measurement_std,
+    rigidity_cost_matrix,
+    rigidity_model,
+    rigidity_posterior,
+    rigidity_posterior_dense,
+    sample_profiles,
+)
+from longprofile.rail._rigidity import FIRST_SLOPE_PRIOR_STD, segment_rigidity_cost
 
 
 def _stations(rng, n):

@@ -1,5 +1,7 @@
 """The whole job on synthetic truth: accuracy, band coverage, sensor health, controls, options."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -77,6 +79,25 @@ def test_paper_chain_integrations_are_less_accurate_than_the_posterior(mitt):
     assert post < min(rms.values())
 
 
+def test_settings_object_gives_the_same_result_as_keywords(mitt):
+    from longprofile.rail import SettlementSettings
+
+    syn, site, res = mitt
+    opt = SettlementSettings(settlement_threshold_m=0.01, rate_threshold_m_per_day=0.003, n_monte_carlo=300)
+    again = estimate_settlement(site, settings=opt)
+    for name in ("dz", "dz_std", "dz_noise_std", "slope_change", "max_settlement_mean", "max_settlement_std",
+                 "sigma_by_day"):
+        assert np.array_equal(getattr(again, name), getattr(res, name)), name
+    assert again.settings == res.settings and again.warnings == res.warnings
+    assert again.alarms.equals(res.alarms)
+    with pytest.raises(InputError, match="error_model"):
+        SettlementSettings(error_model="pink")
+    with pytest.raises(InputError, match="sigma_z"):
+        SettlementSettings(sigma_z=0.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        opt.sigma = 1.0
+
+
 def test_options_exclusion_affine_and_errors(mitt):
     syn, site, _ = mitt
     res = estimate_settlement(site, exclude_sensors=["S01"], use_affine_correction=True, through_time=False,
@@ -117,13 +138,3 @@ def test_drifting_and_detached_sensors_are_classified():
     res = estimate_settlement(validate_site(syn.sensors, r, syn.survey), n_monte_carlo=0)
     flagged = {s: st for s, st, _ in res.health.flagged()}
     assert flagged == {**syn.truth.bad_sensors, "S05": "drifting", "S50": "detached"}
-
-
-def test_demo_writes_report_and_accuracy(tmp_path):
-    from longprofile.rail._demo import run_demo
-
-    files = run_demo(tmp_path)
-    assert (tmp_path / "rail" / "report" / "index.html") in files
-    text = (tmp_path / "rail" / "accuracy.txt").read_text()
-    assert "settlement RMS error" in text and "S34 (reversed)" in text
-    assert all(f.exists() for f in files)

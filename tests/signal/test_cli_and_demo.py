@@ -1,4 +1,4 @@
-"""``longprofile differentiate`` in process, its error contract, and the signal demo step."""
+"""``longprofile differentiate`` in process and its error contract (the demo step: tests/demos/test_signal.py)."""
 
 import numpy as np
 import pandas as pd
@@ -70,15 +70,3 @@ def test_bad_options_are_library_errors_exit_2(tmp_path, capsys):
     assert "does not take smooth" in capsys.readouterr().err
     assert main(["differentiate", str(src), "-c", "x", "--dt", "0.001", "-o", out]) == 2
     assert "requires window" in capsys.readouterr().err
-
-
-def test_demo_step_writes_plot_and_error_table(tmp_path):
-    from longprofile.signal._demo import run_demo
-
-    files = run_demo(tmp_path)
-    assert {f.name for f in files} == {"derivatives.png", "derivative_errors.csv"}
-    table = pd.read_csv(tmp_path / "signal" / "derivative_errors.csv")
-    err = dict(zip(table["estimator"], table["rms_error"]))
-    # the paper's point (§4, fig. 1): separating the model order from the window beats the backward difference
-    assert err["ML d=2"] < err["backward n=2"] / 10
-    assert err["Kalman smoother"] < err["Kalman filter"]

@@ -239,3 +239,15 @@ def test_kalman_steady_state_agrees_after_the_transient(smooth):
     x[5] = np.nan
     with pytest.raises(InputError, match="NaN"):
         derivative_kalman(x, dt, q_over_r=1e4, noise_std=0.02, steady_state=True)
+
+
+def test_option_check_is_the_one_the_cli_uses():
+    from longprofile.signal import check_derivative_options
+
+    assert check_derivative_options("kalman", {"q_over_r": 1e6, "window": None}) == {"q_over_r": 1e6}
+    with pytest.raises(InputError, match=r"^--method kalman requires q_over_r: pass --q-over-r \(jerk variance"):
+        check_derivative_options("kalman", {}, flags=True)
+    with pytest.raises(InputError, match=r"^--method ml requires window: pass --window N .*, e.g. --window 45\.$"):
+        check_derivative_options("ml", {"degree": 2}, flags=True)
+    with pytest.raises(InputError, match="does not take window"):
+        check_derivative_options("backward", {"window": 3}, flags=True)

@@ -4,7 +4,7 @@ import longprofile.signal as signal
 
 EXPECTED = {
     "derivative", "derivative_ml", "derivative_polyfit", "derivative_backward", "derivative_kalman",
-    "DERIVATIVE_METHODS", "DerivativeResult", "DerivativeMethod", "StreamingDerivative", "estimate_noise_std",
+    "DERIVATIVE_METHODS", "DerivativeResult", "DerivativeMethod", "check_derivative_options", "StreamingDerivative", "estimate_noise_std",
     "kalman_differentiator_model", "plot_derivative", "ml_coefficients", "ml_coefficients_float",
     "ml_model_variance", "polyfit_coefficients", "polyfit_coefficients_float", "backward_difference_coefficients",
     "backward_difference_coefficients_float", "power_sum", "variance_gain", "static_gain", "frequency_response",

@@ -11,7 +11,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from longprofile.statespace import FilterResult, SmootherResult, StateSpaceModel
-from longprofile.statespace._kalman import prepare_inputs, prepare_observations
+from longprofile.statespace._prepare import prepare_inputs, prepare_observations
 
 __all__ = ["reference_filter", "reference_smoother"]
 

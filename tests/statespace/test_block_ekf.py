@@ -176,3 +176,46 @@ def test_finite_difference_jacobians_give_the_analytic_filter():
     fd = block_extended_kalman_filter(_model(jacobians=False), y, u=u, state_blocks=SB, obs_blocks=OB)
     np.testing.assert_allclose(fd.mean, ref.mean, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(fd.cov, ref.cov, rtol=1e-6, atol=1e-10)
+
+
+@njit
+def _fjac_nan_at_3(x, u, k):
+    J = _fjac_block(x, u, k)
+    if k == 3:
+        J[1, 1] = np.nan
+    return J
+
+
+@njit
+def _fjac_huge_at_2(x, u, k):
+    J = _fjac_block(x, u, k)
+    if k == 2:
+        J[0, 0] = 1e200
+    return J
+
+
+@njit
+def _hjac_nan_at_4(x, u, k):
+    H = _hjac(x, u, k)
+    if k == 4:
+        H[1, 2] = np.inf
+    return H
+
+
+def test_block_filter_non_finite_jacobian_and_covariance_like_the_ekf():
+    y, u = _data(T=30)
+    base = _model()
+    cases = ((dict(transition_jacobian=_fjac_nan_at_3), r"transition_fn or its Jacobian returned non-finite values "
+                                                         r"at step 3\."),
+             (dict(observation_jacobian=_hjac_nan_at_4), r"observation_fn or its Jacobian returned non-finite values "
+                                                         r"at step 4\."),
+             (dict(transition_jacobian=_fjac_huge_at_2), r"predicted covariance became non-finite at step 2 -> 3"))
+    for change, message in cases:
+        model = NonlinearStateSpaceModel(base.transition_fn, base.observation_fn, base.process_cov, base.obs_cov,
+                                         base.initial_mean, base.initial_cov,
+                                         transition_jacobian=change.get("transition_jacobian", _fjac_block),
+                                         observation_jacobian=change.get("observation_jacobian", _hjac))
+        with pytest.raises(ModelError, match=message):
+            block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB)
+        with pytest.raises(ModelError, match=message):
+            extended_kalman_filter(model, y, u=u)

@@ -15,8 +15,15 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from longprofile.errors import InputError, NotDetectableError, ShapeError
-from longprofile.statespace import (StateSpaceModel, fixed_lag_smoother, kalman_filter, rts_smoother,
-                                    steady_state_filter, steady_state_gain, steady_state_smoother)
+from longprofile.statespace import (
+    StateSpaceModel,
+    fixed_lag_smoother,
+    kalman_filter,
+    rts_smoother,
+    steady_state_filter,
+    steady_state_gain,
+    steady_state_smoother,
+)
 from tests.statespace._models import draw, random_model
 
 PROPS = settings(max_examples=10, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])

@@ -6,8 +6,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError, NotDetectableError
-from longprofile.statespace import (StateSpaceModel, chunked_kalman_filter, kalman_filter, long_record_filter,
-                                    long_record_log_likelihood, long_record_smoother, rts_smoother, simulate)
+from longprofile.statespace import (
+    StateSpaceModel,
+    chunked_kalman_filter,
+    kalman_filter,
+    long_record_filter,
+    long_record_log_likelihood,
+    long_record_smoother,
+    rts_smoother,
+    simulate,
+)
 
 
 def _random_model(seed, n, m, radius):

@@ -10,8 +10,16 @@ from hypothesis import strategies as st
 
 from longprofile.errors import InputError, InputFormatError, UnitsError
 from longprofile.vehicle import default_vehicle, estimate_slope, simulate_drive
-from longprofile.vehicle._logs import (UNIT_FACTORS, check_drive_log, convert_units, infer_vertical_config,
-                                       parse_units, read_drive_log, read_vertical_log, resample_log)
+from longprofile.vehicle._logs import (
+    UNIT_FACTORS,
+    check_drive_log,
+    convert_units,
+    infer_vertical_config,
+    parse_units,
+    read_drive_log,
+    read_vertical_log,
+    resample_log,
+)
 
 CAR = default_vehicle()
 WHEELS = [f"wheel_speed_{w}" for w in ("fl", "fr", "rl", "rr")]

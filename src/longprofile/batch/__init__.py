@@ -26,11 +26,30 @@ EXIT_SOME_FAILED -- exit code of the CLI when the batch completed with failed fi
 Nothing here imports numpy at import time: spawned workers pin their BLAS threads first.
 """
 
-from ._map import (BLAS_ENV, SCHEDULERS, FileResult, dask_client, error_message, iter_files, map_files, open_executor,
-                   process_executor)
+from ._map import (
+                   BLAS_ENV,
+                   SCHEDULERS,
+                   FileResult,
+                   dask_client,
+                   error_message,
+                   iter_files,
+                   map_files,
+                   open_executor,
+                   process_executor,
+)
 from ._results import BatchResults, NetworkSummary, read_results, summarize_network
-from ._run import (EXIT_SOME_FAILED, MANIFEST, MANIFEST_COLUMNS, PROFILES, SEGMENTS, BatchSummary, expand_paths,
-                   file_digest, read_manifest, run_batch)
+from ._run import (
+                   EXIT_SOME_FAILED,
+                   MANIFEST,
+                   MANIFEST_COLUMNS,
+                   PROFILES,
+                   SEGMENTS,
+                   BatchSummary,
+                   expand_paths,
+                   file_digest,
+                   read_manifest,
+                   run_batch,
+)
 from ._tasks import TASKS, IRITask, ReconstructTask, TaskOutput, options_hash
 
 __all__ = ["map_files", "iter_files", "FileResult", "error_message", "process_executor", "open_executor",

@@ -174,7 +174,7 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
     import pandas as pd
 
     if limits_m_per_km is None:
-        from ..report._road import IRI_CONDITION_LIMITS as limits_m_per_km
+        from ..report import IRI_CONDITION_LIMITS as limits_m_per_km
     seg = results.segments.copy()
     manifest = results.manifest
     failed = manifest.loc[manifest["status"] == "error", ["path", "route", "error"]].reset_index(drop=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
 from rich.console import Console
 
 from ..errors import OutputError
@@ -17,12 +18,24 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 PROFILE_SUFFIXES = TABLE_SUFFIXES + (".erd",)
 
 
-def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, ...] | None = None) -> Path:
-    """Refuse to write ``output`` over one of the command's inputs; create its parent folder.
+#: The ``--overwrite`` option of every command that writes a file or a folder (the same name and meaning).
+OVERWRITE = typer.Option(False, "--overwrite", help="Replace an existing output file (or the files this command "
+                         "writes into an existing, non-empty output folder). Without it an existing output is "
+                         "refused; inputs are never overwritten.")
 
-    Raises :class:`OutputError` (one line, exit code 2) when ``output`` is an input, is an existing folder, its
-    folder cannot be created (a file is in the way, no permission), or — with ``suffixes`` — its suffix is not
-    one of them (checked before any work, so a long computation never ends on an unwritable format).
+
+def _exists_error(what: str, out: Path) -> OutputError:
+    return OutputError(f"{what} {out} exists; pass --overwrite to replace it, or choose another path.")
+
+
+def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, ...] | None = None,
+                      overwrite: bool = False, what: str = "output") -> Path:
+    """Refuse to write ``output`` over one of the command's inputs or an existing file; create its parent folder.
+
+    Raises :class:`OutputError` (one line, exit code 2) when ``output`` is an input (even with ``overwrite``),
+    exists and ``overwrite`` is False, is an existing folder, its folder cannot be created (a file is in the way,
+    no permission), or — with ``suffixes`` — its suffix is not one of them. Call it once, before any work, and
+    write to the path it returns (a second call after writing would refuse the command's own file).
     """
     out = Path(output)
     for inp in inputs:
@@ -34,6 +47,8 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     if suffixes is not None and out.suffix.lower() not in suffixes:
         raise OutputError(f"output {out}: unknown format {out.suffix!r}; use one of {', '.join(suffixes)} "
                           f"(e.g. {out.with_suffix(suffixes[0])}).")
+    if not overwrite and (out.exists() or out.is_symlink()):
+        raise _exists_error(what, out)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -42,18 +57,44 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     return out
 
 
+def check_output_folder(output: Path, *inputs: Path | None, overwrite: bool = False, what: str = "output") -> Path:
+    """Check an output *folder* before any work: not an input, not a file, and empty unless ``overwrite``.
+
+    With ``overwrite`` the command replaces the files it writes there; other files in the folder are left alone.
+    The folder is not created here (the writer creates it).
+    """
+    out = Path(output)
+    for inp in inputs:
+        if inp is not None and Path(inp).exists() and out.exists() and out.resolve() == Path(inp).resolve():
+            raise OutputError(f"{what} folder {out} is an input; choose another folder.")
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{what} {out} is a file; give a folder, e.g. {out.with_suffix('')}_out/.")
+    if not overwrite and out.is_dir() and any(out.iterdir()):
+        raise OutputError(f"{what} folder {out} exists and is not empty; pass --overwrite to replace the files "
+                          "this command writes there, or choose another path.")
+    return out
+
+
 #: Figure formats ``--plot`` accepts (matplotlib's Agg, PDF and SVG writers).
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
-def check_plot_path(plot: Path | None, *inputs: Path | None) -> Path | None:
-    """Check a ``--plot`` path before any work: a known figure suffix, not an input, folder creatable."""
+def check_plot_path(plot: Path | None, *inputs: Path | None, overwrite: bool = False) -> Path | None:
+    """Check a ``--plot`` path before any work: a known figure suffix, not an input, not an existing file
+    (unless ``overwrite``), folder creatable."""
     if plot is None:
         return None
     if Path(plot).suffix.lower() not in PLOT_SUFFIXES:
         raise OutputError(f"--plot {plot}: unknown figure format {Path(plot).suffix!r}; use one of "
                           f"{', '.join(PLOT_SUFFIXES)} (e.g. --plot {Path(plot).with_suffix('.png')}).")
-    return check_output_path(plot, *inputs)
+    return check_output_path(plot, *inputs, overwrite=overwrite, what="--plot")
+
+
+def save_figure(fig, path: Path, **savefig_kwargs) -> Path:
+    """Save a figure to a path already checked by :func:`check_plot_path`, atomically (temporary file + replace)."""
+    from ..io import save_figure as _save
+
+    return _save(fig, path, **savefig_kwargs)
 
 
 def progress():

@@ -26,7 +26,7 @@ def _db(url):
     from ..errors import DependencyError
 
     try:
-        from ..rail.service._db import Database
+        from ..rail.service import Database
     except ImportError as exc:
         raise DependencyError(f"the service needs the serve extra: pip install 'longprofile[serve]' ({exc}).") from None
     return Database(url)
@@ -65,14 +65,13 @@ def serve_command(
 ):
     """Serve the monitoring service: ingestion API, dashboard, recompute worker and notification outbox."""
     from ..errors import InputError
-
-    from ..rail.service._alarms import Notifier
+    from ..rail.service import Notifier
 
     notifier = Notifier(smtp_host=smtp_host, smtp_port=smtp_port, smtp_from=smtp_from)
     if not demo:
         if db is None:
             raise InputError("--db is required (e.g. --db sqlite:///site.db), unless --demo.")
-        from ..rail.service._serve import serve
+        from ..rail.service import serve
 
         console.print(f"serving {db} on http://{host}:{port}/ (Ctrl-C stops)")
         serve(db, host=host, port=port, notifier=notifier, tick_s=tick)
@@ -80,7 +79,7 @@ def serve_command(
     import tempfile
     import time
 
-    from ..rail.service._serve import DEMO_PASSWORD, DEMO_USER, ServerThread, replay_demo, seed_demo_site
+    from ..rail.service import DEMO_PASSWORD, DEMO_USER, ServerThread, replay_demo, seed_demo_site
 
     if db is None:
         db = f"sqlite:///{tempfile.mkdtemp(prefix='longprofile-demo-')}/site.db"
@@ -107,9 +106,9 @@ def site_create(name: str = typer.Argument(..., help="Site name (letters, digits
                 clock: str = typer.Option("wall", "--clock", help="wall, or data (staleness vs the newest reading)."),
                 actor: str = ACTOR_OPT):
     """Create a site."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.create_site(_db(db), _actor(actor), name, title=title, baseline_start=baseline_start,
+    _print(_service.create_site(_db(db), _actor(actor), name, title=title, baseline_start=baseline_start,
                              baseline_end=baseline_end, no_data_hours=no_data_hours, clock=clock))
 
 
@@ -120,7 +119,7 @@ def site_update(name: str = typer.Argument(...), db: str = DB_OPT,
                 actor: str = ACTOR_OPT):
     """Change site fields (recorded in the audit trail, old -> new)."""
     from ..errors import InputError
-    from ..rail.service import _core
+    from ..rail import service as _service
 
     fields = {}
     for item in set_:
@@ -128,24 +127,24 @@ def site_update(name: str = typer.Argument(...), db: str = DB_OPT,
         if not sep:
             raise InputError(f"--set {item!r}: expected FIELD=VALUE.")
         fields[k] = json.loads(v) if k == "settings" else (None if v == "" else v)
-    _print(_core.update_site(_db(db), _actor(actor), name, **fields))
+    _print(_service.update_site(_db(db), _actor(actor), name, **fields))
 
 
 @site_app.command("list")
 def site_list(db: str = DB_OPT):
     """List the sites."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    for n in _core.list_sites(_db(db)):
+    for n in _service.list_sites(_db(db)):
         typer.echo(n)
 
 
 @site_app.command("show")
 def site_show(name: str = typer.Argument(...), db: str = DB_OPT):
     """Print a site: fields, sensors, survey, thresholds, loggers, channels."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.get_site(_db(db), name))
+    _print(_service.get_site(_db(db), name))
 
 
 @site_app.command("sensors")
@@ -153,18 +152,18 @@ def site_sensors(name: str = typer.Argument(...), file: Path = typer.Option(...,
                                                                                                "(sensor_id, x_m [, z_m])."),
                  db: str = DB_OPT, actor: str = ACTOR_OPT):
     """Add or update the sensors of a site from a table."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.put_sensors(_db(db), _actor(actor), name, _rows(file)))
+    _print(_service.put_sensors(_db(db), _actor(actor), name, _rows(file)))
 
 
 @site_app.command("survey")
 def site_survey(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="survey table (x_m, z_m)."),
                 db: str = DB_OPT, actor: str = ACTOR_OPT):
     """Replace the initial survey of a site."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.put_survey(_db(db), _actor(actor), name, _rows(file)))
+    _print(_service.put_survey(_db(db), _actor(actor), name, _rows(file)))
 
 
 @site_app.command("threshold")
@@ -174,9 +173,9 @@ def site_threshold(name: str = typer.Argument(...),
                    value_mm: float = typer.Argument(None, help="|value| in mm (rate: mm/day); omit to remove."),
                    db: str = DB_OPT, actor: str = ACTOR_OPT):
     """Set one of the three levels of a quantity's threshold."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.set_threshold(_db(db), _actor(actor), name, quantity, level,
+    _print(_service.set_threshold(_db(db), _actor(actor), name, quantity, level,
                                None if value_mm is None else value_mm * 1e-3))
 
 
@@ -184,9 +183,9 @@ def site_threshold(name: str = typer.Argument(...),
 def site_logger(name: str = typer.Argument(...), logger: str = typer.Argument(..., help="Logger name."),
                 db: str = DB_OPT, actor: str = ACTOR_OPT):
     """Create a logger and print its API key (shown once)."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    typer.echo(_core.add_logger(_db(db), _actor(actor), name, logger))
+    typer.echo(_service.add_logger(_db(db), _actor(actor), name, logger))
 
 
 @site_app.command("channel")
@@ -194,9 +193,9 @@ def site_channel(name: str = typer.Argument(...), kind: str = typer.Argument(...
                  target: str = typer.Argument(..., help="URL or e-mail address."), db: str = DB_OPT,
                  actor: str = ACTOR_OPT):
     """Send the site's alarm notifications to a webhook or an e-mail address."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.add_channel(_db(db), _actor(actor), name, kind, target))
+    _print(_service.add_channel(_db(db), _actor(actor), name, kind, target))
 
 
 @site_app.command("user")
@@ -204,18 +203,18 @@ def site_user(username: str = typer.Argument(...), role: str = typer.Option("vie
                                                                           help="viewer, engineer or admin."),
               db: str = DB_OPT, actor: str = ACTOR_OPT):
     """Create a person or change their role (password asked on the terminal, or read from stdin)."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
     pw = typer.prompt("password", hide_input=True, confirmation_prompt=False)
-    _print(_core.add_user(_db(db), _actor(actor), username, pw, role))
+    _print(_service.add_user(_db(db), _actor(actor), username, pw, role))
 
 
 @site_app.command("audit")
 def site_audit(name: str = typer.Argument(...), db: str = DB_OPT, limit: int = typer.Option(100, "--limit")):
     """Print the audit trail of a site (newest first)."""
-    from ..rail.service import _core
+    from ..rail import service as _service
 
-    _print(_core.audit_trail(_db(db), name, limit))
+    _print(_service.audit_trail(_db(db), name, limit))
 
 
 @site_app.command("ingest")
@@ -223,12 +222,12 @@ def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., 
                 db: str = DB_OPT, angle_unit: str = typer.Option("deg", "--angle-unit")):
     """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
     from ..io import read_table
-    from ..rail.service import _core
+    from ..rail import service as _service
 
     t = read_table(file)
     if "timestamp" in t.columns:
         t["timestamp"] = t["timestamp"].astype(str)
-    res = _core.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit)
+    res = _service.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit)
     _print({k: v for k, v in res.as_dict().items() if k != "rows"})
     for r in res.rows:
         if r["outcome"] == "rejected":
@@ -239,7 +238,7 @@ def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., 
 def site_recompute(name: str = typer.Argument(...), db: str = DB_OPT,
                    force: bool = typer.Option(False, "--force", help="Even if nothing changed.")):
     """Recompute the settlement of a site now (the server's worker does this when data arrive)."""
-    from ..rail.service._recompute import recompute
+    from ..rail.service import recompute
 
     _print(recompute(_db(db), name, force=force))
 

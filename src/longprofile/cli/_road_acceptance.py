@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import console
+from ._common import OVERWRITE, check_output_folder, console
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -22,17 +22,18 @@ def acceptance_command(
                                        "(m, mm, cm, in, ft)."),
     grind: bool = typer.Option(True, "--grind/--no-grind", help="Run the grinding simulation when the spec "
                                "gives a threshold."),
+    overwrite: bool = OVERWRITE,
 ):
     """Smoothness acceptance: lot IRI/MRI, localized roughness, exclusions, pay factors, grinding, one HTML page."""
     from ..errors import OutputError
     from ..io import read_profile, write_profile
-    from ..report._acceptance import write_acceptance_report
-    from ..road._acceptance import default_spec, read_spec, smoothness_acceptance
-    from ..road._grinding import simulate_grinding
+    from ..report import write_acceptance_report
+    from ..road import default_spec, read_spec, simulate_grinding, smoothness_acceptance
 
     out = Path(output)
     if out.exists() and not out.is_dir():
         raise OutputError(f"output {out} is a file; the report needs a folder.")
+    check_output_folder(out, file, spec, overwrite=overwrite)
     s = read_spec(spec) if spec is not None else default_spec()
     tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
     profile = read_profile(file, units=elevation_unit, tracks=tracks)
@@ -41,7 +42,7 @@ def acceptance_command(
     if grind and (s.grind_threshold or s.localized_threshold):
         grinding = simulate_grinding(profile, s, acceptance=result)
     files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
-                                    inputs=(file, spec))
+                                    inputs=(file, spec), overwrite=overwrite)
     if grinding is not None and len(grinding.grinds):
         files.append(write_profile(grinding.profile, out / "profile_ground.csv"))
     ps = result.pay_summary

@@ -2,39 +2,21 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 import typer
 
-from ._common import PROFILE_SUFFIXES, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
-
-
-def _instrument(speed: float, dx: float, model_file: Path | None):
-    """The trailer model: Table 1 for (speed, dx), or a saved identified model checked against them."""
-    from ..errors import InputFormatError, UnitsError
-    from ..road.apl import apl_model, apl_model_from_dict
-
-    if model_file is None:
-        return apl_model(speed, dx)
-    try:
-        data = json.loads(Path(model_file).read_text())
-    except FileNotFoundError:
-        from ..errors import InputError
-
-        raise InputError(f"{model_file}: no such file.") from None
-    except json.JSONDecodeError as exc:
-        raise InputFormatError(f"{model_file}: not valid JSON ({exc}).") from None
-    model = apl_model_from_dict(data.get("model", data) if isinstance(data, dict) else data)
-    if model.dx is not None and abs(model.dx - dx) > 1e-9 * dx:
-        raise UnitsError(f"{model_file} was identified for dx = {model.dx:g} m; this record uses --dx {dx:g} m. "
-                         "Identify the trailer at this spacing.")
-    if model.speed is not None and abs(model.speed - speed) > 1e-9 * speed:
-        raise UnitsError(f"{model_file} was identified for {model.speed:g} m/s; this record uses --speed {speed:g}.")
-    if abs(model.dt - dx / speed) > 1e-9 * model.dt:
-        raise UnitsError(f"{model_file} has dt = {model.dt:g} s but --dx / --speed = {dx / speed:g} s.")
-    return model
+from ._common import (
+    OVERWRITE,
+    PROFILE_SUFFIXES,
+    TABLE_SUFFIXES,
+    check_output_path,
+    check_plot_path,
+    console,
+    progress,
+    save_figure,
+)
 
 
 def _truth_column(file: Path):
@@ -56,22 +38,21 @@ def simulate_command(
     noise: float = typer.Option(0.02, "--noise", help="Measurement noise std as a fraction of the signal RMS."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the truth and the signal to this PNG."),
+    overwrite: bool = OVERWRITE,
 ):
     """Simulate an APL recording (eq. 1, Table 1) of a synthetic road, with the truth column."""
-    import pandas as pd
-
     from ..io import write_table
-    from ..road._apl_plots import plot_recording
+    from ..report import plot_recording
     from ..road.apl import apl_model, simulate_apl_recording
 
-    png = check_plot_path(plot, check_output_path(output, suffixes=TABLE_SUFFIXES))
+    out = check_output_path(output, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, out, overwrite=overwrite)
     rec = simulate_apl_recording(profile, apl_model(speed, dx), length=length, road_class=road_class,
                                  noise_fraction=noise, rng=seed)
-    write_table(pd.DataFrame(dict(distance_m=rec.distance, true_m=rec.true_elevation, apl_m=rec.signal)),
-                check_output_path(output))
+    write_table(rec.to_frame(), out)
     if plot is not None:
-        plot_recording(rec.distance, rec.true_elevation, rec.signal,
-                       title=f"simulated APL recording: {profile}, {speed:g} m/s, dx {dx:g} m").savefig(png, dpi=120)
+        save_figure(plot_recording(rec.distance, rec.true_elevation, rec.signal,
+                                   title=f"simulated APL recording: {profile}, {speed:g} m/s, dx {dx:g} m"), png, dpi=120)
     console.print(f"simulated {rec.distance.size} samples ({profile}, {speed:g} m/s, dx {dx:g} m, "
                   f"noise std {rec.noise_std * 1e3:.3g} mm) -> {output}")
 
@@ -96,47 +77,39 @@ def reconstruct_command(
     lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: 4 pendulum time constants, 83 m "
                                                    "at 20 m/s)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the reconstruction to this PNG."),
+    overwrite: bool = OVERWRITE,
 ):
     """Reconstruct the road profile from an APL signal (smoother, Kalman filter, double filtering or fixed lag)."""
     import numpy as np
 
-    from ..errors import InputError, UnitsError
     from ..io import read_apl_signal, write_erd, write_table
-    from ..road import Profile
-    from ..road._apl_plots import plot_reconstructions
-    from ..road.apl import reconstruct_profile
+    from ..report import plot_reconstructions
+    from ..road.apl import reconstruct_recording
 
-    check_output_path(output, file, suffixes=PROFILE_SUFFIXES)
-    png = check_plot_path(plot, file, output)
+    out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, file, out, overwrite=overwrite)
     signal = read_apl_signal(file, column=column)
-    values = signal.elevation[:, 0]
-    spacing = signal.spacing
-    if spacing is None:
-        raise InputError(f"{file}: distance_m is not evenly spaced; the APL samples every dx. Resample first.")
-    if abs(spacing - dx) > 1e-6 * dx:
-        raise UnitsError(f"{file}: the samples are {spacing:g} m apart but --dx is {dx:g} m.")
-    instrument = _instrument(speed, dx, model)
     with progress() as bar:
         task = bar.add_task(f"reconstruct ({method})", total=1)
-        rec = reconstruct_profile(signal, instrument, method=method, q=q, r=r, input_model=input_model,
-                                  correlation_length=correlation_length, highpass_wavelength=highpass, lag_m=lag)
+        rec = reconstruct_recording(signal, speed=speed, dx=dx, model_file=model, source=str(file), method=method,
+                                    q=q, r=r, input_model=input_model, correlation_length=correlation_length,
+                                    highpass_wavelength=highpass, lag_m=lag)
         bar.advance(task)
     if Path(output).suffix.lower() == ".erd":
-        write_erd(Profile(rec.profile.distance, rec.profile.elevation[:, 0], tracks=("elevation",),
-                          name=f"{method} reconstruction of {Path(file).name}"), check_output_path(output, file),
-                  units="mm")
+        write_erd(rec.to_profile(name=f"{method} reconstruction of {Path(file).name}"),
+                  out, units="mm")
     else:
-        write_table(rec.to_frame(), check_output_path(output, file))
+        write_table(rec.to_frame(), out)
     if plot is not None:
         truth = _truth_column(file)
         fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
                                    highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
-        fig.savefig(png, dpi=120)
+        save_figure(fig, png, dpi=120)
     extra = "" if rec.q is None else f" (q = {rec.q:.3g} m^2, r = {rec.r:.3g} m^2)"
     if rec.lag_m is not None:
         extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"
     console.print(f"reconstructed {signal.n_samples} samples by {method}{extra} -> {output}")
-    n_missing = int(np.isnan(values).sum())
+    n_missing = int(np.isnan(signal.elevation[:, 0]).sum())
     if n_missing:
         console.print(f"[yellow]note:[/yellow] {n_missing} missing (NaN) sample(s) in {column!r} were bridged by the "
                       f"{method}; raw_std_m shows the larger uncertainty there.")
@@ -154,16 +127,16 @@ def identify_command(
     speed: float = typer.Option(20.0, "--speed", help="Towing speed the model is for, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing the model is for, m (dt = dx / speed)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw measured vs simulated output and the step response."),
+    overwrite: bool = OVERWRITE,
 ):
     """Identify the trailer (OE or ARMAX by prediction-error ML, Gauss-Newton) from bench input/output records."""
     from ..errors import InputError
-    from ..identify import fit_armax, fit_output_error
     from ..io import read_table
-    from ..road._apl_plots import plot_identification
-    from ..road.apl import apl_model_from_polynomials
+    from ..report import plot_identification
+    from ..road.apl import identify_trailer, save_model
 
-    check_output_path(model_out, input, output_file, suffixes=(".json",))
-    png = check_plot_path(plot, input, output_file, model_out)
+    model_path = check_output_path(model_out, input, output_file, suffixes=(".json",), overwrite=overwrite)
+    png = check_plot_path(plot, input, output_file, model_path, overwrite=overwrite)
     u = read_table(input, required=[input_column], numeric=[input_column])[input_column].to_numpy()
     y = read_table(output_file, required=[output_column], numeric=[output_column])[output_column].to_numpy()
     if u.size != y.size:
@@ -172,19 +145,15 @@ def identify_command(
     dt = dx / speed
     with progress() as bar:
         task = bar.add_task(f"identify {structure.upper()}({na},{nb},{nk})", total=1)
-        if structure == "oe":
-            est = fit_output_error(u, y, na=na, nb=nb, nk=nk, dt=dt)
-        elif structure == "armax":
-            est = fit_armax(u, y, na=na, nb=nb, nc=nc, nk=nk, dt=dt)
-        else:
-            raise InputError(f"--structure must be oe or armax; got {structure!r}.")
+        model, est = identify_trailer(u, y, speed=speed, dx=dx, orders=orders, structure=structure, nc=nc,
+                                      name=f"{structure.upper()}({na},{nb},{nk}) identified from {Path(input).name}")
         bar.advance(task)
-    model = apl_model_from_polynomials(est.numerator, est.denominator, dt=dt, speed=speed, dx=dx,
-                                       name=f"{structure.upper()}({na},{nb},{nk}) identified from {Path(input).name}")
-    path = check_output_path(model_out, input, output_file)
-    path.write_text(json.dumps(dict(model=model.to_dict(), fit=est.to_dict()), indent=2))
+    from ..io import atomic_path
+
+    with atomic_path(model_path) as tmp:  # an older model file is replaced only once the new one is complete
+        save_model(tmp, model, fit=est)
     if plot is not None:
-        plot_identification(u, y, est, dt=dt).savefig(png, dpi=120)
+        save_figure(plot_identification(u, y, est, dt=dt), png, dpi=120)
     console.print(f"{structure.upper()} converged in {est.n_iterations} iterations, residual std "
                   f"{est.residual_std:.4g}, simulation fit {est.fit_simulation:.1f} % -> {model_out}")
     sys.stdout.flush()

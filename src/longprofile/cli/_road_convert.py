@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import PROFILE_SUFFIXES, check_output_path, check_plot_path, console
+from ._common import OVERWRITE, PROFILE_SUFFIXES, check_output_path, check_plot_path, console
 
 
 def convert_command(
@@ -21,20 +21,18 @@ def convert_command(
                                          "in `road iri`; never guessed."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks to keep (default: all), e.g. left,right."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the profile to this PNG."),
+    overwrite: bool = OVERWRITE,
 ):
     """Convert a profile file (CSV, Parquet, ERD) into another; values kept exactly (CSV/Parquet) or to 1e-7 m (ERD)."""
-    from ..io import read_profile, write_profile
-    from ..io._profiles import unit_factor
-    from ..report import plot_profile
+    from ..core import unit_factor
+    from ..io import is_reconstruct_output, read_profile, write_profile
 
-    out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES)
-    png = check_plot_path(plot, file, out)
+    out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, file, out, overwrite=overwrite)
     erd = out.suffix.lower() == ".erd"
     units = units or ("mm" if erd else "m")
     unit_factor(units)
     tracks = [t.strip() for t in track.split(",") if t.strip()] if track else None
-    from ..io import is_reconstruct_output
-
     if tracks is None and is_reconstruct_output(file):
         console.print(f"note: {file} is a `road reconstruct` output: converting its profile track 'elevation' "
                       "(std_m and raw_m are not tracks; pass --track to choose).", markup=False)
@@ -42,6 +40,8 @@ def convert_command(
     profile = read_profile(file, units=input_units, tracks=tracks)
     write_profile(profile, out, units=units)
     if plot is not None:
+        from ..report import plot_profile  # matplotlib only when drawing
+
         plot_profile(profile, png)
     x = profile.distance
     step = profile.spacing

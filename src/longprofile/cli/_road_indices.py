@@ -7,7 +7,15 @@ from pathlib import Path
 
 import typer
 
-from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
+from ._common import (
+    OVERWRITE,
+    TABLE_SUFFIXES,
+    check_output_folder,
+    check_output_path,
+    check_plot_path,
+    console,
+    progress,
+)
 
 _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column per track named with its unit "
               "(left_mm, right_m, ...), or an ERD file.")
@@ -91,15 +99,15 @@ def iri_command(
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all), e.g. left,right."),
     lead_in: float = typer.Option(11.0, "--lead-in", help="Initialisation length, m (ASTM E1926: 11)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the report (segments or IRI along the road)."),
+    overwrite: bool = OVERWRITE,
 ):
     """IRI per fixed segment, continuous or overlapping window (ASTM E1926), SI or US units, MRI/HRI."""
-    from ..io import read_profile
-    from ..io._report_tables import write_report_table
-    from ..report import plot_iri_report
+    from ..io import read_profile, write_report_table
     from ..road import iri_report
 
-    out = None if output == "-" else check_output_path(Path(output), file, suffixes=TABLE_SUFFIXES)
-    png = check_plot_path(plot, file, out)
+    out = None if output == "-" else check_output_path(Path(output), file, suffixes=TABLE_SUFFIXES,
+                                                        overwrite=overwrite)
+    png = check_plot_path(plot, file, out, overwrite=overwrite)
     report_units, elevation = _split_units(units, elevation_unit)
     interval = segment if segment is not None else (528.0 if report_units == "us" else 100.0)
     profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
@@ -109,6 +117,8 @@ def iri_command(
     table = rep.to_frame()
     write_report_table(table, sys.stdout if out is None else out, rep.metadata)
     if png is not None:
+        from ..report import plot_iri_report  # matplotlib only when drawing
+
         plot_iri_report(rep, png)
     meta, lu, iu = rep.metadata, rep.length_unit, rep.iri_unit
     prec = 0 if report_units == "us" else 2  # in/mi to the unit, m/km to 0.01 (as agencies print them)
@@ -138,13 +148,15 @@ def report_command(
     window: float = typer.Option(25.0, "--window", help="Localised roughness window, m."),
     threshold: float = typer.Option(2.7, "--threshold", help="Localised roughness threshold, m/km."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the IRI per segment to this PNG."),
+    overwrite: bool = OVERWRITE,
 ):
     """HTML roughness report: profile, IRI per segment, localised roughness, PSD with ISO 8608 class, tables."""
     from ..io import read_profile
     from ..report import plot_iri, write_road_report
     from ..road import analyse_roughness
 
-    png = check_plot_path(plot, file)
+    check_output_folder(output, file, overwrite=overwrite)
+    png = check_plot_path(plot, file, overwrite=overwrite)
     _, elevation = _split_units(units, elevation_unit, report_units=False)
     with progress() as bar:
         task = bar.add_task("road report", total=3)
@@ -152,7 +164,7 @@ def report_command(
         bar.advance(task)
         analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold)
         bar.advance(task)
-        files = write_road_report(analysis, output, inputs=(file,))
+        files = write_road_report(analysis, output, inputs=(file,), overwrite=overwrite)
         if plot is not None:
             files.append(plot_iri(analysis.iri, png))
         bar.advance(task)

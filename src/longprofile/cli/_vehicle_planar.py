@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_figure
 
 
 def _parse_poles(text: str):
@@ -29,8 +29,8 @@ def _vehicle(path: Path | None):
 
 
 def _save_figure(fig, path: Path):
-    out = check_output_path(path)
-    fig.savefig(out, dpi=110)
+    """Save to a ``--plot`` path already checked (before the work) by :func:`check_plot_path`."""
+    out = save_figure(fig, path, dpi=110)
     console.print(f"wrote {out}")
 
 
@@ -43,18 +43,21 @@ def simulate(
     duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (scenario default)."),
     truth: bool = typer.Option(True, "--truth/--no-truth", help="Also write the true_* columns."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw an overview figure (PNG)."),
+    overwrite: bool = OVERWRITE,
 ):
     """Simulate a drive with the 4-wheel model and write the sensor log (and the truth)."""
     from ..io import write_table
-    from ..vehicle import drive_scenario, plot_drive, simulate_drive
+    from ..vehicle import drive_scenario, simulate_drive
 
-    out = check_output_path(output, vehicle, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, vehicle)
+    out = check_output_path(output, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    check_plot_path(plot, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
     sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed)
     write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
     console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
     if plot is not None:
+        from ..report import plot_drive
+
         _save_figure(plot_drive(sim), plot)
 
 
@@ -73,14 +76,14 @@ def slope(
                                           "(linear interpolation; gaps are refused)."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
                                       "has no V_x measurement."),
+    overwrite: bool = OVERWRITE,
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
     from ..io import read_table, write_table
-    from ..vehicle import estimate_slope, plot_slope_estimate
-    from ..vehicle._logs import parse_units, read_drive_log
+    from ..vehicle import estimate_slope, parse_units, read_drive_log
 
-    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, log, vehicle)
+    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
     frame = read_table(log)
     drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, source=str(log))
@@ -94,22 +97,10 @@ def slope(
     for w in est.warnings(max_missing=max_missing):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:
-        truth = _truth_from_frame(frame) if resample is None else None  # the truth is on the original time base
-        _save_figure(plot_slope_estimate(est, truth), plot)
+        from ..report import plot_slope_estimate
 
-
-def _truth_from_frame(frame):
-    """The true_* columns of a simulated log, for the plot overlay (None for a real log)."""
-    from types import SimpleNamespace
-
-    import numpy as np
-
-    need = ["true_vx", "true_vy", "true_yaw_rate", "true_slope"] + [f"true_fx_{w}" for w in ("fl", "fr", "rl", "rr")]
-    if not all(c in frame.columns for c in need):
-        return None
-    return SimpleNamespace(vx=frame["true_vx"].to_numpy(float), vy=frame["true_vy"].to_numpy(float),
-                           yaw_rate=frame["true_yaw_rate"].to_numpy(float), slope=frame["true_slope"].to_numpy(float),
-                           fx=np.column_stack([frame[f"true_fx_{w}"].to_numpy(float) for w in ("fl", "fr", "rl", "rr")]))
+        # the true_* columns of a simulated log are overlaid; the truth is on the original time base
+        _save_figure(plot_slope_estimate(est, frame if resample is None else None), plot)
 
 
 def register(app: typer.Typer) -> None:

@@ -6,22 +6,21 @@ from pathlib import Path
 
 import typer
 
-from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_figure
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
 
 
 def _save_figure(fig, path: Path):
-    out = check_output_path(path)
-    fig.savefig(out, dpi=110)
+    """Save to a ``--plot`` path already checked (before the work) by :func:`check_plot_path`."""
+    out = save_figure(fig, path, dpi=110)
     console.print(f"wrote {out}")
 
 
 def _car_damper(car: str):
     from ..errors import InputError
-    from ..vehicle._vertical_eval import CARS
-    from ..vehicle._vertical_model import MRDamperParams
+    from ..vehicle import CARS, MRDamperParams
 
     if car not in CARS:
         raise InputError(f"--car must be one of {list(CARS)}; got {car!r}.")
@@ -35,7 +34,7 @@ _MR_VELOCITY_HELP = ("MagneRide: damper velocity of the filter's MR map -- displ
 
 def _mr_map_velocity(value: str) -> str:
     from ..errors import InputError
-    from ..vehicle._vertical_estimate import MR_MAP_VELOCITIES
+    from ..vehicle import MR_MAP_VELOCITIES
 
     if value not in MR_MAP_VELOCITIES:
         raise InputError(f"--mr-map-velocity must be one of {list(MR_MAP_VELOCITIES)}; got {value!r}.")
@@ -50,27 +49,6 @@ def _vertical_params(path: Path | None):
 
 _VEHICLE_HELP = ("Vehicle description (TOML): its [vertical] table (fields of VerticalVehicleParams, SI units); "
                  "the thesis car if omitted.")
-
-
-def _run_on_profile(road: Path, config: int, speed: float, duration: float, seed: int, mr, params=None):
-    """Simulate the car over a profile file (road test at constant speed), front axle at its first station."""
-    from ..io import read_profile
-    from ..vehicle import measure_vertical, simulate_vertical, wheel_road_inputs
-    from ..vehicle._vertical_model import VerticalVehicleParams
-
-    prof = read_profile(road)
-    if prof.elevation.shape[1] > 2:
-        from ..errors import InputError
-
-        raise InputError(f"--road {road}: {prof.elevation.shape[1]} tracks; give one (both wheel paths) or two "
-                          "(left, right).")
-    p = params or VerticalVehicleParams()
-    dt = 1e-3
-    available = (prof.distance[-1] - prof.distance[0] - p.wheelbase) / speed
-    inputs = wheel_road_inputs(prof, speed, dt, duration=min(duration, available), start=float(prof.distance[0]),
-                               params=p)
-    sim = simulate_vertical(inputs, dt, params=p, mr_damper=mr)
-    return sim, measure_vertical(sim, config, rng=seed + 1)
 
 
 @vertical_app.command("simulate")
@@ -91,18 +69,21 @@ def simulate(
                                      "unit-suffixed columns, or .erd; two tracks = left and right wheel paths, one "
                                      "= both) instead of an ISO 8608 road; --duration is then capped by its length."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
+    overwrite: bool = OVERWRITE,
 ):
     """Simulate the 7-DOF car on a thesis test and write the sensors of one configuration (plus true_* columns)."""
-    from ..io import write_table
-    from ..vehicle import sensors_to_frame, vertical_test_run
+    from ..io import read_profile, write_table
+    from ..vehicle import profile_run, sensors_to_frame, vertical_test_run
 
-    out = check_output_path(output, road, vehicle, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, road, vehicle)
+    out = check_output_path(output, road, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    check_plot_path(plot, road, vehicle, out, overwrite=overwrite)
     mr = _car_damper(car)
     params = _vertical_params(vehicle)
     with console.status("simulating the 7-DOF car..."):
         if road is not None:
-            sim, sensors = _run_on_profile(road, config, speed, duration, seed, mr, params)
+            run = profile_run(read_profile(road), config, speed, duration, seed=seed, mr_damper=mr, params=params,
+                              source=f"--road {road}")
+            sim, sensors = run.simulation, run.sensors
         else:
             sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed,
                                              duration=duration, seed=seed, mr_damper=mr, params=params)
@@ -110,15 +91,9 @@ def simulate(
     write_table(frame, out)
     console.print(f"wrote {out} ({sim.time.size} samples, config {config}, test {test}, car {car})")
     if plot is not None:
-        from types import SimpleNamespace
+        from ..report import plot_vertical_simulation
 
-        from ..vehicle import plot_vertical_estimate
-
-        truth_as_estimate = SimpleNamespace(time=sim.time, config=config, method="simulation (truth)",
-                                            suspension_deflection=sim.suspension_deflection,
-                                            suspension_velocity=sim.suspension_velocity, tyre_force=sim.tyre_force,
-                                            body_velocity=sim.body_velocity, wheel_velocity=sim.wheel_velocity)
-        _save_figure(plot_vertical_estimate(truth_as_estimate), plot)
+        _save_figure(plot_vertical_simulation(sim, config), plot)
 
 
 @vertical_app.command("estimate")
@@ -143,58 +118,53 @@ def estimate(
     chainage: float = typer.Option(0.0, "--chainage", help="Chainage of the front axle at the first sample, m."),
     segment: float = typer.Option(100.0, "--segment", help="IRI segment length for --profile, m."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
+    overwrite: bool = OVERWRITE,
 ):
     """Estimate damper displacement/velocity, tyre load, body and wheel velocities from a sensor log."""
     from ..errors import InputError
     from ..io import read_table, write_table
-    from ..vehicle import estimate_to_frame, estimate_vertical_states
-    from ..vehicle._logs import parse_units, read_vertical_log
+    from ..vehicle import estimate_to_frame, estimate_vertical_log, parse_units, read_vertical_log
     from ._common import PROFILE_SUFFIXES
 
-    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, log, vehicle)
+    out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     params = _vertical_params(vehicle)
+    iri_out = None
     if profile is not None:
-        check_output_path(profile, log, output, suffixes=PROFILE_SUFFIXES)
+        check_output_path(profile, log, out, suffixes=PROFILE_SUFFIXES, overwrite=overwrite, what="--profile")
+        iri_out = check_output_path(Path(profile).with_name(Path(profile).stem + "_iri.csv"), log, out,
+                                    overwrite=overwrite, what="IRI table")
         if speed is None or not speed > 0:
             raise InputError("--profile needs --speed (the constant speed of the log, m/s): stations are speed x time.")
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     frame = read_table(log)
     sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, source=str(log))
-    mr_map = None
     if sensors.damper_current is not None:
-        from ..vehicle._vertical_estimate import nominal_mr_map
-        from ..vehicle._vertical_model import MRDamperParams
-
         # MagneRide log: the logged currents through the default nominal map (docs: "MagneRide car")
-        mr_map = nominal_mr_map(MRDamperParams())
         console.print(f"log has current_* columns: actuator forces from the nominal MR map, evaluated at the "
                       f"{'filter' if mr_map_velocity == 'filter' else 'displacement'}-derived damper velocity")
     with console.status("running the corner EKFs..."):
-        est = estimate_vertical_states(sensors, params=params, decentralised=not centralised, mr_map=mr_map,
-                                       mr_map_velocity=mr_map_velocity)
+        result = estimate_vertical_log(sensors, params=params, decentralised=not centralised,
+                                       mr_map_velocity=mr_map_velocity, speed=speed if profile is not None else None,
+                                       start=chainage, segment_length=segment)
+    est = result.estimate
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
     if profile is not None:
         from ..io import write_profile
-        from ..road import iri
-        from ..vehicle import wheel_profiles
 
         if config != 3:
             console.print("[yellow]warning: configurations 1 and 2 underestimate the IRI by 8-20 % (wheel motion from "
                           "the reconstructed velocity); configuration 3 (wheel accelerometers) is within 3 %, see "
                           "docs/vehicle-vertical.md[/yellow]")
-        prof = wheel_profiles(sensors, est, speed, start=chainage, params=params)
+        prof, res = result.profile, result.iri
         write_profile(prof, profile)
-        res = iri(prof, segment_length=segment)
-        iri_out = Path(profile).with_name(Path(profile).stem + "_iri.csv")
-        check_output_path(iri_out, log, output)
         write_table(res.to_frame(), iri_out)
         sec = ", ".join(f"{t} {v:.2f}" for t, v in zip(res.tracks, res.section_iri))
         console.print(f"wrote {profile} (chainage {prof.distance[0]:g}..{prof.distance[-1]:.4g} m) and {iri_out} "
                       f"({res.segment_start.size} segments of {segment:g} m); section IRI m/km: {sec}")
     if plot is not None:
-        from ..vehicle import plot_vertical_estimate
+        from ..report import plot_vertical_estimate
 
         _save_figure(plot_vertical_estimate(est, frame), plot)
 
@@ -214,13 +184,14 @@ def tables(
                                                    "map with a 12 % force error, no lag)."),
     mr_map_velocity: str = typer.Option("displacement", "--mr-map-velocity", help=_MR_VELOCITY_HELP),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw ours next to the thesis's numbers (PNG)."),
+    overwrite: bool = OVERWRITE,
 ):
     """Reproduce the thesis's result tables 4.4 (bench) and 4.5 (track) on the simulator, configurations 1-3."""
     from ..io import write_table
     from ..vehicle import reproduce_thesis_tables
 
-    out = check_output_path(output, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot)
+    out = check_output_path(output, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    check_plot_path(plot, out, overwrite=overwrite)
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     with progress() as bar:
         task = bar.add_task("bench and track tests, configurations 1-3", total=6)
@@ -232,7 +203,7 @@ def tables(
     console.print(f"wrote {out} ({len(table)} rows, reference {reference}, car {car}{mr_note}, {duration:g} s per "
                   f"test, seed {seed})")
     if plot is not None:
-        from ..vehicle._vertical_plot import plot_thesis_tables
+        from ..report import plot_thesis_tables
 
         _save_figure(plot_thesis_tables(table), plot)
 

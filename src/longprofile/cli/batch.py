@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import console, progress
+from ._common import OVERWRITE, check_output_folder, console, progress
 
 batch_app = typer.Typer(help="Survey networks: run `road iri` / `road reconstruct` over many files in parallel "
                              "(resumable), and the network report.", no_args_is_help=True)
@@ -118,10 +118,13 @@ def report_command(
     results: Path = typer.Argument(..., help="Results folder of `longprofile batch iri|reconstruct`."),
     output: Path = typer.Option(..., "--output", "-o", help="Report folder (index.html, PNG figures, CSV tables)."),
     worst: int = typer.Option(20, "--worst", min=1, help="Rows of the worst-segments table."),
+    overwrite: bool = OVERWRITE,
 ):
     """Network report: IRI along each route, distribution of segment IRI, worst segments, failed files."""
     from ..batch import read_results, summarize_network
     from ..report import write_network_report
 
-    files = write_network_report(summarize_network(read_results(results), n_worst=worst), output, inputs=(results,))
+    check_output_folder(output, results, overwrite=overwrite)
+    files = write_network_report(summarize_network(read_results(results), n_worst=worst), output, inputs=(results,),
+                                 overwrite=overwrite)
     console.print(f"network report: {files[0]} ({len(files)} files)", markup=False)

@@ -12,19 +12,24 @@ from ._common import console
 
 # Each step is a module with ``run_demo(outdir: Path) -> list[Path]`` (files written).
 DEMO_STEPS = [
-    ("derivative estimators (paper 002)", "longprofile.signal._demo"),
-    ("Kalman smoothing (state-space engine)", "longprofile.statespace._demo"),
-    ("road profile from the APL trailer (paper 000)", "longprofile.road._demo_apl"),
-    ("IRI report on the APL reconstruction (ASTM E1926, ISO 8608)", "longprofile.road._demo_report"),
-    ("rail settlement from inclinometers (paper 004)", "longprofile.rail._demo"),
-    ("rail monitoring service: day-by-day replay through the ingestion API (issue 15)", "longprofile.rail.service._serve"),
-    ("road slope and vehicle states (paper 001)", "longprofile.vehicle._demo_slope"),
-    ("vertical vehicle states (thesis 003)", "longprofile.vehicle._demo_vertical"),
+    ("derivative estimators (paper 002)", "longprofile.demos.signal"),
+    ("Kalman smoothing (state-space engine)", "longprofile.demos.statespace"),
+    ("road profile from the APL trailer (paper 000)", "longprofile.demos.road_apl"),
+    ("IRI report on the APL reconstruction (ASTM E1926, ISO 8608)", "longprofile.demos.road_report"),
+    ("rail settlement from inclinometers (paper 004)", "longprofile.demos.rail"),
+    ("rail monitoring service: day-by-day replay through the ingestion API (issue 15)", "longprofile.demos.rail_service"),
+    ("road slope and vehicle states (paper 001)", "longprofile.demos.vehicle_slope"),
+    ("vertical vehicle states (thesis 003)", "longprofile.demos.vehicle_vertical"),
 ]
 
 
-def demo(output: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the demo outputs.")):
-    """Run every demo on built-in sample data and write plots and tables under OUTPUT."""
+def demo(output: Path = typer.Option(Path("out"), "--output", "-o", help="Folder for the demo outputs (its demo "
+                                     "files are regenerated on every run; no --overwrite needed).")):
+    """Run every demo on built-in sample data and write plots and tables under OUTPUT.
+
+    The demo owns its folder: running it again replaces the files it wrote there (other files are left alone),
+    unlike the other commands, which refuse an existing output without --overwrite.
+    """
     if output.exists() and not output.is_dir():
         raise OutputError(f"--output {output} is a file; the demo writes into a folder, e.g. -o out.")
     try:

@@ -2,13 +2,20 @@
 
 from __future__ import annotations
 
-from typing import Optional
-
 from pathlib import Path
+from typing import Optional
 
 import typer
 
-from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress
+from ._common import (
+    OVERWRITE,
+    TABLE_SUFFIXES,
+    check_output_folder,
+    check_output_path,
+    check_plot_path,
+    console,
+    progress,
+)
 
 rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, with confidence bands (paper 004).",
                        no_args_is_help=True)
@@ -24,45 +31,32 @@ def simulate_command(
     days: int = typer.Option(None, "--days", help="Number of days (default: the preset's)."),
     fmt: str = typer.Option("csv", "--format", help="csv or parquet."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the true settlement to this PNG."),
+    overwrite: bool = OVERWRITE,
 ):
     """Simulate an inclinometer site with known settlement (ground truth in truth.csv)."""
-    import numpy as np
-    import pandas as pd
-
-    from ..errors import InputError
+    from ..errors import InputError, OutputError
     from ..io import write_table
     from ..rail import simulate_site
-
-    from ..errors import OutputError
 
     if fmt not in ("csv", "parquet"):
         raise InputError(f"--format must be csv or parquet; got {fmt!r}.")
     if Path(output).exists() and not Path(output).is_dir():
         raise OutputError(f"--output {output} is an existing file; rail simulate writes a folder of tables. "
                           "Choose a folder path.")
-    check_plot_path(plot)
+    check_output_folder(output, overwrite=overwrite)
+    png = check_plot_path(plot, overwrite=overwrite)
     site = simulate_site(preset, seed=seed, sampling_minutes=sampling_minutes, n_days=days)
     out = Path(output)
     written = [write_table(site.sensors, out / f"sensors.{fmt}"), write_table(site.readings, out / f"readings.{fmt}"),
                write_table(site.survey, out / f"survey.{fmt}")]
     if site.controls is not None:
         written.append(write_table(site.controls, out / f"controls.{fmt}"))
-    tr = site.truth
-    D, N = tr.settlement.shape
-    truth = pd.DataFrame({"date": np.repeat(pd.DatetimeIndex(tr.days).strftime("%Y-%m-%d"), N),
-                          "sensor_id": np.tile(site.sensors["sensor_id"].to_numpy(), D), "x_m": np.tile(tr.x, D),
-                          "dz_true_m": tr.settlement.ravel(),
-                          "status_true": np.tile([tr.bad_sensors.get(s, "ok") for s in site.sensors["sensor_id"]], D)})
-    written.append(write_table(truth, out / f"truth.{fmt}"))
+    written.append(write_table(site.truth_table(), out / f"truth.{fmt}"))
     if plot is not None:
-        from ..report._rail import _figure
+        from ..report import plot_true_settlement
 
-        fig = _figure(10, 4)
-        ax = fig.add_subplot()
-        for d in np.unique(np.linspace(0, D - 1, 6).round().astype(int)):
-            ax.plot(tr.x, 1e3 * tr.settlement[d], label=pd.Timestamp(tr.days[d]).strftime("%Y-%m-%d"))
-        ax.set_xlabel("station x (m)"); ax.set_ylabel("true altitude change (mm)"); ax.legend(fontsize=7)
-        fig.savefig(check_output_path(plot), dpi=110)
+        plot_true_settlement(site.truth, png)
+    D, N = site.truth.settlement.shape
     console.print(f"simulated {preset}: {N} sensors, {D} days, {len(site.readings)} readings -> "
                   f"{', '.join(str(p) for p in written)}")
 
@@ -100,34 +94,42 @@ def settle_command(
     alarm_probability: float = typer.Option(0.5, "--alarm-probability", help="Report exceedance probabilities >= this."),
     n_monte_carlo: int = typer.Option(1000, "--monte-carlo", help="Posterior draws per day for the max settlement."),
     seed: int = typer.Option(0, "--seed", help="Random seed of the Monte Carlo."),
+    overwrite: bool = OVERWRITE,
 ):
     """Altitude change of the track, day by day, with 90 % bands, sensor health and alarms."""
     import numpy as np
 
-    from ..io import write_table
-    from ..rail import estimate_settlement, read_site
-    from ..report._rail import plot_settlement, write_rail_report
+    from ..io import read_rail_site, write_table
+    from ..rail import SettlementSettings, estimate_settlement
 
     inputs = (sensors, readings, survey, controls)
     # check every output path before the computation, so a bad path fails at once and writes nothing
-    check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES)
-    check_plot_path(plot, *inputs)
-    site = read_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
+    out = check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, *inputs, overwrite=overwrite)
+    if report is not None:
+        check_output_folder(report, *inputs, overwrite=overwrite, what="--report")
+    site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
+    settings = SettlementSettings(
+        thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
+        rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
+        quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude),
+        use_affine_correction=affine,
+        settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
+        rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,
+        alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
-        res = estimate_settlement(
-            site, thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
-            rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
-            quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude), use_affine_correction=affine,
-            settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
-            rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,
-            alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed)
+        res = estimate_settlement(site, settings=settings)
         bar.advance(task)
-    write_table(res.to_table(), check_output_path(output, *inputs))
+    write_table(res.to_table(), out)
     if plot is not None:
-        plot_settlement(res, check_output_path(plot, *inputs))
+        from ..report import plot_settlement
+
+        plot_settlement(res, png)
     if report is not None:
-        write_rail_report(res, report)
+        from ..report import write_rail_report
+
+        write_rail_report(res, report, overwrite=overwrite)
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     worst = -res.dz[-1].min()

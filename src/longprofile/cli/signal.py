@@ -6,8 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import TABLE_SUFFIXES, check_output_path, check_plot_path, console
-
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_figure
 
 #: Time columns whose step is checked against --dt, with their unit in seconds.
 _TIME_COLUMNS = {"t": 1.0, "time": 1.0, "t_s": 1.0, "time_s": 1.0, "t_ms": 1e-3, "time_ms": 1e-3}
@@ -60,34 +59,29 @@ def differentiate(
                                       help="Kalman: constant-gain filter/smoother (fast, O(T) memory, no NaN)."),
     noise_std: float | None = typer.Option(None, "--noise-std", help="Noise std of the signal (estimated if omitted)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the signal and its derivative (PNG)."),
+    overwrite: bool = OVERWRITE,
 ):
     """Estimate the derivative of a noisy sampled signal and write value, derivative, derivative_std."""
     import pandas as pd
 
-    from ..errors import InputError
     from ..io import read_table, write_table
-    from ..signal import derivative
+    from ..signal import check_derivative_options, derivative
 
-    if method in ("ml", "polyfit") and window is None:
-        raise InputError(f"--method {method} requires window: pass --window N (past samples per estimate), "
-                         "e.g. --window 45.")
-    if method == "kalman" and q_over_r is None:
-        raise InputError("--method kalman requires q_over_r: pass --q-over-r (jerk variance / noise variance), "
-                         "e.g. --q-over-r 1e6.")
-    out = check_output_path(output, file, suffixes=TABLE_SUFFIXES)
-    png = check_plot_path(plot, file, output)
+    options = dict(window=window, degree=degree, noise_std=noise_std, q_over_r=q_over_r,
+                   smooth=True if smooth else None, steady_state=True if steady_state else None)
+    check_derivative_options(method, options, flags=True)
+    out = check_output_path(output, file, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, file, out, overwrite=overwrite)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
     _check_time_column(file, frame, column, dt)
     with console.status(f"differentiating {x.size} samples ({method})..."):
-        res = derivative(x, dt, method=method, window=window, degree=degree, order=order, noise_std=noise_std,
-                         q_over_r=q_over_r, smooth=True if smooth else None,
-                         steady_state=True if steady_state else None)
+        res = derivative(x, dt, method=method, order=order, **options)
     write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g})")
     if plot is not None:
-        from ..signal._plot import plot_derivative
+        from ..report import plot_derivative
 
-        plot_derivative(x, dt, res, label=column).savefig(png, dpi=110)
+        save_figure(plot_derivative(x, dt, res, label=column), png, dpi=110)
         console.print(f"wrote {png}")

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, signal
 
 from .._validation import as_float_array, require_positive
 from ..errors import ConvergenceError, InputError, ShapeError
@@ -106,6 +105,20 @@ class IdentifiedModel:
                     converged=bool(self.converged), stable=bool(self.stable), zeros=c(self.zeros), poles=c(self.poles),
                     fit_simulation=float(self.fit_simulation), fit_prediction=float(self.fit_prediction),
                     n_samples=self.n_samples, message=self.message)
+
+
+def _lfilter(b, a, x):
+    """scipy.signal.lfilter(b, a, x), imported on first use (scipy.signal costs ~1 s at start-up)."""
+    from scipy.signal import lfilter
+
+    return lfilter(b, a, x)
+
+
+def _least_squares(*args, **kwargs):
+    """scipy.optimize.least_squares, imported on first use."""
+    from scipy.optimize import least_squares
+
+    return least_squares(*args, **kwargs)
 
 
 def _check_data(u, y, na, nb, nk, nc=0):
@@ -197,7 +210,7 @@ def fit_arx(u, y, *, na: int, nb: int, nk: int = 1, dt: float | None = None) -> 
     cov, se, sigma2 = _covariance(Phi[start:], resid, theta.size)
     a = np.r_[1.0, theta[:na]]
     b = np.r_[np.zeros(nk), theta[na:]]
-    ysim = signal.lfilter(b, a, u) if np.all(np.abs(_roots(a)) < 1) else np.full_like(y, np.nan)
+    ysim = _lfilter(b, a, u) if np.all(np.abs(_roots(a)) < 1) else np.full_like(y, np.nan)
     return IdentifiedModel(
         structure="arx", orders=dict(na=na, nb=nb, nk=nk), numerator=b, denominator=a, noise_numerator=None,
         dt=None if dt is None else require_positive("dt", dt), params=theta,
@@ -213,7 +226,7 @@ def _finish(structure, orders, b, a, c, dt, theta, names, J, resid, res, u, y, o
     poles = _roots(a)
     stable = bool(np.all(np.abs(poles) < 1)) and (c is None or bool(np.all(np.abs(_roots(c)) < 1)))
     converged = bool(res.success) and bool(np.all(np.isfinite(theta)))
-    ysim = signal.lfilter(b, a, u) if stable else np.full_like(y, np.nan)
+    ysim = _lfilter(b, a, u) if stable else np.full_like(y, np.nan)
     model = IdentifiedModel(
         structure=structure, orders=orders, numerator=b, denominator=a, noise_numerator=c,
         dt=None if dt is None else require_positive("dt", dt), params=theta, param_names=tuple(names),
@@ -247,12 +260,12 @@ def _steiglitz_mcbride(u, y, na, nb, nk, n_iter: int = 8):
     best = np.r_[theta[na:], f[1:]]
     best_loss = np.inf
     for _ in range(n_iter):
-        uf = signal.lfilter([1.0], f, u)
-        yf = signal.lfilter([1.0], f, y)
+        uf = _lfilter([1.0], f, u)
+        yf = _lfilter([1.0], f, y)
         theta, _, _ = _arx_ls(uf, yf, na, nb, nk)
         f = _stabilise(np.r_[1.0, theta[:na]])
         cand = np.r_[theta[na:], f[1:]]
-        e = y - signal.lfilter(np.r_[np.zeros(nk), cand[:nb]], f, u)
+        e = y - _lfilter(np.r_[np.zeros(nk), cand[:nb]], f, u)
         loss = float(e @ e)
         if np.isfinite(loss) and loss < best_loss:
             best, best_loss = cand, loss
@@ -301,22 +314,22 @@ def fit_output_error(u, y, *, na: int, nb: int, nk: int = 1, dt: float | None = 
 
     def resid(th):
         b, f = unpack(th)
-        return y - signal.lfilter(b, _stabilise(f), u)
+        return y - _lfilter(b, _stabilise(f), u)
 
     def jac(th):
         b, f = unpack(th)
         f = _stabilise(f)
-        uf = signal.lfilter([1.0], f, u)
-        yhat = signal.lfilter(b, f, u)
-        yf = signal.lfilter([1.0], f, yhat)
+        uf = _lfilter([1.0], f, u)
+        yhat = _lfilter(b, f, u)
+        yf = _lfilter([1.0], f, yhat)
         cols = [-_shift(uf, nk + i) for i in range(nb)] + [_shift(yf, j) for j in range(1, na + 1)]
         return np.column_stack(cols)
 
-    res = optimize.least_squares(resid, theta0, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
+    res = _least_squares(resid, theta0, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
                                  max_nfev=int(max_iterations))
     th = res.x
     b, f = unpack(th)
-    e = y - signal.lfilter(b, f, u) if np.all(np.abs(_roots(f)) < 1) else res.fun
+    e = y - _lfilter(b, f, u) if np.all(np.abs(_roots(f)) < 1) else res.fun
     names = [f"b{i}" for i in range(nb)] + [f"f{j}" for j in range(1, na + 1)]
     return _finish("oe", dict(na=na, nb=nb, nk=nk), b, f, None, dt, th, names, jac(th), e, res, u, y,
                    on_failure, y - e)
@@ -356,20 +369,20 @@ def fit_armax(u, y, *, na: int, nb: int, nc: int, nk: int = 1, dt: float | None 
     def resid(th):
         a, b, c = unpack(th)
         c = _stabilise(c)
-        return signal.lfilter(a, c, y) - signal.lfilter(b, c, u)
+        return _lfilter(a, c, y) - _lfilter(b, c, u)
 
     def jac(th):
         a, b, c = unpack(th)
         c = _stabilise(c)
-        e = signal.lfilter(a, c, y) - signal.lfilter(b, c, u)
-        yc = signal.lfilter([1.0], c, y)
-        uc = signal.lfilter([1.0], c, u)
-        ec = signal.lfilter([1.0], c, e)
+        e = _lfilter(a, c, y) - _lfilter(b, c, u)
+        yc = _lfilter([1.0], c, y)
+        uc = _lfilter([1.0], c, u)
+        ec = _lfilter([1.0], c, e)
         cols = ([_shift(yc, j) for j in range(1, na + 1)] + [-_shift(uc, nk + i) for i in range(nb)]
                 + [-_shift(ec, j) for j in range(1, nc + 1)])
         return np.column_stack(cols)
 
-    res = optimize.least_squares(resid, theta0, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
+    res = _least_squares(resid, theta0, jac=jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
                                  max_nfev=int(max_iterations))
     th = res.x
     a, b, c = unpack(th)
@@ -382,7 +395,7 @@ def fit_armax(u, y, *, na: int, nb: int, nc: int, nk: int = 1, dt: float | None 
 def simulate_model(model: IdentifiedModel, u) -> np.ndarray:
     """Noise-free simulation B/A u from rest, (T,)."""
     u = as_float_array("u", u, ndim=1, allow_nan=False)
-    return signal.lfilter(model.numerator, model.denominator, u)
+    return _lfilter(model.numerator, model.denominator, u)
 
 
 def step_response(model: IdentifiedModel, n_samples: int) -> np.ndarray:

@@ -9,12 +9,22 @@ write_profile -- write a profile as CSV, Parquet or ERD with its units in the he
 read_erd, write_erd -- UMTRI/ProVAL ERD text files (ERDFILEV2.00, several channels).
 write_report_table, read_report_table -- a result table with its metadata ('#' header lines in CSV, schema
                       metadata in Parquet).
+atomic_path, atomic_write_bytes, save_figure -- write through a temporary file in the target's folder, then
+                      os.replace it (an older file survives a failed write).
+read_rail_site -- read a rail inclinometer site (sensors, readings, survey, controls tables) and validate it.
 """
 
+from ._atomic import atomic_path, atomic_write_bytes, save_figure
 from ._erd import read_erd, write_erd
-from ._profiles import is_reconstruct_output, read_apl_signal, read_profile, write_profile
+from ._profile_files import read_profile, write_profile
+from ._profiles import is_reconstruct_output, read_apl_signal
 from ._report_tables import read_report_table, write_report_table
 from ._tables import read_table, write_table
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
-           "write_report_table", "read_report_table", "read_apl_signal", "is_reconstruct_output"]
+           "write_report_table", "read_report_table", "read_apl_signal", "is_reconstruct_output",
+           "atomic_path", "atomic_write_bytes", "save_figure"]
+
+from ._rail import read_rail_site  # noqa: E402  (rail site tables, paper 004)
+
+__all__ += ["read_rail_site"]

@@ -31,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, OutputError, UnitsError
-from ._profiles import unit_factor
+from ._atomic import atomic_path
 
 __all__ = ["read_erd", "write_erd"]
 
@@ -217,8 +218,6 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     parsed by pandas' C reader; only when that fails, or the count of values is not NCHAN x NPTS, a line-by-line
     pass finds and names the offending line (it also reads records broken over several lines).
     """
-    from ..road import Profile
-
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file.")
@@ -370,8 +369,7 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
     z = np.round(profile.elevation / factor, _decimals(factor))
     table = pa.table({f"c{j}": z[:, j] for j in range(k)})
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as fh:
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:  # the old file is replaced only when complete
             fh.write(head.encode("utf-8"))
             pacsv.write_csv(table, fh, write_options=pacsv.WriteOptions(include_header=False, delimiter=" "))
     except OSError as exc:

@@ -8,28 +8,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, UnitsError
 from ._tables import read_table, write_table
 
-__all__ = ["LENGTH_UNITS", "read_profile", "write_profile", "unit_factor", "read_apl_signal", "RECONSTRUCT_COLUMNS",
+__all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "RECONSTRUCT_COLUMNS",
            "is_reconstruct_output"]
 
 #: Columns of a ``road reconstruct`` output table: one profile (``elevation``) plus diagnostics.
 RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
 
-#: Length units understood in file headers, with their value in metres.
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
-
 _DISTANCE_NAMES = ("distance", "station", "chainage", "x")
 _SUFFIX = re.compile(r"^(?P<base>.+?)(?:_|\s*\[)(?P<unit>m|mm|cm|km|in|ft|mi)\]?$", re.IGNORECASE)
-
-
-def unit_factor(unit: str, *, what: str = "elevation") -> float:
-    """Metres per ``unit`` (m, mm, cm, km, in, ft, mi); :class:`UnitsError` for anything else."""
-    key = str(unit).strip().lower()
-    if key not in LENGTH_UNITS:
-        raise UnitsError(f"unknown {what} unit {unit!r}; use one of {sorted(LENGTH_UNITS)}.")
-    return LENGTH_UNITS[key]
 
 
 def _split(column: str) -> tuple[str, str | None]:
@@ -39,51 +29,9 @@ def _split(column: str) -> tuple[str, str | None]:
     return column.strip(), None
 
 
-def read_profile(path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
-    """Read a profile from CSV or Parquet (or ERD, by suffix ``.erd``).
-
-    Parameters
-    ----------
-    path : path-like
-        ``.csv`` (``.txt`` is read as CSV; header row; ``#`` lines are comments), ``.parquet``, or ``.erd``
-        (:func:`longprofile.io.read_erd`).
-    units : {"m", "mm", "cm", "in", "ft"}, optional
-        Unit of the elevation columns that do not carry one in their name. Never guessed: if a column has
-        no unit and ``units`` is not given, :class:`UnitsError` is raised. If a column names its unit and
-        ``units`` disagrees, :class:`UnitsError` too.
-    tracks : str or sequence of str, optional
-        Track (column base) names to read (default: every elevation column).
-    distance_column : str, optional
-        Name of the station column (default: the first of ``distance_<u>``, ``station_<u>``,
-        ``chainage_<u>``, ``x_<u>``).
-
-    Returns
-    -------
-    Profile
-        Stations and elevations converted to metres. Columns ``<track>_std_<u>`` become ``Profile.std``
-        (NaN for tracks without one). A ``road reconstruct`` output (columns exactly ``distance_m, elevation_m,
-        std_m, raw_m, raw_std_m``) is read as its one profile track ``elevation`` with ``std_m`` as its std,
-        unless ``tracks`` names others.
-
-    Raises
-    ------
-    UnitsError
-        Missing or unknown units.
-    InputFormatError
-        Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
-        names the line).
-
-    Notes
-    -----
-    Column naming: ``<name>_<unit>`` or ``<name> [<unit>]``, e.g. ``distance_m, left_mm, right_mm``.
-    """
-    from ..road import Profile
-
+def read_profile_table(path: Path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
+    """CSV/Parquet body of :func:`longprofile.io.read_profile` (same parameters, returns and errors)."""
     path = Path(path)
-    if path.suffix.lower() == ".erd":
-        from ._erd import read_erd
-
-        return read_erd(path, units=units, tracks=tracks)
     if units is not None:
         unit_factor(units)
     df = read_table(path)
@@ -157,34 +105,9 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     return Profile(distance=x, elevation=z, tracks=tuple(names), std=std, name=path.stem)
 
 
-def write_profile(profile, path, *, units: str = "m") -> Path:
-    """Write a profile as CSV, Parquet or ERD (by suffix) with its units in the header.
-
-    Parameters
-    ----------
-    profile : Profile
-    path : path-like
-        ``.csv``, ``.parquet`` or ``.erd``; any other suffix raises :class:`OutputError`.
-    units : str
-        Elevation unit written (m, mm, cm, in, ft...).
-
-    Returns
-    -------
-    Path
-
-    Notes
-    -----
-    CSV/Parquet columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the
-    profile has a standard deviation (read back by :func:`read_profile` to the same float64 values). ERD
-    (:func:`longprofile.io.write_erd`) holds regular stations and elevations only: the standard deviation is
-    not written.
-    """
-    path = Path(path)
+def write_profile_table(profile, path: Path, *, units: str = "m") -> Path:
+    """CSV/Parquet body of :func:`longprofile.io.write_profile` (same parameters and returns)."""
     factor = unit_factor(units)
-    if path.suffix.lower() == ".erd":
-        from ._erd import write_erd
-
-        return write_erd(profile, path, units=units)
     cols = {"distance_m": profile.distance}
     for j, t in enumerate(profile.tracks):
         cols[f"{t}_{units}"] = profile.elevation[:, j] / factor
@@ -238,8 +161,6 @@ def read_apl_signal(path, *, column: str = "apl_m"):
     InputFormatError
         Missing columns, non-numeric cells (line named).
     """
-    from ..road import Profile
-
     path = Path(path)
     table = read_table(path, required=["distance_m", column], numeric=["distance_m", column])
     _, unit = _split(column)

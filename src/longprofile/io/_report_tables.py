@@ -8,6 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import InputError, InputFormatError, OutputError
+from ._atomic import atomic_path
 
 __all__ = ["METADATA_KEY", "write_report_table", "read_report_table"]
 
@@ -62,9 +63,8 @@ def write_report_table(frame: pd.DataFrame, path, metadata: dict | None = None) 
     suffix = path.suffix.lower()
     if suffix not in (".csv", ".parquet"):
         raise OutputError(f"{path}: unknown table format {path.suffix!r}; use .csv or .parquet.")
-    path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".csv":
-        with open(path, "w", encoding="utf-8", newline="") as fh:
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(_csv_header(meta))
             frame.to_csv(fh, index=False)
         return path
@@ -74,7 +74,8 @@ def write_report_table(frame: pd.DataFrame, path, metadata: dict | None = None) 
     table = pa.Table.from_pandas(frame, preserve_index=False)
     merged = dict(table.schema.metadata or {})
     merged[METADATA_KEY.encode()] = json.dumps(meta).encode()
-    pq.write_table(table.replace_schema_metadata(merged), path)
+    with atomic_path(path) as tmp:  # an existing file is replaced only once the new one is complete
+        pq.write_table(table.replace_schema_metadata(merged), tmp)
     return path
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, InputFormatError, OutputError
+from ._atomic import atomic_path
 
 __all__ = ["read_table", "write_table"]
 
@@ -149,11 +150,11 @@ def write_table(df: pd.DataFrame, path) -> Path:
         raise OutputError(f"{path}: unknown table format {path.suffix!r} for writing; use .csv or .parquet "
                           f"(e.g. {path.with_suffix('.csv')}).")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if fmt == "parquet":
-            df.to_parquet(path, index=False)
-        elif not _write_numeric_csv(df, path):
-            df.to_csv(path, index=False)
+        with atomic_path(path) as tmp:  # an existing file is replaced only once the new one is complete
+            if fmt == "parquet":
+                df.to_parquet(tmp, index=False)
+            elif not _write_numeric_csv(df, tmp):
+                df.to_csv(tmp, index=False)
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}.") from None
     return path

@@ -4,7 +4,11 @@ Data
 ----
 SiteData                    -- validated site: sensors, readings, survey, controls, warnings.
 validate_site               -- validate the four long-format tables (clear errors, explicit warnings).
-read_site                   -- read them from CSV / Parquet and validate.
+READING_COLUMNS             -- the columns of a readings table (timestamp, sensor_id, angle_deg, temperature_c).
+angle_noise                 -- robust high-frequency noise of the angles; below RADIAN_NOISE_THRESHOLD degrees
+                               are implausible (radians given by mistake).
+read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
+                               tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
 SyntheticSite, SiteTruth    -- its tables and truth.
 
@@ -36,26 +40,39 @@ settlement_alarms           -- threshold exceedances with station, date and prob
 fit_change_prior            -- maximum-likelihood prior (order and r) of the settlement profile;
                                ChangePriorFit is its result.
 estimate_settlement         -- the whole job, readings to settlement, bands, health and alarms.
+SettlementSettings          -- its options (frozen, validated once): ``estimate_settlement(site, settings=...)``.
 SettlementResult            -- its result (``to_table()`` for the long output table).
 """
 
-from ._data import SiteData, read_site, validate_site
-from ._health import SensorHealth, assess_sensors
-from ._integration import bar_angles_from_profile, integrate_angles
-from ._rigidity import (ProfilePosterior, initial_profile_posterior, initial_profile_posterior_dense,
-                        max_settlement_monte_carlo, measurement_std, rigidity_cost_matrix, rigidity_model,
-                        rigidity_posterior, rigidity_posterior_dense, sample_profiles)
-from ._settle import ChangePriorFit, SettlementResult, affine_correction, estimate_settlement, fit_change_prior
-from ._synthetic import SiteTruth, SyntheticSite, simulate_site
-from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
-from ._thermal import DailyAngles, daily_angles, first_order_response
+from .._lazy import lazy_namespace
+
+#: Lazy namespace (PEP 562): ``import longprofile.rail`` loads no submodule until a name is used, so
+#: ``rail settle`` does not import the synthetic sites (scipy.signal) and nothing here imports matplotlib.
+_EXPORTS = {
+    "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS"),
+    "._deprecated": ("read_site",),
+    "._health": ("SensorHealth", "assess_sensors"),
+    "._integration": ("bar_angles_from_profile", "integrate_angles"),
+    "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
+                   "max_settlement_monte_carlo", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
+                   "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
+    "._settle": ("ChangePriorFit", "SettlementResult", "SettlementSettings", "affine_correction",
+                 "estimate_settlement", "fit_change_prior"),
+    "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
+    "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time"),
+    "._thermal": ("DailyAngles", "daily_angles", "first_order_response"),
+}
+
 
 __all__ = [
-    "SiteData", "read_site", "validate_site", "simulate_site", "SyntheticSite", "SiteTruth",
+    "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
+    "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
-    "fit_change_prior", "ChangePriorFit",
+    "SettlementSettings", "fit_change_prior", "ChangePriorFit",
 ]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -12,14 +12,14 @@ Tables (CSV or Parquet, one row per item, units in the column names):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, InputFormatError, UnitsError
-from ..io import read_table
 
-__all__ = ["SiteData", "validate_site", "read_site", "SENSOR_COLUMNS", "READING_COLUMNS",
+__all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
@@ -51,7 +51,13 @@ class SiteData:
     warnings : tuple of str
         Everything that was accepted but deserves the user's attention (sorted input,
         sensors without readings, control points outside the sensors...). Reported in every output.
+    TABLE_COLUMNS : dict of str -> tuple of str
+        Class attribute: the required columns of each table ("sensors", "readings", "survey", "controls"),
+        for readers such as :func:`longprofile.io.read_rail_site`.
     """
+
+    TABLE_COLUMNS: ClassVar[dict] = {"sensors": SENSOR_COLUMNS, "readings": READING_COLUMNS,
+                                     "survey": SURVEY_COLUMNS, "controls": CONTROL_COLUMNS}
 
     sensors: pd.DataFrame
     readings: pd.DataFrame
@@ -100,8 +106,15 @@ def _times(values, what: str, col: str) -> pd.Series:
     return t
 
 
-def _robust_noise(readings: pd.DataFrame) -> float:
-    """Median over sensors of the robust std of first differences / sqrt(2) (high-frequency noise)."""
+def angle_noise(readings: pd.DataFrame) -> float:
+    """High-frequency noise of inclinometer angles: the median over sensors of the robust std of first differences
+    divided by sqrt(2), in the unit of ``angle_deg``.
+
+    ``readings`` needs ``sensor_id`` and ``angle_deg`` columns, each sensor's rows in time order. Below
+    :data:`RADIAN_NOISE_THRESHOLD` the angles are implausible as degrees for MEMS inclinometers (paper 004 §1.3) and
+    look like radians: :func:`validate_site` refuses them, and so does the monitoring service's ingestion.
+    Returns NaN when no sensor has two distinct readings.
+    """
     d = readings.groupby("sensor_id", sort=False)["angle_deg"].diff().abs()
     per = d.groupby(readings["sensor_id"], sort=False).median() / (0.6745 * np.sqrt(2.0))
     per = per[np.isfinite(per) & (per > 0)]
@@ -141,7 +154,15 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     warnings: list[str] = []
     if angle_unit not in ("deg", "rad"):
         raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
-    # ---- sensors
+    s = _valid_sensors(sensors)
+    r = _valid_readings(readings, s, angle_unit, check_units, warnings)
+    sv = _valid_survey(survey, s, warnings)
+    ct = _valid_controls(controls, s, warnings)
+    return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
+
+
+def _valid_sensors(sensors: pd.DataFrame) -> pd.DataFrame:
+    """The sensors table: ids stripped and unique, at least 3, sorted by distinct stations."""
     _require_columns(sensors, SENSOR_COLUMNS, "sensors")
     s = pd.DataFrame({"sensor_id": sensors["sensor_id"].astype(str).str.strip(),
                       "x_m": _numeric(sensors, "x_m", "sensors")})
@@ -158,7 +179,12 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         i = int(same[0])
         raise InputError(f"sensors table: sensors {s['sensor_id'][i]!r} and {s['sensor_id'][i + 1]!r} are at the same "
                          f"station x = {s['x_m'][i]} m; each sensor needs its own station.")
-    # ---- readings
+    return s
+
+
+def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, check_units: bool,
+                    warnings: list) -> pd.DataFrame:
+    """The readings table: known sensors, one reading per (sensor, time), sorted, angles in degrees."""
     _require_columns(readings, READING_COLUMNS, "readings")
     r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp"),
                       "sensor_id": readings["sensor_id"].astype(str).str.strip().to_numpy(),
@@ -182,7 +208,7 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     if angle_unit == "rad":
         r["angle_deg"] = np.rad2deg(r["angle_deg"])
     elif check_units:
-        noise = _robust_noise(r)
+        noise = angle_noise(r)
         if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
             raise UnitsError(f"readings: the angle noise is {noise:.2g} (median over sensors of the robust std of "
                              f"successive differences), implausibly small for degrees (inclinometers: ~1e-3..1e-2 deg); "
@@ -194,7 +220,11 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     without = sorted(known - set(r["sensor_id"].unique()))
     if without:
         warnings.append(f"{len(without)} sensor(s) have no readings at all: {without[:5]}; they are reported as dead.")
-    # ---- survey
+    return r
+
+
+def _valid_survey(survey, s: pd.DataFrame, warnings: list):
+    """The initial survey covering every sensor (or the sensors' z_m column)."""
     sv = None
     if survey is not None:
         _require_columns(survey, SURVEY_COLUMNS, "survey")
@@ -217,7 +247,11 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         warnings.append("no survey table: the initial profile is the sensors' z_m column.")
     else:
         raise InputError("no initial altitude: give a survey table (x_m, z_m) or a z_m column in the sensors table.")
-    # ---- controls
+    return sv
+
+
+def _valid_controls(controls, s: pd.DataFrame, warnings: list):
+    """The control surveys (None when not given), sorted by date and station."""
     ct = None
     if controls is not None:
         _require_columns(controls, CONTROL_COLUMNS, "controls")
@@ -229,29 +263,4 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
             warnings.append(f"{int(outside.sum())} control point(s) lie outside the instrumented span "
                             f"{x[0]:g}..{x[-1]:g} m and are not compared.")
         ct = ct.sort_values(["date", "x_m"], kind="stable").reset_index(drop=True)
-    return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
-
-
-def read_site(sensors, readings, survey=None, controls=None, *, angle_unit: str = "deg",
-              check_units: bool = True) -> SiteData:
-    """Read the site tables from CSV/Parquet files (``longprofile.io.read_table``) and validate them.
-
-    Parameters
-    ----------
-    sensors, readings : path-like
-        Required tables.
-    survey, controls : path-like, optional
-        Initial survey (required unless the sensors table has ``z_m``) and control surveys.
-    angle_unit, check_units
-        See :func:`validate_site`.
-
-    Returns
-    -------
-    SiteData
-    """
-    s = read_table(sensors, required=SENSOR_COLUMNS)
-    r = read_table(readings, required=READING_COLUMNS)
-    sv = None if survey is None else read_table(survey, required=SURVEY_COLUMNS)
-    ct = None if controls is None else read_table(controls, required=CONTROL_COLUMNS)
-    return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units)
-
+    return ct

@@ -32,8 +32,7 @@ import numpy as np
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ..statespace import StateSpaceModel, posterior_sample
-from ..statespace._shared_cov import shared_covariance_smoother, smoother_noise_covariance
+from ..statespace import StateSpaceModel, posterior_sample, shared_covariance_smoother, smoother_noise_covariance
 
 __all__ = [
     "ProfilePosterior",

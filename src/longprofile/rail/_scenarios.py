@@ -27,7 +27,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 
 from ..errors import InputError
 
@@ -137,6 +136,8 @@ def _loguniform(rng, lo_hi, size=None):
 
 def _lagged(temp, dt_min, tau_min):
     """First-order lag of a regularly sampled temperature (exact for a step-held input), per column."""
+    from scipy.signal import lfilter  # imported on use: scipy.signal costs ~1 s at start-up
+
     out = np.empty_like(temp)
     for i in range(temp.shape[1]):
         a = np.exp(-dt_min / tau_min[i])
@@ -184,63 +185,19 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
     t_min = np.arange(0.0, D * 1440.0, dt_min)
     T = t_min.size
     t_day = t_min / 1440.0
-    # ---- settlement bowl: night steps on random work days + creep between them
-    depth = rng.uniform(*f.bowl_depth_m)
-    width = rng.uniform(*f.bowl_width_m)
-    center = rng.uniform(0.3 * L, 0.7 * L)
-    # the instrumented span covers the works: the ends move < 0.32 % of the depth (|u| >= 3.4) (assumption 1 of docs/rail.md)
-    width = min(width, min(center, L - center) / 3.4)
-    first_work = int(rng.integers(max(2, D // 5), max(3, D // 2)))
-    nwork = int(min(rng.integers(f.n_work_days[0], f.n_work_days[1] + 1), D - first_work))
-    work = np.sort(rng.choice(np.arange(first_work, D), size=max(nwork, 1), replace=False))
-    creep = rng.uniform(*f.creep_fraction)
-    amounts = rng.dirichlet(np.full(work.size, 1.5)) * depth * (1.0 - creep)
-    night = rng.uniform(0.5, 4.0, work.size) / 24.0  # step start, fraction of the day
-    dur = rng.uniform(0.5, 2.5, work.size) / 24.0
-
-    def depth_at(td):
-        out = np.zeros_like(td, dtype=float)
-        for d0, a, s, du in zip(work, amounts, night, dur):
-            out += a * np.clip((td - (d0 + s)) / du, 0.0, 1.0)
-        out += depth * creep * np.clip((td - work[0]) / max(D - work[0], 1.0), 0.0, 1.0)
-        return out
-
+    bowl = _scenario_bowl(f, rng, L, D)
+    depth_at, depth, width, center, work = bowl["depth_at"], bowl["depth"], bowl["width"], bowl["center"], bowl["work"]
     u = (x - center) / width
     shape = -np.exp(-0.5 * u**2)  # unit bowl, -1 at the centre
     dshape = -u / width * shape  # its derivative, 1/m
     noon = np.arange(D) + 0.5
     settlement = depth_at(noon)[:, None] * shape[None, :]
     slope_change = depth_at(noon)[:, None] * dshape[None, :]
-    # ---- initial geometry: grade + a few waves; exact derivative for the angles
-    grade = rng.uniform(-4e-3, 4e-3)
-    amp = rng.normal(0, 3e-3, 3)
-    wl = rng.uniform(15.0, 70.0, 3)
-    ph = rng.uniform(0, 2 * np.pi, 3)
-
-    def z0(xx):
-        return 150.0 + grade * xx + np.sum(amp[:, None] * np.sin(2 * np.pi * np.asarray(xx)[None, :] / wl[:, None]
-                                                                  + ph[:, None]), axis=0)
-
-    def dz0(xx):
-        return grade + np.sum(amp[:, None] * 2 * np.pi / wl[:, None]
-                              * np.cos(2 * np.pi * np.asarray(xx)[None, :] / wl[:, None] + ph[:, None]), axis=0)
-
+    z0, dz0 = _scenario_geometry(rng)
     slope_t = dz0(x)[None, :] + depth_at(t_day)[:, None] * dshape[None, :]  # (T, N) true slope
     true_angle = np.rad2deg(np.arctan(slope_t))
     offset = rng.normal(0, 0.5, N)
-    # ---- temperature: daily cycle + weather fronts + trend; per-sensor shade offset
-    swing = rng.uniform(*f.daily_swing_c)
-    t_fronts = [0.0]
-    while t_fronts[-1] < D:
-        t_fronts.append(t_fronts[-1] + rng.uniform(*f.front_every_days))
-    t_fronts = np.asarray(t_fronts)
-    levels = np.cumsum(rng.normal(0, f.front_std_c, t_fronts.size)) * 0.7
-    levels -= levels[0]
-    mean_t = np.interp(t_day, t_fronts, levels)  # linear transitions between fronts
-    trend = rng.uniform(*f.trend_c) * t_day / D
-    base = rng.uniform(-2.0, 15.0)
-    air = base + trend + mean_t + swing * np.sin(2 * np.pi * (t_day - 0.375))
-    temp = air[:, None] + rng.normal(0, 0.5, N)[None, :] + rng.normal(0, 0.05, (T, N))
+    temp, swing, base = _scenario_temperature(f, rng, t_day, D, N)
     coef = rng.uniform(*f.thermal_coef_deg_per_c, N) * rng.choice([-1.0, 1.0], N)
     quad = rng.normal(0, f.thermal_quadratic_deg_per_c2, N)
     tau = _loguniform(rng, f.thermal_lag_minutes_log, N)
@@ -261,29 +218,7 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
         angle += noise * rng.standard_t(4, (T, N)) / np.sqrt(2.0)  # unit-variance t(4)
         n_out = int(round(f.outlier_fraction * T * N))
         angle[rng.integers(0, T, n_out), rng.integers(1, N - 1, n_out)] += rng.normal(0, 0.3, n_out)
-        faults = {}
-        inner = np.arange(1, N - 1)
-        bowl_zone = inner[np.abs(dshape[inner]) * depth > 0.25 * np.max(np.abs(dshape)) * depth]
-        taken = set()
-        for kind in f.faults:
-            pool = [j for j in (bowl_zone if kind in ("reversed", "frozen") else inner) if j not in taken]
-            if not pool:
-                continue
-            j = int(rng.choice(pool))
-            taken.add(j)
-            faults[ids[j]] = kind
-            if kind == "reversed":
-                sign[j] = -1.0
-            elif kind == "frozen":
-                k0 = int(rng.integers(T // 10, max(T // 10 + 1, int(work[0] * 1440 / dt_min))))
-                angle[k0:, j] = angle[k0, j]
-            elif kind == "detached":
-                k0 = int(rng.integers(T // 5, 4 * T // 5))
-                angle[k0:, j] += rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.2)
-                angle[k0:, j] += rng.uniform(-3e-3, 3e-3) * (tc[k0:, j] - tc[k0, j])
-            elif kind == "dead":
-                k0 = int(rng.integers(0, T // 3))
-                angle[k0:, j] = np.nan
+        faults = _scenario_faults(f, rng, angle, sign, ids, dshape, depth, work, tc, dt_min)
         angle = np.where(sign[None, :] < 0, 2 * offset[None, :] - angle, angle)
     if not f.noise_free:
         angle = np.round(angle, 5)  # 1e-4 deg resolution, one more digit kept
@@ -302,7 +237,97 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                           drift_deg_per_sqrt_day=drift_rate, faults=faults,
                           work_days=np.isin(np.arange(D), work),
                           params=dict(depth_m=depth, width_m=width, center_m=center, first_work_day=int(work[0]),
-                                      creep_fraction=creep, daily_swing_c=swing, noise_deg=noise,
+                                      creep_fraction=bowl["creep"], daily_swing_c=swing, noise_deg=noise,
                                       n_sensors=N, n_days=D, sampling_minutes=dt_min))
     return Scenario(sensors=pd.DataFrame({"sensor_id": ids, "x_m": x}), readings=readings, survey=survey,
                     truth=truth, family=f.name, seed=int(seed))
+
+
+def _scenario_bowl(f, rng, L, D) -> dict:
+    """Settlement bowl: night steps on random work days + creep between them (depth_at(t in days) -> m)."""
+    depth = rng.uniform(*f.bowl_depth_m)
+    width = rng.uniform(*f.bowl_width_m)
+    center = rng.uniform(0.3 * L, 0.7 * L)
+    # the instrumented span covers the works: the ends move < 0.32 % of the depth (|u| >= 3.4) (assumption 1 of docs/rail.md)
+    width = min(width, min(center, L - center) / 3.4)
+    first_work = int(rng.integers(max(2, D // 5), max(3, D // 2)))
+    nwork = int(min(rng.integers(f.n_work_days[0], f.n_work_days[1] + 1), D - first_work))
+    work = np.sort(rng.choice(np.arange(first_work, D), size=max(nwork, 1), replace=False))
+    creep = rng.uniform(*f.creep_fraction)
+    amounts = rng.dirichlet(np.full(work.size, 1.5)) * depth * (1.0 - creep)
+    night = rng.uniform(0.5, 4.0, work.size) / 24.0  # step start, fraction of the day
+    dur = rng.uniform(0.5, 2.5, work.size) / 24.0
+
+    def depth_at(td):
+        out = np.zeros_like(td, dtype=float)
+        for d0, a, s, du in zip(work, amounts, night, dur):
+            out += a * np.clip((td - (d0 + s)) / du, 0.0, 1.0)
+        out += depth * creep * np.clip((td - work[0]) / max(D - work[0], 1.0), 0.0, 1.0)
+        return out
+
+    return dict(depth_at=depth_at, depth=depth, width=width, center=center, work=work, creep=creep)
+
+
+def _scenario_geometry(rng):
+    """Initial geometry: grade + a few waves, z0(x) and its exact derivative dz0(x) for the angles."""
+    grade = rng.uniform(-4e-3, 4e-3)
+    amp = rng.normal(0, 3e-3, 3)
+    wl = rng.uniform(15.0, 70.0, 3)
+    ph = rng.uniform(0, 2 * np.pi, 3)
+
+    def z0(xx):
+        return 150.0 + grade * xx + np.sum(amp[:, None] * np.sin(2 * np.pi * np.asarray(xx)[None, :] / wl[:, None]
+                                                                  + ph[:, None]), axis=0)
+
+    def dz0(xx):
+        return grade + np.sum(amp[:, None] * 2 * np.pi / wl[:, None]
+                              * np.cos(2 * np.pi * np.asarray(xx)[None, :] / wl[:, None] + ph[:, None]), axis=0)
+
+    return z0, dz0
+
+
+def _scenario_temperature(f, rng, t_day, D, N):
+    """Temperature: daily cycle + weather fronts + trend; per-sensor shade offset: (temp (T, N), swing, base)."""
+    T = t_day.size
+    swing = rng.uniform(*f.daily_swing_c)
+    t_fronts = [0.0]
+    while t_fronts[-1] < D:
+        t_fronts.append(t_fronts[-1] + rng.uniform(*f.front_every_days))
+    t_fronts = np.asarray(t_fronts)
+    levels = np.cumsum(rng.normal(0, f.front_std_c, t_fronts.size)) * 0.7
+    levels -= levels[0]
+    mean_t = np.interp(t_day, t_fronts, levels)  # linear transitions between fronts
+    trend = rng.uniform(*f.trend_c) * t_day / D
+    base = rng.uniform(-2.0, 15.0)
+    air = base + trend + mean_t + swing * np.sin(2 * np.pi * (t_day - 0.375))
+    temp = air[:, None] + rng.normal(0, 0.5, N)[None, :] + rng.normal(0, 0.05, (T, N))
+    return temp, swing, base
+
+
+def _scenario_faults(f, rng, angle, sign, ids, dshape, depth, work, tc, dt_min) -> dict:
+    """Apply the family's sensor faults in place (``angle``, ``sign``); returns {sensor id: fault}."""
+    T, N = angle.shape
+    faults = {}
+    inner = np.arange(1, N - 1)
+    bowl_zone = inner[np.abs(dshape[inner]) * depth > 0.25 * np.max(np.abs(dshape)) * depth]
+    taken = set()
+    for kind in f.faults:
+        pool = [j for j in (bowl_zone if kind in ("reversed", "frozen") else inner) if j not in taken]
+        if not pool:
+            continue
+        j = int(rng.choice(pool))
+        taken.add(j)
+        faults[ids[j]] = kind
+        if kind == "reversed":
+            sign[j] = -1.0
+        elif kind == "frozen":
+            k0 = int(rng.integers(T // 10, max(T // 10 + 1, int(work[0] * 1440 / dt_min))))
+            angle[k0:, j] = angle[k0, j]
+        elif kind == "detached":
+            k0 = int(rng.integers(T // 5, 4 * T // 5))
+            angle[k0:, j] += rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.2)
+            angle[k0:, j] += rng.uniform(-3e-3, 3e-3) * (tc[k0:, j] - tc[k0, j])
+        elif kind == "dead":
+            k0 = int(rng.integers(0, T // 3))
+            angle[k0:, j] = np.nan
+    return faults

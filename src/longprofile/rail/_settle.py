@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -13,12 +14,22 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import SensorHealth, assess_sensors
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
-from ._rigidity import (DEFAULT_RIGIDITY, DEFAULT_SIGMA_A, DEFAULT_SIGMA_Z, PENALTY_ORDERS, Z90, ProfilePosterior,
-                        initial_profile_posterior, max_settlement_monte_carlo, measurement_std, rigidity_posterior)
+from ._rigidity import (
+    DEFAULT_RIGIDITY,
+    DEFAULT_SIGMA_A,
+    DEFAULT_SIGMA_Z,
+    PENALTY_ORDERS,
+    Z90,
+    ProfilePosterior,
+    initial_profile_posterior,
+    max_settlement_monte_carlo,
+    measurement_std,
+    rigidity_posterior,
+)
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
 
-__all__ = ["SettlementResult", "estimate_settlement", "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit",
+__all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit",
            "day_difference_sigma", "affine_correction", "daily_noise_sigma", "ERROR_MODELS"]
 
 #: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
@@ -422,21 +433,273 @@ def _compare_controls(site: SiteData, days, x, dz, dz_std, initial_survey):
     return pd.DataFrame(rows, columns=["date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "inside_90"])
 
 
-def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float | None = None,
-                        rigidity: float | None = None, penalty_order: int | None = None,
-                        survey_rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z,
-                        sigma_a: float = DEFAULT_SIGMA_A, reference_temp_c: float = 5.0, quiet_days=None,
-                        check_health: bool = True, exclude_sensors=(), use_affine_correction: bool = False,
-                        through_time: bool = True, process_std: float | None = None,
-                        settlement_threshold_m: float | None = None, rate_threshold_m_per_day: float | None = None,
-                        alarm_probability: float = 0.5, n_monte_carlo: int = 1000, rng=0,
-                        error_model: str = "drift") -> SettlementResult:
+@dataclass(frozen=True)
+class SettlementSettings:
+    """Options of :func:`estimate_settlement`, with their defaults, validated once (``__post_init__``).
+
+    ``estimate_settlement(site, settings=SettlementSettings(...))`` and
+    ``estimate_settlement(site, **options)`` give identical results.
+
+    Attributes
+    ----------
+    thermal : {"linear", "lagged", "none"}, default "linear"
+        Temperature de-biasing of the daily angles: the paper's §3 ("linear") or the first-order lag model.
+    sigma : float or None, default None
+        Std of the daily slope changes, rad (None: estimated from the day-to-day differences).
+    rigidity : float or None, default None
+        r of the prior of the change profile, m^-2 (penalty order 2) or m^-4 (order 3); None: maximum likelihood.
+    penalty_order : {None, 2, 3}, default None
+        Prior of the change profile (None: the larger maximised likelihood, or 2 with a given ``rigidity``).
+    survey_rigidity : float, default 1e-8
+        r of the track geometry for the initial profile from the survey (§4.4), m^-2.
+    sigma_z : float, default 1e-5
+        Std of the end anchors, m (> 0).
+    sigma_a : float, default 2e-3
+        Survey noise, m (> 0).
+    reference_temp_c : float, default 5
+        Reference temperature of the thermal correction, °C.
+    quiet_days : sequence of dates or None, default None
+        Days without works (e.g. "2019-11-18") for the thermal fit; None: every day.
+    check_health : bool, default True
+        Flag and exclude improbable sensors (§6); dead sensors are always excluded.
+    exclude_sensors : tuple of str, default ()
+        Sensor ids excluded by the user.
+    use_affine_correction : bool, default False
+        Apply the §5.2 affine correction (not robust, see :func:`affine_correction`).
+    through_time : bool, default True
+        Also smooth across days per station and compute daily rates.
+    process_std : float or None, default None
+        Day-to-day settlement std of the through-time model, m/day (None: maximum likelihood).
+    settlement_threshold_m : float or None, default None
+        Alarm threshold on |altitude change|, m.
+    rate_threshold_m_per_day : float or None, default None
+        Alarm threshold on |daily rate|, m/day.
+    alarm_probability : float, default 0.5
+        Report a station-day when its exceedance probability is at least this (0..1).
+    n_monte_carlo : int, default 1000
+        Posterior draws per day for the maximum settlement (0 = skip, NaN results).
+    rng : int or numpy Generator, default 0
+        Seed (or generator) of the Monte Carlo.
+    error_model : {"drift", "white"}, default "drift"
+        Error model of the daily slope changes (:data:`ERROR_MODELS`); a given ``sigma`` implies "white".
+    """
+
+    thermal: str = "linear"
+    sigma: float | None = None
+    rigidity: float | None = None
+    penalty_order: int | None = None
+    survey_rigidity: float = DEFAULT_RIGIDITY
+    sigma_z: float = DEFAULT_SIGMA_Z
+    sigma_a: float = DEFAULT_SIGMA_A
+    reference_temp_c: float = 5.0
+    quiet_days: Any = None
+    check_health: bool = True
+    exclude_sensors: tuple = ()
+    use_affine_correction: bool = False
+    through_time: bool = True
+    process_std: float | None = None
+    settlement_threshold_m: float | None = None
+    rate_threshold_m_per_day: float | None = None
+    alarm_probability: float = 0.5
+    n_monte_carlo: int = 1000
+    rng: Any = 0
+    error_model: str = "drift"
+
+    def __post_init__(self):
+        require_positive("sigma_z", self.sigma_z)
+        require_positive("sigma_a", self.sigma_a)
+        if self.error_model not in ERROR_MODELS:
+            raise InputError(f"error_model must be one of {ERROR_MODELS}; got {self.error_model!r}.")
+        if self.penalty_order is not None and self.penalty_order not in PENALTY_ORDERS:
+            raise InputError(f"penalty_order must be None, 2 or 3; got {self.penalty_order!r}.")
+        object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
+        if self.quiet_days is not None:
+            object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
+
+
+def _resolve_settings(settings, options) -> SettlementSettings:
+    if settings is None:
+        return SettlementSettings(**options)
+    if not isinstance(settings, SettlementSettings):
+        raise InputError(f"settings must be a SettlementSettings; got {type(settings).__name__}.")
+    return replace(settings, **options) if options else settings
+
+
+def _check_exclusions(ids, exclude_sensors) -> None:
+    unknown = sorted(set(exclude_sensors) - set(ids))
+    if unknown:
+        raise InputError(f"exclude_sensors: unknown sensor id(s) {unknown[:5]}; known ids are like {ids[:3]}.")
+
+
+def _daily_stage(site: SiteData, opt: SettlementSettings, warnings: list) -> DailyAngles:
+    """Daily angles (§3) with their warnings; at least 2 days."""
+    ids = site.sensor_ids
+    daily = daily_angles(site, thermal=opt.thermal, reference_temp_c=opt.reference_temp_c,
+                         quiet_days=opt.quiet_days)
+    D = daily.days.size
+    if D < 2:
+        raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
+    warnings.extend(daily.warnings)
+    n_out = int(daily.n_outliers.sum())
+    if n_out:
+        warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
+                        f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
+    return daily
+
+
+def _slope_changes(site: SiteData, daily: DailyAngles, opt: SettlementSettings):
+    """Initial profile from the survey (§4.4) and the slope changes tan(theta0 + m) - tan(theta0)."""
+    x, sv = site.x, site.survey
+    initial = initial_profile_posterior(x, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(), sigma_a=opt.sigma_a,
+                                        rigidity=opt.survey_rigidity)
+    theta0 = np.arctan(initial.slope_mean)
+    change = np.deg2rad(daily.change_deg)
+    slopes = np.tan(theta0[None, :] + change) - np.tan(theta0)[None, :]
+    return initial, slopes
+
+
+def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, warnings: list):
+    """Sensor health (§6) and the slope changes of the kept sensors (NaN elsewhere, affine-corrected if asked)."""
+    excl_idx = [ids.index(s) for s in opt.exclude_sensors]
+    # health checks need a prior as stiff as the data allow (a loose prior predicts nothing from the
+    # neighbours), so they always use the maximum-likelihood r of the paper's prior (penalty order 2); the
+    # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
+    fit = (lambda M, s, r: fit_noise_and_rigidity(x, M, sigma=opt.sigma, rigidity=None, sigma_z=opt.sigma_z))
+    s0, r0 = fit(slopes, None, None)
+    if opt.check_health:
+        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=opt.sigma_z,
+                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, fit=fit)
+    else:
+        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=opt.sigma_z,
+                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, max_flagged=0, fit=fit)
+    health = replace(health, sensor_ids=list(ids))
+    for sid, st, why in health.flagged():
+        warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+    if health.excluded[0] or health.excluded[-1]:
+        warnings.append("an end sensor is excluded: the end anchor still holds at its station, but the angle there "
+                        "is only known through the rigidity prior.")
+    M = np.where(health.excluded[None, :], np.nan, slopes)
+    if opt.use_affine_correction:
+        M = affine_correction(x, M, ~health.excluded)
+        warnings.append("affine correction of §5.2 applied: end sensors forced to read no change; the paper warns it "
+                        "is not robust (it helped one track and degraded the other).")
+    return health, M
+
+
+def _noise_stage(site: SiteData, x, M, days, opt: SettlementSettings):
+    """Slope-change noise: (sigma, sigma of each day, drift model used?)."""
+    D = days.size
+    sig = float(opt.sigma) if opt.sigma is not None else day_difference_sigma(M)
+    drift = opt.error_model == "drift" and opt.sigma is None
+    if drift:
+        t_days = (pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1)
+        # floor at half the day-to-day noise: a fit driven by the thermal term alone would otherwise give the
+        # days at the reference temperature no noise at all (a floor at the full day-difference sigma made
+        # mittersheim-like over-cover: 95.6 %)
+        sig_days = daily_noise_sigma(x, M, day_offsets=np.asarray(t_days, float),
+                                     temperature_change=_site_temperature_change(site, days), floor=0.5 * sig)
+        sig = float(np.median(sig_days[1:]))
+    else:
+        sig_days = np.full(D, sig)
+    return sig, sig_days, drift
+
+
+def _change_prior_stage(x, M, sig, sig_days, drift, opt: SettlementSettings, warnings: list):
+    """Prior of the change profile: (fit or None, penalty order, r, sigma, sigma of each day, drift)."""
+    D = sig_days.size
+    if opt.rigidity is None:
+        orders = PENALTY_ORDERS if opt.penalty_order is None else (opt.penalty_order,)
+        prior_fit = fit_change_prior(x, M, sigma=sig_days if drift else sig, sigma_z=opt.sigma_z,
+                                     penalty_orders=orders)
+        order, rig = prior_fit.penalty_order, prior_fit.rigidity
+        if drift and rig <= 1.01 * 10.0 ** _LOG10_RIGIDITY_GRID[order][0]:
+            # the stiffest prior of the grid: the daily noise estimate has absorbed the settlement (a bowl
+            # spanning most of a sparse site departs from the neighbours' lines) -> back to one sigma
+            warnings.append("error_model='drift': the per-day noise absorbed the settlement (maximum-likelihood "
+                            "prior at its stiffest); the white noise model (one sigma) is used instead.")
+            drift, sig = False, float(day_difference_sigma(M))
+            sig_days = np.full(D, sig)
+            prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=opt.sigma_z, penalty_orders=orders)
+            order, rig = prior_fit.penalty_order, prior_fit.rigidity
+    else:
+        prior_fit = None
+        order = 2 if opt.penalty_order is None else int(opt.penalty_order)
+        rig = float(opt.rigidity)
+    return prior_fit, order, rig, sig, sig_days, drift
+
+
+def _chain_integrations(x, M, health: SensorHealth, initial: ProfilePosterior) -> dict:
+    """§2 chain integrations on the same slope changes (excluded sensors interpolated from neighbours)."""
+    ok = ~health.excluded
+    Mi = np.array([np.interp(x, x[ok & np.isfinite(row)], row[ok & np.isfinite(row)]) for row in M])
+    bar0 = bar_angles_from_profile(x, initial.z_mean)
+    bar_change = Mi[:, :-1]  # §2: sensor i measures the bar from sensor i to i+1
+    return {meth: integrate_angles(x, np.arctan(np.tan(bar0)[None, :] + bar_change), method=meth)
+            - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
+
+
+def _max_settlement_stage(x, M, sig_days, rig, order, opt: SettlementSettings):
+    """Monte Carlo mean and std of the maximum settlement of each day (§4.3), NaN when skipped."""
+    D = sig_days.size
+    if opt.n_monte_carlo > 0:
+        mc_mean, mc_std = np.empty(D), np.empty(D)
+        gen = np.random.default_rng(opt.rng)
+        for idx, s in _noise_groups(sig_days):
+            mc_mean[idx], mc_std[idx] = max_settlement_monte_carlo(x, M[idx], int(opt.n_monte_carlo), sigma=s,
+                                                                   rigidity=rig, sigma_z=opt.sigma_z, rng=gen,
+                                                                   penalty_order=order)
+    else:
+        mc_mean = mc_std = np.full(D, np.nan)
+    return mc_mean, mc_std
+
+
+def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: SettlementSettings):
+    """Through-time smoothing and rates, alarms, control comparison: (smoothed, dz_std, alarms, controls)."""
+    ids, x, sv = site.sensor_ids, site.x, site.survey
+    dz_std = np.array(post["z_std"])
+    if opt.through_time:
+        smoothed = smooth_through_time(post["z_mean"], dz_std, process_std=opt.process_std,
+                                       noise_variance_by_day=sig_days**2 if drift else None)
+    else:
+        smoothed = None
+    src_mean = smoothed.mean if smoothed is not None else post["z_mean"]
+    src_std = smoothed.std if smoothed is not None else dz_std
+    alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=opt.settlement_threshold_m,
+                               rate=None if smoothed is None else smoothed.rate,
+                               rate_std=None if smoothed is None else smoothed.rate_std,
+                               rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
+                               min_probability=opt.alarm_probability)
+    controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
+    return smoothed, dz_std, alarms, controls
+
+
+def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed) -> dict:
+    """The options used, as reported in :attr:`SettlementResult.settings`."""
+    return dict(thermal=opt.thermal, error_model="drift" if drift else "white", sigma_rad=sig,
+                sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
+                penalty_order=order, sigma_estimated=opt.sigma is None, rigidity_estimated=opt.rigidity is None,
+                change_prior_log_likelihood=None if prior_fit is None else prior_fit.log_likelihood,
+                survey_rigidity=opt.survey_rigidity, sigma_z=opt.sigma_z,
+                sigma_a=opt.sigma_a, reference_temp_c=opt.reference_temp_c,
+                affine_correction=opt.use_affine_correction,
+                through_time=opt.through_time, process_std=None if smoothed is None else smoothed.process_std,
+                settlement_threshold_m=opt.settlement_threshold_m,
+                rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
+                alarm_probability=opt.alarm_probability, n_monte_carlo=opt.n_monte_carlo)
+
+
+def estimate_settlement(site: SiteData, settings: SettlementSettings | None = None,
+                        **options) -> SettlementResult:
     r"""Altitude change of the track, day by day, with 90 % bands, from sleeper inclinometers (paper 004).
 
     Parameters
     ----------
     site : SiteData
-        From :func:`~longprofile.rail.read_site` / :func:`~longprofile.rail.validate_site`.
+        From :func:`~longprofile.rail.validate_site` (or :func:`longprofile.io.read_rail_site` for files).
+    settings : SettlementSettings, optional
+        All the options below in one frozen, validated object (default: ``SettlementSettings()``).
+    **options
+        Any field of :class:`SettlementSettings` by keyword (overrides ``settings``); the fields are:
     thermal : {"linear", "lagged", "none"}, default "linear"
         Temperature de-biasing: the paper's §3 ("linear") or the first-order lag model.
     sigma : float, optional
@@ -499,128 +762,27 @@ def estimate_settlement(site: SiteData, *, thermal: str = "linear", sigma: float
     Carlo of the maximum settlement (§4.3) -> through-time smoothing, rates and alarms (beyond
     the paper).
     """
-    require_positive("sigma_z", sigma_z)
-    require_positive("sigma_a", sigma_a)
-    if error_model not in ERROR_MODELS:
-        raise InputError(f"error_model must be one of {ERROR_MODELS}; got {error_model!r}.")
+    opt = _resolve_settings(settings, options)
     warnings = list(site.warnings)
     ids = site.sensor_ids
     x = site.x
-    N = x.size
-    unknown = sorted(set(exclude_sensors) - set(ids))
-    if unknown:
-        raise InputError(f"exclude_sensors: unknown sensor id(s) {unknown[:5]}; known ids are like {ids[:3]}.")
-    daily = daily_angles(site, thermal=thermal, reference_temp_c=reference_temp_c, quiet_days=quiet_days)
+    _check_exclusions(ids, opt.exclude_sensors)
+    daily = _daily_stage(site, opt, warnings)
     days = daily.days
-    D = days.size
-    if D < 2:
-        raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
-    warnings.extend(daily.warnings)
-    n_out = int(daily.n_outliers.sum())
-    if n_out:
-        warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
-                        f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
-    sv = site.survey
-    if penalty_order is not None and penalty_order not in PENALTY_ORDERS:
-        raise InputError(f"penalty_order must be None, 2 or 3; got {penalty_order!r}.")
-    initial = initial_profile_posterior(x, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(), sigma_a=sigma_a,
-                                        rigidity=survey_rigidity)
-    theta0 = np.arctan(initial.slope_mean)
-    change = np.deg2rad(daily.change_deg)
-    slopes = np.tan(theta0[None, :] + change) - np.tan(theta0)[None, :]
-    excl_idx = [ids.index(s) for s in exclude_sensors]
-    # health checks need a prior as stiff as the data allow (a loose prior predicts nothing from the
-    # neighbours), so they always use the maximum-likelihood r of the paper's prior (penalty order 2); the
-    # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
-    fit = (lambda M, s, r: fit_noise_and_rigidity(x, M, sigma=sigma, rigidity=None, sigma_z=sigma_z))
-    s0, r0 = fit(slopes, None, None)
-    if check_health:
-        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sigma_z,
-                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, fit=fit)
-    else:
-        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sigma_z,
-                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, max_flagged=0, fit=fit)
-    health = replace(health, sensor_ids=list(ids))
-    for sid, st, why in health.flagged():
-        warnings.append(f"sensor {sid} excluded ({st}): {why}.")
-    if health.excluded[0] or health.excluded[-1]:
-        warnings.append("an end sensor is excluded: the end anchor still holds at its station, but the angle there "
-                        "is only known through the rigidity prior.")
-    M = np.where(health.excluded[None, :], np.nan, slopes)
-    if use_affine_correction:
-        M = affine_correction(x, M, ~health.excluded)
-        warnings.append("affine correction of §5.2 applied: end sensors forced to read no change; the paper warns it "
-                        "is not robust (it helped one track and degraded the other).")
-    sig = float(sigma) if sigma is not None else day_difference_sigma(M)
-    drift = error_model == "drift" and sigma is None
-    if drift:
-        t_days = (pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1)
-        # floor at half the day-to-day noise: a fit driven by the thermal term alone would otherwise give the
-        # days at the reference temperature no noise at all (a floor at the full day-difference sigma made
-        # mittersheim-like over-cover: 95.6 %)
-        sig_days = daily_noise_sigma(x, M, day_offsets=np.asarray(t_days, float),
-                                     temperature_change=_site_temperature_change(site, days), floor=0.5 * sig)
-        sig = float(np.median(sig_days[1:]))
-    else:
-        sig_days = np.full(D, sig)
-    if rigidity is None:
-        orders = PENALTY_ORDERS if penalty_order is None else (penalty_order,)
-        prior_fit = fit_change_prior(x, M, sigma=sig_days if drift else sig, sigma_z=sigma_z, penalty_orders=orders)
-        order, rig = prior_fit.penalty_order, prior_fit.rigidity
-        if drift and rig <= 1.01 * 10.0 ** _LOG10_RIGIDITY_GRID[order][0]:
-            # the stiffest prior of the grid: the daily noise estimate has absorbed the settlement (a bowl
-            # spanning most of a sparse site departs from the neighbours' lines) -> back to one sigma
-            warnings.append("error_model='drift': the per-day noise absorbed the settlement (maximum-likelihood "
-                            "prior at its stiffest); the white noise model (one sigma) is used instead.")
-            drift, sig = False, float(day_difference_sigma(M))
-            sig_days = np.full(D, sig)
-            prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=sigma_z, penalty_orders=orders)
-            order, rig = prior_fit.penalty_order, prior_fit.rigidity
-    else:
-        prior_fit, order, rig = None, 2 if penalty_order is None else int(penalty_order), float(rigidity)
-    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=sigma_z, penalty_order=order)
-    noise_std = post["noise_std"]
-    # §2 chain integrations on the same slope changes (excluded sensors interpolated from neighbours)
-    ok = ~health.excluded
-    Mi = np.array([np.interp(x, x[ok & np.isfinite(row)], row[ok & np.isfinite(row)]) for row in M])
-    bar0 = bar_angles_from_profile(x, initial.z_mean)
-    bar_change = Mi[:, :-1]  # §2: sensor i measures the bar from sensor i to i+1
-    integrated = {meth: integrate_angles(x, np.arctan(np.tan(bar0)[None, :] + bar_change), method=meth)
-                  - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
-    if n_monte_carlo > 0:
-        mc_mean, mc_std = np.empty(D), np.empty(D)
-        gen = np.random.default_rng(rng)
-        for idx, s in _noise_groups(sig_days):
-            mc_mean[idx], mc_std[idx] = max_settlement_monte_carlo(x, M[idx], int(n_monte_carlo), sigma=s,
-                                                                   rigidity=rig, sigma_z=sigma_z, rng=gen,
-                                                                   penalty_order=order)
-    else:
-        mc_mean = mc_std = np.full(D, np.nan)
-    dz_std = np.array(post["z_std"])
-    if through_time:
-        smoothed = smooth_through_time(post["z_mean"], dz_std, process_std=process_std,
-                                       noise_variance_by_day=sig_days**2 if drift else None)
-    else:
-        smoothed = None
-    src_mean = smoothed.mean if smoothed is not None else post["z_mean"]
-    src_std = smoothed.std if smoothed is not None else dz_std
-    alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=settlement_threshold_m,
-                               rate=None if smoothed is None else smoothed.rate,
-                               rate_std=None if smoothed is None else smoothed.rate_std,
-                               rate_threshold_m_per_day=rate_threshold_m_per_day, min_probability=alarm_probability)
-    controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
-    settings = dict(thermal=thermal, error_model="drift" if drift else "white", sigma_rad=sig, sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
-                    penalty_order=order, sigma_estimated=sigma is None, rigidity_estimated=rigidity is None,
-                    change_prior_log_likelihood=None if prior_fit is None else prior_fit.log_likelihood,
-                    survey_rigidity=survey_rigidity, sigma_z=sigma_z,
-                    sigma_a=sigma_a, reference_temp_c=reference_temp_c, affine_correction=use_affine_correction,
-                    through_time=through_time, process_std=None if smoothed is None else smoothed.process_std,
-                    settlement_threshold_m=settlement_threshold_m, rate_threshold_m_per_day=rate_threshold_m_per_day,
-                    alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo)
+    initial, slopes = _slope_changes(site, daily, opt)
+    health, M = _health_stage(x, ids, slopes, daily, opt, warnings)
+    sig, sig_days, drift = _noise_stage(site, x, M, days, opt)
+    prior_fit, order, rig, sig, sig_days, drift = _change_prior_stage(x, M, sig, sig_days, drift, opt, warnings)
+    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=opt.sigma_z, penalty_order=order)
+    integrated = _chain_integrations(x, M, health, initial)
+    mc_mean, mc_std = _max_settlement_stage(x, M, sig_days, rig, order, opt)
+    smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt)
+    settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
+                                     smoothed=smoothed)
     return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
-                            dz_noise_std=noise_std,
+                            dz_noise_std=post["noise_std"],
                             slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
                             initial=initial, integrated=integrated, max_settlement_mean=np.atleast_1d(mc_mean),
                             max_settlement_std=np.atleast_1d(mc_std), health=health, daily=daily, sigma=sig,
-                            rigidity=rig, penalty_order=order, change_prior=prior_fit, alarms=alarms, controls=controls, warnings=tuple(warnings),
-                            settings=settings, sigma_by_day=sig_days)
+                            rigidity=rig, penalty_order=order, change_prior=prior_fit, alarms=alarms,
+                            controls=controls, warnings=tuple(warnings), settings=settings_used, sigma_by_day=sig_days)

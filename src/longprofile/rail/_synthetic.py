@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 
 from ..errors import InputError
 
@@ -110,6 +109,17 @@ class SyntheticSite:
     truth: SiteTruth
     preset: str
 
+    def truth_table(self) -> pd.DataFrame:
+        """The truth as a long table, one row per day and sensor: date, sensor_id, x_m, dz_true_m (m),
+        status_true ("ok" or the defect of a bad sensor), as ``rail simulate`` writes it (truth.csv)."""
+        tr = self.truth
+        D, N = tr.settlement.shape
+        ids = self.sensors["sensor_id"]
+        return pd.DataFrame({"date": np.repeat(pd.DatetimeIndex(tr.days).strftime("%Y-%m-%d"), N),
+                             "sensor_id": np.tile(ids.to_numpy(), D), "x_m": np.tile(tr.x, D),
+                             "dz_true_m": tr.settlement.ravel(),
+                             "status_true": np.tile([tr.bad_sensors.get(s, "ok") for s in ids], D)})
+
 
 def _bowl(x, center, width):
     """Unit bowl shape b(x) (0 far away, -1 at the center) and its derivative."""
@@ -156,7 +166,36 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
     dt_h = sampling_minutes / 60.0
     t_h = np.arange(0.0, D * 24.0, dt_h)  # hours since start
     T = t_h.size
-    # ---- settlement: steps on some weekdays after works start, during 01:00-03:00
+    step_days, amounts, work_days = _settlement_steps(p, rng, days)
+    shape, dshape = _bowl(x, p.bowl_center_m, p.bowl_width_m)
+    depth_t = _depth_at(t_h, step_days, amounts)  # (T,)
+    noon = 24.0 * np.arange(D) + 12.0
+    depth_noon = _depth_at(noon, step_days, amounts)
+    settlement = depth_noon[:, None] * shape[None, :]
+    slope_change = depth_noon[:, None] * dshape[None, :]
+    slope_t = depth_t[:, None] * dshape[None, :]  # (T, N) rad
+    temp = _temperatures(p, rng, t_h, D, N)
+    angle, coef, lag, bad = _angles(p, rng, x, ids, temp, slope_t, dt_h)
+    stamps = start + pd.to_timedelta(t_h, unit="h")
+    readings = pd.DataFrame({
+        "timestamp": np.repeat(stamps.to_numpy(), N),
+        "sensor_id": np.tile(ids, T),
+        "angle_deg": angle.ravel(),
+        "temperature_c": np.round(temp.ravel(), 2),
+    })
+    z0 = _initial_profile(rng)
+    survey, controls = _survey_and_controls(p, rng, x, days, z0, step_days, amounts)
+    sensors = pd.DataFrame({"sensor_id": ids, "x_m": np.round(x, 3)})
+    truth = SiteTruth(days=days.to_numpy(), x=np.round(x, 3), settlement=settlement, slope_change=slope_change,
+                      initial_z=z0(x), thermal_coef=coef, thermal_lag_hours=lag, work_days=work_days,
+                      bad_sensors=bad)
+    return SyntheticSite(sensors=sensors, readings=readings, survey=survey, controls=controls, truth=truth,
+                         preset=preset)
+
+
+def _settlement_steps(p, rng, days):
+    """Settlement steps on some weekdays after works start: (step days, amounts in m, work-day mask)."""
+    D = len(days)
     weekday = np.array([d.weekday() < 5 for d in days])
     candidates = np.nonzero(weekday & (np.arange(D) >= p.works_from_day))[0]
     if candidates.size:
@@ -167,21 +206,20 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
         step_days, amounts = np.array([], int), np.array([])
     work_days = np.zeros(D, bool)
     work_days[step_days] = True
+    return step_days, amounts, work_days
 
-    def depth_at(th):  # th: hours; linear ramp 01:00 -> 03:00 on step days
-        out = np.zeros_like(th, dtype=float)
-        for dd, a in zip(step_days, amounts):
-            out += a * np.clip((th - (24.0 * dd + 1.0)) / 2.0, 0.0, 1.0)
-        return out
 
-    shape, dshape = _bowl(x, p.bowl_center_m, p.bowl_width_m)
-    depth_t = depth_at(t_h)  # (T,)
-    noon = 24.0 * np.arange(D) + 12.0
-    depth_noon = depth_at(noon)
-    settlement = depth_noon[:, None] * shape[None, :]
-    slope_change = depth_noon[:, None] * dshape[None, :]
-    slope_t = depth_t[:, None] * dshape[None, :]  # (T, N) rad
-    # ---- temperature: daily cycle + slow weather, scaled to the preset range; small per-sensor offsets
+def _depth_at(th, step_days, amounts):
+    """Bowl depth at the hours ``th``: a linear ramp 01:00 -> 03:00 on each step day."""
+    out = np.zeros_like(th, dtype=float)
+    for dd, a in zip(step_days, amounts):
+        out += a * np.clip((th - (24.0 * dd + 1.0)) / 2.0, 0.0, 1.0)
+    return out
+
+
+def _temperatures(p, rng, t_h, D, N):
+    """(T, N) sensor temperatures: daily cycle + slow weather, scaled to the preset range; per-sensor offsets."""
+    T = t_h.size
     daily = np.sin(2 * np.pi * (t_h - 9.0) / 24.0)
     n_knots = max(D // 3, 2)
     weather = np.interp(t_h, np.linspace(0, t_h[-1], n_knots), rng.normal(0, 1, n_knots))
@@ -189,8 +227,15 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
     air = 1.0 * daily + 0.8 * weather + 2.0 * season
     lo, hi = p.temp_range_c
     air = lo + (hi - lo) * (air - air.min()) / (air.max() - air.min())
-    temp = air[:, None] + rng.normal(0, 0.3, N)[None, :] + rng.normal(0, 0.05, (T, N))
-    # ---- thermal bias: linear, optionally through a first-order lag (time constant tau)
+    return air[:, None] + rng.normal(0, 0.3, N)[None, :] + rng.normal(0, 0.05, (T, N))
+
+
+def _angles(p, rng, x, ids, temp, slope_t, dt_h):
+    """Readings in degrees with thermal bias (linear, optionally lagged), noise, outliers and bad sensors:
+    (angle (T, N), thermal coefficients, lags in h, bad sensors {id: defect})."""
+    from scipy.signal import lfilter  # imported on use: scipy.signal costs ~1 s at start-up
+
+    T, N = temp.shape
     kmin, kmax = p.thermal_coef_deg_per_c
     coef = rng.uniform(kmin, kmax, N) * rng.choice([-1.0, 1.0], N)
     if p.thermal_lag_hours is None:
@@ -218,14 +263,11 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
         angle[:, p.dead_sensor] = np.round(offset[p.dead_sensor], 4)
         bad[ids[p.dead_sensor]] = "dead"
     angle = np.round(angle, 5)  # the sensors' resolution is 1e-4 deg; keep one more digit
-    stamps = start + pd.to_timedelta(t_h, unit="h")
-    readings = pd.DataFrame({
-        "timestamp": np.repeat(stamps.to_numpy(), N),
-        "sensor_id": np.tile(ids, T),
-        "angle_deg": angle.ravel(),
-        "temperature_c": np.round(temp.ravel(), 2),
-    })
-    # ---- initial profile, survey and controls
+    return angle, coef, lag, bad
+
+
+def _initial_profile(rng):
+    """The initial altitude z0(x), m: a grade plus three waves."""
     grade = rng.uniform(-3e-3, 3e-3)
     waves = rng.normal(0, 1, 3)
 
@@ -233,6 +275,12 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
         return 210.0 + grade * xx + 4e-3 * (waves[0] * np.sin(2 * np.pi * xx / 60) + waves[1] * np.cos(2 * np.pi * xx / 37)
                                             + waves[2] * np.sin(2 * np.pi * xx / 23))
 
+    return z0
+
+
+def _survey_and_controls(p, rng, x, days, z0, step_days, amounts):
+    """Initial survey table and control surveys (None without control days)."""
+    D = len(days)
     if p.survey_step_m is None:
         sx = x.copy()
     else:
@@ -248,13 +296,9 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
         for cd in p.control_days:
             if cd >= D:
                 continue
-            z = z0(cx) + depth_at(np.array([24.0 * cd + 12.0]))[0] * cshape + rng.normal(0, 2e-3, cx.size)
+            z = z0(cx) + _depth_at(np.array([24.0 * cd + 12.0]), step_days, amounts)[0] * cshape \
+                + rng.normal(0, 2e-3, cx.size)
             rows.append(pd.DataFrame({"date": days[cd].strftime("%Y-%m-%d"), "x_m": np.round(cx, 3),
                                       "z_m": np.round(z, 4)}))
         controls = pd.concat(rows, ignore_index=True) if rows else None
-    sensors = pd.DataFrame({"sensor_id": ids, "x_m": np.round(x, 3)})
-    truth = SiteTruth(days=days.to_numpy(), x=np.round(x, 3), settlement=settlement, slope_change=slope_change,
-                      initial_z=z0(x), thermal_coef=coef, thermal_lag_hours=lag, work_days=work_days,
-                      bad_sensors=bad)
-    return SyntheticSite(sensors=sensors, readings=readings, survey=survey, controls=controls, truth=truth,
-                         preset=preset)
+    return survey, controls

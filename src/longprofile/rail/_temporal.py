@@ -23,8 +23,7 @@ import pandas as pd
 from scipy.special import ndtr
 
 from ..errors import InputError
-from ..statespace import StateSpaceModel
-from ..statespace._shared_cov import shared_covariance_smoother
+from ..statespace import StateSpaceModel, shared_covariance_smoother
 
 __all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "PROCESS_STD_GRID"]
 

@@ -20,8 +20,8 @@ import pandas as pd
 from scipy.ndimage import median_filter
 
 from .._validation import require_positive
-from ..statespace import linear_recursion
 from ..errors import InputError
+from ..statespace import linear_recursion
 from ._data import SiteData
 
 __all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS"]

@@ -1,6 +1,7 @@
 """Reports: HTML pages, figures and CSV tables rendered from library results (no numerical code here).
 
 write_road_report -- road roughness report (profile, IRI per segment, localised roughness, PSD + ISO 8608).
+road_report_tables, road_report_figures -- its CSV tables and figures, by file name (the page is a Jinja2 template).
 plot_iri -- PNG bar chart of the IRI per segment with condition limits.
 plot_iri_report -- an IRIReport drawn in its units: bars per segment, or continuous IRI along the road.
 IRI_CONDITION_LIMITS -- default good/poor IRI limits, m/km (FHWA).
@@ -8,13 +9,38 @@ plot_profile -- figure of a profile's tracks along the road (envelope for long p
 write_network_report -- network report over a batch results folder (routes, IRI histogram, worst segments, failures).
 write_acceptance_report -- smoothness acceptance page: lots, localized roughness map, grind list, histogram.
 plot_certification -- cross-correlation against offset of profiler runs vs the reference (R 56 practice).
+plot_recording, plot_reconstructions, plot_identification -- APL figures: recording, reconstructions, identification.
+plot_settlement, plot_true_settlement, write_rail_report -- rail settlement figures and HTML report (paper 004).
+plot_derivative, plot_derivative_comparison -- a derivative estimate with its band; estimators compared (paper 002).
+plot_slope_estimate, plot_drive, plot_sensitivity, plot_speed_measurement -- vehicle slope figures (paper 001).
+plot_vertical_estimate, plot_vertical_simulation, plot_thesis_tables -- vertical vehicle state figures (thesis 003).
+plot_kalman_smoothing -- the state-space demo: Kalman filter vs RTS smoother across a data gap.
 """
 
-from ._road import IRI_CONDITION_LIMITS, plot_iri, plot_iri_report, write_road_report
-from ._profile_plot import plot_profile
-from ._network import write_network_report
 from ._acceptance import plot_certification, write_acceptance_report
+from ._apl import plot_identification, plot_reconstructions, plot_recording
+from ._network import write_network_report
+from ._profile_plot import plot_profile
+from ._rail import plot_settlement, plot_true_settlement, write_rail_report
+from ._road import (
+                    IRI_CONDITION_LIMITS,
+                    plot_iri,
+                    plot_iri_report,
+                    road_report_figures,
+                    road_report_tables,
+                    write_road_report,
+)
+from ._signal import plot_derivative, plot_derivative_comparison
+from ._statespace import plot_kalman_smoothing
+from ._vehicle_planar import plot_drive, plot_sensitivity, plot_slope_estimate, plot_speed_measurement
+from ._vehicle_vertical import plot_thesis_tables, plot_vertical_estimate, plot_vertical_simulation
 
 __all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LIMITS", "plot_profile"]
 __all__ += ["write_network_report"]
 __all__ += ["write_acceptance_report", "plot_certification"]
+__all__ += ["plot_recording", "plot_reconstructions", "plot_identification"]
+__all__ += ["plot_slope_estimate", "plot_drive", "plot_sensitivity", "plot_speed_measurement"]
+__all__ += ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_tables"]
+__all__ += ["plot_settlement", "plot_true_settlement", "write_rail_report", "plot_derivative", "plot_derivative_comparison"]
+__all__ += ["road_report_tables", "road_report_figures"]
+__all__ += ["plot_kalman_smoothing"]

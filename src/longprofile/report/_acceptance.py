@@ -1,7 +1,7 @@
 """Smoothness acceptance and profile-comparison reports: HTML page, figures, CSV tables (rendering only).
 
-Every number comes from :func:`longprofile.road._acceptance.smoothness_acceptance`,
-:func:`longprofile.road._grinding.simulate_grinding` and :func:`longprofile.road._compare.certify_profiler`.
+Every number comes from :func:`longprofile.road.smoothness._acceptance.smoothness_acceptance`,
+:func:`longprofile.road.smoothness._grinding.simulate_grinding` and :func:`longprofile.road.smoothness._compare.certify_profiler`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import atomic_write_bytes
 from ._html import report_folder
 
 __all__ = ["plot_certification", "write_acceptance_report"]
@@ -32,8 +33,8 @@ def _figure(width=10.0, height=3.4):
     return fig
 
 
-def _prepare(outdir, inputs, names):
-    return report_folder(outdir, inputs, writes=names)
+def _prepare(outdir, inputs, names, overwrite=True):
+    return report_folder(outdir, inputs, writes=names, overwrite=overwrite)
 
 
 def _envelope(x, y, max_points=3000):
@@ -54,7 +55,7 @@ def _envelope(x, y, max_points=3000):
 def _save(fig, path: Path, figures: dict):
     buf = io.BytesIO()
     fig.savefig(buf, format="png", pil_kwargs={"compress_level": 1})  # zlib level 1: ~2x faster, PNGs ~1.5x larger
-    path.write_bytes(buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue())
     figures[path.name] = base64.b64encode(buf.getvalue()).decode("ascii")
     return path
 
@@ -83,7 +84,8 @@ def _table(frame, floatfmt="{:.3f}", max_rows=500) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{more}"
 
 
-def write_acceptance_report(result, outdir, *, grinding=None, title: str | None = None, inputs=()) -> list[Path]:
+def write_acceptance_report(result, outdir, *, grinding=None, title: str | None = None, inputs=(),
+                            overwrite: bool = True) -> list[Path]:
     """Write the acceptance report: ``index.html`` (figures embedded), PNG figures, CSV tables, summary.json.
 
     Parameters
@@ -97,13 +99,15 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
     title : str, optional
     inputs : sequence of path-like
         Input files, never overwritten.
+    overwrite : bool, default True
+        False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
 
     Returns
     -------
     list of Path
         Files written, ``index.html`` first.
     """
-    out = _prepare(outdir, inputs, _ACCEPTANCE_FILES)
+    out = _prepare(outdir, inputs, _ACCEPTANCE_FILES, overwrite)
     spec = result.spec
     lu, iu = spec.length_unit, spec.iri_unit
     figures: dict = {}
@@ -226,7 +230,6 @@ def plot_certification(result, comparisons, path) -> Path:
     ax.set_ylabel("cross-correlation")
     ax.set_title(f"Cross-correlation with the reference ({result.metadata['filter']} filter)")
     ax.legend(fontsize=7, loc="lower right")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    return path
+    from ..io import save_figure
+
+    return save_figure(fig, path)  # temporary file + os.replace: an older figure survives a failure

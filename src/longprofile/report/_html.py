@@ -8,12 +8,16 @@ import io
 from pathlib import Path
 
 from ..errors import OutputError
+from ..io import atomic_write_bytes
 
 __all__ = ["report_folder", "png_bytes", "write_figures", "img_tag"]
 
 
-def report_folder(outdir, inputs=(), *, writes=()) -> Path:
+def report_folder(outdir, inputs=(), *, writes=(), overwrite: bool = True) -> Path:
     """The report folder, created; refused when it is an input, would overwrite an input, or a file is in the way.
+
+    With ``overwrite=False`` an existing folder that is not empty is refused too (the CLI's default; the
+    library default True replaces the files the report writes and leaves the others alone).
 
     Parameters
     ----------
@@ -36,6 +40,9 @@ def report_folder(outdir, inputs=(), *, writes=()) -> Path:
                               "choose another folder.")
     if out.exists() and not out.is_dir():
         raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
+    if not overwrite and out.is_dir() and any(out.iterdir()):
+        raise OutputError(f"output folder {out} exists and is not empty; pass --overwrite to replace the files "
+                          "this command writes there, or choose another path.")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -55,7 +62,7 @@ def write_figures(figures: dict, out: Path, **savefig_kwargs) -> tuple[list[Path
     paths, images = [], {}
     for fname, fig in figures.items():
         data = png_bytes(fig, **savefig_kwargs)
-        (out / fname).write_bytes(data)
+        atomic_write_bytes(out / fname, data)
         paths.append(out / fname)
         images[fname] = base64.b64encode(data).decode("ascii")
     return paths, images

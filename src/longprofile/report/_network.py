@@ -149,7 +149,8 @@ _REPORT_FILES = ("index.html", "iri_histogram.png", "worst_routes.png", "routes.
                  "failed.csv")
 
 
-def write_network_report(summary, outdir, *, title: str | None = None, inputs=()) -> list[Path]:
+def write_network_report(summary, outdir, *, title: str | None = None, inputs=(),
+                         overwrite: bool = True) -> list[Path]:
     """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables of a network into ``outdir``.
 
     Parameters
@@ -161,13 +162,15 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     title : str, optional
     inputs : sequence of path-like
         The results folder(s) read, to refuse writing into them.
+    overwrite : bool, default True
+        False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
 
     Returns
     -------
     list of Path
         Files written, ``index.html`` first.
     """
-    out = report_folder(outdir, inputs)
+    out = report_folder(outdir, inputs, overwrite=overwrite)
     res = summary.results
     counts = summary.counts
     n_files = len(res.manifest)

@@ -28,7 +28,7 @@ def plot_profile(profile, path, *, title: str | None = None, units: str = "mm") 
     Long profiles (more than 60 000 samples) are drawn as the min/max envelope over bins, so every spike
     stays visible; the station axis is in km beyond 10 km.
     """
-    from ..io._profiles import unit_factor
+    from ..core import unit_factor
     from ._road import _envelope, _figure
 
     factor = unit_factor(units)
@@ -51,7 +51,6 @@ def plot_profile(profile, path, *, title: str | None = None, units: str = "mm") 
     if np.isfinite(xs).any():
         ax.set_xlim(float(xs[0]), float(xs[-1]))
     ax.legend(loc="upper right", fontsize=8)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    return path
+    from ..io import save_figure
+
+    return save_figure(fig, path, dpi=120)  # temporary file + os.replace: an older figure survives a failure

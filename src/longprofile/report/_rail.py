@@ -14,8 +14,9 @@ import numpy as np
 import pandas as pd
 
 from ..errors import OutputError
+from ..io import atomic_write_bytes
 
-__all__ = ["plot_settlement", "write_rail_report"]
+__all__ = ["plot_settlement", "plot_true_settlement", "write_rail_report"]
 
 _Z90 = 1.6448536269514722
 
@@ -70,9 +71,42 @@ def plot_settlement(result, path, *, n_days: int = 6) -> Path:
     _profiles_axes(ax, result, _chosen_days(result, n_days))
     ax.set_title("altitude change since the first day, 90 % bands (dots: control surveys, x: excluded sensors)",
                  fontsize=9)
+    from ..io import save_figure
+
     path = Path(path)
     try:
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path, dpi=110)  # temporary file + os.replace: an older figure survives a failure
+    except OSError as exc:
+        raise OutputError(f"cannot write the plot {path}: {exc}") from None
+    return path
+
+
+def plot_true_settlement(truth, path, *, n_days: int = 6) -> Path:
+    """True altitude change of a synthetic site (``rail simulate --plot``) on ``n_days`` evenly spaced days.
+
+    Parameters
+    ----------
+    truth : SiteTruth
+        ``longprofile.rail.simulate_site(...).truth`` (stations ``x``, ``days``, ``settlement`` (D, N) in m).
+    path : path-like
+        PNG to write.
+    n_days : int, default 6
+
+    Returns
+    -------
+    Path
+    """
+    D = truth.settlement.shape[0]
+    fig = _figure(10, 4)
+    ax = fig.add_subplot()
+    for d in np.unique(np.linspace(0, D - 1, n_days).round().astype(int)):
+        ax.plot(truth.x, 1e3 * truth.settlement[d], label=pd.Timestamp(truth.days[d]).strftime("%Y-%m-%d"))
+    ax.set_xlabel("station x (m)"); ax.set_ylabel("true altitude change (mm)"); ax.legend(fontsize=7)
+    from ..io import save_figure
+
+    path = Path(path)
+    try:
+        save_figure(fig, path, dpi=110)  # temporary file + os.replace: an older figure survives a failure
     except OSError as exc:
         raise OutputError(f"cannot write the plot {path}: {exc}") from None
     return path
@@ -198,7 +232,7 @@ def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
-def write_rail_report(result, outdir, *, title: str = "Track settlement report") -> list[Path]:
+def write_rail_report(result, outdir, *, title: str = "Track settlement report", overwrite: bool = True) -> list[Path]:
     """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
 
     Parameters
@@ -207,6 +241,8 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report")
     outdir : path-like
         Created if needed.
     title : str
+    overwrite : bool, default True
+        False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
 
     Returns
     -------
@@ -214,6 +250,9 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report")
         Files written.
     """
     out = Path(outdir)
+    if not overwrite and out.is_dir() and any(out.iterdir()):
+        raise OutputError(f"output folder {out} exists and is not empty; pass --overwrite to replace the files "
+                          "this command writes there, or choose another path.")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -227,7 +266,7 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report")
     for name, fig in figs.items():
         data = _png(fig)
         p = out / f"{name}.png"
-        p.write_bytes(data)
+        atomic_write_bytes(p, data)
         written.append(p)
         imgs[name] = base64.b64encode(data).decode()
     table = result.to_table()

@@ -11,9 +11,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..io import save_figure
 from ._html import img_tag, report_folder, write_figures
 
-__all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report"]
+__all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report", "road_report_tables",
+           "road_report_figures"]
 
 #: IRI condition limits in m/km: good below 1.50 (95 in/mi), poor above 2.68 (170 in/mi) -- the FHWA pavement
 #: condition thresholds for IRI (23 CFR 490.313). Used for the colours of the report; configurable.
@@ -79,10 +81,7 @@ def plot_iri(result, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
     """Bar chart of the IRI per segment with the condition limits, saved as PNG."""
     fig = _figure()
     _iri_axes(fig.add_subplot(), result, limits)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    return path
+    return save_figure(fig, path)  # temporary file + os.replace: an older figure survives a failure
 
 
 def plot_iri_report(report, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
@@ -135,10 +134,7 @@ def plot_iri_report(report, path, *, limits=IRI_CONDITION_LIMITS) -> Path:
     ma = "moving average applied" if meta.get("moving_average_applied") else "no moving average"
     ax.set_title(f"{title} ({ma})")
     ax.legend(loc="upper right", fontsize=8, ncol=3)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    return path
+    return save_figure(fig, path)  # temporary file + os.replace: an older figure survives a failure
 
 
 def _profile_figure(analysis, reference_profile=None, reference_label="reference"):
@@ -150,13 +146,13 @@ def _profile_figure(analysis, reference_profile=None, reference_label="reference
         if lo is hi:
             line, = ax.plot(x, lo, lw=0.8, label=t)
         else:
-            line = ax.fill_between(x, lo, hi, lw=0.5, alpha=0.8, label=f"{t} (min-max per bin)")
+            ax.fill_between(x, lo, hi, lw=0.5, alpha=0.8, label=f"{t} (min-max per bin)")
         if p.std is not None and np.isfinite(p.std[:, j]).any():
             xs, s_lo, s_hi = _envelope(p.distance, (p.elevation[:, j] - 2 * p.std[:, j]) * 1000)
             _, s_lo2, s_hi2 = _envelope(p.distance, (p.elevation[:, j] + 2 * p.std[:, j]) * 1000)
             ax.fill_between(xs, s_lo, s_hi2, alpha=0.2, lw=0, label=f"{t} ± 2σ")
     if reference_profile is not None:
-        for j, t in enumerate(reference_profile.tracks):
+        for j, _t in enumerate(reference_profile.tracks):
             x, lo, hi = _envelope(reference_profile.distance, reference_profile.elevation[:, j] * 1000)
             ax.plot(x, hi, color="k", lw=0.6, alpha=0.5, zorder=1, label=f"{reference_label}")
     ax.set_xlabel("station [m]")
@@ -191,7 +187,7 @@ def _psd_figure(analysis):
     ax = fig.add_subplot()
     n = psd.wavenumber[1:]
     grid = np.geomspace(0.01, max(3.0, n[-1]), 200)
-    for letter, (lo, _, hi) in ISO8608_CLASSES.items():
+    for letter, (lo, _, _hi) in ISO8608_CLASSES.items():
         if lo > 0:
             ax.loglog(grid, iso8608_gd(grid, lo), color="0.6", lw=0.8)
             ax.text(0.1, lo * 1.1, f"{chr(ord(letter) - 1)}|{letter}", fontsize=7, color="0.35", clip_on=True)
@@ -258,40 +254,19 @@ _REPORT_FILES = ("index.html", "iri_segments.csv", "localized_roughness.csv", "p
                  "waveband_energy.csv", "profile.png", "iri.png", "localized_roughness.png", "psd.png")
 
 
-def write_road_report(analysis, outdir, *, reference=None, reference_label: str = "reference",
-                      limits=IRI_CONDITION_LIMITS, title: str | None = None, inputs=()) -> list[Path]:
-    """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables into ``outdir``.
+def road_report_tables(analysis, *, reference=None, reference_label: str = "reference") -> dict[str, pd.DataFrame]:
+    """The CSV tables of the road report, by file name: ``iri_segments.csv`` (with the reference's IRI per segment
+    when it has the same segments), ``localized_roughness.csv`` and, when computed, ``psd.csv``, ``iso8608.csv``,
+    ``waveband_energy.csv``.
 
     Parameters
     ----------
-    analysis : RoughnessAnalysis
-        From :func:`longprofile.road.analyse_roughness`.
-    outdir : path-like
-        Output folder (created).
-    reference : RoughnessAnalysis, optional
-        A second analysis shown beside (e.g. the true profile of a simulation).
+    analysis, reference : RoughnessAnalysis
+        From :func:`longprofile.road.analyse_roughness` (reference optional).
     reference_label : str
-        Its name in the tables and legends.
-    limits : (float, float)
-        IRI condition limits (good below, poor above), m/km. Default FHWA 1.50 / 2.68 m/km.
-    title : str, optional
-        Page title (default from the profile name).
-    inputs : sequence of path-like
-        Input files, to refuse writing over them.
-
-    Returns
-    -------
-    list of Path
-        Files written.
+        The reference's name in the column names.
     """
-    out = Path(outdir)
-    report_folder(out, inputs, writes=_REPORT_FILES)
-    written: list[Path] = []
-    res = analysis.iri
-    name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
-
-    # tables
-    iri_df = res.to_frame()
+    iri_df = analysis.iri.to_frame()
     if reference is not None and reference.iri.iri.shape[0] == iri_df.shape[0]:
         for j, t in enumerate(reference.iri.tracks):
             key = reference_label if len(reference.iri.tracks) == 1 else f"{reference_label}_{t}"
@@ -313,28 +288,27 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
         })
     if analysis.waveband is not None:
         tables["waveband_energy.csv"] = analysis.waveband.to_frame()
-    for fname, df in tables.items():
-        p = out / fname
-        df.to_csv(p, index=False)
-        written.append(p)
+    return tables
 
-    # figures
+
+def road_report_figures(analysis, *, reference=None, reference_label: str = "reference",
+                        limits=IRI_CONDITION_LIMITS) -> dict:
+    """The figures of the road report, by PNG file name: ``profile.png``, ``iri.png``,
+    ``localized_roughness.png`` and, when computed, ``psd.png`` (matplotlib Figure objects)."""
     figs = {"profile.png": _profile_figure(analysis, None if reference is None else reference.profile,
                                            reference_label)}
     fig = _figure()
-    _iri_axes(fig.add_subplot(), res, limits, None if reference is None else reference.iri, reference_label)
+    _iri_axes(fig.add_subplot(), analysis.iri, limits, None if reference is None else reference.iri, reference_label)
     figs["iri.png"] = fig
     figs["localized_roughness.png"] = _localized_figure(analysis.localized)
     if analysis.psd is not None:
         figs["psd.png"] = _psd_figure(analysis)
-    paths, images = write_figures(figs, out)
-    written.extend(paths)
+    return figs
 
-    def img(fname, alt):
-        return img_tag(images, fname, alt)
 
-    # summary cards
-    p = analysis.profile
+def _summary_cards(analysis, reference, reference_label, limits) -> list[str]:
+    """The summary cards of the page: section IRI (and MRI/HRI), the reference, ISO 8608 classes, defects."""
+    res, p = analysis.iri, analysis.profile
     cards = []
     for j, t in enumerate(res.tracks):
         v = float(res.section_iri[j])
@@ -359,14 +333,15 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     share = f"; {above:.0f} m = {100 * above / span:.0f} % of the length" if n_def and span > 0 else ""
     cards.append(f'<div class="card">Localised roughness<b>{n_def} location{"s" if n_def != 1 else ""}</b>'
                  f'<span class="small">{loc.window:g} m IRI &gt; {loc.threshold:g} m/km{share}</span></div>')
+    return cards
 
-    spacing = p.spacing
-    meta = (f"{p.n_samples} samples, stations {p.distance[0]:.2f}–{p.distance[-1]:.2f} m, "
-            + (f"constant step {spacing * 1000:.1f} mm" if spacing is not None else "irregular stations")
-            + f"; tracks: {', '.join(p.tracks)}.")
-    notes = "".join(f'<div class="note">{html.escape(n)}</div>' for n in analysis.notes)
+
+def _section_html(analysis, tables, images, limits) -> dict[str, str]:
+    """The HTML pieces of the page built from the tables: segment, defect, ISO 8608, waveband and PSD sections."""
+    loc = analysis.localized
     highlight = (lambda c, v: _condition(float(v), limits) if "iri" in str(c) or str(c).startswith(("mri", "hri"))
                  else "")
+    iri_df = tables["iri_segments.csv"]
     seg_table = (_table_html(iri_df, fmt="{:.2f}", highlight=highlight) if len(iri_df)
                  else "<p>No complete segment.</p>")
     def_df = loc.to_frame()
@@ -376,48 +351,93 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     wave_html = ""
     if analysis.waveband is not None:
         wdf = analysis.waveband.to_frame()
-        wave_html = (f"<h2>Waveband energies</h2><p>Mean square of the profile band-passed in each wavelength band, "
+        wave_html = ("<h2>Waveband energies</h2><p>Mean square of the profile band-passed in each wavelength band, "
                      + (f"per {analysis.waveband.segment_end[0] - analysis.waveband.segment_start[0]:g} m segment, "
                         if len(analysis.waveband.segment_start) else "per segment, ")
                      + f"in mm². Bands: {', '.join(analysis.waveband.bands)}.</p>"
                      + (_table_html(wdf, fmt="{:.3g}") if len(wdf) else "<p>No complete segment.</p>"))
     psd_html = ""
     if analysis.psd is not None:
-        psd_html = (f"<h2>Spectrum and ISO 8608 class</h2>{img('psd.png', 'PSD')}"
+        psd_html = (f"<h2>Spectrum and ISO 8608 class</h2>{img_tag(images, 'psd.png', 'PSD')}"
                     f"<p class='small'>Welch estimate, {analysis.psd.segment_length:g} m Hann segments, 50 % overlap, "
                     "linear detrend. Gd(n0) at n0 = 0.1 cycle/m fitted over 0.011–2.83 cycle/m with w = 2 (the "
                     "ISO 8608 classification) and with a free waviness w.</p>" + iso_table)
+    return dict(seg_table=seg_table, def_table=def_table, wave_html=wave_html, psd_html=psd_html)
+
+
+def _render(template: str, **context) -> str:
+    """Render ``templates/<template>`` (package data) with Jinja2; the context values are HTML already."""
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("longprofile.report", "templates"), autoescape=False,
+                             keep_trailing_newline=True)
+    return env.get_template(template).render(**context)
+
+
+def write_road_report(analysis, outdir, *, reference=None, reference_label: str = "reference",
+                      limits=IRI_CONDITION_LIMITS, title: str | None = None, inputs=(),
+                      overwrite: bool = True) -> list[Path]:
+    """Write ``index.html`` (figures embedded), the PNG figures and the CSV tables into ``outdir``.
+
+    Parameters
+    ----------
+    analysis : RoughnessAnalysis
+        From :func:`longprofile.road.analyse_roughness`.
+    outdir : path-like
+        Output folder (created).
+    reference : RoughnessAnalysis, optional
+        A second analysis shown beside (e.g. the true profile of a simulation).
+    reference_label : str
+        Its name in the tables and legends.
+    limits : (float, float)
+        IRI condition limits (good below, poor above), m/km. Default FHWA 1.50 / 2.68 m/km.
+    title : str, optional
+        Page title (default from the profile name).
+    inputs : sequence of path-like
+        Input files, to refuse writing over them.
+    overwrite : bool, default True
+        False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
+
+    Returns
+    -------
+    list of Path
+        Files written.
+
+    Notes
+    -----
+    The page is ``report/templates/road_report.html`` (Jinja2) filled from :func:`road_report_tables` and
+    :func:`road_report_figures`.
+    """
+    out = Path(outdir)
+    report_folder(out, inputs, writes=_REPORT_FILES, overwrite=overwrite)
+    written: list[Path] = []
+    res, p, loc = analysis.iri, analysis.profile, analysis.localized
+    name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
+    tables = road_report_tables(analysis, reference=reference, reference_label=reference_label)
+    for fname, df in tables.items():
+        path = out / fname
+        df.to_csv(path, index=False)
+        written.append(path)
+    figs = road_report_figures(analysis, reference=reference, reference_label=reference_label, limits=limits)
+    paths, images = write_figures(figs, out)
+    written.extend(paths)
+    spacing = p.spacing
+    meta = (f"{p.n_samples} samples, stations {p.distance[0]:.2f}–{p.distance[-1]:.2f} m, "
+            + (f"constant step {spacing * 1000:.1f} mm" if spacing is not None else "irregular stations")
+            + f"; tracks: {', '.join(p.tracks)}.")
     ma = "applied" if res.moving_average else "not needed at this spacing"
     if getattr(res, "moving_average_reason", ""):
         ma = f"{'applied' if res.moving_average else 'not applied'} ({html.escape(res.moving_average_reason)})"
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}</style></head>
-<body>
-<h1>{html.escape(name)}</h1>
-<p class="sub">{html.escape(meta)}</p>
-<div class="cards">{''.join(cards)}</div>
-{notes}
-<h2>Profile</h2>
-{img('profile.png', 'profile')}
-<h2>IRI per segment</h2>
-{img('iri.png', 'IRI per segment')}
-<p class="small">Colours: good below {limits[0]:.2f} m/km, poor above {limits[1]:.2f} m/km (FHWA condition limits,
-configurable). IRI per ASTM E1926 / World Bank TP 46: golden quarter car at 80 km/h, exact discretisation for the
-actual spacing, initial slope over the first {res.lead_in:g} m, state carried across segments, 250 mm moving average
-{ma}.</p>
-{seg_table}
-<h2>Localised roughness</h2>
-{img('localized_roughness.png', 'continuous IRI')}
-<p class="small">IRI over a {loc.window:g} m window centred on every station; a location is a run of stations
-where it exceeds {loc.threshold:g} m/km (start and end are window centres).</p>
-{def_table}
-{psd_html}
-{wave_html}
-<h2>Files</h2>
-<p class="small">{' · '.join(html.escape(f) for f in list(tables) + list(figs))} (in this folder). Generated by
-longprofile; definitions and assumptions: docs/road-indices.md.</p>
-</body></html>
-"""
+    page = _render(
+        "road_report.html", name=html.escape(name), css=_CSS, meta=html.escape(meta),
+        cards=_summary_cards(analysis, reference, reference_label, limits),
+        notes="".join(f'<div class="note">{html.escape(n)}</div>' for n in analysis.notes),
+        img={f: img_tag(images, f, alt) for f, alt in (("profile.png", "profile"), ("iri.png", "IRI per segment"),
+                                                       ("localized_roughness.png", "continuous IRI"))},
+        good=f"{limits[0]:.2f}", poor=f"{limits[1]:.2f}", lead_in=f"{res.lead_in:g}", moving_average=ma,
+        window=f"{loc.window:g}", threshold=f"{loc.threshold:g}",
+        files=[html.escape(f) for f in list(tables) + list(figs)],
+        **_section_html(analysis, tables, images, limits))
     index = out / "index.html"
     index.write_text(page, encoding="utf-8")
     written.insert(0, index)

@@ -27,26 +27,14 @@ compare_profiles, certify_profiler -- Karamihas cross-correlation with offset se
 resample_profile -- explicit linear resampling onto a regular grid.
 smoothness_acceptance, read_spec, default_spec -- lots, localized roughness, exclusions, pay (AcceptanceResult).
 simulate_grinding -- must-grind areas and the shallowest grind below a localized-roughness threshold.
+
+Subpackages: ``road.apl`` (the trailer), ``road.indices`` (IRI and the other indices), ``road.smoothness``
+(comparison, certification, acceptance, grinding). Every name above is importable from ``road`` and loaded on
+first use (PEP 562), so that e.g. ``road.iri`` does not import the APL deconvolution or scipy.signal.
 """
 
-from ._iri import (GOLDEN_CAR, IRIReport, IRIResult, RectifiedSlope, golden_car_matrices, iri, iri_report,
-                   rectified_slope)
-from ._iso8608 import (ISO8608_BAND, ISO8608_CLASSES, ISO8608Fit, ProfilePSD, fit_iso8608, iso8608_class,
-                       iso8608_gd, iso8608_profile, profile_psd)
-from ._summary import RoughnessAnalysis, analyse_roughness
-from ._roughness import (APL_BANDS, LocalizedRoughness, RoughnessDefect, WavebandEnergy, localized_roughness,
-                         waveband_energy)
-from ._profile import Profile
-from . import apl
-from .apl import Reconstruction, apl_model, apl_response, double_filter, reconstruct_profile
-from ._ride_number import RideNumberResult, ride_number
-from ._straightedge import StraightedgeDefect, StraightedgeResult, rolling_straightedge
-from ._profilograph import ProfileIndexResult, ProfilographTrace, profilograph_index, profilograph_trace
-from ._faulting import FaultingResult, find_joints, joint_faulting, step_statistic
-from ._compare import (R56_THRESHOLDS, CertificationResult, ProfileComparison, certify_profiler, compare_profiles,
-                       resample_profile)
-from ._acceptance import AcceptanceResult, AcceptanceSpec, default_spec, read_spec, smoothness_acceptance
-from ._grinding import GrindingResult, simulate_grinding
+from .._lazy import lazy_namespace
+from ..core import Profile
 
 __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
@@ -60,3 +48,20 @@ __all__ += ["ride_number", "RideNumberResult", "rolling_straightedge", "Straight
             "FaultingResult", "find_joints", "step_statistic", "compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
             "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
             "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]
+
+_SUBPACKAGES = ("apl", "indices", "smoothness")
+_APL_NAMES = ("apl_model", "apl_response", "double_filter", "reconstruct_profile", "Reconstruction")
+_SMOOTHNESS_NAMES = ("compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
+                     "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult",
+                     "AcceptanceSpec", "read_spec", "default_spec", "simulate_grinding", "GrindingResult")
+#: public name -> subpackage that defines it (PEP 562: loaded on first access, so that ``road iri`` does not
+#: import the APL deconvolution, the engine's EKF or scipy.signal).
+_LAZY = {name: "apl" for name in _APL_NAMES}
+_LAZY.update({name: "smoothness" for name in _SMOOTHNESS_NAMES})
+_LAZY.update({name: "indices" for name in __all__ if name not in _LAZY and name not in ("Profile", "apl")})
+
+_BY_SUBPACKAGE: dict[str, list[str]] = {}
+for _name, _sub in _LAZY.items():
+    _BY_SUBPACKAGE.setdefault(f".{_sub}", []).append(_name)
+__getattr__, __dir__ = lazy_namespace(__name__, _BY_SUBPACKAGE, __all__, submodules=_SUBPACKAGES)
+del _name, _sub

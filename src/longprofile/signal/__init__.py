@@ -10,10 +10,12 @@ derivative_kalman            -- Kalman differentiator, random-jerk model (paper 
 DERIVATIVE_METHODS           -- registry: name -> DerivativeMethod (function, options, description).
 DerivativeResult             -- value, derivative, derivative_std, method, params.
 DerivativeMethod             -- one registry entry.
+check_derivative_options     -- validate a method's options once (unknown method, options it does not take,
+                                missing required ones, with a hint); returns the keyword arguments.
 StreamingDerivative          -- O(1)-per-sample streaming estimator fed block by block.
 estimate_noise_std           -- robust white-noise std from high-order differences (MAD).
 kalman_differentiator_model  -- StateSpaceModel of the Kalman differentiator.
-plot_derivative              -- Figure of a signal and its estimated derivative with a ±2 std band.
+plot_derivative              -- deprecated alias of ``longprofile.report.plot_derivative`` (figures live in report).
 
 Coefficients and properties (exact rationals with fractions.Fraction)
 ---------------------------------------------------------------------
@@ -33,34 +35,21 @@ polynomial_bias              -- exact bias on a polynomial signal.
 Taps ``h[n]`` multiply ``x[k-n]`` (newest first) and are in sample units: divide by ``dt**order``.
 """
 
-from ._coefficients import (
-    backward_difference_coefficients,
-    backward_difference_coefficients_float,
-    frequency_response,
-    ml_coefficients,
-    ml_coefficients_float,
-    ml_model_variance,
-    polyfit_coefficients,
-    polyfit_coefficients_float,
-    polynomial_bias,
-    power_sum,
-    static_gain,
-    variance_gain,
-)
-from ._derivative import (
-    DERIVATIVE_METHODS,
-    DerivativeMethod,
-    DerivativeResult,
-    derivative,
-    derivative_backward,
-    derivative_kalman,
-    derivative_ml,
-    derivative_polyfit,
-    estimate_noise_std,
-    kalman_differentiator_model,
-)
-from ._plot import plot_derivative
-from ._streaming import StreamingDerivative
+from .._lazy import lazy_namespace
+
+#: Lazy namespace (PEP 562): importing ``longprofile.signal`` loads no submodule (nor numba) until a name is used.
+_EXPORTS = {
+    "._coefficients": ("backward_difference_coefficients", "backward_difference_coefficients_float",
+                       "frequency_response", "ml_coefficients", "ml_coefficients_float", "ml_model_variance",
+                       "polyfit_coefficients", "polyfit_coefficients_float", "polynomial_bias", "power_sum",
+                       "static_gain", "variance_gain"),
+    "._derivative": ("DERIVATIVE_METHODS", "DerivativeMethod", "DerivativeResult", "check_derivative_options",
+                     "derivative", "derivative_backward", "derivative_kalman", "derivative_ml", "derivative_polyfit",
+                     "estimate_noise_std", "kalman_differentiator_model"),
+    "._deprecated": ("plot_derivative",),
+    "._streaming": ("StreamingDerivative",),
+}
+
 
 __all__ = [
     "derivative",
@@ -71,6 +60,7 @@ __all__ = [
     "DERIVATIVE_METHODS",
     "DerivativeResult",
     "DerivativeMethod",
+    "check_derivative_options",
     "StreamingDerivative",
     "estimate_noise_std",
     "kalman_differentiator_model",
@@ -88,3 +78,5 @@ __all__ = [
     "frequency_response",
     "polynomial_bias",
 ]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

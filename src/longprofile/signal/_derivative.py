@@ -19,6 +19,7 @@ __all__ = [
     "DerivativeResult",
     "DerivativeMethod",
     "DERIVATIVE_METHODS",
+    "check_derivative_options",
     "derivative",
     "derivative_ml",
     "derivative_polyfit",
@@ -486,8 +487,14 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     >>> bool(abs(res.derivative[-1] - np.cos(t[-1])) < 1e-2)
     True
     """
-    from ..statespace import (kalman_filter, rts_smoother, steady_state_filter, steady_state_gain,
-                              steady_state_smoothed_cov, steady_state_smoother)
+    from ..statespace import (
+        kalman_filter,
+        rts_smoother,
+        steady_state_filter,
+        steady_state_gain,
+        steady_state_smoothed_cov,
+        steady_state_smoother,
+    )
 
     arr, dt, axis = _prepare(x, dt, axis)
     q_over_r = require_positive("q_over_r", q_over_r)
@@ -581,6 +588,62 @@ DERIVATIVE_METHODS: Mapping[str, DerivativeMethod] = MappingProxyType({
 })
 
 
+#: How to ask for each required option: (library hint, command-line hint, example value).
+_REQUIRED_HINTS = {
+    "window": ("window=45 (N past samples)", "--window N (past samples per estimate)", "45"),
+    "q_over_r": ("q_over_r=1e6", "--q-over-r (jerk variance / noise variance)", "1e6"),
+}
+
+
+def check_derivative_options(method: str, options: Mapping[str, Any], *, flags: bool = False) -> dict:
+    """Validate the options of a derivative method once, from :data:`DERIVATIVE_METHODS`.
+
+    Parameters
+    ----------
+    method : str
+        A registry name ("ml", "polyfit", "backward", "kalman").
+    options : mapping of str -> value
+        Options by name; None means "not given" (the method's default).
+    flags : bool, default False
+        Phrase a missing required option as its command-line flag (``--window N``) instead of its keyword.
+
+    Returns
+    -------
+    dict
+        The given options (None dropped), ready for the method's function.
+
+    Raises
+    ------
+    InputError
+        Unknown method, an option the method does not take, a missing required option.
+
+    Examples
+    --------
+    >>> check_derivative_options("ml", {"window": 45, "q_over_r": None})
+    {'window': 45}
+    """
+    if method not in DERIVATIVE_METHODS:
+        raise InputError(f"unknown derivative method {method!r}; choose one of {sorted(DERIVATIVE_METHODS)}.")
+    spec = DERIVATIVE_METHODS[method]
+    kwargs: dict[str, Any] = {}
+    for name, val in options.items():
+        if val is None:
+            continue
+        if name not in spec.parameters:
+            raise InputError(f"method {method!r} does not take {name}={val!r}; its options are "
+                             f"{list(spec.parameters)}.")
+        kwargs[name] = val
+    missing = [name for name in spec.required if name not in kwargs]
+    if not missing:
+        return kwargs
+    if flags:
+        _, flag, example = _REQUIRED_HINTS[missing[0]]
+        raise InputError(f"--method {method} requires {missing[0]}: pass {flag}, e.g. "
+                         f"--{missing[0].replace('_', '-')} {example}.")
+    raise InputError(f"method {method!r} requires {', '.join(missing)}; e.g. "
+                     + _REQUIRED_HINTS["window" if "window" in missing else "q_over_r"][0])
+
+
 def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: int | None = None,
                order: int = 1, axis: int = 0, noise_std=None, q_over_r: float | None = None,
                smooth: bool | None = None, steady_state: bool | None = None,
@@ -634,22 +697,7 @@ def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: 
     >>> bool(np.allclose(res.derivative[5:], 2 * t[5:]))
     True
     """
-    if method not in DERIVATIVE_METHODS:
-        raise InputError(f"unknown derivative method {method!r}; choose one of {sorted(DERIVATIVE_METHODS)}.")
-    spec = DERIVATIVE_METHODS[method]
-    given = {"window": window, "degree": degree, "noise_std": noise_std, "q_over_r": q_over_r,
-             "smooth": smooth, "steady_state": steady_state, "implementation": implementation}
-    kwargs: dict[str, Any] = {"order": order}
-    for name, val in given.items():
-        if val is None:
-            continue
-        if name not in spec.parameters:
-            raise InputError(f"method {method!r} does not take {name}={val!r}; its options are "
-                             f"{list(spec.parameters)}.")
-        kwargs[name] = val
-    missing = [name for name in spec.required if name not in kwargs]
-    if missing:
-        raise InputError(f"method {method!r} requires {', '.join(missing)}; e.g. "
-                         + ("window=45 (N past samples)" if "window" in missing else "q_over_r=1e6"))
-    return spec.function(x, dt, axis=axis, **kwargs)
-
+    kwargs = check_derivative_options(method, {"window": window, "degree": degree, "noise_std": noise_std,
+                                               "q_over_r": q_over_r, "smooth": smooth, "steady_state": steady_state,
+                                               "implementation": implementation})
+    return DERIVATIVE_METHODS[method].function(x, dt, axis=axis, order=order, **kwargs)

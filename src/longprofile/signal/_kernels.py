@@ -18,13 +18,14 @@ reference value (the first finite sample) so a large offset costs no precision.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
+
+from .._jit import njit
 
 __all__ = ["moment_filter_kernel"]
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _recompute(ring_b, pos, s, degree, window):
     # ring_b[(pos - n) mod N] holds x[k+1-n] for n = 1..N (k = last sample processed)
     for j in range(degree + 1):
@@ -41,7 +42,7 @@ def _recompute(ring_b, pos, s, degree, window):
             p *= fn
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _recompute_small(ring_b, pos, window):
     """Exact moments S_0..S_3 from the ring (two contiguous runs, no modulo)."""
     s0 = 0.0
@@ -62,13 +63,13 @@ def _recompute_small(ring_b, pos, window):
     return s0, s1, s2, s3
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _load_state(b, pos, n_seen, last_nan, since, ref, ref_set):
     """Per-series recursion state of series b: (ring position, samples seen, last NaN, since refresh, ref, ref set)."""
     return pos[b], n_seen[b], last_nan[b], since[b], ref[b], ref_set[b]
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since_b, rb, rset):
     """Store the per-series recursion state of series b (inverse of :func:`_load_state`)."""
     pos[b] = p
@@ -79,7 +80,7 @@ def _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since
     ref_set[b] = rset
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _small_kernel(x, window, degree, c, h0, gain, const, npow, refresh,
                   ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
     """Degree <= 3 and at most 3 outputs: moments and coefficients kept in scalars (registers).
@@ -181,7 +182,7 @@ def moment_filter_kernel(x, window, degree, c, h0, gain, const, binom, npow, ref
                         ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out)
 
 
-@nb.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
                          ring, pos, sums, n_seen, last_nan, since, ref, ref_set, out):
     """Any degree: moments in a small array (see moment_filter_kernel)."""

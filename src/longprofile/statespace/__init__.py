@@ -57,21 +57,29 @@ of x_0 before y_0; ``pred_mean[t]`` = E[x_t | y_<t]; ``mean[t]`` = E[x_t | y_<=t
 ``cross_cov[t]`` = Cov(x_t, x_{t+1} | y).
 """
 
-from ._block_ekf import block_extended_kalman_filter
-from ._ekf import NonlinearStateSpaceModel, extended_kalman_filter, extended_rts_smoother
-from ._fixed_lag import FixedLagResult, fixed_lag_smoother
-from ._kalman import kalman_filter, log_likelihood, rts_smoother
-from ._long_record import (ChunkedFilterResult, LongRecordResult, chunked_kalman_filter, long_record_filter,
-                           long_record_log_likelihood, long_record_smoother)
-from ._mle import MLEResult, fit_mle
-from ._model import StateSpaceModel
-from ._observer import ObserverResult, luenberger_gain, luenberger_observer
-from ._propagate import LinearRecursionResult, linear_recursion
-from ._results import FilterResult, SmootherResult
-from ._sampling import posterior_sample, simulate
-from ._shared_cov import shared_covariance_smoother, smoother_noise_covariance
-from ._steady import (SteadyStateGain, steady_state_filter, steady_state_gain, steady_state_smoothed_cov,
-                      steady_state_smoother)
+from .._lazy import lazy_namespace
+
+# PEP 562 lazy loading: each public name -> the submodule defining it, imported on first access, so that
+# ``from longprofile.statespace import linear_recursion`` loads neither the EKF, the block EKF, the
+# steady-state nor the fixed-lag modules (nor scipy.optimize / scipy.signal).
+_LAZY = {
+    "block_extended_kalman_filter": "_block_ekf",
+    "NonlinearStateSpaceModel": "_ekf", "extended_kalman_filter": "_ekf", "extended_rts_smoother": "_ekf",
+    "FixedLagResult": "_fixed_lag", "fixed_lag_smoother": "_fixed_lag",
+    "kalman_filter": "_kalman", "log_likelihood": "_kalman", "rts_smoother": "_kalman",
+    "ChunkedFilterResult": "_long_record", "LongRecordResult": "_long_record",
+    "chunked_kalman_filter": "_long_record", "long_record_filter": "_long_record",
+    "long_record_log_likelihood": "_long_record", "long_record_smoother": "_long_record",
+    "MLEResult": "_mle", "fit_mle": "_mle",
+    "StateSpaceModel": "_model",
+    "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
+    "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate",
+    "FilterResult": "_results", "SmootherResult": "_results",
+    "posterior_sample": "_sampling", "simulate": "_sampling",
+    "shared_covariance_smoother": "_shared_cov", "smoother_noise_covariance": "_shared_cov",
+    "SteadyStateGain": "_steady", "steady_state_filter": "_steady", "steady_state_gain": "_steady",
+    "steady_state_smoothed_cov": "_steady", "steady_state_smoother": "_steady",
+}
 
 __all__ = [
     "StateSpaceModel",
@@ -109,3 +117,10 @@ __all__ = [
     "linear_recursion",
     "LinearRecursionResult",
 ]
+
+
+_BY_MODULE: dict[str, list[str]] = {}
+for _name, _module in _LAZY.items():
+    _BY_MODULE.setdefault(f".{_module}", []).append(_name)
+__getattr__, __dir__ = lazy_namespace(__name__, _BY_MODULE, __all__)
+del _name, _module

@@ -22,14 +22,17 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from numba import njit, types, typeof
+from numba import typeof, types
 
+from .._jit import njit
 from .._validation import as_float_array
-from ..errors import InputError, ModelError, ShapeError
-from ._ekf import NonlinearStateSpaceModel, check_model_steps, model_function_types, model_functions
+from ..errors import InputError, ShapeError
+from ._ekf import NonlinearStateSpaceModel, check_functions, check_model_steps, model_function_types, model_functions
 from ._ekf_kernels import model_eval
 from ._linalg_kernels import all_finite1, copy1, copy2
+from ._prepare import check_inputs, noise_terms
 from ._results import FilterResult
+from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, TRANSITION_NOT_FINITE, raise_status
 
 __all__ = ["block_extended_kalman_filter"]
 
@@ -69,11 +72,11 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
             obs[mo] = a  # position inside the block
             mo += 1
     if mo == 0:
-        return 0, 0, 0.0
+        return OK, 0, 0.0
     for a in range(mo):
         e[a] = yk[oi[obs[a]]] - yhat[oi[obs[a]]]
         if not np.isfinite(e[a]):
-            return 3, 0, 0.0
+            return OBSERVATION_NOT_FINITE, 0, 0.0
     # Cholesky of the observed part of S
     for a in range(mo):
         for b in range(a + 1):
@@ -82,7 +85,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
                 t -= L[a, q] * L[b, q]
             if a == b:
                 if not t > 0.0:
-                    return 1, 0, 0.0
+                    return NOT_PD, 0, 0.0
                 L[a, a] = np.sqrt(t)
             else:
                 L[a, b] = t / L[b, b]
@@ -142,7 +145,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
             P[si[j], si[i]] = t
     for a in range(mo):
         innov_k[oi[obs[a]]] = e[a]
-    return 0, mo, -0.5 * (mo * _LOG2PI + logdet + quad)
+    return OK, mo, -0.5 * (mo * _LOG2PI + logdet + quad)
 
 
 @njit(cache=True, inline="always")
@@ -181,11 +184,11 @@ def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov
     for b in range(sidx.shape[0]):
         status, mo, llb = _block_update(x, P, Jh, yhat, yk, R, sidx[b], scount[b], oidx[b], ocount[b], innov_k,
                                         icov_k, store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
-        if status != 0:
+        if status != OK:
             return status, n_obs, ll
         ll += llb
         n_obs += mo
-    return 0, n_obs, ll
+    return OK, n_obs, ll
 
 
 @njit(cache=True)
@@ -210,6 +213,17 @@ _predict_all_inline = njit(inline="always")(_predict_all.py_func)
 
 
 @njit(inline="always")
+def _blocks_finite(J, ridx, rcount, cidx, ccount):
+    """True if the diagonal blocks J[ridx[b], cidx[b]] (the entries the local filters use) are finite."""
+    for b in range(ridx.shape[0]):
+        for i in range(rcount[b]):
+            for j in range(ccount[b]):
+                if not np.isfinite(J[ridx[b, i], cidx[b, j]]):
+                    return False
+    return True
+
+
+@njit(inline="always")
 def _update_all_uniform(x, P, Jh, yhat, yk, R, sidx, ns, oidx, no, innov_k, icov_k, store,
                         Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
     """:func:`_update_all` for blocks of equal sizes ``ns``, ``no`` (compile-time constants: unrolled loops)."""
@@ -224,11 +238,11 @@ def _update_all_uniform(x, P, Jh, yhat, yk, R, sidx, ns, oidx, no, innov_k, icov
     for b in range(sidx.shape[0]):
         status, mo, llb = _block_update(x, P, Jh, yhat, yk, R, sidx[b], ns, oidx[b], no, innov_k,
                                         icov_k, store, Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w)
-        if status != 0:
+        if status != OK:
             return status, n_obs, ll
         ll += llb
         n_obs += mo
-    return 0, n_obs, ll
+    return OK, n_obs, ll
 
 
 @njit(inline="always")
@@ -272,6 +286,10 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, sc
         if store:
             copy2(P, pcov[k])
         yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
+        if not _blocks_finite(Jh, oidx, ocount, sidx, scount):
+            state[0] = OBSERVATION_NOT_FINITE
+            state[1] = k
+            return n_obs
         if store:
             copy2(Jh, Hj[k])
         if ns_uniform > 0:
@@ -282,7 +300,7 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, sc
             status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
                                                 icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR,
                                                 obs, e, w)
-        if status != 0:
+        if status != OK:
             state[0] = status
             state[1] = k
             return n_obs
@@ -293,18 +311,23 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, sc
             copy2(P, cov[k])
         if k < T - 1:
             xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
-            if not all_finite1(xn):
-                state[0] = 2
+            if not (all_finite1(xn) and _blocks_finite(Jf, sidx, scount, sidx, scount)):
+                state[0] = TRANSITION_NOT_FINITE
                 state[1] = k
                 return n_obs
             if ns_uniform > 0:
                 _predict_all_uniform(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, ns_uniform, A, Pb, AP)
             else:
                 _predict_all_inline(P, Jf, Q3[k if Q3.shape[0] > 1 else 0], sidx, scount, A, Pb, AP)
+            for i in range(n):
+                if not np.isfinite(P[i, i]):
+                    state[0] = COVARIANCE_NOT_FINITE
+                    state[1] = k
+                    return n_obs
             if store:
                 copy2(Jf, Fj[k])
             copy1(xn, x)
-    state[0] = 0
+    state[0] = OK
     return n_obs
 
 
@@ -398,24 +421,8 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         o_i = np.flatnonzero(ob == b)
         sidx[b, :s_i.size], scount[b] = s_i, s_i.size
         oidx[b, :o_i.size], ocount[b] = o_i, o_i.size
-    Q, R = model.process_cov, model.obs_cov
-    if Q.ndim == 3 and Q.shape[0] != T - 1:
-        raise ShapeError(f"process_cov (Q) is time-varying with {Q.shape[0]} steps but y has T = {T}; it needs T-1.")
-    if R.ndim == 3 and R.shape[0] != T:
-        raise ShapeError(f"obs_cov (R) is time-varying with {R.shape[0]} steps but y has T = {T}; it needs T.")
-    Q3 = np.ascontiguousarray(Q if Q.ndim == 3 else Q[None])
-    if Q3.shape[0] == 0:
-        Q3 = np.zeros((1, n, n))
-    R3 = np.ascontiguousarray(R if R.ndim == 3 else R[None])
-    if u is None:
-        U = np.zeros((T, 0))
-    else:
-        U = as_float_array("u", u, ndim=(1, 2), allow_nan=False)
-        if U.ndim == 1:
-            U = U[:, None]
-        if U.shape[0] != T:
-            raise ShapeError(f"u must have shape (T, p) with T = {T}; got {np.shape(u)}.")
-    U = np.ascontiguousarray(U)
+    Q3, R3 = noise_terms(model.process_cov, model.obs_cov, T)
+    U = np.zeros((T, 0)) if u is None else check_inputs(u, T)
     store = bool(store_covariances)
     mean, pmean = np.empty((T, n)), np.empty((T, n))
     innov, ll_steps = np.empty((T, m)), np.zeros(T)
@@ -435,6 +442,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     sizes = (smax, omax) if uniform else (0, 0)
     size_types = tuple(types.literal(v) if uniform else types.int64 for v in sizes)
     same_block = (sb[:, None] == sb[None, :], ob[:, None] == sb[None, :])
+    check_functions(model, U[0])
     check_model_steps(model, U[0], jacobian_mask=same_block)
     fn_types = model_function_types(model)
     if fn_types is not None:
@@ -442,12 +450,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         n_obs = entry(*fns, *data, *sizes)
     else:  # model functions with other signatures: compile the loop for these functions (per process)
         n_obs = _block_kernel(*fns, *data, 0, 0)
-    status, k = int(state[0]), int(state[1])
-    if status == 1:
-        raise ModelError(f"innovation covariance of a block is not positive definite at step {k}; check R and Q.")
-    if status in (2, 3):
-        which = "transition_fn" if status == 2 else "observation_fn"
-        raise ModelError(f"{which} returned non-finite values at step {k}.")
+    raise_status(state[0], state[1], "block_ekf")
     return FilterResult(
         mean=mean, cov=cov if store else None, pred_mean=pmean, pred_cov=pcov if store else None,
         innovation=innov, innovation_cov=icov if store else None, log_likelihood=float(ll_steps.sum()),

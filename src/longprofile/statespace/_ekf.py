@@ -7,19 +7,29 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from numba import njit, types, typeof
+from numba import typeof, types
 from numba.core.errors import NumbaError
 from scipy.linalg import cho_factor, cho_solve
 
+from .._jit import njit
 from .._validation import as_float_array, require_symmetric_psd
 from ..errors import InputError, ModelError, ShapeError
 from ._ekf_kernels import ekf_kernel
-from ._kalman import as_observation_batch, rts_smoother
+from ._kalman import rts_smoother
 from ._linalg_kernels import FD_REL_STEP
 from ._model import StateSpaceModel
+from ._prepare import as_observation_batch, noise_terms, nonlinear_inputs
 from ._results import FilterResult, SmootherResult
+from ._status import (
+    COVARIANCE_NOT_FINITE,
+    NOT_PD,
+    OBSERVATION_NOT_FINITE,
+    TRANSITION_NOT_FINITE,
+    raise_status,
+    status_error,
+)
 
-__all__ = ["NonlinearStateSpaceModel", "extended_kalman_filter", "extended_rts_smoother", "is_jitted"]
+__all__ = ["NonlinearStateSpaceModel", "extended_kalman_filter", "extended_rts_smoother", "is_jitted", "check_functions"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
 
@@ -195,7 +205,7 @@ def _call(model, which, x, u, k):
     return _fd_jacobian_py(model.observation_fn, x, u, k) if jac is None else np.asarray(jac(x, u, k), float)
 
 
-def _check_functions(model, u0):
+def check_functions(model, u0):
     """Call every model function once at the prior mean: shapes and finiteness, with clear errors."""
     n, m = model.n_states, model.n_obs
     x = model.initial_mean.copy()
@@ -238,7 +248,7 @@ def _ekf_python(model, Q3, R3, y, u, store):
         yhat = _call(model, "h", x, uk, k)
         H = _call(model, "H", x, uk, k)
         if not (np.all(np.isfinite(H)) and np.all(np.isfinite(yhat))):
-            raise ModelError(f"observation_fn or its Jacobian returned non-finite values at step {k}.")
+            raise status_error(OBSERVATION_NOT_FINITE, k, "ekf")
         if store:
             Hj[k] = H
         S = H @ P @ H.T + 0.5 * (R + R.T)
@@ -252,7 +262,7 @@ def _ekf_python(model, Q3, R3, y, u, store):
             try:
                 c = cho_factor(S[np.ix_(obs, obs)], lower=True)
             except np.linalg.LinAlgError:
-                raise _not_pd(k) from None
+                raise status_error(NOT_PD, k, "ekf") from None
             K = cho_solve(c, Ho @ P).T
             x = x + K @ e
             A = eye - K @ Ho
@@ -268,7 +278,7 @@ def _ekf_python(model, Q3, R3, y, u, store):
             F = _call(model, "F", x, uk, k)
             xn = _call(model, "f", x, uk, k)
             if not (np.all(np.isfinite(F)) and np.all(np.isfinite(xn))):
-                raise ModelError(f"transition_fn or its Jacobian returned non-finite values at step {k}.")
+                raise status_error(TRANSITION_NOT_FINITE, k, "ekf")
             if store:
                 Fj[k] = F
             x = xn
@@ -276,20 +286,9 @@ def _ekf_python(model, Q3, R3, y, u, store):
             with np.errstate(over="ignore", invalid="ignore"):
                 P = F @ P @ F.T + 0.5 * (Qk + Qk.T)
             if not np.all(np.isfinite(P)):
-                raise _not_finite_cov(k)
+                raise status_error(COVARIANCE_NOT_FINITE, k, "ekf")
             P = 0.5 * (P + P.T)
     return mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs, Fj, Hj
-
-
-def _not_pd(k):
-    return ModelError(f"innovation covariance is not positive definite at step {k}; obs_cov (R) must be positive "
-                      "definite on the observed components (or the covariance has lost definiteness: check Q, R).")
-
-
-def _not_finite_cov(k):
-    return ModelError(f"the predicted covariance became non-finite at step {k} -> {k + 1}: the transition Jacobian "
-                      "is huge or the filter diverged; check transition_fn / transition_jacobian and the scaling of "
-                      "the states.")
 
 
 def ekf_kernel_outputs(T: int, n: int, m: int, store: bool) -> tuple:
@@ -310,15 +309,7 @@ def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
     """Raise the kernel's status as a ModelError (with the step), else return
     (mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs, Fj, Hj) with None for what was not stored."""
     mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state = outputs
-    status, k = int(state[0]), int(state[1])
-    if status == 1:
-        raise _not_pd(k)
-    if status == 2:
-        raise ModelError(f"transition_fn or its Jacobian returned non-finite values at step {k}.")
-    if status == 4:
-        raise _not_finite_cov(k)
-    if status == 3:
-        raise ModelError(f"observation_fn or its Jacobian returned non-finite values at step {k}.")
+    raise_status(state[0], state[1], "ekf")
     if not store:
         cov = pcov = icov = Fj = Hj = None
     return mean, cov, pmean, pcov, innov, icov, ll_steps, int(n_obs), Fj, Hj
@@ -435,30 +426,8 @@ def _prepare(model, y, u):
                          "(use kalman_filter for a linear StateSpaceModel).")
     arr, batched = as_observation_batch(y, model.n_obs)
     nb, T, _ = arr.shape
-    Q, R = model.process_cov, model.obs_cov
-    if Q.ndim == 3 and Q.shape[0] != T - 1:
-        raise ShapeError(f"process_cov (Q) is time-varying with {Q.shape[0]} steps but y has T = {T} samples; "
-                         f"it needs T-1 = {T - 1} (Q[k] is the noise of the step k -> k+1).")
-    if R.ndim == 3 and R.shape[0] != T:
-        raise ShapeError(f"obs_cov (R) is time-varying with {R.shape[0]} steps but y has T = {T} samples; it needs T.")
-    Q3 = np.ascontiguousarray(Q if Q.ndim == 3 else Q[None])
-    R3 = np.ascontiguousarray(R if R.ndim == 3 else R[None])
-    if Q3.shape[0] == 0:
-        Q3 = np.zeros((1,) + Q3.shape[1:])
-    if u is None:
-        U = np.zeros((nb, T, 0))
-    else:
-        U = as_float_array("u", u, ndim=(1, 2, 3), allow_nan=False)
-        if U.ndim == 1:
-            U = U[:, None]
-        if U.ndim == 2:
-            U = np.broadcast_to(U[None], (nb,) + U.shape)
-        if U.shape[:2] != (nb, T):
-            raise ShapeError(f"u must have shape (T, p) = ({T}, p) or (B, T, p) = ({nb}, {T}, p); got {np.shape(u)}.")
-    U = np.ascontiguousarray(U)
-    if not U.flags.writeable:  # a broadcast view: the compiled loops are typed for writeable arrays
-        U = U.copy()
-    return arr, batched, Q3, R3, U
+    Q3, R3 = noise_terms(model.process_cov, model.obs_cov, T)
+    return arr, batched, Q3, R3, nonlinear_inputs(u, T, nb)
 
 
 def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
@@ -505,7 +474,7 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
     """
     Y, batched, Q3, R3, U = _prepare(model, y, u)
     u0 = U[0, 0] if U.shape[1] else np.zeros(0)
-    _check_functions(model, u0)
+    check_functions(model, u0)
     check_model_steps(model, u0)
     run = _ekf_compiled if model.is_compiled else _ekf_python
     outs = [run(model, Q3, R3, Y[b], U[b], store_covariances) for b in range(Y.shape[0])]
@@ -595,12 +564,7 @@ def extended_rts_smoother(model: NonlinearStateSpaceModel, filtered: FilterResul
 def _relinearise(model, filtered, u):
     mean = filtered.mean if filtered.mean.ndim == 3 else filtered.mean[None]
     nb, T, n = mean.shape
-    if u is None:
-        U = np.zeros((nb, T, 0))
-    else:
-        U = as_float_array("u", u, ndim=(2, 3), allow_nan=False)
-        if U.ndim == 2:
-            U = np.broadcast_to(U[None], (nb,) + U.shape)
+    U = nonlinear_inputs(u, T, nb)
     out = np.empty((nb, max(T - 1, 0), n, n))
     for b in range(nb):
         for k in range(T - 1):

@@ -21,9 +21,10 @@ transition output or Jacobian, 3 non-finite observation output or Jacobian,
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import overload
 
+from .._jit import njit
 from ._linalg_kernels import (
     FD_REL_STEP,
     all_finite2,
@@ -37,6 +38,7 @@ from ._linalg_kernels import (
     sandwich_sym,
     solve_rows,
 )
+from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, TRANSITION_NOT_FINITE
 
 __all__ = ["ekf_kernel", "model_eval", "fd_jacobian", "FD_REL_STEP"]
 
@@ -79,7 +81,7 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
 
     The observed rows of H, the observed block of S and of R are gathered first, then the
     engine's shared Cholesky / triangular-solve / Joseph helpers run on that leading block.
-    Returns (status, number observed, log-likelihood contribution); status 1 = S not PD, 3 = non-finite.
+    Returns (status, number observed, log-likelihood contribution); status a :class:`._status.KernelStatus`.
     """
     n = x.shape[0]
     m = yk.shape[0]
@@ -90,11 +92,11 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
             obs[mo] = a
             mo += 1
     if mo == 0:
-        return 0, 0, 0.0
+        return OK, 0, 0.0
     for a in range(mo):
         ya = yk[obs[a]] - yhat[obs[a]]
         if not np.isfinite(ya):
-            return 3, 0, 0.0
+            return OBSERVATION_NOT_FINITE, 0, 0.0
         e[a] = ya
         for b in range(mo):
             L[a, b] = S[obs[a], obs[b]]
@@ -104,7 +106,7 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
         for i in range(n):
             K[i, a] = PHt[i, obs[a]]
     if not cholesky_lower(L, mo, 0.0):
-        return 1, 0, 0.0
+        return NOT_PD, 0, 0.0
     inverse_diagonal(L, mo, dinv)
     logdet = 0.0
     for a in range(mo):
@@ -124,7 +126,7 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
     joseph_update(P, K, Ho, Ro, n, mo, A, AP, KR)
     for a in range(mo):
         innov_k[obs[a]] = e[a]
-    return 0, mo, ll
+    return OK, mo, ll
 
 
 @njit
@@ -163,7 +165,7 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
     Ro = np.empty((m, m))
     obs = np.empty(m, np.int64)
     n_obs = 0
-    state[0] = 0
+    state[0] = OK
     state[1] = 0
     for k in range(T):
         uk = u[k]
@@ -172,7 +174,7 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
             copy2(P, pcov[k])
         yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
         if not all_finite2(Jh, m, n):
-            state[0] = 3
+            state[0] = OBSERVATION_NOT_FINITE
             state[1] = k
             return n_obs
         sandwich_sym(Jh, P, R3[k if R3.shape[0] > 1 else 0], PHt, S)  # PHt = P H', S = H P H' + R
@@ -181,7 +183,7 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
             copy2(S, icov[k])
         status, mo, ll = _update(x, P, Jh, yhat, y[k], R3[k if R3.shape[0] > 1 else 0], PHt, S, L, K, A, AP,
                                  KR, e, w, dinv, Ho, Ro, obs, innov[k])
-        if status != 0:
+        if status != OK:
             state[0] = status
             state[1] = k
             return n_obs
@@ -193,21 +195,21 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
         if k < T - 1:
             xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
             if not all_finite2(Jf, n, n):
-                state[0] = 2
+                state[0] = TRANSITION_NOT_FINITE
                 state[1] = k
                 return n_obs
             if store:
                 copy2(Jf, Fj[k])
             for i in range(n):
                 if not np.isfinite(xn[i]):
-                    state[0] = 2
+                    state[0] = TRANSITION_NOT_FINITE
                     state[1] = k
                     return n_obs
                 x[i] = xn[i]
             sandwich_sym(Jf, P, Q3[k if Q3.shape[0] > 1 else 0], AP, P)  # P <- F P F' + Q
             for i in range(n):
                 if not np.isfinite(P[i, i]):
-                    state[0] = 4
+                    state[0] = COVARIANCE_NOT_FINITE
                     state[1] = k
                     return n_obs
     return n_obs

@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
-from scipy.signal import fftconvolve
 
 from .._validation import as_float_array
 from ..errors import InputError
@@ -126,6 +125,8 @@ def _exact(model, Y, u, lag, states):
 
 
 def _stationary(model, Y, u, lag, states):
+    from scipy.signal import fftconvolve  # scipy.signal costs ~1 s of import: only when this path runs
+
     ss = steady_state_gain(model)
     filt = steady_state_filter(model, Y, u=u, gain=ss)
     T = filt.mean.shape[0]

@@ -11,76 +11,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from .._validation import as_float_array
-from ..errors import InputError, ModelError, ShapeError
+from ..errors import InputError, ShapeError
 from . import _kernels
 from ._model import StateSpaceModel
+from ._prepare import linear_inputs, prepare_observations
 from ._results import FilterResult, SmootherResult
+from ._status import raise_status
 
-__all__ = ["kalman_filter", "rts_smoother", "log_likelihood", "prepare_observations", "prepare_inputs",
-           "as_observation_batch"]
-
-
-def as_observation_batch(y, m: int) -> tuple[np.ndarray, bool]:
-    """Shape-check ``y`` for m observations per step; return a C-contiguous (B, T, m) float64 array and
-    whether it was batched.
-
-    ``y`` may be (T,) when m = 1, (T, m), or (B, T, m). NaN marks a missing component (kept).
-    """
-    arr = as_float_array("y", y, ndim=(1, 2, 3))
-    batched = arr.ndim == 3
-    if arr.ndim == 1:
-        if m != 1:
-            raise ShapeError(f"y is 1-D, which is only accepted for m = 1 observation; the model has m = {m}. "
-                             "Pass y with shape (T, m).")
-        arr = arr[:, None]
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.shape[-1] != m:
-        raise ShapeError(f"y must have m = {m} columns (one per observation of the model); got shape {np.shape(y)}.")
-    if arr.shape[1] < 1:
-        raise ShapeError("y has no samples.")
-    if arr.shape[0] < 1:
-        raise ShapeError(f"y is a batch of 0 series (shape {np.shape(y)}); pass at least one series.")
-    return np.ascontiguousarray(arr), batched
-
-
-def prepare_observations(model: StateSpaceModel, y) -> tuple[np.ndarray, bool]:
-    """Validate ``y`` against ``model``; return a (B, T, m) float64 array and whether it was batched.
-
-    ``y`` may be (T,) when m = 1, (T, m), or (B, T, m). NaN marks a missing component.
-    """
-    arr, batched = as_observation_batch(y, model.n_obs)
-    model.check_length(arr.shape[1])
-    return arr, batched
-
-
-def _validate_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:
-    """Validate ``u``; return (1, T, p) when shared by the batch, (B, T, p) per series, or None."""
-    p = model.n_inputs
-    if u is None:
-        if p:
-            raise ShapeError(f"the model has p = {p} known inputs (B or D is set); pass u with shape (T, {p}).")
-        return None
-    if not p:
-        raise ShapeError("u was given but the model has no input matrices (input_transition / input_observation).")
-    arr = as_float_array("u", u, ndim=(1, 2, 3), allow_nan=False)
-    if arr.ndim == 1:
-        arr = arr[:, None]
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.shape[1:] != (n_steps, p) or arr.shape[0] not in (1, n_batch):
-        raise ShapeError(f"u must have shape (T, p) = ({n_steps}, {p}) or (B, T, p) = ({n_batch}, {n_steps}, {p}); "
-                         f"got {np.shape(u)}.")
-    return np.ascontiguousarray(arr)
-
-
-def prepare_inputs(model: StateSpaceModel, u, n_steps: int, n_batch: int) -> np.ndarray | None:
-    """Validate known inputs ``u``: (T, p) shared by all series, or (B, T, p). Returns (B, T, p) or None."""
-    arr = _validate_inputs(model, u, n_steps, n_batch)
-    if arr is None:
-        return None
-    return np.ascontiguousarray(np.broadcast_to(arr, (n_batch,) + arr.shape[1:]))
+__all__ = ["kalman_filter", "rts_smoother", "log_likelihood"]
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -132,11 +70,7 @@ def _carve(*shapes) -> list[np.ndarray]:
 
 
 def _raise_status(status: np.ndarray, batched: bool) -> None:
-    if status[2] == _kernels.STATUS_INNOVATION_NOT_PD:
-        where = f"step {status[1]}" + (f" of series {status[0]}" if batched else "")
-        raise ModelError(f"the innovation covariance H P H' + R is not positive definite at {where}; "
-                         "obs_cov (R) must be positive definite on the observed components (or the predicted "
-                         "state covariance must make H P H' positive definite there). Check R and the data.")
+    raise_status(status[2], status[1], "kalman", series=status[0] if batched else None)
 
 
 def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool = True) -> FilterResult:
@@ -226,7 +160,7 @@ def kalman_filter_final_cov(model: StateSpaceModel, y) -> tuple[FilterResult, np
 def _kalman_filter(model, y, u, store_covariances, final):
     Y, batched = prepare_observations(model, y)
     nb, T, m = Y.shape
-    U = _validate_inputs(model, u, T, nb)
+    U = linear_inputs(model, u, T, nb)
     if U is None:
         U = np.zeros((1, T, 0))
     terms = kernel_terms(model)

@@ -17,8 +17,8 @@ Conventions shared by all kernels
   scratch otherwise (``store`` flag; the scratch then holds the last step's
   filtered and predicted covariances of the last series): one kernel gives the full and the
   means-only filter.
-* Errors are reported through ``status`` = [batch, step, code] (code 0 = ok);
-  the wrapper raises the matching :mod:`longprofile.errors` exception.
+* Errors are reported through ``status`` = [batch, step, code] (a :class:`._status.KernelStatus`);
+  the wrapper raises the matching :mod:`longprofile.errors` exception (:func:`._status.raise_status`).
 """
 
 from __future__ import annotations
@@ -27,11 +27,12 @@ import functools
 import math
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ._linalg_kernels import FASTMATH as _FASTMATH
 from ._linalg_kernels import affine_map, cholesky_lower, forward_sub, inverse_diagonal, solve_rows
 from ._linalg_kernels import at as _at
+from ._status import NOT_PD, OK
 
 __all__ = [
     "kalman_filter_kernel",
@@ -39,12 +40,7 @@ __all__ = [
     "backward_sample_kernel",
     "backward_conditional_cov_kernel",
     "simulate_kernel",
-    "STATUS_OK",
-    "STATUS_INNOVATION_NOT_PD",
 ]
-
-STATUS_OK = 0
-STATUS_INNOVATION_NOT_PD = 1
 
 _LOG2PI = math.log(2.0 * math.pi)
 
@@ -90,7 +86,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
         dinv = np.empty(m)
         status[0] = -1
         status[1] = -1
-        status[2] = STATUS_OK
+        status[2] = OK
         for b in range(NB):
             ub = b if u.shape[0] > 1 else 0
             for i in range(n):
@@ -156,7 +152,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                     if not cholesky_lower(L, m, 0.0):
                         status[0] = b
                         status[1] = t
-                        status[2] = STATUS_INNOVATION_NOT_PD
+                        status[2] = NOT_PD
                         return
                     inverse_diagonal(L, m, dinv)
                     logdet = 0.0

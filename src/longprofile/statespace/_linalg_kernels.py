@@ -10,18 +10,16 @@ the callers' loops, so splitting them out costs nothing at run time.
 Floating-point flags: contraction (FMA) and reassociation are allowed;
 NaN/inf semantics are kept (missing data is NaN).
 
-Maintenance note: numba's on-disk cache of a ``cache=True`` function is
-invalidated when ITS source file changes, not when a helper it calls from
-another module changes. After editing this module, touch the modules that use
-it (``_kernels.py``, ``_ekf_kernels.py``, ``_steady_kernels.py``) or delete
-their cache files in ``__pycache__`` (``*.nbi``/``*.nbc``), or stale compiled
-code may be loaded.
+Disk cache: ``njit`` is :func:`longprofile._jit.njit`, whose cache directory is
+keyed by the sources of every kernel file, so editing a helper here recompiles
+every caller (no stale machine code, nothing to delete by hand).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .._jit import njit
 
 __all__ = [
     "FASTMATH", "FD_REL_STEP", "at", "cholesky_lower", "inverse_diagonal", "forward_sub", "backward_sub_t",

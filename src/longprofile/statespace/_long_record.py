@@ -21,8 +21,14 @@ import numpy as np
 from ..errors import InputError
 from ._kalman import kalman_filter, kalman_filter_final_cov, rts_smoother
 from ._model import StateSpaceModel
-from ._steady import (_prepare, _require_time_invariant, _run_filter, _smoother_gain, gain_from_pred_cov,
-                      steady_state_gain)
+from ._steady import (
+    _prepare,
+    _require_time_invariant,
+    _run_filter,
+    _smoother_gain,
+    gain_from_pred_cov,
+    steady_state_gain,
+)
 from ._steady_kernels import smooth_kernel
 
 __all__ = ["LongRecordResult", "long_record_filter", "long_record_smoother", "long_record_log_likelihood",

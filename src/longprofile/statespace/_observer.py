@@ -5,12 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from scipy.linalg import expm
-from scipy.signal import place_poles
 
+from .._jit import njit
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ModelError, ShapeError
+from ._prepare import check_inputs
 
 __all__ = ["ObserverResult", "luenberger_gain", "luenberger_observer"]
 
@@ -105,6 +105,8 @@ def luenberger_gain(A, C, poles, *, discrete: bool = False) -> np.ndarray:
     if np.all(p.imag == 0):
         p = p.real
     try:
+        from scipy.signal import place_poles  # scipy.signal costs ~1 s to import: only observers pay it
+
         res = place_poles(A.T, C.T, p)
     except ValueError as exc:
         obs_rank = np.linalg.matrix_rank(np.vstack([C @ np.linalg.matrix_power(A, k) for k in range(n)]))
@@ -223,11 +225,7 @@ def luenberger_observer(A, B, C, L, y, *, u=None, x0=None, dt=None) -> ObserverR
     if p:
         if u is None:
             raise ShapeError(f"B has p = {p} columns; pass u with shape (T, {p}).")
-        U = as_float_array("u", u, ndim=(1, 2), allow_nan=False)
-        if U.ndim == 1:
-            U = U[:, None]
-        if U.shape != (T, p):
-            raise ShapeError(f"u must have shape (T, p) = ({T}, {p}); got {np.shape(u)}.")
+        U = check_inputs(u, T, n_inputs=p)
     else:
         if u is not None and np.size(u):
             raise ShapeError("u was given but B is None (or has no columns).")

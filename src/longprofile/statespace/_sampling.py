@@ -8,8 +8,9 @@ import numpy as np
 
 from ..errors import InputError, ModelError
 from . import _kernels
-from ._kalman import _validate_inputs, kalman_filter, kernel_terms, prepare_observations, smoother_arrays
+from ._kalman import kalman_filter, kernel_terms, smoother_arrays
 from ._model import StateSpaceModel
+from ._prepare import linear_inputs, prepare_observations
 
 __all__ = ["posterior_sample", "simulate"]
 
@@ -187,7 +188,7 @@ def simulate(model: StateSpaceModel, n_steps: int, *, rng=None, u=None) -> tuple
     T = _count("n_steps", n_steps)
     gen = _as_generator(rng)
     model.check_length(T)
-    U = _validate_inputs(model, u, T, 1)
+    U = linear_inputs(model, u, T, 1)
     U = np.zeros((1, T, 0)) if U is None else U
     terms = kernel_terms(model)
     n, m = model.n_states, model.n_obs

@@ -14,11 +14,11 @@ check both agree to round-off.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from ..errors import ModelError, ShapeError
-from ._kalman import prepare_observations
 from ._model import StateSpaceModel
+from ._prepare import prepare_observations
 from ._results import FilterResult, SmootherResult
 
 __all__ = ["shared_covariance_smoother", "smoother_noise_covariance"]

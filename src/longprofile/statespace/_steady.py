@@ -9,8 +9,8 @@ import numpy as np
 from scipy.linalg import LinAlgError, LinAlgWarning, cho_factor, cho_solve, solve_discrete_are, solve_discrete_lyapunov
 
 from ..errors import InputError, ModelError, NotDetectableError, ShapeError
-from ._kalman import prepare_inputs, prepare_observations
 from ._model import StateSpaceModel
+from ._prepare import prepare_inputs, prepare_observations
 from ._results import FilterResult, SmootherResult
 from ._steady_kernels import filter_kernel, smooth_kernel
 
@@ -189,7 +189,6 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     """
     _require_time_invariant(model, "steady_state_gain")
     F, H, Q, R = model.transition, model.observation, model.process_cov, model.obs_cov
-    n = model.n_states
     try:
         np.linalg.cholesky(R)
     except np.linalg.LinAlgError:
@@ -229,7 +228,6 @@ def steady_state_gain(model: StateSpaceModel) -> SteadyStateGain:
     except np.linalg.LinAlgError:
         raise NotDetectableError("the Riccati solution gives a non-positive-definite innovation covariance; the "
                                  "model is too ill-conditioned for a steady-state filter.") from None
-    K = cho_solve(cS, H @ P).T
     resid = F @ P @ F.T - F @ P @ H.T @ cho_solve(cS, H @ P @ F.T) + Q - P
     scale = max(float(np.abs(P).max()), float(np.abs(Q).max()), np.finfo(float).tiny)
     if not np.all(np.isfinite(P)) or float(np.abs(resid).max()) > _DARE_RTOL * scale:

@@ -20,8 +20,9 @@ their inputs: the public wrappers in ``_steady.py`` validate everything.
 from __future__ import annotations
 
 import numpy as np
-from numba import literally, njit
+from numba import literally
 
+from .._jit import njit
 from ._linalg_kernels import FASTMATH
 
 __all__ = ["filter_kernel", "smooth_kernel", "MAX_LITERAL_STATES", "MAX_LITERAL_OBS", "MAX_LITERAL_INPUTS"]

@@ -1,5 +1,10 @@
 """longprofile.vehicle: vehicle models, simulators and state estimators.
 
+Two subpackages that never import each other: ``longprofile.vehicle.planar`` (paper 001) and
+``longprofile.vehicle.vertical`` (thesis 003), each laid out as ``_params``, ``_model``, ``_simulate``,
+``_estimate``, ``_evaluate``; ``_logs`` (sensor logs) and ``_car`` (the vehicle description file) are shared.
+The figures live in :mod:`longprofile.report` (the old names here are deprecated aliases).
+
 Planar states and road slope (paper 001, Sebsadji, Glaser, Mammar)
 ------------------------------------------------------------------
 Vehicle               -- validated vehicle description (TOML via load_vehicle; default_vehicle()).
@@ -39,6 +44,8 @@ smooth_vertical_states -- offline extended RTS smoothing of the corner-EKF estim
 vertical_linear_model / estimate_vertical_states_linear -- centralised linear full-car KF / RTS for comparison.
 road_profile_from_suspension -- the road under the wheels from the suspension sensors (car as profilometer).
 wheel_profiles        -- the road under each of the four wheels on one chainage grid.
+profile_run           -- drive the simulated car over a road profile and measure one configuration; VerticalRun.
+estimate_vertical_log -- states of a sensor log (+ road and IRI under each wheel); VerticalLogEstimate.
 
 Sensor logs (issue 14)
 ----------------------
@@ -50,49 +57,32 @@ resample_log          -- linear resampling of a jittered log onto a uniform time
 infer_vertical_config -- thesis sensor configuration from the columns.
 """
 
-from importlib import import_module
+from .._lazy import lazy_namespace
 
-# Submodules are imported on first use (PEP 562): ``from longprofile.vehicle import estimate_slope`` loads the
-# planar model only, not the vertical estimators and scipy.signal (a CLI call saves ~1 s of imports).
+# Subpackages are imported on first use (PEP 562): ``from longprofile.vehicle import estimate_slope`` loads the
+# planar subpackage only, not the vertical estimators and scipy.signal (a CLI call saves ~1 s of imports).
 _EXPORTS = {
-    "._car": ("Vehicle", "default_vehicle", "load_vehicle", "load_vertical_params", "SIMULATOR_ONLY",),
-    "._dugoff": ("TyreForces", "dugoff_forces",),
-    "._planar_sim": ("LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation",
-                     "SensorSpec", "drive_scenario", "simulate_drive",),
-    "._slope": ("EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model", "planar_inputs",
-                "planar_measurements", "slope_ekf_model", "slope_observer_gain", "slope_observer_matrices",),
-    "._slope_plot": ("plot_drive", "plot_slope_estimate",),
-    "._speed_reference": ("SPEED_SOURCES", "SpeedReference", "speed_reference",),
-    "._vertical_estimate": ("CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
-                            "estimate_vertical_states_linear", "smooth_vertical_states", "thesis_filter_settings",
-                            "vertical_ekf_inputs", "vertical_ekf_model", "vertical_linear_model", "nominal_mr_map",
-                            "mr_actuator_force", "damper_velocity_from_displacement", "MR_MAP_VELOCITIES",),
-    "._vertical_eval": ("REFERENCES", "CARS", "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "epsilon_score",
-                        "reproduce_thesis_tables", "score_vertical_estimate", "thesis_references",),
-    "._vertical_model": ("VerticalVehicleParams", "MRDamperParams", "skyhook_current",),
-    "._vertical_observability": ("ObservabilityResult", "corner_observability",),
-    "._vertical_plot": ("estimate_to_frame", "plot_vertical_estimate",),
-    "._vertical_road": ("road_profile_from_suspension", "wheel_profiles",),
+    ".planar": ("Vehicle", "default_vehicle", "load_vehicle", "SIMULATOR_ONLY", "TyreForces", "dugoff_forces",
+                "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
+                "drive_scenario", "simulate_drive", "EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model",
+                "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
+                "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
+    ".vertical": ("load_vertical_params", "CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
+                  "estimate_vertical_states_linear", "smooth_vertical_states", "thesis_filter_settings",
+                  "vertical_ekf_inputs", "vertical_ekf_model", "vertical_linear_model", "nominal_mr_map",
+                  "mr_actuator_force", "damper_velocity_from_displacement", "MR_MAP_VELOCITIES", "REFERENCES", "CARS",
+                  "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "epsilon_score", "reproduce_thesis_tables",
+                  "score_vertical_estimate", "thesis_references", "VerticalVehicleParams", "MRDamperParams",
+                  "skyhook_current", "ObservabilityResult", "corner_observability", "estimate_to_frame",
+                  "road_profile_from_suspension", "wheel_profiles", "VerticalSensors", "VerticalSimulation",
+                  "bench_sweep_road", "measure_vertical", "sensors_from_frame", "sensors_to_frame",
+                  "simulate_vertical", "steering_sine_manoeuvre", "vertical_test_run", "wheel_road_inputs",
+                  "VerticalRun", "profile_run", "VerticalLogEstimate", "estimate_vertical_log",),
     "._logs": ("LogCheck", "UNIT_FACTORS", "check_drive_log", "infer_vertical_config", "parse_units", "read_drive_log",
                "read_vertical_log", "resample_log",),
-    "._vertical_sim": ("VerticalSensors", "VerticalSimulation", "bench_sweep_road", "measure_vertical",
-                       "sensors_from_frame", "sensors_to_frame", "simulate_vertical", "steering_sine_manoeuvre",
-                       "vertical_test_run", "wheel_road_inputs",),
+    # the figures are drawn by the report edge; deprecated aliases forward to it
+    "._deprecated": ("plot_drive", "plot_slope_estimate", "plot_vertical_estimate",),
 }
-_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
-
-
-def __getattr__(name):
-    module = _WHERE.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
 
 
 __all__ = [
@@ -116,5 +106,7 @@ __all__ = [
     "THESIS_BENCH_TABLE",
     "THESIS_TRACK_TABLE", "vertical_test_run", "estimate_to_frame", "plot_vertical_estimate",
     "smooth_vertical_states", "road_profile_from_suspension", "wheel_profiles", "vertical_linear_model",
-    "estimate_vertical_states_linear",
+    "estimate_vertical_states_linear", "VerticalRun", "profile_run", "VerticalLogEstimate", "estimate_vertical_log",
 ]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

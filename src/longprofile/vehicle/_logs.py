@@ -376,7 +376,7 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
     -------
     (DriveLog, tuple of LogCheck)
     """
-    from ._planar_sim import DriveLog
+    from .planar import DriveLog
 
     frame, declared = split_unit_headers(frame)
     declared.update(units or {})
@@ -429,7 +429,7 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
     """
     import pandas as pd
 
-    from ._vertical_sim import sensors_from_frame
+    from .vertical import sensors_from_frame
 
     frame, declared = split_unit_headers(frame)
     declared.update(units or {})

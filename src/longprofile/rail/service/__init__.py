@@ -13,3 +13,20 @@ _serve      -- ``serve`` (uvicorn), ``ServerThread``, the replay demo (``run_dem
 
 See docs/rail-service.md.
 """
+
+from ..._lazy import lazy_namespace
+
+#: Lazy public namespace (PEP 562): the CLI imports these names; nothing of the ``serve`` extra is imported until
+#: one is used.
+_EXPORTS = {
+    "._db": ("Database",),
+    "._core": ("add_channel", "add_logger", "add_user", "audit_trail", "create_site", "get_site", "ingest",
+               "list_sites", "put_sensors", "put_survey", "set_threshold", "update_site"),
+    "._recompute": ("recompute",),
+    "._alarms": ("Notifier", "list_alarms"),
+    "._web": ("create_app",),
+    "._serve": ("serve", "ServerThread", "HttpSession", "replay_demo", "seed_demo_site", "run_demo", "DEMO_USER",
+                "DEMO_PASSWORD"),
+}
+__all__ = sorted(name for names in _EXPORTS.values() for name in names)
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 from sqlalchemy import func, select, update
 
-from .._temporal import settlement_alarms
+from .. import settlement_alarms
 from ._db import LEVELS, Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
@@ -169,8 +169,8 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
 
 def acknowledge(db: Database, alarm_id: int, user: str, comment: str = "", *, site: str | None = None) -> dict:
     """Record who acknowledged an open alarm, when, and why (an alarm is acknowledged once)."""
-    from ._core import NotFound, _audit
     from ...errors import InputError
+    from ._core import NotFound, _audit
 
     with db.write() as s:
         a = s.get(Alarm, int(alarm_id))

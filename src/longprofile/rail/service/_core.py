@@ -22,9 +22,25 @@ from sqlalchemy import func, select, tuple_, update
 from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
-from .._data import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, _robust_noise
-from ._db import (LEVELS, QUANTITIES, ROLES, Audit, Batch, Channel, Database, Logger, Reading, ReadingRevision,
-                  Sensor, Site, SurveyPoint, Threshold, User, now_ts)
+from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, angle_noise
+from ._db import (
+    LEVELS,
+    QUANTITIES,
+    ROLES,
+    Audit,
+    Batch,
+    Channel,
+    Database,
+    Logger,
+    Reading,
+    ReadingRevision,
+    Sensor,
+    Site,
+    SurveyPoint,
+    Threshold,
+    User,
+    now_ts,
+)
 
 __all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "set_threshold",
            "add_logger", "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
@@ -517,7 +533,7 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
         if good and angle_unit == "deg" and check_units:
             df = pd.DataFrame({"sensor_id": [g[2] for g in good], "ts": [g[3] for g in good],
                                "angle_deg": [g[4] for g in good]}).sort_values(["sensor_id", "ts"])
-            noise = _robust_noise(df)  # the same check validate_site makes on files
+            noise = angle_noise(df)  # the same check validate_site makes on files
             if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
                 for g in good:
                     out[g[0]] = {"row": g[0], "outcome": "rejected",
@@ -552,7 +568,7 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
         s.add(batch)
         s.flush()
         new, revs, changed_ts = [], [], []
-        for i, spk, sid, ts, ang, tmp in uniq:
+        for i, spk, _sid, ts, ang, tmp in uniq:
             e = existing.get((spk, ts))
             if e is None:
                 new.append({"site_id": site.id, "sensor_pk": spk, "ts": ts, "angle_deg": ang, "temperature_c": tmp,

@@ -21,8 +21,7 @@ from sqlalchemy import delete, select, update
 
 from ... import __version__
 from ...errors import InputError, LongprofileError
-from .._data import validate_site
-from .._settle import estimate_settlement
+from .. import estimate_settlement, validate_site
 from ._alarms import evaluate_no_data, evaluate_result, thresholds_of
 from ._db import Database, HealthRow, Reading, ResultRow, Run, Sensor, Site, SurveyPoint, now_ts
 

@@ -98,7 +98,7 @@ def seed_demo_site(db: Database, *, n_days: int = 14, sampling_minutes: float = 
     """
     import pandas as pd
 
-    from .._synthetic import simulate_site
+    from .. import simulate_site
     from . import _core as core
 
     syn = simulate_site("mittersheim-like", seed=0, sampling_minutes=sampling_minutes, n_days=n_days)

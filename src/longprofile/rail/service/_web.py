@@ -167,39 +167,138 @@ class _LRU(OrderedDict):
         return val
 
 
-def create_app(db: Database | str, *, notifier: Notifier | None = None, background: bool = True,
-               tick_s: float = 2.0, report_dir: str | Path | None = None, secure_cookies: bool = False) -> FastAPI:
-    """The service as an ASGI app (``uvicorn`` runs it; tests use ``TestClient``)."""
-    if isinstance(db, str):
-        db = Database(db)
-    notifier = notifier or Notifier()
-    signer = SessionSigner(db)
-    worker = ServiceWorker(db, notifier, tick_s=tick_s)
-    report_root = Path(report_dir) if report_dir else Path(tempfile.mkdtemp(prefix="longprofile-reports-"))
-    env = Environment(loader=FileSystemLoader(str(TEMPLATES)), autoescape=select_autoescape(["html"]))
-    png_cache = _LRU()
-    report_lock = threading.Lock()
+class _App:
+    """What the routes share: the database, session signer, worker, templates, caches and the helpers on them."""
 
-    @asynccontextmanager
-    async def lifespan(app):
-        if background:
-            worker.start()
-        yield
-        worker.stop()
+    def __init__(self, db: Database, notifier: Notifier, *, tick_s: float, report_dir, secure_cookies: bool):
+        self.db, self.notifier, self.secure_cookies = db, notifier, secure_cookies
+        self.signer = SessionSigner(db)
+        self.worker = ServiceWorker(db, notifier, tick_s=tick_s)
+        self.report_root = Path(report_dir) if report_dir else Path(tempfile.mkdtemp(prefix="longprofile-reports-"))
+        self.env = Environment(loader=FileSystemLoader(str(TEMPLATES)), autoescape=select_autoescape(["html"]))
+        self.png_cache = _LRU()
+        self.report_lock = threading.Lock()
+        self.worker.after_run = self.prerender
 
-    app = FastAPI(title="longprofile rail monitoring", version=__version__, lifespan=lifespan, docs_url=None,
-                  redoc_url=None, openapi_url=None)
-    app.state.db, app.state.worker, app.state.notifier = db, worker, notifier
-
-    def prerender(name):
+    def prerender(self, name):
         """Draw the newest day's profile into the PNG cache, so the first page view after a run is fast."""
-        st, run, days = _run_days(name)
+        st, run, days = self.run_days(name)
         if days:
-            _profile_bytes(st, run, days[-1])
+            self.profile_bytes(st, run, days[-1])
 
-    worker.after_run = prerender
+    # ------------------------------------------------------------------ who is calling
+    def person(self, request: Request, needed: str = "viewer", *, api: bool = True) -> tuple[str, str]:
+        signer = self.signer
+        user = signer.user(request.cookies.get(SESSION_COOKIE))
+        via_cookie = user is not None
+        auth = request.headers.get("authorization", "")
+        if user is None and api and auth.lower().startswith("basic "):
+            try:
+                name, _, pw = base64.b64decode(auth[6:]).decode().partition(":")
+            except Exception:  # noqa: BLE001
+                raise HTTPError(401, "authentication required") from None
+            cookie = signer.login(name, pw)
+            user = signer.user(cookie) if cookie else None
+        if user is None:
+            raise HTTPError(401, "authentication required")
+        if not role_at_least(user[1], needed):
+            raise HTTPError(403, "forbidden")
+        if api and via_cookie and request.method not in ("GET", "HEAD") and not signer.check_csrf(
+                request.cookies.get(SESSION_COOKIE), request.headers.get("x-csrf-token")):
+            raise HTTPError(403, "forbidden")
+        return user
 
-    # ------------------------------------------------------------------ errors (no internals in bodies)
+    @staticmethod
+    def site_name(name: str) -> str:
+        if not core.NAME_RE.match(name or ""):
+            raise core.NotFound("unknown site.")
+        return name
+
+    @staticmethod
+    async def json_body(request: Request):
+        try:
+            return json.loads(await request.body() or b"null")
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            raise InputError("the request body is not valid JSON.") from None
+
+    # ------------------------------------------------------------------ data for pages
+    def run_days(self, name):
+        with self.db.read() as s:
+            st = s.scalar(select(Site).where(Site.name == name))
+            if st is None:
+                raise core.NotFound("unknown site.")
+            run = latest_run(s, st)
+            days = [] if run is None else list(s.scalars(select(ResultRow.day).where(ResultRow.run_id == run.id)
+                                                         .distinct().order_by(ResultRow.day)))
+            s.expunge_all()
+        return st, run, days
+
+    @staticmethod
+    def pick_day(days, day):
+        if day is None:
+            return days[-1] if days else None
+        if not DAY_RE.match(day) or day not in days:
+            raise core.NotFound("no result for this day.")
+        return day
+
+    def day_rows(self, run, day) -> pd.DataFrame:
+        with self.db.read() as s:
+            rows = s.execute(select(ResultRow.sensor_id, ResultRow.x_m, ResultRow.status, ResultRow.dz_m,
+                                    ResultRow.dz_std_m, ResultRow.smoothed_dz_m, ResultRow.smoothed_std_m,
+                                    ResultRow.rate_m_per_day, ResultRow.rate_std_m_per_day)
+                             .where(ResultRow.run_id == run.id, ResultRow.day == day).order_by(ResultRow.x_m)).all()
+        return pd.DataFrame(rows, columns=["sensor_id", "x_m", "status", "dz_m", "dz_std_m", "smoothed_dz_m",
+                                           "smoothed_std_m", "rate_m_per_day", "rate_std_m_per_day"])
+
+    @staticmethod
+    def run_info(run):
+        if run is None:
+            return None
+        return {"id": run.id, "code_version": run.code_version, "settings_hash": run.settings_hash,
+                "data_version": run.data_version, "data_complete_to": _iso(run.data_complete_to_ts),
+                "changed_from": _iso(run.changed_from_ts), "n_readings": run.n_readings, "n_days": run.n_days,
+                "finished": _iso(run.finished_ts)}
+
+    def profile_bytes(self, st, run, d):
+        alarms = list_alarms(self.db, st.name, open_only=True)
+
+        def make():
+            return profile_png(self.day_rows(run, d), alarms, f"{st.name}: altitude change on {d} "
+                                                              f"(data complete to {_iso(run.data_complete_to_ts)})")
+
+        key = ("profile", run.id, d, tuple(sorted((a["id"], a["level"]) for a in alarms)))
+        return self.png_cache.get_or(key, make)
+
+    # ------------------------------------------------------------------ pages
+    def page_user(self, request):
+        try:
+            return self.person(request, api=False)
+        except HTTPError:
+            return None
+
+    def csrf_for(self, request):
+        return self.signer.csrf(request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE) or "")
+
+    def render(self, request, name, status=200, **ctx):
+        ctx.setdefault("user", self.page_user(request))
+        ctx["csrf"] = self.csrf_for(request)
+        return HTMLResponse(self.env.get_template(name).render(**ctx), status_code=status)
+
+    @staticmethod
+    def to_login(request):
+        return RedirectResponse("/login?next=" + request.url.path, status_code=303)
+
+    def check_form_csrf(self, request, form):
+        bound = request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE)
+        if not self.signer.check_csrf(bound, form.get("csrf")):
+            raise HTTPError(403, "forbidden")
+
+
+# Route groups are plain ``_add_*(app, ctx)`` functions rather than APIRouters: every route needs the shared
+# ``_App`` context anyway, exception handlers cannot live on a router, and one idiom keeps registration order visible.
+def _add_error_handlers(app: FastAPI, ctx: _App):
+    """JSON error bodies, never internals."""
+
     @app.exception_handler(HTTPError)
     async def _http_error(request, exc: HTTPError):
         return JSONResponse({"detail": exc.detail}, status_code=exc.status,
@@ -221,39 +320,11 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     async def _any(request, exc):
         return JSONResponse({"detail": "internal error"}, status_code=500)
 
-    # ------------------------------------------------------------------ who is calling
-    def person(request: Request, needed: str = "viewer", *, api: bool = True) -> tuple[str, str]:
-        user = signer.user(request.cookies.get(SESSION_COOKIE))
-        via_cookie = user is not None
-        auth = request.headers.get("authorization", "")
-        if user is None and api and auth.lower().startswith("basic "):
-            try:
-                name, _, pw = base64.b64decode(auth[6:]).decode().partition(":")
-            except Exception:  # noqa: BLE001
-                raise HTTPError(401, "authentication required") from None
-            cookie = signer.login(name, pw)
-            user = signer.user(cookie) if cookie else None
-        if user is None:
-            raise HTTPError(401, "authentication required")
-        if not role_at_least(user[1], needed):
-            raise HTTPError(403, "forbidden")
-        if api and via_cookie and request.method not in ("GET", "HEAD") and not signer.check_csrf(
-                request.cookies.get(SESSION_COOKIE), request.headers.get("x-csrf-token")):
-            raise HTTPError(403, "forbidden")
-        return user
 
-    def site_name(name: str) -> str:
-        if not core.NAME_RE.match(name or ""):
-            raise core.NotFound("unknown site.")
-        return name
+def _add_site_api_routes(app: FastAPI, ctx: _App):
+    """Ingestion and the site configuration API: readings, sites, sensors, survey, thresholds, loggers, channels."""
+    db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
 
-    async def json_body(request: Request):
-        try:
-            return json.loads(await request.body() or b"null")
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            raise InputError("the request body is not valid JSON.") from None
-
-    # ------------------------------------------------------------------ ingestion
     @app.post("/api/v1/sites/{site}/readings")
     async def post_readings(site: str, request: Request, angle_unit: str = "deg"):
         who = await run_in_threadpool(core.authenticate_logger, db, request.headers.get("x-api-key"))
@@ -275,7 +346,6 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
         # sent only after the commit inside ingest(); json.dumps directly (FastAPI's encoder walks every row)
         return Response(json.dumps(res.as_dict()), media_type="application/json")
 
-    # ------------------------------------------------------------------ management API
     @app.get("/api/v1/sites")
     def api_sites(request: Request):
         person(request)
@@ -346,6 +416,11 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
         return await run_in_threadpool(
             lambda: core.add_channel(db, user[0], site_name(site), body.get("kind"), body.get("target", "")))
 
+
+def _add_result_api_routes(app: FastAPI, ctx: _App):
+    """The rest of the API: audit, recompute, alarms, settlement results, users, and /healthz."""
+    db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
+
     @app.get("/api/v1/sites/{site}/audit")
     def api_audit(site: str, request: Request, limit: int = 500):
         person(request, "engineer")
@@ -371,9 +446,9 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     @app.get("/api/v1/sites/{site}/settlement")
     def api_settlement(site: str, request: Request, day: str | None = None):
         person(request)
-        st, run, days = _run_days(site_name(site))
-        d = _pick_day(days, day)
-        return {"run": _run_info(run), "day": d, "rows": _day_rows(run, d).to_dict("records") if d else []}
+        st, run, days = ctx.run_days(site_name(site))
+        d = ctx.pick_day(days, day)
+        return {"run": ctx.run_info(run), "day": d, "rows": ctx.day_rows(run, d).to_dict("records") if d else []}
 
     @app.post("/api/v1/users")
     async def api_user(request: Request):
@@ -388,66 +463,12 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     def healthz():
         with db.read() as s:
             s.execute(select(1))
-        return {"ok": True, "version": __version__, "worker_errors": len(worker.errors)}
+        return {"ok": True, "version": __version__, "worker_errors": len(ctx.worker.errors)}
 
-    # ------------------------------------------------------------------ data for pages
-    def _run_days(name):
-        with db.read() as s:
-            st = s.scalar(select(Site).where(Site.name == name))
-            if st is None:
-                raise core.NotFound("unknown site.")
-            run = latest_run(s, st)
-            days = [] if run is None else list(s.scalars(select(ResultRow.day).where(ResultRow.run_id == run.id)
-                                                         .distinct().order_by(ResultRow.day)))
-            s.expunge_all()
-        return st, run, days
 
-    def _pick_day(days, day):
-        if day is None:
-            return days[-1] if days else None
-        if not DAY_RE.match(day) or day not in days:
-            raise core.NotFound("no result for this day.")
-        return day
-
-    def _day_rows(run, day) -> pd.DataFrame:
-        with db.read() as s:
-            rows = s.execute(select(ResultRow.sensor_id, ResultRow.x_m, ResultRow.status, ResultRow.dz_m,
-                                    ResultRow.dz_std_m, ResultRow.smoothed_dz_m, ResultRow.smoothed_std_m,
-                                    ResultRow.rate_m_per_day, ResultRow.rate_std_m_per_day)
-                             .where(ResultRow.run_id == run.id, ResultRow.day == day).order_by(ResultRow.x_m)).all()
-        return pd.DataFrame(rows, columns=["sensor_id", "x_m", "status", "dz_m", "dz_std_m", "smoothed_dz_m",
-                                           "smoothed_std_m", "rate_m_per_day", "rate_std_m_per_day"])
-
-    def _run_info(run):
-        if run is None:
-            return None
-        return {"id": run.id, "code_version": run.code_version, "settings_hash": run.settings_hash,
-                "data_version": run.data_version, "data_complete_to": _iso(run.data_complete_to_ts),
-                "changed_from": _iso(run.changed_from_ts), "n_readings": run.n_readings, "n_days": run.n_days,
-                "finished": _iso(run.finished_ts)}
-
-    # ------------------------------------------------------------------ pages
-    def page_user(request):
-        try:
-            return person(request, api=False)
-        except HTTPError:
-            return None
-
-    def csrf_for(request):
-        return signer.csrf(request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE) or "")
-
-    def render(request, name, status=200, **ctx):
-        ctx.setdefault("user", page_user(request))
-        ctx["csrf"] = csrf_for(request)
-        return HTMLResponse(env.get_template(name).render(**ctx), status_code=status)
-
-    def to_login(request):
-        return RedirectResponse("/login?next=" + request.url.path, status_code=303)
-
-    def check_form_csrf(request, form):
-        bound = request.cookies.get(SESSION_COOKIE) or request.cookies.get(PRE_COOKIE)
-        if not signer.check_csrf(bound, form.get("csrf")):
-            raise HTTPError(403, "forbidden")
+def _add_auth_routes(app: FastAPI, ctx: _App):
+    """Login form (CSRF bound to a pre-session cookie), login and logout."""
+    signer, env = ctx.signer, ctx.env
 
     @app.get("/login", response_class=HTMLResponse)
     def login_page(request: Request, next: str = "/"):
@@ -455,7 +476,7 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
         nxt = next if next.startswith("/") and not next.startswith("//") else "/"
         resp = HTMLResponse(env.get_template("login.html").render(user=None, csrf=signer.csrf(pre), next=nxt,
                                                                   error=None))
-        resp.set_cookie(PRE_COOKIE, pre, httponly=True, samesite="strict", secure=secure_cookies)
+        resp.set_cookie(PRE_COOKIE, pre, httponly=True, samesite="strict", secure=ctx.secure_cookies)
         return resp
 
     @app.post("/login")
@@ -472,17 +493,22 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
                                                                       error="unknown user or wrong password"),
                                 status_code=401)
         resp = RedirectResponse(nxt, status_code=303)
-        resp.set_cookie(SESSION_COOKIE, cookie, httponly=True, samesite="lax", secure=secure_cookies,
+        resp.set_cookie(SESSION_COOKIE, cookie, httponly=True, samesite="lax", secure=ctx.secure_cookies,
                         max_age=signer.max_age_s)
         return resp
 
     @app.post("/logout")
     async def logout(request: Request):
         form = await request.form()
-        check_form_csrf(request, form)
+        ctx.check_form_csrf(request, form)
         resp = RedirectResponse("/login", status_code=303)
         resp.delete_cookie(SESSION_COOKIE)
         return resp
+
+
+def _add_page_routes(app: FastAPI, ctx: _App):
+    """Server-rendered pages: site list, site, sensor, the alarm acknowledgement form and the day report."""
+    db, page_user, to_login, site_name = ctx.db, ctx.page_user, ctx.to_login, ctx.site_name
 
     @app.get("/", response_class=HTMLResponse)
     def sites_page(request: Request):
@@ -500,14 +526,14 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
                              "n_open": len(open_levels),
                              "complete_to": _iso(run.data_complete_to_ts) if run else "no result yet",
                              "last_status": last_any.status if last_any else "-"})
-        return render(request, "sites.html", sites=rows)
+        return ctx.render(request, "sites.html", sites=rows)
 
     @app.get("/sites/{site}", response_class=HTMLResponse)
     def site_page(request: Request, site: str, day: str | None = None):
         if page_user(request) is None:
             return to_login(request)
-        st, run, days = _run_days(site_name(site))
-        d = _pick_day(days, day)
+        st, run, days = ctx.run_days(site_name(site))
+        d = ctx.pick_day(days, day)
         alarms = list_alarms(db, st.name, limit=200)
         with db.read() as s:
             last_any = latest_run(s, st, ok_only=False)
@@ -518,33 +544,14 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
         for a in alarms:
             a["raised"] = _iso(a["raised_ts"])
             a["acked"] = _iso(a["ack_ts"])
-        return render(request, "site.html", site=st, run=_run_info(run), last_any=last_any, days=days, day=d,
-                      alarms=alarms, health=health, can_ack=role_at_least(page_user(request)[1], "engineer"))
-
-    @app.get("/sites/{site}/profile.png")
-    def profile_image(request: Request, site: str, day: str | None = None):
-        person(request, api=False)
-        st, run, days = _run_days(site_name(site))
-        d = _pick_day(days, day)
-        if d is None:
-            raise core.NotFound("no result yet.")
-        return Response(_profile_bytes(st, run, d), media_type="image/png")
-
-    def _profile_bytes(st, run, d):
-        alarms = list_alarms(db, st.name, open_only=True)
-
-        def make():
-            return profile_png(_day_rows(run, d), alarms, f"{st.name}: altitude change on {d} "
-                                                          f"(data complete to {_iso(run.data_complete_to_ts)})")
-
-        key = ("profile", run.id, d, tuple(sorted((a["id"], a["level"]) for a in alarms)))
-        return png_cache.get_or(key, make)
+        return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
+                          alarms=alarms, health=health, can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
     def sensor_page(request: Request, site: str, sensor: str):
         if page_user(request) is None:
             return to_login(request)
-        st, run, days = _run_days(site_name(site))
+        st, run, days = ctx.run_days(site_name(site))
         if not core.SENSOR_RE.match(sensor):
             raise core.NotFound("unknown sensor.")
         with db.read() as s:
@@ -555,17 +562,55 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
                                                                         core.Sensor.sensor_id == sensor))
         if h is None and not n:
             raise core.NotFound("unknown sensor.")
-        return render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n, run=_run_info(run))
+        return ctx.render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n,
+                          run=ctx.run_info(run))
+
+    @app.post("/sites/{site}/alarms/{alarm_id}/ack")
+    async def ack_form(request: Request, site: str, alarm_id: int):
+        form = await request.form()
+        ctx.check_form_csrf(request, form)
+        user = ctx.person(request, "engineer", api=False)
+        await run_in_threadpool(lambda: acknowledge(db, alarm_id, user[0], str(form.get("comment", "")),
+                                                    site=site_name(site)))
+        return RedirectResponse(f"/sites/{site}#alarms", status_code=303)
+
+    @app.get("/sites/{site}/report/{day}", response_class=HTMLResponse)
+    def report_page(request: Request, site: str, day: str):
+        if page_user(request) is None:
+            return to_login(request)
+        st, run, days = ctx.run_days(site_name(site))
+        if not DAY_RE.match(day) or day not in days:
+            raise core.NotFound("no result for this day.")
+        folder = ctx.report_root / str(st.id) / str(run.id) / day
+        page = folder / "index.html"
+        with ctx.report_lock:
+            if not page.exists():
+                _write_day_report(db, st.name, day, folder)
+        return HTMLResponse(page.read_text(encoding="utf-8"),
+                            headers={"Content-Disposition": f'inline; filename="{st.name}-{day}.html"'})
+
+
+def _add_figure_routes(app: FastAPI, ctx: _App):
+    """PNG figures (cached per run): the day's settlement profile and one sensor's time series."""
+
+    @app.get("/sites/{site}/profile.png")
+    def profile_image(request: Request, site: str, day: str | None = None):
+        ctx.person(request, api=False)
+        st, run, days = ctx.run_days(ctx.site_name(site))
+        d = ctx.pick_day(days, day)
+        if d is None:
+            raise core.NotFound("no result yet.")
+        return Response(ctx.profile_bytes(st, run, d), media_type="image/png")
 
     @app.get("/sites/{site}/sensors/{sensor}/series.png")
     def sensor_image(request: Request, site: str, sensor: str):
-        person(request, api=False)
-        st, run, days = _run_days(site_name(site))
+        ctx.person(request, api=False)
+        st, run, days = ctx.run_days(ctx.site_name(site))
         if run is None or not core.SENSOR_RE.match(sensor):
             raise core.NotFound("no result yet.")
 
         def make():
-            with db.read() as s:
+            with ctx.db.read() as s:
                 rows = s.execute(select(ResultRow.day, ResultRow.dz_m, ResultRow.dz_std_m, ResultRow.smoothed_dz_m,
                                         ResultRow.smoothed_std_m).where(ResultRow.run_id == run.id,
                                                                         ResultRow.sensor_id == sensor)
@@ -575,40 +620,40 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
             df = pd.DataFrame(rows, columns=["day", "dz_m", "dz_std_m", "smoothed_dz_m", "smoothed_std_m"])
             return sensor_png(df, f"{st.name} / {sensor}: altitude change at the sensor, 90 % band")
 
-        return Response(png_cache.get_or(("sensor", run.id, sensor), make), media_type="image/png")
+        return Response(ctx.png_cache.get_or(("sensor", run.id, sensor), make), media_type="image/png")
 
-    @app.post("/sites/{site}/alarms/{alarm_id}/ack")
-    async def ack_form(request: Request, site: str, alarm_id: int):
-        form = await request.form()
-        check_form_csrf(request, form)
-        user = person(request, "engineer", api=False)
-        await run_in_threadpool(lambda: acknowledge(db, alarm_id, user[0], str(form.get("comment", "")),
-                                                    site=site_name(site)))
-        return RedirectResponse(f"/sites/{site}#alarms", status_code=303)
 
-    @app.get("/sites/{site}/report/{day}", response_class=HTMLResponse)
-    def report_page(request: Request, site: str, day: str):
-        if page_user(request) is None:
-            return to_login(request)
-        st, run, days = _run_days(site_name(site))
-        if not DAY_RE.match(day) or day not in days:
-            raise core.NotFound("no result for this day.")
-        folder = report_root / str(st.id) / str(run.id) / day
-        page = folder / "index.html"
-        with report_lock:
-            if not page.exists():
-                _write_day_report(db, st.name, day, folder)
-        return HTMLResponse(page.read_text(encoding="utf-8"),
-                            headers={"Content-Disposition": f'inline; filename="{st.name}-{day}.html"'})
+def create_app(db: Database | str, *, notifier: Notifier | None = None, background: bool = True,
+               tick_s: float = 2.0, report_dir: str | Path | None = None, secure_cookies: bool = False) -> FastAPI:
+    """The service as an ASGI app (``uvicorn`` runs it; tests use ``TestClient``)."""
+    if isinstance(db, str):
+        db = Database(db)
+    notifier = notifier or Notifier()
+    ctx = _App(db, notifier, tick_s=tick_s, report_dir=report_dir, secure_cookies=secure_cookies)
 
+    @asynccontextmanager
+    async def lifespan(app):
+        if background:
+            ctx.worker.start()
+        yield
+        ctx.worker.stop()
+
+    app = FastAPI(title="longprofile rail monitoring", version=__version__, lifespan=lifespan, docs_url=None,
+                  redoc_url=None, openapi_url=None)
+    app.state.db, app.state.worker, app.state.notifier = db, ctx.worker, notifier
+    _add_error_handlers(app, ctx)
+    _add_site_api_routes(app, ctx)
+    _add_result_api_routes(app, ctx)
+    _add_auth_routes(app, ctx)
+    _add_page_routes(app, ctx)
+    _add_figure_routes(app, ctx)
     return app
 
 
 def _write_day_report(db: Database, name: str, day: str, folder: Path):
     """The ``rail settle --report`` HTML report of the readings up to the end of ``day``."""
-    from ...report._rail import write_rail_report
-    from .._data import validate_site
-    from .._settle import estimate_settlement
+    from ...report import write_rail_report
+    from .. import estimate_settlement, validate_site
     from ._alarms import thresholds_of
     from ._recompute import DEFAULT_SETTINGS, load_site_data
 

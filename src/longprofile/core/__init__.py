@@ -1,0 +1,12 @@
+"""Shared domain types (layer 1: imported by ``io``, ``road`` and every other package; imports nothing above).
+
+Profile -- a longitudinal profile (stations in m, elevations in m, one column per track); also
+           ``longprofile.road.Profile``.
+unit_factor -- metres per length unit (m, mm, cm, km, in, ft, mi); UnitsError for anything else.
+LENGTH_UNITS -- the table behind it.
+"""
+
+from ._profile import Profile
+from ._units import LENGTH_UNITS, unit_factor
+
+__all__ = ["Profile", "unit_factor", "LENGTH_UNITS"]

@@ -1,0 +1,24 @@
+"""Length units of files and reports: the one table of metres per unit, shared by ``io`` and ``road``."""
+
+from __future__ import annotations
+
+from ..errors import UnitsError
+
+__all__ = ["LENGTH_UNITS", "unit_factor"]
+
+#: Length units understood in file headers, with their value in metres.
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
+
+
+def unit_factor(unit: str, *, what: str = "elevation") -> float:
+    """Metres per ``unit`` (m, mm, cm, km, in, ft, mi); :class:`UnitsError` for anything else.
+
+    Examples
+    --------
+    >>> unit_factor("mm")
+    0.001
+    """
+    key = str(unit).strip().lower()
+    if key not in LENGTH_UNITS:
+        raise UnitsError(f"unknown {what} unit {unit!r}; use one of {sorted(LENGTH_UNITS)}.")
+    return LENGTH_UNITS[key]

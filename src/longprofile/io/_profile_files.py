@@ -1,0 +1,84 @@
+"""Profile files of any supported format: dispatch by suffix to ERD (``_erd.py``) or CSV/Parquet (``_profiles.py``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..core import unit_factor
+from ._erd import read_erd, write_erd
+from ._profiles import read_profile_table, write_profile_table
+
+__all__ = ["read_profile", "write_profile"]
+
+
+def read_profile(path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
+    """Read a profile from CSV or Parquet (or ERD, by suffix ``.erd``).
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv`` (``.txt`` is read as CSV; header row; ``#`` lines are comments), ``.parquet``, or ``.erd``
+        (:func:`longprofile.io.read_erd`).
+    units : {"m", "mm", "cm", "in", "ft"}, optional
+        Unit of the elevation columns that do not carry one in their name. Never guessed: if a column has
+        no unit and ``units`` is not given, :class:`UnitsError` is raised. If a column names its unit and
+        ``units`` disagrees, :class:`UnitsError` too.
+    tracks : str or sequence of str, optional
+        Track (column base) names to read (default: every elevation column).
+    distance_column : str, optional
+        Name of the station column (default: the first of ``distance_<u>``, ``station_<u>``,
+        ``chainage_<u>``, ``x_<u>``).
+
+    Returns
+    -------
+    Profile
+        Stations and elevations converted to metres. Columns ``<track>_std_<u>`` become ``Profile.std``
+        (NaN for tracks without one). A ``road reconstruct`` output (columns exactly ``distance_m, elevation_m,
+        std_m, raw_m, raw_std_m``) is read as its one profile track ``elevation`` with ``std_m`` as its std,
+        unless ``tracks`` names others.
+
+    Raises
+    ------
+    UnitsError
+        Missing or unknown units.
+    InputFormatError
+        Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
+        names the line).
+
+    Notes
+    -----
+    Column naming: ``<name>_<unit>`` or ``<name> [<unit>]``, e.g. ``distance_m, left_mm, right_mm``.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".erd":
+        return read_erd(path, units=units, tracks=tracks)
+    return read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
+
+
+def write_profile(profile, path, *, units: str = "m") -> Path:
+    """Write a profile as CSV, Parquet or ERD (by suffix) with its units in the header.
+
+    Parameters
+    ----------
+    profile : Profile
+    path : path-like
+        ``.csv``, ``.parquet`` or ``.erd``; any other suffix raises :class:`OutputError`.
+    units : str
+        Elevation unit written (m, mm, cm, in, ft...).
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    CSV/Parquet columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the
+    profile has a standard deviation (read back by :func:`read_profile` to the same float64 values). ERD
+    (:func:`longprofile.io.write_erd`) holds regular stations and elevations only: the standard deviation is
+    not written.
+    """
+    path = Path(path)
+    unit_factor(units)
+    if path.suffix.lower() == ".erd":
+        return write_erd(profile, path, units=units)
+    return write_profile_table(profile, path, units=units)

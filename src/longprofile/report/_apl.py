@@ -1,0 +1,95 @@
+"""Figures for the APL workflow (paper 000): recordings, reconstructions, identification (matplotlib Figure objects,
+no pyplot state)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_recording", "plot_reconstructions", "plot_identification"]
+
+
+def _figure(rows, height=2.6, sharex=True):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, height * rows), layout="constrained")
+    return fig, np.atleast_1d(fig.subplots(rows, 1, sharex=sharex))
+
+
+def plot_recording(distance, true_elevation, signal, *, title=""):
+    """The true profile and the simulated APL signal, mm against m."""
+    fig, (ax,) = _figure(1, 3.5)
+    ax.set_title(title)
+    ax.plot(distance, 1e3 * (np.asarray(true_elevation) - true_elevation[0]), lw=0.8, label="true profile")
+    ax.plot(distance, 1e3 * np.asarray(signal), lw=0.8, label="APL signal")
+    ax.set_xlabel("distance (m)")
+    ax.set_ylabel("elevation (mm)")
+    ax.legend()
+    return fig
+
+
+def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None, highpass_wavelength=None,
+                         dx=None, title=""):
+    """Comparison of reconstructions (dict name -> detrended elevation, m), optional truth and 90 % band.
+
+    ``reconstructions`` values may be arrays or :class:`Reconstruction` objects (their detrended
+    profile and, for the smoother, +/- 1.645 std are drawn). The truth is detrended the same way.
+    """
+    from ..road.apl import Reconstruction, detrend_profile
+
+    fig, (ax, ax2) = _figure(2, 3.4, sharex=False)
+    x = np.asarray(distance)
+    ax.plot(x, 1e3 * np.asarray(signal), color="0.6", lw=0.7, label="APL signal")
+    if truth is not None and dx is not None:
+        t = detrend_profile(np.asarray(truth) - truth[0], dx, highpass_wavelength=highpass_wavelength)
+        ax.plot(x, 1e3 * t, color="k", lw=1.0, label="true (detrended)")
+        ax2.plot(x, 1e3 * t, color="k", lw=1.0, label="true (detrended)")
+    for name, rec in reconstructions.items():
+        if isinstance(rec, Reconstruction):
+            z = rec.profile.elevation[:, 0]
+            line, = ax.plot(x, 1e3 * z, lw=0.8, label=name)
+            ax2.plot(x, 1e3 * z, lw=0.8, color=line.get_color(), label=name)
+            if rec.profile.std is not None:
+                s = rec.profile.std[:, 0]
+                ax2.fill_between(x, 1e3 * (z - 1.645 * s), 1e3 * (z + 1.645 * s), color=line.get_color(), alpha=0.25,
+                                 label=f"{name} 90 % band")
+        else:
+            line, = ax.plot(x, 1e3 * np.asarray(rec), lw=0.8, label=name)
+            ax2.plot(x, 1e3 * np.asarray(rec), lw=0.8, color=line.get_color(), label=name)
+    ax.set_ylabel("elevation (mm)")
+    ax.set_xlabel("distance (m)")
+    ax.legend(fontsize=7, ncol=3)
+    ax.set_title(title)
+    # zoom on a 60 m window in the middle
+    mid = x[x.size // 2]
+    ax2.set_xlim(mid - 30, mid + 30)
+    ax2.set_title(f"zoom on {mid - 30:g}-{mid + 30:g} m", fontsize=9)
+    ax2.set_ylabel("elevation (mm)")
+    ax2.set_xlabel("distance (m)")
+    ax2.legend(fontsize=7, ncol=3)
+    return fig
+
+
+def plot_identification(u, y, model, *, dt=None):
+    """Measured vs simulated output, and the identified step response."""
+    from ..identify import simulate_model, step_response
+
+    fig, (ax1, ax2, ax3) = _figure(3, 2.6)
+    t = np.arange(len(y)) * (dt or 1.0)
+    ax1.plot(t, u, lw=0.8)
+    ax1.set_ylabel("input u")
+    ax2.plot(t, y, lw=0.6, color="0.5", label="measured y")
+    if model.stable:
+        ax2.plot(t, simulate_model(model, u), lw=0.8, label=f"simulated (fit {model.fit_simulation:.1f} %)")
+        s = step_response(model, len(y))
+        ax3.plot(t, s, lw=0.9)
+    else:
+        ax3.text(0.5, 0.5, "unstable model: no simulation or step response", transform=ax3.transAxes,
+                 ha="center", color="C3")
+    ax2.legend(fontsize=7)
+    ax2.set_ylabel("output y")
+    ax3.set_ylabel("step response\n(output per unit input)")
+    orders = ", ".join(f"{k} = {v}" for k, v in model.orders.items())
+    ax1.set_title(f"{model.structure.upper()} identification ({orders}): residual std {model.residual_std:.3g}, "
+                  f"{'converged' if model.converged else 'NOT converged'}, {'stable' if model.stable else 'UNSTABLE'}")
+    ax3.set_xlabel("time (s)" if dt else "sample")
+    return fig

@@ -1,0 +1,93 @@
+"""The APL trailer (paper 000, Piasco & Legeay): instrument model, response, double filter, deconvolution.
+
+Instrument
+----------
+apl_model                  -- eq. (1) for any speed and spacing (Table 1 built in, corrected gain).
+paper_identified_model     -- the identified models of §4.2.1-4.2.4 and the §4.3 roots, by name.
+apl_model_from_polynomials -- an instrument from B/A coefficients (e.g. an identified OE model).
+apl_model_from_dict        -- rebuild a model saved with APLModel.to_dict (``road identify`` JSON).
+load_model, save_model     -- read (checked against a record's speed and dx) / write a ``road identify`` JSON file.
+reconstruct_recording      -- ``road reconstruct`` in one call: model for (speed, dx) or a model file, spacing checked.
+identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4).
+APLModel, TrailerPoles, TABLE1_CONFIGURATIONS, RC_TIME_CONSTANT, PAPER_IDENTIFIED_MODELS
+frequency_response, FrequencyResponse, passband, plot_frequency_response
+apl_response               -- what the trailer records on a profile; apl_filter for bare arrays.
+
+Reconstruction
+--------------
+double_filter              -- the paper's zero-phase double filtering (§3, eqs. 4-5).
+reconstruct_profile        -- smoother / Kalman filter / double filter / fixed-lag smoother in one call (Reconstruction).
+default_fixed_lag          -- default latency of method="fixed-lag" (4 pendulum time constants, m).
+apl_deconvolution_model    -- the augmented state-space model of §5.1 (eqs. 9-12) for the engine.
+instrument_state_space     -- minimal cascade realisation (A, B, C, D) of an instrument.
+is_detectable              -- §5.2 detectability (PBH) of an augmented model.
+fit_noise_variances        -- q and r by maximum likelihood (NoiseFit).
+smoother_error_std         -- stationary posterior std of the smoothed elevation in a waveband.
+detrend_profile            -- remove what the APL cannot see (quadratic + zero-phase high-pass).
+
+Synthetic profiles with truth
+-----------------------------
+bump_profile, crenel_profile, speed_hump_profile, sine_arcs_profile, white_noise_profile
+simulate_apl_recording, APLRecording -- a noisy trailer recording of one of them, with the truth
+(random ISO 8608 roads: longprofile.road.iso8608_profile)
+"""
+
+from ._deconvolution import (
+                   FIXED_LAG_CORRELATION_LENGTH,
+                   FIXED_LAG_TIME_CONSTANTS,
+                   RECONSTRUCTION_METHODS,
+                   NoiseFit,
+                   Reconstruction,
+                   apl_deconvolution_model,
+                   default_fixed_lag,
+                   detrend_profile,
+                   fit_noise_variances,
+                   instrument_state_space,
+                   is_detectable,
+                   reconstruct_profile,
+                   smoother_error_std,
+)
+from ._double_filter import double_filter
+from ._files import load_model, save_model
+from ._identify import IDENTIFICATION_STRUCTURES, identify_trailer
+from ._model import (
+                   PAPER_IDENTIFIED_MODELS,
+                   RC_TIME_CONSTANT,
+                   TABLE1_CONFIGURATIONS,
+                   APLModel,
+                   FrequencyResponse,
+                   TrailerPoles,
+                   apl_filter,
+                   apl_model,
+                   apl_model_from_dict,
+                   apl_model_from_polynomials,
+                   apl_response,
+                   frequency_response,
+                   paper_identified_model,
+                   passband,
+                   plot_frequency_response,
+)
+from ._synthetic import (
+                   SYNTHETIC_PROFILES,
+                   APLRecording,
+                   bump_profile,
+                   crenel_profile,
+                   simulate_apl_recording,
+                   sine_arcs_profile,
+                   speed_hump_profile,
+                   white_noise_profile,
+)
+from ._workflow import reconstruct_recording
+
+__all__ = [
+    "APLModel", "TrailerPoles", "TABLE1_CONFIGURATIONS", "RC_TIME_CONSTANT", "PAPER_IDENTIFIED_MODELS",
+    "apl_model", "apl_model_from_polynomials", "paper_identified_model", "frequency_response",
+    "FrequencyResponse", "passband", "plot_frequency_response", "apl_response", "apl_filter",
+    "double_filter", "reconstruct_profile", "Reconstruction", "RECONSTRUCTION_METHODS", "apl_deconvolution_model",
+    "instrument_state_space", "is_detectable", "fit_noise_variances", "NoiseFit", "smoother_error_std",
+    "detrend_profile", "bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile",
+    "white_noise_profile", "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES", "apl_model_from_dict",
+    "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
+    "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES",
+    "reconstruct_recording",
+]

@@ -1,0 +1,64 @@
+"""Identification of the trailer from bench records (paper 000, §4): OE or ARMAX, as an :class:`APLModel`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InputError
+from ._model import APLModel, apl_model_from_polynomials
+
+__all__ = ["IDENTIFICATION_STRUCTURES", "identify_trailer"]
+
+#: Model structures of :func:`identify_trailer`.
+IDENTIFICATION_STRUCTURES = ("oe", "armax")
+
+
+def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, int] = (5, 5, 1),
+                     structure: str = "oe", nc: int = 1, name: str | None = None):
+    """Identify the trailer from sample-aligned bench input/output records (prediction-error ML, Gauss-Newton).
+
+    Parameters
+    ----------
+    u, y : (T,) array_like
+        Excitation (true profile) and response (trailer signal), sampled every dt = dx / speed.
+    speed, dx : float
+        Towing speed (m/s) and spacing (m) the model is for.
+    orders : (na, nb, nk)
+        Polynomial orders and pure delay (paper: 5 5 1).
+    structure : {"oe", "armax"}
+        Output error (:func:`longprofile.identify.fit_output_error`) or ARMAX
+        (:func:`longprofile.identify.fit_armax`, with ``nc``).
+    nc : int
+        Order of C for ARMAX.
+    name : str, optional
+        Model name (default ``"OE(5,5,1)"`` etc.).
+
+    Returns
+    -------
+    (APLModel, estimate)
+        The instrument (for :func:`reconstruct_profile`, savable with :func:`save_model`) and the
+        identification result (residual std, fit, iterations; ``to_dict()``).
+
+    Raises
+    ------
+    InputError
+        ``u`` and ``y`` differ in length, or an unknown structure.
+    """
+    from ...identify import fit_armax, fit_output_error
+
+    u = np.asarray(u)
+    y = np.asarray(y)
+    if u.size != y.size:
+        raise InputError(f"the input has {u.size} samples but the output has {y.size}; they must be sample-aligned.")
+    na, nb, nk = orders
+    dt = dx / speed
+    if structure == "oe":
+        est = fit_output_error(u, y, na=na, nb=nb, nk=nk, dt=dt)
+    elif structure == "armax":
+        est = fit_armax(u, y, na=na, nb=nb, nc=nc, nk=nk, dt=dt)
+    else:
+        raise InputError(f"--structure must be oe or armax; got {structure!r}.")
+    label = f"{structure.upper()}({na},{nb},{nk})" if name is None else name
+    model: APLModel = apl_model_from_polynomials(est.numerator, est.denominator, dt=dt, speed=speed, dx=dx,
+                                                 name=label)
+    return model, est

@@ -1,0 +1,62 @@
+"""Road roughness indices and spectra (ASTM E1926 / WTP-46, ISO 8608, E1489, CT 526, AASHTO R 36).
+
+iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
+iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
+rectified_slope -- golden-car rectified slope per step (building block of the IRI).
+golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
+localized_roughness -- continuous short-interval IRI and defects above a threshold.
+waveband_energy -- mean-square elevation per segment in wavelength bands (APL_BANDS built in).
+profile_psd -- Welch displacement PSD in cycles/m; fit_iso8608 -- Gd(n0), waviness and class A..H.
+iso8608_gd, iso8608_class, ISO8608_CLASSES -- the ISO 8608 spectrum and class table.
+iso8608_profile -- random road profile of an ISO 8608 class (A..H), seedable.
+analyse_roughness -- every analysis of a roughness report in one call (RoughnessAnalysis).
+ride_number -- Ride Number (ASTM E1489) from a quarter-car Profile Index (RideNumberResult).
+rolling_straightedge -- rolling straightedge deviation and defects (StraightedgeResult).
+profilograph_trace, profilograph_index -- California profilograph simulation and Profile Index (CT 526).
+joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASHTO R 36 practice).
+"""
+
+from ._faulting import FaultingResult, find_joints, joint_faulting, step_statistic
+from ._iri import (
+                   GOLDEN_CAR,
+                   IRIReport,
+                   IRIResult,
+                   RectifiedSlope,
+                   golden_car_matrices,
+                   iri,
+                   iri_report,
+                   rectified_slope,
+)
+from ._iso8608 import (
+                   ISO8608_BAND,
+                   ISO8608_CLASSES,
+                   ISO8608Fit,
+                   ProfilePSD,
+                   fit_iso8608,
+                   iso8608_class,
+                   iso8608_gd,
+                   iso8608_profile,
+                   profile_psd,
+)
+from ._profilograph import ProfileIndexResult, ProfilographTrace, profilograph_index, profilograph_trace
+from ._ride_number import RideNumberResult, ride_number
+from ._roughness import (
+                   APL_BANDS,
+                   LocalizedRoughness,
+                   RoughnessDefect,
+                   WavebandEnergy,
+                   localized_roughness,
+                   waveband_energy,
+)
+from ._straightedge import StraightedgeDefect, StraightedgeResult, rolling_straightedge
+from ._summary import RoughnessAnalysis, analyse_roughness
+
+__all__ = ["iso8608_profile",
+    "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
+    "GOLDEN_CAR",
+    "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
+    "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
+    "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",
+    "ride_number", "RideNumberResult", "rolling_straightedge", "StraightedgeResult", "StraightedgeDefect",
+    "profilograph_trace", "ProfilographTrace", "profilograph_index", "ProfileIndexResult", "joint_faulting",
+    "FaultingResult", "find_joints", "step_statistic"]

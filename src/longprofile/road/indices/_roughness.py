@@ -1,0 +1,266 @@
+"""Localised roughness (continuous short-interval IRI) and waveband energies of a profile."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..._validation import require_positive
+from ...core import Profile
+from ...errors import InputError
+from ._iri import rectified_slope
+
+__all__ = [
+    "APL_BANDS",
+    "RoughnessDefect",
+    "LocalizedRoughness",
+    "localized_roughness",
+    "WavebandEnergy",
+    "waveband_energy",
+]
+
+#: Wavelength bands (m) of the APL band grades (French practice: short, medium, long waves; each band
+#: spans a factor 4 in wavelength). See docs/road-indices.md for the status of the source.
+APL_BANDS: dict[str, tuple[float, float]] = {
+    "short 0.7-2.8 m": (0.7, 2.8),
+    "medium 2.8-11.3 m": (2.8, 11.3),
+    "long 11.3-45.2 m": (11.3, 45.2),
+}
+
+
+@dataclass(frozen=True)
+class RoughnessDefect:
+    """One localised roughness defect: a run of stations where the continuous IRI exceeds the threshold.
+
+    Attributes
+    ----------
+    track : str
+    start, end : float
+        First and last station (window centre) above the threshold, m.
+    peak_station : float
+        Station of the maximum, m.
+    peak_iri : float
+        Maximum continuous IRI in the run, m/km.
+    """
+
+    track: str
+    start: float
+    end: float
+    peak_station: float
+    peak_iri: float
+
+    @property
+    def length(self) -> float:
+        return self.end - self.start
+
+
+@dataclass(frozen=True, eq=False)
+class LocalizedRoughness:
+    """Continuous short-interval IRI and the defects above a threshold.
+
+    Attributes
+    ----------
+    station : (M,) ndarray
+        Window centres, m (the stations of the simulated profile whose window lies inside it).
+    continuous_iri : (M, K) ndarray
+        IRI over ``window`` metres centred on each station, m/km; columns ``tracks``.
+    tracks : tuple of str
+        Track names; with two tracks a third column ``"MRI"`` (their mean) is added.
+    window : float
+        Window length, m.
+    threshold : float
+        Threshold, m/km.
+    defects : tuple of RoughnessDefect
+        Sorted by track then station.
+    """
+
+    station: np.ndarray
+    continuous_iri: np.ndarray
+    tracks: tuple[str, ...]
+    window: float
+    threshold: float
+    defects: tuple[RoughnessDefect, ...]
+
+    def to_frame(self) -> pd.DataFrame:
+        """The defect list: ``track, start_m, end_m, length_m, peak_station_m, peak_iri_m_per_km``."""
+        return pd.DataFrame({
+            "track": [d.track for d in self.defects],
+            "start_m": [d.start for d in self.defects],
+            "end_m": [d.end for d in self.defects],
+            "length_m": [d.length for d in self.defects],
+            "peak_station_m": [d.peak_station for d in self.defects],
+            "peak_iri_m_per_km": [d.peak_iri for d in self.defects],
+        })
+
+
+def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: float = 2.7, tracks=None,
+                        lead_in: float = 11.0, moving_average: bool | None = None,
+                        base_length: float = 0.25) -> LocalizedRoughness:
+    """Continuous short-interval IRI (sliding window) and the list of locations above a threshold.
+
+    Parameters
+    ----------
+    profile : Profile
+        Elevations in m (no NaN in the analysed tracks).
+    window : float
+        Length of the sliding IRI window, m (default 25).
+    threshold : float
+        Defect threshold, m/km (default 2.7, about the FHWA "poor" limit of 170 in/mi; an assumption,
+        set it from your specification).
+    tracks, lead_in, moving_average, base_length
+        As in :func:`longprofile.road.iri`.
+
+    Returns
+    -------
+    LocalizedRoughness
+
+    Notes
+    -----
+    One golden-car run over the whole profile (state carried, exactly as :func:`~longprofile.road.iri`),
+    then ``CIRI(x) = (1/W) * integral_{x-W/2}^{x+W/2} RS(s) ds`` with RS piecewise constant over each step
+    (the same quadrature as the IRI), evaluated at every station whose window lies inside the profile.
+    A defect is a maximal run of consecutive stations with ``CIRI > threshold``; it is reported by its
+    first and last window centre and its peak. This is the continuous-IRI "localized roughness" analysis of
+    ProVAL's Smoothness Assurance module, with a user-chosen window (ProVAL's default is 25 ft = 7.62 m;
+    25 m is asked here).
+    """
+    window = require_positive("window", window)
+    threshold = require_positive("threshold", threshold, strict=False)
+    rs = rectified_slope(profile, tracks=tracks, lead_in=lead_in, moving_average=moving_average,
+                         base_length=base_length)
+    x = rs.station
+    if x[-1] - x[0] < window:
+        raise InputError(f"the profile ({x[-1] - x[0]:.2f} m) is shorter than the window ({window:g} m).")
+    values = rs.rectified
+    names = rs.tracks
+    if values.shape[1] == 2:
+        values = np.column_stack([values, values.mean(axis=1)])
+        names = names + ("MRI",)
+    cum = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(rs.step[:, None] * values, axis=0)])
+    inside = (x - 0.5 * window >= x[0] - 1e-9) & (x + 0.5 * window <= x[-1] + 1e-9)
+    centres = x[inside]
+    ciri = np.empty((centres.size, values.shape[1]))
+    for j in range(values.shape[1]):
+        hi = np.interp(centres + 0.5 * window, x, cum[:, j])
+        lo = np.interp(centres - 0.5 * window, x, cum[:, j])
+        ciri[:, j] = (hi - lo) / window
+    defects = []
+    for j, name in enumerate(names):
+        above = ciri[:, j] > threshold
+        if not above.any():
+            continue
+        edges = np.diff(np.concatenate([[0], above.astype(np.int8), [0]]))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        for a, b in zip(starts, ends):
+            k = a + int(np.argmax(ciri[a:b + 1, j]))
+            defects.append(RoughnessDefect(track=name, start=float(centres[a]), end=float(centres[b]),
+                                           peak_station=float(centres[k]), peak_iri=float(ciri[k, j])))
+    return LocalizedRoughness(station=centres, continuous_iri=ciri, tracks=names, window=window,
+                              threshold=threshold, defects=tuple(defects))
+
+
+@dataclass(frozen=True, eq=False)
+class WavebandEnergy:
+    """Mean-square elevation per segment in wavelength bands.
+
+    Attributes
+    ----------
+    segment_start, segment_end : (S,) ndarray
+        Segment limits, m (complete segments).
+    energy : (S, K, J) ndarray
+        Mean square of the band-passed elevation over the segment, mm^2, for track k and band j.
+    tracks : tuple of str
+    bands : dict of str -> (float, float)
+        Band name -> (shortest, longest) wavelength, m.
+    """
+
+    segment_start: np.ndarray
+    segment_end: np.ndarray
+    energy: np.ndarray
+    tracks: tuple[str, ...]
+    bands: dict
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per segment, columns ``start_m, end_m, <track> <band> [mm2]``."""
+        cols = {"start_m": self.segment_start, "end_m": self.segment_end}
+        for k, t in enumerate(self.tracks):
+            for j, b in enumerate(self.bands):
+                cols[f"{t} {b} [mm2]"] = self.energy[:, k, j]
+        return pd.DataFrame(cols)
+
+
+def waveband_energy(profile: Profile, *, bands: dict | None = None, segment_length: float = 200.0,
+                    tracks=None) -> WavebandEnergy:
+    """Energy (mean square, mm^2) of the profile per segment in wavelength bands.
+
+    Parameters
+    ----------
+    profile : Profile
+        Regularly spaced profile, elevations in m, no NaN.
+    bands : dict of name -> (shortest, longest) wavelength in m, optional
+        Default :data:`APL_BANDS` (0.7-2.8 m, 2.8-11.3 m, 11.3-45.2 m).
+    segment_length : float
+        Segment length, m (default 200, the length of the French APL band grades; assumption, see docs).
+    tracks : str or sequence of str, optional
+        Tracks to analyse (default all).
+
+    Returns
+    -------
+    WavebandEnergy
+
+    Notes
+    -----
+    The whole track is linearly detrended and band-passed by an ideal (brick-wall) zero-phase filter in the
+    Fourier domain keeping ``1/longest <= n <= 1/shortest`` cycles/m; the energy of a segment is the mean
+    square of the band-passed elevation over the samples of the segment (Parseval: the integral of the PSD
+    over the band, localised per segment). The Fourier band-pass treats the record as periodic; the first
+    and last half-longest-wavelength are therefore less reliable (assumption: acceptable for reporting, as
+    in the APL practice of analysing whole runs). Grades (notes 1..10) derived from these energies by the
+    APL method are not computed: their conversion tables could not be confirmed from a public source.
+    """
+    bands = dict(APL_BANDS if bands is None else bands)
+    if not bands:
+        raise InputError("bands must contain at least one (shortest, longest) wavelength pair.")
+    for name, (lo, hi) in bands.items():
+        lo = require_positive(f"bands[{name!r}] shortest wavelength", lo)
+        hi = require_positive(f"bands[{name!r}] longest wavelength", hi)
+        if hi <= lo:
+            raise InputError(f"band {name!r} must be (shortest, longest) wavelength with shortest < longest; "
+                             f"got ({lo}, {hi}).")
+    segment_length = require_positive("segment_length", segment_length)
+    dx = profile.spacing
+    if dx is None:
+        raise InputError("waveband_energy needs a constant station spacing; this profile is irregular. Interpolate "
+                         "it onto a regular grid first (e.g. numpy.interp) and state it in your report.")
+    names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
+    z = np.column_stack([profile.track(t) for t in names])
+    if np.isnan(z).any():
+        raise InputError("waveband_energy: the elevation has NaN (missing) samples; fill or cut them out first.")
+    for name, (lo, _hi) in bands.items():
+        if lo < 2 * dx:
+            raise InputError(f"band {name!r} starts at {lo:g} m, shorter than twice the spacing ({2 * dx:g} m): "
+                             "the profile cannot resolve it. Use a finer profile or drop the band.")
+    n = z.shape[0]
+    x = profile.distance
+    t = (x - x.mean())
+    coef = np.polyfit(t, z, 1)
+    detrended = z - (np.outer(t, coef[0]) + coef[1])
+    spec = np.fft.rfft(detrended, axis=0)
+    freq = np.fft.rfftfreq(n, d=dx)
+    x0 = x[0]
+    n_seg = int(np.floor((x[-1] - x0) / segment_length + 1e-9))
+    bounds = x0 + segment_length * np.arange(n_seg + 1)
+    idx = np.searchsorted(bounds, x, side="right") - 1
+    idx[np.isclose(x, bounds[-1]) & (idx == n_seg)] = n_seg - 1
+    inside = (idx >= 0) & (idx < n_seg)
+    counts = np.bincount(idx[inside], minlength=n_seg)
+    energy = np.zeros((n_seg, len(names), len(bands)))
+    for j, (lo, hi) in enumerate(bands.values()):
+        keep = (freq >= 1.0 / hi) & (freq <= 1.0 / lo)
+        band = np.fft.irfft(spec * keep[:, None], n=n, axis=0) * 1000.0  # mm
+        for k in range(len(names)):
+            energy[:, k, j] = np.bincount(idx[inside], weights=band[inside, k] ** 2, minlength=n_seg) / counts
+    return WavebandEnergy(segment_start=bounds[:-1], segment_end=bounds[1:], energy=energy, tracks=names,
+                          bands=bands)

@@ -1,0 +1,23 @@
+"""Profile comparison, profiler certification, smoothness acceptance and grinding (ProVAL features;
+definitions and sources in docs/road-acceptance.md).
+
+compare_profiles, certify_profiler -- Karamihas cross-correlation with offset search; R 56 certification.
+resample_profile -- explicit linear resampling onto a regular grid.
+smoothness_acceptance, read_spec, default_spec -- lots, localized roughness, exclusions, pay (AcceptanceResult).
+simulate_grinding -- must-grind areas and the shallowest grind below a localized-roughness threshold.
+"""
+
+from ._acceptance import AcceptanceResult, AcceptanceSpec, default_spec, read_spec, smoothness_acceptance
+from ._compare import (
+                       R56_THRESHOLDS,
+                       CertificationResult,
+                       ProfileComparison,
+                       certify_profiler,
+                       compare_profiles,
+                       resample_profile,
+)
+from ._grinding import GrindingResult, simulate_grinding
+
+__all__ = ["compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
+           "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
+           "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]

@@ -1,0 +1,249 @@
+"""Diamond-grinding simulation: the least grinding that brings localized roughness below a threshold."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+
+from ...core import Profile
+from ...errors import InputError
+from ._acceptance import AcceptanceSpec, default_spec, localized_index, validate_spec
+
+__all__ = ["GrindingResult", "simulate_grinding"]
+
+#: The grind aims 0.1 % below the threshold, so that windows placed on another grid (e.g. every sample of
+#: :func:`longprofile.road.iri_report`) also stay below it.
+_MARGIN = 1e-3
+#: Grinder settings tried at once per refinement round (one golden-car run over all of them).
+_GRID = 8
+
+
+@dataclass(frozen=True, eq=False)
+class GrindingResult:
+    """Must-grind areas, the grind chosen for each, and the profile after grinding.
+
+    Attributes
+    ----------
+    grinds : pandas.DataFrame
+        One row per area and track: ``area, track, start, end, length, max_depth, mean_depth, achieved,
+        peak_before, peak_after`` (lengths in the spec's length unit, depths in mm (SI) or in (US), localized
+        index in its IRI unit; ``mean_depth`` over the ground length, ``start``/``end`` the ground length).
+    profile : Profile
+        The profile after grinding (SI).
+    threshold : float
+        Localized roughness target, IRI unit.
+    achieved : bool
+        Every area reached the threshold within the depth limit.
+    station, index_before, index_after : (M,) ndarray
+        Localized index (IRI unit) at the window centres (length unit) before and after grinding; after
+        grinding it is re-simulated from the first cut of each area to ``margin`` after it (the golden car is
+        causal), and the value before elsewhere (unchanged profile).
+    metadata : dict
+    """
+
+    grinds: pd.DataFrame
+    profile: Profile
+    threshold: float
+    achieved: bool
+    station: np.ndarray = None
+    index_before: np.ndarray = None
+    index_after: np.ndarray = None
+    metadata: dict = field(default_factory=dict)
+
+
+def _chord_deviation(x, z, half):
+    """z(x) - mean of z at x -+ half (supports clipped to the record)."""
+    lo, hi = np.clip(x - half, x[0], x[-1]), np.clip(x + half, x[0], x[-1])
+    return z - 0.5 * (np.interp(lo, x, z) + np.interp(hi, x, z))
+
+
+def _must_grind_areas(centres, above, scale, w) -> list[list[float]]:
+    """The must-grind areas, m: unions of the localized windows (centres in the spec unit, width w in m) above
+    the threshold, overlapping windows merged."""
+    areas = []
+    if above.any():
+        d = np.diff(np.concatenate([[0], above.astype(np.int8), [0]]))
+        for i, k in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
+            a, b = centres[i] * scale - w / 2, centres[k] * scale + w / 2
+            if areas and a <= areas[-1][1]:
+                areas[-1][1] = b
+            else:
+                areas.append([a, b])
+    return areas
+
+
+def _grind_setting(xs, zs, in_area, nb, a, b, half, max_depth, names, loc_spec, spec, scale, w, target, tolerance):
+    """The shallowest grind of one area ``[a, b]`` (m) on its sub-profile ``xs, zs``: ``(ground elevations, cut,
+    achieved, peak before, peak after)`` (model: :func:`simulate_grinding`, Notes)."""
+    dev = np.column_stack([_chord_deviation(xs, zs[:, j], half) for j in range(zs.shape[1])])
+
+    def ground_many(cvals, k):
+        """Ground elevations (k, len(cvals) * K) and cuts for several settings on the first k samples."""
+        cv = np.asarray(cvals, dtype=float)
+        cut = np.clip(dev[:k, None, :] - cv[None, :, None], 0.0, max_depth).reshape(k, -1)
+        pos = cut > 0
+        start = pos & ~np.vstack([np.zeros((1, pos.shape[1]), bool), pos[:-1]])
+        label = np.cumsum(start, axis=0) * pos  # run number per column (0: no cut)
+        hit = np.zeros((int(label.max()) + 1, pos.shape[1]), bool)
+        rows_in = np.flatnonzero(in_area[:k])
+        hit[label[rows_in], np.arange(pos.shape[1])[None, :]] = True  # runs touching the area
+        hit[0] = False
+        cut = np.where(np.take_along_axis(hit, label, axis=0), cut, 0.0)  # whole runs only: no steps
+        return np.tile(zs[:k], (1, cv.size)) - cut, cut
+
+    def ground(c):
+        zg, cut = ground_many([c], zs.shape[0])
+        return zg, cut
+
+    def peaks(cvals):
+        """Largest localized index inside the area for each grinder setting (one car run for all)."""
+        k = len(names)
+        prof_c = Profile(distance=xs[:nb], elevation=ground_many(cvals, nb)[0])
+        cs, vals, _, _ = localized_index(prof_c, replace(loc_spec, index="iri"))
+        m = (cs * scale >= a + w / 2 - 1e-9) & (cs * scale <= b - w / 2 + 1e-9)
+        if not m.any():
+            return np.full(len(cvals), -np.inf)
+        v = vals[m].reshape(int(m.sum()), len(cvals), k)
+        idx = v.mean(axis=2) if (spec.index == "mri" and k == 2) else v.max(axis=2)
+        return np.fmax.reduce(idx, axis=0)  # ignores blank (excluded) windows, no All-NaN warning
+
+    c_hi = max(0.0, float(dev[in_area].max())) if in_area.any() else 0.0  # no grinding
+    c_lo = 0.0  # everything above the chord ground away (to the depth limit): the most a grinder can do
+    aim = target * (1.0 - _MARGIN)
+    before, at_most = peaks([c_hi, c_lo])
+    after = at_most
+    ok = at_most <= aim
+    if ok:  # grid refinement: the index grows with the setting c (less grinding, rougher)
+        while c_hi - c_lo > tolerance:
+            grid = np.linspace(c_lo, c_hi, _GRID + 2)[1:-1]
+            pk = peaks(grid)
+            good = np.flatnonzero(pk <= aim)
+            j = good[-1] if good.size else -1
+            if j >= 0:
+                c_lo, after = float(grid[j]), float(pk[j])
+            if j + 1 < grid.size:
+                c_hi = float(grid[j + 1])
+    c = c_lo
+    zg, cut = ground(c)
+    return zg, cut, ok, before, after
+
+
+def _grind_rows(n, names, cut, xs, scale, spec, ok, before, after) -> list[dict]:
+    """The grind-list rows of area ``n``: one per track with a cut (start, end, length, depths)."""
+    rows = []
+    for j, t in enumerate(names):
+        cj = cut[:, j]
+        g = cj > 0
+        if not g.any():
+            continue
+        ga, gb = xs[g][0], xs[g][-1]
+        rows.append({"area": n, "track": t, "start": ga / scale, "end": gb / scale, "length": (gb - ga) / scale,
+                     "max_depth": float(cj.max()) / spec.depth_factor,
+                     "mean_depth": float(cj[(xs >= ga) & (xs <= gb)].mean()) / spec.depth_factor,
+                     "achieved": bool(ok), "peak_before": before, "peak_after": after})
+    return rows
+
+
+def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, threshold: float | None = None,
+                      tracks=None, lead: float = 40.0, margin: float = 60.0, tolerance: float = 2e-5,
+                      acceptance=None) -> GrindingResult:
+    """Find must-grind areas and the shallowest grind of each that brings localized roughness below a threshold.
+
+    Parameters
+    ----------
+    profile : Profile
+        SI profile.
+    spec : AcceptanceSpec, optional
+        Units, localized window, exclusions, grinder length and depth limit (default :func:`default_spec`).
+    threshold : float, optional
+        Localized roughness target, IRI unit of the spec (default ``spec.grind_threshold`` or
+        ``spec.localized_threshold``).
+    tracks : str or sequence of str, optional
+    lead : float
+        Profile kept before an area when re-simulating it, m (default 40 m: the lead-in plus the decay of the
+        initial transient of the golden car, whose sprung mode decays as exp(-c t / 2) = exp(-3 t)).
+    margin : float
+        Profile kept after an area for the localized index after grinding, m (default 60 m: a change is
+        forgotten by the car to ~3e-4 after 60 m at 80 km/h).
+    tolerance : float
+        Bisection stops when the grinder setting is known to this, m (default 0.02 mm).
+    acceptance : AcceptanceResult, optional
+        The :func:`~longprofile.road.smoothness_acceptance` result of the same profile and spec: its localized
+        index is reused (saves one golden-car run).
+
+    Returns
+    -------
+    GrindingResult
+
+    Notes
+    -----
+    Model (a longprofile ASSUMPTION, after ProVAL's grinding simulation): a must-grind area is the union of
+    the localized-roughness windows above the threshold. A grinder whose frame of length ``grinder_length``
+    rides on the profile cuts what lies higher than the frame chord by more than a clearance ``c >= 0``:
+    ``z' = z - clip(d - c, 0, max_depth)`` with ``d = z - (z(x - L/2) + z(x + L/2)) / 2`` (the rolling
+    straightedge deviation, one pass; whole runs of cutting that touch the area are kept, so no step is cut
+    at its ends; grinding cannot fill dips). The same ``c`` is used for every track of an area (one machine
+    setting); it is found by grid refinement (8 settings per car run) as the largest (shallowest grind) that
+    brings every window of the area to the threshold (aiming 0.1 % below it), the area re-simulated with
+    ``lead`` m of profile before it. Grinding only removes material, only in runs of cutting that touch the
+    area. An area that the depth limit cannot fix is ground to the limit and flagged ``achieved = False``.
+    """
+    spec = validate_spec(spec or default_spec())
+    target = threshold if threshold is not None else (spec.grind_threshold or spec.localized_threshold)
+    if target is None:
+        raise InputError("the grinding simulation needs a threshold (grinding.threshold or localized.threshold "
+                         "in the spec, or threshold=...).")
+    target = float(target)
+    scale = spec.metres_per_unit
+    loc_spec = replace(spec, localized_threshold=target)
+    if acceptance is not None and acceptance.spec.localized_window == spec.localized_window \
+            and acceptance.spec.localized_step == spec.localized_step and acceptance.spec.index == spec.index:
+        centres = acceptance.localized["station"].to_numpy()
+        index = acceptance.localized["index"].to_numpy(dtype=float)
+        names = acceptance.tracks
+    else:
+        centres, _, index, names = localized_index(profile, loc_spec, tracks=tracks)
+    x = profile.distance
+    z_all = np.column_stack([profile.track(t) for t in names])
+    z_new = z_all.copy()
+    above = np.nan_to_num(index, nan=-np.inf) > target
+    w = spec.localized_window * scale
+    areas = _must_grind_areas(centres, above, scale, w)
+    index_after = np.array(index, dtype=float, copy=True)
+    half = 0.5 * spec.grinder_length * scale
+    max_depth = spec.grind_max_depth * spec.depth_factor
+    rows = []
+    all_ok = True
+    for n, (a, b) in enumerate(areas, start=1):
+        i0 = int(np.searchsorted(x, max(x[0], a - lead)))
+        i1 = int(np.searchsorted(x, min(x[-1], b + margin), side="right"))
+        xs = x[i0:i1]
+        zs = z_new[i0:i1].copy()  # not a view: z_new is updated below
+        in_area = (xs >= a) & (xs <= b)
+        nb = int(np.searchsorted(xs, b + 1.0, side="right"))  # search: windows inside the area only (causal car)
+        zg, cut, ok, before, after = _grind_setting(xs, zs, in_area, nb, a, b, half, max_depth, names, loc_spec,
+                                                    spec, scale, w, target, tolerance)
+        all_ok &= ok
+        z_new[i0:i1] = zg
+        changed = np.flatnonzero(cut.max(axis=1) > 0)
+        if changed.size:
+            cs, _, idx, _ = localized_index(Profile(distance=xs, elevation=zg, tracks=names), loc_spec)
+            # the car is causal: windows ending before the first cut are unchanged; later ones are re-simulated
+            # up to the end of the sub-profile (``margin`` after the area: the golden car's memory)
+            r0 = xs[changed[0]] - w / 2
+            r1 = cs[-1] * scale
+            m = (centres * scale >= r0) & (centres * scale <= r1)
+            index_after[m] = np.interp(centres[m], cs, idx)
+        rows.extend(_grind_rows(n, names, cut, xs, scale, spec, ok, before, after))
+    ground_profile = Profile(distance=x, elevation=z_new, tracks=names, name=(profile.name + " ground").strip())
+    meta = {"model": "one-pass grinder: cut = clip(d - c, 0, max_depth), d = deviation from a chord of "
+                     "grinder_length; c by grid refinement per area (longprofile assumption)",
+            "grinder_length": spec.grinder_length, "max_depth": spec.grind_max_depth,
+            "depth_unit": "mm" if spec.units == "si" else "in", "areas": len(areas)}
+    grinds = pd.DataFrame(rows, columns=["area", "track", "start", "end", "length", "max_depth", "mean_depth",
+                                         "achieved", "peak_before", "peak_after"])
+    return GrindingResult(grinds=grinds, profile=ground_profile, threshold=target, achieved=bool(all_ok),
+                          station=np.asarray(centres, dtype=float), index_before=np.asarray(index, dtype=float),
+                          index_after=index_after, metadata=meta)

@@ -1,0 +1,46 @@
+"""longprofile.vehicle.planar: planar vehicle states and road slope (paper 001, Sebsadji, Glaser, Mammar).
+
+Modules: ``_params`` (the vehicle description, TOML), ``_dugoff`` (tyre model (15)-(17)), ``_model`` (model
+equations (11)-(19) as numba kernels, the EKF models of eq. (20) and the slope observer (21)), ``_simulate``
+(4-wheel RK4 simulator and sensor log), ``_speed_reference`` (slip-robust V_x measurement), ``_estimate``
+(:func:`estimate_slope`), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
+Everything here is also exported by :mod:`longprofile.vehicle` (except the studies).
+"""
+
+from ._dugoff import TyreForces, dugoff_forces
+from ._estimate import SlopeEstimate, estimate_slope
+from ._evaluate import PAPER_PROTOTYPE_ERRORS, accuracy_scores, sensitivity_study, speed_measurement_study
+from ._model import (
+                        EKFTuning,
+                        planar_ekf_model,
+                        planar_inputs,
+                        planar_measurements,
+                        slope_ekf_model,
+                        slope_observer_gain,
+                        slope_observer_matrices,
+)
+from ._params import GRAVITY, SIMULATOR_ONLY, WHEELS, Vehicle, default_vehicle, load_vehicle
+from ._simulate import (
+                        LOG_COLUMNS,
+                        SCENARIOS,
+                        DriveLog,
+                        DriveScenario,
+                        DriveTruth,
+                        PlanarSimulation,
+                        SensorSpec,
+                        drive_scenario,
+                        simulate_drive,
+)
+from ._speed_reference import SPEED_SOURCES, SpeedReference, speed_reference
+
+__all__ = [
+    "Vehicle", "load_vehicle", "default_vehicle", "SIMULATOR_ONLY", "WHEELS", "GRAVITY",
+    "TyreForces", "dugoff_forces",
+    "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
+    "simulate_drive", "LOG_COLUMNS",
+    "EKFTuning", "planar_ekf_model", "slope_ekf_model", "planar_inputs", "planar_measurements",
+    "slope_observer_matrices", "slope_observer_gain",
+    "speed_reference", "SpeedReference", "SPEED_SOURCES",
+    "SlopeEstimate", "estimate_slope",
+    "accuracy_scores", "sensitivity_study", "speed_measurement_study", "PAPER_PROTOTYPE_ERRORS",
+]

@@ -1,0 +1,308 @@
+"""Vehicle states and road slope from ABS, steering and IMU signals (paper 001, section IV).
+
+Two estimators share one result type (:class:`SlopeEstimate`):
+
+* ``"cascade"`` -- the paper's scheme: an EKF on the 4-wheel model (eq. (20)) estimates (V_x, V_y, r)
+  and the tyre forces, then a Luenberger observer on the longitudinal model (21) estimates the slope;
+* ``"joint"`` -- one EKF on the augmented state (V_x, V_y, r, theta_r) with a random-walk slope.
+
+Both run on the state-space engine (:func:`longprofile.statespace.extended_kalman_filter`, whose
+compiled loop numba keeps on disk, so a new process does not compile it again,
+:func:`longprofile.statespace.luenberger_gain` and :func:`longprofile.statespace.luenberger_observer`);
+this module only builds models and maps results.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._jit import njit
+from ..._validation import as_float_array
+from ...errors import InputError, ModelError, ShapeError
+from ._model import (
+    EKFTuning,
+    forces_fused,
+    planar_ekf_model,
+    planar_inputs,
+    slope_ekf_model,
+    slope_observer_gain,
+    slope_observer_matrices,
+)
+from ._params import Vehicle, default_vehicle
+from ._simulate import DriveLog
+
+__all__ = ["SlopeEstimate", "estimate_slope"]
+
+
+# ------------------------------------------------------------------------------------------ results
+
+#: Lowest speed (m/s) accepted by :func:`estimate_slope`.
+_MIN_SPEED = 2.0
+
+@dataclass(frozen=True, eq=False)
+class SlopeEstimate:
+    """Vehicle states, tyre forces and road slope estimated from a drive log (paper 001).
+
+    All per-sample arrays have T rows; wheel arrays have columns FL, FR, RL, RR; ``*_std`` are
+    posterior (or propagated) standard deviations in the same units.
+
+    Attributes
+    ----------
+    time : (T,) ndarray
+        s.
+    vx, vy, yaw_rate : (T,) ndarray
+        Filtered V_x, V_y (m/s) and r (rad/s).
+    vx_std, vy_std, yaw_rate_std : (T,) ndarray
+        Their stds from the EKF covariance.
+    slope, slope_std : (T,) ndarray
+        Road grade angle theta_r and its std, rad.
+    fx, fy, fx_std, fy_std : (T, 4) ndarray
+        Dugoff tyre forces at the estimate (wheel axes), N, stds by the delta method.
+    resisting_force, resisting_force_std : (T,) ndarray
+        F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21), N.
+    method : str
+        ``"cascade"`` (EKF + Luenberger, the paper) or ``"joint"`` (augmented EKF).
+    filtered : FilterResult
+        The engine's EKF result.
+    observer_gain : (2, 1) ndarray or None
+        Luenberger gain (cascade only).
+    speed_reference : SpeedReference or None
+        The V_x measurement the EKF was given, per sample: speed, std (NaN = missing) and source code
+        (:data:`~longprofile.vehicle.SPEED_SOURCES`: which wheels were trusted, slip-compensated or missing).
+    """
+
+    time: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    yaw_rate: np.ndarray
+    vx_std: np.ndarray
+    vy_std: np.ndarray
+    yaw_rate_std: np.ndarray
+    slope: np.ndarray
+    slope_std: np.ndarray
+    fx: np.ndarray
+    fy: np.ndarray
+    fx_std: np.ndarray
+    fy_std: np.ndarray
+    resisting_force: np.ndarray
+    resisting_force_std: np.ndarray
+    method: str
+    filtered: object
+    observer_gain: np.ndarray | None = None
+    speed_reference: object = None
+
+    def to_frame(self):
+        """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
+        import pandas as pd
+
+        cols = {"time": self.time}
+        for k in ("vx", "vy", "yaw_rate", "slope", "resisting_force"):
+            cols[k] = getattr(self, k)
+            cols[f"{k}_std"] = getattr(self, f"{k}_std")
+        for k in ("fx", "fy"):
+            for i, w in enumerate(("fl", "fr", "rl", "rr")):
+                cols[f"{k}_{w}"] = getattr(self, k)[:, i]
+                cols[f"{k}_{w}_std"] = getattr(self, f"{k}_std")[:, i]
+        if self.speed_reference is not None:  # the V_x measurement: value, std (NaN = missing), source code
+            cols["vx_measured"] = self.speed_reference.speed
+            cols["vx_measured_std"] = self.speed_reference.std
+            cols["vx_measured_source"] = self.speed_reference.source.astype(np.int8)
+        return pd.DataFrame(cols)
+
+    def warnings(self, *, max_missing: float = 0.05, max_slope: float = 0.2) -> list:
+        """Plausibility warnings (strings) about this estimate; empty when none.
+
+        Parameters
+        ----------
+        max_missing : float
+            Largest acceptable share of samples without a V_x measurement (``vx_measured_source`` 0: no
+            trustworthy wheel, the EKF only propagates), default 5 %.
+        max_slope : float
+            Largest plausible |grade angle|, rad (default 0.2 rad = 11.5 deg = 20 %: steeper than nearly
+            every public road; beyond it the usual causes are a wrong mass, adhesion or wheel radius).
+        """
+        out = []
+        ref = self.speed_reference
+        if ref is not None:
+            share = ref.missing_fraction
+            if share > max_missing:
+                k = int(np.argmax(ref.source == 0))
+                out.append(f"V_x measurement missing at {100 * share:.1f} % of the samples (> {100 * max_missing:g} %; "
+                           f"first at t = {self.time[k]:.6g} s): no wheel was trustworthy (hard braking or traction "
+                           "beyond the tyre model), so the EKF only propagated there; check vehicle.driven_axle and "
+                           "the friction, or treat those parts of the estimate as unreliable.")
+        s = np.abs(self.slope)
+        if np.any(s > max_slope):
+            k = int(np.argmax(s > max_slope))
+            out.append(f"slope leaves the plausible range |theta| <= {max_slope:g} rad at {int(np.sum(s > max_slope))} "
+                       f"sample(s), first at t = {self.time[k]:.6g} s ({self.slope[k]:.3g} rad): check the vehicle "
+                       "mass, wheels.radius and the friction (see docs/vehicle-slope.md, Measured results).")
+        return out
+
+
+@njit(cache=True)
+def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, res, res_std):
+    T = mean.shape[0]
+    for k in range(T):
+        res[k], res_std[k] = forces_fused(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std, k)
+
+
+def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
+                   poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None,
+                   initial_state=None, speed_measurement: str = "robust") -> SlopeEstimate:
+    r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
+
+    Parameters
+    ----------
+    log : DriveLog
+        Wheel speeds, steering angle, gyro yaw rate and accelerometers, uniformly sampled.
+    vehicle : Vehicle, optional
+        Model parameters (default :func:`default_vehicle`).
+    method : {"cascade", "joint"}
+        ``"cascade"``: EKF (20) then the Luenberger observer on (21) (the paper, section IV);
+        ``"joint"``: one EKF on (V_x, V_y, r, theta_r) with the paper's measurements.
+    poles : (2,) sequence of float
+        Continuous-time poles of the Luenberger observer, 1/s (cascade only). Faster poles track
+        grade changes with less lag and pass more force noise.
+    tuning : EKFTuning, optional
+        EKF noise settings (default ``EKFTuning.for_method(method)``).
+    friction : (4,) or (T, 4) array_like, optional
+        Adhesion mu_i assumed by the estimator (default ``vehicle.friction``).
+    initial_state : (3,) array_like, optional
+        Prior mean of (V_x, V_y, r) (default: first speed reading, 0, first gyro reading); the grade
+        starts at 0 in both methods.
+    speed_measurement : {"robust", "rear-mean"}
+        The V_x measurement (:func:`longprofile.vehicle.speed_reference`). ``"rear-mean"``: the paper's
+        mean rear-wheel speed with the fixed std ``tuning.speed_std``. ``"robust"`` (default): the
+        torque-free wheels when there are any, else the slip-compensated four wheels, with a
+        per-sample std (time-varying R), and missing samples (the EKF propagates) when no wheel is
+        trustworthy. On a front-wheel-drive car that is not braking both are the same measurement.
+
+    Returns
+    -------
+    SlopeEstimate
+
+    Raises
+    ------
+    InputError
+        For an unknown ``method``, invalid settings, or a log with samples below 2 m/s.
+    ModelError
+        If the filter fails (non-finite model output: check the log's units and the vehicle).
+
+    Notes
+    -----
+    Cascade (paper 001, section II and IV): the first observer is the EKF of eq. (20) with
+    measurements V_x (the paper's R (omega_rl + omega_rr)/2, or the slip-robust reference speed, see
+    ``speed_measurement``) and r. Its model is run with theta_r = 0: section
+    II requires the first subsystem S1 not to depend on the second observer's state, whereas eq.
+    (20) feeds back theta_r-hat, a loop the convergence proof does not cover. The grade acceleration
+    is absorbed by the V_x process noise (``vx_rate_psd``), which keeps V_x-hat, hence the slips and
+    the forces, close to the wheel-speed data. The second observer is the Luenberger observer on (21)
+    with input F_res-hat and output the measured V_x, discretised exactly, gain by pole placement.
+    The slope std of the cascade is the stationary std of the observer error (discrete Lyapunov
+    equation with the fixed gain) driven by the EKF's median F_res std and the median std of the speed
+    input (the measurement's per-sample std; the EKF's V_x std where it is missing), both treated as
+    white. It is the noise part only: while the grade changes at a rate rho (rad/s) the observer also
+    lags by about rho (-1/p1 - 1/p2) (0.34 s x rho with the default poles), and model errors (mass,
+    adhesion; with ``speed_measurement="rear-mean"`` rear-wheel slip under braking) add biases; see
+    docs/vehicle-slope.md.
+
+    Joint: the augmented EKF (:func:`slope_ekf_model`); all stds come from its covariance.
+    """
+    if method not in ("cascade", "joint"):
+        raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
+    if speed_measurement not in ("robust", "rear-mean"):
+        raise InputError(f"speed_measurement must be 'robust' or 'rear-mean'; got {speed_measurement!r}.")
+    if not isinstance(log, DriveLog):
+        raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
+    vehicle = default_vehicle() if vehicle is None else vehicle
+    tuning = EKFTuning.for_method(method) if tuning is None else tuning
+    from ...statespace import extended_kalman_filter
+
+    dt = log.dt
+    u = planar_inputs(log, vehicle, friction=friction)
+    from ._speed_reference import speed_reference
+
+    ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
+    y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
+    rear = 0.5 * vehicle.wheel_radius * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+    slow = rear < _MIN_SPEED
+    if slow.any():
+        k = int(np.argmax(slow))
+        raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
+                         f"t = {log.time[k]:g} s ({rear[k]:.3g} m/s); the planar model of paper 001 (slips of eq. "
+                         "(18)) is not valid near standstill: cut those parts of the log.")
+    if initial_state is None:
+        x0 = [float(y[0, 0]) if np.isfinite(y[0, 0]) else float(rear[0]), 0.0, y[0, 1]]
+    else:
+        x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
+        if x0.shape != (3,):
+            raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
+        x0 = x0.tolist()
+    if method != "cascade":
+        model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
+    else:
+        model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
+    if np.any(ref.std != tuning.speed_std):  # per-sample R from the speed std (any value where V_x is missing)
+        from dataclasses import replace
+
+        R_t = np.zeros((y.shape[0], 2, 2))
+        R_t[:, 0, 0] = np.square(np.where(np.isnan(ref.std), tuning.speed_std, ref.std))
+        R_t[:, 1, 1] = tuning.yaw_rate_std ** 2
+        model = replace(model, obs_cov=R_t)
+    filtered = extended_kalman_filter(model, y, u=u)
+    mean, cov = filtered.mean, filtered.cov
+    T = y.shape[0]
+    p = vehicle.as_array()
+    slope_for_loads = mean[:, 3].copy() if method != "cascade" else np.zeros(T)
+    fx = np.empty((T, 4))
+    fy = np.empty((T, 4))
+    fx_std = np.empty((T, 4))
+    fy_std = np.empty((T, 4))
+    res = np.empty(T)
+    res_std = np.empty(T)
+    _forces_along(mean, cov, u, p, slope_for_loads, tuning.wheel_speed_rel_std, fx, fy, fx_std, fy_std, res, res_std)
+    std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    gain = None
+    if method != "cascade":
+        slope, slope_std = mean[:, 3].copy(), std[:, 3].copy()
+    else:
+        missing = np.isnan(y[:, 0])
+        speed = np.where(missing, mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
+        speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
+        slope, slope_std, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles)
+    return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
+                         vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
+                         slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
+                         resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
+                         observer_gain=gain, speed_reference=ref)
+
+
+def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles):
+    """Luenberger observer on (21) run by the engine (exact zero-order-hold integration of its ODE).
+
+    ``speed_std`` (m/s) is the median std of the observer's speed input (the V_x measurement, or the EKF's
+    V_x where the measurement is missing)."""
+    from scipy.linalg import solve_continuous_lyapunov
+
+    from ...statespace import luenberger_observer
+
+    A, B, C = slope_observer_matrices(vehicle)
+    L = slope_observer_gain(vehicle, poles=poles)
+    obs = luenberger_observer(A, B, C, L, speed, u=res[:, None], x0=np.array([speed[0], 0.0]), dt=dt)
+    state = obs.state
+    if not np.all(np.isfinite(state)) or np.any(np.abs(state[:, 1]) > 1.0):
+        raise ModelError("the slope observer diverged (|sin(theta_r)| > 1); check the poles, the vehicle mass "
+                         "and the units of the log.")
+    s = state[:, 1]
+    slope = np.arcsin(s)
+    # error dynamics de/dt = (A - L C) e + B w_F - L v with white noises of PSD var * dt (sampled at dt)
+    var_f = float(np.median(res_std) ** 2)
+    M = A - L @ C
+    P = solve_continuous_lyapunov(M, -(B @ B.T * var_f + L @ L.T * speed_std ** 2) * dt)
+    s_std = math.sqrt(max(P[1, 1], 0.0))
+    slope_std = s_std / np.sqrt(1.0 - s ** 2)
+    return slope, slope_std, L

@@ -1,0 +1,160 @@
+"""Profile comparison (Karamihas cross-correlation, AASHTO R 56 practice).
+
+Oracles: (1) a profile against a copy of itself shifted by a known number of samples -- the offset found must
+be the injected one to within one sample; (2) a real measured profile (michalsorel/iri profile_1, see
+/work/shared/reference-data/sorel-iri-profile/SOURCE.md) against itself plus white noise at an instrument's
+level (0.1 mm RMS, an assumption about "instrument level") must give >= 0.99; (3) the normalised correlation
+at each lag against numpy.corrcoef-free direct sums over the overlap (independent brute force).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError
+from longprofile.road import Profile, iso8608_profile
+from longprofile.road.smoothness._compare import (
+    _xcorr,
+    certify_profiler,
+    compare_profiles,
+    filter_for_comparison,
+    resample_profile,
+)
+
+SOREL = Path("/work/shared/reference-data/sorel-iri-profile/profile_1.txt")
+
+
+@pytest.fixture(scope="module")
+def long_profile():
+    return iso8608_profile(700.0, 0.05, "B", rng=7)
+
+
+@settings(max_examples=20, deadline=None)
+@given(shift=st.integers(-80, 80))
+def test_injected_offset_found_within_one_sample(long_profile, shift):
+    x, z = long_profile.distance, long_profile.elevation[:, 0]
+    dx, n, base = 0.05, 8000, 100
+    ref = Profile(distance=x[:n], elevation=z[base:base + n])
+    rng = np.random.default_rng(abs(shift))
+    run = Profile(distance=x[:n], elevation=z[base + shift:base + shift + n] + rng.normal(0, 5e-5, n))
+    c = compare_profiles(ref, run, max_offset=5.0)
+    assert abs(c.offset - shift * dx) <= dx + 1e-9
+    assert c.correlation > 0.99
+
+
+def test_offset_with_different_start_stations(long_profile):
+    # the same road recorded from station 1000.0 by one run and 1002.0 by the other: stations agree, offset 0
+    x, z = long_profile.distance, long_profile.elevation[:, 0]
+    ref = Profile(distance=1000.0 + x[:6000], elevation=z[:6000])
+    run = Profile(distance=1002.0 + x[:6000], elevation=z[40:6040])
+    assert compare_profiles(ref, run).offset == pytest.approx(0.0, abs=1e-9)
+    # a DMI error: the run labels the same place 1.5 m further on
+    run = Profile(distance=1003.5 + x[:6000], elevation=z[40:6040])
+    assert compare_profiles(ref, run).offset == pytest.approx(-1.5, abs=0.05)
+
+
+def test_measured_profile_with_instrument_noise():
+    data = np.loadtxt(SOREL)
+    ref = Profile(distance=data[:, 0], elevation=data[:, 1], name="profile_1")
+    rng = np.random.default_rng(0)
+    runs = [Profile(distance=data[:, 0], elevation=data[:, 1] + rng.normal(0, 1e-4, len(data)), name=f"r{i}")
+            for i in range(3)]
+    for r in runs:
+        c = compare_profiles(ref, r)
+        assert c.correlation >= 0.99 and c.offset == 0.0
+    cert = certify_profiler(ref, runs)
+    assert cert.passed and cert.repeatability["left"] >= 0.99 and cert.accuracy["left"] >= 0.99
+    assert len(cert.pairs) == 3 and len(cert.runs) == 3
+
+
+def test_xcorr_matches_brute_force():
+    rng = np.random.default_rng(2)
+    p, q = rng.normal(size=300), rng.normal(size=280)
+    lags, rho, ratio, n = _xcorr(p, q, -20, 25, 10)
+    for l, r, m in zip(lags, rho, n):
+        i = np.arange(max(0, -l), min(p.size, q.size - l))
+        a, b = p[i], q[i + l]
+        assert m == i.size
+        assert r == pytest.approx(a @ b / np.sqrt((a @ a) * (b @ b)), rel=1e-10)
+
+
+def test_unrelated_profiles_fail_certification():
+    a = iso8608_profile(300.0, 0.05, "C", rng=1)
+    b = iso8608_profile(300.0, 0.05, "C", rng=2)
+    cert = certify_profiler(a, [a, b])
+    assert not cert.passed
+    assert cert.accuracy["left"] < 0.9
+
+
+def test_different_intervals_refused_or_resampled_explicitly():
+    x1, x2 = np.arange(0, 200, 0.05), np.arange(0, 200, 0.1)
+    f = lambda x: 1e-3 * np.sin(2 * np.pi * x / 7.0) + 5e-4 * np.sin(2 * np.pi * x / 2.3)  # noqa: E731
+    a, b = Profile(distance=x1, elevation=f(x1)), Profile(distance=x2, elevation=f(x2))
+    with pytest.raises(InputError, match="different sample intervals"):
+        compare_profiles(a, b)
+    c = compare_profiles(a, b, spacing=0.1)
+    assert c.correlation > 0.99
+    assert resample_profile(a, 0.1).spacing == pytest.approx(0.1)
+
+
+def test_bandpass_filter_and_bad_input():
+    x = np.arange(0, 200, 0.05)
+    a = Profile(distance=x, elevation=1e-3 * np.sin(2 * np.pi * x / 5.0))
+    y = filter_for_comparison(a, "left", filter="bandpass", band=(1.0, 20.0))
+    assert np.std(y[1000:-1000]) == pytest.approx(np.std(a.elevation[1000:-1000, 0]), rel=0.05)
+    with pytest.raises(InputError, match="band"):
+        filter_for_comparison(a, "left", filter="bandpass")
+    with pytest.raises(InputError, match="unknown filter"):
+        filter_for_comparison(a, "left", filter="xyz")
+    with pytest.raises(InputError, match="unknown threshold key 'repeat'"):
+        certify_profiler(a, [a], thresholds={"repeat": 0.9})
+    irregular = Profile(distance=np.cumsum(np.random.default_rng(0).uniform(0.04, 0.06, 4000)),
+                        elevation=np.zeros(4000))
+    with pytest.raises(InputError, match="irregular"):
+        compare_profiles(a, irregular)
+
+
+def _cli():
+    import typer
+
+    from longprofile.cli._road_compare import register
+
+    app = typer.Typer()
+    register(app)
+
+    @app.command("noop")
+    def _noop():  # a second command keeps typer from collapsing the group
+        pass
+
+    return app
+
+
+def test_cli_compare_erd_runs(tmp_path, long_profile):
+    from typer.testing import CliRunner
+
+    from longprofile.io import write_profile
+
+    x, z = long_profile.distance, long_profile.elevation[:, 0]
+    rng = np.random.default_rng(5)
+    ref = write_profile(Profile(distance=x[:6000], elevation=z[100:6100], tracks=("left",)), tmp_path / "ref.erd")
+    runs = []
+    for i, shift in enumerate([0, 12, -7]):
+        p = Profile(distance=x[:6000], elevation=z[100 + shift:6100 + shift] + rng.normal(0, 5e-5, 6000),
+                    tracks=("left",))
+        runs.append(str(write_profile(p, tmp_path / f"run{i + 1}.erd")))
+    out = tmp_path / "compare"
+    res = CliRunner().invoke(_cli(), ["compare", str(ref), *runs, "-o", str(out), "--plot"])
+    assert res.exit_code == 0, res.output
+    import pandas as pd
+
+    table = pd.read_csv(out / "runs.csv")
+    assert np.allclose(table.offset_m, [0.0, 0.6, -0.35], atol=0.05 + 1e-9)
+    assert (table.accuracy_correlation > 0.99).all()
+    assert (out / "correlation.png").stat().st_size > 1000
+    assert "PASS" in res.output
+    bad = CliRunner().invoke(_cli(), ["compare", str(ref), runs[0], "-o", str(out), "--filter", "bandpass",
+                                      "--overwrite"])
+    assert isinstance(bad.exception, InputError) and "band" in str(bad.exception)

@@ -1,0 +1,141 @@
+"""The digest-keyed numba disk cache of ``longprofile._jit``.
+
+Each case runs fresh interpreters on a throw-away package holding a copy of ``_jit.py`` (the module
+keys the package it sits in), so the real package's cache is never touched.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import longprofile._jit as jit
+
+_CALLER = """\
+{import_line}
+from .callee import callee
+
+
+@njit(cache=True)
+def caller(x):
+    return callee(x) + 0.0
+"""
+_CALLEE = """\
+{import_line}
+
+
+@njit
+def callee(x):
+    return {value}.0 * x
+"""
+_PROBE = """\
+import json
+from pkg.caller import caller
+out = {{"value": caller(1.0), "path": caller._cache.cache_path, "hits": sum(caller.stats.cache_hits.values())}}
+try:
+    from pkg._jit import source_digest
+    out["digest"] = source_digest()
+except ImportError:
+    out["digest"] = None
+print(json.dumps(out))
+"""
+
+
+def _make_package(root: Path, ours: bool, value: int = 1) -> Path:
+    pkg = root / "pkg"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    if ours:
+        shutil.copy(jit.__file__, pkg / "_jit.py")
+    line = "from ._jit import njit" if ours else "from numba import njit"
+    (pkg / "caller.py").write_text(_CALLER.format(import_line=line))
+    _write_callee(pkg, ours, value)
+    return pkg
+
+
+def _write_callee(pkg: Path, ours: bool, value: int) -> None:
+    line = "from ._jit import njit" if ours else "from numba import njit"
+    (pkg / "callee.py").write_text(_CALLEE.format(import_line=line, value=value))
+
+
+def _probe(root: Path, cache_dir: Path | None = None) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    env.update(PYTHONPATH=str(root), PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")
+    if cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache_dir)
+    run = subprocess.run([sys.executable, "-c", _PROBE.format()], env=env, cwd=root, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def test_cache_goes_to_digest_directory_and_is_reused(tmp_path):
+    pkg = _make_package(tmp_path, ours=True)
+    first = _probe(tmp_path)
+    assert first["value"] == 1.0 and first["hits"] == 0
+    expected = pkg / "__pycache__" / f"numba-{first['digest']}"
+    assert Path(first["path"]) == expected
+    assert list(expected.glob("caller.caller-*.nbi")) and list(expected.glob("caller.caller-*.nbc"))
+    assert not list((pkg / "__pycache__").glob("*.nbi"))  # nothing at numba's default place
+    second = _probe(tmp_path)
+    assert second["digest"] == first["digest"] and second["hits"] == 1  # warm: loaded, not recompiled
+
+
+def test_numba_cache_dir_is_honoured(tmp_path):
+    _make_package(tmp_path, ours=True)
+    cache_dir = tmp_path / "user-cache"
+    out = _probe(tmp_path, cache_dir=cache_dir)
+    assert Path(out["path"]) == cache_dir / f"pkg-{out['digest']}"
+    assert list(Path(out["path"]).glob("caller.caller-*.nbi"))
+
+
+def test_editing_a_callee_in_another_file_recompiles_the_caller(tmp_path):
+    pkg = _make_package(tmp_path, ours=True, value=1)
+    before = _probe(tmp_path)
+    assert before["value"] == 1.0
+    _write_callee(pkg, ours=True, value=2)
+    after = _probe(tmp_path)
+    assert after["digest"] != before["digest"]
+    assert after["value"] == 2.0 and after["hits"] == 0
+
+
+def test_plain_numba_cache_loads_a_stale_callee(tmp_path):
+    """What the digest fixes: plain ``cache=True`` keeps the caller's machine code after a callee edit."""
+    pkg = _make_package(tmp_path, ours=False, value=1)
+    assert _probe(tmp_path)["value"] == 1.0
+    _write_callee(pkg, ours=False, value=2)
+    after = _probe(tmp_path)
+    if after["value"] == 2.0:
+        pytest.skip("this numba version tracks callees itself")
+    assert after["value"] == 1.0 and after["hits"] == 1
+
+
+def test_digest_is_stable_across_processes(monkeypatch):
+    code = "from longprofile._jit import source_digest; print(source_digest())"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True,
+                           timeout=120).stdout.strip() for _ in range(2)]
+    monkeypatch.setattr(jit, "_DIGEST", None)  # recompute now (this process may have hashed older sources)
+    assert runs[0] == runs[1] == jit.source_digest()
+    assert len(runs[0]) == 16
+
+
+def test_digest_covers_every_kernel_file():
+    files = [rel for rel, _ in jit._kernel_files()]
+    assert "_jit.py" in files and "statespace/_linalg_kernels.py" in files and "statespace/_kernels.py" in files
+    assert "statespace/_kalman.py" not in files  # no numba there: editing it keeps the cache
+
+
+def test_only_package_files_are_claimed():
+    assert jit._in_package(os.path.join(os.path.dirname(jit.__file__), "statespace", "_kernels.py")) == "statespace"
+    assert jit._in_package(os.path.abspath("elsewhere.py")) is None
+
+
+def test_engine_kernels_use_the_digest_cache():
+    from longprofile.statespace import _linalg_kernels
+
+    assert Path(_linalg_kernels.at._cache.cache_path) == Path(jit.cache_root()) / "statespace"
