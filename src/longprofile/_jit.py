@@ -148,6 +148,51 @@ def _register() -> None:
 _register()
 
 
+class _KeyedCacheFile(_caching.IndexDataCacheFile):
+    """numba's index + data cache files, with one data file per index key.
+
+    numba numbers a function's data files 1, 2, ... in the order its overloads are saved, from the index as the
+    saving process last read it. Two processes that compile different overloads of one function at the same time
+    (process-pool workers, parallel test runs) both pick ``.1.nbc``: the index keeps one key, the data file holds
+    the other process's code, and every later process loads that wrong machine code for the key (seen on the
+    planar EKF closures of two vehicles: silently wrong estimates). Here a data file is named after a hash of its
+    key, so a file only ever holds the overload of its own key; a save racing another one can at worst drop an
+    index entry (a recompile later), never pair a key with another key's code. The data is written before the index
+    names it.
+    """
+
+    def _keyed_name(self, key) -> str:
+        tag = hashlib.sha256(repr(key).encode()).hexdigest()[:16]
+        return self._data_name_pattern.replace("{number:d}", tag)
+
+    def save(self, key, data):
+        data_name = self._keyed_name(key)
+        self._save_data(data_name, data)
+        overloads = self._load_index()
+        if overloads.get(key) != data_name:
+            overloads[key] = data_name
+            self._save_index(overloads)
+
+
+def _keyed_cache(dispatcher):
+    """Give a caching dispatcher the per-key data files of :class:`_KeyedCacheFile`."""
+    cache = getattr(dispatcher, "_cache", None)
+    old = getattr(cache, "_cache_file", None)
+    if isinstance(old, _caching.IndexDataCacheFile) and not isinstance(old, _KeyedCacheFile):
+        new = _KeyedCacheFile.__new__(_KeyedCacheFile)
+        new.__dict__.update(old.__dict__)
+        cache._cache_file = new
+    return dispatcher
+
+
 def njit(*args, **kwargs):
-    """``numba.njit`` (same arguments, bare ``@njit`` too); ``cache=True`` uses the digest-keyed cache."""
-    return numba.njit(*args, **kwargs)
+    """``numba.njit`` (same arguments, bare ``@njit`` too); ``cache=True`` uses the digest-keyed cache, with one
+    data file per compiled overload (:class:`_KeyedCacheFile`: safe when several processes compile at once).
+    Signatures given to the decorator are compiled eagerly by numba, before the per-key files apply; the package
+    passes none."""
+    out = numba.njit(*args, **kwargs)
+    if not kwargs.get("cache"):
+        return out
+    if isinstance(out, numba.core.dispatcher.Dispatcher):
+        return _keyed_cache(out)
+    return lambda fn: _keyed_cache(out(fn))

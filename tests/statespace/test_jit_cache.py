@@ -139,3 +139,42 @@ def test_engine_kernels_use_the_digest_cache():
     from longprofile.statespace import _linalg_kernels
 
     assert Path(_linalg_kernels.at._cache.cache_path) == Path(jit.cache_root()) / "statespace"
+
+
+def test_concurrent_saves_of_two_overloads_never_pair_a_key_with_the_other_code(tmp_path):
+    """Two processes saving different overloads of one function from the same (stale) view of the index: numba's
+    numbered data files put both in ``.1.nbc`` (the key kept by the index can then load the other's code); the
+    package's per-key data files keep each overload in its own file."""
+    from numba.core.caching import IndexDataCacheFile
+
+    from longprofile._jit import _KeyedCacheFile
+
+    def two_writers(cls):
+        a, b = (cls(cache_path=str(tmp_path / cls.__name__), filename_base="f-1.py311", source_stamp=(1.0, 10))
+                for _ in range(2))
+        (tmp_path / cls.__name__).mkdir()
+        stale = a._load_index()  # both read the index before either saved: the race
+        a._load_index = b._load_index = lambda: dict(stale)
+        a.save("key-A", "code-A")
+        b.save("key-B", "code-B")
+        del a._load_index
+        return a
+
+    numbered = two_writers(IndexDataCacheFile)
+    assert numbered._load_index()["key-B"].endswith(".1.nbc")
+    assert numbered._load_data(numbered._data_name(1)) == "code-B"  # key-A's file now holds key-B's code
+    keyed = two_writers(_KeyedCacheFile)
+    assert keyed.load("key-B") == "code-B"  # the index entry that survived loads its own code
+    assert keyed._load_data(keyed._keyed_name("key-A")) == "code-A"  # and the other overload was not overwritten
+    assert keyed._keyed_name("key-A") != keyed._keyed_name("key-B")
+
+
+def test_cached_package_functions_use_per_key_data_files():
+    from longprofile._jit import _KeyedCacheFile, njit
+
+    @njit(cache=True)
+    def add_one(x):
+        return x + 1
+
+    assert isinstance(add_one._cache._cache_file, _KeyedCacheFile)
+    assert add_one(1) == 2
