@@ -5,8 +5,11 @@ each; Gd(n0) cycling over good/fair/poor roads), generated once into a temporary
 IRI report of each file, 100 m segments) into a results folder per scheduler, with ``longprofile.batch.run_batch``.
 The pools are started and warmed (numba kernels loaded) before the timing: their start-up is a separate row, it is
 paid once per run of thousands of files. The machine may be shared: serial and process-pool runs are interleaved and
-the best of two is kept, and the Dask run is timed twice, beside a process-pool run. Identity: the segment tables
-read back are compared bit for bit.
+the best of two is kept, and the Dask run is timed twice, alternating with runs of a second process pool (the
+overhead row compares those side-by-side runs). Pool and Dask workers tune glibc's allocator
+(``longprofile.batch._alloc``); the serial run, in this process, does not (what ``--scheduler serial`` gives), and
+a last serial run with this process tuned gives the speed-up without the allocator's share.
+Identity: the segment tables read back are compared bit for bit.
 Quick mode: 8 files of 1 km, Dask workers in process (its figures only show that everything runs).
 
 Run: ``.venv/bin/python -m benchmarks batch`` (full) or ``--quick``.
@@ -54,6 +57,13 @@ def _warm(task):
     return True
 
 
+def _peak_rss_mb(_=None) -> float:
+    """Peak resident memory of the calling process, MB (Linux: ru_maxrss in KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def run(quick: bool) -> list[BenchRow]:
     from concurrent.futures import ThreadPoolExecutor
 
@@ -76,6 +86,7 @@ def run(quick: bool) -> list[BenchRow]:
         best: dict[str, float] = {}
 
         per_file: dict[str, float] = {}
+        rss: dict[str, float] = {}
 
         def timed(name, executor, rep):
             dt = _timed(task, files, tmp / f"{name}-{rep}", executor)
@@ -96,6 +107,7 @@ def run(quick: bool) -> list[BenchRow]:
             for rep in range(1 if quick else 2):
                 timed("serial", None, rep)
                 timed("processes", pool, rep)
+            rss["processes"] = max(f.result() for f in [pool.submit(_peak_rss_mb) for _ in range(4 * WORKERS)])
         with ThreadPoolExecutor(WORKERS) as ex:
             timed("threads", ex, 0)
         if LocalCluster is not None:
@@ -105,13 +117,21 @@ def run(quick: bool) -> list[BenchRow]:
                               dashboard_address=None) as cluster, Client(cluster) as client:
                 client.run(_warm, task)
                 t_dask_start = time.perf_counter() - t0
-                timed("dask", client, 0)
-                if not quick:
-                    with process_executor(WORKERS, warm=task) as pool:  # the pool again, right beside the Dask run
+                if quick:
+                    timed("dask", client, 0)
+                else:  # the pool again, alternating with the Dask runs: the overhead compares runs made side by side
+                    with process_executor(WORKERS, warm=task) as pool:
                         for f in [pool.submit(_warm, task) for _ in range(WORKERS)]:
                             f.result()
-                        timed("processes", pool, 2)
-                        timed("dask", client, 1)
+                        for rep in range(2):
+                            timed("beside", pool, rep)
+                            timed("dask", client, rep)
+                rss["dask"] = max(client.run(_peak_rss_mb).values())
+        if not quick:  # the serial run again with this process's allocator tuned as the workers' are
+            from longprofile.batch._alloc import tune_allocator
+
+            tuned = tune_allocator()
+            timed("serial-tuned", None, 0)
         times = best
         reference = read_results(tmp / "serial-0").segments
         identical, runs = 1.0, sorted(p.name for p in tmp.iterdir() if p.name != "surveys")
@@ -129,6 +149,11 @@ def run(quick: bool) -> list[BenchRow]:
             BenchRow(AREA, f"processes ({WORKERS} workers) speed-up vs serial", times["serial"] / times["processes"],
                      "x", target=1.7, detail=f"{times['processes']:.2f} s vs {times['serial']:.2f} s; pool start-up "
                                              "excluded (row below)"),
+            *([BenchRow(AREA, f"processes ({WORKERS} workers) speed-up vs serial, both with the allocator tuned",
+                        times["serial-tuned"] / times["processes"], "x",
+                        detail=f"{times['processes']:.2f} s vs {times['serial-tuned']:.2f} s (serial run last, this "
+                               f"process tuned: {tuned}); the parallel efficiency without the allocator's share")]
+              if "serial-tuned" in times else []),
             BenchRow(AREA, "mean time per file inside the workers, processes / serial",
                      per_file["processes"] / per_file["serial"], "x", higher_is_better=False,
                      detail=f"{per_file['processes']:.3f} s vs {per_file['serial']:.3f} s: above 1 = the workers got "
@@ -144,14 +169,20 @@ def run(quick: bool) -> list[BenchRow]:
                      detail="not part of the batch"),
         ]
         if "dask" in times:
-            overhead = 100.0 * (times["dask"] / times["processes"] - 1.0)
+            peer = "beside" if "beside" in times else "processes"
+            overhead = 100.0 * (times["dask"] / times[peer] - 1.0)
             rows += [
                 BenchRow(AREA, "Dask LocalCluster overhead vs the process pool", overhead, "%", target=15.0,
-                         higher_is_better=False, detail=f"{times['dask']:.2f} s vs {times['processes']:.2f} s ({WORKERS} worker "
-                                                        f"{'threads, in process' if quick else 'processes'} x 1 thread); per file in the "
-                                                        f"workers {per_file['dask']:.3f} s vs {per_file['processes']:.3f} s"),
+                         higher_is_better=False, detail=f"{times['dask']:.2f} s vs {times[peer]:.2f} s ({WORKERS} worker "
+                                                        f"{'threads, in process' if quick else 'processes'} x 1 thread; best of "
+                                                        f"{1 if quick else 2}, alternating with a pool run); per file in the "
+                                                        f"workers {per_file['dask']:.3f} s vs {per_file[peer]:.3f} s"),
                 BenchRow(AREA, f"Dask LocalCluster start-up ({WORKERS} workers + warm-up)", t_dask_start, "s",
                          higher_is_better=False, detail="paid once per run"),
+                BenchRow(AREA, "peak memory of a worker, Dask / process pool", rss["dask"] / rss["processes"], "x",
+                         higher_is_better=False,
+                         detail=f"{rss['dask']:.0f} MB vs {rss['processes']:.0f} MB (largest worker, ru_maxrss; both "
+                                f"with the batch's allocator tuning, longprofile.batch._alloc)"),
             ]
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -56,3 +56,14 @@ def boom(path):
 def comparable(frame):
     """A results table without the columns that legitimately differ between runs (timings, clocks)."""
     return frame.drop(columns=[c for c in ("seconds", "finished_utc") if c in frame.columns]).reset_index(drop=True)
+
+
+def expected_allocator_status() -> str:
+    """What ``longprofile.batch._alloc.tune_allocator`` must report in a worker here: tuned on glibc, unless the
+    environment disables it."""
+    if os.environ.get("LONGPROFILE_MALLOC_TUNING", "").strip().lower() in ("0", "off", "false", "no"):
+        return "disabled"
+    try:
+        return "tuned" if os.confstr("CS_GNU_LIBC_VERSION") else "unsupported"
+    except (AttributeError, ValueError, OSError):
+        return "unsupported"

@@ -11,7 +11,7 @@ from longprofile.batch import IRITask, ReconstructTask, error_message, map_files
 from longprofile.batch._map import _worker_info
 from longprofile.errors import DependencyError, InputError, UnitsError
 
-from ._helpers import boom
+from ._helpers import boom, expected_allocator_status
 
 
 @settings(max_examples=40)
@@ -45,9 +45,26 @@ def test_process_pool_pins_blas_threads_to_one_and_keeps_order(monkeypatch):
     for r in res:
         assert r.value["OPENBLAS_NUM_THREADS"] == r.value["OMP_NUM_THREADS"] == r.value["MKL_NUM_THREADS"] == "1"
     assert len({r.value["pid"] for r in res}) <= 2
+    assert {r.value["allocator"] for r in res} == {expected_allocator_status()}  # tuned in every worker (glibc)
     import os
 
     assert os.environ["OPENBLAS_NUM_THREADS"] == "7"  # and the parent's environment is left as it was
+
+
+def test_allocator_tuning_can_be_switched_off_and_is_never_applied_to_the_caller(monkeypatch):
+    from longprofile.batch import _alloc
+
+    monkeypatch.setenv(_alloc.TUNING_ENV, "off")  # inherited by the spawned workers
+    with process_executor(2) as ex:
+        res = map_files(_worker_info, ["a", "b", "c"], executor=ex)
+    assert {r.value["allocator"] for r in res} == {"disabled"}
+    monkeypatch.setattr(_alloc, "_STATE", {})  # this process as if nothing had tuned it yet
+    with ThreadPoolExecutor(2) as ex:  # threads run in this process: the batch leaves its allocator alone
+        res = map_files(IRITask(), ["missing.erd"], executor=ex)
+        res += map_files(_worker_info, ["a", "b"], executor=ex)
+    assert {r.value["allocator"] for r in res[1:]} == {None} and _alloc.allocator_status() is None
+    monkeypatch.setattr(_alloc, "_STATE", {})
+    assert _alloc.tune_allocator() == "disabled" and _alloc.tune_allocator() == "disabled"  # once, then cached
 
 
 def test_unknown_executor_and_scheduler_are_refused():
@@ -136,10 +153,22 @@ def test_dask_files_per_task_keeps_enough_tasks_per_worker_and_a_bounded_size(n_
 def test_dask_groups_files_per_task_yet_records_each_file_own_outcome():
     distributed = pytest.importorskip("distributed", reason="dask[distributed] not installed "
                                                             "(pip install longprofile[dask])")
-    paths = [f"{'bad' if i % 3 == 1 else 'good'}-{i}" for i in range(37)]  # 37 files: chunks of 3, a short last one
+    from longprofile.batch._map import dask_files_per_task
+
+    paths = [f"{'bad' if i % 3 == 1 else 'good'}-{i}" for i in range(37)]  # 1 worker: tasks of 5, a short last one
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) \
             as cluster, distributed.Client(cluster) as client:
+        submitted = []
+        submit = client.submit
+
+        def spy(func, *args, **kwargs):
+            submitted.append(len(args[0]))
+            return submit(func, *args, **kwargs)
+
+        client.submit = spy
         res = map_files(boom, paths, executor=client)
+    size = dask_files_per_task(37, 1)
+    assert size == 5 and submitted == [5] * 7 + [2]  # grouped: 8 tasks, not 37
     assert [r.path for r in res] == paths
     for i, r in enumerate(res):
         if i % 3 == 1:

@@ -19,7 +19,7 @@ from longprofile.batch import (
 from longprofile.batch._run import partition_file
 from longprofile.errors import InputError, OutputError
 
-from ._helpers import FailOnFlag, comparable, make_network
+from ._helpers import FailOnFlag, comparable, expected_allocator_status, make_network
 
 
 @pytest.fixture(scope="module")
@@ -95,6 +95,10 @@ def test_dask_local_cluster_equals_serial_bit_for_bit(processes, network, serial
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=processes, dashboard_address=None) \
             as cluster, distributed.Client(cluster) as client:
         run_batch(IRITask(), files, tmp_path / "r", executor=client)
+        if processes:  # each worker process tuned its allocator against the nanny's MALLOC_TRIM_THRESHOLD_
+            from longprofile.batch._alloc import allocator_status
+
+            assert set(client.run(allocator_status).values()) == {expected_allocator_status()}
     _same_results(read_results(tmp_path / "r"), serial_run[1])
 
 
