@@ -185,14 +185,39 @@ def _keyed_cache(dispatcher):
     return dispatcher
 
 
+def _tag_closure(fn):
+    """Rename a closure after the values it captures, so each cached variant has symbols of its own.
+
+    numba names compiled symbols (the function, its Python wrapper, its environment) after the qualified name
+    plus a counter that is per process. Two variants of one factory's closure (the planar EKF model of two
+    vehicles) compiled by two processes can get the same counter: their cached machine code then defines the same
+    symbols, and a process loading both resolves the second one's references to the first's (seen: the EKF of
+    one vehicle run with another vehicle's environment, a crash "NRT_adapt_ndarray_to_python: descr is NULL"
+    or, earlier, silently wrong estimates). A qualified name ending in a digest of the captured values (what
+    numba keys the cache on, ``serialize.dumps`` of the cells) makes the symbols of different variants differ;
+    numba's cache files are then one index per variant too.
+    """
+    cells = getattr(fn, "__closure__", None)
+    if not cells or not callable(fn):
+        return fn
+    try:
+        from numba.core.serialize import dumps
+
+        data = dumps(tuple(c.cell_contents for c in cells))
+    except Exception:  # an uncacheable closure: numba itself will say so
+        return fn
+    fn.__qualname__ = f"{fn.__qualname__}_v{hashlib.sha256(data).hexdigest()[:12]}"
+    return fn
+
+
 def njit(*args, **kwargs):
     """``numba.njit`` (same arguments, bare ``@njit`` too); ``cache=True`` uses the digest-keyed cache, with one
-    data file per compiled overload (:class:`_KeyedCacheFile`: safe when several processes compile at once).
-    Signatures given to the decorator are compiled eagerly by numba, before the per-key files apply; the package
-    passes none."""
-    out = numba.njit(*args, **kwargs)
+    data file per compiled overload (:class:`_KeyedCacheFile`: safe when several processes compile at once), and
+    closures named after the values they capture (:func:`_tag_closure`). Signatures given to the decorator are
+    compiled eagerly by numba, before the per-key files apply; the package passes none."""
     if not kwargs.get("cache"):
-        return out
-    if isinstance(out, numba.core.dispatcher.Dispatcher):
-        return _keyed_cache(out)
-    return lambda fn: _keyed_cache(out(fn))
+        return numba.njit(*args, **kwargs)
+    if args and callable(args[0]):
+        return _keyed_cache(numba.njit(_tag_closure(args[0]), *args[1:], **kwargs))
+    out = numba.njit(*args, **kwargs)
+    return lambda fn: _keyed_cache(out(_tag_closure(fn)))

@@ -178,3 +178,84 @@ def test_cached_package_functions_use_per_key_data_files():
 
     assert isinstance(add_one._cache._cache_file, _KeyedCacheFile)
     assert add_one(1) == 2
+
+
+# ---- closures of one factory compiled by different processes (the planar EKF's per-vehicle model functions) ----
+
+_FACTORY = """\
+{import_line}
+import numpy as np
+
+
+def make(a):
+    p = np.array([float(a)])
+
+    @njit(cache=True)
+    def f(x):
+        y = np.empty(2)
+        y[0] = p[0] * x
+        y[1] = -p[0]
+        return y
+
+    return f
+"""
+_USE = """\
+import json, sys
+from pkg.factory import make
+out = {{}}
+for a in sys.argv[1:]:
+    f = make(int(a))
+    out[a] = f(1.0).tolist()
+    del f  # the first closure goes; the second must keep its own code and environment
+print(json.dumps(out))
+"""
+
+
+def _use(root: Path, *values) -> tuple[int, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    env.update(PYTHONPATH=str(root), PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1")
+    run = subprocess.run([sys.executable, "-c", _USE.format(), *map(str, values)], env=env, cwd=root,
+                         capture_output=True, text=True, timeout=300)
+    return run.returncode, run.stdout.strip().splitlines()[-1] if run.returncode == 0 else run.stderr
+
+
+def _closure_package(root: Path, ours: bool) -> Path:
+    pkg = root / "pkg"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    if ours:
+        shutil.copy(jit.__file__, pkg / "_jit.py")
+    (pkg / "factory.py").write_text(_FACTORY.format(import_line="from ._jit import njit" if ours
+                                                    else "from numba import njit"))
+    return pkg
+
+
+def _closure_symbols(root: Path) -> list[set]:
+    """The environment symbols of the closure ``f`` in each cached data file under ``root`` (one set per file)."""
+    import re
+
+    out = []
+    for path in sorted(root.rglob("*.nbc")):
+        if "make.locals.f" in path.name:
+            out.append(set(re.findall(rb"NumbaEnv3pkg7factory4make12_3clocals_3e[0-9]+f[A-Za-z0-9_]*?B[0-9]+v[0-9]+B",
+                                      path.read_bytes())))
+    return out
+
+
+@pytest.mark.parametrize("ours", [False, True], ids=["numba's cache", "longprofile._jit"])
+def test_closures_cached_by_different_processes_get_symbols_of_their_own(ours, tmp_path):
+    """Two fresh processes each compile one variant of a closure. numba numbers functions per process, so both
+    variants get the same symbol names (the hazard: a process loading both may resolve the second's references to
+    the first's code or environment -- seen on the planar EKF closures of two vehicles, a crash 'descr is NULL'
+    and, earlier, silently wrong estimates). ``_jit`` names each cached closure after the values it captures."""
+    _closure_package(tmp_path, ours)
+    assert _use(tmp_path, 1)[0] == 0 and _use(tmp_path, 2)[0] == 0  # each variant compiled in its own process
+    symbols = _closure_symbols(tmp_path)
+    assert len(symbols) == 2 and all(symbols), symbols
+    if ours:
+        assert not (symbols[0] & symbols[1]), symbols  # no symbol shared between the two variants
+        code, out = _use(tmp_path, 1, 2)  # both loaded from the cache in one process
+        assert code == 0, out
+        assert json.loads(out) == {"1": [1.0, -1.0], "2": [2.0, -2.0]}
+    else:  # numba's own naming (this fails if numba changes it: then _tag_closure may go)
+        assert symbols[0] == symbols[1], symbols
