@@ -3,7 +3,7 @@
 Every ``import`` statement in ``src/longprofile`` (module level *and* inside functions: a lazy import is still a
 dependency) is resolved to the longprofile module it names and checked against the layers:
 
-    shared   errors, _validation, _jit, _lazy, core
+    shared   errors, _validation, _jit, _lazy, _atomic, core
     engine   statespace
     domains  signal, identify, road, rail, vehicle          (rail.service is an edge)
     edges    io, report, demos, batch, rail.service, cli, __main__
@@ -26,7 +26,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "longprofile"
 
 LAYERS = {
-    "errors": 0, "_validation": 0, "_jit": 0, "_lazy": 0, "core": 0, "__init__": 0,
+    "errors": 0, "_validation": 0, "_jit": 0, "_lazy": 0, "_atomic": 0, "core": 0, "__init__": 0,
     "statespace": 1,
     "signal": 2, "identify": 2, "road": 2, "rail": 2, "vehicle": 2,
     "io": 3, "report": 3, "demos": 3, "batch": 3, "rail.service": 3, "cli": 3, "__main__": 3,
@@ -133,3 +133,54 @@ def test_the_checker_flags_each_kind_of_breach(module, source, expected):
         assert found == []
     else:
         assert found and all(expected in f for f in found), found
+
+
+# ---- function size (issue 12: no function over 120 lines outside unrolled kernels) ----------------------------
+
+MAX_FUNCTION_LINES = 120
+#: Generated schema declarations (Alembic autogenerate output): a list of tables, not logic.
+_SIZE_EXEMPT_FOLDERS = ("rail/service/migrations/versions",)
+
+
+def _is_kernel(node: ast.AST) -> bool:
+    """A numba kernel (``@njit...``) or a factory whose body defines one."""
+    def decorated(n):
+        return any("njit" in ast.unparse(d) for d in getattr(n, "decorator_list", []))
+
+    return decorated(node) or any(decorated(n) for n in ast.walk(node)
+                                  if n is not node and isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)))
+
+
+def long_functions(source: str, limit: int = MAX_FUNCTION_LINES) -> list[tuple[str, int]]:
+    """Functions longer than ``limit`` lines, docstring excluded, kernels exempt: (name, lines)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) or _is_kernel(node):
+            continue
+        lines = node.end_lineno - node.lineno + 1
+        first = node.body[0]
+        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+            lines -= first.end_lineno - first.lineno + 1
+        if lines > limit:
+            out.append((node.name, lines))
+    return out
+
+
+def test_no_function_over_120_lines_outside_kernels():
+    found = []
+    for path in sorted(SRC.rglob("*.py")):
+        if any(part in path.as_posix() for part in _SIZE_EXEMPT_FOLDERS):
+            continue
+        found += [f"{path.relative_to(SRC)}: {name} has {n} lines (docstring excluded)"
+                  for name, n in long_functions(path.read_text())]
+    assert not found, "split these into named stages:\n" + "\n".join(found)
+
+
+def test_the_size_check_counts_code_not_docstrings_and_exempts_kernels():
+    body = "\n".join(f"    x{i} = {i}" for i in range(121))
+    doc = '    """' + "\n".join(["doc"] * 300) + '"""\n'
+    assert long_functions(f"def f():\n{body}\n") == [("f", 122)]
+    assert long_functions(f"def f():\n{doc}    return 1\n") == []
+    assert long_functions(f"@njit(cache=True)\ndef k():\n{body}\n") == []
+    nested = "\n".join("    " + line for line in body.splitlines())
+    assert long_functions(f"def make():\n    @njit\n    def k():\n{nested}\n    return k\n") == []

@@ -47,3 +47,11 @@ def test_error_text_is_printed_as_written_not_as_markup():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "([lot] index), stations [m]" in " ".join(proc.stderr.split())
+
+
+def test_python_dash_m_runs_the_same_cli_with_its_exit_codes(tmp_path):
+    ok = subprocess.run([sys.executable, "-m", "longprofile", "--version"], capture_output=True, text=True)
+    assert ok.returncode == 0 and __version__ in ok.stdout
+    bad = subprocess.run([sys.executable, "-m", "longprofile", "road", "iri", str(tmp_path / "missing.csv")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr + bad.stdout

@@ -104,9 +104,49 @@ def test_second_run_is_refused_without_overwrite(name, inputs, tmp_path, capsys)
     assert err.startswith("error:") and str(path) in err and "--overwrite" in err
     assert _snapshot(path) == before
     assert not list(tmp_path.glob("*-2.csv"))  # nothing else written either
+    # sentinel bytes in every file of the output: a run that exits 0 and writes nothing cannot pass
+    sentinel = b"sentinel: must be replaced by --overwrite\n"
+    for rel in before:
+        (path / rel if path.is_dir() else path).write_bytes(sentinel)
     assert main(_args(template, inputs, tmp_path, 3) + ["--overwrite"]) == 0
-    assert set(_snapshot(path)) == set(before)  # the same files, replaced
+    after = _snapshot(path)
+    assert set(after) == set(before)  # the same files...
+    stale = [rel for rel, data in after.items() if data == sentinel]
+    assert not stale, f"--overwrite left these files unwritten: {stale}"  # ...replaced
     assert not list(path.parent.glob(".*.tmp*"))  # no temporary file left behind
+
+
+# an input inside the output folder, under a name the command writes there: refused even with --overwrite
+INPUT_IN_OUTPUT = {
+    "road compare": (["road", "compare", "{o}/runs.csv", "{i}/prof2.csv", "-o", "{o}"], "runs.csv"),
+    "road compare (run)": (["road", "compare", "{i}/prof.csv", "{o}/pairs.csv", "-o", "{o}"], "pairs.csv"),
+    "road acceptance": (["road", "acceptance", "{o}/profile_ground.csv", "-o", "{o}"], "profile_ground.csv"),
+    "road acceptance (lots)": (["road", "acceptance", "{o}/lots.csv", "-o", "{o}"], "lots.csv"),
+    "road report": (["road", "report", "{o}/iri_segments.csv", "-o", "{o}"], "iri_segments.csv"),
+    "rail settle --report": (["rail", "settle", "--sensors", "{o}/sensors.csv", "--readings", "{i}/site/readings.csv",
+                              "--survey", "{i}/site/survey.csv", "--monte-carlo", "20", "-o", "{i}/../s-{n}.csv",
+                              "--report", "{o}"], "sensors.csv"),
+}
+
+
+@pytest.mark.parametrize("name", list(INPUT_IN_OUTPUT))
+def test_overwrite_never_replaces_an_input_inside_the_output_folder(name, inputs, tmp_path, capsys, monkeypatch):
+    template, target = INPUT_IN_OUTPUT[name]
+    source = inputs / ("site/sensors.csv" if target == "sensors.csv" else "prof.csv")
+    (tmp_path / target).write_bytes(source.read_bytes())
+    before = _snapshot(tmp_path)
+    import longprofile.io as lio
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("an input was read before the output folder was checked")
+
+    monkeypatch.setattr(lio, "read_profile", no_work)
+    monkeypatch.setattr(lio, "read_rail_site", no_work)
+    capsys.readouterr()
+    assert main(_args(template, inputs, tmp_path, 1) + ["--overwrite"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "would overwrite its input" in err and target in err, err
+    assert _snapshot(tmp_path) == before  # the input's bytes unchanged, nothing written
 
 
 def test_overwrite_never_allows_writing_over_an_input(inputs, tmp_path, capsys):
@@ -142,8 +182,8 @@ def test_failure_while_overwriting_leaves_the_old_file(inputs, tmp_path, monkeyp
         return real(self, fh, *args, **kwargs)
 
     monkeypatch.setattr(report_tables.pd.DataFrame, "to_csv", broken)
-    with pytest.raises(OSError):
-        main(["road", "iri", str(inputs / "prof.csv"), "-o", str(out), "--overwrite"])
+    # one line, exit 2 (the OSError is an OutputError saying what failed and what to do)
+    assert main(["road", "iri", str(inputs / "prof.csv"), "-o", str(out), "--overwrite"]) == 2
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["iri.csv"]  # the temporary file was removed
 
@@ -170,3 +210,14 @@ def test_io_writers_replace_atomically(tmp_path, monkeypatch, writer):
         write()
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def test_vehicle_plots_are_announced_by_the_one_cli_figure_helper(inputs, tmp_path, capsys):
+    import longprofile.cli._vehicle_planar as planar
+    import longprofile.cli._vehicle_vertical as vertical
+
+    assert not hasattr(planar, "_save_figure") and not hasattr(vertical, "_save_figure")  # one helper: _common's
+    png = tmp_path / "drive.png"
+    assert main(["vehicle", "simulate", "--duration", "2", "-o", str(tmp_path / "d.csv"), "--plot", str(png)]) == 0
+    assert f"wrote {png}" in capsys.readouterr().err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -148,15 +148,17 @@ def test_iri_of_a_reconstruct_output_is_the_iri_of_its_profile(recording, tmp_pa
     assert "analysing its profile track 'elevation'" in _err(capsys)
 
 
-def test_iri_warns_when_elevations_are_mm_labelled_m(tmp_path, capsys):
+def test_iri_refuses_elevations_in_mm_labelled_m(tmp_path, capsys):
     x = np.arange(0, 200, 0.25)
     z = 2e-3 * np.sin(2 * np.pi * x / 5.0)  # a rough but real road, in m
     path = tmp_path / "p.csv"
     pd.DataFrame(dict(distance_m=x, left_m=z * 1e3)).to_csv(path, index=False)  # mm values, header says m
+    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 2  # refused, not a warning
+    err = _err(capsys)
+    assert "look like millimetres under a metre label" in err and "left_mm" in err
+    assert not (tmp_path / "i.csv").exists()
+    pd.DataFrame(dict(distance_m=x, left_mm=z * 1e3)).to_csv(path, index=False)  # the unit named: accepted
     assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv")]) == 0
-    assert "beyond any road" in _err(capsys)
-    pd.DataFrame(dict(distance_m=x, left_m=z)).to_csv(path, index=False)
-    assert main(["road", "iri", str(path), "-o", str(tmp_path / "i.csv"), "--overwrite"]) == 0
     assert "beyond any road" not in _err(capsys)
 
 

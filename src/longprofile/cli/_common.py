@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import typer
@@ -24,6 +25,14 @@ OVERWRITE = typer.Option(False, "--overwrite", help="Replace an existing output 
                          "refused; inputs are never overwritten.")
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    """Same file by path or by inode (a symbolic or hard link)."""
+    try:
+        return a.resolve() == b.resolve() or os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
 def _exists_error(what: str, out: Path) -> OutputError:
     return OutputError(f"{what} {out} exists; pass --overwrite to replace it, or choose another path.")
 
@@ -39,8 +48,10 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     """
     out = Path(output)
     for inp in inputs:
-        if inp is not None and Path(inp).exists() and out.exists() and out.resolve() == Path(inp).resolve():
-            raise OutputError(f"output {out} is also an input; choose another output path (inputs are never overwritten).")
+        if inp is not None and Path(inp).exists() and out.exists() and _same_file(out, Path(inp)):
+            how = "" if out.resolve() == Path(inp).resolve() else f" ({inp}, through a hard link)"
+            raise OutputError(f"output {out} is also an input{how}; choose another output path (inputs are never "
+                              "overwritten).")
     if out.is_dir():
         example = f"result{suffixes[0]}" if suffixes else "result.csv"
         raise OutputError(f"output {out} is an existing folder; give a file name, e.g. {out / example}.")
@@ -57,22 +68,17 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     return out
 
 
-def check_output_folder(output: Path, *inputs: Path | None, overwrite: bool = False, what: str = "output") -> Path:
-    """Check an output *folder* before any work: not an input, not a file, and empty unless ``overwrite``.
+def check_output_folder(output: Path, *inputs: Path | None, overwrite: bool = False, what: str = "output",
+                        writes=(), hint: str | None = None) -> Path:
+    """Check an output *folder* before any work (:func:`longprofile.report.report_folder`, nothing created).
 
-    With ``overwrite`` the command replaces the files it writes there; other files in the folder are left alone.
-    The folder is not created here (the writer creates it).
+    Refused: the folder is an input, a file, not empty without ``overwrite``, or one of the files the command
+    writes there (``writes``, e.g. ``REPORT_FILES["road"]``) is an input (even with ``overwrite``). With
+    ``overwrite`` the command replaces the files it writes there; other files in the folder are left alone.
     """
-    out = Path(output)
-    for inp in inputs:
-        if inp is not None and Path(inp).exists() and out.exists() and out.resolve() == Path(inp).resolve():
-            raise OutputError(f"{what} folder {out} is an input; choose another folder.")
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"{what} {out} is a file; give a folder, e.g. {out.with_suffix('')}_out/.")
-    if not overwrite and out.is_dir() and any(out.iterdir()):
-        raise OutputError(f"{what} folder {out} exists and is not empty; pass --overwrite to replace the files "
-                          "this command writes there, or choose another path.")
-    return out
+    from ..report import report_folder
+
+    return report_folder(output, inputs, writes=writes, overwrite=overwrite, create=False, what=what, hint=hint)
 
 
 #: Figure formats ``--plot`` accepts (matplotlib's Agg, PDF and SVG writers).
@@ -90,11 +96,15 @@ def check_plot_path(plot: Path | None, *inputs: Path | None, overwrite: bool = F
     return check_output_path(plot, *inputs, overwrite=overwrite, what="--plot")
 
 
-def save_figure(fig, path: Path, **savefig_kwargs) -> Path:
-    """Save a figure to a path already checked by :func:`check_plot_path`, atomically (temporary file + replace)."""
+def save_figure(fig, path: Path, *, announce: bool = False, **savefig_kwargs) -> Path:
+    """Save a figure to a path already checked by :func:`check_plot_path`, atomically (temporary file + replace);
+    with ``announce``, print ``wrote <path>``."""
     from ..io import save_figure as _save
 
-    return _save(fig, path, **savefig_kwargs)
+    out = _save(fig, path, **savefig_kwargs)
+    if announce:
+        console.print(f"wrote {out}", markup=False, soft_wrap=True)
+    return out
 
 
 def progress():

@@ -25,15 +25,13 @@ def acceptance_command(
     overwrite: bool = OVERWRITE,
 ):
     """Smoothness acceptance: lot IRI/MRI, localized roughness, exclusions, pay factors, grinding, one HTML page."""
-    from ..errors import OutputError
     from ..io import read_profile, write_profile
-    from ..report import write_acceptance_report
+    from ..report import REPORT_FILES, write_acceptance_report
     from ..road import default_spec, read_spec, simulate_grinding, smoothness_acceptance
 
     out = Path(output)
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; the report needs a folder.")
-    check_output_folder(out, file, spec, overwrite=overwrite)
+    check_output_folder(out, file, spec, overwrite=overwrite, writes=REPORT_FILES["acceptance"],
+                        hint=f"the report needs a folder, e.g. -o {out.with_suffix('')}_acceptance/.")
     s = read_spec(spec) if spec is not None else default_spec()
     tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
     profile = read_profile(file, units=elevation_unit, tracks=tracks)

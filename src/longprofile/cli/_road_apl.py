@@ -131,16 +131,16 @@ def identify_command(
 ):
     """Identify the trailer (OE or ARMAX by prediction-error ML, Gauss-Newton) from bench input/output records."""
     from ..errors import InputError
-    from ..io import read_table
+    from ..io import read_sampled_column
     from ..report import plot_identification
-    from ..road.apl import identify_trailer, save_model
+    from ..road.apl import IDENTIFICATION_STRUCTURES, identify_trailer, save_model
 
+    if structure not in IDENTIFICATION_STRUCTURES:  # the flag's values, before reading the files
+        raise InputError(f"--structure must be one of {', '.join(IDENTIFICATION_STRUCTURES)}; got {structure!r}.")
     model_path = check_output_path(model_out, input, output_file, suffixes=(".json",), overwrite=overwrite)
     png = check_plot_path(plot, input, output_file, model_path, overwrite=overwrite)
-    u = read_table(input, required=[input_column], numeric=[input_column])[input_column].to_numpy()
-    y = read_table(output_file, required=[output_column], numeric=[output_column])[output_column].to_numpy()
-    if u.size != y.size:
-        raise InputError(f"{input} has {u.size} rows but {output_file} has {y.size}; they must be sample-aligned.")
+    u = read_sampled_column(input, input_column, dx=dx)
+    y = read_sampled_column(output_file, output_column, dx=dx)
     na, nb, nk = orders
     dt = dx / speed
     with progress() as bar:
@@ -148,10 +148,7 @@ def identify_command(
         model, est = identify_trailer(u, y, speed=speed, dx=dx, orders=orders, structure=structure, nc=nc,
                                       name=f"{structure.upper()}({na},{nb},{nk}) identified from {Path(input).name}")
         bar.advance(task)
-    from ..io import atomic_path
-
-    with atomic_path(model_path) as tmp:  # an older model file is replaced only once the new one is complete
-        save_model(tmp, model, fit=est)
+    save_model(model_path, model, fit=est)  # atomic: an older model file survives a failure
     if plot is not None:
         save_figure(plot_identification(u, y, est, dt=dt), png, dpi=120)
     console.print(f"{structure.upper()} converged in {est.n_iterations} iterations, residual std "

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, check_output_folder, check_plot_path, console
+from ._common import OVERWRITE, check_output_folder, console
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -33,21 +33,15 @@ def compare_command(
     overwrite: bool = OVERWRITE,
 ):
     """Cross-correlate runs with a reference and with each other (Karamihas' method, AASHTO R 56 practice)."""
-    import json
-
-    from ..errors import InputError, OutputError
+    from ..errors import InputError
     from ..io import read_profile
-    from ..report import plot_certification
+    from ..report import REPORT_FILES, write_compare_report
     from ..road import certify_profiler
 
     inputs = [reference, *runs]
     out = Path(output)
-    if any(out.resolve() == Path(p).resolve() for p in inputs):
-        raise OutputError(f"output folder {out} is an input; choose another folder.")
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; give a folder, e.g. -o {out.with_suffix('')}_compare/.")
-    check_output_folder(out, *inputs, overwrite=overwrite)
-    png = check_plot_path(out / "correlation.png", *inputs, overwrite=True) if plot else None
+    check_output_folder(out, *inputs, overwrite=overwrite, writes=REPORT_FILES["compare"],
+                        hint=f"give a folder, e.g. -o {out.with_suffix('')}_compare/.")
     bands = None
     if band is not None:
         try:
@@ -60,19 +54,7 @@ def compare_command(
     thresholds = {k: v for k, v in (("repeatability", repeatability), ("accuracy", accuracy)) if v is not None}
     res = certify_profiler(ref, profiles, tracks=tracks, filter=filter, band=bands, max_offset=max_offset,
                            spacing=spacing, thresholds=thresholds or None, names=[Path(r).name for r in runs])
-    from ..io import atomic_path
-
-    out.mkdir(parents=True, exist_ok=True)
-    for name, frame in (("runs.csv", res.runs), ("pairs.csv", res.pairs)):
-        with atomic_path(out / name) as tmp:  # an older file is replaced only once the new one is complete
-            frame.to_csv(tmp, index=False)
-    summary = {"reference": str(reference), "runs": [str(r) for r in runs], "passed": res.passed,
-               "repeatability": res.repeatability, "accuracy": res.accuracy, "reference_iri_m_per_km":
-               res.reference_iri, "thresholds": res.thresholds, "metadata": res.metadata}
-    with atomic_path(out / "summary.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2, default=float), encoding="utf-8")
-    if png is not None:
-        plot_certification(res, res.comparisons, png)
+    write_compare_report(res, out, reference=reference, runs=runs, plot=plot, overwrite=overwrite)
     for t in res.accuracy:
         rep = res.repeatability[t]
         rep_text = "n/a (one run)" if rep != rep else f"{rep:.3f} (>= {res.thresholds['repeatability']:g})"

@@ -152,10 +152,11 @@ def report_command(
 ):
     """HTML roughness report: profile, IRI per segment, localised roughness, PSD with ISO 8608 class, tables."""
     from ..io import read_profile
-    from ..report import plot_iri, write_road_report
+    from ..report import REPORT_FILES, plot_iri, write_road_report
     from ..road import analyse_roughness
 
-    check_output_folder(output, file, overwrite=overwrite)
+    check_output_folder(output, file, overwrite=overwrite, writes=REPORT_FILES["road"],
+                        hint=f"the report needs a folder, e.g. -o {Path(output).with_suffix('')}_report/.")
     png = check_plot_path(plot, file, overwrite=overwrite)
     _, elevation = _split_units(units, elevation_unit, report_units=False)
     with progress() as bar:

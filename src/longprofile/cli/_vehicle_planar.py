@@ -28,12 +28,6 @@ def _vehicle(path: Path | None):
     return default_vehicle() if path is None else load_vehicle(path)
 
 
-def _save_figure(fig, path: Path):
-    """Save to a ``--plot`` path already checked (before the work) by :func:`check_plot_path`."""
-    out = save_figure(fig, path, dpi=110)
-    console.print(f"wrote {out}")
-
-
 def simulate(
     output: Path = typer.Option(..., "--output", "-o", help="Log file to write (.csv or .parquet)."),
     scenario: str = typer.Option("paper", "--scenario", "-s",
@@ -58,7 +52,7 @@ def simulate(
     if plot is not None:
         from ..report import plot_drive
 
-        _save_figure(plot_drive(sim), plot)
+        save_figure(plot_drive(sim), plot, dpi=110, announce=True)
 
 
 def slope(
@@ -100,7 +94,7 @@ def slope(
         from ..report import plot_slope_estimate
 
         # the true_* columns of a simulated log are overlaid; the truth is on the original time base
-        _save_figure(plot_slope_estimate(est, frame if resample is None else None), plot)
+        save_figure(plot_slope_estimate(est, frame if resample is None else None), plot, dpi=110, announce=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -12,12 +12,6 @@ vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulat
                                 "thesis 003.", no_args_is_help=True)
 
 
-def _save_figure(fig, path: Path):
-    """Save to a ``--plot`` path already checked (before the work) by :func:`check_plot_path`."""
-    out = save_figure(fig, path, dpi=110)
-    console.print(f"wrote {out}")
-
-
 def _car_damper(car: str):
     from ..errors import InputError
     from ..vehicle import CARS, MRDamperParams
@@ -93,7 +87,7 @@ def simulate(
     if plot is not None:
         from ..report import plot_vertical_simulation
 
-        _save_figure(plot_vertical_simulation(sim, config), plot)
+        save_figure(plot_vertical_simulation(sim, config), plot, dpi=110, announce=True)
 
 
 @vertical_app.command("estimate")
@@ -166,7 +160,7 @@ def estimate(
     if plot is not None:
         from ..report import plot_vertical_estimate
 
-        _save_figure(plot_vertical_estimate(est, frame), plot)
+        save_figure(plot_vertical_estimate(est, frame), plot, dpi=110, announce=True)
 
 
 @vertical_app.command("tables")
@@ -205,7 +199,7 @@ def tables(
     if plot is not None:
         from ..report import plot_thesis_tables
 
-        _save_figure(plot_thesis_tables(table), plot)
+        save_figure(plot_thesis_tables(table), plot, dpi=110, announce=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -34,16 +34,15 @@ def simulate_command(
     overwrite: bool = OVERWRITE,
 ):
     """Simulate an inclinometer site with known settlement (ground truth in truth.csv)."""
-    from ..errors import InputError, OutputError
+    from ..errors import InputError
     from ..io import write_table
     from ..rail import simulate_site
 
     if fmt not in ("csv", "parquet"):
         raise InputError(f"--format must be csv or parquet; got {fmt!r}.")
-    if Path(output).exists() and not Path(output).is_dir():
-        raise OutputError(f"--output {output} is an existing file; rail simulate writes a folder of tables. "
-                          "Choose a folder path.")
-    check_output_folder(output, overwrite=overwrite)
+    check_output_folder(output, overwrite=overwrite, what="--output",
+                        hint="rail simulate writes a folder of tables and never replaces an existing file; choose "
+                             f"a folder path, e.g. {Path(output).with_suffix('')}_site/.")
     png = check_plot_path(plot, overwrite=overwrite)
     site = simulate_site(preset, seed=seed, sampling_minutes=sampling_minutes, n_days=days)
     out = Path(output)
@@ -107,7 +106,9 @@ def settle_command(
     out = check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, *inputs, overwrite=overwrite)
     if report is not None:
-        check_output_folder(report, *inputs, overwrite=overwrite, what="--report")
+        from ..report import REPORT_FILES
+
+        check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"])
     site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
     settings = SettlementSettings(
         thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
@@ -129,7 +130,7 @@ def settle_command(
     if report is not None:
         from ..report import write_rail_report
 
-        write_rail_report(res, report, overwrite=overwrite)
+        write_rail_report(res, report, inputs=inputs, overwrite=overwrite)
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     worst = -res.dz[-1].min()

@@ -4,6 +4,7 @@ read_table   -- read a CSV or Parquet table with required/numeric column checks.
 write_table  -- write a table as CSV or Parquet by suffix.
 read_profile -- read a road profile (CSV/Parquet with unit-suffixed columns, or ERD); units never guessed.
 read_apl_signal -- read an APL recording (distance_m + signal column, unit checked) as a Profile.
+read_sampled_column -- one column of a table sampled dx apart (stations checked), m.
 is_reconstruct_output -- whether a table is a `road reconstruct` output (one profile track, 'elevation').
 write_profile -- write a profile as CSV, Parquet or ERD with its units in the header.
 read_erd, write_erd -- UMTRI/ProVAL ERD text files (ERDFILEV2.00, several channels).
@@ -17,14 +18,11 @@ read_rail_site -- read a rail inclinometer site (sensors, readings, survey, cont
 from ._atomic import atomic_path, atomic_write_bytes, save_figure
 from ._erd import read_erd, write_erd
 from ._profile_files import read_profile, write_profile
-from ._profiles import is_reconstruct_output, read_apl_signal
+from ._profiles import is_reconstruct_output, read_apl_signal, read_sampled_column
+from ._rail import read_rail_site
 from ._report_tables import read_report_table, write_report_table
 from ._tables import read_table, write_table
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
-           "write_report_table", "read_report_table", "read_apl_signal", "is_reconstruct_output",
-           "atomic_path", "atomic_write_bytes", "save_figure"]
-
-from ._rail import read_rail_site  # noqa: E402  (rail site tables, paper 004)
-
-__all__ += ["read_rail_site"]
+           "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "is_reconstruct_output",
+           "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site"]

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..core import unit_factor
 from ._erd import read_erd, write_erd
+from ._plausible import check_profile_plausible
 from ._profiles import read_profile_table, write_profile_table
 
 __all__ = ["read_profile", "write_profile"]
@@ -40,10 +41,11 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     Raises
     ------
     UnitsError
-        Missing or unknown units.
+        Missing or unknown units; elevations no terrain has or a median grade above 100 % (millimetres under a
+        metre label; ``io._plausible`` gives the limits).
     InputFormatError
         Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
-        names the line).
+        names the line), a standard-deviation column without its track, a last row cut short.
 
     Notes
     -----
@@ -51,8 +53,11 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     """
     path = Path(path)
     if path.suffix.lower() == ".erd":
-        return read_erd(path, units=units, tracks=tracks)
-    return read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
+        profile = read_erd(path, units=units, tracks=tracks)
+    else:
+        profile = read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
+    check_profile_plausible(profile, path)
+    return profile
 
 
 def write_profile(profile, path, *, units: str = "m") -> Path:

@@ -12,8 +12,8 @@ from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, UnitsError
 from ._tables import read_table, write_table
 
-__all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "RECONSTRUCT_COLUMNS",
-           "is_reconstruct_output"]
+__all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "read_sampled_column",
+           "RECONSTRUCT_COLUMNS", "is_reconstruct_output"]
 
 #: Columns of a ``road reconstruct`` output table: one profile (``elevation``) plus diagnostics.
 RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
@@ -35,6 +35,9 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     if units is not None:
         unit_factor(units)
     df = read_table(path)
+    if len(df) == 0:
+        raise InputFormatError(f"{path}: the file has a header ({', '.join(map(str, df.columns))}) but no data rows; "
+                               "a profile needs one row per station.")
     fmt_line = (lambda i: f"line {i + 2}") if path.suffix.lower() in (".csv", ".txt") else (lambda i: f"row {i}")
     parsed = {c: _split(str(c)) for c in df.columns}
     if distance_column is None:
@@ -64,8 +67,14 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
                              "or fix the header.")
         if base.lower().endswith("_std"):
             std_columns[base[:-4]] = (c, unit)
+        elif base.lower() == "std":  # `road reconstruct`'s std_m: the standard deviation of elevation_m
+            std_columns["elevation"] = (c, unit)
         else:
             columns[base] = (c, unit)
+    orphans = [c for t, (c, _) in std_columns.items() if t not in columns]
+    if orphans:
+        raise InputFormatError(f"{path}: column {orphans[0]!r} is a standard deviation but the file has no column of "
+                               f"its elevations ({list(df.columns)}); a standard deviation is never read as a track.")
     if [c for c in df.columns if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS):
         # a `road reconstruct` output holds one profile: elevation_m with its std_m (raw_m is the undetrended
         # estimate, a diagnostic, not a track)
@@ -172,3 +181,46 @@ def read_apl_signal(path, *, column: str = "apl_m"):
                          "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
                          "or convert it to metres.")
     return Profile(table["distance_m"].to_numpy(), values, name=path.stem)
+
+
+def read_sampled_column(path, column: str, *, dx: float) -> np.ndarray:
+    """One column of a table sampled at a constant spacing ``dx`` (a bench record for identification), m.
+
+    Parameters
+    ----------
+    path : path-like
+        CSV or Parquet with ``column`` and, optionally, a station column (``distance_m``, ``station_<u>``, ...).
+    column : str
+        The signal column; a unit suffix (``apl_mm``) converts it to metres, none means metres.
+    dx : float
+        The spacing the samples must have, m. With a station column the stations must increase strictly by
+        ``dx`` (to 1e-6 of it); without one the rows are taken as samples ``dx`` apart.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+
+    Raises
+    ------
+    InputFormatError
+        Missing column, non-numeric cell, stations not increasing or not ``dx`` apart (the line is named).
+    """
+    path = Path(path)
+    table = read_table(path, required=[column], numeric=[column])
+    if len(table) == 0:
+        raise InputFormatError(f"{path}: the file has a header ({', '.join(map(str, table.columns))}) but no data "
+                               "rows.")
+    stations = [c for c in table.columns if _split(str(c))[0].lower() in _DISTANCE_NAMES and _split(str(c))[1]]
+    if stations:
+        c = stations[0]
+        x = pd.to_numeric(table[c], errors="coerce").to_numpy(float) * unit_factor(_split(str(c))[1], what="distance")
+        step = np.diff(x)
+        bad = ~(np.abs(step - dx) <= 1e-6 * dx)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0]) + 1
+            what = "is not greater than" if not step[i - 1] > 0 else f"is {step[i - 1]:.6g} m after"
+            raise InputFormatError(f"{path}: line {i + 2}: station {x[i]:.6g} m {what} the previous one "
+                                   f"{x[i - 1]:.6g} m; the samples must be dx = {dx:g} m apart (pass --dx, or "
+                                   "resample the record).")
+    _, unit = _split(column)
+    return table[column].to_numpy(float) * (1.0 if unit is None else unit_factor(unit))

@@ -41,6 +41,7 @@ def _read_csv(path: Path) -> pd.DataFrame:
                 break
             leading += 1
     df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading)
+    _check_last_row(path, df.shape[1])
     trailing = _trailing_blank_lines(path)
     if trailing:
         filled = df.notna().any(axis=1).to_numpy()
@@ -51,13 +52,43 @@ def _read_csv(path: Path) -> pd.DataFrame:
     return df
 
 
+def _tail(path: Path, size: int = 65536) -> tuple[int, bytes]:
+    """The last ``size`` bytes of a file and the offset where they start."""
+    with open(path, "rb") as fh:
+        start = max(0, fh.seek(0, 2) - size)
+        fh.seek(start)
+        return start, fh.read()
+
+
+def _check_last_row(path: Path, n_columns: int) -> None:
+    """Refuse a last data row with fewer fields than the header: a file cut while copying or logging.
+
+    pandas fills the missing fields of a short row with NaN, which a reader would then bridge as a gap (or
+    take the part of a number that survived as a value). A last row of empty cells (``,,``) has all its
+    fields and is a row of missing values, not a cut.
+    """
+    import csv
+
+    if n_columns < 2:
+        return
+    start, tail = _tail(path)
+    lines = tail.split(b"\n")
+    data = [j for j, ln in enumerate(lines) if ln.strip() and not ln.strip().startswith(b"#")]
+    if len(data) < 2:
+        return
+    last = lines[data[-1]].decode("utf-8", errors="replace").rstrip("\r")
+    fields = next(csv.reader([last], skipinitialspace=True), [])
+    if len(fields) < n_columns:
+        with open(path, "rb") as fh:
+            before = fh.read(start).count(b"\n")
+        raise InputFormatError(f"{path}: line {before + data[-1] + 1} (the last) has {len(fields)} of the header's "
+                               f"{n_columns} fields: the file looks cut short (an interrupted copy or logger); remove "
+                               "that line or export the file again.")
+
+
 def _trailing_blank_lines(path: Path) -> int:
     """Number of whitespace-only lines at the end of a text file (comment lines between them not counted)."""
-    with open(path, "rb") as fh:
-        size = fh.seek(0, 2)
-        fh.seek(max(0, size - 65536))
-        tail = fh.read()
-    lines = tail.split(b"\n")
+    lines = _tail(path)[1].split(b"\n")
     if lines and lines[-1] == b"":
         lines.pop()  # the final newline ends the last line
     count = 0
@@ -98,6 +129,8 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         raise InputFormatError(f"{path}: the file is empty; expected a header row and one row per sample.")
     try:
         df = _read_csv(path) if fmt == "csv" else pd.read_parquet(path)
+    except InputFormatError:
+        raise
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
     if fmt == "csv" and df.shape[1] == 1 and any(sep in str(df.columns[0]) for sep in (";", "\t")):

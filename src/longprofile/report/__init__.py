@@ -9,6 +9,8 @@ plot_profile -- figure of a profile's tracks along the road (envelope for long p
 write_network_report -- network report over a batch results folder (routes, IRI histogram, worst segments, failures).
 write_acceptance_report -- smoothness acceptance page: lots, localized roughness map, grind list, histogram.
 plot_certification -- cross-correlation against offset of profiler runs vs the reference (R 56 practice).
+write_compare_report -- `road compare` output: runs.csv, pairs.csv, summary.json (and correlation.png).
+report_folder, REPORT_FILES -- the one output-folder check (inputs never overwritten), and the files each report writes.
 plot_recording, plot_reconstructions, plot_identification -- APL figures: recording, reconstructions, identification.
 plot_settlement, plot_true_settlement, write_rail_report -- rail settlement figures and HTML report (paper 004).
 plot_derivative, plot_derivative_comparison -- a derivative estimate with its band; estimators compared (paper 002).
@@ -19,6 +21,8 @@ plot_kalman_smoothing -- the state-space demo: Kalman filter vs RTS smoother acr
 
 from ._acceptance import plot_certification, write_acceptance_report
 from ._apl import plot_identification, plot_reconstructions, plot_recording
+from ._compare import write_compare_report
+from ._html import REPORT_FILES, report_folder
 from ._network import write_network_report
 from ._profile_plot import plot_profile
 from ._rail import plot_settlement, plot_true_settlement, write_rail_report
@@ -37,7 +41,8 @@ from ._vehicle_vertical import plot_thesis_tables, plot_vertical_estimate, plot_
 
 __all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LIMITS", "plot_profile"]
 __all__ += ["write_network_report"]
-__all__ += ["write_acceptance_report", "plot_certification"]
+__all__ += ["write_acceptance_report", "plot_certification", "write_compare_report"]
+__all__ += ["report_folder", "REPORT_FILES"]
 __all__ += ["plot_recording", "plot_reconstructions", "plot_identification"]
 __all__ += ["plot_slope_estimate", "plot_drive", "plot_sensitivity", "plot_speed_measurement"]
 __all__ += ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_tables"]

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_write_bytes
-from ._html import report_folder
+from ..io import atomic_path, atomic_write_bytes
+from ._html import REPORT_FILES, report_folder, write_text
 
 __all__ = ["plot_certification", "write_acceptance_report"]
 
-_ACCEPTANCE_FILES = ("index.html", "lots.csv", "localized.parquet", "defects.csv", "grinds.csv", "histogram.csv",
-                     "summary.json", "lots.png", "localized.png", "histogram.png", "grinds.png")
+#: Files of the acceptance report, with the ground profile the CLI writes beside it (``road acceptance``).
+_ACCEPTANCE_FILES = REPORT_FILES["acceptance"]
 
 
 def _figure(width=10.0, height=3.4):
@@ -65,7 +65,8 @@ def _write_csv(frame, path: Path) -> None:
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    pacsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), path)
+    with atomic_path(path) as tmp:  # an older file is replaced only once the new one is complete
+        pacsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), tmp)
 
 
 def _table(frame, floatfmt="{:.3f}", max_rows=500) -> str:
@@ -118,7 +119,8 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         tables["grinds.csv"] = grinding.grinds
     for name, frame in tables.items():
         if name.endswith(".parquet"):  # one row per sample: Parquet (a CSV of 400k rows takes ~0.6 s)
-            frame.to_parquet(out / name, index=False)
+            with atomic_path(out / name) as tmp:
+                frame.to_parquet(tmp, index=False)
         else:
             _write_csv(frame, out / name)
         written.append(out / name)
@@ -172,8 +174,7 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         summary["grinding"] = {"threshold": grinding.threshold, "achieved": grinding.achieved,
                                "areas": int(grinding.grinds["area"].nunique()) if len(grinding.grinds) else 0,
                                **grinding.metadata}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float), encoding="utf-8")
-    written.append(out / "summary.json")
+    written.append(write_text(out / "summary.json", json.dumps(summary, indent=2, default=float)))
     ps = result.pay_summary
     pay_line = ("" if ps.get("mean_pay_factor") is None else
                 f"<p>Length-weighted mean pay factor: <b>{ps['mean_pay_factor']:.4f}</b> "
@@ -205,8 +206,7 @@ Moving average: {ma_reason}.</p>
 {grind_html}
 <h2>Histogram</h2>{img('histogram.png')}{_table(hist)}
 <p>Tables: {', '.join(tables)}; summary.json.</p></body></html>"""
-    (out / "index.html").write_text(page, encoding="utf-8")
-    return [out / "index.html"] + written
+    return [write_text(out / "index.html", page)] + written
 
 
 def plot_certification(result, comparisons, path) -> Path:

@@ -5,49 +5,98 @@ from __future__ import annotations
 import base64
 import html
 import io
+import os
 from pathlib import Path
 
 from ..errors import OutputError
-from ..io import atomic_write_bytes
+from ..io import atomic_path, atomic_write_bytes
 
-__all__ = ["report_folder", "png_bytes", "write_figures", "img_tag"]
+__all__ = ["REPORT_FILES", "report_folder", "png_bytes", "write_figures", "img_tag", "write_csv", "write_text"]
+
+#: The files each report writes into its folder (an input of one of these names there is never overwritten).
+REPORT_FILES: dict[str, tuple[str, ...]] = {
+    "road": ("index.html", "iri_segments.csv", "localized_roughness.csv", "psd.csv", "iso8608.csv",
+             "waveband_energy.csv", "profile.png", "iri.png", "localized_roughness.png", "psd.png"),
+    "acceptance": ("index.html", "lots.csv", "localized.parquet", "defects.csv", "grinds.csv", "histogram.csv",
+                   "summary.json", "lots.png", "localized.png", "histogram.png", "grinds.png", "profile_ground.csv"),
+    "compare": ("runs.csv", "pairs.csv", "summary.json", "correlation.png"),
+    "network": ("index.html", "iri_histogram.png", "worst_routes.png", "routes.csv", "worst_segments.csv",
+                "failed.csv"),
+    "rail": ("index.html", "profiles_by_week.png", "through_time.png", "settlement_map.png", "initial_profile.png",
+             "controls.png", "settlement.csv", "alarms.csv", "sensors.csv"),
+}
 
 
-def report_folder(outdir, inputs=(), *, writes=(), overwrite: bool = True) -> Path:
-    """The report folder, created; refused when it is an input, would overwrite an input, or a file is in the way.
+def report_folder(outdir, inputs=(), *, writes=(), overwrite: bool = True, create: bool = True,
+                  what: str = "output", hint: str | None = None) -> Path:
+    """Check (and create) an output folder: the one check of every command and report that writes a folder.
 
-    With ``overwrite=False`` an existing folder that is not empty is refused too (the CLI's default; the
-    library default True replaces the files the report writes and leaves the others alone).
+    Refused (:class:`~longprofile.errors.OutputError`, one line) when the folder is one of ``inputs``, a file is
+    in the way, it exists and is not empty while ``overwrite`` is False, or one of the files it would write
+    (``writes``) is an input — the last even with ``overwrite``: inputs are never overwritten.
 
     Parameters
     ----------
     outdir : path-like
     inputs : iterable of path-like or None
-        The report's inputs (files or folders).
+        The inputs (files or folders).
     writes : iterable of str
-        File names the report writes into the folder (an input of that name there would be overwritten).
+        File names written into the folder (e.g. ``REPORT_FILES["road"]``).
+    overwrite : bool, default True
+        False refuses an existing folder that is not empty (the CLI's default; True replaces the files written
+        there and leaves the others alone).
+    create : bool, default True
+        Create the folder. False only checks (a command's check before any work).
+    what : str
+        How the folder is named in the messages (``"output"``, ``"--report"``).
+    hint : str, optional
+        What to do when ``outdir`` is a file (default: give a folder, with an example).
     """
     out = Path(outdir)
-    names = set(writes)
+    resolved = out.resolve()
+    targets = {(out / name).resolve(): name for name in writes}
+    inputs = [Path(p) for p in inputs if p is not None]
     for inp in inputs:
-        if inp is None:
-            continue
-        p = Path(inp).resolve()
-        if p == out.resolve():
-            raise OutputError(f"the report folder {out} is an input; choose another folder, e.g. -o {Path(inp).name}_report/.")
-        if p.parent == out.resolve() and p.name in names:
-            raise OutputError(f"the report would overwrite its input {inp} (it writes {p.name} into {out}); "
-                              "choose another folder.")
+        if inp.resolve() == resolved:
+            raise OutputError(f"{what} folder {out} is an input; choose another folder (inputs are never "
+                              "overwritten).")
     if out.exists() and not out.is_dir():
-        raise OutputError(f"output {out} is a file; the report needs a folder, e.g. -o {out.with_suffix('')}_report/.")
+        raise OutputError(f"{what} {out} is a file; "
+                          + (hint or f"give a folder, e.g. {out.with_suffix('')}_out/."))
     if not overwrite and out.is_dir() and any(out.iterdir()):
-        raise OutputError(f"output folder {out} exists and is not empty; pass --overwrite to replace the files "
+        raise OutputError(f"{what} folder {out} exists and is not empty; pass --overwrite to replace the files "
                           "this command writes there, or choose another path.")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc.strerror or exc}; choose another folder.") from None
+    linked = {}  # written files that exist and are an input through a hard link
+    for target, name in targets.items():
+        for inp in inputs:
+            try:
+                if target.is_file() and inp.is_file() and os.path.samefile(target, inp):
+                    linked[inp.resolve()] = name
+            except OSError:
+                pass
+    for inp in inputs:
+        name = targets.get(inp.resolve()) or linked.get(inp.resolve())
+        if name is not None:
+            raise OutputError(f"this would overwrite its input {inp} (it writes {name} into {out}); choose another "
+                              "folder (inputs are never overwritten).")
+    if create:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"cannot create the folder {out}: {exc.strerror or exc}; choose another folder.") from None
     return out
+
+
+def write_csv(frame, path: Path) -> Path:
+    """``frame.to_csv(path, index=False)`` through a temporary file (an older file survives a failure)."""
+    with atomic_path(path) as tmp:
+        frame.to_csv(tmp, index=False)
+    return Path(path)
+
+
+def write_text(path: Path, text: str) -> Path:
+    """UTF-8 text through a temporary file (an older file survives a failure)."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def png_bytes(fig, **savefig_kwargs) -> bytes:

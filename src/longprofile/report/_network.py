@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._html import img_tag, report_folder, write_figures
+from ._html import REPORT_FILES, img_tag, report_folder, write_csv, write_figures, write_text
 from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _table_html
 
 __all__ = ["write_network_report", "plot_network_routes", "plot_iri_histogram"]
@@ -145,8 +145,7 @@ def _failed_html(failed, limit=500) -> str:
     return f"<table><thead><tr><th>file</th><th class='l'>error</th></tr></thead><tbody>{rows}</tbody></table>{more}"
 
 
-_REPORT_FILES = ("index.html", "iri_histogram.png", "worst_routes.png", "routes.csv", "worst_segments.csv",
-                 "failed.csv")
+_REPORT_FILES = REPORT_FILES["network"]
 
 
 def write_network_report(summary, outdir, *, title: str | None = None, inputs=(),
@@ -170,7 +169,7 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     list of Path
         Files written, ``index.html`` first.
     """
-    out = report_folder(outdir, inputs, overwrite=overwrite)
+    out = report_folder(outdir, inputs, writes=_REPORT_FILES, overwrite=overwrite)
     res = summary.results
     counts = summary.counts
     n_files = len(res.manifest)
@@ -181,8 +180,7 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     tables = {"routes.csv": summary.routes, "worst_segments.csv": summary.worst, "failed.csv": summary.failed}
     written = []
     for fname, df in tables.items():
-        df.to_csv(out / fname, index=False)
-        written.append(out / fname)
+        written.append(write_csv(df, out / fname))
 
     # figures: condition strips (all routes up to MAX_ROUTES_DRAWN, by name), a few worst routes, the histogram
     routes = summary.routes
@@ -280,7 +278,5 @@ longprofile {html.escape(str(version))}. Files in this folder: {' · '.join(html
 Definitions and assumptions: docs/batch.md.</p>
 </body></html>
 """
-    index = out / "index.html"
-    index.write_text(page, encoding="utf-8")
-    written.insert(0, index)
+    written.insert(0, write_text(out / "index.html", page))
     return written

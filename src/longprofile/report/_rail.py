@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..errors import OutputError
 from ..io import atomic_write_bytes
+from ._html import REPORT_FILES, report_folder, write_csv, write_text
 
 __all__ = ["plot_settlement", "plot_true_settlement", "write_rail_report"]
 
@@ -73,12 +73,7 @@ def plot_settlement(result, path, *, n_days: int = 6) -> Path:
                  fontsize=9)
     from ..io import save_figure
 
-    path = Path(path)
-    try:
-        save_figure(fig, path, dpi=110)  # temporary file + os.replace: an older figure survives a failure
-    except OSError as exc:
-        raise OutputError(f"cannot write the plot {path}: {exc}") from None
-    return path
+    return save_figure(fig, Path(path), dpi=110)  # temporary file + os.replace; OSError -> OutputError there
 
 
 def plot_true_settlement(truth, path, *, n_days: int = 6) -> Path:
@@ -104,12 +99,7 @@ def plot_true_settlement(truth, path, *, n_days: int = 6) -> Path:
     ax.set_xlabel("station x (m)"); ax.set_ylabel("true altitude change (mm)"); ax.legend(fontsize=7)
     from ..io import save_figure
 
-    path = Path(path)
-    try:
-        save_figure(fig, path, dpi=110)  # temporary file + os.replace: an older figure survives a failure
-    except OSError as exc:
-        raise OutputError(f"cannot write the plot {path}: {exc}") from None
-    return path
+    return save_figure(fig, Path(path), dpi=110)  # temporary file + os.replace; OSError -> OutputError there
 
 
 def _png(fig) -> bytes:
@@ -232,7 +222,8 @@ def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
-def write_rail_report(result, outdir, *, title: str = "Track settlement report", overwrite: bool = True) -> list[Path]:
+def write_rail_report(result, outdir, *, title: str = "Track settlement report", inputs=(),
+                      overwrite: bool = True) -> list[Path]:
     """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
 
     Parameters
@@ -241,6 +232,9 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     outdir : path-like
         Created if needed.
     title : str
+    inputs : sequence of path-like or None
+        The site's tables (or folder), never overwritten (:class:`~longprofile.errors.OutputError` when the
+        report would write over one of them).
     overwrite : bool, default True
         False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
 
@@ -249,14 +243,8 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     list of Path
         Files written.
     """
-    out = Path(outdir)
-    if not overwrite and out.is_dir() and any(out.iterdir()):
-        raise OutputError(f"output folder {out} exists and is not empty; pass --overwrite to replace the files "
-                          "this command writes there, or choose another path.")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputError(f"cannot create the report folder {out}: {exc}") from None
+    out = report_folder(outdir, inputs, writes=REPORT_FILES["rail"], overwrite=overwrite, what="report",
+                        hint=f"the report needs a folder, e.g. {Path(outdir).with_suffix('')}_report/.")
     figs = {"profiles_by_week": _weekly_figure(result), "through_time": _time_figure(result),
             "settlement_map": _map_figure(result), "initial_profile": _initial_figure(result)}
     if result.controls is not None:
@@ -270,8 +258,8 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
         written.append(p)
         imgs[name] = base64.b64encode(data).decode()
     table = result.to_table()
-    p = out / "settlement.csv"; table.to_csv(p, index=False); written.append(p)
-    p = out / "alarms.csv"; result.alarms.to_csv(p, index=False); written.append(p)
+    written.append(write_csv(table, out / "settlement.csv"))
+    written.append(write_csv(result.alarms, out / "alarms.csv"))
     health = pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
                            "detail": result.health.detail, "loo_score": result.health.loo_score,
                            "thermal_coef_deg_per_c": result.daily.thermal_coef,
@@ -279,7 +267,7 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
                            "initial_z_m": result.initial.z_mean, "initial_z_std_m": result.initial.z_std,
                            "initial_angle_deg": np.rad2deg(np.arctan(result.initial.slope_mean)),
                            "initial_angle_std_deg": np.rad2deg(result.initial.slope_std)})
-    p = out / "sensors.csv"; health.to_csv(p, index=False); written.append(p)
+    written.append(write_csv(health, out / "sensors.csv"))
     st = result.settings
     flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
     maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],
@@ -327,7 +315,5 @@ least {st.get('alarm_probability')}); every station-day is in alarms.csv.</p>{_t
 <h2>Maximum settlement (Monte Carlo, §4.3)</h2>{_table_html(maxs)}
 <h2>Initial profile and angles (§4.4)</h2><img src="data:image/png;base64,{imgs['initial_profile']}">
 <p>Tables: settlement.csv, alarms.csv, sensors.csv.</p></body></html>"""
-    p = out / "index.html"
-    p.write_text(page, encoding="utf-8")
-    written.insert(0, p)
+    written.insert(0, write_text(out / "index.html", page))
     return written

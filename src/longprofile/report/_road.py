@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..io import save_figure
-from ._html import img_tag, report_folder, write_figures
+from ._html import REPORT_FILES, img_tag, report_folder, write_csv, write_figures, write_text
 
 __all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report", "road_report_tables",
            "road_report_figures"]
@@ -250,8 +250,7 @@ def _condition(v, limits):
 
 
 #: Files the report writes into its folder (an input with one of these names there would be overwritten).
-_REPORT_FILES = ("index.html", "iri_segments.csv", "localized_roughness.csv", "psd.csv", "iso8608.csv",
-                 "waveband_energy.csv", "profile.png", "iri.png", "localized_roughness.png", "psd.png")
+_REPORT_FILES = REPORT_FILES["road"]
 
 
 def road_report_tables(analysis, *, reference=None, reference_label: str = "reference") -> dict[str, pd.DataFrame]:
@@ -415,9 +414,7 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
     tables = road_report_tables(analysis, reference=reference, reference_label=reference_label)
     for fname, df in tables.items():
-        path = out / fname
-        df.to_csv(path, index=False)
-        written.append(path)
+        written.append(write_csv(df, out / fname))
     figs = road_report_figures(analysis, reference=reference, reference_label=reference_label, limits=limits)
     paths, images = write_figures(figs, out)
     written.extend(paths)
@@ -438,7 +435,5 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
         window=f"{loc.window:g}", threshold=f"{loc.threshold:g}",
         files=[html.escape(f) for f in list(tables) + list(figs)],
         **_section_html(analysis, tables, images, limits))
-    index = out / "index.html"
-    index.write_text(page, encoding="utf-8")
-    written.insert(0, index)
+    written.insert(0, write_text(out / "index.html", page))
     return written

@@ -106,27 +106,45 @@ def plot_drive(simulation, *, title: str = ""):
     return fig
 
 
-def plot_sensitivity(simulation, errors: dict, *, title: str = ""):
-    """Slope error over time for each case of :func:`sensitivity_study`, with the true grade and speed."""
+def _slope_error_figure(simulation, twin, twin_label: str, curves, *, band_label: str, error_label: str,
+                        ncol: int, ylim=None, twin_line_label: str | None = None):
+    """The two-panel figure of :func:`plot_sensitivity` and :func:`plot_speed_measurement`.
+
+    Top: the true grade, with ``twin`` (grey) on a twin axis labelled ``twin_label``; bottom: the slope-error
+    ``curves`` (``(values, plot keyword arguments)`` pairs) over the ±0.3° target band; a grid on both panels.
+    Returns ``(fig, axes)``.
+    """
     from matplotlib.figure import Figure
 
     t = simulation.log.time
     fig = Figure(figsize=(9.0, 6.0), layout="constrained")
     ax = fig.subplots(2, 1, sharex=True)
     ax[0].plot(t, np.degrees(simulation.truth.slope), color="k", label="true grade [deg]")
-    ax0b = ax[0].twinx()
-    ax0b.plot(t, simulation.truth.vx, color="C7", lw=0.8, label="V_x [m/s]")
-    ax0b.set_ylabel("V_x [m/s]", color="C7")
     ax[0].set_ylabel("grade [deg]")
+    ax0b = ax[0].twinx()
+    ax0b.plot(t, twin, color="C7", lw=0.8, **({} if twin_line_label is None else {"label": twin_line_label}))
+    ax0b.set_ylabel(twin_label, color="C7")
     ax[0].legend(loc="upper left", fontsize=7)
-    for k, e in errors.items():
-        ax[1].plot(t, e, lw=1.4 if k == "nominal" else 0.9, color="k" if k == "nominal" else None, label=k)
-    ax[1].axhspan(-0.3, 0.3, color="g", alpha=0.1, label="±0.3° target")
-    ax[1].set_ylabel("slope error [deg]")
+    for values, style in curves:
+        ax[1].plot(t, values, **style)
+    # the band after the curves: the legend lists the curves first
+    ax[1].axhspan(-0.3, 0.3, color="g", alpha=0.1, label=band_label)
+    if ylim is not None:
+        ax[1].set_ylim(*ylim)
+    ax[1].set_ylabel(error_label)
     ax[1].set_xlabel("time [s]")
-    ax[1].legend(fontsize=7, ncol=3)
+    ax[1].legend(fontsize=7, ncol=ncol)
     for a in ax:
         a.grid(alpha=0.3)
+    return fig, ax
+
+
+def plot_sensitivity(simulation, errors: dict, *, title: str = ""):
+    """Slope error over time for each case of :func:`sensitivity_study`, with the true grade and speed."""
+    curves = [(e, {"lw": 1.4 if k == "nominal" else 0.9, "color": "k" if k == "nominal" else None, "label": k})
+              for k, e in errors.items()]
+    fig, _ = _slope_error_figure(simulation, simulation.truth.vx, "V_x [m/s]", curves, band_label="±0.3° target",
+                                 error_label="slope error [deg]", ncol=3, twin_line_label="V_x [m/s]")
     fig.suptitle(title or f"Slope sensitivity to the vehicle model ({simulation.scenario} drive)")
     return fig
 
@@ -136,28 +154,13 @@ def plot_speed_measurement(simulation, estimates: dict, *, title: str = ""):
 
     ``estimates`` maps (method, speed_measurement) to a SlopeEstimate of ``simulation.log``.
     """
-    from matplotlib.figure import Figure
-
-    t = simulation.log.time
     tr = simulation.truth
-    fig = Figure(figsize=(9.0, 6.0), layout="constrained")
-    ax = fig.subplots(2, 1, sharex=True)
-    ax[0].plot(t, np.degrees(tr.slope), color="k", label="true grade [deg]")
-    ax[0].set_ylabel("grade [deg]")
-    ax0b = ax[0].twinx()
-    ax0b.plot(t, tr.accel_x, color="C7", lw=0.8)
-    ax0b.set_ylabel("a_x (specific force) [m/s²]", color="C7")
-    ax[0].legend(loc="upper left", fontsize=7)
     styles = {"rear-mean": ":", "robust": "-"}
-    for (method, sm), est in estimates.items():
-        ax[1].plot(t, np.degrees(est.slope - tr.slope), ls=styles.get(sm, "-"), lw=1.0,
-                   color="C0" if method == "cascade" else "C3", label=f"{method}, V_x {sm}")
-    ax[1].axhspan(-0.3, 0.3, color="g", alpha=0.1, label="±0.3°")
-    ax[1].set_ylim(-10, 10)
-    ax[1].set_ylabel("slope error [deg] (clipped ±10)")
-    ax[1].set_xlabel("time [s]")
-    ax[1].legend(fontsize=7, ncol=2)
-    for a in ax:
-        a.grid(alpha=0.3)
+    curves = [(np.degrees(est.slope - tr.slope), {"ls": styles.get(sm, "-"), "lw": 1.0,
+                                                  "color": "C0" if method == "cascade" else "C3",
+                                                  "label": f"{method}, V_x {sm}"})
+              for (method, sm), est in estimates.items()]
+    fig, _ = _slope_error_figure(simulation, tr.accel_x, "a_x (specific force) [m/s²]", curves, band_label="±0.3°",
+                                 error_label="slope error [deg] (clipped ±10)", ncol=2, ylim=(-10, 10))
     fig.suptitle(title or f"V_x measurement: paper's rear-wheel mean vs slip-robust ({simulation.scenario} drive)")
     return fig

@@ -53,17 +53,22 @@ def plot_vertical_simulation(simulation: VerticalSimulation, config: int, *, cor
     -------
     matplotlib.figure.Figure
     """
-    return _corner_figure(simulation, None, corner, window, config=config, method="simulation (truth)")
+    return _corner_figure(simulation, None, corner, window, config=config, method="simulation (truth)",
+                          label=f"truth (config {config})")
 
 
-def _corner_figure(states, truth, corner, window, *, config=None, method=None):
-    """The five-panel figure of one corner; ``states`` has ``time`` and the per-corner (T, 4) arrays."""
+def _corner_figure(states, truth, corner, window, *, config=None, method=None, label=None):
+    """The five-panel figure of one corner; ``states`` has ``time`` and the per-corner (T, 4) arrays.
+
+    ``label`` names the ``states`` curve in the legend (default ``"estimate (config N)"``).
+    """
     from matplotlib.figure import Figure
 
     from ..vehicle.vertical import CORNER_NAMES
 
     config = states.config if config is None else config
     method = states.method if method is None else method
+    label = f"estimate (config {config})" if label is None else label
     name = CORNER_NAMES[corner]
     t = states.time
     if window is None:
@@ -76,13 +81,12 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None):
               ("wheel_velocity", "true_wheel_velocity", "wheel velocity (m/s)"))
     fig = Figure(figsize=(9, 11))
     axes = fig.subplots(len(panels), 1, sharex=True)
-    for ax, (attr, tcol, label) in zip(axes, panels):
+    for ax, (attr, tcol, ylabel) in zip(axes, panels):
         col = f"{tcol}_{name}"
         if truth is not None and col in truth.columns:
             ax.plot(t[sel], truth[col].to_numpy(float)[sel], color="0.3", lw=1.2, label="true")
-        ax.plot(t[sel], getattr(states, attr)[sel, corner], color="tab:red", lw=0.9,
-                label=f"estimate (config {config})")
-        ax.set_ylabel(label, fontsize=8)
+        ax.plot(t[sel], getattr(states, attr)[sel, corner], color="tab:red", lw=0.9, label=label)
+        ax.set_ylabel(ylabel, fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time (s)")

@@ -6,6 +6,7 @@ import dataclasses
 import json
 from pathlib import Path
 
+from ..._atomic import atomic_write_bytes
 from ...errors import InputError, InputFormatError, UnitsError
 from ._model import APLModel, apl_model_from_dict
 
@@ -65,5 +66,6 @@ def save_model(path, model: APLModel, *, fit=None) -> Path:
     :func:`longprofile.identify.fit_output_error`), or None to write the model alone (``"fit": null``).
     """
     path = Path(path)
-    path.write_text(json.dumps(dict(model=model.to_dict(), fit=None if fit is None else fit.to_dict()), indent=2))
+    text = json.dumps(dict(model=model.to_dict(), fit=None if fit is None else fit.to_dict()), indent=2)
+    atomic_write_bytes(path, text.encode("utf-8"))  # an older model file survives a failure
     return path

@@ -13,6 +13,10 @@ __all__ = ["IDENTIFICATION_STRUCTURES", "identify_trailer"]
 IDENTIFICATION_STRUCTURES = ("oe", "armax")
 
 
+#: Largest |value| of a bench excitation or trailer response, m (a plausibility bound: a unit error beyond it).
+MAX_BENCH_SIGNAL_M = 100.0
+
+
 def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, int] = (5, 5, 1),
                      structure: str = "oe", nc: int = 1, name: str | None = None):
     """Identify the trailer from sample-aligned bench input/output records (prediction-error ML, Gauss-Newton).
@@ -42,22 +46,32 @@ def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, i
     Raises
     ------
     InputError
-        ``u`` and ``y`` differ in length, or an unknown structure.
+        ``u`` and ``y`` differ in length, a sample is not finite or beyond ``MAX_BENCH_SIGNAL_M`` (a unit error),
+        or an unknown structure.
     """
     from ...identify import fit_armax, fit_output_error
 
+    if structure not in IDENTIFICATION_STRUCTURES:
+        raise InputError(f"structure must be one of {', '.join(map(repr, IDENTIFICATION_STRUCTURES))}; "
+                         f"got {structure!r}.")
     u = np.asarray(u)
     y = np.asarray(y)
     if u.size != y.size:
-        raise InputError(f"the input has {u.size} samples but the output has {y.size}; they must be sample-aligned.")
+        raise InputError(f"the input has {u.size} samples but the output has {y.size}; they must be sample-aligned "
+                         "(one output sample per input sample).")
+    for what, v in (("input", u), ("output", y)):
+        bad = ~np.isfinite(v) | (np.abs(v) > MAX_BENCH_SIGNAL_M)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{what} sample {i} is {v[i]:.6g} m: identification needs finite samples within "
+                             f"+-{MAX_BENCH_SIGNAL_M:g} m (a bench excitation or trailer response; no gaps); check "
+                             "that value and the unit of the column.")
     na, nb, nk = orders
     dt = dx / speed
     if structure == "oe":
         est = fit_output_error(u, y, na=na, nb=nb, nk=nk, dt=dt)
-    elif structure == "armax":
-        est = fit_armax(u, y, na=na, nb=nb, nc=nc, nk=nk, dt=dt)
     else:
-        raise InputError(f"--structure must be oe or armax; got {structure!r}.")
+        est = fit_armax(u, y, na=na, nb=nb, nc=nc, nk=nk, dt=dt)
     label = f"{structure.upper()}({na},{nb},{nk})" if name is None else name
     model: APLModel = apl_model_from_polynomials(est.numerator, est.denominator, dt=dt, speed=speed, dx=dx,
                                                  name=label)

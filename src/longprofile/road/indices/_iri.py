@@ -555,6 +555,8 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
     """
     segment_length = require_positive("segment_length", segment_length)
     x = profile.distance
+    if x.size < 2:
+        raise InputError(f"the profile needs at least 2 stations; got {x.size}.")
     first = float(x[0]) if start is None else float(start)
     if not np.isfinite(first) or first < x[0] or first >= x[-1]:
         raise InputError(f"start must lie within the profile ({x[0]:.3f} .. {x[-1]:.3f} m); got {start!r}.")

@@ -261,9 +261,16 @@ def load_vehicle(path) -> Vehicle:
 
     Examples
     --------
-    >>> from longprofile.vehicle import default_vehicle
-    >>> default_vehicle().mass
+    Read the packaged default car file (the one :func:`default_vehicle` describes):
+
+    >>> from importlib import resources
+    >>> from longprofile.vehicle import default_vehicle, load_vehicle
+    >>> with resources.as_file(resources.files("longprofile.vehicle") / "data" / "default_car.toml") as path:
+    ...     car = load_vehicle(path)
+    >>> car.mass
     1500.0
+    >>> car == default_vehicle()
+    True
     """
     path = Path(path)
     data = read_car_file(path)

@@ -1,0 +1,376 @@
+"""Bad input over every file-reading command (issue 13, part 2): one clear line, exit 2, nothing lost.
+
+Each case takes a valid input of a command, breaks it the way users' files are broken (the classes of issue 13:
+absurd values, a header only, unsorted / duplicate / descending keys, decimal commas in a comma-separated file, a
+truncated last row, millimetres under a metre column, time in ms, angles in radians or degrees where the other is
+expected, text in a number, an empty or binary file, a missing column) and runs the command in process. The
+outcome is classified:
+
+* ``clear``     -- exit code 2, exactly one ``error:`` line, no traceback, no output written, inputs unchanged;
+* ``traceback`` -- an exception escaped the CLI;
+* ``silent``    -- exit 0: a result was written from a broken input;
+* ``data-loss`` -- an input file changed;
+* ``unclear``   -- anything else (another exit code, several error lines, a partial output).
+
+Every case must be ``clear``. The positions of the broken cell are drawn at random per case (seeded by the case's
+name: reproducible), so the suite does not test one lucky row. ``python -m tests.cli.test_bad_input_fuzz`` prints
+the table of outcomes (the counts quoted in the issue note).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import random
+import shutil
+import sys
+import traceback
+from contextlib import redirect_stderr, redirect_stdout
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from longprofile.cli.app import main
+
+# ---- valid inputs, made once ---------------------------------------------------------------------------------
+
+
+def make_inputs(folder: Path) -> Path:
+    """Small valid inputs of every command under ``folder`` (the library's own simulators)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    run = [
+        ["road", "simulate", "--road-class", "C", "--length", "200", "--seed", "1", "-o", str(folder / "rec.csv")],
+        ["road", "reconstruct", str(folder / "rec.csv"), "-o", str(folder / "profile.csv")],
+        ["vehicle", "simulate", "--scenario", "hill", "--duration", "3", "-o", str(folder / "log.csv")],
+        # channel unit checks need a drive that turns and brakes (a 3 s hill climb excites none of them)
+        ["vehicle", "simulate", "--scenario", "paper", "--duration", "10", "-o", str(folder / "plog.csv")],
+        ["vehicle", "vertical", "simulate", "--config", "3", "--road-class", "C", "--speed", "20", "--duration", "2",
+         "-o", str(folder / "vlog.csv")],
+        ["rail", "simulate", "--preset", "mittersheim-like", "--days", "6", "-o", str(folder / "site")],
+        ["road", "simulate", "--profile", "crenels", "--length", "120", "-o", str(folder / "bench.csv")],
+    ]
+    for argv in run:
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+            assert main(argv) == 0, argv
+    t = np.arange(2000) * 1e-3
+    pd.DataFrame(dict(time=t, x=np.sin(2 * np.pi * 2 * t))).to_csv(folder / "sig.csv", index=False)
+    from longprofile.vehicle import default_vehicle
+
+    (folder / "car.toml").write_text(default_vehicle().to_toml())
+    return folder
+
+
+# ---- commands: argv on a folder holding the (possibly broken) inputs ----------------------------------------
+
+
+@dataclass(frozen=True)
+class Command:
+    name: str
+    target: str                      # the input file a case breaks (relative to the folder)
+    argv: Callable[[Path], list]     # folder -> argv (outputs under folder / "out*")
+    key: str                         # the column that must increase (station or time)
+    value: str                       # a physical value column
+    metre: str | None = None         # a column in metres (for the mm-under-m case)
+    time: str | None = None          # a column in seconds (for the ms case)
+    radian: str | None = None        # a column in radians (for the degrees case)
+    accel: tuple = ()                # columns in m/s^2 (for the accelerations-in-g case)
+    as_is: bool = False              # the command line itself is wrong for the (unchanged) input
+
+
+def _settle(d: Path) -> list:
+    return ["rail", "settle", "--sensors", str(d / "site/sensors.csv"), "--readings", str(d / "site/readings.csv"),
+            "--survey", str(d / "site/survey.csv"), "-o", str(d / "out")]
+
+
+COMMANDS = [
+    Command("road iri", "profile.csv", lambda d: ["road", "iri", str(d / "profile.csv"), "-o", str(d / "out.csv")],
+            key="distance_m", value="elevation_m", metre="elevation_m"),
+    Command("road reconstruct", "rec.csv",
+            lambda d: ["road", "reconstruct", str(d / "rec.csv"), "-o", str(d / "out.csv")],
+            key="distance_m", value="apl_m", metre="apl_m"),
+    Command("road report", "profile.csv", lambda d: ["road", "report", str(d / "profile.csv"), "-o", str(d / "out")],
+            key="distance_m", value="elevation_m", metre="elevation_m"),
+    Command("road convert", "profile.csv",
+            lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "out.erd")],
+            key="distance_m", value="elevation_m", metre="elevation_m"),
+    Command("differentiate", "sig.csv",
+            lambda d: ["differentiate", str(d / "sig.csv"), "--column", "x", "--dt", "0.001", "-o", str(d / "out.csv")],
+            key="time", value="x", time="time"),
+    Command("vehicle slope", "log.csv", lambda d: ["vehicle", "slope", str(d / "log.csv"), "-o", str(d / "out.csv")],
+            key="time", value="wheel_speed_fl", time="time"),
+    Command("vehicle vertical estimate", "vlog.csv",
+            lambda d: ["vehicle", "vertical", "estimate", str(d / "vlog.csv"), "--config", "3", "-o", str(d / "out.csv")],
+            key="time", value="dz21_FL", metre="dz21_FL", time="time"),
+    Command("rail settle (readings)", "site/readings.csv",
+            lambda d: ["rail", "settle", "--sensors", str(d / "site/sensors.csv"), "--readings",
+                       str(d / "site/readings.csv"), "--survey", str(d / "site/survey.csv"), "-o", str(d / "out")],
+            key="timestamp", value="angle_deg"),
+    Command("rail settle (survey)", "site/survey.csv", _settle, key="x_m", value="z_m", metre="x_m"),
+    Command("rail settle (survey z)", "site/survey.csv", _settle, key="x_m", value="z_m", metre="z_m"),
+    Command("rail settle --angle-unit rad on degrees", "site/readings.csv",
+            lambda d: [*_settle(d), "--angle-unit", "rad"], key="timestamp", value="angle_deg", as_is=True),
+    Command("vehicle slope (steering, accelerations)", "plog.csv",
+            lambda d: ["vehicle", "slope", str(d / "plog.csv"), "-o", str(d / "out.csv")],
+            key="time", value="steering_angle", radian="steering_angle", accel=("accel_x", "accel_y")),
+    Command("vehicle slope --vehicle", "car.toml",
+            lambda d: ["vehicle", "slope", str(d / "log.csv"), "--vehicle", str(d / "car.toml"), "-o", str(d / "out.csv")],
+            key="", value="mass"),
+    Command("road identify", "bench.csv",
+            lambda d: ["road", "identify", "--input", str(d / "bench.csv"), "--input-column", "true_m", "--output",
+                       str(d / "bench.csv"), "--output-column", "apl_m", "-o", str(d / "out.json")],
+            key="distance_m", value="apl_m"),
+    Command("road convert onto a hard link of its input", "profile.csv",
+            lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "link.csv"), "--overwrite"],
+            key="distance_m", value="elevation_m", as_is=True),
+]
+
+
+# ---- ways to break a file ------------------------------------------------------------------------------------
+
+
+def _rows(text: str) -> tuple[str, list[str]]:
+    lines = text.splitlines()
+    return lines[0], [ln for ln in lines[1:] if ln.strip()]
+
+
+def _frame(path: Path) -> pd.DataFrame:
+    return pd.read_csv(path, dtype=str, keep_default_na=False)
+
+
+def _save(frame: pd.DataFrame, path: Path) -> None:
+    frame.to_csv(path, index=False)
+
+
+def _pick(rng: random.Random, n: int) -> int:
+    return rng.randrange(max(1, n // 10), max(2, n - n // 10))
+
+
+def huge_value(path, cmd, rng):
+    f = _frame(path)
+    f.loc[_pick(rng, len(f)), cmd.value] = rng.choice(["1e300", "-1e300", "1e30"])
+    _save(f, path)
+
+
+def text_in_a_number(path, cmd, rng):
+    f = _frame(path)
+    f.loc[_pick(rng, len(f)), cmd.value] = rng.choice(["abc", "1.2.3", "#N/A!"])
+    _save(f, path)
+
+
+def header_only(path, cmd, rng):
+    head, _ = _rows(path.read_text())
+    path.write_text(head + "\n")
+
+
+def empty_file(path, cmd, rng):
+    path.write_bytes(b"")
+
+
+def binary_garbage(path, cmd, rng):
+    path.write_bytes(bytes(rng.randrange(256) for _ in range(4096)))
+
+
+def missing_column(path, cmd, rng):
+    f = _frame(path)
+    _save(f.drop(columns=[cmd.value]), path)
+
+
+def swapped_rows(path, cmd, rng):
+    f = _frame(path)
+    i = _pick(rng, len(f) - 1)
+    j = i + rng.randrange(1, 4)
+    f.iloc[[i, j]] = f.iloc[[j, i]].to_numpy()
+    _save(f, path)
+
+
+def duplicate_row(path, cmd, rng):
+    f = _frame(path)
+    i = _pick(rng, len(f))
+    _save(pd.concat([f.iloc[: i + 1], f.iloc[i: i + 1], f.iloc[i + 1:]]), path)
+
+
+def descending(path, cmd, rng):
+    _save(_frame(path).iloc[::-1], path)
+
+
+def decimal_commas(path, cmd, rng):
+    head, rows = _rows(path.read_text())
+    cols = head.split(",")
+    k = cols.index(cmd.value)
+    for i in sorted(rng.sample(range(len(rows)), min(5, len(rows)))):
+        cells = rows[i].split(",")
+        if "." in cells[k]:
+            cells[k] = cells[k].replace(".", ",", 1)  # 0.0123 -> 0,0123: one more field in a comma-separated file
+            rows[i] = ",".join(cells)
+    path.write_text("\n".join([head, *rows]) + "\n")
+
+
+def truncated_last_row(path, cmd, rng):
+    text = path.read_text().rstrip("\n")
+    last = text.rsplit("\n", 1)[1]
+    cut = rng.randrange(1, max(2, last.rfind(",")))
+    path.write_text(text[: len(text) - len(last) + cut])
+
+
+def millimetres_under_metres(path, cmd, rng):
+    f = _frame(path)
+    f[cmd.metre] = (pd.to_numeric(f[cmd.metre]) * 1000.0).map(repr)
+    _save(f, path)
+
+
+def time_in_milliseconds(path, cmd, rng):
+    f = _frame(path)
+    f[cmd.time] = (pd.to_numeric(f[cmd.time]) * 1000.0).map(repr)
+    _save(f, path)
+
+
+def degrees_for_radians(path, cmd, rng):
+    f = _frame(path)
+    f[cmd.radian] = np.degrees(pd.to_numeric(f[cmd.radian])).map(repr)
+    _save(f, path)
+
+
+def accelerations_in_g(path, cmd, rng):
+    f = _frame(path)
+    for c in cmd.accel:
+        f[c] = (pd.to_numeric(f[c]) / 9.80665).map(repr)
+    _save(f, path)
+
+
+def huge_toml_value(path, cmd, rng):
+    import re
+
+    text, n = re.subn(rf"(?m)^{cmd.value} = .*$", f"{cmd.value} = {rng.choice(['1e300', '-1500.0', 'nan'])}",
+                      path.read_text(), count=1)
+    assert n == 1, f"no {cmd.value} in {path}"
+    path.write_text(text)
+
+
+def as_is(path, cmd, rng):
+    if cmd.name.endswith("hard link of its input"):
+        import os
+
+        os.link(path, path.parent / "link.csv")
+
+
+def angles_times_1000(path, cmd, rng):
+    f = _frame(path)
+    f[cmd.value] = (pd.to_numeric(f[cmd.value]) * 1000.0).map(repr)
+    _save(f, path)
+
+
+#: mutation -> applies to a command when the predicate holds
+def _table(c: Command) -> bool:
+    return not c.as_is and not c.target.endswith(".toml")
+
+
+def _general(c: Command) -> bool:
+    return _table(c) and not c.name.startswith(("rail settle (survey z)", "vehicle slope (steering"))
+
+
+MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
+    "huge value": (huge_value, _general),
+    "text in a number": (text_in_a_number, _general),
+    "header only": (header_only, _general),
+    "empty file": (empty_file, lambda c: _general(c) or c.target.endswith(".toml")),
+    "binary garbage": (binary_garbage, lambda c: _general(c) or c.target.endswith(".toml")),
+    "missing column": (missing_column, _general),
+    "swapped rows": (swapped_rows, lambda c: _general(c) and not c.name.startswith("rail settle (readings)")),
+    "duplicate row": (duplicate_row, _general),
+    "descending keys": (descending, lambda c: _general(c) and not c.name.startswith("rail settle (readings)")),
+    "decimal commas": (decimal_commas, _general),
+    "truncated last row": (truncated_last_row, _general),
+    "mm under a metre column": (millimetres_under_metres, lambda c: _table(c) and c.metre is not None),
+    "time in ms": (time_in_milliseconds, lambda c: _table(c) and c.time is not None),
+    "angles x1000": (angles_times_1000, lambda c: c.name == "rail settle (readings)"),
+    "degrees for radians": (degrees_for_radians, lambda c: c.radian is not None),
+    "accelerations in g": (accelerations_in_g, lambda c: bool(c.accel)),
+    "absurd value in the file": (huge_toml_value, lambda c: c.target.endswith(".toml")),
+    "(the input as is)": (as_is, lambda c: c.as_is),
+}
+
+CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
+
+
+# ---- running and classifying ---------------------------------------------------------------------------------
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def run_case(valid: Path, work: Path, cmd: Command, mutation: str) -> tuple[str, str]:
+    """Break ``cmd.target`` in a copy of ``valid`` and run the command: (outcome, what it printed)."""
+    shutil.copytree(valid, work)
+    rng = random.Random(f"{cmd.name}/{mutation}")
+    MUTATIONS[mutation][0](work / cmd.target, cmd, rng)
+    before = _digests(work)
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with redirect_stdout(out), redirect_stderr(err):
+            code = main(cmd.argv(work))
+    except BaseException:  # noqa: BLE001 - anything escaping the CLI is the finding
+        return "traceback", traceback.format_exc(limit=3)
+    text = out.getvalue() + err.getvalue()
+    after = _digests(work)
+    changed = [k for k, v in before.items() if after.get(k) != v]
+    written = sorted(set(after) - set(before))
+    if changed:
+        return "data-loss", f"changed inputs {changed}; {text}"
+    if code == 0:
+        return "silent", text
+    errors = [ln for ln in text.splitlines() if ln.startswith("error:")]
+    if code == 2 and len(errors) == 1 and "Traceback" not in text and not written:
+        return "clear", errors[0]
+    return "unclear", f"exit {code}; written {written}; {text}"
+
+
+@pytest.fixture(scope="module")
+def valid_inputs(tmp_path_factory):
+    return make_inputs(tmp_path_factory.mktemp("valid"))
+
+
+@pytest.mark.parametrize(("cmd", "mutation"), CASES, ids=[f"{c.name}: {m}" for c, m in CASES])
+def test_bad_input_is_one_clear_line_and_nothing_is_lost(cmd, mutation, valid_inputs, tmp_path):
+    outcome, text = run_case(valid_inputs, tmp_path / "case", cmd, mutation)
+    assert outcome == "clear", f"{cmd.name} with {mutation}: {outcome}\n{text}"
+
+
+def test_the_classifier_sees_each_failure_kind(valid_inputs, tmp_path):
+    """The harness itself can fail: a valid input is 'silent', a raising command a 'traceback'."""
+    ok = Command("road iri", "profile.csv", COMMANDS[0].argv, key="distance_m", value="elevation_m")
+    MUTATIONS["(none)"] = (lambda path, cmd, rng: None, lambda c: False)
+    try:
+        assert run_case(valid_inputs, tmp_path / "a", ok, "(none)")[0] == "silent"
+        boom = Command("boom", "profile.csv", lambda d: ["road", "iri", str(d / "profile.csv"), "--segment", "x"],
+                       key="distance_m", value="elevation_m")
+        assert run_case(valid_inputs, tmp_path / "b", boom, "(none)")[0] == "unclear"  # usage error: exit 2, no error: line
+        loss = Command("loss", "profile.csv",  # a user's other file replaced on purpose (--overwrite)
+                       lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "sig.csv"), "--overwrite"],
+                       key="distance_m", value="elevation_m")
+        assert run_case(valid_inputs, tmp_path / "c", loss, "(none)")[0] == "data-loss"
+    finally:
+        del MUTATIONS["(none)"]
+
+
+if __name__ == "__main__":  # the outcome table quoted in the issue note
+    import tempfile
+    from collections import Counter
+
+    root = Path(tempfile.mkdtemp(prefix="fuzz-"))
+    valid = make_inputs(root / "valid")
+    counts: Counter = Counter()
+    for i, (c, m) in enumerate(CASES):
+        outcome, text = run_case(valid, root / f"case{i}", c, m)
+        counts[outcome] += 1
+        if outcome != "clear":
+            print(f"{outcome:10s} {c.name}: {m}: {' '.join(text.split())[:300]}")
+    print(f"{len(CASES)} cases: " + ", ".join(f"{k} {counts[k]}" for k in ("clear", "traceback", "silent",
+                                                                          "data-loss", "unclear")))
+    shutil.rmtree(root, ignore_errors=True)
+    sys.exit(0 if counts["clear"] == len(CASES) else 1)
