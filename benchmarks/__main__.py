@@ -45,7 +45,8 @@ def main(argv=None) -> int:
         table.add_column(col)
     for r in rows:
         ok = {True: "[green]yes[/green]", False: "[red]no[/red]", None: "-"}[r.passed]
-        tgt = "-" if r.target is None else f"{'>=' if r.higher_is_better else '<='} {r.target:g}"
+        tgt = "-" if r.target is None else (f"{r.target:g}..{r.target_max:g}" if r.target_max is not None
+                                            else f"{'>=' if r.higher_is_better else '<='} {r.target:g}")
         table.add_row(r.area, r.name, f"{r.value:.4g}", r.unit, tgt, ok, r.detail)
     # wide enough to stay readable when piped to a file (rich would squeeze columns to 80)
     Console(width=max(200, shutil.get_terminal_size().columns)).print(table)

@@ -21,11 +21,14 @@ class BenchRow:
     target: float | None = None
     higher_is_better: bool = True
     detail: str = ""
+    target_max: float | None = None  # with ``target``: the value must lie in [target, target_max] (a coverage band)
 
     @property
     def passed(self) -> bool | None:
         if self.target is None:
             return None
+        if self.target_max is not None:
+            return self.target <= self.value <= self.target_max
         return self.value >= self.target if self.higher_is_better else self.value <= self.target
 
     def as_dict(self) -> dict:

@@ -59,7 +59,8 @@ def test_band_error_far_below_the_causal_filter(class_b_road):
     assert err_fixed < err_causal / 10
     assert fixed.method == "fixed-lag" and fixed.input_model == "ar1" and fixed.correlation_length == 2.0
     assert fixed.lag_m == pytest.approx(round(default_fixed_lag(instrument) / DX) * DX)
-    assert fixed.raw_std.shape == y.shape and np.all(fixed.raw_std[1:] > 0) and fixed.profile.std is None
+    assert fixed.raw_std.shape == y.shape and np.all(fixed.raw_std[1:] > 0)
+    assert fixed.profile.std is None  # highpass_wavelength=None: no detrending, no std of a detrended profile
     # a shorter lag is worse, a longer one better (error-vs-lag curve of docs/road-apl.md)
     short = reconstruct_profile(y, instrument, method="fixed-lag", lag_m=5.0, q=fixed.q, r=fixed.r,
                                 highpass_wavelength=None)
@@ -105,3 +106,31 @@ def test_cli_fixed_lag(tmp_path, capsys):
     assert main(["road", "reconstruct", str(rec), "--method", "smoother", "--lag", "20", "-o", str(out),
                  "--overwrite"]) == 2
     assert "lag_m applies" in capsys.readouterr().err.replace("\n", " ")
+
+
+def test_the_detrended_fixed_lag_std_matches_its_error_on_the_models_own_road():
+    """Oracle: a road drawn from the model itself (AR(1), white noise, known q and r): the empirical std of the
+    detrended error against the printed std. The smoother's closed form matches to 1 %; the fixed-lag one, from the
+    impulse response of its steady-state filter, is ~4 % conservative (docs/road-apl.md)."""
+    from longprofile.road.apl import detrend_profile
+
+    instrument = apl_model(20.0, DX)
+    rng = np.random.default_rng(11)
+    q, r, n = 2e-6, 5e-8, 60_000
+    phi = np.exp(-DX / 2.0)
+    e = rng.normal(0.0, np.sqrt(q), n)
+    u = np.empty(n)
+    acc = 0.0
+    for i in range(n):
+        acc = phi * acc + e[i]
+        u[i] = acc
+    y = apl_response(u, instrument) + rng.normal(0.0, np.sqrt(r), n)
+    truth = detrend_profile(u, DX)
+    keep = slice(4000, n - 4000)
+    for method, kw, band in (("fixed-lag", {}, (0.90, 1.0)),
+                             ("smoother", {"input_model": "ar1", "correlation_length": 2.0}, (0.97, 1.03))):
+        rec = reconstruct_profile(y, instrument, method=method, q=q, r=r, **kw)
+        std = np.asarray(rec.profile.std).reshape(-1)
+        assert np.all(std == std[0]) and std[0] > 0
+        ratio = float(np.std((rec.profile.elevation.reshape(-1) - truth)[keep]) / std[0])
+        assert band[0] <= ratio <= band[1], (method, ratio)

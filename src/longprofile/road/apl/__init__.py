@@ -23,6 +23,7 @@ instrument_state_space     -- minimal cascade realisation (A, B, C, D) of an ins
 is_detectable              -- §5.2 detectability (PBH) of an augmented model.
 fit_noise_variances        -- q and r by maximum likelihood (NoiseFit).
 smoother_error_std         -- stationary posterior std of the smoothed elevation in a waveband.
+fixed_lag_error_std        -- the same for the fixed-lag estimate (its steady-state filter measured by an impulse).
 detrend_profile            -- remove what the APL cannot see (quadratic + zero-phase high-pass).
 
 Synthetic profiles with truth
@@ -42,6 +43,7 @@ from ._deconvolution import (
                    default_fixed_lag,
                    detrend_profile,
                    fit_noise_variances,
+                   fixed_lag_error_std,
                    instrument_state_space,
                    is_detectable,
                    reconstruct_profile,
@@ -85,6 +87,7 @@ __all__ = [
     "FrequencyResponse", "passband", "plot_frequency_response", "apl_response", "apl_filter",
     "double_filter", "reconstruct_profile", "Reconstruction", "RECONSTRUCTION_METHODS", "apl_deconvolution_model",
     "instrument_state_space", "is_detectable", "fit_noise_variances", "NoiseFit", "smoother_error_std",
+    "fixed_lag_error_std",
     "detrend_profile", "bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile",
     "white_noise_profile", "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES", "apl_model_from_dict",
     "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
