@@ -83,7 +83,6 @@ def reconstruct_command(
     import numpy as np
 
     from ..io import read_apl_signal, write_erd, write_table
-    from ..report import plot_reconstructions
     from ..road.apl import reconstruct_recording
 
     out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
@@ -101,6 +100,8 @@ def reconstruct_command(
     else:
         write_table(rec.to_frame(), out)
     if plot is not None:
+        from ..report import plot_reconstructions  # matplotlib only when a plot is asked for
+
         truth = _truth_column(file)
         fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
                                    highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
