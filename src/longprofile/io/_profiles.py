@@ -22,6 +22,14 @@ _DISTANCE_NAMES = ("distance", "station", "chainage", "x")
 _SUFFIX = re.compile(r"^(?P<base>.+?)(?:_|\s*\[)(?P<unit>m|mm|cm|km|in|ft|mi)\]?$", re.IGNORECASE)
 
 
+def _with_rows(df: pd.DataFrame, path: Path) -> pd.DataFrame:
+    """``df``, refused when the file had a header and no data rows."""
+    if len(df) == 0:
+        raise InputFormatError(f"{path}: the file has a header ({', '.join(map(str, df.columns))}) but no data rows; "
+                               "one row per sample is needed.")
+    return df
+
+
 def _split(column: str) -> tuple[str, str | None]:
     m = _SUFFIX.match(column.strip())
     if m:
@@ -34,10 +42,7 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     path = Path(path)
     if units is not None:
         unit_factor(units)
-    df = read_table(path)
-    if len(df) == 0:
-        raise InputFormatError(f"{path}: the file has a header ({', '.join(map(str, df.columns))}) but no data rows; "
-                               "a profile needs one row per station.")
+    df = _with_rows(read_table(path), path)
     fmt_line = (lambda i: f"line {i + 2}") if path.suffix.lower() in (".csv", ".txt") else (lambda i: f"row {i}")
     parsed = {c: _split(str(c)) for c in df.columns}
     if distance_column is None:
@@ -206,10 +211,7 @@ def read_sampled_column(path, column: str, *, dx: float) -> np.ndarray:
         Missing column, non-numeric cell, stations not increasing or not ``dx`` apart (the line is named).
     """
     path = Path(path)
-    table = read_table(path, required=[column], numeric=[column])
-    if len(table) == 0:
-        raise InputFormatError(f"{path}: the file has a header ({', '.join(map(str, table.columns))}) but no data "
-                               "rows.")
+    table = _with_rows(read_table(path, required=[column], numeric=[column]), path)
     stations = [c for c in table.columns if _split(str(c))[0].lower() in _DISTANCE_NAMES and _split(str(c))[1]]
     if stations:
         c = stations[0]

@@ -118,12 +118,7 @@ def test_the_detrended_fixed_lag_std_matches_its_error_on_the_models_own_road():
     rng = np.random.default_rng(11)
     q, r, n = 2e-6, 5e-8, 60_000
     phi = np.exp(-DX / 2.0)
-    e = rng.normal(0.0, np.sqrt(q), n)
-    u = np.empty(n)
-    acc = 0.0
-    for i in range(n):
-        acc = phi * acc + e[i]
-        u[i] = acc
+    u = signal.lfilter([1.0], [1.0, -phi], rng.normal(0.0, np.sqrt(q), n))  # u_k = phi u_{k-1} + e_k, u_-1 = 0
     y = apl_response(u, instrument) + rng.normal(0.0, np.sqrt(r), n)
     truth = detrend_profile(u, DX)
     keep = slice(4000, n - 4000)
