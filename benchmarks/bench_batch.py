@@ -7,7 +7,7 @@ The pools are started and warmed (numba kernels loaded) before the timing: their
 paid once per run of thousands of files. The machine may be shared: serial and process-pool runs are interleaved and
 the best of two is kept, and the Dask run is timed twice, alternating with runs of a second process pool (the
 overhead row compares those side-by-side runs). Pool and Dask workers tune glibc's allocator
-(``longprofile.batch._alloc``); the serial run, in this process, does not (what ``--scheduler serial`` gives), and
+(``longprofile._memory``); the serial run, in this process, does not (what ``--scheduler serial`` gives), and
 a last serial run with this process tuned gives the speed-up without the allocator's share.
 Identity: the segment tables read back are compared bit for bit.
 Quick mode: 8 files of 1 km, Dask workers in process (its figures only show that everything runs).
@@ -128,9 +128,9 @@ def run(quick: bool) -> list[BenchRow]:
                             timed("dask", client, rep)
                 rss["dask"] = max(client.run(_peak_rss_mb).values())
         if not quick:  # the serial run again with this process's allocator tuned as the workers' are
-            from longprofile.batch._alloc import tune_allocator
+            from longprofile._memory import tune_process_memory
 
-            tuned = tune_allocator()
+            tuned = tune_process_memory()
             timed("serial-tuned", None, 0)
         times = best
         reference = read_results(tmp / "serial-0").segments
@@ -182,7 +182,7 @@ def run(quick: bool) -> list[BenchRow]:
                 BenchRow(AREA, "peak memory of a worker, Dask / process pool", rss["dask"] / rss["processes"], "x",
                          higher_is_better=False,
                          detail=f"{rss['dask']:.0f} MB vs {rss['processes']:.0f} MB (largest worker, ru_maxrss; both "
-                                f"with the batch's allocator tuning, longprofile.batch._alloc)"),
+                                f"with the batch's allocator tuning, longprofile._memory)"),
             ]
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

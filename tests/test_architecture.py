@@ -3,7 +3,7 @@
 Every ``import`` statement in ``src/longprofile`` (module level *and* inside functions: a lazy import is still a
 dependency) is resolved to the longprofile module it names and checked against the layers:
 
-    shared   errors, _validation, _jit, _lazy, _atomic, core
+    shared   errors, _validation, _jit, _lazy, _atomic, _memory, core
     engine   statespace
     domains  signal, identify, road, rail, vehicle          (rail.service is an edge)
     edges    io, report, demos, batch, rail.service, cli, __main__
@@ -26,7 +26,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "longprofile"
 
 LAYERS = {
-    "errors": 0, "_validation": 0, "_jit": 0, "_lazy": 0, "_atomic": 0, "core": 0, "__init__": 0,
+    "errors": 0, "_validation": 0, "_jit": 0, "_lazy": 0, "_atomic": 0, "_memory": 0, "core": 0, "__init__": 0,
     "statespace": 1,
     "signal": 2, "identify": 2, "road": 2, "rail": 2, "vehicle": 2,
     "io": 3, "report": 3, "demos": 3, "batch": 3, "rail.service": 3, "cli": 3, "__main__": 3,

@@ -59,7 +59,7 @@ def comparable(frame):
 
 
 def expected_allocator_status() -> str:
-    """What ``longprofile.batch._alloc.tune_allocator`` must report in a worker here: tuned on glibc, unless the
+    """What ``longprofile._memory.tune_process_memory`` must report in a worker here: tuned on glibc, unless the
     environment disables it."""
     if os.environ.get("LONGPROFILE_MALLOC_TUNING", "").strip().lower() in ("0", "off", "false", "no"):
         return "disabled"

@@ -52,7 +52,7 @@ def test_process_pool_pins_blas_threads_to_one_and_keeps_order(monkeypatch):
 
 
 def test_allocator_tuning_can_be_switched_off_and_is_never_applied_to_the_caller(monkeypatch):
-    from longprofile.batch import _alloc
+    from longprofile import _memory as _alloc
 
     monkeypatch.setenv(_alloc.TUNING_ENV, "off")  # inherited by the spawned workers
     with process_executor(2) as ex:
@@ -62,9 +62,9 @@ def test_allocator_tuning_can_be_switched_off_and_is_never_applied_to_the_caller
     with ThreadPoolExecutor(2) as ex:  # threads run in this process: the batch leaves its allocator alone
         res = map_files(IRITask(), ["missing.erd"], executor=ex)
         res += map_files(_worker_info, ["a", "b"], executor=ex)
-    assert {r.value["allocator"] for r in res[1:]} == {None} and _alloc.allocator_status() is None
+    assert {r.value["allocator"] for r in res[1:]} == {None} and _alloc.memory_status() is None
     monkeypatch.setattr(_alloc, "_STATE", {})
-    assert _alloc.tune_allocator() == "disabled" and _alloc.tune_allocator() == "disabled"  # once, then cached
+    assert _alloc.tune_process_memory() == "disabled" and _alloc.tune_process_memory() == "disabled"  # once, then cached
 
 
 def test_unknown_executor_and_scheduler_are_refused():

@@ -96,9 +96,9 @@ def test_dask_local_cluster_equals_serial_bit_for_bit(processes, network, serial
             as cluster, distributed.Client(cluster) as client:
         run_batch(IRITask(), files, tmp_path / "r", executor=client)
         if processes:  # each worker process tuned its allocator against the nanny's MALLOC_TRIM_THRESHOLD_
-            from longprofile.batch._alloc import allocator_status
+            from longprofile._memory import memory_status
 
-            assert set(client.run(allocator_status).values()) == {expected_allocator_status()}
+            assert set(client.run(memory_status).values()) == {expected_allocator_status()}
     _same_results(read_results(tmp_path / "r"), serial_run[1])
 
 

@@ -16,7 +16,7 @@ from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, Callable, Iterable, Iterator
 
 from ..errors import DependencyError, InputError, LongprofileError
-from ._alloc import tune_allocator
+from .._memory import tune_process_memory
 
 __all__ = ["BLAS_ENV", "FileResult", "iter_files", "map_files", "process_executor", "dask_client", "open_executor",
            "SCHEDULERS", "error_message"]
@@ -98,12 +98,12 @@ def _warm(func) -> None:
 
 def _init_process_worker(func=None) -> None:
     """Process-pool initializer: BLAS threads pinned to 1 (already so since exec, see _PinnedSpawnProcess), the
-    allocator tuned for repeated large arrays (:mod:`._alloc`), then the task warmed once."""
+    allocator tuned for repeated large arrays (:mod:`longprofile._memory`), then the task warmed once."""
     global _NUMPY_BEFORE_INIT
     _NUMPY_BEFORE_INIT = "numpy" in sys.modules
     for name in BLAS_ENV:
         os.environ[name] = "1"
-    tune_allocator()
+    tune_process_memory()
     if func is not None:
         _warm(func)
 
@@ -112,9 +112,9 @@ def _worker_info(_path=None) -> dict:
     """Worker diagnostics: pid, the BLAS environment the process was started with, whether numpy was already
     imported when the initializer ran (True is harmless: the environment was set at exec) and the allocator
     tuning status."""
-    from ._alloc import allocator_status
+    from .._memory import memory_status
 
-    return {"pid": os.getpid(), "numpy_before_init": _NUMPY_BEFORE_INIT, "allocator": allocator_status(),
+    return {"pid": os.getpid(), "numpy_before_init": _NUMPY_BEFORE_INIT, "allocator": memory_status(),
             **{name: _ENV_AT_START.get(name) for name in BLAS_ENV}}
 
 
@@ -231,14 +231,14 @@ DASK_MAX_FILES_PER_TASK = 8
 @dataclass(frozen=True)
 class _GuardedChunk:
     """Runs a guarded job on several files in one Dask task; one outcome per file (a failing file does not
-    stop the others). The worker's allocator is tuned once first (:mod:`._alloc`: Dask's nanny sets
+    stop the others). The worker's allocator is tuned once first (:mod:`longprofile._memory`: Dask's nanny sets
     ``MALLOC_TRIM_THRESHOLD_``, which made every file page-fault its arrays in again; in-process workers tune
     the caller's process)."""
 
     job: _Guarded
 
     def __call__(self, paths):
-        tune_allocator()
+        tune_process_memory()
         return [self.job(p) for p in paths]
 
 

@@ -8,6 +8,7 @@ import typer
 from rich.markup import escape
 
 from .. import __version__
+from .._memory import tune_process_memory
 from ..errors import LongprofileError
 from ._common import console
 
@@ -69,7 +70,11 @@ _register()
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Console-script entry point: run the app, turn library errors into one red line and exit code 2."""
+    """Console-script entry point: run the app, turn library errors into one red line and exit code 2.
+
+    The process's memory settings are tuned first (:func:`longprofile._memory.tune_process_memory`: freed
+    arrays reused, no huge-page advice; ``LONGPROFILE_MALLOC_TUNING=0`` leaves them alone)."""
+    tune_process_memory()
     try:
         # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
         code = app(args=argv, standalone_mode=False)

@@ -48,6 +48,9 @@ __all__ = [
 #: Records longer than this many samples take the long-record path by default (``stationary=None``): exact
 #: start, constant gains once converged, chunked, O(chunk) working memory. Both paths give the same profile.
 LONG_RECORD_SAMPLES = 200_000
+#: The coarse grid of :func:`fit_noise_variances` (which only brackets the optimum) is evaluated on at most this
+#: many first samples.
+GRID_SAMPLES = 1 << 15
 
 RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
 
@@ -501,27 +504,35 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     model scales with r for a fixed ratio q / r, so r is concentrated out in closed form
     (r_hat = mean of e_k^2 / s_k over the innovations of the r = 1 filter) and only log10(q / r)
     is searched: a 13-point grid over ``bounds_log10_ratio`` brackets the optimum (on the first
-    LONG_RECORD_SAMPLES samples of a longer record, with the bracket widened until the whole record's
-    optimum is strictly inside it), then a bounded scalar minimisation on the whole record. This replaces
+    ``GRID_SAMPLES`` (32 768) samples of a longer record, with the bracket widened until the whole record's
+    optimum is strictly inside it), then a bounded scalar minimisation on the whole record (each ratio
+    evaluated once: the optimum's likelihood is not recomputed). This replaces
     the paper's hand tuning (§5.3, q = 10 or 100 with r = 1).
     """
     y = as_float_array("signal", signal_, ndim=1)
     lo, hi = bounds_log10_ratio
     count = [0]
+    whole = {}  # log10 ratio -> (log-likelihood, r_hat) on the whole record
 
     def neg(t, data=y):
+        t = float(t)
+        if data is y and t in whole:
+            return -whole[t][0]
         count[0] += 1
         try:
-            return -_concentrated_ll(instrument, data, t, input_model, correlation_length, dx, stationary)[0]
+            ll_r = _concentrated_ll(instrument, data, t, input_model, correlation_length, dx, stationary)
         except NotDetectableError:
             # the Riccati equation is numerically unsolvable at this extreme ratio: treat it as infeasible
             return np.inf
+        if data is y:
+            whole[t] = ll_r
+        return -ll_r[0]
 
     grid = np.linspace(lo, hi, 13)
-    # the coarse grid only brackets the optimum: on a long record it is evaluated on the first
-    # LONG_RECORD_SAMPLES samples (whatever the path, so both paths fit the same q, r); the bracket is widened
-    # until the whole record's optimum lies strictly inside it
-    vals = np.array([neg(t, y[:LONG_RECORD_SAMPLES]) for t in grid])
+    # the coarse grid only brackets the optimum: on a long record it is evaluated on the first GRID_SAMPLES
+    # samples (whatever the path, so both paths fit the same q, r); the bracket is widened until the whole
+    # record's optimum lies strictly inside it
+    vals = np.array([neg(t, y[:GRID_SAMPLES]) for t in grid])
     if not np.isfinite(vals).any():
         raise ConvergenceError("the likelihood could not be evaluated at any q/r ratio in the search interval.")
     i = int(np.argmin(vals))
@@ -532,10 +543,12 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
         t = float(res.x)
         widen_lo = ia > 0 and t - a < 0.01
         widen_hi = ib < grid.size - 1 and b - t < 0.01
-        if y.size <= LONG_RECORD_SAMPLES or not (widen_lo or widen_hi):
+        if y.size <= GRID_SAMPLES or not (widen_lo or widen_hi):
             break
         ia, ib = ia - widen_lo, ib + widen_hi
-    ll, r_hat = _concentrated_ll(instrument, y, t, input_model, correlation_length, dx, stationary)
+    if neg(t) == np.inf:
+        raise ConvergenceError(f"the likelihood cannot be evaluated at the optimum q/r = 10^{t:.3f} of the whole record.")
+    ll, r_hat = whole[t]
     h = 0.05
     curv = (neg(t + h) - 2 * (-ll) + neg(t - h)) / h ** 2
     std = float(1.0 / np.sqrt(curv)) if curv > 0 else float("inf")
