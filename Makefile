@@ -27,8 +27,11 @@ $(STAMP_TEST): pyproject.toml | $(VENV)/bin/python
 demo: $(STAMP)
 	$(VENV)/bin/longprofile demo --output out
 
+# the suite on PYTEST_WORKERS processes (pytest-xdist), one test file per process at a time
+PYTEST_WORKERS ?= 2
+
 test: $(STAMP_TEST)
-	$(PY) -m pytest -q --durations=15
+	$(PY) -m pytest -q --durations=15 -n $(PYTEST_WORKERS) --dist loadfile
 
 bench: $(STAMP_TEST)
 	$(PY) -m benchmarks

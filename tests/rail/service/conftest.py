@@ -26,6 +26,28 @@ def missing_service(reason: str):
     pytest.skip(reason)
 
 
+def _worker_pg_url(url, _cache={}):
+    """The test database of this pytest-xdist worker: ``<name>_<worker>`` on the same server, created on first use
+    (the workers' tests drop and recreate the schema, so they must not share a database); ``url`` itself when
+    the suite runs in one process."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    if not worker:
+        return url
+    if url not in _cache:
+        from sqlalchemy import create_engine, text
+        from sqlalchemy.engine import make_url
+
+        base = make_url(url)
+        name = f"{base.database}_{worker}"
+        eng = create_engine(base, isolation_level="AUTOCOMMIT")
+        with eng.connect() as c:
+            if not c.execute(text("SELECT 1 FROM pg_database WHERE datname = :n"), {"n": name}).scalar():
+                c.execute(text(f'CREATE DATABASE "{name}"'))
+        eng.dispose()
+        _cache[url] = base.set(database=name).render_as_string(hide_password=False)
+    return _cache[url]
+
+
 def _clean_pg(url):
     from sqlalchemy import create_engine, text
 
@@ -44,10 +66,11 @@ def db_url(request, tmp_path):
     if not PG_URL:
         missing_service("PostgreSQL: LONGPROFILE_TEST_PG_URL is not set (.ci/run starts a throwaway cluster)")
     try:
-        _clean_pg(PG_URL)
+        url = _worker_pg_url(PG_URL)
+        _clean_pg(url)
     except Exception as exc:  # noqa: BLE001
         missing_service(f"PostgreSQL at LONGPROFILE_TEST_PG_URL is not reachable: {type(exc).__name__}: {exc}")
-    return PG_URL
+    return url
 
 
 @pytest.fixture
