@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, Callable, Iterable, Iterator
 
-from ..errors import DependencyError, InputError, LongprofileError
 from .._memory import tune_process_memory
+from ..errors import DependencyError, InputError, LongprofileError
 
 __all__ = ["BLAS_ENV", "FileResult", "iter_files", "map_files", "process_executor", "dask_client", "open_executor",
            "SCHEDULERS", "error_message"]

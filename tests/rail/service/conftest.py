@@ -26,14 +26,17 @@ def missing_service(reason: str):
     pytest.skip(reason)
 
 
-def _worker_pg_url(url, _cache={}):
+_WORKER_PG_URLS: dict = {}
+
+
+def _worker_pg_url(url):
     """The test database of this pytest-xdist worker: ``<name>_<worker>`` on the same server, created on first use
     (the workers' tests drop and recreate the schema, so they must not share a database); ``url`` itself when
     the suite runs in one process."""
     worker = os.environ.get("PYTEST_XDIST_WORKER")
     if not worker:
         return url
-    if url not in _cache:
+    if url not in _WORKER_PG_URLS:
         from sqlalchemy import create_engine, text
         from sqlalchemy.engine import make_url
 
@@ -44,8 +47,8 @@ def _worker_pg_url(url, _cache={}):
             if not c.execute(text("SELECT 1 FROM pg_database WHERE datname = :n"), {"n": name}).scalar():
                 c.execute(text(f'CREATE DATABASE "{name}"'))
         eng.dispose()
-        _cache[url] = base.set(database=name).render_as_string(hide_password=False)
-    return _cache[url]
+        _WORKER_PG_URLS[url] = base.set(database=name).render_as_string(hide_password=False)
+    return _WORKER_PG_URLS[url]
 
 
 def _clean_pg(url):
