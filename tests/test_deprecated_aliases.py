@@ -49,6 +49,8 @@ def _derivative_args(request):
 
 
 _CASES = {
+    "road.apl.plot_frequency_response": lambda request: (
+        ([importlib.import_module("longprofile.road.apl").apl_model(20.0, 0.05)],), {"tolerance": 0.1}),
     "signal.plot_derivative": _derivative_args,
     "vehicle.plot_drive": lambda request: ((request.getfixturevalue("drive")[0],), {"title": "t"}),
     "vehicle.plot_slope_estimate": lambda request: (
@@ -59,7 +61,7 @@ _CASES = {
 
 @pytest.mark.parametrize("alias", sorted(_CASES))
 def test_deprecated_alias_warns_and_draws_the_report_figure(alias, request):
-    package, name = alias.split(".")
+    package, name = alias.rsplit(".", 1)
     old = getattr(importlib.import_module(f"longprofile.{package}"), name)
     new = getattr(importlib.import_module("longprofile.report"), name)
     args, kwargs = _CASES[alias](request)  # the simulations are built only for the aliases that need them

@@ -4,7 +4,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from longprofile.road.apl import *
 from longprofile.road import iso8608_profile
-from longprofile.report import plot_reconstructions
+from longprofile.report import plot_frequency_response, plot_reconstructions
 import pathlib
 img=str(pathlib.Path(__file__).resolve().parent)+'/'
 # 1. frequency response

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_recording", "plot_reconstructions", "plot_identification"]
+__all__ = ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response"]
 
 
 def _figure(rows, height=2.6, sharex=True):
@@ -92,4 +92,46 @@ def plot_identification(u, y, model, *, dt=None):
     ax1.set_title(f"{model.structure.upper()} identification ({orders}): residual std {model.residual_std:.3g}, "
                   f"{'converged' if model.converged else 'NOT converged'}, {'stable' if model.stable else 'UNSTABLE'}")
     ax3.set_xlabel("time (s)" if dt else "sample")
+    return fig
+
+
+def plot_frequency_response(models, *, tolerance: float = 0.1):
+    """Magnitude, phase and group delay of one or more APL models, with the |H| ~ 1 band shaded (paper 000, §2).
+
+    Parameters
+    ----------
+    models : APLModel or sequence of APLModel
+    tolerance : float
+        Half-width of the shaded band: |H| within 1 +/- tolerance (:func:`longprofile.road.apl.passband`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    from ..errors import ModelError
+    from ..road.apl import APLModel, frequency_response, passband
+
+    models = [models] if isinstance(models, APLModel) else list(models)
+    fig = Figure(figsize=(8, 9), layout="constrained")
+    axm, axp, axg = fig.subplots(3, 1, sharex=True)
+    for m in models:
+        fr = frequency_response(m, np.logspace(-2, np.log10(0.5 / m.dt), 3000))
+        axm.semilogx(fr.frequency, fr.magnitude, label=m.name)
+        axp.semilogx(fr.frequency, np.degrees(fr.phase))
+        axg.semilogx(fr.frequency, fr.group_delay * 1e3)
+        try:
+            lo, hi = passband(m, tolerance=tolerance)
+            axm.axvspan(lo, hi, alpha=0.08, color=axm.lines[-1].get_color())
+        except ModelError:
+            pass
+    axm.axhline(1.0, color="k", lw=0.5)
+    axm.set_ylabel("|H|")
+    axm.set_ylim(0, 1.3)
+    axm.legend(fontsize=7)
+    axm.set_title(f"APL frequency response (shaded: |H| within 1 +/- {tolerance})")
+    axp.set_ylabel("phase (deg)")
+    axg.set_ylabel("group delay (ms)")
+    axg.set_xlabel("frequency (Hz)")
     return fig

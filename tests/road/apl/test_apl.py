@@ -18,7 +18,6 @@ from longprofile.road.apl._model import (
     frequency_response,
     paper_identified_model,
     passband,
-    plot_frequency_response,
 )
 
 
@@ -178,6 +177,8 @@ def test_any_speed_and_spacing_give_the_bilinear_section_gains(speed, dx, m1, m2
 
 
 def test_plot_frequency_response_returns_figure(tmp_path):
+    from longprofile.report import plot_frequency_response
+
     fig = plot_frequency_response([apl_model(20, 0.05), apl_model(6, 0.05)])
     out = tmp_path / "fr.png"
     fig.savefig(out, dpi=50)

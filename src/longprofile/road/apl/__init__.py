@@ -10,7 +10,8 @@ load_model, save_model     -- read (checked against a record's speed and dx) / w
 reconstruct_recording      -- ``road reconstruct`` in one call: model for (speed, dx) or a model file, spacing checked.
 identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4).
 APLModel, TrailerPoles, TABLE1_CONFIGURATIONS, RC_TIME_CONSTANT, PAPER_IDENTIFIED_MODELS
-frequency_response, FrequencyResponse, passband, plot_frequency_response
+frequency_response, FrequencyResponse, passband
+plot_frequency_response    -- deprecated alias of ``longprofile.report.plot_frequency_response``.
 apl_response               -- what the trailer records on a profile; apl_filter for bare arrays.
 
 Reconstruction
@@ -49,6 +50,7 @@ from ._deconvolution import (
                    reconstruct_profile,
                    smoother_error_std,
 )
+from ._deprecated import plot_frequency_response
 from ._double_filter import double_filter
 from ._files import load_model, save_model
 from ._identify import IDENTIFICATION_STRUCTURES, identify_trailer
@@ -67,7 +69,6 @@ from ._model import (
                    frequency_response,
                    paper_identified_model,
                    passband,
-                   plot_frequency_response,
 )
 from ._synthetic import (
                    SYNTHETIC_PROFILES,

@@ -34,7 +34,6 @@ __all__ = [
     "passband",
     "apl_response",
     "apl_filter",
-    "plot_frequency_response",
 ]
 
 #: tau of the RC high-pass, s (paper §2: "il est égal à 0.4 pi seconde").
@@ -566,36 +565,3 @@ def apl_response(profile, model: APLModel, *, initial: str = "steady"):
         y = apl_filter(model, z, initial=initial)
         return Profile(profile.distance, y, tracks=profile.tracks, name=f"APL response of {profile.name}".strip())
     return apl_filter(model, profile, initial=initial)
-
-
-def plot_frequency_response(models, *, tolerance: float = 0.1):
-    """Magnitude, phase and group delay of one or more models, with the |H| ~ 1 band shaded.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    models = [models] if isinstance(models, APLModel) else list(models)
-    fig = Figure(figsize=(8, 9), layout="constrained")
-    axm, axp, axg = fig.subplots(3, 1, sharex=True)
-    for m in models:
-        fr = frequency_response(m, np.logspace(-2, np.log10(0.5 / m.dt), 3000))
-        axm.semilogx(fr.frequency, fr.magnitude, label=m.name)
-        axp.semilogx(fr.frequency, np.degrees(fr.phase))
-        axg.semilogx(fr.frequency, fr.group_delay * 1e3)
-        try:
-            lo, hi = passband(m, tolerance=tolerance)
-            axm.axvspan(lo, hi, alpha=0.08, color=axm.lines[-1].get_color())
-        except ModelError:
-            pass
-    axm.axhline(1.0, color="k", lw=0.5)
-    axm.set_ylabel("|H|")
-    axm.set_ylim(0, 1.3)
-    axm.legend(fontsize=7)
-    axm.set_title(f"APL frequency response (shaded: |H| within 1 +/- {tolerance})")
-    axp.set_ylabel("phase (deg)")
-    axg.set_ylabel("group delay (ms)")
-    axg.set_xlabel("frequency (Hz)")
-    return fig
