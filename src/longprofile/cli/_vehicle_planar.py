@@ -70,12 +70,20 @@ def slope(
                                           "(linear interpolation; gaps are refused)."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
                                       "has no V_x measurement."),
+    max_grade: float = typer.Option(0.10, "--max-grade", help="Warn where the estimated grade |tan(slope)| exceeds "
+                                    "this (0.10 = 10 %; the slope_plausible column uses 10 %)."),
     overwrite: bool = OVERWRITE,
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
+    import math
+
     from ..io import read_table, write_table
     from ..vehicle import estimate_slope, parse_units, read_drive_log
 
+    if not (math.isfinite(max_grade) and max_grade > 0):
+        from ..errors import InputError
+
+        raise InputError(f"--max-grade must be a positive grade (0.10 = 10 %); got {max_grade!r}.")
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
@@ -88,7 +96,7 @@ def slope(
         est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
-    for w in est.warnings(max_missing=max_missing):
+    for w in est.warnings(max_missing=max_missing, max_slope=math.atan(max_grade)):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:
         from ..report import plot_slope_estimate

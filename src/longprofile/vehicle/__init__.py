@@ -18,6 +18,7 @@ planar_ekf_model      -- EKF model of eq. (20) on (V_x, V_y, r) (NonlinearStateS
 slope_ekf_model       -- augmented EKF model on (V_x, V_y, r, theta_r).
 slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its Luenberger gain.
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
+SlopeUncertainty      -- the parameter uncertainty added to the printed stds; nis_inflation (innovation consistency).
 EKFTuning             -- EKF noise settings.
 speed_reference       -- slip-robust V_x measurement (torque-free / slip-compensated wheels, per-sample std,
                          missing when no wheel is trustworthy); SpeedReference, SPEED_SOURCES.
@@ -64,7 +65,8 @@ from .._lazy import lazy_namespace
 _EXPORTS = {
     ".planar": ("Vehicle", "default_vehicle", "load_vehicle", "SIMULATOR_ONLY", "TyreForces", "dugoff_forces",
                 "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
-                "drive_scenario", "simulate_drive", "EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model",
+                "drive_scenario", "simulate_drive", "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation",
+                "estimate_slope", "planar_ekf_model",
                 "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
                 "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
     ".vertical": ("load_vertical_params", "CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
@@ -90,7 +92,7 @@ __all__ = [
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
     "simulate_drive", "LOG_COLUMNS",
-    "EKFTuning", "SlopeEstimate", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
+    "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "plot_slope_estimate", "plot_drive",

@@ -27,8 +27,9 @@ def test_simulate_then_slope(tmp_path):
     assert res.exit_code == 0, res.output
     out = pd.read_csv(states)
     for col in ("time", "vx", "vx_std", "vy", "yaw_rate", "slope", "slope_std", "fx_fl", "fy_rr_std",
-                "resisting_force"):
+                "resisting_force", "slope_plausible"):
         assert col in out.columns
+    assert out["slope_plausible"].all()  # the first 4 s of the hill drive are flat
     # 4 s of hill drive: flat road, then the start of the acceleration; the estimate follows the truth
     assert (out["slope"] - frame["true_slope"]).abs().max() < 0.01
     assert (tmp_path / "states.png").stat().st_size > 10_000
@@ -37,6 +38,10 @@ def test_simulate_then_slope(tmp_path):
     res = runner.invoke(app, ["vehicle", "slope", str(log), "-o", str(paper), "--speed-measurement", "rear-mean"])
     assert res.exit_code == 0 and "speed measurement rear-mean" in res.output
     assert (pd.read_csv(paper)["slope"] - frame["true_slope"]).abs().max() < 0.01
+    # the grade warning's threshold is an option (issue 13: 10 % by default); a tiny one fires, a bad one is refused
+    res = runner.invoke(app, ["vehicle", "slope", str(log), "-o", str(tmp_path / "g.csv"), "--max-grade", "1e-6"])
+    assert res.exit_code == 0 and "plausible range" in res.output and "10 % grade" not in res.output
+    assert main(["vehicle", "slope", str(log), "-o", str(tmp_path / "h.csv"), "--max-grade", "-1"]) == 2
 
 
 def test_missing_channel_is_a_clear_error_exit_2(tmp_path, capsys):

@@ -8,7 +8,7 @@ Everything here is also exported by :mod:`longprofile.vehicle` (except the studi
 """
 
 from ._dugoff import TyreForces, dugoff_forces
-from ._estimate import SlopeEstimate, estimate_slope
+from ._estimate import SlopeEstimate, SlopeUncertainty, estimate_slope, nis_inflation
 from ._evaluate import PAPER_PROTOTYPE_ERRORS, accuracy_scores, sensitivity_study, speed_measurement_study
 from ._model import (
                         EKFTuning,
@@ -41,6 +41,6 @@ __all__ = [
     "EKFTuning", "planar_ekf_model", "slope_ekf_model", "planar_inputs", "planar_measurements",
     "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
-    "SlopeEstimate", "estimate_slope",
+    "SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation",
     "accuracy_scores", "sensitivity_study", "speed_measurement_study", "PAPER_PROTOTYPE_ERRORS",
 ]

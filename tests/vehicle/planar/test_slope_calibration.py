@@ -1,0 +1,116 @@
+"""Calibration of the printed stds of estimate_slope (issue 13): NIS inflation, parameter terms, 10 % flag."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError
+from longprofile.vehicle import default_vehicle, drive_scenario, estimate_slope, simulate_drive
+from longprofile.vehicle.planar._estimate import MAX_PLAUSIBLE_GRADE, SlopeUncertainty, nis_inflation
+
+Z90 = 1.6448536269514722
+
+
+@pytest.fixture(scope="module")
+def paper():
+    sim = simulate_drive(drive_scenario("paper", duration=12.0), seed=3)
+    return sim, estimate_slope(sim.log, default_vehicle())
+
+
+@pytest.fixture(scope="module")
+def heavy_hill():
+    """The hill drive with a car 15 % heavier than the estimator's (first 20 s: acceleration and climb)."""
+    car = default_vehicle()
+    sim = simulate_drive(drive_scenario("hill", duration=20.0), car.with_changes(mass=1.15 * car.mass), seed=5)
+    return sim, car
+
+
+def _coverage(sim, est, key="slope"):
+    keep = sim.log.time >= 2.0
+    err = (getattr(est, key) - getattr(sim.truth, key))[keep]
+    return float(np.mean(np.abs(err) <= Z90 * np.broadcast_to(getattr(est, f"{key}_std"), est.slope.shape)[keep]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(0, 60), st.floats(0.01, 100.0))
+def test_nis_inflation_is_at_least_one_and_one_for_small_innovations(seed, window, scale):
+    rng = np.random.default_rng(seed)
+    T = 200
+    s = rng.uniform(0.1, 10.0, (T, 2))
+    cov = np.zeros((T, 2, 2))
+    cov[:, 0, 0], cov[:, 1, 1] = s[:, 0], s[:, 1]
+    nu = rng.normal(0.0, np.sqrt(scale * s))
+    nu[rng.random((T, 2)) < 0.1] = np.nan  # missing components count as consistent
+    kappa = nis_inflation(nu, cov, window)
+    assert kappa.shape == (T, 2) and np.all(kappa >= 1.0)
+    assert np.all(nis_inflation(0.5 * np.sqrt(s), cov, window) == 1.0)  # NIS 0.25 everywhere: nothing to inflate
+
+
+def test_nis_inflation_recovers_the_variance_ratio():
+    rng = np.random.default_rng(0)
+    T, w = 100_000, 1000
+    cov = np.full((T, 1, 1), 2.0)
+    consistent = nis_inflation(rng.normal(0.0, np.sqrt(2.0), (T, 1)), cov, w)
+    assert np.median(consistent) < 1.05 and consistent.max() < 1.0 + 5 * np.sqrt(2.0 / w)
+    too_small = nis_inflation(rng.normal(0.0, np.sqrt(8.0), (T, 1)), cov, w)
+    assert abs(np.median(too_small) - 4.0) < 0.2
+
+
+def test_inflation_is_one_on_a_consistent_simulated_drive(paper):
+    sim, est = paper
+    f = est.filtered
+    kappa = nis_inflation(f.innovation, f.innovation_cov, 1000)
+    assert np.median(kappa[:, 0]) == pytest.approx(1.0, abs=0.05)
+    assert np.median(kappa[:, 1]) == pytest.approx(1.0, abs=0.05)
+
+
+def test_noise_only_is_the_stationary_lyapunov_std(paper):
+    sim, est = paper
+    old = estimate_slope(sim.log, default_vehicle(), uncertainty=SlopeUncertainty.noise_only())
+    s_std = old.slope_std * np.cos(old.slope)
+    assert np.ptp(s_std) < 1e-12 * s_std.max()  # one stationary value of sin(theta)'s std
+    assert np.all(est.slope_std > old.slope_std) and np.all(est.vx_std >= old.vx_std)
+    np.testing.assert_array_equal(est.slope, old.slope)  # the estimate itself does not change
+
+
+def test_mass_error_is_covered_after_and_was_not_before(heavy_hill):
+    sim, car = heavy_hill
+    for method in ("cascade", "joint"):
+        before = _coverage(sim, estimate_slope(sim.log, car, method=method, uncertainty=SlopeUncertainty.noise_only()))
+        after = _coverage(sim, estimate_slope(sim.log, car, method=method))
+        assert 0.85 <= after <= 1.0, (method, after)
+        if method == "cascade":
+            assert before < 0.5, before
+
+
+def test_larger_stated_mass_uncertainty_widens_the_slope_band(heavy_hill):
+    sim, car = heavy_hill
+    a = estimate_slope(sim.log, car, uncertainty=SlopeUncertainty(mass_rel_std=0.05))
+    b = estimate_slope(sim.log, car, uncertainty=SlopeUncertainty(mass_rel_std=0.2))
+    assert np.all(b.slope_std >= a.slope_std) and np.median(b.slope_std) > 1.5 * np.median(a.slope_std)
+
+
+@pytest.mark.parametrize("bad", [-0.1, float("nan"), float("inf")])
+def test_uncertainty_rejects_bad_values(bad):
+    with pytest.raises(InputError):
+        SlopeUncertainty(mass_rel_std=bad)
+
+
+def test_ten_percent_flag_fires_on_steep_slope_not_on_flat_drive(paper):
+    sim, est = paper  # the paper drive climbs 4 deg = 7 %
+    frame = est.to_frame()
+    assert frame["slope_plausible"].dtype == bool and frame["slope_plausible"].all()
+    assert est.warnings() == []
+    grade = 0.12  # 12 %: over the 10 % flag, under the former 0.2 rad warning
+    steep = replace(est, slope=np.where(est.time >= 6.0, np.arctan(grade), est.slope))
+    flag = steep.slope_plausible()
+    np.testing.assert_array_equal(flag, est.time < 6.0)
+    (w,) = steep.warnings()
+    assert "slope leaves the plausible range" in w and "10 % grade" in w and "t = 6" in w
+    assert steep.warnings(max_slope=0.2) == []  # the threshold stays a parameter
+    assert MAX_PLAUSIBLE_GRADE == 0.10
+    downhill = replace(est, slope=-np.abs(est.slope) - np.arctan(0.101))
+    assert not downhill.slope_plausible().any()
