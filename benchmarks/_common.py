@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -52,3 +54,51 @@ def best_time(fn, *, repeat: int = 5, min_time: float = 0.0) -> float:
         if i > 1000:
             break
     return best
+
+
+#: z of the two-sided 90 % interval of a normal distribution.
+Z90 = 1.6448536269514722
+
+
+@dataclass
+class CoverageScore:
+    """Running tally of how often ``estimate +- Z90 std`` covers the truth (the calibration benchmarks).
+
+    ``add(err, std)`` takes errors (estimate - truth) and the printed stds (broadcast to the errors; non-finite or
+    non-positive stds skipped); ``coverage`` is the share of covered samples, ``rms_z`` the RMS of err/std,
+    ``pit_shares`` the PIT = Phi(err/std) decile shares, ``by_draw`` the coverage of each ``add`` call.
+    """
+
+    inside: int = 0
+    n: int = 0
+    z2: float = 0.0
+    pit: np.ndarray = field(default_factory=lambda: np.zeros(10))
+    by_draw: list = field(default_factory=list)
+
+    def add(self, err, std):
+        from scipy.special import ndtr
+
+        err = np.asarray(err, dtype=float)
+        std = np.broadcast_to(np.asarray(std, dtype=float), err.shape)
+        ok = np.isfinite(err) & np.isfinite(std) & (std > 0)
+        if not ok.any():
+            return
+        z = err[ok] / std[ok]
+        inside = int(np.sum(np.abs(z) <= Z90))
+        self.inside += inside
+        self.n += int(ok.sum())
+        self.z2 += float(np.sum(z * z))
+        self.pit += np.bincount(np.minimum((ndtr(z) * 10).astype(int), 9), minlength=10)
+        self.by_draw.append(inside / ok.sum())
+
+    @property
+    def coverage(self):
+        return self.inside / self.n if self.n else float("nan")
+
+    @property
+    def rms_z(self):
+        return float(np.sqrt(self.z2 / self.n)) if self.n else float("nan")
+
+    @property
+    def pit_shares(self):
+        return self.pit / max(self.pit.sum(), 1)

@@ -30,45 +30,16 @@ families).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import BenchRow
+from benchmarks._common import BenchRow, CoverageScore
 
 AREA = "road_calibration"
-Z90 = 1.6448536269514722
 LENGTH, DX, SPEED, EDGE = 2000.0, 0.05, 20.0, 100.0
 CLASSES = ("A", "B", "C", "D", "E")
 SOREL = Path(__file__).resolve().parents[1] / ".." / "shared" / "reference-data" / "sorel-iri-profile" / "profile_1.txt"
-
-
-@dataclass
-class _Score:
-    inside: int = 0
-    n: int = 0
-    z2: float = 0.0
-    by_draw: list = field(default_factory=list)
-
-    def add(self, err, std):
-        ok = np.isfinite(err) & np.isfinite(std) & (std > 0)
-        if not ok.any():
-            return
-        z = err[ok] / std[ok]
-        inside = int(np.sum(np.abs(z) <= Z90))
-        self.inside += inside
-        self.n += int(ok.sum())
-        self.z2 += float(np.sum(z * z))
-        self.by_draw.append(inside / ok.sum())
-
-    @property
-    def coverage(self):
-        return self.inside / self.n if self.n else float("nan")
-
-    @property
-    def rms_z(self):
-        return float(np.sqrt(self.z2 / self.n)) if self.n else float("nan")
 
 
 def _ar1(rng, n, corr_m, std):
@@ -124,12 +95,12 @@ def _recording(family, rng, nominal, length=LENGTH):
 
 
 def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH) -> dict:
-    """Scores per printed std: {"smoother std_m": _Score, ...} for one family."""
+    """Scores per printed std: {"smoother std_m": CoverageScore, ...} for one family."""
     from longprofile.road.apl import apl_model, detrend_profile, reconstruct_profile
 
     nominal = apl_model(SPEED, DX)
     rng = np.random.default_rng([seed, sum(map(ord, family))])
-    scores = {k: _Score() for k in ("smoother std_m", "smoother raw_std_m", "fixed-lag std_m",
+    scores = {k: CoverageScore() for k in ("smoother std_m", "smoother raw_std_m", "fixed-lag std_m",
                                     "fixed-lag raw_std_m")}
     rms = {"smoother": [], "fixed-lag": []}
     for _ in range(draws):

@@ -30,54 +30,17 @@ Run: ``python -m benchmarks vehicle_calibration`` (full: 8 draws of 24 s per fam
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
-from benchmarks._common import BenchRow
+from benchmarks._common import BenchRow, CoverageScore
 
 AREA = "vehicle_calibration"
-Z90 = 1.6448536269514722
 DT, SETTLE = 1e-3, 2.0
 FAMILIES = ("own model", "mass error", "radius error", "tyre error", "friction error", "sensor bias",
             "steep grades", "lag, jitter")
 STATES = ("slope", "vx", "vy", "yaw_rate")
-
-
-@dataclass
-class _Score:
-    inside: int = 0
-    n: int = 0
-    z2: float = 0.0
-    pit: np.ndarray = field(default_factory=lambda: np.zeros(10))
-    by_draw: list = field(default_factory=list)
-
-    def add(self, err, std):
-        from scipy.special import ndtr
-
-        std = np.broadcast_to(std, err.shape)
-        ok = np.isfinite(err) & np.isfinite(std) & (std > 0)
-        if not ok.any():
-            return
-        z = err[ok] / std[ok]
-        inside = int(np.sum(np.abs(z) <= Z90))
-        self.inside += inside
-        self.n += int(ok.sum())
-        self.z2 += float(np.sum(z * z))
-        self.pit += np.bincount(np.minimum((ndtr(z) * 10).astype(int), 9), minlength=10)
-        self.by_draw.append(inside / ok.sum())
-
-    @property
-    def coverage(self):
-        return self.inside / self.n if self.n else float("nan")
-
-    @property
-    def rms_z(self):
-        return float(np.sqrt(self.z2 / self.n)) if self.n else float("nan")
-
-    @property
-    def pit_shares(self):
-        return self.pit / max(self.pit.sum(), 1)
 
 
 def _ramps(x, rng, n, max_level, length):
@@ -150,12 +113,12 @@ def _sensors(family, rng):
 
 def calibrate(family: str, draws: int, *, seed: int = 0, duration: float = 24.0, methods=("cascade", "joint"),
               estimator_kwargs=None) -> dict:
-    """Scores {(method, state): _Score} of one family over ``draws`` random drives."""
+    """Scores {(method, state): CoverageScore} of one family over ``draws`` random drives."""
     from longprofile.vehicle import default_vehicle, estimate_slope, simulate_drive
 
     car = default_vehicle()
     rng = np.random.default_rng([seed, sum(map(ord, family))])
-    scores = {(m, k): _Score() for m in methods for k in STATES}
+    scores = {(m, k): CoverageScore() for m in methods for k in STATES}
     for _ in range(draws):
         scenario = _scenario(family, rng, duration)
         sim = simulate_drive(scenario, _true_car(family, rng, car), sensors=_sensors(family, rng), seed=rng)
