@@ -18,7 +18,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 import pandas as pd
-from sqlalchemy import func, select, tuple_, update
+from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
@@ -516,6 +516,44 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
     raise AssertionError("unreachable")
 
 
+def _existing_readings(s, keys) -> dict:
+    """{(sensor_pk, ts): (id, angle_deg, temperature_c, revision, batch_id)} of the stored readings among ``keys``.
+
+    Looked up by index seeks on the (sensor_pk, ts) key: ``sensor_pk IN (...) AND ts IN (...)`` over groups of
+    sensors whose timestamps are few (a logger's batch: every sensor at the same few times), so the cross
+    product stays within a few times the number of keys; the surplus is filtered here. (A row-value
+    ``(sensor_pk, ts) IN (VALUES ...)`` made SQLite scan the site's readings for every batch: the time per batch
+    grew with the table, 90 ms to 310 ms over 200 000 readings.) Sensors and site are not re-checked: the
+    sensor keys come from this site's sensors.
+    """
+    by_sensor: dict = {}
+    for spk, ts in keys:
+        by_sensor.setdefault(spk, set()).add(ts)
+    wanted = set(keys)
+    groups, group, times = [], [], set()
+    for spk in sorted(by_sensor, key=lambda k: (min(by_sensor[k]), len(by_sensor[k]))):
+        union = times | by_sensor[spk]
+        if group and ((len(group) + 1) * len(union) > 4 * (sum(len(by_sensor[g]) for g in group) + len(by_sensor[spk]))
+                      or len(group) + len(union) > 900):
+            groups.append((group, times))
+            group, union = [], set(by_sensor[spk])
+        group.append(spk)
+        times = union
+    if group:
+        groups.append((group, times))
+    found = {}
+    cols = (Reading.id, Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c, Reading.revision,
+            Reading.batch_id)
+    for sensors_, times_ in groups:
+        ts_sorted = sorted(times_)
+        for c in range(0, len(ts_sorted), 800):  # a sensor with many timestamps: bounded parameter lists
+            q = select(*cols).where(Reading.sensor_pk.in_(sensors_), Reading.ts.in_(ts_sorted[c:c + 800]))
+            for rid, spk, ts, a, t, rev, bid in s.execute(q):
+                if (spk, ts) in wanted:
+                    found[(spk, ts)] = (rid, a, t, rev, bid)
+    return found
+
+
 def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> IngestResult:
     out = list(out)
     with db.write() as s:
@@ -555,15 +593,7 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
                 continue
             first[k] = g
             uniq.append(g)
-        existing = {}
-        keys = [(g[1], g[3]) for g in uniq]
-        for c in range(0, len(keys), 400):
-            chunk = keys[c:c + 400]
-            for rid, spk, ts, a, t, rev, bid in s.execute(
-                    select(Reading.id, Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c,
-                           Reading.revision, Reading.batch_id)
-                    .where(Reading.site_id == site.id, tuple_(Reading.sensor_pk, Reading.ts).in_(chunk))):
-                existing[(spk, ts)] = (rid, a, t, rev, bid)
+        existing = _existing_readings(s, [(g[1], g[3]) for g in uniq])
         batch = Batch(site_id=site.id, logger_id=logger_id, received_ts=now_ts())
         s.add(batch)
         s.flush()
