@@ -46,6 +46,7 @@ fit_mle                -- maximum-likelihood parameters of build(theta) -> model
 Deterministic propagation
 -------------------------
 linear_recursion       -- x[k+1] = A_k x[k] + B_k u[k], constant or per-step matrices (compiled; IRI golden car).
+linear_recursion_columns -- K independent columns of one constant recursion in one compiled call.
 
 Results
 -------
@@ -73,7 +74,7 @@ _LAZY = {
     "MLEResult": "_mle", "fit_mle": "_mle",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
-    "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate",
+    "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate", "linear_recursion_columns": "_propagate",
     "FilterResult": "_results", "SmootherResult": "_results",
     "posterior_sample": "_sampling", "simulate": "_sampling",
     "shared_covariance_smoother": "_shared_cov", "smoother_noise_covariance": "_shared_cov",
@@ -115,6 +116,7 @@ __all__ = [
     "fit_mle",
     "MLEResult",
     "linear_recursion",
+    "linear_recursion_columns",
     "LinearRecursionResult",
 ]
 

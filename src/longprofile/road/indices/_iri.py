@@ -14,7 +14,7 @@ import pandas as pd
 from ..._validation import require_positive
 from ...core import Profile
 from ...errors import InputError
-from ...statespace import linear_recursion
+from ...statespace import linear_recursion, linear_recursion_columns
 
 __all__ = [
     "AUTO_MOVING_AVERAGE_SHARE",
@@ -318,6 +318,22 @@ def _box_average_irregular(x: np.ndarray, z: np.ndarray, base: float) -> tuple[n
     return q, zs
 
 
+def _moving_mean(z: np.ndarray, n: int) -> np.ndarray:
+    """Mean of ``n`` consecutive rows of ``z`` (N, K): (N - n + 1, K), row i the mean of rows i .. i + n - 1.
+
+    The WTP-46 / ASTM E1926 moving average on a constant step, as a sum of the ``n`` shifted slices in row order
+    divided by ``n`` (no running-sum drift): the same additions in the same order as
+    ``sliding_window_view(z, n, axis=0).mean(axis=-1)`` on a C-ordered z of two or more columns (bit-identical,
+    tested; otherwise within 1e-15 relative), without its per-window reduction overhead.
+    """
+    m = z.shape[0] - n + 1
+    out = z[:m].copy()
+    for i in range(1, n):
+        out += z[i:i + m]
+    out /= n
+    return out
+
+
 def _smooth(x, z, regular_dx, moving_average, base_length):
     """Apply the 250 mm moving average where the rule asks for it; return (x, z, applied, reason)."""
     apply, reason = _decide_moving_average(x, regular_dx, _moving_average_mode(moving_average), base_length)
@@ -332,8 +348,7 @@ def _smooth(x, z, regular_dx, moving_average, base_length):
         if x.size <= n_base:
             raise InputError(f"the profile ({x.size} samples) is shorter than the moving-average base "
                              f"({n_base} samples of {regular_dx:g} m).")
-        zs = np.lib.stride_tricks.sliding_window_view(z, n_base, axis=0).mean(axis=-1)  # no running-sum drift
-        return x[lo:x.size - hi], zs, True, reason
+        return x[lo:x.size - hi], _moving_mean(z, n_base), True, reason
     xs, zs = _box_average_irregular(x, z, base_length)
     return xs, zs, True, reason
 
@@ -360,38 +375,125 @@ def _insert_stations(x: np.ndarray, z: np.ndarray, new: np.ndarray,
     return xa[order], np.concatenate([z, zn])[order], mask[order]
 
 
+def _golden_car_step_matrices(dx: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`golden_car_matrices` of one constant step, cached (read-only arrays; many short runs share it)."""
+    key = float(dx)
+    hit = _STEP_MATRICES.get(key)
+    if hit is None:
+        st, pr = golden_car_matrices(key)
+        st.flags.writeable = False
+        pr = pr[:, None]
+        pr.flags.writeable = False
+        if len(_STEP_MATRICES) >= 64:
+            _STEP_MATRICES.clear()
+        hit = _STEP_MATRICES[key] = (st, pr)
+    return hit
+
+
+_STEP_MATRICES: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+
 def _run_golden_car(x: np.ndarray, z: np.ndarray, lead_in: float, regular: bool) -> tuple[np.ndarray, np.ndarray]:
     """Steps (M-1,) and rectified slope (M-1, K) in m/km for the profile (x, z), state carried through the run.
 
     Processed in chunks of ``_CHUNK`` steps (bounded temporaries that stay in cache); the state is carried
-    exactly from one chunk to the next, so the result does not depend on the chunking.
+    exactly from one chunk to the next, so the result does not depend on the chunking. On a constant step all
+    tracks run together (:func:`longprofile.statespace.linear_recursion_columns`, the same numbers as one
+    :func:`~longprofile.statespace.linear_recursion` per track).
     """
     if x[-1] - x[0] < lead_in:
         raise InputError(f"the profile is {x[-1] - x[0]:.3f} m long, shorter than the {lead_in:g} m lead-in used to "
                          "initialise the IRI; use a longer profile or a shorter lead_in.")
     h = np.diff(x)
     out = np.empty((z.shape[1], h.size)).T  # column-major: each track's output is contiguous
+    s0 = np.array([(np.interp(x[0] + lead_in, x, z[:, j]) - z[0, j]) / lead_in for j in range(z.shape[1])])
     if regular:
-        st, pr = golden_car_matrices(float((x[-1] - x[0]) / h.size))
-        pr = pr[:, None]
+        state = np.column_stack([s0, np.zeros_like(s0), s0, np.zeros_like(s0)])
+        _constant_step_run(h, z, _golden_car_step_matrices((x[-1] - x[0]) / h.size), state, out)
+        return h, out
     for j in range(z.shape[1]):
         zj = z[:, j]
-        s0 = (np.interp(x[0] + lead_in, x, zj) - zj[0]) / lead_in
-        state = np.array([s0, 0.0, s0, 0.0])
+        state = np.array([s0[j], 0.0, s0[j], 0.0])
         for a in range(0, h.size, _CHUNK):
             b = min(h.size, a + _CHUNK)
             slope = np.subtract(zj[a + 1:b + 1], zj[a:b])
             slope /= h[a:b]
-            if regular:
-                res = linear_recursion(st, pr, slope, state, output_matrix=_C_RV)
-            else:
-                st_k, pr_k = golden_car_matrices(h[a:b])
-                res = linear_recursion(st_k, pr_k[:, :, None], slope, state, output_matrix=_C_RV)
+            st_k, pr_k = golden_car_matrices(h[a:b])
+            res = linear_recursion(st_k, pr_k[:, :, None], slope, state, output_matrix=_C_RV)
             rv = res.outputs[:, 0]
             np.abs(rv, out=rv)
             np.multiply(rv, 1000.0, out=out[a:b, j])
             state = res.final_state
     return h, out
+
+
+def _constant_step_run(h, z, matrices, state, out) -> np.ndarray:
+    """The constant-step golden car over the steps ``h`` (S,) of the smoothed tracks ``z`` (S + 1, C) from the
+    states ``state`` (C, 4): writes the rectified slope (m/km) into ``out`` (S, C), returns the final states."""
+    st, pr = matrices
+    for a in range(0, h.size, _CHUNK):
+        b = min(h.size, a + _CHUNK)
+        slope = np.subtract(z[a + 1:b + 1], z[a:b])
+        slope /= h[a:b, None]
+        res = linear_recursion_columns(st, pr, slope, state, _C_RV)
+        rv = res.outputs[:, :, 0]
+        np.abs(rv, out=rv)
+        np.multiply(rv, 1000.0, out=out[a:b])
+        state = res.final_state
+    return state
+
+
+@dataclass(frozen=True, eq=False)
+class _SharedStart:
+    """The golden-car run of a constant-step profile up to the first sample that candidate profiles change
+    (:func:`_shared_start`): what :func:`_resume` needs to run only the rest of each candidate."""
+
+    station: np.ndarray  # stations of the smoothed profile (M,), as in RectifiedSlope
+    step: np.ndarray  # (M - 1,)
+    z0: np.ndarray  # elevation of the first sample of each track (K,)
+    steps: int  # number of steps (of the smoothed profile) that no candidate changes
+    rectified: np.ndarray  # (steps, K) rectified slope of those steps, m/km
+    state: np.ndarray  # (K, 4) golden-car states after those steps
+    n_base: int  # samples per moving-average window (1: none)
+    matrices: tuple
+
+
+def _shared_start(x, z, dx, first_changed, lead_in=11.0, moving_average=None, base_length=0.25):
+    """:class:`_SharedStart` of the constant-step profile ``(x, z)`` (N, K) whose candidates differ from it only
+    from the sample ``first_changed`` on (None when the shortcut does not apply: irregular stations, or a change
+    that reaches the lead-in of the initial slope). For the grinding search: the car is causal, so the states
+    before the first change are those of the unchanged profile; each operation is the one :func:`_run_arrays`
+    does (the same numbers bit for bit, tested)."""
+    if dx is None or first_changed is None:
+        return None
+    xsm, zsm, _, _ = _smooth(x, z - z[0], dx, moving_average, base_length)
+    n_base = x.size - xsm.size + 1
+    steps = first_changed - n_base  # step i uses the smoothed samples i, i + 1 (raw samples i .. i + n_base)
+    if steps < 1 or not xsm[steps] > xsm[0] + lead_in:  # initial slope from unchanged samples only
+        return None
+    h = np.diff(xsm)
+    zp = zsm[:steps + 1]
+    s0 = np.array([(np.interp(xsm[0] + lead_in, xsm[:steps + 1], zp[:, j]) - zp[0, j]) / lead_in
+                   for j in range(z.shape[1])])
+    state = np.column_stack([s0, np.zeros_like(s0), s0, np.zeros_like(s0)])
+    matrices = _golden_car_step_matrices((xsm[-1] - xsm[0]) / h.size)
+    rect = np.empty((z.shape[1], steps)).T
+    state = _constant_step_run(h[:steps], zp, matrices, state, rect)
+    return _SharedStart(station=xsm, step=h, z0=z[0].copy(), steps=steps, rectified=rect, state=state,
+                        n_base=n_base, matrices=matrices)
+
+
+def _resume(shared: _SharedStart, z_rest: np.ndarray) -> np.ndarray:
+    """Rectified slope (m/km) of the steps ``steps ..`` of candidate profiles, column ``i K + j`` a candidate of
+    track j that equals it before ``first_changed`` (:func:`_shared_start`), given their samples ``steps .. N - 1``
+    only: ``z_rest`` (N - steps, n K), changed in place; run from the shared states. With ``shared.rectified``
+    before them, the ``rectified`` of :func:`_run_arrays` on the whole candidates."""
+    n_cand = z_rest.shape[1] // shared.z0.size
+    z_rest -= np.tile(shared.z0, n_cand)  # the first sample, unchanged (as z -= z[0] in _run_arrays)
+    zsm = _moving_mean(z_rest, shared.n_base) if shared.n_base > 1 else z_rest
+    out = np.empty((z_rest.shape[1], shared.step.size - shared.steps)).T
+    _constant_step_run(shared.step[shared.steps:], zsm, shared.matrices, np.tile(shared.state, (n_cand, 1)), out)
+    return out
 
 
 def _is_regular(x: np.ndarray) -> float | None:
@@ -430,12 +532,18 @@ def _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, 
     lead_in = require_positive("lead_in", lead_in)
     base_length = require_positive("base_length", base_length)
     z, names = _select_tracks(profile, tracks)
-    z -= z[0]  # (a fresh copy) exact invariance to a constant; keeps averages and slopes free of cancellation
     x = profile.distance
     if x.size < 2:
         raise InputError("the profile needs at least 2 stations.")
     if dx is None:
         dx = _is_regular(x)
+    return _run_arrays(x, z, names, lead_in, moving_average, base_length, extra_stations, dx)
+
+
+def _run_arrays(x, z, names, lead_in, moving_average, base_length, extra_stations, dx):
+    """:func:`_run` on validated arrays: stations x (N,), a fresh float array z (N, K) without NaN (changed in
+    place), ``dx`` = ``_is_regular(x)``; for callers that run many short profiles (the grinding search)."""
+    z -= z[0]  # (a fresh copy) exact invariance to a constant; keeps averages and slopes free of cancellation
     xs, zs, applied, reason = _smooth(x, z, dx, moving_average, base_length)
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
     mask = None

@@ -280,24 +280,38 @@ def localized_index(profile: Profile, spec: AcceptanceSpec, *, tracks=None, rs=N
 
     Returns (centres in the length unit, values (M, K) per track, index (M,) MRI or worst track, tracks).
     """
-    scale = spec.metres_per_unit
     rs = rectified_slope(profile, tracks=tracks) if rs is None else rs
     st, cum = _cumulative(rs)
+    centres = _localized_centres(profile.distance, st, spec)
+    vals = _localized_values(st, cum, centres, spec)
+    index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else vals.max(axis=1)
+    return centres / spec.metres_per_unit, vals, index, rs.tracks
+
+
+def _localized_centres(distance: np.ndarray, st: np.ndarray, spec: AcceptanceSpec) -> np.ndarray:
+    """Window centres of the localized index, m: the stations (or the spec's step grid) whose window of
+    ``localized_window`` lies within the simulated stations ``st``."""
+    scale = spec.metres_per_unit
     w = spec.localized_window * scale
     lo, hi = st[0] + w / 2, st[-1] - w / 2
     if hi < lo:
         raise InputError(f"the profile ({(st[-1] - st[0]) / scale:.2f} {spec.length_unit}) is shorter than the "
                          f"localized window ({spec.localized_window:g} {spec.length_unit}).")
     if spec.localized_step is None:
-        centres = profile.distance[(profile.distance >= lo) & (profile.distance <= hi)]
-    else:
-        centres = np.arange(lo, hi + 1e-9, spec.localized_step * scale)
+        return distance[(distance >= lo) & (distance <= hi)]
+    return np.arange(lo, hi + 1e-9, spec.localized_step * scale)
+
+
+def _localized_values(st: np.ndarray, cum: np.ndarray, centres: np.ndarray, spec: AcceptanceSpec) -> np.ndarray:
+    """(M, K) continuous IRI (spec's IRI unit) of the windows centred on ``centres`` (m), from the cumulative
+    rectified slope ``cum`` at the stations ``st`` (:func:`_cumulative`); NaN where a window touches an exclusion."""
+    scale = spec.metres_per_unit
+    w = spec.localized_window * scale
     vals = _interval_sum(st, cum, centres - w / 2, centres + w / 2) / w * spec.iri_factor
     for a, b in spec.exclusions:
         touch = (centres + w / 2 > a * scale) & (centres - w / 2 < b * scale)
         vals[touch] = np.nan
-    index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else vals.max(axis=1)
-    return centres / scale, vals, index, rs.tracks
+    return vals
 
 
 def _check_zones(spec: AcceptanceSpec, x0: float, x1: float):

@@ -9,7 +9,16 @@ import pandas as pd
 
 from ...core import Profile
 from ...errors import InputError
-from ._acceptance import AcceptanceSpec, default_spec, localized_index, validate_spec
+from ..indices._iri import _is_regular, _resume, _run_arrays, _shared_start
+from ._acceptance import (
+    AcceptanceSpec,
+    _cumulative,
+    _localized_centres,
+    _localized_values,
+    default_spec,
+    localized_index,
+    validate_spec,
+)
 
 __all__ = ["GrindingResult", "simulate_grinding"]
 
@@ -59,6 +68,42 @@ def _chord_deviation(x, z, half):
     return z - 0.5 * (np.interp(lo, x, z) + np.interp(hi, x, z))
 
 
+def _row_max(a: np.ndarray) -> np.ndarray:
+    """``a.max(axis=-1)`` (NaN propagated, the same values) as a loop of ``np.maximum`` over the few tracks: numpy
+    reduces a short last axis row by row, tens of times slower."""
+    out = a[..., 0].copy()
+    for j in range(1, a.shape[-1]):
+        np.maximum(out, a[..., j], out=out)
+    return out
+
+
+def _localized_index_arrays(xs, zg, names, spec):
+    """``(centres, index)`` of :func:`localized_index` of the profile ``(xs, zg)`` (a sub-profile of a validated
+    profile, golden car with the defaults of rectified_slope) without building and re-validating a Profile."""
+    if np.isnan(zg.sum()):
+        raise InputError("the grinding simulation needs elevations without NaN around each must-grind area.")
+    rs = _run_arrays(xs, zg.copy(), names, 11.0, None, 0.25, None, _is_regular(xs))[0]
+    st, cum = _cumulative(rs)
+    centres = _localized_centres(xs, st, spec)
+    vals = _localized_values(st, cum, centres, spec)
+    index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else _row_max(vals)
+    return centres / spec.metres_per_unit, index
+
+
+def _cumulative_resumed(shared, cum0, rest):
+    """``(stations, cumulative)`` of :func:`_cumulative` for the candidates whose rectified slope is
+    ``shared.rectified`` (tiled) then ``rest``: the shared rows tiled, the rest summed on from the last shared one
+    (a cumulative sum is sequential, so the numbers are those of one cumulative sum over the whole)."""
+    n_cand = rest.shape[1] // cum0.shape[1]
+    s = shared.steps
+    cum = np.empty((shared.station.size, rest.shape[1]), order="F")  # contiguous columns for np.interp
+    cum[:s + 1] = np.tile(cum0, (1, n_cand))
+    tail = shared.step[s:, None] * rest
+    tail[0] += cum[s]
+    np.cumsum(tail, axis=0, out=cum[s + 1:])
+    return shared.station, cum
+
+
 def _must_grind_areas(centres, above, scale, w) -> list[list[float]]:
     """The must-grind areas, m: unions of the localized windows (centres in the spec unit, width w in m) above
     the threshold, overlapping windows merged."""
@@ -74,41 +119,65 @@ def _must_grind_areas(centres, above, scale, w) -> list[list[float]]:
     return areas
 
 
+def _touching_runs(cut: np.ndarray, i0: int, i1: int) -> np.ndarray:
+    """``cut`` (k, C) with only the runs of cutting (consecutive rows > 0 per column) that touch the rows
+    ``i0 .. i1`` (the area, contiguous) kept: a row before the area is kept when every row from it to ``i0``
+    cuts, a row after it when every row from ``i1`` to it cuts (whole runs only: no step at the ends)."""
+    pos = cut > 0
+    keep = pos.copy()
+    keep[:i0 + 1] = np.logical_and.accumulate(pos[i0::-1], axis=0)[::-1]
+    keep[i1:] = np.logical_and.accumulate(pos[i1:], axis=0)
+    return np.where(keep, cut, 0.0)
+
+
 def _grind_setting(xs, zs, in_area, nb, a, b, half, max_depth, names, loc_spec, spec, scale, w, target, tolerance):
     """The shallowest grind of one area ``[a, b]`` (m) on its sub-profile ``xs, zs``: ``(ground elevations, cut,
     achieved, peak before, peak after)`` (model: :func:`simulate_grinding`, Notes)."""
     dev = np.column_stack([_chord_deviation(xs, zs[:, j], half) for j in range(zs.shape[1])])
+    rows_in = np.flatnonzero(in_area)  # contiguous (xs sorted); all before nb
+    if np.isnan(zs[:nb].sum()):
+        raise InputError("the grinding simulation needs elevations without NaN around each must-grind area "
+                         f"({a:.3f} .. {b:.3f} m).")
+    dx_nb = _is_regular(xs[:nb])  # as rectified_slope finds it on the search sub-profile
 
-    def ground_many(cvals, k):
-        """Ground elevations (k, len(cvals) * K) and cuts for several settings on the first k samples."""
+    def ground_many(cvals, k, start=0):
+        """Ground elevations (k - start, len(cvals) * K) and cuts for several settings on the samples start .. k-1
+        (``start`` > 0 only before the first sample any setting cuts: the runs are then those of the whole)."""
         cv = np.asarray(cvals, dtype=float)
-        cut = np.clip(dev[:k, None, :] - cv[None, :, None], 0.0, max_depth).reshape(k, -1)
-        pos = cut > 0
-        start = pos & ~np.vstack([np.zeros((1, pos.shape[1]), bool), pos[:-1]])
-        label = np.cumsum(start, axis=0) * pos  # run number per column (0: no cut)
-        hit = np.zeros((int(label.max()) + 1, pos.shape[1]), bool)
-        rows_in = np.flatnonzero(in_area[:k])
-        hit[label[rows_in], np.arange(pos.shape[1])[None, :]] = True  # runs touching the area
-        hit[0] = False
-        cut = np.where(np.take_along_axis(hit, label, axis=0), cut, 0.0)  # whole runs only: no steps
-        return np.tile(zs[:k], (1, cv.size)) - cut, cut
+        cut = np.clip(dev[start:k, None, :] - cv[None, :, None], 0.0, max_depth).reshape(k - start, -1)
+        cut = (_touching_runs(cut, max(rows_in[0] - start, 0), rows_in[-1] - start) if rows_in.size
+               else np.zeros_like(cut))
+        return np.tile(zs[start:k], (1, cv.size)) - cut, cut
 
     def ground(c):
         zg, cut = ground_many([c], zs.shape[0])
         return zg, cut
 
     def peaks(cvals):
-        """Largest localized index inside the area for each grinder setting (one car run for all)."""
+        """Largest localized index inside the area for each grinder setting (one car run for all): the numbers
+        of :func:`localized_index` on the ground sub-profile (golden car with the defaults of rectified_slope),
+        at the window centres inside the area only, without re-validating the arrays; the car is run only
+        from the first sample any setting cuts (the states before it are shared, the same numbers)."""
         k = len(names)
-        prof_c = Profile(distance=xs[:nb], elevation=ground_many(cvals, nb)[0])
-        cs, vals, _, _ = localized_index(prof_c, replace(loc_spec, index="iri"))
+        if shared is not None:
+            st, cum = _cumulative_resumed(shared, cum0, _resume(shared, ground_many(cvals, nb, shared.steps)[0]))
+        else:
+            st, cum = _cumulative(_run_arrays(xs[:nb], ground_many(cvals, nb)[0], (), 11.0, None, 0.25, None, dx_nb)[0])
+        centres = _localized_centres(xs[:nb], st, loc_spec)
+        cs = centres / scale
         m = (cs * scale >= a + w / 2 - 1e-9) & (cs * scale <= b - w / 2 + 1e-9)
         if not m.any():
             return np.full(len(cvals), -np.inf)
-        v = vals[m].reshape(int(m.sum()), len(cvals), k)
-        idx = v.mean(axis=2) if (spec.index == "mri" and k == 2) else v.max(axis=2)
+        vals = _localized_values(st, cum, centres[m], loc_spec)
+        v = vals.reshape(int(m.sum()), len(cvals), k)
+        idx = v.mean(axis=2) if (spec.index == "mri" and k == 2) else _row_max(v)
         return np.fmax.reduce(idx, axis=0)  # ignores blank (excluded) windows, no All-NaN warning
 
+    deepest = np.flatnonzero(_row_max(ground_many([0.0], nb)[1]) > 0)  # every setting cuts within this
+    shared = _shared_start(xs[:nb], zs[:nb], dx_nb, int(deepest[0]) if deepest.size else None)
+    if shared is not None:  # cumulative of the shared steps (as _cumulative: the same sums, in the same order)
+        cum0 = np.cumsum(np.vstack([np.zeros((1, len(names))), shared.step[:shared.steps, None] * shared.rectified]),
+                         axis=0)
     c_hi = max(0.0, float(dev[in_area].max())) if in_area.any() else 0.0  # no grinding
     c_lo = 0.0  # everything above the chord ground away (to the depth limit): the most a grinder can do
     aim = target * (1.0 - _MARGIN)
@@ -198,11 +267,15 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
     target = float(target)
     scale = spec.metres_per_unit
     loc_spec = replace(spec, localized_threshold=target)
-    if acceptance is not None and acceptance.spec.localized_window == spec.localized_window \
-            and acceptance.spec.localized_step == spec.localized_step and acceptance.spec.index == spec.index:
+    same = acceptance is not None and all(getattr(acceptance.spec, f) == getattr(spec, f) for f in (
+        "localized_window", "localized_step", "units", "exclusions"))
+    if same and f"iri_{acceptance.tracks[0]}" in acceptance.localized:
+        # the per-track values are those localized_index gives (same run, windows and exclusions); the index
+        # is formed here by this spec's rule (spec "auto": the worst track, as localized_index(profile, spec))
         centres = acceptance.localized["station"].to_numpy()
-        index = acceptance.localized["index"].to_numpy(dtype=float)
         names = acceptance.tracks
+        vals = np.column_stack([acceptance.localized[f"iri_{t}"].to_numpy(dtype=float) for t in names])
+        index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else vals.max(axis=1)
     else:
         centres, _, index, names = localized_index(profile, loc_spec, tracks=tracks)
     x = profile.distance
@@ -212,6 +285,7 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
     w = spec.localized_window * scale
     areas = _must_grind_areas(centres, above, scale, w)
     index_after = np.array(index, dtype=float, copy=True)
+    centres_m = centres * scale
     half = 0.5 * spec.grinder_length * scale
     max_depth = spec.grind_max_depth * spec.depth_factor
     rows = []
@@ -227,14 +301,15 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
                                                     spec, scale, w, target, tolerance)
         all_ok &= ok
         z_new[i0:i1] = zg
-        changed = np.flatnonzero(cut.max(axis=1) > 0)
+        changed = np.flatnonzero(_row_max(cut) > 0)
         if changed.size:
-            cs, _, idx, _ = localized_index(Profile(distance=xs, elevation=zg, tracks=names), loc_spec)
+            cs, idx = _localized_index_arrays(xs, zg, names, loc_spec)
             # the car is causal: windows ending before the first cut are unchanged; later ones are re-simulated
             # up to the end of the sub-profile (``margin`` after the area: the golden car's memory)
             r0 = xs[changed[0]] - w / 2
             r1 = cs[-1] * scale
-            m = (centres * scale >= r0) & (centres * scale <= r1)
+            m = slice(int(np.searchsorted(centres_m, r0, side="left")),  # centres sorted: the windows with
+                      int(np.searchsorted(centres_m, r1, side="right")))  # r0 <= centre (m) <= r1
             index_after[m] = np.interp(centres[m], cs, idx)
         rows.extend(_grind_rows(n, names, cut, xs, scale, spec, ok, before, after))
     ground_profile = Profile(distance=x, elevation=z_new, tracks=names, name=(profile.name + " ground").strip())
