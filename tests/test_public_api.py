@@ -61,3 +61,20 @@ def test_lazy_vehicle_namespace_lists_exactly_its_exports_and_stays_light():
             "print('longprofile.vehicle.vertical' in sys.modules, 'scipy.signal' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.stdout.split() == ["False", "False"], proc.stdout + proc.stderr
+
+
+def test_lazy_report_namespace_lists_exactly_its_exports_and_loads_only_what_is_used():
+    import subprocess
+    import sys
+
+    import longprofile.report as report
+
+    assert {n for names in report._EXPORTS.values() for n in names} == set(report.__all__)
+    assert set(report.__all__) <= set(dir(report))
+    # the acceptance page does not drag in the derivative kernels or the vehicle figures; importing the package
+    # alone loads no matplotlib
+    code = ("import sys\nimport longprofile.report\nbare = 'matplotlib' in sys.modules\n"
+            "from longprofile.report import write_acceptance_report\n"
+            "print(bare, 'longprofile.signal._kernels' in sys.modules, 'longprofile.report._vehicle_vertical' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.stdout.split() == ["False", "False", "False"], proc.stdout + proc.stderr

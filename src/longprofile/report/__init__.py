@@ -20,25 +20,25 @@ plot_vertical_estimate, plot_vertical_simulation, plot_thesis_tables -- vertical
 plot_kalman_smoothing -- the state-space demo: Kalman filter vs RTS smoother across a data gap.
 """
 
-from ._acceptance import plot_certification, write_acceptance_report
-from ._apl import plot_frequency_response, plot_identification, plot_reconstructions, plot_recording
-from ._compare import write_compare_report
-from ._html import REPORT_FILES, report_folder
-from ._network import write_network_report
-from ._profile_plot import plot_profile
-from ._rail import plot_settlement, plot_true_settlement, write_rail_report
-from ._road import (
-                    IRI_CONDITION_LIMITS,
-                    plot_iri,
-                    plot_iri_report,
-                    road_report_figures,
-                    road_report_tables,
-                    write_road_report,
-)
-from ._signal import plot_derivative, plot_derivative_comparison
-from ._statespace import plot_kalman_smoothing
-from ._vehicle_planar import plot_drive, plot_sensitivity, plot_slope_estimate, plot_speed_measurement
-from ._vehicle_vertical import plot_thesis_tables, plot_vertical_estimate, plot_vertical_simulation
+from .._lazy import lazy_namespace
+
+# PEP 562: a submodule (and matplotlib, and the domain it draws) is imported when one of its names is first used,
+# so `road acceptance` does not load the derivative kernels of `_signal` (0.4 s) or the vehicle figures.
+_EXPORTS = {
+    "._acceptance": ("plot_certification", "write_acceptance_report",),
+    "._apl": ("plot_frequency_response", "plot_identification", "plot_reconstructions", "plot_recording",),
+    "._compare": ("write_compare_report",),
+    "._html": ("REPORT_FILES", "report_folder",),
+    "._network": ("write_network_report",),
+    "._profile_plot": ("plot_profile",),
+    "._rail": ("plot_settlement", "plot_true_settlement", "write_rail_report",),
+    "._road": ("IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "road_report_figures", "road_report_tables",
+               "write_road_report",),
+    "._signal": ("plot_derivative", "plot_derivative_comparison",),
+    "._statespace": ("plot_kalman_smoothing",),
+    "._vehicle_planar": ("plot_drive", "plot_sensitivity", "plot_slope_estimate", "plot_speed_measurement",),
+    "._vehicle_vertical": ("plot_thesis_tables", "plot_vertical_estimate", "plot_vertical_simulation",),
+}
 
 __all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LIMITS", "plot_profile"]
 __all__ += ["write_network_report"]
@@ -50,3 +50,5 @@ __all__ += ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_t
 __all__ += ["plot_settlement", "plot_true_settlement", "write_rail_report", "plot_derivative", "plot_derivative_comparison"]
 __all__ += ["road_report_tables", "road_report_figures"]
 __all__ += ["plot_kalman_smoothing"]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)
