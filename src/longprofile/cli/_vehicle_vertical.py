@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_figure
 
@@ -147,10 +148,8 @@ def estimate(
     if profile is not None:
         from ..io import write_profile
 
-        if config != 3:
-            console.print("[yellow]warning: configurations 1 and 2 underestimate the IRI by 8-20 % (wheel motion from "
-                          "the reconstructed velocity); configuration 3 (wheel accelerometers) is within 3 %, see "
-                          "docs/vehicle-vertical.md[/yellow]")
+        for text in result.warnings():
+            console.print(f"[yellow]warning: {escape(text)}[/yellow]")
         prof, res = result.profile, result.iri
         write_profile(prof, profile)
         write_table(res.to_frame(), iri_out)

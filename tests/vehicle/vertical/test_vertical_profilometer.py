@@ -64,3 +64,18 @@ def test_profile_under_each_wheel_on_one_chainage_grid(run):
     k = prof.distance.size
     true = Profile(distance=prof.distance, elevation=sim.road[:k, :2], tracks=("fl", "fr"))
     np.testing.assert_allclose(iri(prof, tracks=["fl", "fr"]).iri, iri(true).iri, rtol=0.10)
+
+
+def test_log_estimate_warns_about_the_iri_of_configurations_1_and_2_only():
+    from types import SimpleNamespace
+
+    from longprofile.road import Profile
+    from longprofile.vehicle import VerticalLogEstimate
+
+    road = Profile(distance=np.arange(0.0, 300.0, 0.25), elevation=np.zeros(1200))
+    for config, n in ((1, 1), (2, 1), (3, 0)):
+        est = SimpleNamespace(config=config)  # only the configuration matters here
+        with_road = VerticalLogEstimate(estimate=est, profile=road)
+        assert len(with_road.warnings()) == n
+        assert VerticalLogEstimate(estimate=est).warnings() == []  # no road asked for: nothing to warn about
+    assert "configuration 2" in VerticalLogEstimate(estimate=SimpleNamespace(config=2), profile=road).warnings()[0]

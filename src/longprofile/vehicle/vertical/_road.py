@@ -263,6 +263,20 @@ class VerticalLogEstimate:
     profile: Profile | None = None
     iri: IRIResult | None = None
 
+    def warnings(self) -> list[str]:
+        """What a user should know before trusting this result (strings; empty when nothing).
+
+        A road profile from configurations 1 and 2 (no wheel accelerometers) underestimates the IRI by 8-20 %:
+        the wheel motion comes from the reconstructed suspension velocity (docs/vehicle-vertical.md, measured on
+        the simulator); configuration 3 is within 3 %.
+        """
+        out = []
+        if self.profile is not None and self.estimate.config != 3:
+            out.append(f"configuration {self.estimate.config}: the road profile and IRI underestimate the IRI by "
+                       "8-20 % (wheel motion from the reconstructed velocity); configuration 3 (wheel "
+                       "accelerometers) is within 3 %, see docs/vehicle-vertical.md")
+        return out
+
 
 def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
                           decentralised: bool = True, mr_map_velocity: str = "displacement",
