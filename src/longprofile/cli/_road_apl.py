@@ -131,13 +131,11 @@ def identify_command(
     overwrite: bool = OVERWRITE,
 ):
     """Identify the trailer (OE or ARMAX by prediction-error ML, Gauss-Newton) from bench input/output records."""
-    from ..errors import InputError
     from ..io import read_sampled_column
     from ..report import plot_identification
-    from ..road.apl import IDENTIFICATION_STRUCTURES, identify_trailer, save_model
+    from ..road.apl import check_identification_structure, identify_trailer, save_model
 
-    if structure not in IDENTIFICATION_STRUCTURES:  # the flag's values, before reading the files
-        raise InputError(f"--structure must be one of {', '.join(IDENTIFICATION_STRUCTURES)}; got {structure!r}.")
+    check_identification_structure(structure, flag="--structure")  # before reading the files
     model_path = check_output_path(model_out, input, output_file, suffixes=(".json",), overwrite=overwrite)
     png = check_plot_path(plot, input, output_file, model_path, overwrite=overwrite)
     u = read_sampled_column(input, input_column, dx=dx)

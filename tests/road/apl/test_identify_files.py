@@ -18,6 +18,15 @@ def test_an_unknown_structure_is_named_by_its_keyword_before_any_fit():
     assert all(s in msg for s in IDENTIFICATION_STRUCTURES)
 
 
+def test_the_public_structure_check_names_the_callers_flag():
+    from longprofile.road.apl import IDENTIFICATION_STRUCTURES, check_identification_structure
+
+    for s in IDENTIFICATION_STRUCTURES:
+        assert check_identification_structure(s) == s
+    with pytest.raises(InputError, match="^--structure must be one of 'oe', 'armax'; got 'arx'"):
+        check_identification_structure("arx", flag="--structure")
+
+
 def test_save_model_replaces_an_older_file_atomically(tmp_path, monkeypatch):
     import os
 

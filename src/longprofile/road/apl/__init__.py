@@ -8,7 +8,8 @@ apl_model_from_polynomials -- an instrument from B/A coefficients (e.g. an ident
 apl_model_from_dict        -- rebuild a model saved with APLModel.to_dict (``road identify`` JSON).
 load_model, save_model     -- read (checked against a record's speed and dx) / write a ``road identify`` JSON file.
 reconstruct_recording      -- ``road reconstruct`` in one call: model for (speed, dx) or a model file, spacing checked.
-identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4).
+identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4);
+                              check_identification_structure validates its structure option.
 APLModel, TrailerPoles, TABLE1_CONFIGURATIONS, RC_TIME_CONSTANT, PAPER_IDENTIFIED_MODELS
 frequency_response, FrequencyResponse, passband
 plot_frequency_response    -- deprecated alias of ``longprofile.report.plot_frequency_response``.
@@ -53,7 +54,7 @@ from ._deconvolution import (
 from ._deprecated import plot_frequency_response
 from ._double_filter import double_filter
 from ._files import load_model, save_model
-from ._identify import IDENTIFICATION_STRUCTURES, identify_trailer
+from ._identify import IDENTIFICATION_STRUCTURES, check_identification_structure, identify_trailer
 from ._model import (
                    PAPER_IDENTIFIED_MODELS,
                    RC_TIME_CONSTANT,
@@ -92,6 +93,6 @@ __all__ = [
     "detrend_profile", "bump_profile", "crenel_profile", "speed_hump_profile", "sine_arcs_profile",
     "white_noise_profile", "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES", "apl_model_from_dict",
     "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
-    "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES",
+    "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES", "check_identification_structure",
     "reconstruct_recording",
 ]

@@ -7,7 +7,7 @@ import numpy as np
 from ...errors import InputError
 from ._model import APLModel, apl_model_from_polynomials
 
-__all__ = ["IDENTIFICATION_STRUCTURES", "identify_trailer"]
+__all__ = ["IDENTIFICATION_STRUCTURES", "check_identification_structure", "identify_trailer"]
 
 #: Model structures of :func:`identify_trailer`.
 IDENTIFICATION_STRUCTURES = ("oe", "armax")
@@ -15,6 +15,32 @@ IDENTIFICATION_STRUCTURES = ("oe", "armax")
 
 #: Largest |value| of a bench excitation or trailer response, m (a plausibility bound: a unit error beyond it).
 MAX_BENCH_SIGNAL_M = 100.0
+
+
+def check_identification_structure(structure: str, *, flag: str | None = None) -> str:
+    """Return ``structure`` if :func:`identify_trailer` takes it, else raise one clear error.
+
+    Parameters
+    ----------
+    structure : str
+        A model structure (:data:`IDENTIFICATION_STRUCTURES`: ``"oe"``, ``"armax"``).
+    flag : str, optional
+        How the caller names the option in the message (e.g. a command-line flag); default ``structure``.
+
+    Raises
+    ------
+    InputError
+        An unknown structure.
+
+    Examples
+    --------
+    >>> check_identification_structure("armax")
+    'armax'
+    """
+    if structure not in IDENTIFICATION_STRUCTURES:
+        raise InputError(f"{flag or 'structure'} must be one of {', '.join(map(repr, IDENTIFICATION_STRUCTURES))}; "
+                         f"got {structure!r}.")
+    return structure
 
 
 def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, int] = (5, 5, 1),
@@ -51,9 +77,7 @@ def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, i
     """
     from ...identify import fit_armax, fit_output_error
 
-    if structure not in IDENTIFICATION_STRUCTURES:
-        raise InputError(f"structure must be one of {', '.join(map(repr, IDENTIFICATION_STRUCTURES))}; "
-                         f"got {structure!r}.")
+    check_identification_structure(structure)
     u = np.asarray(u)
     y = np.asarray(y)
     if u.size != y.size:
