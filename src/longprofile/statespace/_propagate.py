@@ -200,45 +200,8 @@ def _columns_kernel(a, b, u, x0, c, outputs):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def _columns_kernel_4(a, b, u, x0, c, outputs):  # pragma: no cover - compiled
-    # n = 4 of _columns_kernel with A in registers; same operation order per component as
-    # _recursion_kernel_4_const (identical results to one linear_recursion per column).
-    p = b.shape[1]
-    q = c.shape[0]
-    n_cols = x0.shape[0]
-    a00, a01, a02, a03 = a[0, 0], a[0, 1], a[0, 2], a[0, 3]
-    a10, a11, a12, a13 = a[1, 0], a[1, 1], a[1, 2], a[1, 3]
-    a20, a21, a22, a23 = a[2, 0], a[2, 1], a[2, 2], a[2, 3]
-    a30, a31, a32, a33 = a[3, 0], a[3, 1], a[3, 2], a[3, 3]
-    x = x0.copy()
-    for k in range(u.shape[0]):
-        for m in range(n_cols):
-            x0_ = x[m, 0]
-            x1_ = x[m, 1]
-            x2_ = x[m, 2]
-            x3_ = x[m, 3]
-            y0 = a00 * x0_ + a01 * x1_ + a02 * x2_ + a03 * x3_
-            y1 = a10 * x0_ + a11 * x1_ + a12 * x2_ + a13 * x3_
-            y2 = a20 * x0_ + a21 * x1_ + a22 * x2_ + a23 * x3_
-            y3 = a30 * x0_ + a31 * x1_ + a32 * x2_ + a33 * x3_
-            for j in range(p):
-                ukj = u[k, m, j]
-                y0 += b[0, j] * ukj
-                y1 += b[1, j] * ukj
-                y2 += b[2, j] * ukj
-                y3 += b[3, j] * ukj
-            x[m, 0] = y0
-            x[m, 1] = y1
-            x[m, 2] = y2
-            x[m, 3] = y3
-            for r in range(q):
-                outputs[k, m, r] = c[r, 0] * y0 + c[r, 1] * y1 + c[r, 2] * y2 + c[r, 3] * y3
-    return x
-
-
-@njit(cache=True, nogil=True)
 def _columns_kernel_4_siso(a, b, u, x0, c, outputs):  # pragma: no cover - compiled
-    # _columns_kernel_4 for one input and one output (p = q = 1: the golden car), the states of the columns
+    # n = 4 with one input and one output (p = q = 1: the golden car), the states of the columns
     # stored component by component (s0[m], s1[m], ...) so that the loop over the columns vectorises (SIMD):
     # about 5x faster for 16 columns. Same operation order per component (identical results).
     n_cols = x0.shape[0]
@@ -422,10 +385,9 @@ def linear_recursion_columns(transition, input_matrix, inputs, x0, output_matrix
         raise ShapeError(f"transition must be ({n}, {n}), input_matrix ({n}, {p}) and output_matrix (q, {n}) for "
                          f"a state of dimension {n} and {p} input(s); got {a.shape}, {b.shape}, {c.shape}.")
     outputs = np.empty((n_steps, n_cols, c.shape[0]))
-    if n == 4:
-        kernel = _columns_kernel_4_siso if (p == 1 and c.shape[0] == 1) else _columns_kernel_4
-    else:
-        kernel = _columns_kernel
+    # the generic loop adds the products in the same order as the n = 4 unrolled kernels (identical results); only
+    # the golden car's case (n = 4, one input, one output) has a vectorised kernel of its own
+    kernel = _columns_kernel_4_siso if (n == 4 and p == 1 and c.shape[0] == 1) else _columns_kernel
     final = kernel(np.ascontiguousarray(a), np.ascontiguousarray(b), np.ascontiguousarray(u),
                    np.ascontiguousarray(x), np.ascontiguousarray(c), outputs)
     return LinearRecursionResult(states=None, outputs=outputs, final_state=final)
