@@ -129,3 +129,24 @@ def test_no_data_alarm_for_a_silent_sensor(site):
     _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
     recompute(db, "mitt")
     assert [a["state"] for a in list_alarms(db, "mitt") if a["quantity"] == "no_data"] == ["cleared"]
+
+
+def test_stored_readings_load_as_the_table_sent(site):
+    """load_site_data (chunked Core fetch) returns every stored reading with the sent values, bit for bit."""
+    from longprofile.rail.service._db import Site
+    from longprofile.rail.service._recompute import load_site_data
+
+    db, _, r = site
+    r = r.iloc[:3000].copy()
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    with db.read() as s:
+        st = s.scalar(select(Site).where(Site.name == "mitt"))
+        _, got, _ = load_site_data(s, st, chunk=1000)  # several chunks
+    sent = r.assign(timestamp=pd.to_datetime(r["timestamp"]).dt.tz_localize(None))
+    key = ["sensor_id", "timestamp"]
+    got = got.sort_values(key).reset_index(drop=True)
+    sent = sent.sort_values(key).reset_index(drop=True)
+    assert len(got) == len(sent) == 3000
+    np.testing.assert_array_equal(got["sensor_id"].to_numpy(), sent["sensor_id"].to_numpy())
+    np.testing.assert_array_equal(got["angle_deg"].to_numpy(), sent["angle_deg"].to_numpy(dtype=float))
+    np.testing.assert_array_equal(got["temperature_c"].to_numpy(), sent["temperature_c"].to_numpy(dtype=float))
