@@ -1,6 +1,5 @@
 """The input layer refuses values no real file holds (a unit under the wrong label) and files cut short."""
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -13,6 +12,7 @@ from longprofile.errors import InputFormatError, UnitsError
 from longprofile.io import read_profile, read_table
 from longprofile.io._plausible import MAX_ABS_ELEVATION_M, check_profile_plausible
 from longprofile.road import iso8608_profile
+from tests._reference_data import reference_file
 
 CLASSES = {"A": 16e-6, "C": 256e-6, "E": 4096e-6, "H": 262144e-6}  # ISO 8608 Gd(n0), m^3
 
@@ -39,9 +39,7 @@ def test_a_huge_value_is_refused_with_its_station():
 
 
 def test_a_measured_profile_passes_in_metres_and_is_refused_in_mm():
-    path = Path(__file__).resolve().parents[3] / "shared" / "reference-data" / "sorel-iri-profile" / "profile_1.txt"
-    if not path.exists():
-        pytest.skip(f"reference data not found at {path}")
+    path = reference_file("sorel-iri-profile", "profile_1.txt")
     data = np.loadtxt(path)  # station (m), absolute elevation (m), 0.25 m step
     check_profile_plausible(Profile(data[:, 0], data[:, 1]), path)
     with pytest.raises(UnitsError, match="beyond any terrain"):

@@ -1,7 +1,6 @@
 """``longprofile road iri`` / ``road report`` in process (CliRunner) and the error contract (exit code 2)."""
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -11,8 +10,7 @@ from typer.testing import CliRunner
 from longprofile.cli.app import app, main
 from longprofile.io import write_profile
 from longprofile.road import iri, iso8608_profile
-
-REF = Path(__file__).resolve().parents[3] / ".." / "shared" / "reference-data"
+from tests._reference_data import reference_file
 
 
 @pytest.fixture(scope="module")
@@ -36,13 +34,13 @@ def test_iri_command_writes_table_and_plot(tmp_path, two_track_file):
 
 def test_iri_command_sorel_file_to_stdout(tmp_path):
     # the reference profile is 'distance elevation' in m without a header: give it one, as a user would
-    data = np.loadtxt(REF / "sorel-iri-profile" / "profile_1.txt")
+    data = np.loadtxt(reference_file("sorel-iri-profile", "profile_1.txt"))
     f = tmp_path / "profile_1.csv"
     pd.DataFrame({"distance_m": data[:, 0], "elevation_m": data[:, 1]}).to_csv(f, index=False)
     res = CliRunner().invoke(app, ["road", "iri", str(f), "--segment", "20", "--lead-in", str(0.5 * 80 / 3.6)])
     assert res.exit_code == 0, res.output
     lines = [ln for ln in res.stdout.splitlines() if ln and ln[0].isdigit()]
-    ref = pd.read_csv(REF / "sorel-iri-profile" / "iri_reference_michalsorel.csv", comment="#")
+    ref = pd.read_csv(reference_file("sorel-iri-profile", "iri_reference_michalsorel.csv"), comment="#")
     got = np.array([float(ln.split(",")[2]) for ln in lines])
     np.testing.assert_allclose(got, ref["iri_sayers"], rtol=1e-6)
 

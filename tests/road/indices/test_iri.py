@@ -1,7 +1,6 @@
 """IRI (ASTM E1926 / WTP-46): published coefficient tables, a third-party reference, analytic and property oracles."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -13,15 +12,13 @@ from scipy.linalg import expm
 from longprofile.errors import InputError
 from longprofile.road import Profile, golden_car_matrices, iri, iso8608_profile, rectified_slope
 from longprofile.road.indices._iri import IRI_SPEED, golden_car_continuous
-
-REF = Path(__file__).resolve().parents[3] / ".." / "shared" / "reference-data"
-
+from tests._reference_data import reference_file
 
 # ---- WTP-46 published coefficients -------------------------------------------------------------------------
 
 @pytest.mark.parametrize("dx", ["0.25", "0.05"])
 def test_discrete_golden_car_matches_wtp46_table(dx):
-    table = json.loads((REF / "wtp46-iri-coefficients" / "coefficients.json").read_text())[f"dx_{dx}"]
+    table = json.loads((reference_file("wtp46-iri-coefficients", "coefficients.json")).read_text())[f"dx_{dx}"]
     st_, pr = golden_car_matrices(float(dx))
     np.testing.assert_allclose(st_, np.array(table["ST"]), rtol=1e-6)
     pr_table = np.array(table["PR"])
@@ -48,8 +45,8 @@ def test_per_step_matrices_modal_path_equals_expm():
 # ---- third-party reference: Sroubek-Sorel profile_1, 20 m segments ------------------------------------------
 
 def test_sorel_reference_20m_segments():
-    data = np.loadtxt(REF / "sorel-iri-profile" / "profile_1.txt")
-    ref = pd.read_csv(REF / "sorel-iri-profile" / "iri_reference_michalsorel.csv", comment="#")
+    data = np.loadtxt(reference_file("sorel-iri-profile", "profile_1.txt"))
+    ref = pd.read_csv(reference_file("sorel-iri-profile", "iri_reference_michalsorel.csv"), comment="#")
     prof = Profile(distance=data[:, 0], elevation=data[:, 1])
     # the reference initialises over 0.5 s at 80 km/h (11.11 m); ASTM/WTP-46 round it to 11 m (our default)
     res = iri(prof, segment_length=20.0, lead_in=0.5 * IRI_SPEED)

@@ -2,7 +2,6 @@
 moving-average rule on irregular stations, metadata. Oracles: ``iri`` itself where intervals coincide, the
 Sroubek-Sorel third-party reference, exact unit conversions, and a numpy fine-grid moving average."""
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,8 +13,8 @@ from longprofile.errors import InputError
 from longprofile.io import read_profile, read_report_table, write_report_table
 from longprofile.road import IRIReport, Profile, iri, iri_report, iso8608_profile
 from longprofile.road.indices._iri import IRI_SPEED
+from tests._reference_data import reference_file
 
-REF = Path(__file__).resolve().parents[3] / ".." / "shared" / "reference-data"
 IN_PER_MI = 63.36  # 1 m/km = 1.609344 / 0.0254 in/mi
 FT = 0.3048
 
@@ -51,8 +50,8 @@ def test_fixed_mode_is_iri_with_mri_hri(two_tracks):
 
 
 def test_sorel_reference_through_iri_report():
-    data = np.loadtxt(REF / "sorel-iri-profile" / "profile_1.txt")
-    ref = pd.read_csv(REF / "sorel-iri-profile" / "iri_reference_michalsorel.csv", comment="#")
+    data = np.loadtxt(reference_file("sorel-iri-profile", "profile_1.txt"))
+    ref = pd.read_csv(reference_file("sorel-iri-profile", "iri_reference_michalsorel.csv"), comment="#")
     prof = Profile(distance=data[:, 0], elevation=data[:, 1])
     rep = iri_report(prof, interval=20.0, lead_in=0.5 * IRI_SPEED)
     np.testing.assert_allclose(rep.interval_start, ref["start_m"], atol=1e-9)

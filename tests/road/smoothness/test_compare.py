@@ -7,7 +7,6 @@ level (0.1 mm RMS, an assumption about "instrument level") must give >= 0.99; (3
 at each lag against numpy.corrcoef-free direct sums over the overlap (independent brute force).
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +22,7 @@ from longprofile.road.smoothness._compare import (
     filter_for_comparison,
     resample_profile,
 )
-
-SOREL = Path("/work/shared/reference-data/sorel-iri-profile/profile_1.txt")
+from tests._reference_data import reference_file
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +55,7 @@ def test_offset_with_different_start_stations(long_profile):
 
 
 def test_measured_profile_with_instrument_noise():
-    data = np.loadtxt(SOREL)
+    data = np.loadtxt(reference_file("sorel-iri-profile", "profile_1.txt"))
     ref = Profile(distance=data[:, 0], elevation=data[:, 1], name="profile_1")
     rng = np.random.default_rng(0)
     runs = [Profile(distance=data[:, 0], elevation=data[:, 1] + rng.normal(0, 1e-4, len(data)), name=f"r{i}")

@@ -1,6 +1,5 @@
 """The car as a profilometer on a measured road (issue 14): every 100 m segment's IRI, ends included."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,16 +14,13 @@ from longprofile.vehicle import (
     wheel_road_inputs,
 )
 from longprofile.vehicle.vertical._params import VerticalVehicleParams
-
-SOREL = Path(__file__).resolve().parents[3] / ".." / "shared" / "reference-data" / "sorel-iri-profile" / "profile_1.txt"
+from tests._reference_data import reference_file
 
 
 def _measured_road():
     """The real measured profile of Sroubek & Sorel (0.25 m, 544 m; see its SOURCE.md): left path as measured,
     right path the same record reversed (a second, independent-looking real track)."""
-    if not SOREL.exists():
-        pytest.skip(f"reference profile not available: {SOREL}")
-    d = np.loadtxt(SOREL)
+    d = np.loadtxt(reference_file("sorel-iri-profile", "profile_1.txt"))
     z = d[:, 1] - d[:, 1].mean()
     return Profile(distance=d[:, 0] - d[0, 0], elevation=np.column_stack([z, z[::-1]]), tracks=("left", "right"))
 
