@@ -107,3 +107,18 @@ def test_empty_values_and_ignored_columns_are_reported(small):
     assert any("survey is used" in w for w in site.warnings)
     alone = validate_site(s, small.readings, None)
     assert any("initial profile is the sensors' z_m column" in w for w in alone.warnings)
+
+
+def test_angle_noise_decides_only_on_enough_differences():
+    """One difference of a degree sensor can be below the radian threshold by chance: no decision on it."""
+    from longprofile.rail import RADIAN_NOISE_THRESHOLD, angle_noise
+    from longprofile.rail._data import MIN_NOISE_DIFFERENCES
+
+    rng = np.random.default_rng(3)
+    n = MIN_NOISE_DIFFERENCES
+    few = pd.DataFrame({"sensor_id": ["S1", "S1"], "angle_deg": [0.1, 0.1 + 1e-5]})  # 1e-5 deg apart
+    assert np.isnan(angle_noise(few))
+    deg = pd.DataFrame({"sensor_id": ["S1"] * (n + 1), "angle_deg": 0.1 + 2.5e-3 * rng.standard_normal(n + 1)})
+    assert angle_noise(deg) > RADIAN_NOISE_THRESHOLD
+    rad = deg.assign(angle_deg=np.deg2rad(deg["angle_deg"]))
+    assert angle_noise(rad) < RADIAN_NOISE_THRESHOLD

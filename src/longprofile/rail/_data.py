@@ -31,6 +31,10 @@ CONTROL_COLUMNS = ("date", "x_m", "z_m")
 #: implausible for MEMS inclinometers (resolution 1e-4 deg, repeatability 2.5e-3 deg, paper 004 §1.3),
 #: while the same signal in radians (5e-3 deg = 8.7e-5 rad) falls below it.
 RADIAN_NOISE_THRESHOLD = 4e-4
+#: :func:`angle_noise` decides only on at least this many first differences (all sensors together): one
+#: difference of a healthy degree sensor falls below the threshold about once in ten, so a monitoring batch of
+#: two readings was refused as "radians" (found by the ingestion property test).
+MIN_NOISE_DIFFERENCES = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,9 +117,12 @@ def angle_noise(readings: pd.DataFrame) -> float:
     ``readings`` needs ``sensor_id`` and ``angle_deg`` columns, each sensor's rows in time order. Below
     :data:`RADIAN_NOISE_THRESHOLD` the angles are implausible as degrees for MEMS inclinometers (paper 004 §1.3) and
     look like radians: :func:`validate_site` refuses them, and so does the monitoring service's ingestion.
-    Returns NaN when no sensor has two distinct readings.
+    Returns NaN when fewer than :data:`MIN_NOISE_DIFFERENCES` first differences exist (too few to decide) or
+    no sensor has two distinct readings.
     """
     d = readings.groupby("sensor_id", sort=False)["angle_deg"].diff().abs()
+    if int(np.isfinite(d.to_numpy(dtype=float)).sum()) < MIN_NOISE_DIFFERENCES:
+        return float("nan")
     per = d.groupby(readings["sensor_id"], sort=False).median() / (0.6745 * np.sqrt(2.0))
     per = per[np.isfinite(per) & (per > 0)]
     return float(per.median()) if len(per) else float("nan")

@@ -172,3 +172,12 @@ def test_any_resending_pattern_stores_each_key_exactly_once(tmp_path_factory, da
             sent.update(idx[a:b])
     assert count_readings(db) == len(sent) == acked
     db.dispose()
+
+
+def test_a_two_reading_batch_in_degrees_is_not_taken_for_radians(site):
+    """Hypothesis found it: two readings 1e-5 deg apart were refused as radians (one difference decided)."""
+    db, _, r = site
+    rows = r.iloc[:1].to_dict("records")
+    second = {**rows[0], "timestamp": "2019-11-18T00:10:00Z", "angle_deg": rows[0]["angle_deg"] + 1e-5}
+    res = _core.ingest(db, "mitt", rows + [second], now=NOW)
+    assert res.counts["rejected"] == 0 and res.counts["accepted"] == 2, res.rows
