@@ -43,6 +43,14 @@ def family_rows(cal, elapsed: float, quick: bool) -> list[BenchRow]:
         rows.append(BenchRow(AREA, f"{cal.family}: faulty sensors detected", 100 * cal.detection_rate, "%",
                              target=None if quick else 99.0,
                              detail=", ".join(f"{k} {h}/{t}" for k, (h, t) in sorted(cal.detected.items()))))
+        n_faults = sum(t for _, t in cal.detected.values())
+        harm = cal.harmful_misses(1.0)
+        worst = max(cal.missed, key=lambda m: m[4]) if cal.missed else None
+        rows.append(BenchRow(AREA, f"{cal.family}: missed faults moving the settlement > 1 band std",
+                             100 * len(harm) / n_faults, "%",
+                             detail=f"{len(harm)} of {n_faults} faults ({len(cal.missed)} missed in all"
+                                    + (f"; worst: seed {worst[0]} {worst[1]} {worst[2]}, {worst[3]:.2f} mm = "
+                                       f"{worst[4]:.2f} std" if worst else "") + ")"))
     rows.append(BenchRow(AREA, f"{cal.family}: healthy sensors flagged", 100 * cal.false_alarm_rate, "%",
                          target=None if quick else 1.0, higher_is_better=False,
                          detail=f"{cal.false_alarms[0]} of {cal.false_alarms[1]}"))

@@ -128,3 +128,31 @@ def test_drift_model_falls_back_to_white_when_it_absorbs_the_settlement():
     assert any("absorbed the settlement" in w for w in res.warnings)
     z = (res.dz - sc.truth.settlement)[1:] / res.dz_std[1:]
     assert np.mean(np.abs(z) <= 1.645) > 0.5
+
+
+def test_cost_of_a_miss_is_zero_when_nothing_more_is_left_out_and_positive_for_a_moving_sensor():
+    """The harness prices a missed fault by re-estimating without it; leaving out nothing new changes nothing."""
+    from longprofile.rail._calibration import _cost_of_missing
+
+    sc = simulate_scenario("lag-swings", 4, **SMALL)
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    res = estimate_settlement(site, n_monte_carlo=0)
+    flagged = {s for s, _, _ in res.health.flagged()}
+    mm, z = _cost_of_missing(site, res, flagged, {})
+    assert mm == 0.0 and z == 0.0
+    sid = sc.sensors.sensor_id.iloc[int(np.argmax(np.abs(np.diff(sc.truth.settlement[-1]))))]
+    mm, z = _cost_of_missing(site, res, flagged | {sid}, {})
+    assert mm > 0.0 and z > 0.0
+
+
+def test_family_calibration_lists_each_missed_fault_with_its_cost():
+    from dataclasses import replace
+
+    fam = replace(SCENARIO_FAMILIES["faults"], n_sensors=(14, 16), n_days=(12, 13), sampling_minutes=60.0)
+    cal = calibrate_family(fam, range(3), n_monte_carlo=0)
+    n_missed = sum(t - h for h, t in cal.detected.values())
+    assert len(cal.missed) == n_missed
+    for seed, sid, kind, mm, z in cal.missed:
+        assert seed in range(3) and kind in ("dead", "reversed", "frozen", "detached") and mm >= 0 and z >= 0
+    assert cal.harmful_misses(0.0) == [m for m in cal.missed if m[4] > 0]
+    assert len(cal.harmful_misses(1e9)) == 0

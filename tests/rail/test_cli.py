@@ -44,6 +44,9 @@ def test_settle_writes_table_plot_and_report(site_dir, tmp_path):
     for section in ("Flagged sensors", "Alarms", "Control surveys", "Settlement profiles per day"):
         assert section in html
     assert (tmp_path / "s.png").stat().st_size > 1000
+    sensors = pd.read_csv(tmp_path / "report" / "sensors.csv")
+    assert {"status", "loo_score", "reversal_z", "reversal_llr", "step_z"} <= set(sensors.columns)
+    assert len(sensors) == table.sensor_id.nunique()
 
 
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):

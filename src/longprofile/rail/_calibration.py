@@ -77,6 +77,10 @@ class FamilyCalibration:
         (healthy sensors flagged, healthy sensors).
     options : dict
         Keyword options passed to :func:`estimate_settlement`.
+    missed : tuple of (seed, sensor_id, kind, mm, z)
+        Every faulty sensor not flagged, with what the miss costs: the largest change of the daily
+        settlement (days >= 1, any station) when that sensor is excluded as well, in mm and in units of
+        the band std (``dz_std``) of the result that kept it.
     """
 
     family: str
@@ -86,6 +90,11 @@ class FamilyCalibration:
     detected: dict
     false_alarms: tuple
     options: dict = field(default_factory=dict)
+    missed: tuple = ()
+
+    def harmful_misses(self, z: float = 1.0) -> list:
+        """The missed faults whose exclusion moves the settlement by more than ``z`` band std somewhere."""
+        return [m for m in self.missed if m[4] > z]
 
     @property
     def detection_rate(self) -> float:
@@ -151,7 +160,7 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
     fam = SCENARIO_FAMILIES[family] if isinstance(family, str) else family
     seeds = tuple(int(s) for s in seeds)
     zs: dict = {}
-    rms, detected, fa, n_ok = [], {}, 0, 0
+    rms, detected, fa, n_ok, missed = [], {}, 0, 0, []
     for seed in seeds:
         sc = simulate_scenario(fam, seed)
         site = validate_site(sc.sensors, sc.readings, sc.survey)
@@ -164,9 +173,21 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
         for sid, kind in sc.truth.faults.items():
             h, t = detected.get(kind, (0, 0))
             detected[kind] = (h + (sid in flagged), t + 1)
+            if sid not in flagged:
+                missed.append((seed, sid, kind, *_cost_of_missing(site, res, flagged | {sid}, options)))
         healthy = set(res.sensor_ids) - set(sc.truth.faults)
         fa += len(flagged & healthy)
         n_ok += len(healthy)
     return FamilyCalibration(family=fam.name, seeds=seeds, intervals={k: _interval_score(v) for k, v in zs.items()},
                              rms_mm_by_draw=tuple(rms), detected=detected, false_alarms=(fa, n_ok),
-                             options=dict(options))
+                             options=dict(options), missed=tuple(missed))
+
+
+def _cost_of_missing(site, res, exclude, options) -> tuple[float, float]:
+    """(mm, band std) of the largest change of the daily settlement when ``exclude`` are all left out."""
+    opts = {**options, "n_monte_carlo": 0, "check_health": False, "exclude_sensors": tuple(sorted(exclude))}
+    other = estimate_settlement(site, **opts)
+    d = np.abs(res.dz[1:] - other.dz[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = d / res.dz_std[1:]
+    return float(1e3 * np.nanmax(d)), float(np.nanmax(z))

@@ -12,7 +12,7 @@ from scipy.optimize import minimize_scalar
 from .._validation import require_positive
 from ..errors import InputError
 from ._data import SiteData
-from ._health import SensorHealth, assess_sensors
+from ._health import FROZEN_MIN_READINGS, SensorHealth, assess_sensors
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._rigidity import (
     DEFAULT_RIGIDITY,
@@ -566,12 +566,10 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
     fit = (lambda M, s, r: fit_noise_and_rigidity(x, M, sigma=opt.sigma, rigidity=None, sigma_z=opt.sigma_z))
     s0, r0 = fit(slopes, None, None)
-    if opt.check_health:
-        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=opt.sigma_z,
-                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, fit=fit)
-    else:
-        health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=opt.sigma_z,
-                                          raw_spread_deg=daily.raw_std_deg, exclude=excl_idx, max_flagged=0, fit=fit)
+    day_spread = np.where(daily.n_readings >= FROZEN_MIN_READINGS, daily.raw_day_spread_deg, np.nan)
+    health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=opt.sigma_z,
+                                      raw_spread_deg=daily.raw_std_deg, raw_day_spread_deg=day_spread,
+                                      exclude=excl_idx, max_flagged=None if opt.check_health else 0, fit=fit)
     health = replace(health, sensor_ids=list(ids))
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")

@@ -53,6 +53,10 @@ class DailyAngles:
         Readings set aside as outliers per sensor (never silently: reported).
     raw_std_deg : (N,) ndarray
         Robust std of each sensor's raw readings (a dead sensor has ~0).
+    raw_day_spread_deg : (D, N) ndarray or None
+        Robust within-day spread (1.4826 MAD) of each sensor's raw readings (before outlier removal and
+        thermal correction), deg; NaN on days with fewer than 2 readings. A sensor frozen from some day on
+        reads the same value all day (the frozen-sensor test of :func:`~longprofile.rail.assess_sensors`).
     noise_deg : (N,) ndarray
         Robust high-frequency noise std of each sensor, deg.
     thermal_coef : (N,) ndarray
@@ -80,6 +84,7 @@ class DailyAngles:
     reference_temp_c: float
     thermal: str
     warnings: tuple = ()
+    raw_day_spread_deg: np.ndarray | None = None
 
 
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
@@ -182,6 +187,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     nread = np.zeros((D, N), dtype=int)
     nout = np.zeros(N, dtype=int)
     rawstd = np.zeros(N)
+    dayspread = np.full((D, N), np.nan)
     noise = np.full(N, np.nan)
     coef = np.zeros(N)
     lag = np.zeros(N)
@@ -201,6 +207,10 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         dev = a - med
         s_hf = 1.4826 * np.median(np.abs(dev)) if a.size else 0.0
         rawstd[j] = 1.4826 * np.median(np.abs(a - np.median(a)))
+        by_day = pd.Series(a).groupby(day)
+        spread = 1.4826 * (pd.Series(a) - by_day.transform("median")).abs().groupby(day).median()
+        many = by_day.size().to_numpy() >= 2
+        dayspread[spread.index.to_numpy()[many], j] = spread.to_numpy()[many]
         noise[j] = s_hf
         keep = np.abs(dev) <= OUTLIER_THRESHOLD * max(s_hf, 1e-4)
         nout[j] = int((~keep).sum())
@@ -234,7 +244,8 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         if ok.size:
             change[:, j] = angle[:, j] - angle[ok[0], j]
     return DailyAngles(days=days.to_numpy(), sensor_ids=list(ids), angle_deg=angle, change_deg=change,
-                       n_readings=nread, n_outliers=nout, raw_std_deg=rawstd, noise_deg=noise, thermal_coef=coef,
+                       n_readings=nread, n_outliers=nout, raw_std_deg=rawstd, raw_day_spread_deg=dayspread,
+                       noise_deg=noise, thermal_coef=coef,
                        thermal_lag_hours=lag, reference_temp_c=float(reference_temp_c), thermal=thermal,
                        warnings=tuple([f"no thermal correction for {len(unfitted)} sensor(s) {unfitted[:5]}: too few "
                                        "readings (or < 0.5 °C of temperature spread within a day) on the days used "
