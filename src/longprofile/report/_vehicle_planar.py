@@ -85,10 +85,10 @@ def plot_drive(simulation, *, title: str = ""):
     log = simulation.log
     t = log.time
     fig, ax = _figure(4)
-    R = simulation.vehicle.wheel_radius
+    R = simulation.vehicle.wheel_radius_of_each  # each wheel's own rolling radius (staggered tyres)
     ax[0].plot(t, tr.vx, color="k", lw=1.0, label="true V_x")
     for i, w in enumerate(("FL", "FR", "RL", "RR")):
-        ax[0].plot(t, R * log.wheel_speeds[:, i], lw=0.6, label=f"R ω {w}")
+        ax[0].plot(t, R[i] * log.wheel_speeds[:, i], lw=0.6, label=f"R ω {w}")
     ax[0].set_ylabel("speed [m/s]")
     ax[0].legend(fontsize=7, ncol=5)
     ax[1].plot(t, np.degrees(log.steering_angle), lw=0.8, label="steering (measured)")

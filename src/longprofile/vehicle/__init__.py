@@ -13,6 +13,7 @@ default_vehicle       -- the documented default car (vehicle/data/default_car.to
 dugoff_forces         -- Dugoff tyre model, eq. (15)-(17); TyreForces result.
 drive_scenario        -- built-in drives ("paper", "hill", "low-mu"); DriveScenario, SCENARIOS.
 simulate_drive        -- 4-wheel RK4 simulator: truth and sensor log (PlanarSimulation, DriveLog, DriveTruth).
+ackermann_angles      -- front-left / front-right road-wheel angles of an Ackermann linkage (simulate_drive option).
 SensorSpec            -- ABS encoder, steering, gyro and accelerometer models of the simulator.
 planar_ekf_model      -- EKF model of eq. (20) on (V_x, V_y, r) (NonlinearStateSpaceModel).
 slope_ekf_model       -- augmented EKF model on (V_x, V_y, r, theta_r).
@@ -65,7 +66,8 @@ from .._lazy import lazy_namespace
 _EXPORTS = {
     ".planar": ("Vehicle", "default_vehicle", "load_vehicle", "SIMULATOR_ONLY", "TyreForces", "dugoff_forces",
                 "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
-                "drive_scenario", "simulate_drive", "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation",
+                "drive_scenario", "simulate_drive", "ackermann_angles", "EKFTuning", "SlopeEstimate", "SlopeUncertainty",
+                "nis_inflation",
                 "estimate_slope", "planar_ekf_model",
                 "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
                 "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
@@ -91,7 +93,7 @@ __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle", "load_vertical_params", "SIMULATOR_ONLY",
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
-    "simulate_drive", "LOG_COLUMNS",
+    "simulate_drive", "ackermann_angles", "LOG_COLUMNS",
     "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",

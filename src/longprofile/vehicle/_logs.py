@@ -18,6 +18,21 @@ Redundancies used (planar model of paper 001, eq. (11) and (18), body axes x for
   ratio gyro / (V_x delta / L) lies in (0, 1.3] for an understeering car; negative is an opposite steering
   sign, below 0.3 a steering-WHEEL angle (or degrees);
 * longitudinal acceleration vs dV_x/dt (eq. (11), the grade only offsets it), expected about 1.
+
+With the measured front road-wheel angles ``steer_fl``, ``steer_fr`` (both), the steering check uses their mean
+(what the model steers by), and three more checks compare the steer channels (the ratios in turns, where one
+of the two exceeds 0.01 rad):
+
+* ``steer_fr_vs_steer_fl``: steer_fr / steer_fl, expected 0.6..1.67 (about 1; an Ackermann linkage makes the
+  inner wheel steer more, up to ~1.3x at 0.6 rad); negative is one angle positive to the right, ~57 (or 1/57)
+  one of them in degrees;
+* ``steer_difference_vs_ackermann``: the largest |(steer_fl - steer_fr) - (Ackermann difference at their mean)|
+  over its tolerance 0.035 rad + |Ackermann difference| (real linkages lie between parallel and twice
+  Ackermann, plus toe and compliance), expected <= 1, over all moving samples; above is an offset between the
+  two sensors, opposite signs, or a wrong body.track / wheelbase;
+* ``steering_angle_vs_steer_mean``: steering_angle / mean(steer_fl, steer_fr), expected 0.8..1.25 (the model
+  does not use steering_angle then; left out of the log, it is their mean and the ratio 1); ~15 is a
+  steering-WHEEL angle.
 """
 
 from __future__ import annotations
@@ -47,7 +62,8 @@ UNIT_FACTORS = {
     "wheel": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0, "m/s": None, "km/h": None},
 }
 
-_PLANAR_QUANTITY = {"time": "time", "steering_angle": "angle", "yaw_rate": "rate", "accel_x": "accel",
+_PLANAR_QUANTITY = {"time": "time", "steering_angle": "angle", "steer_fl": "angle", "steer_fr": "angle",
+                    "yaw_rate": "rate", "accel_x": "accel",
                     "accel_y": "accel", "wheel_speed_fl": "wheel", "wheel_speed_fr": "wheel",
                     "wheel_speed_rl": "wheel", "wheel_speed_rr": "wheel"}
 _CORNERS = ("FL", "FR", "RL", "RR")
@@ -87,7 +103,8 @@ def split_unit_headers(frame):
     return (frame.rename(columns=rename) if rename else frame), declared
 
 
-def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float | None = None, source: str = "log"):
+def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float | dict | None = None,
+                  source: str = "log"):
     """Convert the columns of ``frame`` named in ``units`` to SI (a copy); columns not named are SI already.
 
     Parameters
@@ -98,8 +115,9 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
         {column: unit} as declared (header or ``--units``).
     quantities : dict
         {column: quantity} of the channels this reader knows (keys of :data:`UNIT_FACTORS`).
-    wheel_radius : float, optional
-        Rolling radius R (m) to turn a translational wheel speed (m/s, km/h) into a spin rate (rad/s).
+    wheel_radius : float or dict, optional
+        Rolling radius R (m) to turn a translational wheel speed (m/s, km/h) into a spin rate (rad/s); a
+        dict {column: R} gives each wheel's own radius (staggered tyres).
 
     Raises
     ------
@@ -125,7 +143,10 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
         if factor is None:  # translational wheel speed -> spin rate
             if wheel_radius is None:
                 raise UnitsError(f"{source}: column {col!r} in {unit}: a wheel radius is needed to convert it.")
-            factor = (1.0 if u == "m/s" else 1.0 / 3.6) / wheel_radius
+            radius = wheel_radius.get(col) if isinstance(wheel_radius, dict) else wheel_radius
+            if radius is None:
+                raise UnitsError(f"{source}: column {col!r} in {unit}: a wheel radius is needed to convert it.")
+            factor = (1.0 if u == "m/s" else 1.0 / 3.6) / radius
         import pandas as pd
 
         converted[col] = pd.to_numeric(frame[col], errors="coerce") * factor
@@ -252,7 +273,10 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     Returns
     -------
     tuple of LogCheck
-        ``yaw_rate_vs_wheels``, ``accel_y_vs_vx_r``, ``steering_vs_yaw_rate``, ``accel_x_vs_dvx``.
+        ``yaw_rate_vs_wheels``, ``accel_y_vs_vx_r``, ``steering_vs_yaw_rate``, ``accel_x_vs_dvx``,
+        ``front_vs_rear_wheel_speed`` (the car file's front/rear rolling radii on steady straight driving); with the
+        ``steer_fl``, ``steer_fr`` channels (``log.wheel_steering``) also ``steer_fr_vs_steer_fl``,
+        ``steer_difference_vs_ackermann`` and ``steering_angle_vs_steer_mean`` (see the module notes).
 
     Raises
     ------
@@ -260,12 +284,13 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
         Naming the channel(s), the ratio measured and the likely mistake (units, sign convention,
         steering-wheel angle), for every failed check in one message; also for out-of-range channels.
     """
-    R, Sb, L = vehicle.wheel_radius, vehicle.track, vehicle.wheelbase
+    # the rear (undriven, unsteered on the default car) axle's radius and track; each wheel's own radius
+    R, Sb, L = vehicle.wheel_radii[1], vehicle.tracks[1], vehicle.wheelbase
     dt = log.dt
     w = log.wheel_speeds
     v = R * 0.5 * (w[:, 2] + w[:, 3])
     problems = []
-    vmax = float(np.max(R * w))
+    vmax = float(np.max(vehicle.wheel_radius_of_each * w))
     if vmax > 95.0:
         problems.append(f"wheel_speed_*: R omega reaches {vmax:.4g} m/s (> 95 m/s): wheel speeds in rpm or deg/s? "
                         "declare the unit (e.g. 'wheel_speed_fl [rpm]'), or check wheels.radius")
@@ -287,7 +312,11 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     vs = _moving_average(v, smooth)
     ay = _moving_average(log.accel_y, smooth)
     ax = _moving_average(log.accel_x, smooth)
-    delta = _moving_average(log.steering_angle, smooth)
+    wheel_steering = getattr(log, "wheel_steering", None)
+    # the angle the model steers by: the mean of the measured front wheels when the log has them
+    steer = log.steering_angle if wheel_steering is None else 0.5 * (wheel_steering[:, 0] + wheel_steering[:, 1])
+    steer_name = "steering_angle" if wheel_steering is None else "mean(steer_fl, steer_fr)"
+    delta = _moving_average(steer, smooth)
     min_n = max(3, int(round(0.5 / dt)))  # half a second of turning (or accelerating)
     moving = vs > 3.0
     checks = []
@@ -325,14 +354,14 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     checks.append(LogCheck("steering_vs_yaw_rate", k3, (0.3, 1.3), n3, ok3))
     if ok3 is False and yaw_ok:
         if k3 < 0:
-            hint = ("steering_angle has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
-                    "negate steering_angle")
+            hint = (f"{steer_name} has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
+                    f"negate {'steering_angle' if wheel_steering is None else 'steer_fl and steer_fr'}")
         elif k3 < 0.3:
-            hint = (f"steering_angle is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
+            hint = (f"{steer_name} is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
                     "steering-WHEEL angle (divide by the steering ratio) or degrees ('steering_angle [deg]')")
         else:
-            hint = "steering_angle too small: in mrad? or a steering ratio applied twice"
-        problems.append(f"yaw_rate / (V_x steering_angle / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
+            hint = f"{steer_name} too small: in mrad? or a steering ratio applied twice"
+        problems.append(f"yaw_rate / (V_x {steer_name} / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
                         f"model, understeering car): {hint}")
     dv = np.gradient(vs, dt)
     dv = _moving_average(dv, smooth)
@@ -344,9 +373,85 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
                                    "accel_x of opposite sign (x backward): negate accel_x": -1.0}, (0.7, 1.4))
         problems.append(f"accel_x / (dV_x/dt) = {k4:.3g}, expected about 1 (eq. (11); the grade only offsets it): "
                         f"{hint}")
+    # front against rear axle speed on steady straight driving: the rolling radii of the car file (staggered tyres)
+    Rf = vehicle.wheel_radii[0]
+    vf = _moving_average(Rf * 0.5 * (w[:, 0] + w[:, 1]), smooth)
+    steady = moving & (np.abs(ax) < 1.0) & (np.abs(r) < 0.05) & (np.abs(delta) < 0.02)
+    k8, n8 = _slope_through_origin(vs, vf, steady, min_n)
+    ok8 = None if math.isnan(k8) else bool(0.97 <= k8 <= 1.03)
+    checks.append(LogCheck("front_vs_rear_wheel_speed", k8, (0.97, 1.03), n8, ok8))
+    if ok8 is False and ok1 is not False:
+        problems.append(f"R_f omega_front / (R_r omega_rear) = {k8:.4g} on steady straight driving, expected 1 within "
+                        f"the tyres' slip (0.97..1.03): the vehicle file's wheels.radius {Rf:.4g} / {R:.4g} m (front / "
+                        f"rear) does not match this car; staggered tyres? if the rear radius is right, the front one "
+                        f"is about {Rf / k8:.4g} m (wheels.radius = [front, rear])")
+    if wheel_steering is not None:
+        checks.extend(_wheel_steering_checks(log, vehicle, smooth, min_n, moving, problems))
     if problems and raise_on_error:
         raise UnitsError(f"{source}: implausible channels (units or signs): " + "; ".join(problems) + ".")
     return tuple(checks)
+
+
+#: Tolerance of the left-right steer difference around the Ackermann one, rad (2 deg: toe, compliance steer).
+_STEER_DIFFERENCE_TOL = 0.035
+
+
+def _wheel_steering_checks(log, vehicle, smooth, min_n, moving, problems) -> list:
+    """The three checks of the measured front wheel angles (module notes); appends their failures to ``problems``."""
+    fl = _moving_average(log.wheel_steering[:, 0], smooth)
+    fr = _moving_average(log.wheel_steering[:, 1], smooth)
+    mean = 0.5 * (fl + fr)
+    turning = moving & (np.maximum(np.abs(fl), np.abs(fr)) > 0.01)
+    checks = []
+    k5, n5 = _slope_through_origin(fl, fr, turning, min_n)
+    ok5 = None if math.isnan(k5) else bool(0.6 <= k5 <= 1.67)
+    checks.append(LogCheck("steer_fr_vs_steer_fl", k5, (0.6, 1.67), n5, ok5))
+    if ok5 is False:
+        if k5 < 0:
+            hint = ("steer_fl and steer_fr have opposite signs: both must be positive to the LEFT (paper 001); "
+                    "negate the one that is positive to the right")
+        else:
+            hint = _likely_factor(k5, {"steer_fr in degrees (declare 'steer_fr [deg]')": 180 / math.pi,
+                                       "steer_fl in degrees (declare 'steer_fl [deg]')": math.pi / 180,
+                                       "steer_fr in mrad (declare 'steer_fr [mrad]')": 1000.0,
+                                       "steer_fl in mrad (declare 'steer_fl [mrad]')": 1e-3}, (0.6, 1.67))
+            if 0.3 < k5 < 3.0:
+                hint = ("an offset (zero error) or a scale error of one of the two steer sensors: compare them on a "
+                        "straight run and in a steady turn")
+        problems.append(f"steer_fr / steer_fl = {k5:.3g}, expected about 1 (0.6..1.67 with Ackermann steering): "
+                        f"{hint}")
+    # measured left-right difference against the Ackermann linkage's at the same mean angle (ackermann_angles)
+    L, hb = vehicle.wheelbase, 0.5 * vehicle.tracks[0]
+    t = np.tan(mean)
+    ackermann = np.arctan2(L * t, L - hb * t) - np.arctan2(L * t, L + hb * t)
+    excess = np.abs((fl - fr) - ackermann) / (_STEER_DIFFERENCE_TOL + np.abs(ackermann))
+    n6 = int(moving.sum())
+    k6 = float(np.max(excess[moving])) if n6 >= min_n else math.nan
+    ok6 = None if math.isnan(k6) else bool(k6 <= 1.0)
+    checks.append(LogCheck("steer_difference_vs_ackermann", k6, (0.0, 1.0), n6, ok6))
+    if ok6 is False and ok5 is not False:
+        j = int(np.flatnonzero(moving)[np.argmax(excess[moving])])
+        problems.append(f"steer_fl - steer_fr = {fl[j] - fr[j]:.3g} rad at t = {log.time[j]:.4g} s, but an Ackermann "
+                        f"linkage gives {ackermann[j]:.3g} rad at their mean {mean[j]:.3g} rad (tolerance "
+                        f"{_STEER_DIFFERENCE_TOL:g} rad + |Ackermann|): an offset between the two steer sensors, "
+                        "opposite signs or units, or a wrong body.track / wheelbase")
+    # steering_angle (left out of the log: it is their mean, the ratio is then 1)
+    delta = _moving_average(log.steering_angle, smooth)
+    k7, n7 = _slope_through_origin(mean, delta, turning, min_n)
+    ok7 = None if math.isnan(k7) else bool(0.8 <= k7 <= 1.25)
+    checks.append(LogCheck("steering_angle_vs_steer_mean", k7, (0.8, 1.25), n7, ok7))
+    if ok7 is False:
+        hint = _likely_factor(k7, {"steering_angle in degrees (declare 'steering_angle [deg]')": 180 / math.pi,
+                                   "steering_angle of opposite sign (positive to the right)": -1.0}, (0.8, 1.25))
+        if k7 > 5 and "degrees" not in hint:
+            hint = (f"steering_angle is {k7:.3g} times the wheels' angle: a steering-WHEEL angle (divide by the "
+                    "steering ratio)")
+        elif 0.3 < k7 < 3.0:
+            hint = "an offset (zero error) or a scale error between steering_angle and the steer sensors"
+        problems.append(f"steering_angle / mean(steer_fl, steer_fr) = {k7:.3g}, expected about 1 (0.8..1.25): "
+                        f"{hint}; with steer_fl and steer_fr the model does not use steering_angle (it may be "
+                        "left out of the log)")
+    return checks
 
 
 def _likely_factor(ratio: float, candidates: dict, band=(0.9, 1.1)) -> str:
@@ -362,7 +467,8 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
     Parameters
     ----------
     frame : pandas.DataFrame
-        The channels of docs/vehicle-slope.md, headers optionally ``name [unit]``.
+        The channels of docs/vehicle-slope.md, headers optionally ``name [unit]``; the optional ``steer_fl``,
+        ``steer_fr`` (measured front-left and front-right road-wheel angles, angle units) are read too.
     vehicle : Vehicle
         Needed for wheel speeds logged in m/s or km/h (R) and for the checks.
     units : dict, optional
@@ -380,7 +486,9 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
 
     frame, declared = split_unit_headers(frame)
     declared.update(units or {})
-    frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=vehicle.wheel_radius, source=source)
+    radii = dict(zip(("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"),
+                     vehicle.wheel_radius_of_each.tolist()))
+    frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=radii, source=source)
     if "time" in frame.columns:
         if resample is not None:
             frame = resample_log(frame, resample, source=source)

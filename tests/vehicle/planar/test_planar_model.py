@@ -16,6 +16,8 @@ from longprofile.vehicle import (
 )
 
 CAR = default_vehicle()
+STAGGERED = CAR.with_changes(track=(1.58, 1.60), wheel_radius=(0.30, 0.309), longitudinal_stiffness=(60000.0, 70000.0),
+                             cornering_stiffness=(50000.0, 65000.0))
 G = 9.80665
 
 
@@ -32,8 +34,9 @@ def _fd(fn, x, u, h=1e-6):
 def operating_points(draw):
     vx = draw(st.floats(3.0, 40.0))
     x = np.array([vx, draw(st.floats(-1.0, 1.0)), draw(st.floats(-0.5, 0.5))])
-    u = np.empty(12)
-    u[0] = draw(st.floats(-0.1, 0.1))                     # steering
+    u = np.empty(13)
+    u[0] = draw(st.floats(-0.1, 0.1))                     # steering FL
+    u[12] = u[0] + draw(st.sampled_from([0.0, 0.0, -0.01, 0.004]))  # FR: equal, or toe / Ackermann
     for i in range(4):                                     # wheel speeds: slips of +-15 %
         u[1 + i] = vx * (1 + draw(st.floats(-0.15, 0.15))) / CAR.wheel_radius
     u[5] = draw(st.floats(-6.0, 6.0))                      # a_x
@@ -48,15 +51,16 @@ def operating_points(draw):
 @given(operating_points())
 def test_ekf_jacobians_match_finite_differences(point):
     x, u, theta = point
-    model = planar_ekf_model(CAR, 1e-3)
-    F = model.transition_jacobian(x, u, 0)
-    np.testing.assert_allclose(F, _fd(model.transition_fn, x, u), rtol=1e-5, atol=1e-8)
-    H = model.observation_jacobian(x, u, 0)
-    np.testing.assert_allclose(H, _fd(model.observation_fn, x, u), atol=1e-9)
-    joint = slope_ekf_model(CAR, 1e-3)
-    xj = np.append(x, theta)
-    np.testing.assert_allclose(joint.transition_jacobian(xj, u, 0), _fd(joint.transition_fn, xj, u),
-                               rtol=1e-5, atol=1e-8)
+    for car in (CAR, STAGGERED):  # equal axles, and per-axle track, radius and stiffnesses
+        model = planar_ekf_model(car, 1e-3)
+        F = model.transition_jacobian(x, u, 0)
+        np.testing.assert_allclose(F, _fd(model.transition_fn, x, u), rtol=1e-5, atol=1e-8)
+        H = model.observation_jacobian(x, u, 0)
+        np.testing.assert_allclose(H, _fd(model.observation_fn, x, u), atol=1e-9)
+        joint = slope_ekf_model(car, 1e-3)
+        xj = np.append(x, theta)
+        np.testing.assert_allclose(joint.transition_jacobian(xj, u, 0), _fd(joint.transition_fn, xj, u),
+                                   rtol=1e-5, atol=1e-8)
 
 
 def test_eq20_yaw_row_uses_yaw_inertia_not_mass():
@@ -64,7 +68,7 @@ def test_eq20_yaw_row_uses_yaw_inertia_not_mass():
     # as printed divides by M, which would make the yaw response I_z / M = 1.7 times larger.
     model = planar_ekf_model(CAR, 1e-3)
     x = np.array([20.0, 0.0, 0.0])
-    u = np.zeros(12)
+    u = np.zeros(13)
     u[1:5] = 20.0 / CAR.wheel_radius
     u[2] *= 1.002
     u[8:12] = 1.0
@@ -127,7 +131,7 @@ def test_ekf_transition_agrees_with_the_simulator_physics():
     worst = np.zeros(3)
     for k in range(1, tr.vx.size - 1, 97):
         u = np.concatenate([[tr.steering_angle[k]], tr.wheel_speeds[k], [tr.accel_x[k - 1], tr.accel_y[k - 1]],
-                            [tr.slope[k]], tr.friction[k]])  # the simulator's loads lag one step
+                            [tr.slope[k]], tr.friction[k], [tr.steering_angle[k]]])  # loads lag one step
         x = np.array([tr.vx[k], tr.vy[k], tr.yaw_rate[k]])
         x_next = np.array([tr.vx[k + 1], tr.vy[k + 1], tr.yaw_rate[k + 1]])
         worst = np.maximum(worst, np.abs(model.transition_fn(x, u, k) - x_next))

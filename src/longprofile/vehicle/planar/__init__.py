@@ -28,6 +28,7 @@ from ._simulate import (
                         DriveTruth,
                         PlanarSimulation,
                         SensorSpec,
+                        ackermann_angles,
                         drive_scenario,
                         simulate_drive,
 )
@@ -37,7 +38,7 @@ __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle", "SIMULATOR_ONLY", "WHEELS", "GRAVITY",
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
-    "simulate_drive", "LOG_COLUMNS",
+    "simulate_drive", "ackermann_angles", "LOG_COLUMNS",
     "EKFTuning", "planar_ekf_model", "slope_ekf_model", "planar_inputs", "planar_measurements",
     "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",

@@ -316,7 +316,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
 
     ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
     y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
-    rear = 0.5 * vehicle.wheel_radius * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+    rear = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
     slow = rear < _MIN_SPEED
     if slow.any():
         k = int(np.argmax(slow))
@@ -415,7 +415,7 @@ def _parameter_var(vehicle, unc, res, vx, slope, dt, lag):
     accel = np.gradient(uniform_filter1d(vx, size=n, mode="nearest"), dt)
     rate = np.gradient(uniform_filter1d(np.sin(slope), size=n, mode="nearest"), dt)
     return ((unc.mass_rel_std ** 2 + unc.force_rel_std ** 2) * f_bar ** 2
-            + (2.0 * vehicle.longitudinal_stiffness * unc.wheel_radius_rel_std) ** 2) / mg ** 2 \
+            + (sum(vehicle.longitudinal_stiffnesses) * unc.wheel_radius_rel_std) ** 2) / mg ** 2 \
         + (unc.radius_rel_std * accel / GRAVITY) ** 2 + (lag * rate) ** 2
 
 

@@ -6,10 +6,12 @@ Conventions (used by every kernel here):
 * wheel order FL, FR, RL, RR (1..4 in the paper), consistent with the signs of eq. (14) and (19);
 * state ``x = (V_x, V_y, r)`` (m/s, m/s, rad/s) — the EKF state of eq. (20);
 * input row ``u`` of length :data:`N_INPUTS`:
-  ``(delta, omega_fl, omega_fr, omega_rl, omega_rr, a_x, a_y, slope, mu_fl, mu_fr, mu_rl, mu_rr)``
-  with delta the front road-wheel steering angle (rad), omega the wheel spin rates (rad/s),
-  a_x, a_y the accelerometer readings (specific force, m/s^2), slope the road grade angle (rad).
-* ``p`` is ``Vehicle.as_array()``.
+  ``(delta_fl, omega_fl, omega_fr, omega_rl, omega_rr, a_x, a_y, slope, mu_fl, mu_fr, mu_rl, mu_rr, delta_fr)``
+  with delta_fl, delta_fr the front-left and front-right road-wheel steering angles (rad; equal without a
+  measured left/right angle), omega the wheel spin rates (rad/s), a_x, a_y the accelerometer readings
+  (specific force, m/s^2), slope the road grade angle (rad).
+* ``p`` is ``Vehicle.as_array()``: the track, rolling radius and tyre stiffnesses of each wheel are those of
+  its axle (``P_*_F`` front, ``P_*_R`` rear).
 """
 
 from __future__ import annotations
@@ -25,13 +27,32 @@ from ..._jit import njit
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, ShapeError
 from ._dugoff import dugoff_grad, dugoff_values
-from ._params import GRAVITY, P_CX0, P_CXA, P_CY0, P_CYA, P_G, P_H, P_IZ, P_LF, P_LR, P_MASS, P_R, P_TRACK, Vehicle
+from ._params import (
+    GRAVITY,
+    P_CX0_F,
+    P_CX0_R,
+    P_CXA,
+    P_CY0_F,
+    P_CY0_R,
+    P_CYA,
+    P_G,
+    P_H,
+    P_IZ,
+    P_LF,
+    P_LR,
+    P_MASS,
+    P_R_F,
+    P_R_R,
+    P_TRACK_F,
+    P_TRACK_R,
+    Vehicle,
+)
 
 if TYPE_CHECKING:
     from ._simulate import DriveLog
 
-U_DELTA, U_OMEGA, U_AX, U_AY, U_SLOPE, U_MU = 0, 1, 5, 6, 7, 8
-N_INPUTS = 12
+U_DELTA, U_OMEGA, U_AX, U_AY, U_SLOPE, U_MU, U_DELTA_FR = 0, 1, 5, 6, 7, 8, 12
+N_INPUTS = 13
 #: Floor of the slip denominator max(R omega, V) of eq. (18), m/s: the model is not meant for standstill.
 V_MIN = 0.5
 
@@ -57,23 +78,25 @@ def normal_loads(p, ax, ay, slope, out):
 
     ``ax``, ``ay`` are accelerometer readings (specific force). With them, eq. (19) is exact for a
     rigid body on a grade: the longitudinal transfer is H M a_x / L with a_x = dV_x/dt - r V_y + g sin(theta).
+    Each axle carries its share of the lateral force (l_r/L front, l_f/L rear) over its own track.
     """
     m = p[P_MASS]
     lf = p[P_LF]
     lr = p[P_LR]
     L = lf + lr
     h = p[P_H]
-    sb = p[P_TRACK]
+    sbf = p[P_TRACK_F]
+    sbr = p[P_TRACK_R]
     w = m * p[P_G] * math.cos(slope)
     dx = h * m * ax / (2.0 * L)
-    out[0] = lr * w / (2.0 * L) - dx - lr * h * m * ay / (sb * L)
-    out[1] = lr * w / (2.0 * L) - dx + lr * h * m * ay / (sb * L)
-    out[2] = lf * w / (2.0 * L) + dx - lf * h * m * ay / (sb * L)
-    out[3] = lf * w / (2.0 * L) + dx + lf * h * m * ay / (sb * L)
+    out[0] = lr * w / (2.0 * L) - dx - lr * h * m * ay / (sbf * L)
+    out[1] = lr * w / (2.0 * L) - dx + lr * h * m * ay / (sbf * L)
+    out[2] = lf * w / (2.0 * L) + dx - lf * h * m * ay / (sbr * L)
+    out[3] = lf * w / (2.0 * L) + dx + lf * h * m * ay / (sbr * L)
 
 
 @njit(cache=True)
-def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn, dfw):
+def tyre_kinematics_forces(vx, vy, r, delta_l, delta_r, omega, fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn, dfw):
     """Eq. (18) slips and slip angles, then Dugoff forces (15)-(17) of the 4 tyres.
 
     Writes ``slip``, ``alpha`` (rad), ``fx``, ``fy`` (N, wheel axes) of shape (4,), and the
@@ -81,18 +104,20 @@ def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, 
     (2, 4) the derivatives of (fx, fy) w.r.t. each wheel's normal load, in ``dfw`` (2, 4) those
     w.r.t. each wheel's spin rate.
     The wheel-centre velocity of wheel i at (x_i, y_i) is (V_x - r y_i, V_y + r x_i); the slip uses
-    its component along the wheel plane, the slip angle is delta_i - atan(v_y,i / v_x,i).
+    its component along the wheel plane, the slip angle is delta_i - atan(v_y,i / v_x,i); delta_i is
+    ``delta_l`` (FL), ``delta_r`` (FR) or 0 (rear). Track, radius and stiffnesses are those of the wheel's axle.
     """
     lf = p[P_LF]
     lr = p[P_LR]
-    hb = 0.5 * p[P_TRACK]
-    R = p[P_R]
-    cx0 = p[P_CX0]
-    cy0 = p[P_CY0]
     for i in range(4):
-        xi = lf if i < 2 else -lr
+        front = i < 2
+        hb = 0.5 * p[P_TRACK_F] if front else 0.5 * p[P_TRACK_R]
+        R = p[P_R_F] if front else p[P_R_R]
+        cx0 = p[P_CX0_F] if front else p[P_CX0_R]
+        cy0 = p[P_CY0_F] if front else p[P_CY0_R]
+        xi = lf if front else -lr
         yi = hb if (i % 2) == 0 else -hb
-        di = delta if i < 2 else 0.0
+        di = (delta_l if i == 0 else delta_r) if front else 0.0
         c = math.cos(di)
         s = math.sin(di)
         vxi = vx - r * yi
@@ -131,41 +156,58 @@ def tyre_kinematics_forces(vx, vy, r, delta, omega, fn, mu, p, slip, alpha, fx, 
 
 
 @njit(cache=True, inline="always")
-def body_sums(fx, fy, delta, p):
-    """Eq. (12)-(14): total longitudinal and lateral force (N) and yaw moment (N m) in body axes.
+def _wheel_sums(fx0, fx1, fx2, fx3, fy0, fy1, fy2, fy3, delta_l, delta_r, lf, lr, hbf, hbr):
+    """Eq. (12)-(14) on 4 wheel-axis force pairs (FL, FR, RL, RR): body-axis sums and yaw moment.
 
-    The rear wheels are not steered (the angle beta of (12)-(13) is zero for the cars modelled here).
+    With one steering angle the front pair is summed before the rotation (the form of the paper); with
+    two, each front wheel is rotated by its own angle.
     """
-    lf = p[P_LF]
-    lr = p[P_LR]
-    hb = 0.5 * p[P_TRACK]
-    c = math.cos(delta)
-    s = math.sin(delta)
-    fxf = fx[0] + fx[1]
-    fyf = fy[0] + fy[1]
-    sfx = fxf * c - fyf * s + fx[2] + fx[3]
-    sfy = fxf * s + fyf * c + fy[2] + fy[3]
-    mz = (lf * fxf * s + lf * fyf * c + hb * (fx[1] - fx[0]) * c + hb * (fx[3] - fx[2])
-          - hb * (fy[1] - fy[0]) * s - lr * (fy[2] + fy[3]))
+    if delta_l == delta_r:
+        c = math.cos(delta_l)
+        s = math.sin(delta_l)
+        fxf = fx0 + fx1
+        fyf = fy0 + fy1
+        sfx = fxf * c - fyf * s + fx2 + fx3
+        sfy = fxf * s + fyf * c + fy2 + fy3
+        mz = (lf * fxf * s + lf * fyf * c + hbf * (fx1 - fx0) * c + hbr * (fx3 - fx2)
+              - hbf * (fy1 - fy0) * s - lr * (fy2 + fy3))
+        return sfx, sfy, mz
+    c0 = math.cos(delta_l)
+    s0 = math.sin(delta_l)
+    c1 = math.cos(delta_r)
+    s1 = math.sin(delta_r)
+    bx0 = c0 * fx0 - s0 * fy0
+    by0 = s0 * fx0 + c0 * fy0
+    bx1 = c1 * fx1 - s1 * fy1
+    by1 = s1 * fx1 + c1 * fy1
+    sfx = bx0 + bx1 + fx2 + fx3
+    sfy = by0 + by1 + fy2 + fy3
+    mz = lf * (by0 + by1) + hbf * (bx1 - bx0) + hbr * (fx3 - fx2) - lr * (fy2 + fy3)
     return sfx, sfy, mz
 
 
+@njit(cache=True, inline="always")
+def body_sums(fx, fy, delta_l, delta_r, p):
+    """Eq. (12)-(14): total longitudinal and lateral force (N) and yaw moment (N m) in body axes.
+
+    ``delta_l``, ``delta_r``: front-left and front-right road-wheel angles (rad). The rear wheels are not
+    steered (the angle beta of (12)-(13) is zero for the cars modelled here).
+    """
+    return _wheel_sums(fx[0], fx[1], fx[2], fx[3], fy[0], fy[1], fy[2], fy[3], delta_l, delta_r,
+                       p[P_LF], p[P_LR], 0.5 * p[P_TRACK_F], 0.5 * p[P_TRACK_R])
+
+
 @njit(cache=True)
-def body_sums_grad(dfx, dfy, delta, p, out):
+def body_sums_grad(dfx, dfy, delta_l, delta_r, p, out):
     """Gradient (3 sums x 3 states) of :func:`body_sums` given the force gradients (4, 3)."""
     lf = p[P_LF]
     lr = p[P_LR]
-    hb = 0.5 * p[P_TRACK]
-    c = math.cos(delta)
-    s = math.sin(delta)
+    hbf = 0.5 * p[P_TRACK_F]
+    hbr = 0.5 * p[P_TRACK_R]
     for j in range(3):
-        fxf = dfx[0, j] + dfx[1, j]
-        fyf = dfy[0, j] + dfy[1, j]
-        out[0, j] = fxf * c - fyf * s + dfx[2, j] + dfx[3, j]
-        out[1, j] = fxf * s + fyf * c + dfy[2, j] + dfy[3, j]
-        out[2, j] = (lf * fxf * s + lf * fyf * c + hb * (dfx[1, j] - dfx[0, j]) * c
-                     + hb * (dfx[3, j] - dfx[2, j]) - hb * (dfy[1, j] - dfy[0, j]) * s
-                     - lr * (dfy[2, j] + dfy[3, j]))
+        out[0, j], out[1, j], out[2, j] = _wheel_sums(dfx[0, j], dfx[1, j], dfx[2, j], dfx[3, j], dfy[0, j],
+                                                      dfy[1, j], dfy[2, j], dfy[3, j], delta_l, delta_r,
+                                                      lf, lr, hbf, hbr)
 
 
 @njit(cache=True)
@@ -197,13 +239,14 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
     dfy = np.empty((4, 3))
     dfn = np.empty((2, 4))
     dfw = np.empty((2, 4))
-    delta = u[U_DELTA]
-    tyre_kinematics_forces(x[0], x[1], x[2], delta, u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
+    dl = u[U_DELTA]
+    dr = u[U_DELTA_FR]
+    tyre_kinematics_forces(x[0], x[1], x[2], dl, dr, u[U_OMEGA:U_OMEGA + 4], fn, u[U_MU:U_MU + 4], p,
                            slip, alpha, fx, fy, dfx, dfy, dfn, dfw)
-    sfx, sfy, mz = body_sums(fx, fy, delta, p)
+    sfx, sfy, mz = body_sums(fx, fy, dl, dr, p)
     body_derivative(x[0], x[1], x[2], sfx, sfy, mz, slope, p, xdot)
     g = np.empty((3, 3))
-    body_sums_grad(dfx, dfy, delta, p, g)
+    body_sums_grad(dfx, dfy, dl, dr, p, g)
     m = p[P_MASS]
     iz = p[P_IZ]
     for j in range(3):
@@ -225,10 +268,41 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
         dfn_i = dw * (p[P_LR] if i < 2 else p[P_LF])
         gx[i] = dfn[0, i] * dfn_i
         gy[i] = dfn[1, i] * dfn_i
-    s_fx, s_fy, s_mz = body_sums(gx, gy, delta, p)
+    s_fx, s_fy, s_mz = body_sums(gx, gy, dl, dr, p)
     dslope[0] = s_fx / m - p[P_G] * math.cos(slope)
     dslope[1] = s_fy / m
     dslope[2] = s_mz / iz
+
+
+@njit(cache=True, inline="always")
+def _axle(p, front):
+    """(track, rolling radius, C_x0, C_y0) of the front (``front`` True) or the rear axle."""
+    if front:
+        return p[P_TRACK_F], p[P_R_F], p[P_CX0_F], p[P_CY0_F]
+    return p[P_TRACK_R], p[P_R_R], p[P_CX0_R], p[P_CY0_R]
+
+
+@njit(cache=True, inline="always")
+def _front_angles(delta_l, delta_r):
+    """(cos, sin, tan) of the front-left then the front-right steering angle (one evaluation when equal)."""
+    cdl = math.cos(delta_l)
+    sdl = math.sin(delta_l)
+    tdl = sdl / cdl
+    if delta_r == delta_l:
+        return cdl, sdl, tdl, cdl, sdl, tdl
+    cdr = math.cos(delta_r)
+    sdr = math.sin(delta_r)
+    return cdl, sdl, tdl, cdr, sdr, sdr / cdr
+
+
+@njit(cache=True, inline="always")
+def _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr):
+    """(cos, sin, tan) of the steering angle of wheel i (FL, FR, RL, RR; the rear wheels are not steered)."""
+    if i == 0:
+        return cdl, sdl, tdl
+    if i == 1:
+        return cdr, sdr, tdr
+    return 1.0, 0.0, 0.0
 
 
 @njit(cache=True)
@@ -246,17 +320,10 @@ def planar_fused(vx, vy, r, u, p, slope):
     lr = p[P_LR]
     L = lf + lr
     h = p[P_H]
-    hb = 0.5 * p[P_TRACK]
-    R = p[P_R]
-    cx0 = p[P_CX0]
-    cy0 = p[P_CY0]
     grav = p[P_G]
-    delta = u[U_DELTA]
     ax = u[U_AX]
     ay = u[U_AY]
-    cd = math.cos(delta)
-    sd = math.sin(delta)
-    tdelta = sd / cd
+    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[U_DELTA], u[U_DELTA_FR])
     w = m * grav * math.cos(slope)
     dw = -m * grav * math.sin(slope)
     dxl = h * m * ax / (2.0 * L)
@@ -270,15 +337,16 @@ def planar_fused(vx, vy, r, u, p, slope):
     for i in range(4):
         front = i < 2
         left = (i % 2) == 0
+        sb, R, cx0, cy0 = _axle(p, front)
+        hb = 0.5 * sb
         xi = lf if front else -lr
         yi = hb if left else -hb
         lever = lr if front else lf
         # eq. (19)
-        lat = lever * h * m * ay / (p[P_TRACK] * L)
+        lat = lever * h * m * ay / (sb * L)
         fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
         dfn_ds = lever * dw / (2.0 * L)
-        c = cd if front else 1.0
-        s = sd if front else 0.0
+        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
         vyi = vy + r * xi
         vw = vxi * c + vyi * s
@@ -286,7 +354,6 @@ def planar_fused(vx, vy, r, u, p, slope):
         rw = R * u[U_OMEGA + i]
         lam, dl, _ = slip_ratio(rw, vw, R)
         # tan(alpha) = tan(delta_i - atan(vyi / vxi)) = (td vxi - vyi) / (vxi + td vyi), no trig per wheel
-        td = tdelta if front else 0.0
         num = td * vxi - vyi
         den = vxi + td * vyi
         t = num / den
@@ -352,12 +419,7 @@ def planar_rates_fast(vx, vy, r, u, p, slope):
     lr = p[P_LR]
     L = lf + lr
     h = p[P_H]
-    hb = 0.5 * p[P_TRACK]
-    R = p[P_R]
-    delta = u[U_DELTA]
-    cd = math.cos(delta)
-    sd = math.sin(delta)
-    tdelta = sd / cd
+    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[U_DELTA], u[U_DELTA_FR])
     w = m * p[P_G] * math.cos(slope)
     dxl = h * m * u[U_AX] / (2.0 * L)
     sfx = 0.0
@@ -366,21 +428,21 @@ def planar_rates_fast(vx, vy, r, u, p, slope):
     for i in range(4):
         front = i < 2
         left = (i % 2) == 0
+        sb, R, cx0, cy0 = _axle(p, front)
+        hb = 0.5 * sb
         xi = lf if front else -lr
         yi = hb if left else -hb
         lever = lr if front else lf
-        lat = lever * h * m * u[U_AY] / (p[P_TRACK] * L)
+        lat = lever * h * m * u[U_AY] / (sb * L)
         fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
-        c = cd if front else 1.0
-        s = sd if front else 0.0
+        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
         vyi = vy + r * xi
         vw = vxi * c + vyi * s
         rw = R * u[U_OMEGA + i]
         lam = slip_ratio(rw, vw, R)[0]
-        td = tdelta if front else 0.0
         t = (td * vxi - vyi) / (vxi + td * vyi)
-        f_x, f_y = dugoff_values(lam, t, fn, u[U_MU + i], p[P_CX0], p[P_CY0])
+        f_x, f_y = dugoff_values(lam, t, fn, u[U_MU + i], cx0, cy0)
         bx = c * f_x - s * f_y
         by = s * f_x + c * f_y
         sfx += bx
@@ -489,18 +551,11 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
     lr = p[P_LR]
     L = lf + lr
     h = p[P_H]
-    hb = 0.5 * p[P_TRACK]
-    R = p[P_R]
-    cx0 = p[P_CX0]
-    cy0 = p[P_CY0]
     vx = mean[k, 0]
     vy = mean[k, 1]
     r = mean[k, 2]
     theta = slope[k]
-    delta = u[k, U_DELTA]
-    cd = math.cos(delta)
-    sd = math.sin(delta)
-    tdelta = sd / cd
+    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[k, U_DELTA], u[k, U_DELTA_FR])
     w = m * p[P_G] * math.cos(theta)
     dxl = h * m * u[k, U_AX] / (2.0 * L)
     c00 = cov[k, 0, 0]
@@ -517,13 +572,14 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
     for i in range(4):
         front = i < 2
         left = (i % 2) == 0
+        sb, R, cx0, cy0 = _axle(p, front)
+        hb = 0.5 * sb
         xi = lf if front else -lr
         yi = hb if left else -hb
         lever = lr if front else lf
-        lat = lever * h * m * u[k, U_AY] / (p[P_TRACK] * L)
+        lat = lever * h * m * u[k, U_AY] / (sb * L)
         fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
-        c = cd if front else 1.0
-        s = sd if front else 0.0
+        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
         vyi = vy + r * xi
         vw = vxi * c + vyi * s
@@ -531,7 +587,6 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
         omega = u[k, U_OMEGA + i]
         rw = R * omega
         lam, dl, dlw = slip_ratio(rw, vw, R)
-        td = tdelta if front else 0.0
         num = td * vxi - vyi
         den = vxi + td * vyi
         t = num / den
@@ -756,10 +811,12 @@ def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.
 
 
 def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None) -> np.ndarray:
-    """Input rows ``u`` (T, 12) of the vehicle EKFs from a drive log.
+    """Input rows ``u`` (T, 13) of the vehicle EKFs from a drive log.
 
-    Columns: steering angle, the 4 wheel speeds, a_x, a_y, grade (``slope``, default 0), the 4
-    adhesion coefficients (``friction``: (4,) or (T, 4), default ``vehicle.friction``).
+    Columns: front-left steering angle, the 4 wheel speeds, a_x, a_y, grade (``slope``, default 0), the 4
+    adhesion coefficients (``friction``: (4,) or (T, 4), default ``vehicle.friction``), front-right steering
+    angle. The two angles are the log's ``steer_fl``, ``steer_fr`` when it has them
+    (:attr:`DriveLog.front_steering`), else both its ``steering_angle``.
     """
     T = log.time.size
     if slope is None:
@@ -777,14 +834,15 @@ def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None)
         raise InputError(f"friction must be > 0; got min {mu.min():g}.")
     mu = np.ascontiguousarray(np.broadcast_to(mu, (T, 4)), dtype=np.float64)
     u = np.empty((T, N_INPUTS))
-    _fill_inputs(log.steering_angle, log.wheel_speeds, log.accel_x, log.accel_y, s, mu, u)
+    _fill_inputs(log.front_steering, log.wheel_speeds, log.accel_x, log.accel_y, s, mu, u)
     return u
 
 
 @njit(cache=True)
 def _fill_inputs(steer, wheel, ax, ay, slope, mu, u):
     for k in range(u.shape[0]):
-        u[k, 0] = steer[k]
+        u[k, U_DELTA] = steer[k, 0]
+        u[k, U_DELTA_FR] = steer[k, 1]
         for i in range(4):
             u[k, 1 + i] = wheel[k, i]
             u[k, 8 + i] = mu[k, i]

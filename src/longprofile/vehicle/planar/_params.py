@@ -13,16 +13,20 @@ import numpy as np
 from ...errors import InputError, InputFormatError
 from .._car import read_car_file
 
-__all__ = ["Vehicle", "load_vehicle", "default_vehicle", "WHEELS", "GRAVITY", "SIMULATOR_ONLY"]
+__all__ = ["Vehicle", "load_vehicle", "default_vehicle", "WHEELS", "GRAVITY", "SIMULATOR_ONLY", "PER_AXLE"]
 
 #: Wheel order used everywhere (paper 001, eq. (14) and (19)): front-left, front-right, rear-left, rear-right.
 WHEELS = ("fl", "fr", "rl", "rr")
 #: Standard gravity, m/s^2.
 GRAVITY = 9.80665
 
-# index of each parameter in the flat float64 vector handed to the compiled model functions
-P_MASS, P_IZ, P_LF, P_LR, P_TRACK, P_H, P_R, P_CXA, P_CYA, P_CX0, P_CY0, P_IW, P_G = range(13)
-N_PARAMS = 13
+# index of each parameter in the flat float64 vector handed to the compiled model functions; the per-axle
+# values (track, rolling radius, tyre stiffnesses) have a front (_F) and a rear (_R) entry
+(P_MASS, P_IZ, P_LF, P_LR, P_TRACK_F, P_H, P_R_F, P_CXA, P_CYA, P_CX0_F, P_CY0_F, P_IW, P_G,
+ P_TRACK_R, P_R_R, P_CX0_R, P_CY0_R) = range(17)
+N_PARAMS = 17
+#: Parameters that may differ between the front and the rear axle: a number (both axles) or (front, rear).
+PER_AXLE = ("track", "wheel_radius", "longitudinal_stiffness", "cornering_stiffness")
 
 _TOML_LAYOUT = {
     "body": {
@@ -60,21 +64,21 @@ class Vehicle:
         I_z, yaw moment of inertia, kg m^2.
     cg_to_front_axle, cg_to_rear_axle : float
         l_f and l_r, longitudinal distances from the centre of gravity to the axles, m.
-    track : float
-        S_b, track width (same front and rear), m.
+    track : float or (float, float)
+        S_b, track width, m: one number for both axles or ``(front, rear)``.
     cg_height : float
         H, height of the centre of gravity used by the load transfer (19), m.
     aero_longitudinal, aero_lateral : float
         C_x and C_y of eq. (11), N s^2/m^2 (drag force = C V|V|).
-    wheel_radius : float
-        R, effective rolling radius, m (eq. (18)).
+    wheel_radius : float or (float, float)
+        R, effective rolling radius, m (eq. (18)): one number or ``(front, rear)`` (staggered tyres).
     wheel_inertia : float or None
         I_w, rotational inertia of one wheel, kg m^2 (simulator wheel dynamics). None (key ``wheels.inertia``
         omitted): the estimators do not need it, :func:`simulate_drive` refuses the car.
-    longitudinal_stiffness : float
-        C_x0 of the Dugoff model (15)-(17), N per unit slip, common to the four tyres.
-    cornering_stiffness : float
-        C_y0 of the Dugoff model, N/rad, common to the four tyres.
+    longitudinal_stiffness : float or (float, float)
+        C_x0 of the Dugoff model (15)-(17), N per unit slip, of each tyre: one number or ``(front, rear)``.
+    cornering_stiffness : float or (float, float)
+        C_y0 of the Dugoff model, N/rad, of each tyre: one number or ``(front, rear)``.
     friction : tuple of 4 float
         mu_i, available adhesion of each wheel (FL, FR, RL, RR), dimensionless, in (0, 2].
     driven_axle : {"front", "rear", "all"}
@@ -87,6 +91,12 @@ class Vehicle:
         driver brakes with the engine up to it and with the service brakes beyond.
     name, description : str
         Free labels.
+
+    Notes
+    -----
+    A per-axle parameter (:data:`PER_AXLE`) given as a pair with equal values is stored as one number, so a
+    car with equal axles compares equal and is written back as before; :attr:`tracks`, :attr:`wheel_radii`,
+    :attr:`longitudinal_stiffnesses` and :attr:`cornering_stiffnesses` always give ``(front, rear)``.
 
     Raises
     ------
@@ -103,14 +113,14 @@ class Vehicle:
     yaw_inertia: float
     cg_to_front_axle: float
     cg_to_rear_axle: float
-    track: float
+    track: float | tuple[float, float]
     cg_height: float
     aero_longitudinal: float
     aero_lateral: float
-    wheel_radius: float
+    wheel_radius: float | tuple[float, float]
     wheel_inertia: float | None
-    longitudinal_stiffness: float
-    cornering_stiffness: float
+    longitudinal_stiffness: float | tuple[float, float]
+    cornering_stiffness: float | tuple[float, float]
     friction: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 0.8)
     driven_axle: str = "front"
     brake_front_share: float | None = 0.7
@@ -119,8 +129,9 @@ class Vehicle:
     description: str = ""
 
     def __post_init__(self):
-        for key in ("mass", "yaw_inertia", "cg_to_front_axle", "cg_to_rear_axle", "track", "cg_height",
-                    "wheel_radius", "wheel_inertia", "longitudinal_stiffness", "cornering_stiffness"):
+        for key in PER_AXLE:
+            object.__setattr__(self, key, _per_axle(key, getattr(self, key)))
+        for key in ("mass", "yaw_inertia", "cg_to_front_axle", "cg_to_rear_axle", "cg_height", "wheel_inertia"):
             if key in SIMULATOR_ONLY and getattr(self, key) is None:
                 continue
             _check_number(key, getattr(self, key), positive=True)
@@ -151,6 +162,32 @@ class Vehicle:
         """l_f + l_r, m."""
         return self.cg_to_front_axle + self.cg_to_rear_axle
 
+    @property
+    def tracks(self) -> tuple[float, float]:
+        """(front, rear) track width S_b, m."""
+        return _axles(self.track)
+
+    @property
+    def wheel_radii(self) -> tuple[float, float]:
+        """(front, rear) rolling radius R, m."""
+        return _axles(self.wheel_radius)
+
+    @property
+    def longitudinal_stiffnesses(self) -> tuple[float, float]:
+        """(front, rear) tyre longitudinal stiffness C_x0, N per unit slip."""
+        return _axles(self.longitudinal_stiffness)
+
+    @property
+    def cornering_stiffnesses(self) -> tuple[float, float]:
+        """(front, rear) tyre cornering stiffness C_y0, N/rad."""
+        return _axles(self.cornering_stiffness)
+
+    @property
+    def wheel_radius_of_each(self) -> np.ndarray:
+        """Rolling radius of each wheel (FL, FR, RL, RR), m, shape (4,)."""
+        f, r = self.wheel_radii
+        return np.array([f, f, r, r])
+
     def with_changes(self, **changes) -> "Vehicle":
         """A copy with some parameters changed (validated again), e.g. ``car.with_changes(mass=1650.0)``."""
         return replace(self, **changes)
@@ -162,13 +199,13 @@ class Vehicle:
         p[P_IZ] = self.yaw_inertia
         p[P_LF] = self.cg_to_front_axle
         p[P_LR] = self.cg_to_rear_axle
-        p[P_TRACK] = self.track
+        p[P_TRACK_F], p[P_TRACK_R] = self.tracks
         p[P_H] = self.cg_height
-        p[P_R] = self.wheel_radius
+        p[P_R_F], p[P_R_R] = self.wheel_radii
         p[P_CXA] = self.aero_longitudinal
         p[P_CYA] = self.aero_lateral
-        p[P_CX0] = self.longitudinal_stiffness
-        p[P_CY0] = self.cornering_stiffness
+        p[P_CX0_F], p[P_CX0_R] = self.longitudinal_stiffnesses
+        p[P_CY0_F], p[P_CY0_R] = self.cornering_stiffnesses
         p[P_IW] = 0.0 if self.wheel_inertia is None else self.wheel_inertia  # read by the simulator only
         p[P_G] = GRAVITY
         return p
@@ -189,6 +226,8 @@ class Vehicle:
                 else:
                     text = repr(float(value))
                 unit = _UNITS.get(attr)
+                if unit and attr in PER_AXLE and isinstance(value, tuple):
+                    unit += " (front, rear)"
                 lines.append(f"{key} = {text}" + (f"  # {unit}" if unit else ""))
         return "\n".join(lines) + "\n"
 
@@ -197,12 +236,35 @@ def _toml_str(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _check_number(name: str, value, *, positive: bool) -> None:
+def _axles(value) -> tuple[float, float]:
+    return value if isinstance(value, tuple) else (value, value)
+
+
+def _per_axle(name: str, value):
+    """A per-axle parameter: one number (both axles) or a (front, rear) pair, each finite and > 0.
+
+    Returns a float, or a tuple of 2 floats when the axles differ (a pair of equal values becomes one number).
+    """
+    if isinstance(value, (list, tuple, np.ndarray)):
+        items = list(value)
+        if len(items) != 2:
+            raise InputError(f"{name} must be one number (both axles) or a [front, rear] pair"
+                             f" ({_UNITS.get(name, '')}); got {len(items)} value(s) {value!r}.")
+        for axle, v in zip(("front", "rear"), items):
+            _check_number(f"{name}[{axle}]", v, positive=True, unit=_UNITS.get(name, ""))
+        front, rear = float(items[0]), float(items[1])
+        return front if front == rear else (front, rear)
+    _check_number(name, value, positive=True)
+    return float(value)
+
+
+def _check_number(name: str, value, *, positive: bool, unit: str | None = None) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise InputError(f"{name} must be a number; got {value!r}.")
+        pair = " (or a [front, rear] pair)" if name in PER_AXLE else ""
+        raise InputError(f"{name} must be a number{pair}; got {value!r}.")
     v = float(value)
     if not math.isfinite(v) or (v <= 0.0 if positive else v < 0.0):
-        unit = _UNITS.get(name, "")
+        unit = _UNITS.get(name, "") if unit is None else unit
         raise InputError(f"{name} must be finite and {'> 0' if positive else '>= 0'}"
                          f"{' ' + unit if unit else ''}; got {value!r}.")
 
@@ -234,7 +296,11 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
     try:
         return Vehicle(**kwargs)
     except InputError as exc:
-        raise InputFormatError(f"{source}: {exc}") from None
+        text = str(exc)
+        attr = text.split(" ", 1)[0].split("[", 1)[0]
+        where = next((f" (key '{section}.{key}')" for section, keys in _TOML_LAYOUT.items()
+                      for key, a in keys.items() if a == attr), "")
+        raise InputFormatError(f"{source}: {text.rstrip('.')}{where}.") from None
 
 
 def load_vehicle(path) -> Vehicle:
@@ -246,6 +312,8 @@ def load_vehicle(path) -> Vehicle:
         TOML file with the tables ``[body]``, ``[wheels]``, ``[drivetrain]`` laid out as in
         ``longprofile/vehicle/data/default_car.toml`` (SI units; every key required except the
         simulator-only ``wheels.inertia`` and ``drivetrain.brake_front_share``, see :data:`SIMULATOR_ONLY`).
+        The per-axle keys ``body.track``, ``wheels.radius``, ``wheels.longitudinal_stiffness`` and
+        ``wheels.cornering_stiffness`` take one number (both axles) or a ``[front, rear]`` pair.
 
     Returns
     -------

@@ -17,16 +17,18 @@ from ..._jit import njit
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, InputFormatError, ShapeError
 from ._model import body_derivative, body_sums, normal_loads, tyre_kinematics_forces
-from ._params import P_CXA, P_CYA, P_G, P_IW, P_LF, P_LR, P_MASS, P_R, WHEELS, Vehicle, default_vehicle
+from ._params import P_CXA, P_CYA, P_G, P_IW, P_LF, P_LR, P_MASS, P_R_F, P_R_R, WHEELS, Vehicle, default_vehicle
 
 __all__ = ["DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth",
-           "PlanarSimulation", "simulate_drive", "LOG_COLUMNS"]
+           "PlanarSimulation", "simulate_drive", "ackermann_angles", "LOG_COLUMNS", "WHEEL_STEERING_COLUMNS"]
 
 #: Sensor channels of a drive log, in file order (see docs/vehicle-slope.md).
 LOG_COLUMNS = ("time", "steering_angle", "wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr",
                "yaw_rate", "accel_x", "accel_y")
+#: Optional channels: the measured front-left and front-right road-wheel angles, rad (used by the model when present).
+WHEEL_STEERING_COLUMNS = ("steer_fl", "steer_fr")
 _LOG_UNITS = {"time": "s", "steering_angle": "rad", "wheel_speed": "rad/s", "yaw_rate": "rad/s",
-              "accel_x": "m/s^2", "accel_y": "m/s^2"}
+              "accel_x": "m/s^2", "accel_y": "m/s^2", "steer_fl": "rad", "steer_fr": "rad"}
 
 
 # ----------------------------------------------------------------------------------------------- scenarios
@@ -282,6 +284,14 @@ def _encoder_speeds(time, angle, spec: SensorSpec, rng):
     return speed
 
 
+def _steering_sensor(angle, spec: SensorSpec, rng):
+    """Measured road-wheel angle: offset, white noise and quantisation of ``spec`` applied to ``angle`` (T,)."""
+    steer = angle + spec.steering_offset + rng.normal(0.0, 1.0, angle.size) * spec.steering_noise
+    if spec.steering_resolution > 0:
+        steer = np.round(steer / spec.steering_resolution) * spec.steering_resolution
+    return steer
+
+
 # ----------------------------------------------------------------------------------------------- results
 
 @dataclass(frozen=True, eq=False)
@@ -300,6 +310,11 @@ class DriveLog:
         Gyro yaw rate, rad/s.
     accel_x, accel_y : (T,) array_like
         Body-fixed accelerometer readings (specific force, gravity included), m/s^2.
+    wheel_steering : (T, 2) array_like, optional
+        Measured front-left and front-right road-wheel angles, rad (log columns ``steer_fl``,
+        ``steer_fr``). When given, the model steers each front wheel by its own angle (eq. (12)-(14),
+        (18)); ``steering_angle`` is then only used by the log checks. None: both wheels steer by
+        ``steering_angle``.
 
     Raises
     ------
@@ -313,6 +328,7 @@ class DriveLog:
     yaw_rate: np.ndarray
     accel_x: np.ndarray
     accel_y: np.ndarray
+    wheel_steering: np.ndarray | None = None
 
     def __post_init__(self):
         t = as_float_array("time", self.time, ndim=1, allow_nan=False)
@@ -334,6 +350,19 @@ class DriveLog:
         if np.any(w < 0):
             raise InputError(f"wheel_speeds must be >= 0 rad/s (ABS sensors are unsigned); got min {w.min():g}.")
         object.__setattr__(self, "wheel_speeds", np.ascontiguousarray(w))
+        if self.wheel_steering is not None:
+            d = as_float_array("wheel_steering", self.wheel_steering, ndim=2, allow_nan=False)
+            if d.shape != (t.size, 2):
+                raise ShapeError(f"wheel_steering must have shape (T, 2) = ({t.size}, 2) (steer_fl, steer_fr); "
+                                 f"got {d.shape}.")
+            object.__setattr__(self, "wheel_steering", np.ascontiguousarray(d))
+
+    @property
+    def front_steering(self) -> np.ndarray:
+        """Road-wheel angles (T, 2) of the front-left and front-right wheels, rad, as the model uses them."""
+        if self.wheel_steering is not None:
+            return self.wheel_steering
+        return np.ascontiguousarray(np.column_stack([self.steering_angle, self.steering_angle]))
 
     @property
     def dt(self) -> float:
@@ -341,8 +370,11 @@ class DriveLog:
         return float((self.time[-1] - self.time[0]) / (self.time.size - 1))
 
     def to_frame(self) -> pd.DataFrame:
-        """The log as a table with the columns :data:`LOG_COLUMNS`."""
+        """The log as a table with the columns :data:`LOG_COLUMNS` (and ``steer_fl``, ``steer_fr`` if it has them)."""
         cols = {"time": self.time, "steering_angle": self.steering_angle}
+        if self.wheel_steering is not None:
+            cols["steer_fl"] = self.wheel_steering[:, 0]
+            cols["steer_fr"] = self.wheel_steering[:, 1]
         for i, w in enumerate(WHEELS):
             cols[f"wheel_speed_{w}"] = self.wheel_speeds[:, i]
         cols.update(yaw_rate=self.yaw_rate, accel_x=self.accel_x, accel_y=self.accel_y)
@@ -352,27 +384,41 @@ class DriveLog:
     def from_frame(cls, frame: pd.DataFrame, *, source: str = "table") -> "DriveLog":
         """Build a log from a table holding the columns :data:`LOG_COLUMNS` (extra columns ignored).
 
+        The optional ``steer_fl`` and ``steer_fr`` (both or neither) give :attr:`wheel_steering`; with them,
+        ``steering_angle`` may be left out (it is then their mean).
+
         Raises
         ------
         InputFormatError
             If channels are missing (all are listed, with their units) or hold NaN.
         """
-        missing = [c for c in LOG_COLUMNS if c not in frame.columns]
+        has = [c in frame.columns for c in WHEEL_STEERING_COLUMNS]
+        if any(has) and not all(has):
+            absent = WHEEL_STEERING_COLUMNS[has.index(False)]
+            raise InputFormatError(f"{source}: {absent!r} is missing: the wheel steering angles come as a pair, "
+                                   "steer_fl and steer_fr (rad, positive to the left), or not at all.")
+        columns = LOG_COLUMNS + WHEEL_STEERING_COLUMNS if all(has) else LOG_COLUMNS
+        if all(has) and "steering_angle" not in frame.columns:
+            columns = tuple(c for c in columns if c != "steering_angle")
+        missing = [c for c in LOG_COLUMNS if c not in frame.columns and c in columns]
         if missing:
             units = ", ".join(f"{c} ({_LOG_UNITS.get(c, _LOG_UNITS['wheel_speed'])})" for c in missing)
             raise InputFormatError(f"{source}: missing channel(s) {units}; a drive log needs {list(LOG_COLUMNS)} "
                                    "(see docs/vehicle-slope.md).")
-        for c in LOG_COLUMNS:
+        for c in columns:
             col = pd.to_numeric(frame[c], errors="coerce")
             if col.isna().any():
                 i = int(np.argmax(col.isna().to_numpy()))
                 raise InputFormatError(f"{source}: column {c!r} has a missing or non-numeric value at row {i}; "
                                        "fill or cut the gap (the estimators need every channel at every sample).")
-        f = {c: frame[c].to_numpy(dtype=float) for c in LOG_COLUMNS}
+        f = {c: frame[c].to_numpy(dtype=float) for c in columns}
+        wheel_steering = np.column_stack([f["steer_fl"], f["steer_fr"]]) if all(has) else None
+        steering = f["steering_angle"] if "steering_angle" in f else 0.5 * (f["steer_fl"] + f["steer_fr"])
         try:
-            return cls(time=f["time"], steering_angle=f["steering_angle"],
+            return cls(time=f["time"], steering_angle=steering,
                        wheel_speeds=np.column_stack([f[f"wheel_speed_{w}"] for w in WHEELS]),
-                       yaw_rate=f["yaw_rate"], accel_x=f["accel_x"], accel_y=f["accel_y"])
+                       yaw_rate=f["yaw_rate"], accel_x=f["accel_x"], accel_y=f["accel_y"],
+                       wheel_steering=wheel_steering)
         except InputError as exc:
             raise InputFormatError(f"{source}: {exc}") from None
 
@@ -400,7 +446,10 @@ class DriveTruth:
     accel_x, accel_y : (T,) ndarray
         True specific force along the body axes, m/s^2 (what a perfect accelerometer reads).
     steering_angle : (T,) ndarray
-        True front road-wheel angle, rad.
+        True front road-wheel angle, rad (with Ackermann steering, that of the equivalent bicycle wheel).
+    wheel_steering : (T, 2) ndarray or None
+        True front-left and front-right road-wheel angles, rad, when they differ from ``steering_angle``
+        (``simulate_drive(..., steering_geometry="ackermann")``).
     """
 
     vx: np.ndarray
@@ -418,12 +467,16 @@ class DriveTruth:
     accel_x: np.ndarray
     accel_y: np.ndarray
     steering_angle: np.ndarray
+    wheel_steering: np.ndarray | None = None
 
     def to_frame(self) -> pd.DataFrame:
         """The truth as a table; every column is prefixed ``true_`` (wheel columns end in _fl, _fr, _rl, _rr)."""
         cols = {}
         for k in ("vx", "vy", "yaw_rate", "slope", "distance", "accel_x", "accel_y", "steering_angle"):
             cols[f"true_{k}"] = getattr(self, k)
+        if self.wheel_steering is not None:
+            cols["true_steer_fl"] = self.wheel_steering[:, 0]
+            cols["true_steer_fr"] = self.wheel_steering[:, 1]
         for k in ("wheel_speeds", "fx", "fy", "normal_force", "slip", "slip_angle", "friction"):
             name = "wheel_speed" if k == "wheel_speeds" else k
             for i, w in enumerate(WHEELS):
@@ -463,7 +516,7 @@ def _road_at(grid, ds, s):
 
 
 @njit(cache=True)
-def _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, out_f):
+def _rates(z, delta_l, delta_r, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, out_f):
     """Time derivative of the simulator state; ``out_f`` (6, 4) receives fx, fy, fn, slip, alpha, mu."""
     s = z[7]
     slope = _road_at(slope_grid, ds, s)
@@ -484,12 +537,13 @@ def _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, o
     dfy = np.empty((4, 3))
     dfn = np.empty((2, 4))
     dfw = np.empty((2, 4))
-    tyre_kinematics_forces(z[0], z[1], z[2], delta, z[3:7], fn, mu, p, slip, alpha, fx, fy, dfx, dfy, dfn, dfw)
-    sfx, sfy, mz = body_sums(fx, fy, delta, p)
+    tyre_kinematics_forces(z[0], z[1], z[2], delta_l, delta_r, z[3:7], fn, mu, p, slip, alpha, fx, fy, dfx, dfy,
+                           dfn, dfw)
+    sfx, sfy, mz = body_sums(fx, fy, delta_l, delta_r, p)
     body_derivative(z[0], z[1], z[2], sfx, sfy, mz, slope, p, dz[0:3])
-    R = p[P_R]
     iw = p[P_IW]
     for i in range(4):
+        R = p[P_R_F] if i < 2 else p[P_R_R]
         dz[3 + i] = (torque[i] - R * fx[i]) / iw
         dz[11 + i] = z[3 + i]
         out_f[0, i] = fx[i]
@@ -510,8 +564,8 @@ def _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, o
 
 
 @njit(cache=True)
-def _simulate_kernel(p, drive_share, brake_share, engine_brake, dt, v_ref, steer, ds, slope_grid, mu_left, mu_right, z0,
-                     kp, ki, states, forces, slope_out, acc_out):
+def _simulate_kernel(p, drive_share, brake_share, engine_brake, drive_radius, dt, v_ref, steer, ds, slope_grid, mu_left,
+                     mu_right, z0, kp, ki, states, forces, slope_out, acc_out):
     T = v_ref.shape[0]
     z = z0.copy()
     dz = np.empty(_NZ)
@@ -523,19 +577,21 @@ def _simulate_kernel(p, drive_share, brake_share, engine_brake, dt, v_ref, steer
     fbuf = np.empty((6, 4))
     torque = np.zeros(4)
     m = p[P_MASS]
-    R = p[P_R]
+    R = drive_radius  # rolling radius of the driven wheels: torque = force R
     g = p[P_G]
     integ = 0.0
     # accelerometer state used for the load transfer: start from the steady-state guess
     ax = 0.0
     ay = 0.0
     for _ in range(3):
-        sl, ax, ay = _rates(z, steer[0], torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, fbuf)
+        sl, ax, ay = _rates(z, steer[0, 0], steer[0, 1], torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz,
+                            fbuf)
     ax = g * math.sin(sl)
     for k in range(T):
-        delta = steer[k]
+        dl = steer[k, 0]
+        dr = steer[k, 1]
         # outputs at step k (loads from the specific force of the previous step: 1-step lag)
-        sl, ax_k, ay_k = _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, fbuf)
+        sl, ax_k, ay_k = _rates(z, dl, dr, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, dz, fbuf)
         for j in range(_NZ):
             states[k, j] = z[j]
         for a in range(6):
@@ -559,22 +615,39 @@ def _simulate_kernel(p, drive_share, brake_share, engine_brake, dt, v_ref, steer
             # at standstill) for what the engine cannot hold
             torque[i] = t_engine * drive_share[i] + t_brake * brake_share[i] * math.tanh(z[3 + i] / 0.5)
         # RK4 with inputs held over the step
-        _rates(z, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k1, fbuf)
+        _rates(z, dl, dr, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k1, fbuf)
         for j in range(_NZ):
             zt[j] = z[j] + 0.5 * dt * k1[j]
-        _rates(zt, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k2, fbuf)
+        _rates(zt, dl, dr, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k2, fbuf)
         for j in range(_NZ):
             zt[j] = z[j] + 0.5 * dt * k2[j]
-        _rates(zt, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k3, fbuf)
+        _rates(zt, dl, dr, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k3, fbuf)
         for j in range(_NZ):
             zt[j] = z[j] + dt * k3[j]
-        _rates(zt, delta, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k4, fbuf)
+        _rates(zt, dl, dr, torque, ax, ay, p, ds, slope_grid, mu_left, mu_right, k4, fbuf)
         for j in range(_NZ):
             z[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
 
 
+def ackermann_angles(steering, vehicle: Vehicle) -> np.ndarray:
+    """Front-left and front-right road-wheel angles (T, 2), rad, of an Ackermann steering linkage.
+
+    ``steering`` (rad, positive to the left) is the angle of the equivalent bicycle-model wheel: the
+    turn centre lies on the rear axle line at L / tan(delta) from the car's centre line, and each
+    front wheel points perpendicular to its own radius: tan(delta_FL) = L tan(delta) / (L - S_f/2 tan(delta)),
+    tan(delta_FR) = L tan(delta) / (L + S_f/2 tan(delta)) (the inner wheel steers more), with L the
+    wheelbase and S_f the front track.
+    """
+    d = np.asarray(steering, dtype=float)
+    L = vehicle.wheelbase
+    hb = 0.5 * vehicle.tracks[0]
+    t = np.tan(d)
+    return np.column_stack([np.arctan2(L * t, L - hb * t), np.arctan2(L * t, L + hb * t)])
+
+
 def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None, *,
-                   sensors: SensorSpec | None = None, seed=None) -> PlanarSimulation:
+                   sensors: SensorSpec | None = None, seed=None,
+                   steering_geometry: str = "parallel") -> PlanarSimulation:
     """Simulate a drive with the planar 4-wheel model and produce the truth and the sensor log.
 
     Parameters
@@ -587,6 +660,12 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
         Sensor models (default ``SensorSpec()``).
     seed : int or numpy.random.Generator, optional
         Seed of the sensor noise (the physics is deterministic).
+    steering_geometry : {"parallel", "ackermann"}
+        ``"parallel"`` (default): both front wheels steer by the scenario's angle. ``"ackermann"``: the
+        scenario's angle is the bicycle-model angle and each front wheel steers by its Ackermann angle
+        (:func:`ackermann_angles`); the log then also carries the two measured road-wheel angles
+        (``wheel_steering``, columns ``steer_fl``, ``steer_fr``), with the steering sensor model of
+        ``sensors`` applied to each, and ``steering_angle`` stays the measured bicycle angle.
 
     Returns
     -------
@@ -613,6 +692,8 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
         raise InputError(f"vehicle must be a Vehicle; got {type(vehicle).__name__}.")
     keys = {"wheel_inertia": "wheels.inertia (kg m^2)", "brake_front_share": "drivetrain.brake_front_share (0..1)"}
     missing = [text for attr, text in keys.items() if getattr(vehicle, attr) is None]
+    if steering_geometry not in ("parallel", "ackermann"):
+        raise InputError(f"steering_geometry must be 'parallel' or 'ackermann'; got {steering_geometry!r}.")
     if missing:
         named = f" {vehicle.name!r}" if vehicle.name else ""
         raise InputError(f"the simulator needs {' and '.join(missing)}, which the vehicle description{named} omits "
@@ -626,28 +707,40 @@ def simulate_drive(scenario: DriveScenario | str, vehicle: Vehicle | None = None
     brake = [bf / 2, bf / 2, (1 - bf) / 2, (1 - bf) / 2]
     z0 = np.zeros(_NZ)
     z0[0] = scenario.initial_speed
-    z0[3:7] = scenario.initial_speed / vehicle.wheel_radius
+    z0[3:7] = scenario.initial_speed / vehicle.wheel_radius_of_each
+    radii = vehicle.wheel_radius_of_each
+    drive_radius = float(np.dot(drive, radii) / np.sum(drive))  # the driven wheels' radius (their mean)
+    if steering_geometry == "ackermann":
+        wheel_steering = ackermann_angles(scenario.steering, vehicle)
+    else:
+        wheel_steering = None
+    steer2 = (np.ascontiguousarray(np.column_stack([scenario.steering, scenario.steering]))
+              if wheel_steering is None else wheel_steering)
     states = np.empty((T, _NZ))
     forces = np.empty((T, 6, 4))
     slope = np.empty(T)
     acc = np.empty((T, 2))
     ds = float(scenario.road_distance[1] - scenario.road_distance[0])
-    _simulate_kernel(p, np.array(drive), np.array(brake), vehicle.engine_brake_torque, scenario.dt, scenario.target_speed, scenario.steering, ds,
-                     scenario.road_slope, np.ascontiguousarray(scenario.road_friction[:, 0]),
-                     np.ascontiguousarray(scenario.road_friction[:, 1]), z0, 1.0, 0.2, states, forces, slope, acc)
+    _simulate_kernel(p, np.array(drive), np.array(brake), vehicle.engine_brake_torque, drive_radius, scenario.dt,
+                     scenario.target_speed, steer2, ds, scenario.road_slope,
+                     np.ascontiguousarray(scenario.road_friction[:, 0]), np.ascontiguousarray(scenario.road_friction[:, 1]),
+                     z0, 1.0, 0.2, states, forces, slope, acc)
     if not np.all(np.isfinite(states)):
         raise InputError(f"the simulation of scenario {scenario.name!r} diverged; reduce dt or the demands.")
     time = scenario.time
     truth = DriveTruth(vx=states[:, 0], vy=states[:, 1], yaw_rate=states[:, 2], slope=slope, distance=states[:, 7],
                        wheel_speeds=states[:, 3:7].copy(), fx=forces[:, 0], fy=forces[:, 1],
                        normal_force=forces[:, 2], slip=forces[:, 3], slip_angle=forces[:, 4], friction=forces[:, 5],
-                       accel_x=acc[:, 0], accel_y=acc[:, 1], steering_angle=scenario.steering)
+                       accel_x=acc[:, 0], accel_y=acc[:, 1], steering_angle=scenario.steering,
+                       wheel_steering=wheel_steering)
     wheel = np.column_stack([_encoder_speeds(time, states[:, 11 + i], sensors, rng) for i in range(4)])
-    steer = scenario.steering + sensors.steering_offset + rng.normal(0.0, 1.0, T) * sensors.steering_noise
-    if sensors.steering_resolution > 0:
-        steer = np.round(steer / sensors.steering_resolution) * sensors.steering_resolution
-    log = DriveLog(time=time, steering_angle=steer, wheel_speeds=wheel,
-                   yaw_rate=truth.yaw_rate + sensors.yaw_rate_offset + rng.normal(0.0, sensors.yaw_rate_noise, T),
-                   accel_x=truth.accel_x + sensors.accel_offset + rng.normal(0.0, sensors.accel_noise, T),
-                   accel_y=truth.accel_y + sensors.accel_offset + rng.normal(0.0, sensors.accel_noise, T))
+    steer = _steering_sensor(scenario.steering, sensors, rng)
+    yaw = truth.yaw_rate + sensors.yaw_rate_offset + rng.normal(0.0, sensors.yaw_rate_noise, T)
+    acc_x = truth.accel_x + sensors.accel_offset + rng.normal(0.0, sensors.accel_noise, T)
+    acc_y = truth.accel_y + sensors.accel_offset + rng.normal(0.0, sensors.accel_noise, T)
+    measured_wheels = None
+    if wheel_steering is not None:  # drawn after the other channels: a parallel-steering log is unchanged
+        measured_wheels = np.column_stack([_steering_sensor(wheel_steering[:, j], sensors, rng) for j in range(2)])
+    log = DriveLog(time=time, steering_angle=steer, wheel_speeds=wheel, yaw_rate=yaw, accel_x=acc_x, accel_y=acc_y,
+                   wheel_steering=measured_wheels)
     return PlanarSimulation(log=log, truth=truth, scenario=scenario.name, vehicle=vehicle)

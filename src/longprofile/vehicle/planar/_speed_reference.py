@@ -20,7 +20,22 @@ from ..._validation import require_positive
 from ...errors import InputError
 from ._dugoff import dugoff_grad
 from ._model import normal_loads
-from ._params import P_CX0, P_CXA, P_CY0, P_LF, P_LR, P_MASS, P_R, P_TRACK, Vehicle, default_vehicle
+from ._params import (
+    P_CX0_F,
+    P_CX0_R,
+    P_CXA,
+    P_CY0_F,
+    P_CY0_R,
+    P_LF,
+    P_LR,
+    P_MASS,
+    P_R_F,
+    P_R_R,
+    P_TRACK_F,
+    P_TRACK_R,
+    Vehicle,
+    default_vehicle,
+)
 from ._simulate import DriveLog
 
 __all__ = ["SpeedReference", "speed_reference", "SPEED_SOURCES"]
@@ -83,30 +98,38 @@ def _tyre_force(x, fn, mu, c0, cy0):
 
 @njit(cache=True)
 def _wheel_kinematics(omega, steer, gyro, ax, ay, p, kin, f_sum):
-    """Per-wheel V_x (T, 4) from R omega_i, and the sum of the tyre forces but the drag (T,) from the accelerometers."""
-    R = p[P_R]
+    """Per-wheel V_x (T, 4) from R omega_i, and the sum of the tyre forces but the drag (T,) from the accelerometers.
+
+    ``steer`` (T, 2): front-left and front-right road-wheel angles; radius and track are those of each axle.
+    """
     lf = p[P_LF]
     lr = p[P_LR]
     L = lf + lr
-    hb = 0.5 * p[P_TRACK]
+    hbf = 0.5 * p[P_TRACK_F]
+    hbr = 0.5 * p[P_TRACK_R]
+    Rf = p[P_R_F]
+    Rr = p[P_R_R]
     m = p[P_MASS]
     for k in range(omega.shape[0]):
-        d = steer[k]
         r = gyro[k]
-        cd = math.cos(d)
-        sd = math.sin(d)
+        sd_mean = 0.0
         # V_x seen by each wheel from its plane speed R omega: v_w = (V_x - r y_i) cos d_i + (V_y + r x_i) sin d_i
         # with the kinematic V_y = l_r r (no rear slip angle), so V_y + r x_f = r L at the front, 0 at the rear
         for i in range(4):
-            yi = hb if (i % 2) == 0 else -hb
             if i < 2:
-                kin[k, i] = (R * omega[k, i] - r * L * sd) / cd + r * yi
+                d = steer[k, i]
+                cd = math.cos(d)
+                sd = math.sin(d)
+                sd_mean += 0.5 * sd
+                yi = hbf if i == 0 else -hbf
+                kin[k, i] = (Rf * omega[k, i] - r * L * sd) / cd + r * yi
             else:
-                kin[k, i] = R * omega[k, i] + r * yi
+                yi = hbr if i == 2 else -hbr
+                kin[k, i] = Rr * omega[k, i] + r * yi
         # sum of the tyre forces along the wheel planes but the drag (added at V_x later): accelerometer
         # (specific force) plus the part of the front lateral force (about M a_y l_r / L) that steering
         # turns against the x axis
-        f_sum[k] = m * ax[k] + m * ay[k] * (lr / L) * sd
+        f_sum[k] = m * ax[k] + m * ay[k] * (lr / L) * sd_mean
 
 
 @njit(cache=True)
@@ -115,8 +138,7 @@ def _robust_kernel(kin_all, force, force_now, force_change, ax, ay, mu, p, free_
     T = kin_all.shape[0]
     m = p[P_MASS]
     cxa = p[P_CXA]
-    c0 = p[P_CX0]
-    cy0 = p[P_CY0]
+    c0 = 0.5 * (p[P_CX0_F] + p[P_CX0_R])  # the mean tyre stiffness, for the equal-slip start of Newton
     fn = np.empty(4)
     for k in range(T):
         kin = kin_all[k]
@@ -146,7 +168,10 @@ def _robust_kernel(kin_all, force, force_now, force_change, ax, ay, mu, p, free_
                 dg = 0.0
                 for i in range(4):
                     x = kin[i] / v
-                    f, dfx = _tyre_force(x, fn[i], mu[k, i], c0, cy0)
+                    if i < 2:
+                        f, dfx = _tyre_force(x, fn[i], mu[k, i], p[P_CX0_F], p[P_CY0_F])
+                    else:
+                        f, dfx = _tyre_force(x, fn[i], mu[k, i], p[P_CX0_R], p[P_CY0_R])
                     g += f
                     dg -= dfx * x / v
                 if dg >= 0.0:  # tyre force no longer falls with v: wheels locked or beyond the peak
@@ -180,6 +205,12 @@ def _robust_kernel(kin_all, force, force_now, force_change, ax, ay, mu, p, free_
                 slip[k, i] = (rw - v) / max(rw, v, 0.5)
             else:
                 slip[k, i] = np.nan
+
+
+def _driven_radius(vehicle: Vehicle) -> float:
+    """Rolling radius of the driven wheels (their mean for all-wheel drive), m."""
+    front, rear = vehicle.wheel_radii
+    return {"front": front, "rear": rear, "all": 0.5 * (front + rear)}[vehicle.driven_axle]
 
 
 def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "robust",
@@ -218,8 +249,9 @@ def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: st
         the previous slip (lag of the period measurement, wheel spin-up).
     brake_force : float, optional
         Total retarding tyre force, N, below which the brakes are assumed on (so the undriven wheels
-        are braked too). Default ``vehicle.engine_brake_torque / vehicle.wheel_radius``: up to that,
-        engine braking alone retards the car, through the driven wheels.
+        are braked too). Default ``vehicle.engine_brake_torque`` over the driven wheels' rolling radius
+        (their mean for all-wheel drive): up to that, engine braking alone retards the car, through the
+        driven wheels.
     friction : (4,) or (T, 4) array_like, optional
         Adhesion mu_i of the tyre model (default ``vehicle.friction``).
 
@@ -281,13 +313,12 @@ def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: st
     force_window = require_positive("force_window", force_window, strict=False)
     transient_time = require_positive("transient_time", transient_time, strict=False)
     if brake_force is None:
-        brake_force = vehicle.engine_brake_torque / vehicle.wheel_radius
+        brake_force = vehicle.engine_brake_torque / _driven_radius(vehicle)
     brake_force = require_positive("brake_force", brake_force, strict=False)
     T = log.time.size
-    R = vehicle.wheel_radius
     if method == "rear-mean":
-        v = 0.5 * R * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
-        rw = R * log.wheel_speeds
+        v = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+        rw = vehicle.wheel_radius_of_each * log.wheel_speeds
         slip = (rw - v[:, None]) / np.maximum(np.maximum(rw, v[:, None]), 0.5)
         return SpeedReference(speed=v, std=np.full(T, speed_std), source=np.full(T, _REAR_MEAN, dtype=np.int8),
                               wheel_slip=slip, method=method)
@@ -300,7 +331,7 @@ def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: st
     p = vehicle.as_array()
     kin = np.empty((T, 4))
     f_raw = np.empty(T)
-    _wheel_kinematics(log.wheel_speeds, log.steering_angle, log.yaw_rate, log.accel_x, log.accel_y, p, kin, f_raw)
+    _wheel_kinematics(log.wheel_speeds, log.front_steering, log.yaw_rate, log.accel_x, log.accel_y, p, kin, f_raw)
     # the encoders report the mean speed over their last tooth pitches: average the force over a similar
     # window, and count its change over the last transient_time as force uncertainty (brake apply/release)
     dt = log.dt
