@@ -45,7 +45,8 @@ def test_settle_writes_table_plot_and_report(site_dir, tmp_path):
         assert section in html
     assert (tmp_path / "s.png").stat().st_size > 1000
     sensors = pd.read_csv(tmp_path / "report" / "sensors.csv")
-    assert {"status", "loo_score", "reversal_z", "reversal_llr", "step_z"} <= set(sensors.columns)
+    assert {"status", "loo_score", "reversal_z", "reversal_llr", "step_z", "noise_factor"} <= set(sensors.columns)
+    assert (sensors.noise_factor > 0).all()
     assert len(sensors) == table.sensor_id.nunique()
 
 

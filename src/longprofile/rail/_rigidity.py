@@ -182,6 +182,18 @@ def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY) -> np.ndarray
     return C * (2.0 / (r * (x[-1] - x[0])))
 
 
+def _noise_std(sigma, N):
+    """``sigma`` as a float (one std for every station) or an (N,) float array (one per station), each > 0."""
+    if np.ndim(sigma) == 0:
+        return require_positive("sigma", sigma)
+    s = as_float_array("sigma", sigma, ndim=1, allow_nan=False)
+    if s.shape != (N,):
+        raise ShapeError(f"sigma must be one number or one per station ({N},); got shape {s.shape}.")
+    if not np.all(s > 0):
+        raise InputError(f"sigma must be > 0 at every station; got min {s.min()!r}.")
+    return s
+
+
 def _as_profiles(name, values, N):
     arr = as_float_array(name, values, ndim=(1, 2))
     if arr.shape[-1] != N:
@@ -200,8 +212,9 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
         Station positions, m.
     slopes : (N,) array_like
         Measured slopes m_i (rad); NaN for a sensor without a measurement.
-    sigma : float
-        Slope noise standard deviation, rad (paper: 5e-3 degree).
+    sigma : float or (N,) array_like
+        Slope noise standard deviation, rad (paper: 5e-3 degree); one per station for sensors of
+        unequal noise (the observation precision of station i is 1 / sigma_i^2).
     rigidity : float
         r, m^-2.
     sigma_z : float
@@ -232,14 +245,14 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
     m = _as_profiles("slopes", slopes, N)
     if m.ndim != 1:
         raise ShapeError(f"rigidity_posterior_dense takes one profile of N slopes; got shape {m.shape}.")
-    s = require_positive("sigma", sigma)
+    s = np.broadcast_to(_noise_std(sigma, N), (N,))
     sz = require_positive("sigma_z", sigma_z)
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
     prec = rigidity_cost_matrix(x, rigidity=rigidity)
     rhs = np.zeros(2 * N)
     obs = np.isfinite(m)
-    prec[N + np.nonzero(obs)[0], N + np.nonzero(obs)[0]] += 1.0 / s**2
-    rhs[N:][obs] = m[obs] / s**2
+    prec[N + np.nonzero(obs)[0], N + np.nonzero(obs)[0]] += 1.0 / s[obs] ** 2
+    rhs[N:][obs] = m[obs] / s[obs] ** 2
     for i, z0 in ((0, z_ends[0]), (N - 1, z_ends[1])):
         prec[i, i] += 1.0 / sz**2
         rhs[i] += z0 / sz**2
@@ -302,7 +315,9 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
     ----------
     x : (N,) array_like
         Station positions, m (irregular spacing allowed: F and Q vary per segment).
-    sigma, rigidity, sigma_z : float
+    sigma : float or (N,) array_like
+        As in :func:`rigidity_posterior_dense` (one per station: R varies along the stations).
+    rigidity, sigma_z : float
         As in :func:`rigidity_posterior_dense`.
     z_start : float
         Anchor altitude z_1^0 of the first station, m (the prior mean of z_1).
@@ -325,7 +340,7 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
         (penalty_order 2; the observation matrix gains a zero column for the curvature with 3).
     """
     x = _check_stations(x)
-    s = require_positive("sigma", sigma)
+    s = _noise_std(sigma, x.size)
     sz = require_positive("sigma_z", sigma_z)
     r = require_positive("rigidity", rigidity)
     sp = require_positive("first_slope_prior_std", first_slope_prior_std)
@@ -337,8 +352,13 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
     P0 = np.diag([sz**2, sp**2, FIRST_CURVATURE_PRIOR_STD**2][:n])
     m0 = np.zeros(n)
     m0[0] = float(z_start)
-    return StateSpaceModel(transition=F, observation=H, process_cov=Q, obs_cov=np.diag([s**2, sz**2]),
-                           initial_mean=m0, initial_cov=P0)
+    if np.ndim(s) == 0:
+        R = np.diag([s**2, sz**2])
+    else:  # one slope-noise variance per station: a time-varying R of the engine
+        R = np.zeros((x.size, 2, 2))
+        R[:, 0, 0] = s**2
+        R[:, 1, 1] = sz**2
+    return StateSpaceModel(transition=F, observation=H, process_cov=Q, obs_cov=R, initial_mean=m0, initial_cov=P0)
 
 
 def _posterior_from_smoother(x, sm, batched):
@@ -634,9 +654,10 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     m = _as_profiles("slopes", slopes, N)
     batched = m.ndim == 2
     M = m if batched else m[None]
-    s = require_positive("sigma", sigma)
+    s = _noise_std(sigma, N)
     model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order)
-    noise = np.diag([s**2, 0.0])
+    noise = np.zeros((N, 2, 2))
+    noise[:, 0, 0] = np.broadcast_to(s, (N,)) ** 2
     pattern = np.isnan(M)
     out = np.empty(M.shape)
     for rows, pat in _pattern_groups(pattern):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -89,6 +90,9 @@ class SettlementResult:
     sigma_by_day : (D,) ndarray or None
         Slope-change noise std of each day, rad (``error_model="drift"``: :func:`daily_noise_sigma`;
         ``sigma`` is then its median); constant for ``error_model="white"``.
+    sensor_noise_factor : (N,) ndarray or None
+        f_i of :func:`sensor_noise_factors`: sensor i's noise std is ``sigma_by_day * f_i`` (all 1 for
+        ``error_model="white"`` or ``sensor_noise=False``).
     """
 
     days: np.ndarray
@@ -115,6 +119,7 @@ class SettlementResult:
     warnings: tuple
     settings: dict = field(default_factory=dict)
     sigma_by_day: np.ndarray | None = None
+    sensor_noise_factor: np.ndarray | None = None
 
     def to_table(self) -> pd.DataFrame:
         """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
@@ -233,6 +238,72 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
     return np.sqrt(np.maximum(fitted, max(floor, 1e-12) ** 2))
 
 
+#: Bounds of a sensor's noise variance relative to the site's (:func:`sensor_noise_factors`): f^2 in [1/4, 16].
+SENSOR_VARIANCE_BOUNDS = (0.25, 16.0)
+#: Weight of the pull of every sensor's relative variance towards 1 (ridge term of :func:`sensor_noise_factors`).
+SENSOR_VARIANCE_RIDGE = 0.3
+#: Median of a chi-square variable with one degree of freedom (median of z^2, z ~ N(0, 1)).
+CHI2_1_MEDIAN = 0.454936
+
+
+def sensor_noise_factors(x, slopes) -> np.ndarray:
+    r"""Noise std of each sensor relative to the day's, f_i (sigma_{d,i} = sigma_d f_i), robust to settlement.
+
+    Inclinometers of one site do not drift alike (a random-walk bias whose diffusion varies tenfold
+    between sensors): with one noise std per day the few strong drifters carry as much weight as the
+    quiet ones and put most of the error into the profile (beyond paper 004, whose noise is one sigma).
+    The departures r_{d,i} of each interior sensor's *day-to-day* slope change from the line through
+    its two neighbours' (:func:`daily_noise_sigma` uses the cumulative changes), divided by the day's
+    robust spread over the sensors, have a per-sensor robust mean square s_i = median_d(r^2) / 0.455
+    (the median of chi-square(1)); a drift adds to every day's increment, the bowl only to the few
+    work days', which the median sets aside. With g = f^2, E s_i = (g_i + w_l^2 g_{i-1} + w_r^2 g_{i+1})
+    / c_i^2 (the line's weights w_l, w_r, c_i^2 = 1 + w_l^2 + w_r^2), so g is the non-negative
+    least-squares solution of these N - 2 equations plus a ridge SENSOR_VARIANCE_RIDGE (g_i - 1) = 0
+    for every sensor (the end sensors have no equation of their own), clipped to SENSOR_VARIANCE_BOUNDS.
+    Assumption: a sensor's share of the error is the same on every day (sigma_{d,i} = sigma_d f_i).
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+
+    Returns
+    -------
+    (N,) ndarray
+        f_i (1 for sensors without readings, and for every sensor when fewer than 5 have some).
+    """
+    from scipy.optimize import nnls
+
+    M = np.asarray(slopes, float)
+    f = np.ones(M.shape[1])
+    ok = np.isfinite(M).sum(axis=0) > 0
+    idx = np.nonzero(ok)[0]
+    if idx.size < 5 or M.shape[0] < 2:
+        return f
+    xs = np.asarray(x, float)[ok]
+    # day-to-day increments: a drift adds to every day's, the bowl only to the few work days' (set aside by
+    # the medians); each day scaled by its robust spread over the sensors
+    r = _neighbour_residuals(xs, np.diff(M[:, ok], axis=0))
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN days or sensors (excluded neighbours)
+        r = r / (1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True))
+        msq = np.nanmedian(r**2, axis=0) / CHI2_1_MEDIAN
+    hl, hr = xs[1:-1] - xs[:-2], xs[2:] - xs[1:-1]
+    wl, wr = hr / (hl + hr), hl / (hl + hr)
+    c2 = 1.0 + wl**2 + wr**2
+    n = xs.size
+    A = np.zeros((n - 2, n))
+    rows = np.arange(n - 2)
+    A[rows, rows], A[rows, rows + 1], A[rows, rows + 2] = wl**2 / c2, 1.0 / c2, wr**2 / c2
+    use = np.isfinite(msq)
+    lam = SENSOR_VARIANCE_RIDGE
+    g, _ = nnls(np.vstack([A[use], lam * np.eye(n)]), np.concatenate([msq[use], np.full(n, lam)]))
+    f[idx] = np.sqrt(np.clip(g, *SENSOR_VARIANCE_BOUNDS))
+    return f
+
+
 def _site_temperature_change(site: SiteData, days):
     """Site-mean daily mean temperature of each day minus the reference day's, °C (0 where unknown)."""
     r = site.readings
@@ -248,15 +319,22 @@ def _noise_groups(sig_d):
             for idx in (np.nonzero(key == k)[0] for k in np.unique(key))]
 
 
-def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order):
-    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day."""
+def _station_sigma(s: float, factors):
+    """The noise std of each station on a day of level ``s``: s, or s f_i with per-sensor factors."""
+    return s if factors is None else s * factors
+
+
+def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order, factors=None):
+    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day (times f_i)."""
     D, N = M.shape
     out = {k: np.empty((D, N)) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
     for idx, s in _noise_groups(sig_d):
-        post = rigidity_posterior(x, M[idx], sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order)
+        sig = _station_sigma(s, factors)
+        post = rigidity_posterior(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
+                                  penalty_order=penalty_order)
         for k in ("z_mean", "z_std", "slope_mean", "slope_std"):
             out[k][idx] = getattr(post, k)
-        out["noise_std"][idx] = measurement_std(x, M[idx], sigma=s, rigidity=rigidity, sigma_z=sigma_z,
+        out["noise_std"][idx] = measurement_std(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
                                                 penalty_order=penalty_order)
     return out
 
@@ -265,7 +343,7 @@ def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order):
 _LOG10_RIGIDITY_GRID = {2: np.arange(-14.0, -5.0), 3: np.arange(-19.0, -7.0)}
 
 
-def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order):
+def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
     """Maximum marginal likelihood of r (sigma fixed) over the profiles ``rows``: (r, log-likelihood)."""
 
     groups = ([(np.arange(rows.shape[0]), float(sigma))] if np.ndim(sigma) == 0
@@ -274,7 +352,8 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order):
     def nll(logr):
         if not -60 < logr < 5:
             return 1e300
-        return -float(sum(np.sum(rigidity_posterior(x, rows[idx], sigma=s, rigidity=float(np.exp(logr)),
+        return -float(sum(np.sum(rigidity_posterior(x, rows[idx], sigma=_station_sigma(s, factors),
+                                                    rigidity=float(np.exp(logr)),
                                                     sigma_z=sigma_z, penalty_order=penalty_order).log_likelihood)
                           for idx, s in groups))
 
@@ -356,7 +435,7 @@ class ChangePriorFit:
 
 
 def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_Z,
-                     penalty_orders=PENALTY_ORDERS) -> ChangePriorFit:
+                     penalty_orders=PENALTY_ORDERS, sensor_factors=None) -> ChangePriorFit:
     r"""Fit the prior of the settlement (change) profile by maximum marginal likelihood, sigma fixed.
 
     For each penalty order (2: the paper's cubic-spline prior exp(-||f''||^2/r); 3: the smoother
@@ -377,15 +456,19 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
         End-anchor std, m.
     penalty_orders : iterable of int
         Orders to try.
+    sensor_factors : (N,) array_like, optional
+        Per-sensor noise factors f_i (:func:`sensor_noise_factors`): the noise std of sensor i on day
+        d is then sigma_d f_i.
 
     Returns
     -------
     ChangePriorFit
     """
     rows, sig = _changed_rows(np.asarray(slopes, float), sigma if np.ndim(sigma) else float(sigma))
+    f = None if sensor_factors is None else np.asarray(sensor_factors, float)
     lls, rs = {}, {}
     for order in penalty_orders:
-        rs[int(order)], lls[int(order)] = _fit_rigidity(x, rows, sig, sigma_z, int(order))
+        rs[int(order)], lls[int(order)] = _fit_rigidity(x, rows, sig, sigma_z, int(order), f)
     best = max(lls, key=lls.get)
     return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs,
                           sigma=float(sigma) if np.ndim(sigma) == 0 else float(np.median(sigma)))
@@ -482,6 +565,9 @@ class SettlementSettings:
         Seed (or generator) of the Monte Carlo.
     error_model : {"drift", "white"}, default "drift"
         Error model of the daily slope changes (:data:`ERROR_MODELS`); a given ``sigma`` implies "white".
+    sensor_noise : bool, default True
+        With ``error_model="drift"``: one noise factor per sensor (:func:`sensor_noise_factors`), so
+        that strongly drifting sensors weigh less; False gives every sensor the day's std.
     """
 
     thermal: str = "linear"
@@ -504,6 +590,7 @@ class SettlementSettings:
     n_monte_carlo: int = 1000
     rng: Any = 0
     error_model: str = "drift"
+    sensor_noise: bool = True
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -585,7 +672,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
 
 
 def _noise_stage(site: SiteData, x, M, days, opt: SettlementSettings):
-    """Slope-change noise: (sigma, sigma of each day, drift model used?)."""
+    """Slope-change noise: (sigma, sigma of each day, drift model used?, per-sensor factors or None)."""
     D = days.size
     sig = float(opt.sigma) if opt.sigma is not None else day_difference_sigma(M)
     drift = opt.error_model == "drift" and opt.sigma is None
@@ -597,25 +684,27 @@ def _noise_stage(site: SiteData, x, M, days, opt: SettlementSettings):
         sig_days = daily_noise_sigma(x, M, day_offsets=np.asarray(t_days, float),
                                      temperature_change=_site_temperature_change(site, days), floor=0.5 * sig)
         sig = float(np.median(sig_days[1:]))
+        factors = sensor_noise_factors(x, M) if opt.sensor_noise else None
     else:
         sig_days = np.full(D, sig)
-    return sig, sig_days, drift
+        factors = None
+    return sig, sig_days, drift, factors
 
 
-def _change_prior_stage(x, M, sig, sig_days, drift, opt: SettlementSettings, warnings: list):
-    """Prior of the change profile: (fit or None, penalty order, r, sigma, sigma of each day, drift)."""
+def _change_prior_stage(x, M, sig, sig_days, drift, factors, opt: SettlementSettings, warnings: list):
+    """Prior of the change profile: (fit or None, penalty order, r, sigma, sigma of each day, drift, factors)."""
     D = sig_days.size
     if opt.rigidity is None:
         orders = PENALTY_ORDERS if opt.penalty_order is None else (opt.penalty_order,)
         prior_fit = fit_change_prior(x, M, sigma=sig_days if drift else sig, sigma_z=opt.sigma_z,
-                                     penalty_orders=orders)
+                                     penalty_orders=orders, sensor_factors=factors)
         order, rig = prior_fit.penalty_order, prior_fit.rigidity
         if drift and rig <= 1.01 * 10.0 ** _LOG10_RIGIDITY_GRID[order][0]:
             # the stiffest prior of the grid: the daily noise estimate has absorbed the settlement (a bowl
             # spanning most of a sparse site departs from the neighbours' lines) -> back to one sigma
             warnings.append("error_model='drift': the per-day noise absorbed the settlement (maximum-likelihood "
                             "prior at its stiffest); the white noise model (one sigma) is used instead.")
-            drift, sig = False, float(day_difference_sigma(M))
+            drift, sig, factors = False, float(day_difference_sigma(M)), None
             sig_days = np.full(D, sig)
             prior_fit = fit_change_prior(x, M, sigma=sig, sigma_z=opt.sigma_z, penalty_orders=orders)
             order, rig = prior_fit.penalty_order, prior_fit.rigidity
@@ -623,7 +712,7 @@ def _change_prior_stage(x, M, sig, sig_days, drift, opt: SettlementSettings, war
         prior_fit = None
         order = 2 if opt.penalty_order is None else int(opt.penalty_order)
         rig = float(opt.rigidity)
-    return prior_fit, order, rig, sig, sig_days, drift
+    return prior_fit, order, rig, sig, sig_days, drift, factors
 
 
 def _chain_integrations(x, M, health: SensorHealth, initial: ProfilePosterior) -> dict:
@@ -636,14 +725,15 @@ def _chain_integrations(x, M, health: SensorHealth, initial: ProfilePosterior) -
             - integrate_angles(x, bar0, method=meth)[None, :] for meth in INTEGRATION_METHODS}
 
 
-def _max_settlement_stage(x, M, sig_days, rig, order, opt: SettlementSettings):
+def _max_settlement_stage(x, M, sig_days, rig, order, opt: SettlementSettings, factors=None):
     """Monte Carlo mean and std of the maximum settlement of each day (§4.3), NaN when skipped."""
     D = sig_days.size
     if opt.n_monte_carlo > 0:
         mc_mean, mc_std = np.empty(D), np.empty(D)
         gen = np.random.default_rng(opt.rng)
         for idx, s in _noise_groups(sig_days):
-            mc_mean[idx], mc_std[idx] = max_settlement_monte_carlo(x, M[idx], int(opt.n_monte_carlo), sigma=s,
+            mc_mean[idx], mc_std[idx] = max_settlement_monte_carlo(x, M[idx], int(opt.n_monte_carlo),
+                                                                   sigma=_station_sigma(s, factors),
                                                                    rigidity=rig, sigma_z=opt.sigma_z, rng=gen,
                                                                    penalty_order=order)
     else:
@@ -673,7 +763,8 @@ def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: Settle
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
-    return dict(thermal=opt.thermal, error_model="drift" if drift else "white", sigma_rad=sig,
+    return dict(thermal=opt.thermal, error_model="drift" if drift else "white",
+                sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
                 penalty_order=order, sigma_estimated=opt.sigma is None, rigidity_estimated=opt.rigidity is None,
                 change_prior_log_likelihood=None if prior_fit is None else prior_fit.log_likelihood,
@@ -745,6 +836,9 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
         (:func:`daily_noise_sigma`: drifting inclinometers and thermal residuals, calibrated on
         independent scenarios, docs/rail.md); the through-time model then carries the drift as a
         random walk of the error. A given ``sigma`` implies "white".
+    sensor_noise : bool, default True
+        With "drift": each sensor's std is the day's times its own factor (:func:`sensor_noise_factors`,
+        ``SettlementResult.sensor_noise_factor``), so strongly drifting sensors weigh less.
 
     Returns
     -------
@@ -769,11 +863,13 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
     days = daily.days
     initial, slopes = _slope_changes(site, daily, opt)
     health, M = _health_stage(x, ids, slopes, daily, opt, warnings)
-    sig, sig_days, drift = _noise_stage(site, x, M, days, opt)
-    prior_fit, order, rig, sig, sig_days, drift = _change_prior_stage(x, M, sig, sig_days, drift, opt, warnings)
-    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=opt.sigma_z, penalty_order=order)
+    sig, sig_days, drift, factors = _noise_stage(site, x, M, days, opt)
+    prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
+                                                                               opt, warnings)
+    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=opt.sigma_z, penalty_order=order,
+                               factors=factors)
     integrated = _chain_integrations(x, M, health, initial)
-    mc_mean, mc_std = _max_settlement_stage(x, M, sig_days, rig, order, opt)
+    mc_mean, mc_std = _max_settlement_stage(x, M, sig_days, rig, order, opt, factors)
     smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt)
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed)
@@ -783,4 +879,5 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
                             initial=initial, integrated=integrated, max_settlement_mean=np.atleast_1d(mc_mean),
                             max_settlement_std=np.atleast_1d(mc_std), health=health, daily=daily, sigma=sig,
                             rigidity=rig, penalty_order=order, change_prior=prior_fit, alarms=alarms,
-                            controls=controls, warnings=tuple(warnings), settings=settings_used, sigma_by_day=sig_days)
+                            controls=controls, warnings=tuple(warnings), settings=settings_used, sigma_by_day=sig_days,
+                            sensor_noise_factor=np.ones(len(ids)) if factors is None else factors)

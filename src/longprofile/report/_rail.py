@@ -265,6 +265,8 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
                            **{k: v for k, v in (("reversal_z", result.health.reversal_z),
                                                 ("reversal_llr", result.health.reversal_llr),
                                                 ("step_z", result.health.step_z)) if v is not None},
+                           **({} if result.sensor_noise_factor is None
+                              else {"noise_factor": result.sensor_noise_factor}),
                            "thermal_coef_deg_per_c": result.daily.thermal_coef,
                            "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers,
                            "initial_z_m": result.initial.z_mean, "initial_z_std_m": result.initial.z_std,
