@@ -36,6 +36,9 @@ def simulate(
     seed: int = typer.Option(0, "--seed", help="Seed of the sensor noise."),
     duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (scenario default)."),
     truth: bool = typer.Option(True, "--truth/--no-truth", help="Also write the true_* columns."),
+    steering_geometry: str = typer.Option("parallel", "--steering-geometry",
+                                          help="parallel (both front wheels steer alike, the paper's) or ackermann "
+                                               "(each front wheel its own angle; the log gains steer_fl, steer_fr)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw an overview figure (PNG)."),
     overwrite: bool = OVERWRITE,
 ):
@@ -46,7 +49,8 @@ def simulate(
     out = check_output_path(output, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
-    sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed)
+    sim = simulate_drive(drive_scenario(scenario, duration=duration), car, seed=seed,
+                         steering_geometry=steering_geometry)
     write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
     console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
     if plot is not None:

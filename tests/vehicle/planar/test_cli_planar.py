@@ -122,3 +122,22 @@ def test_slope_warns_on_missing_speed_and_implausible_slope():
     steep = replace(est, slope=np.where(est.time > 30, 0.3, est.slope))
     (w,) = steep.warnings()
     assert "slope leaves the plausible range" in w and "t = 30.001" in w
+
+
+def test_simulate_with_ackermann_steering_writes_both_front_angles_and_slope_reads_them(tmp_path, capsys):
+    log = tmp_path / "ack.csv"
+    res = runner.invoke(app, ["vehicle", "simulate", "--duration", "4", "--steering-geometry", "ackermann",
+                              "-o", str(log)])
+    assert res.exit_code == 0, res.output
+    frame = pd.read_csv(log)
+    assert {"steer_fl", "steer_fr", "true_steer_fl", "true_steer_fr"} <= set(frame.columns)
+    # the paper drive steers little: the inner wheel's angle differs from the outer one's, but not by much
+    turning = frame.true_steering_angle.abs() > 0.01
+    assert (frame.true_steer_fl[turning] != frame.true_steer_fr[turning]).all()
+    res = runner.invoke(app, ["vehicle", "slope", str(log), "-o", str(tmp_path / "s.csv")])
+    assert res.exit_code == 0, res.output
+    code = main(["vehicle", "simulate", "--duration", "4", "--steering-geometry", "bogus",
+                 "-o", str(tmp_path / "bad.csv")])
+    assert code == 2 and not (tmp_path / "bad.csv").exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "steering_geometry" in err[0]
