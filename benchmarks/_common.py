@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import time
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -102,3 +106,25 @@ class CoverageScore:
     @property
     def pit_shares(self):
         return self.pit / max(self.pit.sum(), 1)
+
+
+def cli_wall_time(args: list[str], outputs: list[Path], *, repeat: int, warm: bool = True) -> tuple[float, float]:
+    """Best wall time (s) of ``longprofile *args -o outputs[k]`` in a fresh process, and the load average before.
+
+    Run k writes ``outputs[k]`` (one per run: the commands refuse to overwrite); run 0 is untimed when ``warm``
+    (it fills the compiled cache if needed), so ``outputs`` needs ``repeat + 1`` paths.
+    """
+    exe = Path(sys.executable).parent / "longprofile"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    load = os.getloadavg()[0]
+    best = float("inf")
+    for k in range(0 if warm else 1, repeat + 1):
+        t0 = time.perf_counter()
+        proc = subprocess.run([str(exe), *args, "-o", str(outputs[k])], env=env, capture_output=True, text=True,
+                              timeout=600)
+        dt = time.perf_counter() - t0
+        if proc.returncode != 0:
+            raise RuntimeError(f"longprofile {' '.join(args)} failed (exit {proc.returncode}): {proc.stderr[-1500:]}")
+        if k:
+            best = min(best, dt)
+    return best, load

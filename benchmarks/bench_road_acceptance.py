@@ -13,16 +13,13 @@ Run: ``.venv/bin/python -m benchmarks road_acceptance`` (full) or ``--quick``.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import BenchRow, best_time
+from benchmarks._common import BenchRow, best_time, cli_wall_time
 
 AREA = "road_acceptance"
 
@@ -45,28 +42,6 @@ def _toml(spec: dict) -> str:
     tables = [f"[{k}]\n" + "\n".join(f"{kk} = {vv!r}" for kk, vv in v.items()) for k, v in spec.items()
               if isinstance(v, dict)]
     return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
-
-
-def _cli_time(erd: Path, spec: dict, folder: Path, *, repeat: int, warm: bool = True) -> tuple[float, float]:
-    """Best wall time of ``longprofile road acceptance erd --spec spec.toml -o rep`` in a fresh process (after one
-    untimed run that fills the compiled cache when ``warm``)."""
-    (folder / "spec.toml").write_text(_toml(spec))
-    exe = Path(sys.executable).parent / "longprofile"
-    cmd = [str(exe), "road", "acceptance", str(erd), "--spec", str(folder / "spec.toml")]
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
-    load = os.getloadavg()[0]
-    best = float("inf")
-    first = 0 if warm else 1
-    for k in range(first, repeat + 1):  # run 0 fills the compiled cache if needed (not timed)
-        t0 = time.perf_counter()
-        proc = subprocess.run([*cmd, "-o", str(folder / f"cli{k}")], env=env, capture_output=True, text=True,
-                              timeout=600)
-        dt = time.perf_counter() - t0
-        if proc.returncode != 0:
-            raise RuntimeError(f"road acceptance failed (exit {proc.returncode}): {proc.stderr[-1500:]}")
-        if k:
-            best = min(best, dt)
-    return best, load
 
 
 def run(quick: bool) -> list[BenchRow]:
@@ -103,7 +78,10 @@ def run(quick: bool) -> list[BenchRow]:
         t0 = time.perf_counter()
         read_profile(erd)
         t_read = time.perf_counter() - t0
-        t_cli, load = _cli_time(erd, spec_dict, Path(tmp), repeat=1 if quick else 3, warm=not quick)
+        (Path(tmp) / "spec.toml").write_text(_toml(spec_dict))
+        t_cli, load = cli_wall_time(["road", "acceptance", str(erd), "--spec", str(Path(tmp) / "spec.toml")],
+                                    [Path(tmp) / f"cli{k}" for k in range(4)], repeat=1 if quick else 3,
+                                    warm=not quick)
     g = out["g"]
     n = prof.n_samples
     x, z = prof.distance, prof.elevation

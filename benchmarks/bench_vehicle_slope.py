@@ -22,10 +22,11 @@ import subprocess
 import sys
 import textwrap
 import time
+from pathlib import Path
 
 import numpy as np
 
-from benchmarks._common import BenchRow, best_time
+from benchmarks._common import BenchRow, best_time, cli_wall_time
 
 AREA = "vehicle_slope"
 
@@ -87,6 +88,37 @@ def _cold_start_rows():
             rows.append(BenchRow(AREA, f"{method}: first call in a new process", float(sec), "s", None, False,
                                  "5 s paper-like log, numba cache warm (EKF loop loaded from disk, not compiled); "
                                  "excludes the interpreter and import time"))
+    return rows
+
+
+def _cli_rows(quick: bool) -> list[BenchRow]:
+    """``longprofile vehicle slope`` end to end on a 5 s and a longer log (fresh processes): the start-up (the
+    5 s run, target 1.5 s, issue 14) and the CLI time per second of log (slope of the two)."""
+    import tempfile
+
+    from longprofile.io import write_table
+    from longprofile.vehicle import default_vehicle, drive_scenario, simulate_drive
+
+    long_s = 60.0
+    rows, times = [], {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for dur in (5.0,) if quick else (5.0, long_s):  # quick: the start-up row only (one process)
+            log = Path(tmp) / f"log{dur:g}.csv"
+            write_table(simulate_drive(drive_scenario("paper", duration=dur), default_vehicle(), seed=0).log.to_frame(),
+                        log)
+            times[dur], load = cli_wall_time(["vehicle", "slope", str(log)],
+                                             [Path(tmp) / f"s{dur:g}_{k}.csv" for k in range(4)],
+                                             repeat=1 if quick else 3, warm=not quick)
+    how = f"fresh process, best of {1 if quick else 3}; load before {load:.2f}"
+    rows.append(BenchRow(AREA, "longprofile vehicle slope, 5 s log, end to end", times[5.0], "s",
+                         None if quick else 1.5, False, f"start-up + 5000 samples at 1 kHz, CSV in and out; {how}"))
+    if quick:
+        return rows
+    per_s = (times[long_s] - times[5.0]) / (long_s - 5.0)
+    rows.append(BenchRow(AREA, f"longprofile vehicle slope, {long_s:g} s log, end to end", times[long_s], "s",
+                         detail=how))
+    rows.append(BenchRow(AREA, "longprofile vehicle slope: CLI time per second of log", per_s, "s/s", detail=(
+        f"({times[long_s]:.2f} - {times[5.0]:.2f}) s / {long_s - 5:g} s of 1 kHz log: read, estimate, write")))
     return rows
 
 
@@ -167,4 +199,5 @@ def run(quick: bool) -> list[BenchRow]:
                          f"{np.abs(peer - ours.mean).max():.2e}"))
     if not quick:
         rows += _cold_start_rows()
+    rows += _cli_rows(quick)
     return rows

@@ -675,37 +675,39 @@ MR_MAP_VELOCITIES = ("displacement", "filter")
 
 @functools.lru_cache(maxsize=8)
 def _compiled_functions(corner_b: bytes, coupling_b: bytes, scalars_b: bytes):
-    """numba closures f(x,u,k), h(x,u,k) and their Jacobians with the vehicle parameters frozen in (cached)."""
+    """numba closures f(x,u,k), h(x,u,k) and their Jacobians with the vehicle parameters frozen in (cached in
+    memory here, and on disk by numba, which keys a closure on the values it captures: a new process with the
+    same car loads the machine code instead of compiling it, as for the planar model)."""
     corner = np.frombuffer(corner_b).reshape(4, -1).copy()
     coupling = np.frombuffer(coupling_b).reshape(4, 4).copy()
     scalars = np.frombuffer(scalars_b).copy()
 
     # u[U_MR_FY:U_MR_VY + 1] is the ``mr`` argument of the model functions (a view, no copy)
-    @njit
+    @njit(cache=True)
     def f(x, u, k):
         return corner_transition(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
                                  u[U_MR_FY:U_MR_VY + 1])
 
-    @njit
+    @njit(cache=True)
     def jf(x, u, k):
         return corner_transition_jacobian(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH],
                                           u[U_ALPHA_ROAD], u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
 
-    @njit
+    @njit(cache=True)
     def h(x, u, k):
         return corner_observation(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1])
 
-    @njit
+    @njit(cache=True)
     def jh(x, u, k):
         return corner_observation_jacobian(x, u, corner, coupling, scalars, int(u[U_CONFIG]),
                                            u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
 
-    @njit
+    @njit(cache=True)
     def f_step(x, u, k, out, J):
         corner_transition_step(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
                                u[U_MR_FY:U_MR_VY + 1], out, J)
 
-    @njit
+    @njit(cache=True)
     def h_step(x, u, k, out, H):
         corner_observation_step(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1], out, H)
 
