@@ -46,12 +46,14 @@ def test_numeric_round_trip_is_exact(tmp_path, data, n, ncols, suffix):
                                min_size=ncols, max_size=ncols, unique=True))
     columns = {}
     for name in names:
-        kind = data.draw(st.sampled_from(["float", "whole", "int"]))
+        kind = data.draw(st.sampled_from(["float", "whole", "int", "bool"]))
         if kind == "float":
             columns[name] = np.array(data.draw(st.lists(_floats, min_size=n, max_size=n)), dtype=np.float64)
         elif kind == "whole":  # floats that are whole numbers: must stay floats
             columns[name] = np.array(data.draw(st.lists(st.integers(-2**53 + 1, 2**53 - 1), min_size=n,
                                                         max_size=n)), dtype=np.float64)
+        elif kind == "bool":  # e.g. the slope_plausible flag of vehicle slope
+            columns[name] = np.array(data.draw(st.lists(st.booleans(), min_size=n, max_size=n)), dtype=bool)
         else:
             columns[name] = np.array(data.draw(st.lists(st.integers(-2**63, 2**63 - 1), min_size=n, max_size=n)),
                                      dtype=np.int64)
@@ -66,8 +68,8 @@ def test_numeric_round_trip_is_exact(tmp_path, data, n, ncols, suffix):
         want, got = df[name].to_numpy(), back[name].to_numpy()
         if n and want.dtype.kind == "f" and not np.isnan(want).all():
             assert got.dtype == np.float64, name
-        if n and want.dtype.kind == "i":
-            assert got.dtype == np.int64, name
+        if n and want.dtype.kind in "ib":
+            assert got.dtype == want.dtype, name
         assert len(got) == n and np.array_equal(got.astype(np.float64) if want.dtype.kind == "f" else got, want,
                                                 equal_nan=want.dtype.kind == "f"), name
         if want.dtype.kind == "f":  # the sign of zero too
@@ -86,6 +88,17 @@ def test_csv_text_of_a_profile(tmp_path):
     assert text == "distance_m,left_mm,n,flat_m\n0,1.5,1,-0.0\n0.25,,2,1.0\n0.5,-0.001,3,2.0\n"
     back = read_table(tmp_path / "p.csv")
     assert back["flat_m"].dtype == np.float64 and back["distance_m"].dtype == np.float64
+
+
+def test_boolean_columns_take_the_fast_writer_and_read_as_pandas_writes_them(tmp_path, monkeypatch):
+    df = pd.DataFrame({"t": [0.0, 0.001, 0.002], "ok": [True, False, True], "n": [1, 2, 3]})
+    calls = []
+    monkeypatch.setattr(pd.DataFrame, "to_csv", lambda self, *a, **k: calls.append(1))  # must not be used
+    text = write_table(df, tmp_path / "b.csv").read_text()
+    monkeypatch.undo()
+    assert calls == [] and text == "t,ok,n\n0,True,1\n0.001,False,2\n0.002,True,3\n"  # the booleans as pandas writes
+    back = read_table(tmp_path / "b.csv")
+    assert back["ok"].dtype == bool and back["ok"].tolist() == [True, False, True]
 
 
 def test_non_numeric_tables_are_written_as_pandas_writes_them(tmp_path):

@@ -174,8 +174,8 @@ def write_table(df: pd.DataFrame, path) -> Path:
     CSV of a table whose columns are all numbers (profiles, estimates) is formatted by pyarrow's CSV writer,
     several times faster than ``DataFrame.to_csv``: floats in their shortest exact form, so the text reads back
     (:func:`read_table`, pandas, numpy) to the same float64 values; NaN as an empty cell; a float column
-    whose values are all whole numbers keeps its ``.0`` so it reads back as floats. Other tables (text,
-    dates, booleans) are written by ``DataFrame.to_csv``, as before.
+    whose values are all whole numbers keeps its ``.0`` so it reads back as floats; booleans as ``True`` /
+    ``False``, as pandas writes them. Other tables (text, dates) are written by ``DataFrame.to_csv``, as before.
     """
     path = Path(path)
     fmt = _WRITE_FORMATS.get(path.suffix.lower())
@@ -194,13 +194,13 @@ def write_table(df: pd.DataFrame, path) -> Path:
 
 
 def _numeric_columns(df: pd.DataFrame) -> list[np.ndarray] | None:
-    """The columns as float/int NumPy arrays, or None when one is anything else (then pandas writes it)."""
+    """The columns as float/int/bool NumPy arrays, or None when one is anything else (then pandas writes it)."""
     if df.shape[1] == 0 or isinstance(df.columns, pd.MultiIndex):
         return None
     columns = []
     for j in range(df.shape[1]):
         col = df.iloc[:, j]
-        if not isinstance(col.dtype, np.dtype) or col.dtype.kind not in "fiu":
+        if not isinstance(col.dtype, np.dtype) or col.dtype.kind not in "fiub":
             return None
         columns.append(col.to_numpy())
     return columns
@@ -211,6 +211,8 @@ def _arrow_column(values: np.ndarray):
     import pyarrow as pa
     import pyarrow.compute as pc
 
+    if values.dtype.kind == "b":  # as DataFrame.to_csv writes them (pyarrow would write true / false)
+        return pc.if_else(pa.array(values), "True", "False")
     if values.dtype.kind != "f":
         return pa.array(values)
     if values.size and np.all(np.isfinite(values)) and np.all(values == np.trunc(values)) \
