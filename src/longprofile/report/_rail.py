@@ -21,13 +21,26 @@ __all__ = ["plot_settlement", "plot_true_settlement", "write_rail_report"]
 _Z90 = 1.6448536269514722
 
 
-def _figure(width=10.0, height=4.0):
+def _figure(width=10.0, height=4.0, *, left=0.8, right=0.2, bottom=0.55, top=0.35):
+    """A figure with fixed margins, in inches (a layout engine measures every artist before drawing: it took
+    0.8 s of the 1.7 s the rail report's figures cost)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    fig = Figure(figsize=(width, height), dpi=110)
     FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height, top=1 - top / height)
     return fig
+
+
+def _grid(fig, nrows, ncols, *, hspace=0.75, wspace=0.7, **kw):
+    """``fig.subplots(nrows, ncols, squeeze=False)`` with gaps of ``hspace``/``wspace`` inches between panels."""
+    w, h = fig.get_size_inches()
+    sp = fig.subplotpars
+    panel_h = ((sp.top - sp.bottom) * h - (nrows - 1) * hspace) / nrows
+    panel_w = ((sp.right - sp.left) * w - (ncols - 1) * wspace) / ncols
+    fig.subplots_adjust(hspace=hspace / panel_h, wspace=wspace / panel_w)
+    return fig.subplots(nrows, ncols, squeeze=False, **kw)
 
 
 def _day_label(d) -> str:
@@ -115,10 +128,13 @@ def _weekly_figure(result):
     ncol = 2
     nrow = int(np.ceil(len(weeks) / ncol))
     fig = _figure(11, 2.6 * nrow)
+    axes = _grid(fig, nrow, ncol).ravel()
+    for ax in axes[len(weeks):]:
+        ax.set_visible(False)
     lo = 1e3 * np.nanmin(result.dz - _Z90 * result.dz_std)
     hi = 1e3 * np.nanmax(result.dz + _Z90 * result.dz_std)
     for i, w in enumerate(weeks):
-        ax = fig.add_subplot(nrow, ncol, i + 1)
+        ax = axes[i]
         _profiles_axes(ax, result, w)
         ax.set_ylim(lo - 1, hi + 1)
         ax.set_title(f"week from {_day_label(result.days[w[0]])}", fontsize=9)
@@ -126,8 +142,8 @@ def _weekly_figure(result):
 
 
 def _time_figure(result):
-    fig = _figure(11, 8.0)
-    ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
+    fig = _figure(11, 8.0, bottom=0.9)
+    ax1, ax2, ax3 = _grid(fig, 3, 1, hspace=0.45, sharex=True)[:, 0]
     days = pd.DatetimeIndex(result.days)
     sm = result.smoothed
     mean = sm.mean if sm is not None else result.dz
@@ -156,12 +172,12 @@ def _time_figure(result):
     ax3.set_title("maximum settlement over the track (§4.3, paper's posterior: includes the prior's uncertainty "
                   "between sensors)", fontsize=9)
     ax3.legend(fontsize=8)
-    fig.autofmt_xdate()
+    fig.autofmt_xdate(bottom=0.9 / 8.0)
     return fig
 
 
 def _map_figure(result):
-    fig = _figure(11, 3.6)
+    fig = _figure(11, 3.6, left=1.0)
     ax = fig.add_subplot()
     sm = result.smoothed
     mean = sm.mean if sm is not None else result.dz
@@ -177,7 +193,7 @@ def _map_figure(result):
 
 def _initial_figure(result):
     fig = _figure(11, 4.0)
-    ax1, ax2 = fig.subplots(1, 2)
+    ax1, ax2 = _grid(fig, 1, 2)[0]
     ini = result.initial
     x = result.x
     trend = np.polyval(np.polyfit(x, ini.z_mean, 1), x)
