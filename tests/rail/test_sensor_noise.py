@@ -108,6 +108,8 @@ def test_sensor_noise_factors_are_one_for_alike_sensors_and_for_tiny_sites():
     f = sensor_noise_factors(x, M)
     assert np.median(np.abs(np.log(f))) < 0.2
     np.testing.assert_array_equal(sensor_noise_factors(x[:4], M[:, :4]), np.ones(4))
+    np.testing.assert_array_equal(sensor_noise_factors(x, M[:5]), np.ones(40))  # 4 day-to-day changes: too few
+    assert np.ptp(sensor_noise_factors(x, M[:6])) > 0  # 5: estimated
 
 
 def test_estimate_reports_its_factors_and_sensor_noise_false_gives_ones():

@@ -242,6 +242,9 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
 SENSOR_VARIANCE_BOUNDS = (0.25, 16.0)
 #: Weight of the pull of every sensor's relative variance towards 1 (ridge term of :func:`sensor_noise_factors`).
 SENSOR_VARIANCE_RIDGE = 0.3
+#: Fewest day-to-day changes for per-sensor noise factors (:func:`sensor_noise_factors`; fewer: all 1). A median of
+#: 5 chi-square(1) values still varies by a factor ~2; the ridge and the bounds keep such factors moderate.
+SENSOR_FACTOR_MIN_DAYS = 5
 #: Median of a chi-square variable with one degree of freedom (median of z^2, z ~ N(0, 1)).
 CHI2_1_MEDIAN = 0.454936
 
@@ -272,7 +275,8 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     Returns
     -------
     (N,) ndarray
-        f_i (1 for sensors without readings, and for every sensor when fewer than 5 have some).
+        f_i (1 for sensors without readings, and for every sensor when fewer than 5 have some or the record has
+        fewer than SENSOR_FACTOR_MIN_DAYS day-to-day changes).
     """
     from scipy.optimize import nnls
 
@@ -280,7 +284,7 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     f = np.ones(M.shape[1])
     ok = np.isfinite(M).sum(axis=0) > 0
     idx = np.nonzero(ok)[0]
-    if idx.size < 5 or M.shape[0] < 2:
+    if idx.size < 5 or M.shape[0] - 1 < SENSOR_FACTOR_MIN_DAYS:
         return f
     xs = np.asarray(x, float)[ok]
     # day-to-day increments: a drift adds to every day's, the bowl only to the few work days' (set aside by
