@@ -91,12 +91,6 @@ def _cold_start_rows():
     return rows
 
 
-def _wall(fn) -> float:
-    t0 = time.perf_counter()
-    fn()
-    return time.perf_counter() - t0
-
-
 def _cli_rows(quick: bool) -> list[BenchRow]:
     """``longprofile vehicle slope`` end to end on a 5 s and a longer log (fresh processes): the start-up (the
     5 s run, target 1.5 s, issue 14) and the CLI time per second of log (slope of the two)."""
@@ -121,7 +115,7 @@ def _cli_rows(quick: bool) -> list[BenchRow]:
     if quick:
         return rows
     code = "import longprofile.cli.app, longprofile.io, longprofile.vehicle.planar, pandas"
-    imp = min(_wall(lambda: subprocess.run([sys.executable, "-c", code], check=True, timeout=300)) for _ in range(3))
+    imp = best_time(lambda: subprocess.run([sys.executable, "-c", code], check=True, timeout=300), repeat=3)
     rows.append(BenchRow(AREA, "import time of the vehicle slope command's modules", imp, "s",
                          detail=f"fresh interpreter: python -c '{code}' (interpreter start included), best of 3; "
                                 "the compiled-cache load is the 'first call in a new process' rows"))

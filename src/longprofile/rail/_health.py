@@ -20,6 +20,7 @@ improbable  residuals far beyond the noise level without one of the patterns abo
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,46 +136,56 @@ def _frozen_run(spread):
     return best
 
 
-def _robust_scale(q):
-    q = q[np.isfinite(q)]
-    return 1.4826 * float(np.median(np.abs(q - np.median(q)))) if q.size else np.nan
+def _robust_scale(q, axis=0):
+    """1.4826 MAD of the finite values of ``q`` along ``axis`` (NaN where none)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns give NaN
+        return 1.4826 * np.nanmedian(np.abs(q - np.nanmedian(q, axis=axis, keepdims=True)), axis=axis)
 
 
 def _increment_tests(M, pred, bad):
     """Reversal log-likelihood ratio and step statistic of every sensor from the day-to-day changes.
 
     With dm the sensor's daily changes, dmu those of its leave-one-out prediction and v the robust
-    variance of dm - dmu (the sensor's own drift + its prediction's; floored at a quarter of the
-    site's), each day contributes -2 dm dmu w (log-likelihood ratio of "m follows -mu" against
-    "m follows +mu") with the empirical-Bayes weight w = tau^2 / (v (v / 2 + tau^2)),
-    tau^2 = max(0, dmu^2 - v / 2): days when the neighbours did not move (dmu within its noise)
-    carry almost no weight, so the product of two noises does not pose as evidence.
+    variance of the residual under whichever hypothesis fits better (the smaller MAD of dm - dmu and
+    dm + dmu: a reversed sensor's dm - dmu is ~ -2 dmu on every moving day, so its own spread would
+    hide the reversal; std floored at half the site's), each day contributes -2 dm dmu w (log-likelihood
+    ratio of "m follows -mu" against "m follows +mu") with the empirical-Bayes weight
+    w = tau^2 / (v_d (v / 2 + tau^2)), tau^2 = max(0, dmu^2 - v / 2), v_d = v + (PRED_REL_ERR dmu)^2:
+    days when the neighbours did not move (dmu within its noise) carry almost no weight, so the product
+    of two noises does not pose as evidence.
 
     The step statistic is the largest |dm - dmu| over the days, in units of the robust std of the
-    other days' (floored at half the site's): a detached sensor jumps once.
+    other days' (same floor and shape term): a detached sensor jumps once. Sensors with fewer than 5
+    day-to-day changes get NaN (and step day -1). All sensors at once, as (D - 1, N) arrays.
     """
-    D, N = M.shape
+    N = M.shape[1]
     dm, dmu = np.diff(M, axis=0), np.diff(pred, axis=0)
     de = dm - dmu
-    site = 1.4826 * np.nanmedian(np.abs(de[:, ~bad])) if (~bad).any() else np.nan
+    ok = np.isfinite(de)
+    kept = de[:, ~bad]
+    site = 1.4826 * np.nanmedian(np.abs(kept)) if np.isfinite(kept).any() else np.nan
+    use = (ok.sum(axis=0) >= 5) & np.isfinite(site)
     llr = np.full(N, np.nan)
     step = np.full(N, np.nan)
     step_day = np.full(N, -1)
-    for j in range(N):
-        ok = np.isfinite(de[:, j])
-        if ok.sum() < 5 or not np.isfinite(site):
-            continue
-        a, b, c = dm[ok, j], dmu[ok, j], de[ok, j]
-        # the noise scale under whichever hypothesis fits better: a reversed sensor's dm - dmu is ~ -2 dmu on
-        # every moving day, so its own spread would hide the reversal
-        v = max(min(_robust_scale(c), _robust_scale(a + b)), 0.5 * site) ** 2
-        vd = v + (PRED_REL_ERR * b) ** 2  # the prediction's shape error grows with the change it predicts
-        tau2 = np.maximum(0.0, b**2 - 0.5 * v)
-        llr[j] = float(np.sum(-2.0 * a * b * tau2 / (vd * (0.5 * v + tau2))))
-        i = int(np.argmax(np.abs(c) / np.sqrt(v + (STEP_PRED_REL_ERR * b) ** 2)))
-        rest = np.delete(c, i)
-        step[j] = abs(c[i]) / np.sqrt(max(_robust_scale(rest), 0.5 * site) ** 2 + (STEP_PRED_REL_ERR * b[i]) ** 2)
-        step_day[j] = int(np.nonzero(ok)[0][i]) + 1
+    if not use.any():
+        return llr, step, step_day
+    a = np.where(ok, dm, np.nan)[:, use]
+    b = np.where(ok, dmu, np.nan)[:, use]
+    c = de[:, use]
+    v = np.maximum(np.fmin(_robust_scale(c), _robust_scale(a + b)), 0.5 * site) ** 2
+    vd = v + (PRED_REL_ERR * b) ** 2  # the prediction's shape error grows with the change it predicts
+    tau2 = np.maximum(0.0, b**2 - 0.5 * v)
+    llr[use] = np.nansum(-2.0 * a * b * tau2 / (vd * (0.5 * v + tau2)), axis=0)
+    ratio = np.abs(c) / np.sqrt(v + (STEP_PRED_REL_ERR * b) ** 2)
+    i = np.argmax(np.where(np.isfinite(ratio), ratio, -np.inf), axis=0)  # the first largest, as a loop finds it
+    cols = np.arange(c.shape[1])
+    rest = c.copy()
+    rest[i, cols] = np.nan
+    step[use] = np.abs(c[i, cols]) / np.sqrt(np.maximum(_robust_scale(rest), 0.5 * site) ** 2
+                                             + (STEP_PRED_REL_ERR * b[i, cols]) ** 2)
+    step_day[use] = i + 1
     return llr, step, step_day
 
 
