@@ -31,15 +31,46 @@ def test_discrete_golden_car_matches_wtp46_table(dx):
         np.testing.assert_allclose(pr, pr_table, rtol=3e-5)
 
 
-def test_per_step_matrices_modal_path_equals_expm():
-    rng = np.random.default_rng(1)
-    steps = rng.uniform(0.01, 0.5, size=5000)  # > 4096 distinct steps -> eigendecomposition path
-    st_many, pr_many = golden_car_matrices(steps)
+def _expm_oracle(dx):
+    """ST and PR from scipy's matrix exponential of the augmented matrix [[A, B], [0, 0]] dx / v."""
     a, b = golden_car_continuous()
+    aug = np.zeros((5, 5))
+    aug[:4, :4], aug[:4, 4] = a, b
+    e = expm(aug * (dx / IRI_SPEED))
+    return e[:4, :4], e[:4, 4]
+
+
+@settings(max_examples=60, deadline=None)
+@given(dx=st.floats(1e-4, 5.0))
+def test_golden_car_matrices_equal_scipy_expm(dx):
+    st_, pr = golden_car_matrices(dx)
+    st0, pr0 = _expm_oracle(dx)
+    np.testing.assert_allclose(st_, st0, rtol=1e-13, atol=1e-14 * np.abs(st0).max())
+    np.testing.assert_allclose(pr, pr0, rtol=1e-12, atol=1e-13 * np.abs(pr0).max())
+    assert st_.flags.c_contiguous and pr.flags.c_contiguous
+
+
+def test_per_step_matrices_equal_scipy_expm():
+    rng = np.random.default_rng(1)
+    steps = rng.uniform(0.01, 0.5, size=5000)
+    st_many, pr_many = golden_car_matrices(steps)
     for k in (0, 17, 4999):
-        np.testing.assert_allclose(st_many[k], expm(a * steps[k] / IRI_SPEED), rtol=1e-11, atol=1e-12)
-        pr_k = np.linalg.solve(a, (expm(a * steps[k] / IRI_SPEED) - np.eye(4)) @ b)
-        np.testing.assert_allclose(pr_many[k], pr_k, rtol=1e-10, atol=1e-13)
+        st0, pr0 = _expm_oracle(steps[k])
+        np.testing.assert_allclose(st_many[k], st0, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(pr_many[k], pr0, rtol=1e-12, atol=1e-16)
+    np.testing.assert_array_equal(golden_car_matrices(steps[17])[0], st_many[17])  # scalar and array agree
+
+
+def test_golden_car_matrices_leave_scipy_linalg_unimported():
+    """numpy only: scipy.linalg costs 0.1-0.15 s at start-up (numba's first kernel load imports only its BLAS
+    wrappers)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from longprofile.road import golden_car_matrices; golden_car_matrices(0.025); "
+            "golden_car_matrices([0.025, 0.05]); print('scipy.linalg' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
 
 
 # ---- third-party reference: Sroubek-Sorel profile_1, 20 m segments ------------------------------------------
