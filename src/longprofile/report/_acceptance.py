@@ -16,6 +16,7 @@ import numpy as np
 
 from ..io import atomic_path, atomic_write_bytes
 from ._html import REPORT_FILES, report_folder, write_text
+from ._render import InlineRenderer
 
 __all__ = ["plot_certification", "write_acceptance_report"]
 
@@ -84,12 +85,51 @@ def _bars(ax, left, height, width, color) -> None:
     ax.autoscale_view()
 
 
-def _save(fig, path: Path, figures: dict):
+def _png(fig) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", pil_kwargs={"compress_level": 1})  # zlib level 1: ~2x faster, PNGs ~1.5x larger
-    atomic_write_bytes(path, buf.getvalue())
-    figures[path.name] = base64.b64encode(buf.getvalue()).decode("ascii")
-    return path
+    return buf.getvalue()
+
+
+def _lots_png(start, index, width, colours, exclusions, labels: dict) -> bytes:
+    """PNG of the lot index bars (grey: excluded zones)."""
+    fig = _figure()
+    ax = fig.add_subplot()
+    _bars(ax, start, index, width, colours)
+    _spans(ax, exclusions, color="0.6", alpha=0.3, lw=0)
+    ax.set_xlabel(labels["x"])
+    ax.set_ylabel(labels["y"])
+    ax.set_title(labels["title"], y=1.0)  # see _figure
+    return _png(fig)
+
+
+def _localized_png(before, after, threshold, defects, exclusions, labels: dict) -> bytes:
+    """PNG of the localized roughness map: envelopes ``(x, low, high)`` before and (optional) after grinding."""
+    fig = _figure()
+    ax = fig.add_subplot()
+    ax.fill_between(*before, color="#1565c0", lw=0.6, label="localized index (before)")
+    if after is not None:
+        ax.fill_between(*after, color="#2e7d32", alpha=0.6, lw=0.6, label="after grinding")
+    if threshold is not None:
+        ax.axhline(threshold, color="#c62828", ls="--", lw=1, label=labels["threshold"])
+    _spans(ax, defects, color="#c62828", alpha=0.15, lw=0)
+    _spans(ax, exclusions, color="0.6", alpha=0.3, lw=0)
+    ax.set_xlabel(labels["x"])
+    ax.set_ylabel(labels["y"])
+    ax.set_title(labels["title"], y=1.0)
+    ax.legend(loc="upper right", fontsize=8)
+    return _png(fig)
+
+
+def _histogram_png(low, length, width, labels: dict) -> bytes:
+    """PNG of the lot index histogram (length per class)."""
+    fig = _figure(6.0, 3.2)
+    ax = fig.add_subplot()
+    _bars(ax, low, length, width, "#1565c0")
+    ax.set_xlabel(labels["x"])
+    ax.set_ylabel(labels["y"])
+    ax.set_title("Lot index histogram", y=1.0)
+    return _png(fig)
 
 
 def _write_csv(frame, path: Path) -> None:
@@ -117,8 +157,48 @@ def _table(frame, floatfmt="{:.3f}", max_rows=500) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{more}"
 
 
+def _submit_figures(renderer, result) -> dict:
+    """Queue the figures of the acceptance report that do not need the grinding on ``renderer``: ``{file name:
+    job}`` (``job.result()`` is the PNG). Only arrays, strings and numbers go to the figure functions (they may run
+    in a helper process)."""
+    spec, lots = result.spec, result.lots
+    lu, iu, name = spec.length_unit, spec.iri_unit, spec.index.upper()
+    colours = ["#2e7d32" if pf >= 1.0 else ("#f9a825" if np.isfinite(pf) else "#c62828")
+               for pf in lots.pay_factor.to_numpy(dtype=float)] if spec.pay_schedule else "#1565c0"
+    width = (lots.end - lots.start).to_numpy()
+    exclusions = [tuple(map(float, z)) for z in spec.exclusions]
+    hist = result.histogram
+    return {
+        "lots.png": renderer.submit(_lots_png, lots.start.to_numpy(dtype=float), lots["index"].to_numpy(dtype=float),
+                                    width * 0.95, colours, exclusions,
+                                    {"x": f"station [{lu}]", "y": f"lot {name} [{iu}]",
+                                     "title": f"{name} per {spec.lot_length:g} {lu} lot (grey: excluded)"}),
+        "histogram.png": renderer.submit(_histogram_png, hist.low.to_numpy(dtype=float),
+                                         hist.length.to_numpy(dtype=float),
+                                         (hist.high - hist.low).to_numpy(dtype=float) * 0.95,
+                                         {"x": f"lot {name} [{iu}]", "y": f"length [{lu}]"}),
+    }
+
+
+def _submit_localized_figure(renderer, result, grinding):
+    """Queue the localized roughness map (before and, with a grind list, after grinding) on ``renderer``."""
+    spec = result.spec
+    lu, iu, threshold = spec.length_unit, spec.iri_unit, spec.localized_threshold
+    loc = result.localized
+    before = _envelope(loc.station.to_numpy(), loc["index"].to_numpy(dtype=float))
+    after = (_envelope(grinding.station, grinding.index_after) if grinding is not None and len(grinding.grinds)
+             else None)
+    return renderer.submit(
+        _localized_png, before, after, threshold,
+        [(float(a), float(b)) for a, b in zip(result.defects.start, result.defects.end)],
+        [tuple(map(float, z)) for z in spec.exclusions],
+        {"x": f"station [{lu}]", "y": f"continuous IRI [{iu}]",
+         "title": f"Localized roughness: {spec.localized_window:g} {lu} window",
+         "threshold": None if threshold is None else f"threshold {threshold:g} {iu}"})
+
+
 def write_acceptance_report(result, outdir, *, grinding=None, title: str | None = None, inputs=(),
-                            overwrite: bool = True) -> list[Path]:
+                            overwrite: bool = True, renderer=None, ground_profile: bool = False) -> list[Path]:
     """Write the acceptance report: ``index.html`` (figures embedded), PNG figures, CSV tables, summary.json.
 
     Parameters
@@ -127,13 +207,19 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         From :func:`longprofile.road.smoothness_acceptance`.
     outdir : path-like
         Folder (created).
-    grinding : GrindingResult, optional
-        From :func:`longprofile.road.simulate_grinding`: grind list and the localized roughness after grinding.
+    grinding : GrindingResult or callable, optional
+        From :func:`longprofile.road.simulate_grinding`: grind list and the localized roughness after grinding; or
+        a function of no argument that returns it (or None), called once the figures that do not need it are
+        queued (with a background ``renderer`` they are drawn while it runs).
     title : str, optional
     inputs : sequence of path-like
         Input files, never overwritten.
     overwrite : bool, default True
         False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
+    renderer : optional
+        Where the figures are drawn (:func:`longprofile.report._render.figure_renderer`; default: in this process).
+    ground_profile : bool, default False
+        Also write the profile after grinding, ``profile_ground.csv`` (when the grind list is not empty).
 
     Returns
     -------
@@ -145,6 +231,11 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
     lu, iu = spec.length_unit, spec.iri_unit
     figures: dict = {}
     written: list[Path] = []
+    renderer = renderer or InlineRenderer()
+    jobs = _submit_figures(renderer, result)  # drawn while the grinding runs and the tables are written
+    if callable(grinding):
+        grinding = grinding()
+    jobs["localized.png"] = _submit_localized_figure(renderer, result, grinding)
     tables = {"lots.csv": result.lots, "localized.parquet": result.localized, "defects.csv": result.defects,
               "histogram.csv": result.histogram}
     if grinding is not None:
@@ -156,47 +247,15 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         else:
             _write_csv(frame, out / name)
         written.append(out / name)
-    lots = result.lots
-    # lot index bars
-    fig = _figure()
-    ax = fig.add_subplot()
-    width = (lots.end - lots.start).to_numpy()
-    colours = ["#2e7d32" if pf >= 1.0 else ("#f9a825" if np.isfinite(pf) else "#c62828")
-               for pf in lots.pay_factor.to_numpy(dtype=float)] if spec.pay_schedule else "#1565c0"
-    _bars(ax, lots.start, lots["index"], width * 0.95, colours)
-    _spans(ax, spec.exclusions, color="0.6", alpha=0.3, lw=0)
-    ax.set_xlabel(f"station [{lu}]")
-    ax.set_ylabel(f"lot {spec.index.upper()} [{iu}]")
-    ax.set_title(f"{spec.index.upper()} per {spec.lot_length:g} {lu} lot (grey: excluded)", y=1.0)  # see _figure
-    written.append(_save(fig, out / "lots.png", figures))
-    # localized roughness map
-    fig = _figure()
-    ax = fig.add_subplot()
-    loc = result.localized
-    xs, lo, hi = _envelope(loc.station.to_numpy(), loc["index"].to_numpy(dtype=float))
-    ax.fill_between(xs, lo, hi, color="#1565c0", lw=0.6, label="localized index (before)")
-    if grinding is not None and len(grinding.grinds):
-        xg, lg, hg = _envelope(grinding.station, grinding.index_after)
-        ax.fill_between(xg, lg, hg, color="#2e7d32", alpha=0.6, lw=0.6, label="after grinding")
-    if spec.localized_threshold is not None:
-        ax.axhline(spec.localized_threshold, color="#c62828", ls="--", lw=1,
-                   label=f"threshold {spec.localized_threshold:g} {iu}")
-    _spans(ax, zip(result.defects.start, result.defects.end), color="#c62828", alpha=0.15, lw=0)
-    _spans(ax, spec.exclusions, color="0.6", alpha=0.3, lw=0)
-    ax.set_xlabel(f"station [{lu}]")
-    ax.set_ylabel(f"continuous IRI [{iu}]")
-    ax.set_title(f"Localized roughness: {spec.localized_window:g} {lu} window", y=1.0)
-    ax.legend(loc="upper right", fontsize=8)
-    written.append(_save(fig, out / "localized.png", figures))
-    # histogram
-    fig = _figure(6.0, 3.2)
-    ax = fig.add_subplot()
-    hist = result.histogram
-    _bars(ax, hist.low, hist.length, (hist.high - hist.low) * 0.95, "#1565c0")
-    ax.set_xlabel(f"lot {spec.index.upper()} [{iu}]")
-    ax.set_ylabel(f"length [{lu}]")
-    ax.set_title("Lot index histogram", y=1.0)
-    written.append(_save(fig, out / "histogram.png", figures))
+    if ground_profile and grinding is not None and len(grinding.grinds):
+        from ..io import write_profile
+
+        written.append(write_profile(grinding.profile, out / "profile_ground.csv"))
+    for name in ("lots.png", "localized.png", "histogram.png"):
+        data = jobs[name].result()
+        atomic_write_bytes(out / name, data)
+        figures[name] = base64.b64encode(data).decode("ascii")
+        written.append(out / name)
     summary = {"pay": result.pay_summary, "metadata": result.metadata,
                "spec": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(spec).items()}}
     if grinding is not None:
@@ -228,12 +287,12 @@ td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}img{{max-width:10
 {spec.localized_window:g} {lu}{threshold_text}; {len(spec.exclusions)} exclusion zone(s).
 Moving average: {ma_reason}.</p>
 {pay_line}
-<h2>Lots</h2>{img('lots.png')}{_table(lots)}
+<h2>Lots</h2>{img('lots.png')}{_table(result.lots)}
 <h2>Localized roughness</h2>{img('localized.png')}
 <p>{ps['localized_defects']} area(s) above the threshold, {ps['localized_defect_length']:.1f} {lu} in total.</p>
 {_table(result.defects)}
 {grind_html}
-<h2>Histogram</h2>{img('histogram.png')}{_table(hist)}
+<h2>Histogram</h2>{img('histogram.png')}{_table(result.histogram)}
 <p>Tables: {', '.join(tables)}; summary.json.</p></body></html>"""
     return [write_text(out / "index.html", page)] + written
 

@@ -181,19 +181,28 @@ def _grind_setting(xs, zs, in_area, nb, a, b, half, max_depth, names, loc_spec, 
     c_hi = max(0.0, float(dev[in_area].max())) if in_area.any() else 0.0  # no grinding
     c_lo = 0.0  # everything above the chord ground away (to the depth limit): the most a grinder can do
     aim = target * (1.0 - _MARGIN)
-    before, at_most = peaks([c_hi, c_lo])
+
+    def refine(lo, hi):
+        """The settings of the next round of grid refinement (none once the setting is known to ``tolerance``)."""
+        return np.linspace(lo, hi, _GRID + 2)[1:-1] if hi - lo > tolerance else np.empty(0)
+
+    # the first refinement round rides along with the two end settings (one car run; the columns are independent,
+    # so each setting's peak is the number a run of its own gives)
+    grid = refine(c_lo, c_hi)
+    pk = peaks(np.concatenate([[c_hi, c_lo], grid]))
+    before, at_most, pk = pk[0], pk[1], pk[2:]
     after = at_most
     ok = at_most <= aim
-    if ok:  # grid refinement: the index grows with the setting c (less grinding, rougher)
-        while c_hi - c_lo > tolerance:
-            grid = np.linspace(c_lo, c_hi, _GRID + 2)[1:-1]
+    while ok and grid.size:  # grid refinement: the index grows with the setting c (less grinding, rougher)
+        good = np.flatnonzero(pk <= aim)
+        j = good[-1] if good.size else -1
+        if j >= 0:
+            c_lo, after = float(grid[j]), float(pk[j])
+        if j + 1 < grid.size:
+            c_hi = float(grid[j + 1])
+        grid = refine(c_lo, c_hi)
+        if grid.size:
             pk = peaks(grid)
-            good = np.flatnonzero(pk <= aim)
-            j = good[-1] if good.size else -1
-            if j >= 0:
-                c_lo, after = float(grid[j]), float(pk[j])
-            if j + 1 < grid.size:
-                c_hi = float(grid[j + 1])
     c = c_lo
     zg, cut = ground(c)
     return zg, cut, ok, before, after

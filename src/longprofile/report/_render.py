@@ -1,0 +1,117 @@
+"""Figures drawn in a helper process while the command computes: matplotlib's import and drawing off the critical path.
+
+A command that writes figures pays matplotlib twice in its own process: the import (0.4 s on the development machine)
+and the drawing (0.1 s per figure). :func:`figure_renderer` starts one helper process when the command starts; the
+helper imports matplotlib and draws a small figure (font cache, Agg) while the command reads and computes, then
+draws the figures the report submits while the command writes its tables. The figures are the same PNG bytes as
+drawn in the command's own process (the same functions, the same matplotlib).
+
+Where the helper cannot run (no ``fork`` start method, a daemonic process such as a worker of
+:mod:`longprofile.batch`, or ``LONGPROFILE_FIGURES=inline``), or when it dies, the figures are drawn in the
+calling process (:class:`InlineRenderer`): the same result, without the overlap.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from concurrent.futures import Future
+from contextlib import contextmanager
+
+__all__ = ["InlineRenderer", "BackgroundRenderer", "figure_renderer"]
+
+
+class InlineRenderer:
+    """Draws each figure at once in the calling process (the library's default)."""
+
+    background = False
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        """Run ``fn(*args, **kwargs)`` now; a finished :class:`~concurrent.futures.Future` of its result."""
+        fut: Future = Future()
+        try:
+            fut.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # raised again by .result(), where the caller would have seen it
+            fut.set_exception(exc)
+        return fut
+
+
+def _warm() -> None:
+    """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg)."""
+    import io
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(1, 1), dpi=20)
+    FigureCanvasAgg(fig)
+    fig.add_subplot().set_title("warm")
+    fig.savefig(io.BytesIO(), format="png")
+
+
+def _ready() -> bool:
+    return True
+
+
+class _Job:
+    """A figure submitted to the helper; drawn here instead if the helper has died."""
+
+    def __init__(self, fut, fn, args, kwargs):
+        self._fut, self._call = fut, (fn, args, kwargs)
+
+    def result(self):
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            return self._fut.result()
+        except BrokenProcessPool:
+            fn, args, kwargs = self._call
+            return fn(*args, **kwargs)
+
+
+class BackgroundRenderer:
+    """One helper process (``fork``) that draws the submitted figures; see the module docstring."""
+
+    background = True
+
+    def __init__(self):
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
+                                         initializer=_warm)
+        self._pool.submit(_ready)  # starts the helper now: matplotlib is imported while the command computes
+
+    def submit(self, fn, /, *args, **kwargs) -> _Job:
+        """Queue ``fn(*args, **kwargs)`` (a module-level function returning picklable data, e.g. PNG bytes)."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            return _Job(self._pool.submit(fn, *args, **kwargs), fn, args, kwargs)
+        except (BrokenProcessPool, RuntimeError):
+            return InlineRenderer().submit(fn, *args, **kwargs)
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _can_fork() -> bool:
+    return ("fork" in multiprocessing.get_all_start_methods() and not multiprocessing.current_process().daemon
+            and os.environ.get("LONGPROFILE_FIGURES", "").lower() != "inline")
+
+
+@contextmanager
+def figure_renderer(background: bool = True):
+    """A renderer for a command's figures: a :class:`BackgroundRenderer` (helper process started now) where it can
+    run, else an :class:`InlineRenderer`; the helper is stopped on exit. Start it before the command's imports."""
+    if not (background and _can_fork()):
+        yield InlineRenderer()
+        return
+    try:
+        renderer = BackgroundRenderer()
+    except OSError:  # no process could be started (limits): draw here
+        yield InlineRenderer()
+        return
+    try:
+        yield renderer
+    finally:
+        renderer.close()

@@ -1,0 +1,83 @@
+"""Figures drawn in a helper process (report/_render.py): the same bytes as in the calling process, errors raised
+where the caller waits, a dead helper replaced by drawing in the caller, inline where a helper cannot run."""
+
+import multiprocessing
+import os
+
+import numpy as np
+import pytest
+
+from longprofile.report._render import BackgroundRenderer, InlineRenderer, figure_renderer
+
+
+def _pid(_=None):
+    return os.getpid()
+
+
+def _fail(message):
+    raise ValueError(message)
+
+
+def _die_in_helper(parent_pid, value):
+    if os.getpid() != parent_pid:
+        os._exit(3)  # the helper dies mid-job
+    return value
+
+
+def _acceptance_inputs():
+    from longprofile.road import Profile
+    from longprofile.road.smoothness._acceptance import smoothness_acceptance, spec_from_dict
+    from longprofile.road.smoothness._grinding import simulate_grinding
+
+    x = np.arange(0, 800, 0.025)
+    bumps = sum(5e-3 * np.exp(-((x - s) / 0.4) ** 2) for s in (200.0, 520.0))
+    z = np.column_stack([4e-3 * np.sin(2 * np.pi * x / 37) + bumps, 3e-3 * np.sin(2 * np.pi * x / 23) + bumps])
+    prof = Profile(distance=x, elevation=z, tracks=("left", "right"))
+    spec = spec_from_dict({"lot": {"length": 200.0}, "localized": {"threshold": 2.0},
+                           "exclusions": {"zones": [[600.0, 610.0]]},
+                           "pay": {"schedule": [[1.0, 1.05], [2.0, 1.0], [9.0, 0.9]]}})
+    res = smoothness_acceptance(prof, spec)
+    return res, simulate_grinding(prof, spec, acceptance=res)
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_background_report_is_byte_identical_to_the_inline_report(tmp_path):
+    from longprofile.report import write_acceptance_report
+
+    res, g = _acceptance_inputs()
+    inline = write_acceptance_report(res, tmp_path / "inline", grinding=g, ground_profile=True)
+    with figure_renderer() as renderer:
+        assert renderer.background
+        assert renderer.submit(_pid).result() != os.getpid()  # really drawn in another process
+        calls = []
+        back = write_acceptance_report(res, tmp_path / "back", grinding=lambda: calls.append(1) or g,
+                                       renderer=renderer, ground_profile=True)
+    assert calls == [1]
+    assert [p.name for p in inline] == [p.name for p in back]
+    assert "profile_ground.csv" in [p.name for p in back] and len(g.grinds)
+    for a, b in zip(inline, back):
+        assert a.read_bytes() == b.read_bytes(), a.name
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_errors_reach_the_caller_and_a_dead_helper_is_replaced_by_the_caller():
+    renderer = BackgroundRenderer()
+    try:
+        with pytest.raises(ValueError, match="no such figure"):
+            renderer.submit(_fail, "no such figure").result()
+        assert renderer.submit(_die_in_helper, os.getpid(), 7).result() == 7  # drawn here after the helper died
+        assert renderer.submit(_pid).result() == os.getpid()  # and every later figure too
+    finally:
+        renderer.close()
+    with pytest.raises(ValueError, match="inline"):
+        InlineRenderer().submit(_fail, "inline").result()
+
+
+def test_inline_where_a_helper_cannot_run(monkeypatch):
+    monkeypatch.setenv("LONGPROFILE_FIGURES", "inline")
+    with figure_renderer() as renderer:
+        assert not renderer.background
+        assert renderer.submit(_pid).result() == os.getpid()
+    monkeypatch.delenv("LONGPROFILE_FIGURES")
+    with figure_renderer(background=False) as renderer:
+        assert not renderer.background
