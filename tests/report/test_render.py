@@ -81,3 +81,28 @@ def test_inline_where_a_helper_cannot_run(monkeypatch):
     monkeypatch.delenv("LONGPROFILE_FIGURES")
     with figure_renderer(background=False) as renderer:
         assert not renderer.background
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_a_command_with_plot_draws_in_its_helper_and_never_imports_matplotlib(tmp_path):
+    import subprocess
+    import sys
+
+    code = ("import sys; from longprofile.cli.app import main; "
+            "code = main(['road', 'simulate', '--profile', 'crenels', '--length', '300', '-o', 'rec.csv', "
+            "'--plot', 'rec.png']); print(code, 'matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
+                         env={**os.environ, "COLUMNS": "200"}).stdout
+    assert out.strip().splitlines()[-1] == "0 False"
+    assert (tmp_path / "rec.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_which_command_lines_get_a_figure_helper():
+    from longprofile.cli.app import _draws_figures
+
+    assert _draws_figures(["road", "iri", "p.csv", "--plot", "i.png"])
+    assert _draws_figures(["rail", "settle", "--report=r/"])
+    assert _draws_figures(["road", "acceptance", "p.erd", "-o", "acc/"])
+    assert _draws_figures(["road", "report", "p.csv", "-o", "r/"])
+    assert not _draws_figures(["road", "iri", "p.csv", "-o", "iri.csv"])
+    assert not _draws_figures(["road", "convert", "report.csv", "x.erd"])

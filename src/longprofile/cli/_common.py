@@ -96,12 +96,14 @@ def check_plot_path(plot: Path | None, *inputs: Path | None, overwrite: bool = F
     return check_output_path(plot, *inputs, overwrite=overwrite, what="--plot")
 
 
-def save_figure(fig, path: Path, *, announce: bool = False, **savefig_kwargs) -> Path:
-    """Save a figure to a path already checked by :func:`check_plot_path`, atomically (temporary file + replace);
-    with ``announce``, print ``wrote <path>``."""
-    from ..io import save_figure as _save
+def save_plot(path: Path, plot_fn, *args, announce: bool = False, savefig: dict | None = None, **kwargs) -> Path:
+    """Save the figure ``plot_fn(*args, **kwargs)`` to a path already checked by :func:`check_plot_path`, atomically
+    (``savefig`` keywords: e.g. dpi), drawn by the command's figure helper when one runs
+    (:func:`longprofile.report.figure_renderer`, started by :func:`longprofile.cli.app.main`), else here; with
+    ``announce``, print ``wrote <path>``."""
+    from ..report import save_plot as _plot
 
-    out = _save(fig, path, **savefig_kwargs)
+    out = _plot(path, plot_fn, *args, savefig=savefig, **kwargs)
     if announce:
         console.print(f"wrote {out}", markup=False, soft_wrap=True)
     return out

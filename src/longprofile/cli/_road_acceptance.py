@@ -25,30 +25,27 @@ def acceptance_command(
     overwrite: bool = OVERWRITE,
 ):
     """Smoothness acceptance: lot IRI/MRI, localized roughness, exclusions, pay factors, grinding, one HTML page."""
-    from ..report import REPORT_FILES, figure_renderer
+    from ..io import read_profile
+    from ..report import REPORT_FILES, write_acceptance_report
+    from ..road import default_spec, read_spec, simulate_grinding, smoothness_acceptance
 
     out = Path(output)
     check_output_folder(out, file, spec, overwrite=overwrite, writes=REPORT_FILES["acceptance"],
                         hint=f"the report needs a folder, e.g. -o {out.with_suffix('')}_acceptance/.")
-    with figure_renderer() as renderer:  # started first: matplotlib loads in a helper while this process computes
-        from ..io import read_profile
-        from ..report import write_acceptance_report
-        from ..road import default_spec, read_spec, simulate_grinding, smoothness_acceptance
+    s = read_spec(spec) if spec is not None else default_spec()
+    tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
+    profile = read_profile(file, units=elevation_unit, tracks=tracks)
+    result = smoothness_acceptance(profile, s)
+    ground = []  # the grinding runs inside the report, once the figures that do not need it are queued (drawn by
+    # the command's figure helper meanwhile, when one runs)
 
-        s = read_spec(spec) if spec is not None else default_spec()
-        tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
-        profile = read_profile(file, units=elevation_unit, tracks=tracks)
-        result = smoothness_acceptance(profile, s)
-        ground = []  # the grinding runs inside the report, once the figures that do not need it are queued
+    def grinding():
+        if grind and (s.grind_threshold or s.localized_threshold):
+            ground.append(simulate_grinding(profile, s, acceptance=result))
+        return ground[0] if ground else None
 
-        def grinding():
-            if grind and (s.grind_threshold or s.localized_threshold):
-                ground.append(simulate_grinding(profile, s, acceptance=result))
-            return ground[0] if ground else None
-
-        files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
-                                        inputs=(file, spec), overwrite=overwrite, renderer=renderer,
-                                        ground_profile=True)
+    files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
+                                    inputs=(file, spec), overwrite=overwrite, ground_profile=True)
     grinding = ground[0] if ground else None
     ps = result.pay_summary
     pay = "" if ps["mean_pay_factor"] is None else f", mean pay factor {ps['mean_pay_factor']:.4f}"

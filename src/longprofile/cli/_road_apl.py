@@ -15,7 +15,7 @@ from ._common import (
     check_plot_path,
     console,
     progress,
-    save_figure,
+    save_plot,
 )
 
 
@@ -51,8 +51,8 @@ def simulate_command(
                                  noise_fraction=noise, rng=seed)
     write_table(rec.to_frame(), out)
     if plot is not None:
-        save_figure(plot_recording(rec.distance, rec.true_elevation, rec.signal,
-                                   title=f"simulated APL recording: {profile}, {speed:g} m/s, dx {dx:g} m"), png, dpi=120)
+        save_plot(png, plot_recording, rec.distance, rec.true_elevation, rec.signal,
+                  title=f"simulated APL recording: {profile}, {speed:g} m/s, dx {dx:g} m", savefig={"dpi": 120})
     console.print(f"simulated {rec.distance.size} samples ({profile}, {speed:g} m/s, dx {dx:g} m, "
                   f"noise std {rec.noise_std * 1e3:.3g} mm) -> {output}")
 
@@ -103,9 +103,8 @@ def reconstruct_command(
         from ..report import plot_reconstructions  # matplotlib only when a plot is asked for
 
         truth = _truth_column(file)
-        fig = plot_reconstructions(signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
-                                   highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}")
-        save_figure(fig, png, dpi=120)
+        save_plot(png, plot_reconstructions, signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
+                  highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}", savefig={"dpi": 120})
     extra = "" if rec.q is None else f" (q = {rec.q:.3g} m^2, r = {rec.r:.3g} m^2)"
     if rec.lag_m is not None:
         extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"
@@ -149,7 +148,7 @@ def identify_command(
         bar.advance(task)
     save_model(model_path, model, fit=est)  # atomic: an older model file survives a failure
     if plot is not None:
-        save_figure(plot_identification(u, y, est, dt=dt), png, dpi=120)
+        save_plot(png, plot_identification, u, y, est, dt=dt, savefig={"dpi": 120})
     console.print(f"{structure.upper()} converged in {est.n_iterations} iterations, residual std "
                   f"{est.residual_std:.4g}, simulation fit {est.fit_simulation:.1f} % -> {model_out}")
     sys.stdout.flush()

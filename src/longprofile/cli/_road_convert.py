@@ -40,9 +40,9 @@ def convert_command(
     profile = read_profile(file, units=input_units, tracks=tracks)
     write_profile(profile, out, units=units)
     if plot is not None:
-        from ..report import plot_profile  # matplotlib only when drawing
+        from ..report import draw, plot_profile  # matplotlib only when drawing (in the figure helper if one runs)
 
-        plot_profile(profile, png)
+        draw(plot_profile, profile, png)
     x = profile.distance
     step = profile.spacing
     console.print(f"converted {profile.n_samples} samples x {len(profile.tracks)} track(s) "

@@ -117,9 +117,9 @@ def iri_command(
     table = rep.to_frame()
     write_report_table(table, sys.stdout if out is None else out, rep.metadata)
     if png is not None:
-        from ..report import plot_iri_report  # matplotlib only when drawing
+        from ..report import draw, plot_iri_report  # matplotlib only when drawing (in the figure helper if one runs)
 
-        plot_iri_report(rep, png)
+        draw(plot_iri_report, rep, png)
     meta, lu, iu = rep.metadata, rep.length_unit, rep.iri_unit
     prec = 0 if report_units == "us" else 2  # in/mi to the unit, m/km to 0.01 (as agencies print them)
     summary = ", ".join(f"{t} {v:.{prec}f}" for t, v in zip(rep.tracks, rep.section_iri))
@@ -152,7 +152,7 @@ def report_command(
 ):
     """HTML roughness report: profile, IRI per segment, localised roughness, PSD with ISO 8608 class, tables."""
     from ..io import read_profile
-    from ..report import REPORT_FILES, plot_iri, write_road_report
+    from ..report import REPORT_FILES, draw, plot_iri, write_road_report
     from ..road import analyse_roughness
 
     check_output_folder(output, file, overwrite=overwrite, writes=REPORT_FILES["road"],
@@ -167,7 +167,7 @@ def report_command(
         bar.advance(task)
         files = write_road_report(analysis, output, inputs=(file,), overwrite=overwrite)
         if plot is not None:
-            files.append(plot_iri(analysis.iri, png))
+            files.append(draw(plot_iri, analysis.iri, png))
         bar.advance(task)
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 

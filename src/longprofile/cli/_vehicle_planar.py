@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_figure
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_plot
 
 
 def _parse_poles(text: str):
@@ -56,7 +56,7 @@ def simulate(
     if plot is not None:
         from ..report import plot_drive
 
-        save_figure(plot_drive(sim), plot, dpi=110, announce=True)
+        save_plot(plot, plot_drive, sim, savefig={"dpi": 110}, announce=True)
 
 
 def slope(
@@ -106,7 +106,8 @@ def slope(
         from ..report import plot_slope_estimate
 
         # the true_* columns of a simulated log are overlaid; the truth is on the original time base
-        save_figure(plot_slope_estimate(est, frame if resample is None else None), plot, dpi=110, announce=True)
+        save_plot(plot, plot_slope_estimate, est, frame if resample is None else None, savefig={"dpi": 110},
+                  announce=True)
 
 
 def register(app: typer.Typer) -> None:

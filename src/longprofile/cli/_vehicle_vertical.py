@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_figure
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_plot
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
@@ -88,7 +88,7 @@ def simulate(
     if plot is not None:
         from ..report import plot_vertical_simulation
 
-        save_figure(plot_vertical_simulation(sim, config), plot, dpi=110, announce=True)
+        save_plot(plot, plot_vertical_simulation, sim, config, savefig={"dpi": 110}, announce=True)
 
 
 @vertical_app.command("estimate")
@@ -159,7 +159,7 @@ def estimate(
     if plot is not None:
         from ..report import plot_vertical_estimate
 
-        save_figure(plot_vertical_estimate(est, frame), plot, dpi=110, announce=True)
+        save_plot(plot, plot_vertical_estimate, est, frame, savefig={"dpi": 110}, announce=True)
 
 
 @vertical_app.command("tables")
@@ -198,7 +198,7 @@ def tables(
     if plot is not None:
         from ..report import plot_thesis_tables
 
-        save_figure(plot_thesis_tables(table), plot, dpi=110, announce=True)
+        save_plot(plot, plot_thesis_tables, table, savefig={"dpi": 110}, announce=True)
 
 
 def register(app: typer.Typer) -> None:

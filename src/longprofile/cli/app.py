@@ -69,15 +69,34 @@ def _register():
 _register()
 
 
+#: Commands that draw figures without a --plot or --report option.
+_FIGURE_COMMANDS = (("road", "report"), ("road", "acceptance"))
+
+
+def _draws_figures(args) -> bool:
+    """Whether the command line asks for figures (``--plot``, ``--report`` or a report command)."""
+    args = [str(a) for a in args]
+    if any(a in ("--plot", "--report") or a.startswith(("--plot=", "--report=")) for a in args):
+        return True
+    words = tuple(a for a in args if not a.startswith("-"))
+    return any(words[:len(c)] == c for c in _FIGURE_COMMANDS)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console-script entry point: run the app, turn library errors into one red line and exit code 2.
 
     The process's memory settings are tuned first (:func:`longprofile._memory.tune_process_memory`: freed
     arrays reused, no huge-page advice; ``LONGPROFILE_MALLOC_TUNING=0`` leaves them alone)."""
     tune_process_memory()
+    from ..report import figure_renderer, use_renderer
+
+    # a command that draws figures gets a helper process now, before its imports: matplotlib loads and the
+    # figures are drawn there while this process reads and computes (report/_render.py)
     try:
-        # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
-        code = app(args=argv, standalone_mode=False)
+        with figure_renderer(background=_draws_figures(sys.argv[1:] if argv is None else argv)) as renderer, \
+                use_renderer(renderer):
+            # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
+            code = app(args=argv, standalone_mode=False)
     except LongprofileError as exc:
         # the message is text, not rich markup: "[lot]" or "[units]" in a message must print as written
         console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True)

@@ -52,9 +52,9 @@ def simulate_command(
         written.append(write_table(site.controls, out / f"controls.{fmt}"))
     written.append(write_table(site.truth_table(), out / f"truth.{fmt}"))
     if plot is not None:
-        from ..report import plot_true_settlement
+        from ..report import draw, plot_true_settlement
 
-        plot_true_settlement(site.truth, png)
+        draw(plot_true_settlement, site.truth, png)
     D, N = site.truth.settlement.shape
     console.print(f"simulated {preset}: {N} sensors, {D} days, {len(site.readings)} readings -> "
                   f"{', '.join(str(p) for p in written)}")
@@ -124,9 +124,9 @@ def settle_command(
         bar.advance(task)
     write_table(res.to_table(), out)
     if plot is not None:
-        from ..report import plot_settlement
+        from ..report import draw, plot_settlement
 
-        plot_settlement(res, png)
+        draw(plot_settlement, res, png)
     if report is not None:
         from ..report import write_rail_report
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_figure
+from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_plot
 
 #: Time columns whose step is checked against --dt, with their unit in seconds.
 _TIME_COLUMNS = {"t": 1.0, "time": 1.0, "t_s": 1.0, "time_s": 1.0, "t_ms": 1e-3, "time_ms": 1e-3}
@@ -83,5 +83,5 @@ def differentiate(
     if plot is not None:
         from ..report import plot_derivative
 
-        save_figure(plot_derivative(x, dt, res, label=column), png, dpi=110)
+        save_plot(png, plot_derivative, x, dt, res, label=column, savefig={"dpi": 110})
         console.print(f"wrote {png}")

@@ -18,7 +18,8 @@ plot_derivative, plot_derivative_comparison -- a derivative estimate with its ba
 plot_slope_estimate, plot_drive, plot_sensitivity, plot_speed_measurement -- vehicle slope figures (paper 001).
 plot_vertical_estimate, plot_vertical_simulation, plot_thesis_tables -- vertical vehicle state figures (thesis 003).
 plot_kalman_smoothing -- the state-space demo: Kalman filter vs RTS smoother across a data gap.
-figure_renderer -- a command's figures drawn in a helper process (matplotlib off the critical path), else inline.
+figure_renderer, use_renderer, current_renderer, save_plot, draw -- figures drawn in a helper process started with the
+    command (matplotlib's import and drawing off its critical path), else inline.
 """
 
 from .._lazy import lazy_namespace
@@ -32,7 +33,7 @@ _EXPORTS = {
     "._html": ("REPORT_FILES", "report_folder",),
     "._network": ("write_network_report",),
     "._profile_plot": ("plot_profile",),
-    "._render": ("figure_renderer",),
+    "._render": ("current_renderer", "draw", "figure_renderer", "save_plot", "use_renderer",),
     "._rail": ("plot_settlement", "plot_true_settlement", "write_rail_report",),
     "._road": ("IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "road_report_figures", "road_report_tables",
                "write_road_report",),
@@ -51,6 +52,6 @@ __all__ += ["plot_slope_estimate", "plot_drive", "plot_sensitivity", "plot_speed
 __all__ += ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_tables"]
 __all__ += ["plot_settlement", "plot_true_settlement", "write_rail_report", "plot_derivative", "plot_derivative_comparison"]
 __all__ += ["road_report_tables", "road_report_figures"]
-__all__ += ["plot_kalman_smoothing", "figure_renderer"]
+__all__ += ["plot_kalman_smoothing", "figure_renderer", "use_renderer", "current_renderer", "save_plot", "draw"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

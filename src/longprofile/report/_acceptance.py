@@ -16,7 +16,7 @@ import numpy as np
 
 from ..io import atomic_path, atomic_write_bytes
 from ._html import REPORT_FILES, report_folder, write_text
-from ._render import InlineRenderer
+from ._render import current_renderer
 
 __all__ = ["plot_certification", "write_acceptance_report"]
 
@@ -217,7 +217,8 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
     overwrite : bool, default True
         False refuses an existing, non-empty ``outdir`` (:class:`~longprofile.errors.OutputError`).
     renderer : optional
-        Where the figures are drawn (:func:`longprofile.report._render.figure_renderer`; default: in this process).
+        Where the figures are drawn (:func:`~longprofile.report.figure_renderer`; default: the
+        :func:`~longprofile.report.current_renderer`, in this process unless a command set a helper).
     ground_profile : bool, default False
         Also write the profile after grinding, ``profile_ground.csv`` (when the grind list is not empty).
 
@@ -231,7 +232,7 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
     lu, iu = spec.length_unit, spec.iri_unit
     figures: dict = {}
     written: list[Path] = []
-    renderer = renderer or InlineRenderer()
+    renderer = renderer or current_renderer()
     jobs = _submit_figures(renderer, result)  # drawn while the grinding runs and the tables are written
     if callable(grinding):
         grinding = grinding()

@@ -11,7 +11,8 @@ from pathlib import Path
 from ..errors import OutputError
 from ..io import atomic_path, atomic_write_bytes
 
-__all__ = ["REPORT_FILES", "report_folder", "png_bytes", "write_figures", "img_tag", "write_csv", "write_text"]
+__all__ = ["REPORT_FILES", "report_folder", "png_bytes", "write_figures", "write_pngs", "figure_pngs", "img_tag",
+           "write_csv", "write_text"]
 
 #: The files each report writes into its folder (an input of one of these names there is never overwritten).
 REPORT_FILES: dict[str, tuple[str, ...]] = {
@@ -108,13 +109,23 @@ def png_bytes(fig, **savefig_kwargs) -> bytes:
 
 def write_figures(figures: dict, out: Path, **savefig_kwargs) -> tuple[list[Path], dict[str, str]]:
     """Write each ``{file name: Figure}`` as a PNG into ``out``; return the paths and the base64 of each PNG."""
+    return write_pngs({fname: png_bytes(fig, **savefig_kwargs) for fname, fig in figures.items()}, out)
+
+
+def write_pngs(pngs: dict, out: Path) -> tuple[list[Path], dict[str, str]]:
+    """Write each ``{file name: PNG bytes}`` into ``out``; return the paths and the base64 of each PNG."""
     paths, images = [], {}
-    for fname, fig in figures.items():
-        data = png_bytes(fig, **savefig_kwargs)
+    for fname, data in pngs.items():
         atomic_write_bytes(out / fname, data)
         paths.append(out / fname)
         images[fname] = base64.b64encode(data).decode("ascii")
     return paths, images
+
+
+def figure_pngs(builder, /, *args, savefig: dict | None = None, **kwargs) -> dict[str, bytes]:
+    """``{file name: PNG bytes}`` of the figures ``builder(*args, **kwargs)`` returns (``{file name: Figure}``): the
+    unit of work a report sends to its figure renderer (:func:`longprofile.report.current_renderer`)."""
+    return {fname: png_bytes(fig, **(savefig or {})) for fname, fig in builder(*args, **kwargs).items()}
 
 
 def img_tag(images: dict[str, str], fname: str, alt: str) -> str:

@@ -5,16 +5,14 @@ Rendering only: every number comes from :func:`longprofile.rail.estimate_settlem
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..io import atomic_write_bytes
-from ._html import REPORT_FILES, report_folder, write_csv, write_text
+from ._html import REPORT_FILES, figure_pngs, report_folder, write_csv, write_pngs, write_text
+from ._render import current_renderer
 
 __all__ = ["plot_settlement", "plot_true_settlement", "write_rail_report"]
 
@@ -113,12 +111,6 @@ def plot_true_settlement(truth, path, *, n_days: int = 6) -> Path:
     from ..io import save_figure
 
     return save_figure(fig, Path(path), dpi=110)  # temporary file + os.replace; OSError -> OutputError there
-
-
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    return buf.getvalue()
 
 
 def _weekly_figure(result):
@@ -238,6 +230,15 @@ def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
+def _report_figures(result) -> dict:
+    """The report's figures by PNG file name (matplotlib Figure objects)."""
+    figs = {"profiles_by_week.png": _weekly_figure(result), "through_time.png": _time_figure(result),
+            "settlement_map.png": _map_figure(result), "initial_profile.png": _initial_figure(result)}
+    if result.controls is not None:
+        figs["controls.png"] = _controls_figure(result)
+    return figs
+
+
 def write_rail_report(result, outdir, *, title: str = "Track settlement report", inputs=(),
                       overwrite: bool = True) -> list[Path]:
     """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
@@ -261,18 +262,9 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     """
     out = report_folder(outdir, inputs, writes=REPORT_FILES["rail"], overwrite=overwrite, what="report",
                         hint=f"the report needs a folder, e.g. {Path(outdir).with_suffix('')}_report/.")
-    figs = {"profiles_by_week": _weekly_figure(result), "through_time": _time_figure(result),
-            "settlement_map": _map_figure(result), "initial_profile": _initial_figure(result)}
-    if result.controls is not None:
-        figs["controls"] = _controls_figure(result)
+    # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
+    figures = current_renderer().submit(figure_pngs, _report_figures, result, savefig={"dpi": 110})
     written = []
-    imgs = {}
-    for name, fig in figs.items():
-        data = _png(fig)
-        p = out / f"{name}.png"
-        atomic_write_bytes(p, data)
-        written.append(p)
-        imgs[name] = base64.b64encode(data).decode()
     table = result.to_table()
     written.append(write_csv(table, out / "settlement.csv"))
     written.append(write_csv(result.alarms, out / "alarms.csv"))
@@ -289,6 +281,9 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
                            "initial_angle_deg": np.rad2deg(np.arctan(result.initial.slope_mean)),
                            "initial_angle_std_deg": np.rad2deg(result.initial.slope_std)})
     written.append(write_csv(health, out / "sensors.csv"))
+    paths, images = write_pngs(figures.result(), out)
+    written = paths + written  # the figures first, as the report has always listed them
+    imgs = {name.removesuffix(".png"): b64 for name, b64 in images.items()}
     st = result.settings
     flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
     maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],

@@ -15,10 +15,14 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import pickle
 from concurrent.futures import Future
 from contextlib import contextmanager
+from contextvars import ContextVar
+from pathlib import Path
 
-__all__ = ["InlineRenderer", "BackgroundRenderer", "figure_renderer"]
+__all__ = ["InlineRenderer", "BackgroundRenderer", "figure_renderer", "current_renderer", "use_renderer",
+           "save_plot", "draw"]
 
 
 class InlineRenderer:
@@ -82,9 +86,14 @@ class BackgroundRenderer:
         self._pool.submit(_ready)  # starts the helper now: matplotlib is imported while the command computes
 
     def submit(self, fn, /, *args, **kwargs) -> _Job:
-        """Queue ``fn(*args, **kwargs)`` (a module-level function returning picklable data, e.g. PNG bytes)."""
+        """Queue ``fn(*args, **kwargs)`` (a module-level function returning picklable data, e.g. PNG bytes); what
+        cannot be sent to the helper (e.g. a result holding compiled closures) is drawn here, at once."""
         from concurrent.futures.process import BrokenProcessPool
 
+        try:
+            pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception:
+            return InlineRenderer().submit(fn, *args, **kwargs)
         try:
             return _Job(self._pool.submit(fn, *args, **kwargs), fn, args, kwargs)
         except (BrokenProcessPool, RuntimeError):
@@ -115,3 +124,39 @@ def figure_renderer(background: bool = True):
         yield renderer
     finally:
         renderer.close()
+
+
+_CURRENT: ContextVar = ContextVar("longprofile_figure_renderer", default=None)
+
+
+def current_renderer():
+    """The renderer set by :func:`use_renderer` (the CLI sets one per command), else an :class:`InlineRenderer`."""
+    renderer = _CURRENT.get()
+    return InlineRenderer() if renderer is None else renderer
+
+
+@contextmanager
+def use_renderer(renderer):
+    """Make ``renderer`` the :func:`current_renderer` inside the block."""
+    token = _CURRENT.set(renderer)
+    try:
+        yield renderer
+    finally:
+        _CURRENT.reset(token)
+
+
+def _draw_to_file(plot_fn, args, kwargs, path, savefig):
+    from ..io import save_figure
+
+    return save_figure(plot_fn(*args, **kwargs), path, **savefig)
+
+
+def save_plot(path, plot_fn, /, *args, savefig: dict | None = None, **kwargs) -> Path:
+    """``save_figure(plot_fn(*args, **kwargs), path, **savefig)`` (atomic), drawn by the current renderer; returns
+    ``path`` once the file is written."""
+    return current_renderer().submit(_draw_to_file, plot_fn, args, kwargs, Path(path), savefig or {}).result()
+
+
+def draw(plot_fn, /, *args, **kwargs):
+    """``plot_fn(*args, **kwargs)`` for a plotting function that writes its own file, by the current renderer."""
+    return current_renderer().submit(plot_fn, *args, **kwargs).result()

@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 
 from ..io import save_figure
-from ._html import REPORT_FILES, img_tag, report_folder, write_csv, write_figures, write_text
+from ._html import REPORT_FILES, figure_pngs, img_tag, report_folder, write_csv, write_pngs, write_text
+from ._render import current_renderer
 
 __all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report", "road_report_tables",
            "road_report_figures"]
@@ -412,11 +413,13 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     written: list[Path] = []
     res, p, loc = analysis.iri, analysis.profile, analysis.localized
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
+    # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
+    figures = current_renderer().submit(figure_pngs, road_report_figures, analysis, reference=reference,
+                                        reference_label=reference_label, limits=limits)
     tables = road_report_tables(analysis, reference=reference, reference_label=reference_label)
     for fname, df in tables.items():
         written.append(write_csv(df, out / fname))
-    figs = road_report_figures(analysis, reference=reference, reference_label=reference_label, limits=limits)
-    paths, images = write_figures(figs, out)
+    paths, images = write_pngs(figures.result(), out)
     written.extend(paths)
     spacing = p.spacing
     meta = (f"{p.n_samples} samples, stations {p.distance[0]:.2f}–{p.distance[-1]:.2f} m, "
@@ -433,7 +436,7 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
                                                        ("localized_roughness.png", "continuous IRI"))},
         good=f"{limits[0]:.2f}", poor=f"{limits[1]:.2f}", lead_in=f"{res.lead_in:g}", moving_average=ma,
         window=f"{loc.window:g}", threshold=f"{loc.threshold:g}",
-        files=[html.escape(f) for f in list(tables) + list(figs)],
+        files=[html.escape(f) for f in list(tables) + list(images)],
         **_section_html(analysis, tables, images, limits))
     written.insert(0, write_text(out / "index.html", page))
     return written
