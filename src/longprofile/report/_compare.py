@@ -45,6 +45,8 @@ def write_compare_report(result, outdir, *, reference=None, runs=(), plot: bool 
     written.append(write_text(out / "summary.json", json.dumps(summary, indent=2, default=float)))
     if plot:
         from ._acceptance import plot_certification
+        from ._render import draw
 
-        written.append(plot_certification(result, result.comparisons, out / "correlation.png"))
+        # by the command's figure helper when one runs (report/_render.py)
+        written.append(draw(plot_certification, result, result.comparisons, out / "correlation.png"))
     return written
