@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .errors import LongprofileError, OutputError
 
-__all__ = ["atomic_path", "atomic_write_bytes"]
+__all__ = ["atomic_path", "atomic_write_bytes", "save_figure"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -91,4 +91,22 @@ def atomic_write_bytes(path, data: bytes) -> Path:
     path = Path(path)
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
+    return path
+
+
+def save_figure(fig, path, **savefig_kwargs) -> Path:
+    """``fig.savefig(path, ...)`` through a temporary file.
+
+    The format is the suffix of ``path``; without one, matplotlib's ``rcParams["savefig.format"]`` (PNG by
+    default), as ``fig.savefig(path)`` would choose.
+    """
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower()
+    if not fmt:
+        import matplotlib
+
+        fmt = matplotlib.rcParams["savefig.format"]
+    savefig_kwargs.setdefault("format", fmt)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, **savefig_kwargs)
     return path

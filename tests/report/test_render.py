@@ -41,9 +41,10 @@ def _acceptance_inputs():
 
 
 @pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
-def test_background_report_is_byte_identical_to_the_inline_report(tmp_path):
+def test_background_report_is_byte_identical_to_the_inline_report(tmp_path, monkeypatch):
     from longprofile.report import write_acceptance_report
 
+    monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")  # whatever the machine's load
     res, g = _acceptance_inputs()
     inline = write_acceptance_report(res, tmp_path / "inline", grinding=g, ground_profile=True)
     with figure_renderer() as renderer:
@@ -81,6 +82,14 @@ def test_inline_where_a_helper_cannot_run(monkeypatch):
     monkeypatch.delenv("LONGPROFILE_FIGURES")
     with figure_renderer(background=False) as renderer:
         assert not renderer.background
+    import longprofile.report._render as render
+
+    monkeypatch.setattr(render.os, "getloadavg", lambda: (float(os.cpu_count() or 1), 0.0, 0.0))  # no core free
+    with figure_renderer() as renderer:
+        assert not renderer.background
+    monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
+    with figure_renderer() as renderer:
+        assert renderer.background == ("fork" in multiprocessing.get_all_start_methods())
 
 
 @pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
@@ -92,7 +101,7 @@ def test_a_command_with_plot_draws_in_its_helper_and_never_imports_matplotlib(tm
             "code = main(['road', 'simulate', '--profile', 'crenels', '--length', '300', '-o', 'rec.csv', "
             "'--plot', 'rec.png']); print(code, 'matplotlib' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
-                         env={**os.environ, "COLUMNS": "200"}).stdout
+                         env={**os.environ, "COLUMNS": "200", "LONGPROFILE_FIGURES": "helper"}).stdout
     assert out.strip().splitlines()[-1] == "0 False"
     assert (tmp_path / "rec.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
