@@ -10,7 +10,7 @@ EXPECTED = {
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings",
-    "fit_change_prior", "ChangePriorFit",
+    "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval", "MaxSettlement",
 }
 
 

@@ -29,6 +29,8 @@ initial_profile_posterior   -- initial altitudes and angles from a survey on any
 initial_profile_posterior_dense -- §4.4 dense reference (survey at the sensors).
 sample_profiles             -- posterior draws of altitude profiles.
 max_settlement_monte_carlo  -- mean and std of the maximum settlement (§4.3).
+max_settlement_interval     -- the same with a 90 % interval from the simultaneous band (beyond §4.3);
+                               MaxSettlement is its result.
 affine_correction           -- the affine correction of §5.2 (with the paper's warning).
 assess_sensors, SensorHealth -- flag dead / reversed / drifting / detached / improbable sensors (§6).
 
@@ -39,6 +41,7 @@ smooth_through_time         -- settlement smoothed across days per station, dail
 settlement_alarms           -- threshold exceedances with station, date and probability.
 fit_change_prior            -- maximum-likelihood prior (order and r) of the settlement profile;
                                ChangePriorFit is its result.
+segment_prior_weights       -- space-varying prior of the settlement profile (r w_i per segment, EM).
 estimate_settlement         -- the whole job, readings to settlement, bands, health and alarms.
 SettlementSettings          -- its options (frozen, validated once): ``estimate_settlement(site, settings=...)``.
 SettlementResult            -- its result (``to_table()`` for the long output table).
@@ -54,10 +57,10 @@ _EXPORTS = {
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
     "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
-                   "max_settlement_monte_carlo", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
+                   "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
                    "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
     "._settle": ("ChangePriorFit", "SettlementResult", "SettlementSettings", "affine_correction",
-                 "estimate_settlement", "fit_change_prior"),
+                 "estimate_settlement", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
     "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time"),
     "._thermal": ("DailyAngles", "daily_angles", "first_order_response"),
@@ -72,7 +75,8 @@ __all__ = [
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
-    "SettlementSettings", "fit_change_prior", "ChangePriorFit",
+    "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
+    "MaxSettlement",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -32,7 +32,13 @@ import numpy as np
 
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
-from ..statespace import StateSpaceModel, posterior_sample, shared_covariance_smoother, smoother_noise_covariance
+from ..statespace import (
+    StateSpaceModel,
+    posterior_sample,
+    process_noise_moments,
+    shared_covariance_smoother,
+    smoother_noise_covariance,
+)
 
 __all__ = [
     "ProfilePosterior",
@@ -45,7 +51,10 @@ __all__ = [
     "initial_profile_posterior",
     "sample_profiles",
     "max_settlement_monte_carlo",
+    "max_settlement_interval",
+    "MaxSettlement",
     "measurement_std",
+    "segment_process_energy",
     "Z90",
 ]
 
@@ -155,11 +164,12 @@ def segment_rigidity_cost(length: float) -> np.ndarray:
     return 0.5 * (M + M.T)
 
 
-def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY) -> np.ndarray:
+def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY, segment_weights=None) -> np.ndarray:
     r"""Rigidity cost matrix C of paper 004 (§4.2), ordered X = (z_1..z_N, theta_1..theta_N).
 
     ``1/2 X^T C X = ||f''||^2 / r`` for the piecewise cubic Hermite f through X, i.e.
-    C = 2 / (r (x_N - x_1)) Σ_i M_i with M_i from :func:`segment_rigidity_cost`.
+    C = 2 / (r (x_N - x_1)) Σ_i M_i with M_i from :func:`segment_rigidity_cost`; with
+    ``segment_weights`` w_i the prior is space-varying, C = 2 / (r L) Σ_i M_i / w_i (r w_i on segment i).
 
     Parameters
     ----------
@@ -167,6 +177,8 @@ def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY) -> np.ndarray
         Strictly increasing station positions, m.
     rigidity : float, default 1e-8
         r, m^-2.
+    segment_weights : (N-1,) array_like, optional
+        Relative prior intensity of each segment (:func:`rigidity_model`); None = 1 everywhere (the paper).
 
     Returns
     -------
@@ -175,10 +187,11 @@ def rigidity_cost_matrix(x, *, rigidity: float = DEFAULT_RIGIDITY) -> np.ndarray
     x = _check_stations(x)
     r = require_positive("rigidity", rigidity)
     N = x.size
+    w = _segment_weights(segment_weights, N)
     C = np.zeros((2 * N, 2 * N))
     for i, l in enumerate(np.diff(x)):
         idx = [i, N + i, i + 1, N + i + 1]
-        C[np.ix_(idx, idx)] += segment_rigidity_cost(l)
+        C[np.ix_(idx, idx)] += segment_rigidity_cost(l) / (1.0 if w is None else w[i])
     return C * (2.0 / (r * (x[-1] - x[0])))
 
 
@@ -194,6 +207,18 @@ def _noise_std(sigma, N):
     return s
 
 
+def _segment_weights(weights, N):
+    """None, or the (N-1,) float array of positive finite segment weights."""
+    if weights is None:
+        return None
+    w = as_float_array("segment_weights", weights, ndim=1, allow_nan=False)
+    if w.shape != (N - 1,):
+        raise ShapeError(f"segment_weights must have one value per segment ({N - 1},); got shape {w.shape}.")
+    if not np.all(w > 0):
+        raise InputError(f"segment_weights must be > 0 on every segment; got min {w.min()!r}.")
+    return w
+
+
 def _as_profiles(name, values, N):
     arr = as_float_array(name, values, ndim=(1, 2))
     if arr.shape[-1] != N:
@@ -203,7 +228,7 @@ def _as_profiles(name, values, N):
 
 def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
                              sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0),
-                             first_slope_prior_std: float | None = None) -> ProfilePosterior:
+                             first_slope_prior_std: float | None = None, segment_weights=None) -> ProfilePosterior:
     r"""The paper's dense posterior (§4.2), O(N^3): the reference implementation.
 
     Parameters
@@ -225,6 +250,8 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
         None (default) is the paper's improper (flat) prior on the slopes. A value, rad, adds the
         proper N(0, std^2) prior on the first slope that the O(N) state-space form needs to start its
         recursion (:func:`rigidity_model`, default 1 rad), so that both compute the same posterior.
+    segment_weights : (N-1,) array_like, optional
+        Space-varying prior (:func:`rigidity_cost_matrix`); None = the paper's stationary prior.
 
     Returns
     -------
@@ -248,7 +275,7 @@ def rigidity_posterior_dense(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidit
     s = np.broadcast_to(_noise_std(sigma, N), (N,))
     sz = require_positive("sigma_z", sigma_z)
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
-    prec = rigidity_cost_matrix(x, rigidity=rigidity)
+    prec = rigidity_cost_matrix(x, rigidity=rigidity, segment_weights=segment_weights)
     rhs = np.zeros(2 * N)
     obs = np.isfinite(m)
     prec[N + np.nonzero(obs)[0], N + np.nonzero(obs)[0]] += 1.0 / s[obs] ** 2
@@ -304,7 +331,8 @@ def _check_order(penalty_order) -> int:
 
 def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
                    sigma_z: float = DEFAULT_SIGMA_Z, z_start: float = 0.0,
-                   first_slope_prior_std: float = FIRST_SLOPE_PRIOR_STD, penalty_order: int = 2) -> StateSpaceModel:
+                   first_slope_prior_std: float = FIRST_SLOPE_PRIOR_STD, penalty_order: int = 2,
+                   segment_weights=None) -> StateSpaceModel:
     r"""State-space form of the rigidity prior over the stations (paper 004 §4.2, Lemma 4.1).
 
     State x_i = (z_i, theta_i) at station i ("time" = station index); observation
@@ -332,6 +360,9 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
         [h^3/6, h^2/2, h]] (integrated integrated Wiener process; between stations the minimiser of
         ∫ f‴^2 is the quintic Hermite polynomial, and e^T Qbar^-1 e is its cost, tested against
         scipy's BPoly). r is then in m^-4, and kappa_1 ~ N(0, (0.1 m^-1)^2).
+    segment_weights : (N-1,) array_like, optional
+        Beyond the paper: a space-varying prior, Q_i = q w_i Qbar(h_i) on segment i (r w_i there), e.g. larger
+        where the track moves (:func:`~longprofile.rail.segment_prior_weights`). None = 1 on every segment.
 
     Returns
     -------
@@ -347,6 +378,9 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
     n = _check_order(penalty_order)
     q = r * (x[-1] - x[0]) / 2.0
     F, Q = _iwp_terms(x, q, n)
+    w = _segment_weights(segment_weights, x.size)
+    if w is not None:
+        Q = Q * w[:, None, None]
     H = np.zeros((2, n))
     H[0, 1] = H[1, 0] = 1.0
     P0 = np.diag([sz**2, sp**2, FIRST_CURVATURE_PRIOR_STD**2][:n])
@@ -385,7 +419,8 @@ def _pattern_groups(pattern: np.ndarray):
 
 
 def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                       sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), penalty_order: int = 2) -> ProfilePosterior:
+                       sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), penalty_order: int = 2,
+                       segment_weights=None) -> ProfilePosterior:
     r"""Posterior of the rigidity model for one or many profiles, in O(N) per profile (RTS smoother).
 
     Parameters
@@ -399,6 +434,8 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     penalty_order : {2, 3}, default 2
         2 = the paper's prior; 3 = the smoother ||f‴||^2 prior (:func:`rigidity_model`), whose
         station covariances are 3 x 3 (altitude, slope, curvature).
+    segment_weights : (N-1,) array_like, optional
+        Space-varying prior intensity per segment (:func:`rigidity_model`).
 
     Returns
     -------
@@ -420,7 +457,7 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     M = m if batched else m[None]
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
     model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
-                           penalty_order=penalty_order)
+                           penalty_order=penalty_order, segment_weights=segment_weights)
     n = model.n_states
     Y = np.full((M.shape[0], N, 2), np.nan)
     Y[:, :, 0] = M
@@ -452,6 +489,47 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     return ProfilePosterior(x=x, z_mean=zm, slope_mean=tm, z_std=np.sqrt(sc[..., 0, 0]),
                             slope_std=np.sqrt(sc[..., 1, 1]), station_cov=sc, cross_cov=cc, full_cov=None,
                             log_likelihood=ll, method="state-space")
+
+
+def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                           sigma_z: float = DEFAULT_SIGMA_Z, penalty_order: int = 2, segment_weights=None) -> np.ndarray:
+    r"""Posterior expected prior cost of each segment, E[e_i^T (q Qbar(l_i))^{-1} e_i | m], per profile.
+
+    e_i = x_{i+1} - F(l_i) x_i is the process noise of segment i (module docstring: for penalty order 2 its cost
+    e_i^T Qbar^{-1} e_i is ∫ f''^2 over the segment, Lemma 4.1 of paper 004), q = r L / 2 the stationary
+    intensity. Under the prior with ``segment_weights`` w the expectation is k w_i (k = penalty_order, the state
+    dimension), so this is the E-step statistic of an EM update of w (:func:`~longprofile.rail.segment_prior_weights`).
+
+    Parameters
+    ----------
+    x : (N,) array_like
+    slopes : (N,) or (D, N) array_like
+        Measured slopes (rad), NaN = none.
+    sigma, rigidity, sigma_z, penalty_order, segment_weights
+        As in :func:`rigidity_posterior` (the posterior is taken under ``segment_weights``).
+
+    Returns
+    -------
+    (N-1,) or (D, N-1) ndarray
+        Dimensionless expected cost (k w_i on average when the prior is right).
+    """
+    x = _check_stations(x)
+    N = x.size
+    m = _as_profiles("slopes", slopes, N)
+    batched = m.ndim == 2
+    M = m if batched else m[None]
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order,
+                           segment_weights=segment_weights)
+    _, Qbar = _iwp_terms(x, rigidity * (x[-1] - x[0]) / 2.0, _check_order(penalty_order))
+    Qinv = np.linalg.inv(Qbar)
+    Y = np.full((M.shape[0], N, 2), np.nan)
+    Y[:, :, 0] = M
+    Y[:, -1, 1] = 0.0
+    out = np.empty((M.shape[0], N - 1))
+    for rows, _pat in _pattern_groups(np.isnan(M)):
+        sm = shared_covariance_smoother(model, Y[rows])
+        out[rows] = np.einsum("iab,diba->di", Qinv, process_noise_moments(model, sm))
+    return out if batched else out[0]
 
 
 def initial_profile_posterior_dense(x, altitudes, *, sigma_a: float = DEFAULT_SIGMA_A,
@@ -558,7 +636,8 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
 
 
 def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                    sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None, penalty_order: int = 2) -> np.ndarray:
+                    sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None, penalty_order: int = 2,
+                    segment_weights=None) -> np.ndarray:
     r"""Draw altitude profiles from the rigidity posterior (forward-filter backward-sample on the engine).
 
     Parameters
@@ -569,7 +648,7 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
         Measured slopes, rad (NaN = none); one row per profile.
     n_samples : int
         Draws per profile.
-    sigma, rigidity, sigma_z, z_ends, penalty_order
+    sigma, rigidity, sigma_z, z_ends, penalty_order, segment_weights
         As in :func:`rigidity_posterior`.
     rng : None, int or numpy.random.Generator
 
@@ -588,7 +667,7 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
     m = _as_profiles("slopes", slopes, N)
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
     model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
-                           penalty_order=penalty_order)
+                           penalty_order=penalty_order, segment_weights=segment_weights)
     Y = np.full(m.shape + (2,), np.nan)
     Y[..., 0] = m
     Y[..., -1, 1] = z_ends[1]
@@ -597,7 +676,7 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
 
 def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float = DEFAULT_SIGMA,
                                rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z, rng=None,
-                               penalty_order: int = 2):
+                               penalty_order: int = 2, segment_weights=None):
     r"""Mean and std of the maximum settlement max_i(-dz_i) by posterior sampling (paper 004 §4.3).
 
     Parameters
@@ -607,7 +686,7 @@ def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float
     slopes : (N,) or (D, N) array_like
         Slope changes since the reference day, rad (ends anchored at 0).
     n_samples : int, default 2000
-    sigma, rigidity, sigma_z, penalty_order
+    sigma, rigidity, sigma_z, penalty_order, segment_weights
         As in :func:`rigidity_posterior`.
     rng : None, int or numpy.random.Generator
 
@@ -617,14 +696,86 @@ def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float
         Of the (non-Gaussian) maximum settlement, m (positive = downwards).
     """
     draws = sample_profiles(x, slopes, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng,
-                            penalty_order=penalty_order)
+                            penalty_order=penalty_order, segment_weights=segment_weights)
     mx = -draws.min(axis=-1)
     mean, std = mx.mean(axis=0), mx.std(axis=0, ddof=1)
     return (float(mean), float(std)) if np.ndim(mean) == 0 else (mean, std)
 
 
+@dataclass(frozen=True, eq=False)
+class MaxSettlement:
+    """The maximum settlement max_i(-dz_i) of each profile (day) from posterior draws (:func:`max_settlement_interval`).
+
+    Attributes
+    ----------
+    mean, std : (D,) ndarray
+        Monte Carlo mean and std of the maximum settlement, m (positive = downwards), as
+        :func:`max_settlement_monte_carlo`.
+    lower, upper : (D,) ndarray
+        The interval of the maximum implied by the simultaneous band, m: max_i(-mu_i - c s_i) and
+        max_i(-mu_i + c s_i).
+    band_z : (D,) ndarray
+        c, the half-width of the simultaneous band in posterior stds (>= the pointwise quantile).
+    level : float
+        Probability of the simultaneous band (0.9 for the printed 90 % interval).
+    """
+
+    mean: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    band_z: np.ndarray
+    level: float
+
+
+def max_settlement_interval(x, slopes, n_samples: int = 2000, *, sigma: float = DEFAULT_SIGMA,
+                            rigidity: float = DEFAULT_RIGIDITY, sigma_z: float = DEFAULT_SIGMA_Z, rng=None,
+                            penalty_order: int = 2, segment_weights=None, level: float = 0.9) -> MaxSettlement:
+    r"""Maximum settlement of each profile with an interval that holds wherever the maximum is (beyond §4.3).
+
+    Paper 004 §4.3 estimates the maximum settlement max_i(-z_i) by posterior sampling; its mean ∓ 1.645 std is
+    not a 90 % interval: the maximum of a Gaussian vector is skewed, and on a day without change (true maximum
+    0, on every station) every draw's maximum is a positive noise excursion, so the truth lies below all draws.
+    Here the draws give the simultaneous band instead: c is the ``level`` quantile over draws of
+    max_i |z_i - mu_i| / s_i (mu, s: posterior mean and std at the stations), so that the whole profile lies in
+    [mu - c s, mu + c s] with posterior probability ``level``; max is monotone, so on that event
+
+        max_i(-mu_i - c s_i) <= max_i(-z_i) <= max_i(-mu_i + c s_i),
+
+    an interval for the maximum whatever station carries it, of probability >= ``level`` (conservative: the
+    two ends need not be reached by the same draw).
+
+    Parameters
+    ----------
+    x, slopes, n_samples, sigma, rigidity, sigma_z, rng, penalty_order, segment_weights
+        As in :func:`max_settlement_monte_carlo`.
+    level : float, default 0.9
+        Probability of the simultaneous band, 0 < level < 1.
+
+    Returns
+    -------
+    MaxSettlement
+        (D,) arrays (a single profile gives (1,) arrays).
+    """
+    if not 0.0 < level < 1.0:
+        raise InputError(f"level must be in (0, 1); got {level!r}.")
+    m = np.atleast_2d(np.asarray(slopes, float))
+    post = rigidity_posterior(x, m, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order,
+                              segment_weights=segment_weights)
+    draws = sample_profiles(x, m, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng,
+                            penalty_order=penalty_order, segment_weights=segment_weights)  # (S, D, N)
+    mu, sd = post.z_mean, post.z_std
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(sd > 0, np.abs(draws - mu) / sd, 0.0).max(axis=-1)  # (S, D)
+    c = np.quantile(t, level, axis=0)
+    mx = -draws.min(axis=-1)
+    return MaxSettlement(mean=mx.mean(axis=0), std=mx.std(axis=0, ddof=1),
+                         lower=np.max(-mu - c[:, None] * sd, axis=-1), upper=np.max(-mu + c[:, None] * sd, axis=-1),
+                         band_z=c, level=float(level))
+
+
 def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
-                    sigma_z: float = DEFAULT_SIGMA_Z, penalty_order: int = 2) -> np.ndarray:
+                    sigma_z: float = DEFAULT_SIGMA_Z, penalty_order: int = 2, segment_weights=None) -> np.ndarray:
     r"""Std of the posterior-mean altitude due to the slope measurement noise alone, at every station.
 
     The posterior mean is linear in the slopes, mu_z = A m (+ anchor terms), so for a given
@@ -639,7 +790,7 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     x : (N,) array_like
     slopes : (N,) or (D, N) array_like
         Only the NaN pattern (which sensors measured) matters.
-    sigma, rigidity, sigma_z, penalty_order
+    sigma, rigidity, sigma_z, penalty_order, segment_weights
         As in :func:`rigidity_posterior`.
 
     Returns
@@ -655,7 +806,8 @@ def measurement_std(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float 
     batched = m.ndim == 2
     M = m if batched else m[None]
     s = _noise_std(sigma, N)
-    model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order)
+    model = rigidity_model(x, sigma=s, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order,
+                           segment_weights=segment_weights)
     noise = np.zeros((N, 2, 2))
     noise[:, 0, 0] = np.broadcast_to(s, (N,)) ** 2
     pattern = np.isnan(M)

@@ -11,6 +11,7 @@ rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covari
 log_likelihood         -- prediction-error log-likelihood.
 shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
 smoother_noise_covariance -- covariance of the smoothed mean from the observation noise alone (fixed truth).
+process_noise_moments  -- E[w w^T | y] of the process noise from a smoother (the EM statistic of Q).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
@@ -72,6 +73,7 @@ _LAZY = {
     "chunked_kalman_filter": "_long_record", "long_record_filter": "_long_record",
     "long_record_log_likelihood": "_long_record", "long_record_smoother": "_long_record",
     "MLEResult": "_mle", "fit_mle": "_mle",
+    "process_noise_moments": "_em",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
     "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate", "linear_recursion_columns": "_propagate",
@@ -90,6 +92,7 @@ __all__ = [
     "posterior_sample",
     "shared_covariance_smoother",
     "smoother_noise_covariance",
+    "process_noise_moments",
     "simulate",
     "FilterResult",
     "SmootherResult",
