@@ -490,7 +490,7 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
 
 
 #: EM steps of :func:`segment_prior_weights`, started from the stationary prior (w = 1); chosen on calibration
-#: seeds (docs/rail.md, "Space-varying prior, step 7").
+#: seeds 300-311 (docs/rail.md, step 7).
 PRIOR_WEIGHT_ITERATIONS = 8
 #: Floor of the segment weights relative to their maximum (:func:`segment_prior_weights`).
 PRIOR_WEIGHT_FLOOR = 0.3
