@@ -143,3 +143,4 @@ def test_estimate_settlement_reports_the_weights_and_the_max_interval():
     # a given rigidity is used as is: no weights
     fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False, rigidity=1e-10)
     assert np.all(fixed.prior_weights == 1.0)
+    assert fixed.settings["spatial_prior"] is False

@@ -867,7 +867,8 @@ def _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt: Settle
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
-    return dict(thermal=opt.thermal, error_model="drift" if drift else "white", spatial_prior=opt.spatial_prior,
+    return dict(thermal=opt.thermal, error_model="drift" if drift else "white",
+                spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
                 penalty_order=order, sigma_estimated=opt.sigma is None, rigidity_estimated=opt.rigidity is None,
