@@ -11,6 +11,7 @@ EXPECTED = {
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings",
     "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval", "MaxSettlement",
+    "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
 }
 
 

@@ -17,6 +17,9 @@ The paper's methods
 integrate_angles            -- forward / backward / average / convex chain integration (§2).
 bar_angles_from_profile     -- initial bar angles from altitudes (§2).
 daily_angles, DailyAngles   -- outlier removal, linear (§3) or lagged thermal correction, daily medians.
+day_statistics, DayStatistics -- the per-day stage of daily_angles (linear / none): per (day, sensor)
+                               quantities, recomputed one day at a time over a cache (monitoring service).
+daily_angles_from_statistics -- its combine stage: DailyAngles from DayStatistics.
 first_order_response        -- first-order thermal lag of a temperature series.
 rigidity_cost_matrix        -- the cost matrix C of Lemma 4.1 (§4.2).
 rigidity_posterior_dense    -- the paper's dense posterior (reference, O(N^3)).
@@ -43,6 +46,7 @@ fit_change_prior            -- maximum-likelihood prior (order and r) of the set
                                ChangePriorFit is its result.
 segment_prior_weights       -- space-varying prior of the settlement profile (r w_i per segment, EM).
 estimate_settlement         -- the whole job, readings to settlement, bands, health and alarms.
+estimate_settlement_from_daily -- the same from daily angles already computed (e.g. from cached DayStatistics).
 SettlementSettings          -- its options (frozen, validated once): ``estimate_settlement(site, settings=...)``.
 SettlementResult            -- its result (``to_table()`` for the long output table).
 """
@@ -60,10 +64,11 @@ _EXPORTS = {
                    "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
                    "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
     "._settle": ("ChangePriorFit", "SettlementResult", "SettlementSettings", "affine_correction",
-                 "estimate_settlement", "fit_change_prior", "segment_prior_weights"),
+                 "estimate_settlement", "estimate_settlement_from_daily", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
     "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time"),
-    "._thermal": ("DailyAngles", "daily_angles", "first_order_response"),
+    "._thermal": ("DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics", "day_statistics",
+                  "first_order_response"),
 }
 
 
@@ -76,7 +81,7 @@ __all__ = [
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
-    "MaxSettlement",
+    "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

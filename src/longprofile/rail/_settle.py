@@ -31,8 +31,9 @@ from ._rigidity import (
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
 
-__all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit",
-           "day_difference_sigma", "affine_correction", "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights"]
+__all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "estimate_settlement_from_daily",
+           "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit", "day_difference_sigma", "affine_correction",
+           "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights"]
 
 #: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
 #: reference and with the temperature difference from it, :func:`daily_noise_sigma`) or "white" (one std).
@@ -319,12 +320,10 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     return f
 
 
-def _site_temperature_change(site: SiteData, days):
+def _site_temperature_change(daily: DailyAngles):
     """Site-mean daily mean temperature of each day minus the reference day's, °C (0 where unknown)."""
-    r = site.readings
-    t = r.groupby(r["timestamp"].dt.normalize())["temperature_c"].mean()
-    T = t.reindex(pd.DatetimeIndex(days)).to_numpy(float)
-    return np.nan_to_num(T - T[0]) if np.isfinite(T[0]) else np.zeros(len(days))
+    T = np.asarray(daily.temperature_mean_c, float)
+    return np.nan_to_num(T - T[0]) if np.isfinite(T[0]) else np.zeros(len(daily.days))
 
 
 def _noise_groups(sig_d):
@@ -712,11 +711,9 @@ def _check_exclusions(ids, exclude_sensors) -> None:
         raise InputError(f"exclude_sensors: unknown sensor id(s) {unknown[:5]}; known ids are like {ids[:3]}.")
 
 
-def _daily_stage(site: SiteData, opt: SettlementSettings, warnings: list) -> DailyAngles:
-    """Daily angles (§3) with their warnings; at least 2 days."""
-    ids = site.sensor_ids
-    daily = daily_angles(site, thermal=opt.thermal, reference_temp_c=opt.reference_temp_c,
-                         quiet_days=opt.quiet_days)
+def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) -> DailyAngles:
+    """Checks of the daily angles (§3) and their warnings; at least 2 days."""
+    ids = daily.sensor_ids
     D = daily.days.size
     if D < 2:
         raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
@@ -765,7 +762,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     return health, M
 
 
-def _noise_stage(site: SiteData, x, M, days, opt: SettlementSettings):
+def _noise_stage(daily: DailyAngles, x, M, days, opt: SettlementSettings):
     """Slope-change noise: (sigma, sigma of each day, drift model used?, per-sensor factors or None)."""
     D = days.size
     sig = float(opt.sigma) if opt.sigma is not None else day_difference_sigma(M)
@@ -776,7 +773,7 @@ def _noise_stage(site: SiteData, x, M, days, opt: SettlementSettings):
         # days at the reference temperature no noise at all (a floor at the full day-difference sigma made
         # mittersheim-like over-cover: 95.6 %)
         sig_days = daily_noise_sigma(x, M, day_offsets=np.asarray(t_days, float),
-                                     temperature_change=_site_temperature_change(site, days), floor=0.5 * sig)
+                                     temperature_change=_site_temperature_change(daily), floor=0.5 * sig)
         sig = float(np.median(sig_days[1:]))
         factors = sensor_noise_factors(x, M) if opt.sensor_noise else None
     else:
@@ -964,15 +961,43 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
     the paper).
     """
     opt = _resolve_settings(settings, options)
+    _check_exclusions(site.sensor_ids, opt.exclude_sensors)
+    daily = daily_angles(site, thermal=opt.thermal, reference_temp_c=opt.reference_temp_c, quiet_days=opt.quiet_days)
+    return estimate_settlement_from_daily(site, daily, opt)
+
+
+def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings: SettlementSettings | None = None,
+                                   **options) -> SettlementResult:
+    """:func:`estimate_settlement` from daily angles already computed (every stage after §3).
+
+    Parameters
+    ----------
+    site : SiteData
+        Its sensors, survey, controls and warnings are used; its readings are not (they are in ``daily``).
+    daily : DailyAngles
+        Of the same sensors, e.g. :func:`daily_angles` or :func:`daily_angles_from_statistics` on cached
+        per-day statistics (the monitoring service); ``daily.thermal`` must match the settings.
+    settings, **options
+        As :func:`estimate_settlement` (``thermal``, ``reference_temp_c`` and ``quiet_days`` shaped ``daily``).
+
+    Returns
+    -------
+    SettlementResult
+    """
+    opt = _resolve_settings(settings, options)
     warnings = list(site.warnings)
     ids = site.sensor_ids
     x = site.x
     _check_exclusions(ids, opt.exclude_sensors)
-    daily = _daily_stage(site, opt, warnings)
+    if list(daily.sensor_ids) != list(ids) or daily.thermal != opt.thermal:
+        raise InputError("the daily angles are of other sensors or another thermal model than the settings.")
+    if daily.temperature_mean_c is None:
+        raise InputError("the daily angles carry no site-mean daily temperature (temperature_mean_c).")
+    daily = _daily_stage(daily, opt, warnings)
     days = daily.days
     initial, slopes = _slope_changes(site, daily, opt)
     health, M = _health_stage(x, ids, slopes, daily, opt, warnings)
-    sig, sig_days, drift, factors = _noise_stage(site, x, M, days, opt)
+    sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
     prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
                                                                                opt, warnings)
     weights = _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt)

@@ -13,7 +13,7 @@ steps); with ``quiet_days`` only those days are used.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -24,7 +24,8 @@ from ..errors import InputError
 from ..statespace import linear_recursion
 from ._data import SiteData
 
-__all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS"]
+__all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS", "DayStatistics",
+           "day_statistics", "daily_angles_from_statistics", "statistics_window", "MEDIAN_UPDATE_TOLERANCE_DEG"]
 
 THERMAL_MODELS = ("linear", "lagged", "none")
 #: Candidate time constants of the lagged thermal model, hours.
@@ -57,6 +58,8 @@ class DailyAngles:
         Robust within-day spread (1.4826 MAD) of each sensor's raw readings (before outlier removal and
         thermal correction), deg; NaN on days with fewer than 2 readings. A sensor frozen from some day on
         reads the same value all day (the frozen-sensor test of :func:`~longprofile.rail.assess_sensors`).
+    temperature_mean_c : (D,) ndarray or None
+        Site-mean daily temperature (mean of every finite temperature reading of the day), °C.
     noise_deg : (N,) ndarray
         Robust high-frequency noise std of each sensor, deg.
     thermal_coef : (N,) ndarray
@@ -85,6 +88,7 @@ class DailyAngles:
     thermal: str
     warnings: tuple = ()
     raw_day_spread_deg: np.ndarray | None = None
+    temperature_mean_c: np.ndarray | None = None
 
 
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
@@ -142,6 +146,544 @@ def _slice_regression(day, a, T, n_days):
     return slope, resid
 
 
+#: Largest error allowed when a cached day's median of corrected angles is carried to a new thermal coefficient
+#: by its first-order update (:func:`day_statistics` with ``previous``), deg: a tenth of the MEMS resolution
+#: (1e-4 deg, paper 004 §1.3). Beyond it the sensor's days are recomputed from its readings.
+MEDIAN_UPDATE_TOLERANCE_DEG = 1e-5
+#: Per-day fields of :class:`DayStatistics`, (D, N) each, in storage order.
+DAY_FIELDS = ("n_raw", "raw_median_deg", "raw_spread_deg", "hf_q25_deg", "hf_median_deg", "hf_q75_deg", "threshold_deg", "n_outliers",
+              "kept_dev_max_deg", "outlier_dev_min_deg", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
+              "median_temp_c", "temp_range_c", "temperature_sum_c", "n_temperature", "last_ts")
+_INT_FIELDS = ("n_raw", "n_outliers", "n_kept", "n_temperature", "last_ts")
+
+
+@dataclass(frozen=True, eq=False)
+class DayStatistics:
+    """Per (day, sensor) quantities from which :func:`daily_angles_from_statistics` builds :class:`DailyAngles`.
+
+    The per-day stage of :func:`daily_angles` (linear and no thermal model): everything it needs from the
+    readings of one sensor and day, so that a new or revised day is recomputed from its own readings (and the
+    three readings on either side, the running median's window) while the other days come from a cache.
+    Shapes: D days, N sensors (by station). Days without a reading hold n = 0 and NaN.
+
+    Attributes
+    ----------
+    days : (D,) datetime64[ns] ndarray
+    sensor_ids : list of str
+    n_raw : (D, N) int ndarray
+        Readings with a finite angle and temperature.
+    raw_median_deg, raw_spread_deg : (D, N) ndarray
+        Median and robust spread (1.4826 MAD, NaN below 2 readings) of the raw angles, deg.
+    hf_q25_deg, hf_median_deg, hf_q75_deg : (D, N) ndarray
+        Quartiles and median of |angle - 7-sample running median|, deg (the day's share of the noise, §3).
+    threshold_deg : (D, N) ndarray
+        Outlier threshold used (8 robust noise stds), deg.
+    n_outliers : (D, N) int ndarray
+    kept_dev_max_deg, outlier_dev_min_deg : (D, N) ndarray
+        Largest |deviation| kept and smallest set aside, deg (NaN: none): the outlier set is the same for
+        every threshold in [kept_dev_max, outlier_dev_min).
+    n_kept : (D, N) int ndarray
+        Readings kept (after outlier removal).
+    thermal_slope : (D, N) ndarray
+        Least-squares slope of the kept angles on temperature, deg/°C (NaN: fewer than 6 readings or
+        < 0.5 °C of spread, :func:`_slice_regression`).
+    coef_deg_per_c : (D, N) ndarray
+        Thermal coefficient k the median was computed with, deg/°C (the sensor's current k is
+        ``thermal_coef``; they differ on cached days carried over by ``previous``).
+    median_deg : (D, N) ndarray
+        Median of the corrected kept angles a - k (T - T_ref), deg.
+    median_temp_c : (D, N) ndarray
+        Temperature of the median reading(s): d median / dk = -(median_temp_c - T_ref) while the median
+        reading stays the same.
+    temp_range_c : (D, N) ndarray
+        max - min of the kept readings' temperatures, °C: |median(k') - first-order update| <= |k' - k| range.
+    temperature_sum_c, n_temperature : (D, N) ndarray
+        Sum and count of the finite temperatures of all the day's readings (site-mean daily temperature).
+    last_ts : (D, N) int ndarray
+        Newest reading of the day, seconds since 1970 UTC (-1: none).
+    noise_deg, raw_std_deg, thermal_coef : (N,) ndarray
+        Per-sensor values of :class:`DailyAngles`.
+    unfitted : (N,) bool ndarray
+        Sensors left without thermal correction.
+    thermal : str
+    reference_temp_c : float
+    exact : bool
+        True when computed from every reading (``previous=None``); False when the noise and raw spread come
+        from the per-day medians (:func:`day_statistics`, Notes).
+    stale_sensors : tuple of str
+        Sensors whose cached days could not be carried over (``previous``) within the tolerances; the caller
+        recomputes them from all their readings.
+    """
+
+    days: np.ndarray
+    sensor_ids: list
+    n_raw: np.ndarray
+    raw_median_deg: np.ndarray
+    raw_spread_deg: np.ndarray
+    hf_q25_deg: np.ndarray
+    hf_median_deg: np.ndarray
+    hf_q75_deg: np.ndarray
+    threshold_deg: np.ndarray
+    n_outliers: np.ndarray
+    kept_dev_max_deg: np.ndarray
+    outlier_dev_min_deg: np.ndarray
+    n_kept: np.ndarray
+    thermal_slope: np.ndarray
+    coef_deg_per_c: np.ndarray
+    median_deg: np.ndarray
+    median_temp_c: np.ndarray
+    temp_range_c: np.ndarray
+    temperature_sum_c: np.ndarray
+    n_temperature: np.ndarray
+    last_ts: np.ndarray
+    noise_deg: np.ndarray
+    raw_std_deg: np.ndarray
+    thermal_coef: np.ndarray
+    unfitted: np.ndarray
+    thermal: str
+    reference_temp_c: float
+    exact: bool = True
+    stale_sensors: tuple = ()
+
+    def select_days(self, mask) -> "DayStatistics":
+        """The same statistics on the days where ``mask`` (D,) is true."""
+        m = np.asarray(mask, bool)
+        return replace(self, days=self.days[m], **{f: getattr(self, f)[m] for f in DAY_FIELDS})
+
+    def replace_sensors(self, other: "DayStatistics") -> "DayStatistics":
+        """These statistics with the sensors of ``other`` (recomputed from all their readings) put in; the
+        days of ``other`` must be among these days. The result is exact only if both are."""
+        idx = np.searchsorted(self.days, other.days)
+        if np.any(idx >= self.days.size) or np.any(self.days[np.minimum(idx, self.days.size - 1)] != other.days):
+            raise InputError("replace_sensors: the other statistics have days these do not have.")
+        cols = [self.sensor_ids.index(s) for s in other.sensor_ids]
+        new = {}
+        for f in DAY_FIELDS:
+            v = getattr(self, f).copy()
+            empty = _empty_days(self.days.size, len(cols))[f]
+            empty[idx] = getattr(other, f)
+            v[:, cols] = empty
+            new[f] = v
+        per = {}
+        for f in ("noise_deg", "raw_std_deg", "thermal_coef", "unfitted"):
+            v = getattr(self, f).copy()
+            v[cols] = getattr(other, f)
+            per[f] = v
+        return replace(self, **new, **per, exact=self.exact and other.exact,
+                       stale_sensors=tuple(s for s in self.stale_sensors if s not in other.sensor_ids))
+
+
+def statistics_window(previous: DayStatistics, changed_day):
+    """Days to recompute after a change at ``changed_day`` and the readings they need: (first_day, context_day).
+
+    A reading's deviation from its 7-sample running median depends on the 3 readings on either side, so the
+    days from ``first_day`` on are recomputed — per sensor the last day before ``changed_day`` from which it has
+    at least 3 readings up to that day — and the readings from ``context_day`` on (3 more per sensor) are needed.
+    Both are the earliest over the sensors, as datetime64[ns] days.
+    """
+    days = pd.DatetimeIndex(previous.days)
+    c = int(np.searchsorted(days.to_numpy(), pd.Timestamp(changed_day).normalize().to_datetime64()))
+
+    def back(stop):
+        if stop <= 0:
+            return 0
+        n = previous.n_raw[:stop][::-1].cumsum(axis=0)  # readings from day stop-1-i up to stop-1
+        enough = n >= 3
+        first = np.where(enough.any(axis=0), stop - 1 - enough.argmax(axis=0), 0)
+        return int(first.min()) if first.size else 0
+
+    def at(i):
+        return days[i].to_datetime64() if i < days.size else pd.Timestamp(changed_day).normalize().to_datetime64()
+
+    f = back(c)
+    return at(f), at(back(f))
+
+
+def _empty_days(D: int, N: int) -> dict:
+    out = {f: np.full((D, N), np.nan) for f in DAY_FIELDS}
+    out["temperature_sum_c"][:] = 0.0
+    for f in _INT_FIELDS:
+        out[f] = np.zeros((D, N), dtype=np.int64)
+    out["last_ts"][:] = -1
+    return out
+
+
+def _group_median(day, v, D, *, weights_of=None):
+    """Median of ``v`` per day index (NaN on empty days) and, optionally, the mean of ``weights_of`` at the
+    median element(s). Same value as ``np.median`` per group (mean of the two middle values)."""
+    order = np.lexsort((v, day))
+    vs, ds = v[order], day[order]
+    n = np.bincount(ds, minlength=D)
+    start = np.concatenate([[0], np.cumsum(n)[:-1]])
+    has = n > 0
+    lo = np.where(has, start + (n - 1) // 2, 0)
+    hi = np.where(has, start + n // 2, 0)
+    med = np.full(D, np.nan)
+    if vs.size:
+        med[has] = (vs[lo[has]] + vs[hi[has]]) / 2
+    if weights_of is None:
+        return med
+    at = np.full(D, np.nan)
+    if vs.size:
+        ws = weights_of[order]
+        at[has] = (ws[lo[has]] + ws[hi[has]]) / 2
+    return med, at
+
+
+def _group_quartiles(day, v, D):
+    """Lower quartile, median and upper quartile of ``v`` per day index (linear interpolation, as np.quantile)."""
+    order = np.lexsort((v, day))
+    vs = v[order]
+    n = np.bincount(day, minlength=D)
+    start = np.concatenate([[0], np.cumsum(n)[:-1]])
+    out = []
+    for q in (0.25, 0.5, 0.75):
+        res = np.full(D, np.nan)
+        has = n > 0
+        pos = q * (n[has] - 1)
+        lo = np.floor(pos).astype(np.int64)
+        frac = pos - lo
+        hi = np.minimum(lo + 1, n[has] - 1)
+        a, b = vs[start[has] + lo], vs[start[has] + hi]
+        res[has] = (a + b) / 2 if q == 0.5 else a + frac * (b - a)
+        out.append(res)
+    return out
+
+
+def _mixture_median(q25, q50, q75, n) -> float:
+    """Median of the union of the days' values, each day's distribution taken piecewise linear through its
+    quartiles (0 at 0, 1/4, 1/2, 3/4 at the quartiles, 1 at q75 + 2 (q75 - q50)): the noise of the incremental
+    path (:func:`day_statistics`, Notes)."""
+    ok = np.isfinite(q50) & (n > 0)
+    if not ok.any():
+        return np.nan
+    q25, q50, q75, w = q25[ok], q50[ok], q75[ok], n[ok].astype(float)
+    top = q75 + 2.0 * (q75 - q50)
+    xs = np.stack([np.zeros_like(q50), q25, q50, q75, top], axis=1)
+    ps = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+
+    def cdf(x):
+        tot = 0.0
+        for i in range(4):
+            x0, x1 = xs[:, i], xs[:, i + 1]
+            wid = x1 - x0
+            with np.errstate(invalid="ignore", divide="ignore"):
+                f = np.where(wid > 0, np.clip((x - x0) / np.where(wid > 0, wid, 1.0), 0, 1), (x >= x1) * 1.0)
+            tot += float(np.sum(w * f)) * (ps[i + 1] - ps[i])
+        return tot / w.sum()
+
+    lo, hi = float(np.min(q25)), float(np.max(q75))
+    if not hi > lo:
+        return float(np.median(q50))
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if cdf(mid) < 0.5 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def _weighted_median(v, w) -> float:
+    """Median of the values ``v`` each counted ``w`` times (NaN and zero weights ignored)."""
+    ok = np.isfinite(v) & (w > 0)
+    if not ok.any():
+        return np.nan
+    v, w = v[ok], w[ok]
+    o = np.argsort(v, kind="stable")
+    c = np.cumsum(w[o])
+    half = c[-1] / 2.0
+    i = int(np.searchsorted(c, half))
+    if c[i] == half and i + 1 < v.size:  # even total: mean of the two middle values, as np.median
+        return float((v[o][i] + v[o][i + 1]) / 2)
+    return float(v[o][i])
+
+
+def _sensor_days(a, T, dev, day, D, *, threshold, tref, coef_of):
+    """Per-day statistics of one sensor's readings (time order) on day indices ``day`` (>= 0; context rows,
+    only in the running median, are dropped before). ``coef_of(slope, n_kept) -> (k, fitted)``."""
+    out = {}
+    out["n_raw"] = np.bincount(day, minlength=D)
+    raw_med = _group_median(day, a, D)
+    out["raw_median_deg"] = raw_med
+    spread = 1.4826 * _group_median(day, np.abs(a - raw_med[day]), D)
+    out["raw_spread_deg"] = np.where(out["n_raw"] >= 2, spread, np.nan)
+    ad = np.abs(dev)
+    out["hf_q25_deg"], out["hf_median_deg"], out["hf_q75_deg"] = _group_quartiles(day, ad, D)
+    out["threshold_deg"] = np.where(out["n_raw"] > 0, threshold, np.nan)
+    keep = ad <= threshold
+    out["n_outliers"] = np.bincount(day[~keep], minlength=D)
+    kmax = np.full(D, -np.inf)
+    np.maximum.at(kmax, day[keep], ad[keep])
+    omin = np.full(D, np.inf)
+    np.minimum.at(omin, day[~keep], ad[~keep])
+    out["kept_dev_max_deg"] = np.where(np.isfinite(kmax), kmax, np.nan)
+    out["outlier_dev_min_deg"] = np.where(np.isfinite(omin), omin, np.nan)
+    a, T, day = a[keep], T[keep], day[keep]
+    out["n_kept"] = np.bincount(day, minlength=D)
+    slope, _ = _slice_regression(day, a, T, D)
+    out["thermal_slope"] = slope
+    k, fitted = coef_of(slope, out["n_kept"])
+    out["coef_deg_per_c"] = np.where(out["n_raw"] > 0, k, np.nan)
+    med, Tm = _group_median(day, a - k * (T - tref), D, weights_of=T)
+    out["median_deg"], out["median_temp_c"] = med, Tm
+    tmax = np.full(D, -np.inf)
+    np.maximum.at(tmax, day, T)
+    tmin = np.full(D, np.inf)
+    np.minimum.at(tmin, day, T)
+    out["temp_range_c"] = np.where(out["n_kept"] > 0, tmax - tmin, np.nan)
+    return out, k, fitted
+
+
+def _coef_rule(thermal, quiet_mask):
+    """k of a sensor from its per-day slopes (paper §3: the median over 24 h slices; only quiet days if given)."""
+    def coef_of(slope, n_kept):
+        if thermal == "none":
+            return 0.0, True
+        use = np.ones(slope.size, bool) if quiet_mask is None else quiet_mask
+        if n_kept[use].sum() > 12 and np.isfinite(slope[use]).any():
+            return float(np.nanmedian(slope[use])), True
+        return 0.0, False
+    return coef_of
+
+
+def _approx_noise(fields, j, stop=None, new=None) -> float:
+    """1.4826 x the median |deviation| of a sensor over its days, from the days' quartiles (incremental path)."""
+    cols = [fields[f][:stop, j] for f in ("hf_q25_deg", "hf_median_deg", "hf_q75_deg", "n_raw")]
+    if new is not None:
+        cols = [np.concatenate([c, v]) for c, v in zip(cols, new)]
+    return 1.4826 * _mixture_median(*cols)
+
+
+def _approx_raw_std(raw_median, raw_spread, n_raw) -> float:
+    centre = _weighted_median(raw_median, n_raw)
+    return max(_weighted_median(raw_spread, n_raw), 1.4826 * _weighted_median(np.abs(raw_median - centre), n_raw))
+
+
+def _quiet_mask(days: pd.DatetimeIndex, quiet_days):
+    if quiet_days is None:
+        return None
+    try:
+        quiet = set(pd.DatetimeIndex(pd.to_datetime(list(quiet_days))).normalize())
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"quiet_days must be dates like 2019-11-18; {exc}") from None
+    if not quiet:
+        raise InputError("quiet_days is empty; give at least one day without works, or None.")
+    return np.asarray(days.isin(list(quiet)))
+
+
+def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear", reference_temp_c: float = 5.0,
+                   quiet_days=None, first_day=None, previous: DayStatistics | None = None) -> DayStatistics:
+    r"""Per (day, sensor) statistics of :func:`daily_angles` (its per-day stage; linear or no thermal model).
+
+    Parameters
+    ----------
+    readings : DataFrame
+        ``timestamp`` (datetime64, UTC), ``sensor_id``, ``angle_deg``, ``temperature_c``, each sensor's rows
+        in time order (``SiteData.readings``); readings before ``first_day`` only feed the running median.
+    sensor_ids : list of str
+        Sensors by station.
+    thermal : {"linear", "none"}
+    reference_temp_c : float
+        T_ref, °C.
+    quiet_days : sequence of dates, optional
+        Days without works for the thermal fit.
+    first_day : date, optional
+        With ``previous``: the first day recomputed from ``readings``; earlier days come from ``previous``.
+    previous : DayStatistics, optional
+        Statistics of the earlier days (a cache), same sensors, thermal model and T_ref.
+
+    Returns
+    -------
+    DayStatistics
+        Every day: ``previous`` before ``first_day``, the readings' days from it on.
+
+    Notes
+    -----
+    Without ``previous`` the result is exact: the noise std (median |deviation| over all readings) and the raw
+    spread (MAD of all raw angles) come from every reading, as in paper 004 §3. With ``previous`` they are
+    estimated from the per-day values (assumption, docs/rail-service.md): the noise as 1.4826 times the
+    count-weighted median of the days' median |deviation|, the raw spread as the larger of the weighted median
+    of the within-day spreads and the robust spread of the daily medians. The thermal coefficient is exact in
+    both cases (the median of the per-day slopes). A cached day is carried over when its outlier set is the
+    same under the new threshold (``kept_dev_max <= threshold < outlier_dev_min``) and its median moves to the
+    new k by the first-order update m(k') = m(k) - (k' - k)(T_m - T_ref), whose error is at most
+    |k' - k| * temp_range <= :data:`MEDIAN_UPDATE_TOLERANCE_DEG`; other sensors are listed in ``stale_sensors``.
+    """
+    if thermal not in ("linear", "none"):
+        raise InputError(f"day_statistics supports thermal='linear' or 'none'; got {thermal!r} (the lagged model "
+                         "fits its lag on the whole record: use daily_angles).")
+    if (previous is None) != (first_day is None):
+        raise InputError("day_statistics: give first_day and previous together (or neither).")
+    ids = list(sensor_ids)
+    N = len(ids)
+    ts = pd.to_datetime(readings["timestamp"])
+    day_all = ts.dt.normalize()
+    if previous is not None:
+        if list(previous.sensor_ids) != ids or previous.thermal != thermal \
+                or previous.reference_temp_c != float(reference_temp_c):
+            raise InputError("day_statistics: previous statistics are of other sensors, thermal model or T_ref.")
+        first = pd.Timestamp(first_day).normalize()
+        prev = previous.select_days(pd.DatetimeIndex(previous.days) < first)
+        new_days = pd.DatetimeIndex(np.sort(day_all[day_all >= first].unique()))
+        days = pd.DatetimeIndex(np.concatenate([pd.DatetimeIndex(prev.days).to_numpy(), new_days.to_numpy()]))
+        P = prev.days.size
+    else:
+        first, prev, P = None, None, 0
+        days = pd.DatetimeIndex(np.sort(day_all.unique()))
+    D = len(days)
+    if D == 0:
+        raise InputError("the readings table is empty.")
+    quiet_mask = _quiet_mask(days, quiet_days)
+    coef_rule = _coef_rule(thermal, quiet_mask)
+    fields = _empty_days(D, N)
+    if prev is not None:
+        for f in DAY_FIELDS:
+            fields[f][:P] = getattr(prev, f)
+    noise, rawstd, coef = np.full(N, np.nan), np.zeros(N), np.zeros(N)
+    unfitted = np.zeros(N, bool)
+    stale = []
+    tref = float(reference_temp_c)
+    dnum = np.searchsorted(days.to_numpy(), day_all.to_numpy())
+    tsec = ts.to_numpy().astype("datetime64[s]").astype(np.int64)
+    positions = pd.Series(np.arange(len(readings))).groupby(readings["sensor_id"].to_numpy(), sort=False).indices
+    ang_all = readings["angle_deg"].to_numpy(float)
+    tmp_all = readings["temperature_c"].to_numpy(float)
+    for j, sid in enumerate(ids):
+        rows = positions.get(sid)
+        if rows is None or rows.size == 0:
+            if prev is not None:
+                _carry_over(fields, j, P, D, prev, coef_rule, tref, stale, sid, noise, rawstd, coef, unfitted)
+            continue
+        dj, Tj_all = dnum[rows], tmp_all[rows]
+        inwin = day_all.to_numpy()[rows] >= first.to_datetime64() if first is not None else np.ones(rows.size, bool)
+        tfin = np.isfinite(Tj_all) & inwin
+        fields["temperature_sum_c"][:, j] = np.where(np.arange(D) >= P, 0.0, fields["temperature_sum_c"][:, j])
+        fields["n_temperature"][:, j] = np.where(np.arange(D) >= P, 0, fields["n_temperature"][:, j])
+        np.add.at(fields["temperature_sum_c"][:, j], dj[tfin], Tj_all[tfin])
+        np.add.at(fields["n_temperature"][:, j], dj[tfin], 1)
+        fin = np.isfinite(ang_all[rows]) & np.isfinite(Tj_all)
+        a, T, d, w, t = ang_all[rows][fin], Tj_all[fin], dj[fin], inwin[fin], tsec[rows][fin]
+        if a.size == 0:
+            if prev is not None:
+                _carry_over(fields, j, P, D, prev, coef_rule, tref, stale, sid, noise, rawstd, coef, unfitted)
+            continue
+        med = median_filter(a, size=7, mode="nearest") if a.size >= 7 else np.full_like(a, np.median(a))
+        dev = a - med
+        a, T, d, dev, t = a[w], T[w], d[w], dev[w], t[w]
+        if prev is None:
+            s_hf = 1.4826 * np.median(np.abs(dev)) if dev.size else np.nan
+            rawstd[j] = 1.4826 * np.median(np.abs(a - np.median(a))) if a.size else 0.0
+            base = None
+        else:
+            base = {f: fields[f][:P, j] for f in DAY_FIELDS}
+        loc = d - P
+        Dn = D - P
+
+        def coef_of(slope_new, n_kept_new, j=j, base=base):
+            if base is None:
+                return coef_rule(slope_new, n_kept_new)
+            return coef_rule(np.concatenate([base["thermal_slope"], slope_new]),
+                             np.concatenate([base["n_kept"], n_kept_new]))
+
+        if prev is not None:
+            s_hf = _approx_noise(fields, j, P, new=(*_group_quartiles(loc, np.abs(dev), Dn),
+                                                    np.bincount(loc, minlength=Dn)))
+        thr = OUTLIER_THRESHOLD * max(s_hf if np.isfinite(s_hf) else 0.0, 1e-4)
+        st, k, fitted = _sensor_days(a, T, dev, loc, Dn, threshold=thr, tref=tref, coef_of=coef_of)
+        for f, v in st.items():
+            fields[f][P:, j] = v
+        lt = np.full(Dn, -1, dtype=np.int64)
+        np.maximum.at(lt, loc, t)
+        fields["last_ts"][P:, j] = lt
+        noise[j], coef[j], unfitted[j] = s_hf, k, not fitted
+        if prev is not None:
+            rawstd[j] = _approx_raw_std(fields["raw_median_deg"][:, j], fields["raw_spread_deg"][:, j],
+                                        fields["n_raw"][:, j])
+            if not _update_cached(fields, j, P, thr, k):
+                stale.append(sid)
+    return DayStatistics(days=days.to_numpy(), sensor_ids=ids, **fields, noise_deg=noise, raw_std_deg=rawstd,
+                         thermal_coef=coef, unfitted=unfitted, thermal=thermal, reference_temp_c=tref,
+                         exact=prev is None, stale_sensors=tuple(stale))
+
+
+def _carry_over(fields, j, P, D, prev, coef_rule, tref, stale, sid, noise, rawstd, coef, unfitted):
+    """A sensor without readings in the recomputed window: its cached days with the new site-wide parameters."""
+    fields["temperature_sum_c"][P:, j] = 0.0
+    fields["n_temperature"][P:, j] = 0
+    n = fields["n_raw"][:P, j]
+    if n.sum() == 0:
+        return
+    s_hf = _approx_noise(fields, j, P)
+    thr = OUTLIER_THRESHOLD * max(s_hf if np.isfinite(s_hf) else 0.0, 1e-4)
+    slope = np.concatenate([fields["thermal_slope"][:P, j], np.full(D - P, np.nan)])
+    k, fitted = coef_rule(slope, np.concatenate([fields["n_kept"][:P, j], np.zeros(D - P, np.int64)]))
+    noise[j], coef[j], unfitted[j] = s_hf, k, not fitted
+    rawstd[j] = _approx_raw_std(fields["raw_median_deg"][:, j], fields["raw_spread_deg"][:, j], fields["n_raw"][:, j])
+    if not _update_cached(fields, j, P, thr, k):
+        stale.append(sid)
+
+
+def _update_cached(fields, j, P, thr, k) -> bool:
+    """Carry sensor j's cached days (< P) to threshold ``thr`` and coefficient ``k``; False when not exact enough.
+
+    The outlier set must be the same under ``thr``, and the first-order update of each median from the k it was
+    computed with (:func:`daily_angles_from_statistics`) must be within :data:`MEDIAN_UPDATE_TOLERANCE_DEG`.
+    """
+    if P == 0:
+        return True
+    has = fields["n_raw"][:P, j] > 0
+    kmax, omin = fields["kept_dev_max_deg"][:P, j], fields["outlier_dev_min_deg"][:P, j]
+    same_set = (np.isnan(kmax) | (kmax <= thr)) & (np.isnan(omin) | (thr < omin))
+    err = np.abs(k - fields["coef_deg_per_c"][:P, j]) * np.nan_to_num(fields["temp_range_c"][:P, j])
+    if not np.all(same_set[has]) or np.any(err[has] > MEDIAN_UPDATE_TOLERANCE_DEG):
+        return False
+    fields["threshold_deg"][:P, j] = np.where(has, thr, np.nan)
+    return True
+
+
+def daily_angles_from_statistics(stats: DayStatistics) -> DailyAngles:
+    """The combine stage of :func:`daily_angles`: :class:`DailyAngles` from per-day statistics.
+
+    Parameters
+    ----------
+    stats : DayStatistics
+        From :func:`day_statistics` (with no ``stale_sensors``).
+
+    Returns
+    -------
+    DailyAngles
+        ``temperature_mean_c`` is the site-mean daily temperature (all sensors' readings of the day).
+    """
+    if stats.stale_sensors:
+        raise InputError(f"day statistics of sensor(s) {list(stats.stale_sensors)[:5]} are stale: recompute them "
+                         "from their readings (day_statistics without previous).")
+    # each median was computed with k = coef_deg_per_c; carried to the sensor's k by the first-order update
+    # m(k') = m(k) - (k' - k)(T_m - T_ref) (exact while the median reading stays the same; error bound in
+    # day_statistics); a no-op (k' = k) on statistics computed from all readings
+    dk = stats.thermal_coef[None, :] - stats.coef_deg_per_c
+    angle = np.where(stats.n_kept > 0, stats.median_deg - np.where(dk != 0, dk, 0.0)
+                     * (stats.median_temp_c - stats.reference_temp_c), np.nan)
+    change = np.full_like(angle, np.nan)
+    for j in range(angle.shape[1]):
+        ok = np.nonzero(np.isfinite(angle[:, j]))[0]
+        if ok.size:
+            change[:, j] = angle[:, j] - angle[ok[0], j]
+    nt = stats.n_temperature.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tmean = np.where(nt > 0, stats.temperature_sum_c.sum(axis=1) / np.maximum(nt, 1), np.nan)
+    unfitted = [s for s, u in zip(stats.sensor_ids, stats.unfitted) if u]
+    return DailyAngles(days=stats.days, sensor_ids=list(stats.sensor_ids), angle_deg=angle, change_deg=change,
+                       n_readings=stats.n_kept.astype(int), n_outliers=stats.n_outliers.sum(axis=0).astype(int),
+                       raw_std_deg=stats.raw_std_deg, raw_day_spread_deg=stats.raw_spread_deg,
+                       noise_deg=stats.noise_deg, thermal_coef=stats.thermal_coef,
+                       thermal_lag_hours=np.zeros(len(stats.sensor_ids)), reference_temp_c=stats.reference_temp_c,
+                       thermal=stats.thermal, warnings=_unfitted_warning(unfitted), temperature_mean_c=tmean)
+
+
+def _unfitted_warning(unfitted) -> tuple:
+    return tuple([f"no thermal correction for {len(unfitted)} sensor(s) {unfitted[:5]}: too few "
+                  "readings (or < 0.5 °C of temperature spread within a day) on the days used "
+                  "for the fit"] if unfitted else [])
+
+
 def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: float = 5.0,
                  quiet_days=None) -> DailyAngles:
     """Outlier removal, thermal correction and daily medians of every sensor's angle (paper 004 §3).
@@ -161,9 +703,21 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     Returns
     -------
     DailyAngles
+
+    Notes
+    -----
+    The linear and no-thermal models run in two stages shared with the monitoring service: the per-day stage
+    :func:`day_statistics` and the combine stage :func:`daily_angles_from_statistics`. The lagged model fits
+    its lag over the whole record and runs here in one piece.
     """
     if thermal not in THERMAL_MODELS:
         raise InputError(f"thermal must be one of {THERMAL_MODELS}; got {thermal!r}.")
+    if thermal != "lagged":
+        if len(site.readings) == 0:
+            raise InputError("the readings table is empty.")
+        return daily_angles_from_statistics(day_statistics(site.readings, site.sensor_ids, thermal=thermal,
+                                                           reference_temp_c=reference_temp_c,
+                                                           quiet_days=quiet_days))
     r = site.readings
     ids = site.sensor_ids
     N = len(ids)
@@ -172,16 +726,9 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     if len(days) == 0:
         raise InputError("the readings table is empty.")
     D = len(days)
-    quiet = None
-    if quiet_days is not None:
-        try:
-            quiet = set(pd.DatetimeIndex(pd.to_datetime(list(quiet_days))).normalize())
-        except (ValueError, TypeError) as exc:
-            raise InputError(f"quiet_days must be dates like 2019-11-18; {exc}") from None
-        if not quiet:
-            raise InputError("quiet_days is empty; give at least one day without works, or None.")
+    quiet_mask = _quiet_mask(days, quiet_days)
+    quiet = quiet_mask
     t0 = days[0]
-    quiet_mask = None if quiet is None else np.asarray(days.isin(list(quiet)))
     unfitted = []
     angle = np.full((D, N), np.nan)
     nread = np.zeros((D, N), dtype=int)
@@ -243,10 +790,9 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         ok = np.nonzero(np.isfinite(angle[:, j]))[0]
         if ok.size:
             change[:, j] = angle[:, j] - angle[ok[0], j]
-    return DailyAngles(days=days.to_numpy(), sensor_ids=list(ids), angle_deg=angle, change_deg=change,
+    tm = r.groupby(dates)["temperature_c"].mean().reindex(days).to_numpy(float)
+    return DailyAngles(temperature_mean_c=tm, days=days.to_numpy(), sensor_ids=list(ids), angle_deg=angle, change_deg=change,
                        n_readings=nread, n_outliers=nout, raw_std_deg=rawstd, raw_day_spread_deg=dayspread,
                        noise_deg=noise, thermal_coef=coef,
                        thermal_lag_hours=lag, reference_temp_c=float(reference_temp_c), thermal=thermal,
-                       warnings=tuple([f"no thermal correction for {len(unfitted)} sensor(s) {unfitted[:5]}: too few "
-                                       "readings (or < 0.5 °C of temperature spread within a day) on the days used "
-                                       "for the fit"] if unfitted else []))
+                       warnings=_unfitted_warning(unfitted))

@@ -1,0 +1,131 @@
+"""Per-day statistics of daily_angles (the cache of the monitoring service): carried over a new day, a late
+reading or a revision, they give the daily angles of a full recomputation (docs/rail-service.md)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError
+from longprofile.rail import (
+    daily_angles,
+    daily_angles_from_statistics,
+    day_statistics,
+    estimate_settlement,
+    simulate_site,
+    validate_site,
+)
+from longprofile.rail._settle import estimate_settlement_from_daily
+from longprofile.rail._thermal import MEDIAN_UPDATE_TOLERANCE_DEG, statistics_window
+
+
+@pytest.fixture(scope="module")
+def site():
+    syn = simulate_site("mittersheim-like", seed=2, sampling_minutes=30, n_days=10)
+    return validate_site(syn.sensors, syn.readings, syn.survey)
+
+
+def _incremental(readings, ids, previous, changed, **kw):
+    """What the service does: recompute from the window of the change, rebuild stale sensors from all readings."""
+    first, ctx = statistics_window(previous, changed)
+    win = readings[readings["timestamp"] >= ctx]
+    stats = day_statistics(win, ids, first_day=first, previous=previous, **kw)
+    if stats.stale_sensors:
+        stale = [s for s in ids if s in stats.stale_sensors]
+        stats = stats.replace_sensors(day_statistics(readings[readings["sensor_id"].isin(stale)], stale, **kw))
+    return stats
+
+
+def _assert_close(inc, full):
+    a, b = daily_angles_from_statistics(inc), daily_angles_from_statistics(full)
+    assert np.array_equal(a.days, b.days)
+    np.testing.assert_array_equal(a.n_readings, b.n_readings)
+    np.testing.assert_array_equal(a.n_outliers, b.n_outliers)
+    np.testing.assert_array_equal(np.isnan(a.angle_deg), np.isnan(b.angle_deg))
+    assert np.nanmax(np.abs(a.angle_deg - b.angle_deg)) <= MEDIAN_UPDATE_TOLERANCE_DEG + 1e-12
+    np.testing.assert_allclose(a.thermal_coef, b.thermal_coef, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.raw_day_spread_deg, b.raw_day_spread_deg, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(a.temperature_mean_c, b.temperature_mean_c, rtol=1e-12)
+    # approximation of the incremental path (assumption in docs/rail-service.md): within 25 % (seen: 18 %)
+    np.testing.assert_allclose(a.noise_deg, b.noise_deg, rtol=0.25)
+    assert not inc.exact and full.exact
+
+
+def test_the_full_statistics_are_daily_angles(site):
+    full = day_statistics(site.readings, site.sensor_ids)
+    a, b = daily_angles_from_statistics(full), daily_angles(site)
+    for f in ("angle_deg", "change_deg", "n_readings", "n_outliers", "raw_std_deg", "noise_deg", "thermal_coef"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    with pytest.raises(InputError, match="lagged"):
+        day_statistics(site.readings, site.sensor_ids, thermal="lagged")
+    with pytest.raises(InputError, match="together"):
+        day_statistics(site.readings, site.sensor_ids, first_day="2019-11-20")
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(split=st.integers(2, 9), revise=st.integers(0, 9), thermal=st.sampled_from(["linear", "none"]),
+       quiet=st.booleans(), seed=st.integers(0, 2**31))
+def test_a_new_day_a_late_reading_or_a_revision_gives_the_full_result(site, split, revise, thermal, quiet, seed):
+    r = site.readings
+    days = np.sort(r["timestamp"].dt.normalize().unique())
+    kw = {"thermal": thermal, "quiet_days": list(days[:4]) if quiet else None}
+    before = r[r["timestamp"] < days[split]]
+    prev = day_statistics(before, site.sensor_ids, **kw)
+    # the data grow by one day, and one stored reading of an earlier (or the same) day is revised
+    after = r[r["timestamp"] < days[split] + np.timedelta64(1, "D")].copy()
+    rng = np.random.default_rng(seed)
+    day_of = after["timestamp"].dt.normalize().to_numpy()
+    target = min(revise, split)
+    rows = np.nonzero(day_of == days[target])[0]
+    i = after.index[rng.choice(rows)]
+    after.loc[i, "angle_deg"] += rng.normal(0, 0.01)
+    after.loc[i, "temperature_c"] += rng.normal(0, 1.0)
+    changed = min(days[split], days[target])
+    inc = _incremental(after, site.sensor_ids, prev, changed, **kw)
+    _assert_close(inc, day_statistics(after, site.sensor_ids, **kw))
+
+
+def test_a_stale_cache_is_found_and_rebuilt(site):
+    """A revision that moves the thermal coefficient far: the carried medians would be off, so the sensor is
+    listed stale, and after its rebuild the result is the full one."""
+    r = site.readings
+    days = np.sort(r["timestamp"].dt.normalize().unique())
+    prev = day_statistics(r[r["timestamp"] < days[-1]], site.sensor_ids)
+    sid = site.sensor_ids[3]
+    after = r.copy()
+    on = (after["sensor_id"] == sid) & (after["timestamp"] >= days[-1])
+    after.loc[on, "angle_deg"] += 0.05 * (after.loc[on, "temperature_c"] - 5.0)  # a day with another thermal slope
+    first, ctx = statistics_window(prev, days[-1])
+    inc = day_statistics(after[after["timestamp"] >= ctx], site.sensor_ids, first_day=first, previous=prev)
+    assert sid in inc.stale_sensors
+    with pytest.raises(InputError, match="stale"):
+        daily_angles_from_statistics(inc)
+    _assert_close(_incremental(after, site.sensor_ids, prev, days[-1]),
+                  day_statistics(after, site.sensor_ids))
+
+
+def test_statistics_window_reaches_three_readings_back(site):
+    r = site.readings
+    days = np.sort(r["timestamp"].dt.normalize().unique())
+    prev = day_statistics(r, site.sensor_ids)
+    first, ctx = statistics_window(prev, days[5])
+    assert first == days[4] and ctx == days[3]  # 48 readings a day: one day back for each
+    # a sensor with a single reading on day 4: its 3 readings before day 5 start on day 3
+    sid = site.sensor_ids[0]
+    keep = ~((r["sensor_id"] == sid) & (r["timestamp"].dt.normalize() == days[4])) | (
+        r.index == r[(r["sensor_id"] == sid) & (r["timestamp"].dt.normalize() == days[4])].index[0])
+    first, ctx = statistics_window(day_statistics(r[keep], site.sensor_ids), days[5])
+    assert first == days[3] and ctx == days[2]
+
+
+def test_settlement_from_the_statistics_equals_estimate_settlement(site):
+    res = estimate_settlement(site, n_monte_carlo=0)
+    again = estimate_settlement_from_daily(site, daily_angles_from_statistics(
+        day_statistics(site.readings, site.sensor_ids)), n_monte_carlo=0)
+    np.testing.assert_array_equal(res.dz, again.dz)
+    np.testing.assert_array_equal(res.dz_std, again.dz_std)
+    assert list(res.health.status) == list(again.health.status)
+    with pytest.raises(InputError, match="thermal model"):
+        estimate_settlement_from_daily(site, res.daily, thermal="none")
+    assert isinstance(res.to_table(), pd.DataFrame)
