@@ -25,7 +25,8 @@ from ..statespace import linear_recursion
 from ._data import SiteData
 
 __all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS", "DayStatistics",
-           "day_statistics", "daily_angles_from_statistics", "statistics_window", "MEDIAN_UPDATE_TOLERANCE_DEG"]
+           "day_statistics", "daily_angles_from_statistics", "statistics_window", "MEDIAN_UPDATE_TOLERANCE_DEG",
+           "NOISE_QUANTILE_TOLERANCE"]
 
 THERMAL_MODELS = ("linear", "lagged", "none")
 #: Candidate time constants of the lagged thermal model, hours.
@@ -151,10 +152,13 @@ def _slice_regression(day, a, T, n_days):
 #: (1e-4 deg, paper 004 §1.3). Beyond it the sensor's days are recomputed from its readings.
 MEDIAN_UPDATE_TOLERANCE_DEG = 1e-5
 #: Per-day fields of :class:`DayStatistics`, (D, N) each, in storage order.
-DAY_FIELDS = ("n_raw", "raw_median_deg", "raw_spread_deg", "hf_q25_deg", "hf_median_deg", "hf_q75_deg", "threshold_deg", "n_outliers",
-              "kept_dev_max_deg", "outlier_dev_min_deg", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
+#: A cached sensor keeps its noise std (the outlier threshold) while the fraction of all its readings with
+#: |deviation| below / at most noise / 1.4826 stays within 0.5 +- this (:func:`day_statistics`, Notes).
+NOISE_QUANTILE_TOLERANCE = 0.01
+DAY_FIELDS = ("n_raw", "raw_median_deg", "raw_spread_deg", "noise_used_deg", "n_dev_below", "n_dev_at_most",
+              "n_outliers", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
               "median_temp_c", "temp_range_c", "temperature_sum_c", "n_temperature", "last_ts")
-_INT_FIELDS = ("n_raw", "n_outliers", "n_kept", "n_temperature", "last_ts")
+_INT_FIELDS = ("n_raw", "n_dev_below", "n_dev_at_most", "n_outliers", "n_kept", "n_temperature", "last_ts")
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,14 +178,13 @@ class DayStatistics:
         Readings with a finite angle and temperature.
     raw_median_deg, raw_spread_deg : (D, N) ndarray
         Median and robust spread (1.4826 MAD, NaN below 2 readings) of the raw angles, deg.
-    hf_q25_deg, hf_median_deg, hf_q75_deg : (D, N) ndarray
-        Quartiles and median of |angle - 7-sample running median|, deg (the day's share of the noise, §3).
-    threshold_deg : (D, N) ndarray
-        Outlier threshold used (8 robust noise stds), deg.
+    noise_used_deg : (D, N) ndarray
+        Robust noise std s of the sensor the day was computed with (1.4826 median |angle - 7-sample running
+        median| over the sensor's readings, §3), deg; the outlier threshold is 8 max(s, 1e-4).
+    n_dev_below, n_dev_at_most : (D, N) int ndarray
+        Readings with |deviation| < s / 1.4826 and <= s / 1.4826: summed over the days, they tell whether s is
+        still the median of all the sensor's readings (exactly, without the readings).
     n_outliers : (D, N) int ndarray
-    kept_dev_max_deg, outlier_dev_min_deg : (D, N) ndarray
-        Largest |deviation| kept and smallest set aside, deg (NaN: none): the outlier set is the same for
-        every threshold in [kept_dev_max, outlier_dev_min).
     n_kept : (D, N) int ndarray
         Readings kept (after outlier removal).
     thermal_slope : (D, N) ndarray
@@ -220,13 +223,10 @@ class DayStatistics:
     n_raw: np.ndarray
     raw_median_deg: np.ndarray
     raw_spread_deg: np.ndarray
-    hf_q25_deg: np.ndarray
-    hf_median_deg: np.ndarray
-    hf_q75_deg: np.ndarray
-    threshold_deg: np.ndarray
+    noise_used_deg: np.ndarray
+    n_dev_below: np.ndarray
+    n_dev_at_most: np.ndarray
     n_outliers: np.ndarray
-    kept_dev_max_deg: np.ndarray
-    outlier_dev_min_deg: np.ndarray
     n_kept: np.ndarray
     thermal_slope: np.ndarray
     coef_deg_per_c: np.ndarray
@@ -330,57 +330,6 @@ def _group_median(day, v, D, *, weights_of=None):
     return med, at
 
 
-def _group_quartiles(day, v, D):
-    """Lower quartile, median and upper quartile of ``v`` per day index (linear interpolation, as np.quantile)."""
-    order = np.lexsort((v, day))
-    vs = v[order]
-    n = np.bincount(day, minlength=D)
-    start = np.concatenate([[0], np.cumsum(n)[:-1]])
-    out = []
-    for q in (0.25, 0.5, 0.75):
-        res = np.full(D, np.nan)
-        has = n > 0
-        pos = q * (n[has] - 1)
-        lo = np.floor(pos).astype(np.int64)
-        frac = pos - lo
-        hi = np.minimum(lo + 1, n[has] - 1)
-        a, b = vs[start[has] + lo], vs[start[has] + hi]
-        res[has] = (a + b) / 2 if q == 0.5 else a + frac * (b - a)
-        out.append(res)
-    return out
-
-
-def _mixture_median(q25, q50, q75, n) -> float:
-    """Median of the union of the days' values, each day's distribution taken piecewise linear through its
-    quartiles (0 at 0, 1/4, 1/2, 3/4 at the quartiles, 1 at q75 + 2 (q75 - q50)): the noise of the incremental
-    path (:func:`day_statistics`, Notes)."""
-    ok = np.isfinite(q50) & (n > 0)
-    if not ok.any():
-        return np.nan
-    q25, q50, q75, w = q25[ok], q50[ok], q75[ok], n[ok].astype(float)
-    top = q75 + 2.0 * (q75 - q50)
-    xs = np.stack([np.zeros_like(q50), q25, q50, q75, top], axis=1)
-    ps = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-
-    def cdf(x):
-        tot = 0.0
-        for i in range(4):
-            x0, x1 = xs[:, i], xs[:, i + 1]
-            wid = x1 - x0
-            with np.errstate(invalid="ignore", divide="ignore"):
-                f = np.where(wid > 0, np.clip((x - x0) / np.where(wid > 0, wid, 1.0), 0, 1), (x >= x1) * 1.0)
-            tot += float(np.sum(w * f)) * (ps[i + 1] - ps[i])
-        return tot / w.sum()
-
-    lo, hi = float(np.min(q25)), float(np.max(q75))
-    if not hi > lo:
-        return float(np.median(q50))
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if cdf(mid) < 0.5 else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
 def _weighted_median(v, w) -> float:
     """Median of the values ``v`` each counted ``w`` times (NaN and zero weights ignored)."""
     ok = np.isfinite(v) & (w > 0)
@@ -396,7 +345,7 @@ def _weighted_median(v, w) -> float:
     return float(v[o][i])
 
 
-def _sensor_days(a, T, dev, day, D, *, threshold, tref, coef_of):
+def _sensor_days(a, T, dev, day, D, *, noise, tref, coef_of):
     """Per-day statistics of one sensor's readings (time order) on day indices ``day`` (>= 0; context rows,
     only in the running median, are dropped before). ``coef_of(slope, n_kept) -> (k, fitted)``."""
     out = {}
@@ -406,16 +355,12 @@ def _sensor_days(a, T, dev, day, D, *, threshold, tref, coef_of):
     spread = 1.4826 * _group_median(day, np.abs(a - raw_med[day]), D)
     out["raw_spread_deg"] = np.where(out["n_raw"] >= 2, spread, np.nan)
     ad = np.abs(dev)
-    out["hf_q25_deg"], out["hf_median_deg"], out["hf_q75_deg"] = _group_quartiles(day, ad, D)
-    out["threshold_deg"] = np.where(out["n_raw"] > 0, threshold, np.nan)
-    keep = ad <= threshold
+    out["noise_used_deg"] = np.where(out["n_raw"] > 0, noise, np.nan)
+    m = noise / 1.4826 if np.isfinite(noise) else 0.0
+    out["n_dev_below"] = np.bincount(day[ad < m], minlength=D)
+    out["n_dev_at_most"] = np.bincount(day[ad <= m], minlength=D)
+    keep = ad <= OUTLIER_THRESHOLD * max(noise if np.isfinite(noise) else 0.0, 1e-4)
     out["n_outliers"] = np.bincount(day[~keep], minlength=D)
-    kmax = np.full(D, -np.inf)
-    np.maximum.at(kmax, day[keep], ad[keep])
-    omin = np.full(D, np.inf)
-    np.minimum.at(omin, day[~keep], ad[~keep])
-    out["kept_dev_max_deg"] = np.where(np.isfinite(kmax), kmax, np.nan)
-    out["outlier_dev_min_deg"] = np.where(np.isfinite(omin), omin, np.nan)
     a, T, day = a[keep], T[keep], day[keep]
     out["n_kept"] = np.bincount(day, minlength=D)
     slope, _ = _slice_regression(day, a, T, D)
@@ -444,12 +389,14 @@ def _coef_rule(thermal, quiet_mask):
     return coef_of
 
 
-def _approx_noise(fields, j, stop=None, new=None) -> float:
-    """1.4826 x the median |deviation| of a sensor over its days, from the days' quartiles (incremental path)."""
-    cols = [fields[f][:stop, j] for f in ("hf_q25_deg", "hf_median_deg", "hf_q75_deg", "n_raw")]
-    if new is not None:
-        cols = [np.concatenate([c, v]) for c, v in zip(cols, new)]
-    return 1.4826 * _mixture_median(*cols)
+def _noise_still_median(fields, j) -> bool:
+    """Is the sensor's kept noise std still (within NOISE_QUANTILE_TOLERANCE) the median of all its readings?"""
+    n = fields["n_raw"][:, j].sum()
+    if n == 0:
+        return True
+    tol = NOISE_QUANTILE_TOLERANCE
+    return bool(fields["n_dev_below"][:, j].sum() <= (0.5 + tol) * n
+                and fields["n_dev_at_most"][:, j].sum() >= (0.5 - tol) * n)
 
 
 def _approx_raw_std(raw_median, raw_spread, n_raw) -> float:
@@ -497,15 +444,18 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
 
     Notes
     -----
-    Without ``previous`` the result is exact: the noise std (median |deviation| over all readings) and the raw
-    spread (MAD of all raw angles) come from every reading, as in paper 004 §3. With ``previous`` they are
-    estimated from the per-day values (assumption, docs/rail-service.md): the noise as 1.4826 times the
-    count-weighted median of the days' median |deviation|, the raw spread as the larger of the weighted median
-    of the within-day spreads and the robust spread of the daily medians. The thermal coefficient is exact in
-    both cases (the median of the per-day slopes). A cached day is carried over when its outlier set is the
-    same under the new threshold (``kept_dev_max <= threshold < outlier_dev_min``) and its median moves to the
-    new k by the first-order update m(k') = m(k) - (k' - k)(T_m - T_ref), whose error is at most
-    |k' - k| * temp_range <= :data:`MEDIAN_UPDATE_TOLERANCE_DEG`; other sensors are listed in ``stale_sensors``.
+    Without ``previous`` the result is exact: the noise std s (1.4826 median |deviation| over all readings)
+    and the raw spread (MAD of all raw angles) come from every reading, as in paper 004 §3. With
+    ``previous`` (assumptions, docs/rail-service.md) each sensor keeps the s of its cached days (so the outlier
+    threshold 8 s, and every cached outlier set, stay as they are) while the counts of readings with
+    |deviation| below / at most s / 1.4826, summed over all days, stay within 0.5 +- NOISE_QUANTILE_TOLERANCE
+    of all its readings (s is then between the 45 % and 55 % quantiles of 1.4826 |deviation|); the raw spread
+    is the larger of the count-weighted median of the within-day spreads and the robust spread of the daily
+    medians (it only feeds the dead-sensor test, < 1e-4 deg). The thermal coefficient is exact in both cases
+    (the median of the per-day slopes of the same outlier sets). A cached day's median moves to the new k by
+    the first-order update m(k') = m(k) - (k' - k)(T_m - T_ref), exact while the median reading stays the
+    same, error at most |k' - k| * temp_range <= :data:`MEDIAN_UPDATE_TOLERANCE_DEG`. Sensors beyond either
+    tolerance are listed in ``stale_sensors``.
     """
     if thermal not in ("linear", "none"):
         raise InputError(f"day_statistics supports thermal='linear' or 'none'; got {thermal!r} (the lagged model "
@@ -584,10 +534,11 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
                              np.concatenate([base["n_kept"], n_kept_new]))
 
         if prev is not None:
-            s_hf = _approx_noise(fields, j, P, new=(*_group_quartiles(loc, np.abs(dev), Dn),
-                                                    np.bincount(loc, minlength=Dn)))
-        thr = OUTLIER_THRESHOLD * max(s_hf if np.isfinite(s_hf) else 0.0, 1e-4)
-        st, k, fitted = _sensor_days(a, T, dev, loc, Dn, threshold=thr, tref=tref, coef_of=coef_of)
+            s_hf = _kept_noise(fields, j, P)
+            if s_hf is None:  # no cached day of this sensor: its noise needs all its readings
+                stale.append(sid)
+                s_hf = 1.4826 * np.median(np.abs(dev)) if dev.size else np.nan
+        st, k, fitted = _sensor_days(a, T, dev, loc, Dn, noise=s_hf, tref=tref, coef_of=coef_of)
         for f, v in st.items():
             fields[f][P:, j] = v
         lt = np.full(Dn, -1, dtype=np.int64)
@@ -597,7 +548,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
         if prev is not None:
             rawstd[j] = _approx_raw_std(fields["raw_median_deg"][:, j], fields["raw_spread_deg"][:, j],
                                         fields["n_raw"][:, j])
-            if not _update_cached(fields, j, P, thr, k):
+            if sid not in stale and not _update_cached(fields, j, P, k):
                 stale.append(sid)
     return DayStatistics(days=days.to_numpy(), sensor_ids=ids, **fields, noise_deg=noise, raw_std_deg=rawstd,
                          thermal_coef=coef, unfitted=unfitted, thermal=thermal, reference_temp_c=tref,
@@ -611,32 +562,34 @@ def _carry_over(fields, j, P, D, prev, coef_rule, tref, stale, sid, noise, rawst
     n = fields["n_raw"][:P, j]
     if n.sum() == 0:
         return
-    s_hf = _approx_noise(fields, j, P)
-    thr = OUTLIER_THRESHOLD * max(s_hf if np.isfinite(s_hf) else 0.0, 1e-4)
+    s_hf = _kept_noise(fields, j, P)
     slope = np.concatenate([fields["thermal_slope"][:P, j], np.full(D - P, np.nan)])
     k, fitted = coef_rule(slope, np.concatenate([fields["n_kept"][:P, j], np.zeros(D - P, np.int64)]))
     noise[j], coef[j], unfitted[j] = s_hf, k, not fitted
     rawstd[j] = _approx_raw_std(fields["raw_median_deg"][:, j], fields["raw_spread_deg"][:, j], fields["n_raw"][:, j])
-    if not _update_cached(fields, j, P, thr, k):
+    if not _update_cached(fields, j, P, k):
         stale.append(sid)
 
 
-def _update_cached(fields, j, P, thr, k) -> bool:
-    """Carry sensor j's cached days (< P) to threshold ``thr`` and coefficient ``k``; False when not exact enough.
+def _kept_noise(fields, j, P):
+    """The noise std the sensor's cached days were computed with (None: no cached day)."""
+    v = fields["noise_used_deg"][:P, j]
+    v = v[np.isfinite(v) & (fields["n_raw"][:P, j] > 0)]
+    return float(v[-1]) if v.size else None
 
-    The outlier set must be the same under ``thr``, and the first-order update of each median from the k it was
+
+def _update_cached(fields, j, P, k) -> bool:
+    """Can sensor j's cached days (< P) be carried to coefficient ``k``? False when not exact enough.
+
+    The kept noise std must still be the median |deviation| of all the sensor's readings (old and new days,
+    within :data:`NOISE_QUANTILE_TOLERANCE`), and the first-order update of each median from the k it was
     computed with (:func:`daily_angles_from_statistics`) must be within :data:`MEDIAN_UPDATE_TOLERANCE_DEG`.
     """
     if P == 0:
         return True
     has = fields["n_raw"][:P, j] > 0
-    kmax, omin = fields["kept_dev_max_deg"][:P, j], fields["outlier_dev_min_deg"][:P, j]
-    same_set = (np.isnan(kmax) | (kmax <= thr)) & (np.isnan(omin) | (thr < omin))
     err = np.abs(k - fields["coef_deg_per_c"][:P, j]) * np.nan_to_num(fields["temp_range_c"][:P, j])
-    if not np.all(same_set[has]) or np.any(err[has] > MEDIAN_UPDATE_TOLERANCE_DEG):
-        return False
-    fields["threshold_deg"][:P, j] = np.where(has, thr, np.nan)
-    return True
+    return _noise_still_median(fields, j) and not np.any(err[has] > MEDIAN_UPDATE_TOLERANCE_DEG)
 
 
 def daily_angles_from_statistics(stats: DayStatistics) -> DailyAngles:

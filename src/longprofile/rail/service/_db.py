@@ -208,6 +208,41 @@ class ResultRow(Base):
     rate_std_m_per_day: Mapped[float | None] = mapped_column(Float, nullable=True)
 
 
+class DayCache(Base):
+    """State of a site's per-day statistics cache (``day_stats``): the key of what shaped it (thermal model,
+    reference temperature, baseline start), and the data version it was last updated from."""
+    __tablename__ = "day_cache"
+    site_id: Mapped[int] = mapped_column(ForeignKey("sites.id"), primary_key=True)
+    key: Mapped[str] = mapped_column(String(64))
+    data_version: Mapped[int] = mapped_column(BigInteger)
+    updated_ts: Mapped[int] = mapped_column(BigInteger, default=now_ts)
+
+
+class DayStat(Base):
+    """Per (sensor, day) statistics of ``longprofile.rail.day_statistics`` (fields of ``DayStatistics``)."""
+    __tablename__ = "day_stats"
+    __table_args__ = (Index("ix_day_stats_site_day", "site_id", "day"),)
+    sensor_pk: Mapped[int] = mapped_column(ForeignKey("sensors.id"), primary_key=True)
+    day: Mapped[int] = mapped_column(Integer, primary_key=True)  # days since 1970-01-01 UTC
+    site_id: Mapped[int] = mapped_column(ForeignKey("sites.id"))
+    n_raw: Mapped[int] = mapped_column(Integer)
+    raw_median_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    raw_spread_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    noise_used_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    n_dev_below: Mapped[int] = mapped_column(Integer)
+    n_dev_at_most: Mapped[int] = mapped_column(Integer)
+    n_outliers: Mapped[int] = mapped_column(Integer)
+    n_kept: Mapped[int] = mapped_column(Integer)
+    thermal_slope: Mapped[float | None] = mapped_column(Float, nullable=True)
+    coef_deg_per_c: Mapped[float | None] = mapped_column(Float, nullable=True)
+    median_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    median_temp_c: Mapped[float | None] = mapped_column(Float, nullable=True)
+    temp_range_c: Mapped[float | None] = mapped_column(Float, nullable=True)
+    temperature_sum_c: Mapped[float | None] = mapped_column(Float, nullable=True)
+    n_temperature: Mapped[int] = mapped_column(Integer)
+    last_ts: Mapped[int] = mapped_column(BigInteger)
+
+
 class HealthRow(Base):
     __tablename__ = "health"
     id: Mapped[int] = mapped_column(Integer, primary_key=True)

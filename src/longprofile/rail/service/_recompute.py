@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import time
+from dataclasses import replace
 from datetime import datetime, timezone
 from itertools import chain
 
@@ -22,9 +23,23 @@ from sqlalchemy import delete, select, update
 
 from ... import __version__
 from ...errors import InputError, LongprofileError
-from .. import estimate_settlement, validate_site
+from .. import daily_angles_from_statistics, day_statistics, estimate_settlement, validate_site
+from .._settle import estimate_settlement_from_daily
+from .._thermal import _INT_FIELDS, DAY_FIELDS, DayStatistics, statistics_window
 from ._alarms import evaluate_no_data, evaluate_result, thresholds_of
-from ._db import Database, HealthRow, Reading, ResultRow, Run, Sensor, Site, SurveyPoint, now_ts
+from ._db import (
+    Database,
+    DayCache,
+    DayStat,
+    HealthRow,
+    Reading,
+    ResultRow,
+    Run,
+    Sensor,
+    Site,
+    SurveyPoint,
+    now_ts,
+)
 
 __all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "DEFAULT_SETTINGS", "KEEP_RUNS"]
 
@@ -71,30 +86,187 @@ def _float_columns(s, query, n_columns: int, *, chunk: int = 65536) -> np.ndarra
     return (np.concatenate(parts) if parts else np.empty(0)).reshape(-1, n_columns)
 
 
-def load_site_data(s, site: Site, *, chunk: int = 65536):
-    """(sensors, readings, survey) DataFrames of a site in the long format ``validate_site`` reads."""
-    sens = list(s.execute(select(Sensor.id, Sensor.sensor_id, Sensor.x_m, Sensor.z_m)
-                          .where(Sensor.site_id == site.id, Sensor.active.is_(True)).order_by(Sensor.x_m)))
+def _sensor_table(sens) -> pd.DataFrame:
     sensors = pd.DataFrame({"sensor_id": [r[1] for r in sens], "x_m": [r[2] for r in sens]})
     if sens and all(r[3] is not None for r in sens):
         sensors["z_m"] = [r[3] for r in sens]
+    return sensors
+
+
+def _survey_table(s, site: Site):
+    sv = list(s.execute(select(SurveyPoint.x_m, SurveyPoint.z_m).where(SurveyPoint.site_id == site.id)
+                        .order_by(SurveyPoint.x_m)))
+    return pd.DataFrame({"x_m": [p[0] for p in sv], "z_m": [p[1] for p in sv]}) if sv else None
+
+
+def load_site_data(s, site: Site, *, chunk: int = 65536):
+    """(sensors, readings, survey) DataFrames of a site in the long format ``validate_site`` reads."""
+    sens = _active_sensors(s, site)
+    return _sensor_table(sens), _readings_frame(s, site, sens, chunk=chunk), _survey_table(s, site)
+
+
+_NO_READINGS = "have no readings at all"
+
+
+def _with_record_warnings(sitedata, stats: DayStatistics):
+    """The site validated on the recomputed window, with the "no readings" warning of the whole record."""
+    w = [m for m in sitedata.warnings if _NO_READINGS not in m]
+    without = [sid for sid, n in zip(stats.sensor_ids, stats.n_raw.sum(axis=0)) if n == 0]
+    if without:
+        w.append(f"{len(without)} sensor(s) {_NO_READINGS}: {without[:5]}; they are reported as dead.")
+    return replace(sitedata, warnings=tuple(w))
+
+
+#: Reference temperature of the thermal correction in the service (``estimate_settlement``'s default), °C.
+REFERENCE_TEMP_C = 5.0
+_DAY_S = 86400
+
+
+def _active_sensors(s, site: Site):
+    """[(sensor pk, sensor id, x_m, z_m)] of the site's active sensors, by station."""
+    return [tuple(r) for r in s.execute(select(Sensor.id, Sensor.sensor_id, Sensor.x_m, Sensor.z_m)
+                                        .where(Sensor.site_id == site.id, Sensor.active.is_(True))
+                                        .order_by(Sensor.x_m))]
+
+
+def _readings_frame(s, site: Site, sens, *, from_ts=None, pks=None, chunk: int = 65536) -> pd.DataFrame:
+    """The stored readings (from ``from_ts``; of the sensors ``pks``) in the long format, each sensor's rows
+    in time order (what ``day_statistics`` and ``validate_site`` read)."""
     names = {r[0]: r[1] for r in sens}
     q = select(Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c).where(
         Reading.site_id == site.id)
-    if site.baseline_start_ts is not None:
-        q = q.where(Reading.ts >= site.baseline_start_ts)
+    lo = site.baseline_start_ts if from_ts is None else max(from_ts, site.baseline_start_ts or from_ts)
+    if lo is not None:
+        q = q.where(Reading.ts >= lo)
+    if pks is not None:
+        q = q.where(Reading.sensor_pk.in_(list(pks)))
     arr = _float_columns(s, q, 4, chunk=chunk)
     pk = arr[:, 0].astype(np.int64)
     keep = np.isin(pk, np.fromiter(names, dtype=np.int64, count=len(names)))
     arr, pk = arr[keep], pk[keep]
-    lut = pd.Series(names)
-    readings = pd.DataFrame({"timestamp": pd.to_datetime(arr[:, 1].astype(np.int64), unit="s"),
-                             "sensor_id": lut.reindex(pk).to_numpy(), "angle_deg": arr[:, 2],
-                             "temperature_c": arr[:, 3]})
-    sv = list(s.execute(select(SurveyPoint.x_m, SurveyPoint.z_m).where(SurveyPoint.site_id == site.id)
-                        .order_by(SurveyPoint.x_m)))
-    survey = pd.DataFrame({"x_m": [p[0] for p in sv], "z_m": [p[1] for p in sv]}) if sv else None
-    return sensors, readings, survey
+    order = np.lexsort((arr[:, 1], pk))
+    arr, pk = arr[order], pk[order]
+    return pd.DataFrame({"timestamp": pd.to_datetime(arr[:, 1].astype(np.int64), unit="s"),
+                         "sensor_id": pd.Series(names).reindex(pk).to_numpy(), "angle_deg": arr[:, 2],
+                         "temperature_c": arr[:, 3]})
+
+
+def _cache_key(site: Site, thermal: str) -> str:
+    blob = json.dumps({"thermal": thermal, "reference_temp_c": REFERENCE_TEMP_C, "fields": DAY_FIELDS,
+                       "baseline_start": site.baseline_start_ts, "code": __version__}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def _load_day_cache(s, site: Site, sens, thermal: str) -> DayStatistics | None:
+    """The site's cached per-day statistics of its active sensors (None when there are none)."""
+    cols = ("sensor_pk", "day") + DAY_FIELDS
+    q = select(*[getattr(DayStat, c) for c in cols]).where(DayStat.site_id == site.id)
+    arr = _float_columns(s, q, len(cols))
+    col = {pk: j for j, (pk, *_) in enumerate(sens)}
+    pk = arr[:, 0].astype(np.int64)
+    keep = np.isin(pk, np.fromiter(col, dtype=np.int64, count=len(col)))
+    arr, pk = arr[keep], pk[keep]
+    if arr.shape[0] == 0:
+        return None
+    dnum = arr[:, 1].astype(np.int64)
+    udays = np.unique(dnum)
+    di = np.searchsorted(udays, dnum)
+    sj = pd.Series(col).reindex(pk).to_numpy()
+    D, N = udays.size, len(sens)
+    fields = {}
+    for k, f in enumerate(DAY_FIELDS):
+        integer = f in _INT_FIELDS
+        v = np.full((D, N), -1 if f == "last_ts" else 0, dtype=np.int64) if integer else np.full((D, N), np.nan)
+        if f == "temperature_sum_c":
+            v[:] = 0.0
+        v[di, sj] = arr[:, 2 + k].astype(np.int64) if integer else arr[:, 2 + k]
+        fields[f] = v
+    nan = np.full(N, np.nan)
+    return DayStatistics(days=(udays * _DAY_S * 10**9).astype("datetime64[ns]"), sensor_ids=[r[1] for r in sens],
+                         **fields, noise_deg=nan, raw_std_deg=nan, thermal_coef=nan, unfitted=np.zeros(N, bool),
+                         thermal=thermal, reference_temp_c=REFERENCE_TEMP_C, exact=False)
+
+
+def _quiet_days(site: Site, days) -> list | None:
+    """Days before the baseline end: the thermal fit's quiet days (None without a baseline end)."""
+    if site.baseline_end_ts is None:
+        return None
+    d = pd.DatetimeIndex(days)
+    return sorted(d[d < pd.Timestamp(site.baseline_end_ts, unit="s")].strftime("%Y-%m-%d")) or None
+
+
+def cached_statistics(s, site: Site, sens, thermal: str, dirty_from):
+    """Per-day statistics of the site: the cache, with the days from the earliest change recomputed from raw.
+
+    Returns (stats, window readings, rows to store as {"days": day numbers from, "sensors": pks rebuilt},
+    the first recomputed day as days since 1970 or None for a full build). Days before the change come from
+    ``day_stats``; the readings from the day before the change (3 readings of running-median context further
+    back) are loaded and ``day_statistics(previous=...)`` recomputes those days; sensors it finds stale are
+    recomputed from all their readings.
+    """
+    ids = [r[1] for r in sens]
+    state = s.get(DayCache, site.id)
+    prev = None
+    if state is not None and state.key == _cache_key(site, thermal):
+        prev = _load_day_cache(s, site, sens, thermal)
+    if prev is not None and dirty_from is not None and dirty_from < int(prev.days[0].astype("datetime64[s]")
+                                                                         .astype(np.int64)) + _DAY_S:
+        prev = None  # a change on the first day (settings, sensors, baseline): build from every reading
+    if prev is None:
+        readings = _readings_frame(s, site, sens)
+        if readings.empty:
+            return None, readings, None, None
+        days = pd.DatetimeIndex(readings["timestamp"].dt.normalize().unique())
+        stats = day_statistics(readings, ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C,
+                               quiet_days=_quiet_days(site, days))
+        return stats, readings, None, list(range(len(ids)))
+    # no recorded change (a forced run): the newest cached day is recomputed, so the window is never empty
+    changed = (pd.Timestamp(prev.days[-1]) if dirty_from is None
+               else pd.Timestamp(int(dirty_from), unit="s").normalize())
+    first, ctx = statistics_window(prev, changed)
+    window = _readings_frame(s, site, sens, from_ts=int(pd.Timestamp(ctx).value // 10**9))
+    all_days = pd.DatetimeIndex(np.union1d(prev.days[prev.days < first],
+                                           window["timestamp"].dt.normalize().unique()))
+    quiet = _quiet_days(site, all_days)
+    stats = day_statistics(window, ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet,
+                           first_day=first, previous=prev)
+    rebuilt = []
+    if stats.stale_sensors:
+        rebuilt = [j for j, sid in enumerate(ids) if sid in stats.stale_sensors]
+        sub = _readings_frame(s, site, sens, pks=[sens[j][0] for j in rebuilt])
+        stats = stats.replace_sensors(day_statistics(sub, [ids[j] for j in rebuilt], thermal=thermal,
+                                                     reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet))
+    return stats, window, int(pd.Timestamp(first).value // (_DAY_S * 10**9)), rebuilt
+
+
+def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebuilt, thermal: str, version: int):
+    """Replace the cached rows from ``first_day`` on (all days when None) and all rows of ``rebuilt`` sensors."""
+    dnum = np.asarray(stats.days).astype("datetime64[D]").astype(np.int64)
+    pks = np.array([r[0] for r in sens], dtype=np.int64)
+    if first_day is None:
+        s.execute(delete(DayStat).where(DayStat.site_id == site.id))
+        mask = np.ones((dnum.size, pks.size), bool)
+    else:
+        s.execute(delete(DayStat).where(DayStat.site_id == site.id, DayStat.day >= first_day))
+        mask = np.broadcast_to((dnum >= first_day)[:, None], (dnum.size, pks.size)).copy()
+        if rebuilt:
+            s.execute(delete(DayStat).where(DayStat.site_id == site.id, DayStat.day < first_day,
+                                            DayStat.sensor_pk.in_([int(pks[j]) for j in rebuilt])))
+            mask[:, rebuilt] = True
+    mask &= (stats.n_raw > 0) | (stats.n_temperature > 0)
+    di, sj = np.nonzero(mask)
+    data = {"site_id": np.full(di.size, site.id), "sensor_pk": pks[sj], "day": dnum[di]}
+    for f in DAY_FIELDS:
+        data[f] = getattr(stats, f)[di, sj]
+    frame = pd.DataFrame(data)
+    frame = frame.astype(object).where(frame.notna(), None)
+    if len(frame):
+        s.execute(DayStat.__table__.insert(), frame.to_dict("records"))
+    state = s.get(DayCache, site.id)
+    if state is None:
+        s.add(DayCache(site_id=site.id, key=_cache_key(site, thermal), data_version=version, updated_ts=now_ts()))
+    else:
+        state.key, state.data_version, state.updated_ts = _cache_key(site, thermal), version, now_ts()
 
 
 def _settings_hash(site, sensors, survey, thresholds, settings) -> str:
@@ -124,41 +296,61 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         version, dirty_from = site.data_version, site.dirty_from_ts
         settings = {**DEFAULT_SETTINGS, **site.settings}
         thresholds = thresholds_of(s, site)
-        sensors, readings, survey = load_site_data(s, site)
+        sens = _active_sensors(s, site)
+        sensors, survey = _sensor_table(sens), _survey_table(s, site)
         last = latest_run(s, site, ok_only=False)
         site_id = site.id
-    shash = _settings_hash(site, sensors, survey, thresholds, settings)
-    if (not force and last is not None and last.data_version == version and last.settings_hash == shash
-            and last.code_version == __version__):
-        return {"run_id": last.id, "status": "unchanged", "message": "", "events": [],
-                "seconds": time.perf_counter() - t0}
-    complete_to = None if readings.empty else int(readings["timestamp"].max().value // 10**9)
+        shash = _settings_hash(site, sensors, survey, thresholds, settings)
+        if (not force and last is not None and last.data_version == version and last.settings_hash == shash
+                and last.code_version == __version__):
+            return {"run_id": last.id, "status": "unchanged", "message": "", "events": [],
+                    "seconds": time.perf_counter() - t0}
+        # linear / no thermal model: per-day statistics cached in day_stats, only the changed days from raw;
+        # the lagged model fits its lag over the whole record: every reading, every run
+        cached = settings["thermal"] in ("linear", "none")
+        stats = first_day = rebuilt = None
+        if cached:
+            stats, readings, first_day, rebuilt = cached_statistics(s, site, sens, settings["thermal"], dirty_from)
+        else:
+            _, readings, _ = load_site_data(s, site)
+    t_load = time.perf_counter() - t0
+    if stats is not None:
+        complete_to, n_readings = int(stats.last_ts.max()), int(stats.n_raw.sum())
+        last_ts = dict(zip(stats.sensor_ids, stats.last_ts.max(axis=0)))
+    else:
+        complete_to = None if readings.empty else int(readings["timestamp"].max().value // 10**9)
+        n_readings = int(len(readings))
+        last_ts = {k: int(v.value // 10**9) for k, v in readings.groupby("sensor_id")["timestamp"].max().items()}
     status, message, res = "ok", "", None
     try:
         sitedata = validate_site(sensors, readings, survey)
-        quiet = None
-        if site.baseline_end_ts is not None:
-            days = readings["timestamp"].dt.normalize()
-            lim = pd.Timestamp(site.baseline_end_ts, unit="s")
-            quiet = sorted({d.strftime("%Y-%m-%d") for d in days[days < lim].unique()}) or None
-        res = estimate_settlement(
-            sitedata, thermal=settings["thermal"], quiet_days=quiet,
+        quiet = _quiet_days(site, readings["timestamp"].dt.normalize().unique() if stats is None else stats.days)
+        options = dict(
+            thermal=settings["thermal"], quiet_days=quiet,
             sigma=None if settings["sigma_deg"] is None else float(np.deg2rad(settings["sigma_deg"])),
             rigidity=settings["rigidity"], exclude_sensors=tuple(settings["exclude"]),
             n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]))
+        if stats is not None:
+            sitedata = _with_record_warnings(sitedata, stats)
+            res = estimate_settlement_from_daily(sitedata, daily_angles_from_statistics(stats), **options)
+        else:
+            res = estimate_settlement(sitedata, **options)
     except LongprofileError as exc:
         waiting = ("at least 2 days", "too few days", "at least 3 sensors")  # not enough data yet
-        status = "waiting" if readings.empty or any(w in str(exc) for w in waiting) else "failed"
+        status = "waiting" if n_readings == 0 or any(w in str(exc) for w in waiting) else "failed"
         message = str(exc)
+    t_estimate = time.perf_counter() - t0 - t_load
     events: list[str] = []
     with db.write() as s:
         site = s.get(Site, site_id)
         run = Run(site_id=site_id, started_ts=now_ts(), code_version=__version__, settings_hash=shash,
                   data_version=version, data_complete_to_ts=complete_to, changed_from_ts=dirty_from,
-                  n_readings=int(len(readings)), n_days=0 if res is None else int(res.days.size), status=status,
+                  n_readings=n_readings, n_days=0 if res is None else int(res.days.size), status=status,
                   message=message, warnings_json=json.dumps([] if res is None else list(res.warnings)))
         s.add(run)
         s.flush()
+        if stats is not None:  # the cache follows the raw readings whatever the run's outcome
+            _store_day_cache(s, site, sens, stats, first_day, rebuilt, settings["thermal"], version)
         if res is not None:
             tab = res.to_table()
             recs = pd.DataFrame({"run_id": run.id, "day": tab["date"], "sensor_id": tab["sensor_id"],
@@ -169,10 +361,9 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
                                  "rate_std_m_per_day": tab.get("rate_std_m_per_day")})
             recs = recs.astype(object).where(recs.notna(), None)
             s.execute(ResultRow.__table__.insert(), recs.to_dict("records"))
-            last_ts = readings.groupby("sensor_id")["timestamp"].max()
             s.execute(HealthRow.__table__.insert(), [
                 {"run_id": run.id, "sensor_id": sid, "status": str(st), "reason": str(d),
-                 "last_reading_ts": int(last_ts[sid].value // 10**9) if sid in last_ts.index else None}
+                 "last_reading_ts": int(last_ts[sid]) if last_ts.get(sid, -1) >= 0 else None}
                 for sid, st, d in zip(res.health.sensor_ids, res.health.status, res.health.detail)])
             events = evaluate_result(s, site, res, run.id, float(settings["alarm_probability"]))
             old = list(s.scalars(select(Run.id).where(Run.site_id == site_id, Run.status == "ok", Run.id != run.id)
@@ -186,4 +377,8 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         s.execute(update(Site).where(Site.id == site_id, Site.data_version == version).values(dirty_from_ts=None))
         run_id = run.id
     return {"run_id": run_id, "status": status, "message": message, "events": events,
-            "seconds": time.perf_counter() - t0, "data_complete_to": _iso(complete_to)}
+            "seconds": time.perf_counter() - t0, "data_complete_to": _iso(complete_to),
+            "timings": {"load": t_load, "estimate": t_estimate,
+                        "store": time.perf_counter() - t0 - t_load - t_estimate},
+            "recomputed_from_day": None if first_day is None else _iso(first_day * _DAY_S)[:10],
+            "rebuilt_sensors": None if rebuilt is None else len(rebuilt)}
