@@ -3,7 +3,9 @@ recompute time after one new day.
 
 Run: ``python -m benchmarks rail_service`` (full) or ``python -m benchmarks --quick rail_service``.
 Full size is the issue's site (100 sensors x 365 days of 10-min readings, 5.3 M rows); set
-LONGPROFILE_BENCH_SERVICE_DAYS to use fewer days.
+LONGPROFILE_BENCH_SERVICE_DAYS to use fewer days, LONGPROFILE_BENCH_SERVICE_BASELINE_DAYS to give the site a
+baseline of that many first days (the thermal fit's quiet days; default 0: no baseline, every day in the fit),
+LONGPROFILE_BENCH_SERVICE_ROWS=1 to measure only the recompute and the pages (no ingestion rows).
 """
 
 from __future__ import annotations
@@ -123,6 +125,11 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
     sensors, survey, readings = _site_tables(n_sensors, n_days, minutes)
     db = Database(f"sqlite:///{tmp}/pages.db")
     _setup(db, sensors, survey)
+    n_base = 0 if quick else int(os.environ.get("LONGPROFILE_BENCH_SERVICE_BASELINE_DAYS", "0"))
+    if n_base:
+        d0 = pd.Timestamp(readings["timestamp"].iloc[0][:10])
+        _core.update_site(db, "bench", "bench", baseline_start=d0.strftime("%Y-%m-%d"),
+                          baseline_end=(d0 + pd.Timedelta(days=n_base)).strftime("%Y-%m-%d"))
     last_day = readings["timestamp"].str[:10] == readings["timestamp"].str[:10].iloc[-1]
     old, new = readings[~last_day], readings[last_day]
     for i in range(0, len(old), 20_000):
@@ -137,8 +144,12 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
     t_day = time.perf_counter() - t0
     assert out["status"] == "ok", out["message"]
     size = f"{n_sensors} sensors x {n_days} days of {minutes}-min readings ({len(readings)} rows)"
+    parts = ", ".join(f"{k} {v:.2f} s" for k, v in out.get("timings", {}).items())
     rows = [BenchRow(AREA, "recompute after one new day", t_day, "s", target=None if quick else 2.0,
-                     higher_is_better=False, detail=f"{size}; first full run {t_full:.1f} s")]
+                     higher_is_better=False,
+                     detail=f"{size}; baseline {n_base} days; first full run {t_full:.1f} s; {parts}; "
+                            f"recomputed from {out.get('recomputed_from_day')}, "
+                            f"{out.get('rebuilt_sensors')} sensor(s) rebuilt")]
     with ServerThread(db, background=False) as srv:
         http = HttpSession(srv.url)
         http.login("viewer1", "viewer1-password")
@@ -167,4 +178,5 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
 
 def run(quick: bool = False) -> list[BenchRow]:
     with tempfile.TemporaryDirectory(prefix="bench-rail-service-") as tmp:
-        return _ingest_rows(quick, tmp) + _pages_rows(quick, tmp)
+        pages_only = os.environ.get("LONGPROFILE_BENCH_SERVICE_ROWS") == "1"
+        return ([] if pages_only else _ingest_rows(quick, tmp)) + _pages_rows(quick, tmp)
