@@ -13,11 +13,12 @@ from longprofile.rail import (
     daily_angles_from_statistics,
     day_statistics,
     estimate_settlement,
+    estimate_settlement_from_daily,
     simulate_site,
+    statistics_window,
     validate_site,
 )
-from longprofile.rail._settle import estimate_settlement_from_daily
-from longprofile.rail._thermal import MEDIAN_UPDATE_TOLERANCE_DEG, statistics_window
+from longprofile.rail._thermal import MEDIAN_UPDATE_TOLERANCE_DEG
 
 
 @pytest.fixture(scope="module")

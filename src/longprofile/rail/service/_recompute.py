@@ -19,13 +19,20 @@ from itertools import chain
 
 import numpy as np
 import pandas as pd
-from sqlalchemy import delete, select, update
+from sqlalchemy import BigInteger, Integer, delete, select, update
 
 from ... import __version__
 from ...errors import InputError, LongprofileError
-from .. import daily_angles_from_statistics, day_statistics, estimate_settlement, validate_site
-from .._settle import estimate_settlement_from_daily
-from .._thermal import _INT_FIELDS, DAY_FIELDS, DayStatistics, statistics_window
+from .. import (
+    DAY_FIELDS,
+    DayStatistics,
+    daily_angles_from_statistics,
+    day_statistics,
+    estimate_settlement,
+    estimate_settlement_from_daily,
+    statistics_window,
+    validate_site,
+)
 from ._alarms import evaluate_no_data, evaluate_result, thresholds_of
 from ._db import (
     Database,
@@ -175,7 +182,7 @@ def _load_day_cache(s, site: Site, sens, thermal: str) -> DayStatistics | None:
     D, N = udays.size, len(sens)
     fields = {}
     for k, f in enumerate(DAY_FIELDS):
-        integer = f in _INT_FIELDS
+        integer = isinstance(DayStat.__table__.c[f].type, (Integer, BigInteger))
         v = np.full((D, N), -1 if f == "last_ts" else 0, dtype=np.int64) if integer else np.full((D, N), np.nan)
         if f == "temperature_sum_c":
             v[:] = 0.0
