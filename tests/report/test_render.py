@@ -84,9 +84,11 @@ def test_inline_where_a_helper_cannot_run(monkeypatch):
         assert not renderer.background
     import longprofile.report._render as render
 
-    monkeypatch.setattr(render.os, "getloadavg", lambda: (float(os.cpu_count() or 1), 0.0, 0.0))  # no core free
+    monkeypatch.setattr(render.os, "getloadavg", lambda: (float(render._cores()), 0.0, 0.0))  # oversubscribed
     with figure_renderer() as renderer:
         assert not renderer.background
+    monkeypatch.setattr(render.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert render._spare_core()
     monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
     with figure_renderer() as renderer:
         assert renderer.background == ("fork" in multiprocessing.get_all_start_methods())

@@ -6,7 +6,8 @@ helper imports matplotlib and draws a small figure (font cache, Agg) while the c
 draws the figures the report submits while the command writes its tables. The figures are the same PNG bytes as
 drawn in the command's own process (the same functions, the same matplotlib).
 
-The helper is started only when a core is free (1-minute load average at most the core count minus one): it
+The helper is started only when the machine is not oversubscribed (1-minute load average below the core
+count, :func:`_spare_core`): it
 costs more CPU in total than drawing inline, which a busy machine pays in wall time. ``LONGPROFILE_FIGURES=helper``
 always starts it, ``inline`` never. Where the helper cannot run (no ``fork`` start method, a daemonic process such
 as a worker of :mod:`longprofile.batch`), when it dies, or for arguments that cannot be sent to it, the figures are
@@ -105,13 +106,22 @@ class BackgroundRenderer:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _spare_core() -> bool:
-    """A core is free: the 1-minute load average is at most the core count minus one. The helper costs about
-    0.3-0.5 s of CPU more than drawing inline (its own imports); on a busy machine that is wall time, so it would
-    make the command slower (measured: `road iri --plot` 2.9 s inline against 3.9 s with a helper at load 2.9 on 2
-    cores)."""
+def _cores() -> int:
     try:
-        return os.getloadavg()[0] <= (os.cpu_count() or 1) - 1
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _spare_core() -> bool:
+    """The machine is not oversubscribed: its 1-minute load average is below its core count. The helper costs
+    0.3-0.5 s of CPU more than drawing inline (its own imports); on a machine with no core to spare that is wall
+    time and the command gets slower (measured: `road iri --plot` 2.9 s inline against 3.9 s with a helper at load
+    2.9 on 2 cores; at load 1.4-1.5 the helper still gained 0-0.7 s on `road acceptance`). A stricter rule (load at
+    most cores - 1) switched the helper off for commands run back to back, whose own runs raise the average; an
+    instantaneous count of runnable tasks (``/proc/loadavg``) saw a second task too often to be useful."""
+    try:
+        return os.getloadavg()[0] < _cores()
     except OSError:  # no load average on this system
         return False
 
