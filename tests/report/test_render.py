@@ -117,3 +117,15 @@ def test_which_command_lines_get_a_figure_helper():
     assert _draws_figures(["road", "report", "p.csv", "-o", "r/"])
     assert not _draws_figures(["road", "iri", "p.csv", "-o", "iri.csv"])
     assert not _draws_figures(["road", "convert", "report.csv", "x.erd"])
+
+
+def test_the_helper_runs_by_default_only_where_it_was_measured_to_help(monkeypatch):
+    from longprofile.cli.app import _figure_helper_wanted
+
+    monkeypatch.delenv("LONGPROFILE_FIGURES", raising=False)
+    assert _figure_helper_wanted(["road", "acceptance", "p.erd", "-o", "acc/"])
+    assert _figure_helper_wanted(["road", "convert", "p.erd", "p.parquet", "--plot", "p.png"])
+    assert not _figure_helper_wanted(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])
+    assert not _figure_helper_wanted(["road", "convert", "p.erd", "p.parquet"])  # draws nothing
+    monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
+    assert _figure_helper_wanted(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
@@ -82,6 +83,24 @@ def _draws_figures(args) -> bool:
     return any(words[:len(c)] == c for c in _FIGURE_COMMANDS)
 
 
+#: Commands whose figures the helper draws by default: those where it was measured to shorten the command
+#: (2026-12-02, interleaved fresh runs at load 0.5-1; docs/architecture.md). Where the figure's arguments need
+#: heavy domain modules that the helper must import first (vehicle vertical estimate, road reconstruct, rail
+#: settle), it made the command 0.3-1.0 s slower, so the others draw inline unless ``LONGPROFILE_FIGURES=helper``.
+_HELPER_COMMANDS = (("road", "acceptance"), ("road", "convert"), ("road", "compare"), ("differentiate",))
+
+
+def _figure_helper_wanted(args) -> bool:
+    """Whether to start the figure helper for this command line (:data:`_HELPER_COMMANDS`, or any command that
+    draws with ``LONGPROFILE_FIGURES=helper``)."""
+    if not _draws_figures(args):
+        return False
+    if os.environ.get("LONGPROFILE_FIGURES", "").lower() == "helper":
+        return True
+    words = tuple(str(a) for a in args if not str(a).startswith("-"))
+    return any(words[:len(c)] == c for c in _HELPER_COMMANDS)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console-script entry point: run the app, turn library errors into one red line and exit code 2.
 
@@ -90,10 +109,10 @@ def main(argv: list[str] | None = None) -> int:
     tune_process_memory()
     from ..report import figure_renderer, use_renderer
 
-    # a command that draws figures gets a helper process now, before its imports: matplotlib loads and the
-    # figures are drawn there while this process reads and computes (report/_render.py)
+    # a command that draws figures (of _HELPER_COMMANDS) gets a helper process now, before its imports: matplotlib
+    # loads and the figures are drawn there while this process reads and computes (report/_render.py)
     try:
-        with figure_renderer(background=_draws_figures(sys.argv[1:] if argv is None else argv)) as renderer, \
+        with figure_renderer(background=_figure_helper_wanted(sys.argv[1:] if argv is None else argv)) as renderer, \
                 use_renderer(renderer):
             # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
             code = app(args=argv, standalone_mode=False)
