@@ -6,10 +6,10 @@ helper imports matplotlib and draws a small figure (font cache, Agg) while the c
 draws the figures the report submits while the command writes its tables. The figures are the same PNG bytes as
 drawn in the command's own process (the same functions, the same matplotlib).
 
-The helper is started only when the machine is not oversubscribed (1-minute load average below the core
-count, :func:`_spare_core`): it
-costs more CPU in total than drawing inline, which a busy machine pays in wall time. ``LONGPROFILE_FIGURES=helper``
-always starts it, ``inline`` never. Where the helper cannot run (no ``fork`` start method, a daemonic process such
+The helper is started only when the machine is not oversubscribed (1-minute load average below the core count,
+:func:`_spare_core`): it costs more CPU in total than drawing inline, which a busy machine pays in wall time. The
+CLI asks for it only where it was measured to help (``longprofile.cli.app._HELPER_COMMANDS``).
+``LONGPROFILE_FIGURES=helper`` always starts it, ``inline`` never. Where the helper cannot run (no ``fork`` start method, a daemonic process such
 as a worker of :mod:`longprofile.batch`), when it dies, or for arguments that cannot be sent to it, the figures are
 drawn in the calling process (:class:`InlineRenderer`): the same result, without the overlap.
 """
