@@ -60,6 +60,12 @@ def _ready() -> bool:
     return True
 
 
+def _run_pickled(payload: bytes):
+    """In the helper: ``fn(*args, **kwargs)`` of the pickled ``(fn, args, kwargs)``."""
+    fn, args, kwargs = pickle.loads(payload)
+    return fn(*args, **kwargs)
+
+
 class _Job:
     """A figure submitted to the helper; drawn here instead if the helper has died."""
 
@@ -93,12 +99,12 @@ class BackgroundRenderer:
         cannot be sent to the helper (e.g. a result holding compiled closures) is drawn here, at once."""
         from concurrent.futures.process import BrokenProcessPool
 
-        try:
-            pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
+        try:  # pickled once, here: what cannot be sent is known before anything is queued
+            payload = pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
         except Exception:
             return InlineRenderer().submit(fn, *args, **kwargs)
         try:
-            return _Job(self._pool.submit(fn, *args, **kwargs), fn, args, kwargs)
+            return _Job(self._pool.submit(_run_pickled, payload), fn, args, kwargs)
         except (BrokenProcessPool, RuntimeError):
             return InlineRenderer().submit(fn, *args, **kwargs)
 
