@@ -82,6 +82,13 @@ def run(quick: bool) -> list[BenchRow]:
         t_cli, load = cli_wall_time(["road", "acceptance", str(erd), "--spec", str(Path(tmp) / "spec.toml")],
                                     [Path(tmp) / f"cli{k}" for k in range(4)], repeat=1 if quick else 3,
                                     warm=not quick)
+        # the same spec with the worst track as index (index = "iri"): more must-grind areas than the MRI's
+        (Path(tmp) / "spec_iri.toml").write_text(_toml({**spec_dict, "lot": {**spec_dict["lot"], "index": "iri"}}))
+        areas_iri = simulate_grinding(prof, spec_from_dict({**spec_dict, "lot": {**spec_dict["lot"], "index": "iri"}})
+                                      ).metadata["areas"]
+        t_cli_iri, load_iri = cli_wall_time(["road", "acceptance", str(erd), "--spec", str(Path(tmp) / "spec_iri.toml")],
+                                            [Path(tmp) / f"cli_iri{k}" for k in range(4)], repeat=1 if quick else 3,
+                                            warm=False)
     g = out["g"]
     n = prof.n_samples
     x, z = prof.distance, prof.elevation
@@ -106,6 +113,10 @@ def run(quick: bool) -> list[BenchRow]:
                  target=2.0 if not quick else None, higher_is_better=False,
                  detail=f"fresh process (interpreter, imports, compiled-cache load, read, compute, HTML, figures, "
                         f"CSVs, ground profile), same spec; best of {1 if quick else 3}; load before {load:.2f}"),
+        BenchRow(AREA, f"longprofile road acceptance, {km:g} km two-track ERD, index = \"iri\", end to end", t_cli_iri,
+                 "s", target=2.0 if not quick else None, higher_is_better=False,
+                 detail=f"as above with the worst track as index: {areas_iri} grind areas (MRI: {g.metadata['areas']}); "
+                        f"best of {1 if quick else 3}; load before {load_iri:.2f}"),
         BenchRow(AREA, f"acceptance report, {km:g} km two-track profile, CPU time of this process", cpu_report,
                  "s", detail="process_time; on a loaded shared machine the wall time adds the wait for a core"),
         BenchRow(AREA, f"read the {km:g} km two-track ERD file", t_read, "s", detail="reported only (ERD reader)"),

@@ -1,8 +1,6 @@
 """``python -m longprofile ...``: the same command-line interface as the ``longprofile`` console script."""
 
-import sys
-
-from .cli.app import main
+from .cli.app import run
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

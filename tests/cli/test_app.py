@@ -55,3 +55,30 @@ def test_python_dash_m_runs_the_same_cli_with_its_exit_codes(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "longprofile", "road", "iri", str(tmp_path / "missing.csv")],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr + bad.stdout
+
+
+def test_fast_exit_keeps_output_exit_code_and_exit_handlers(tmp_path):
+    """The console script ends with os._exit after main (no interpreter teardown): the printed lines, the files
+    written, the exit codes and the atexit handlers must be those of the normal exit (LONGPROFILE_FAST_EXIT=0)."""
+    import os
+
+    import numpy as np
+
+    x = np.arange(0.0, 200.0, 0.25)
+    (tmp_path / "p.csv").write_text("distance_m,elevation_m\n" + "\n".join(
+        f"{d:.6f},{1e-3 * np.sin(d / 3.0):.9f}" for d in x) + "\n")
+    hook = tmp_path / "hook"
+    hook.mkdir()  # an exit handler registered by a module the command imports (as multiprocessing's, coverage's)
+    (hook / "sitecustomize.py").write_text(
+        "import atexit, os\natexit.register(lambda: open(os.environ['HOOK_FILE'], 'w').write('ran'))\n")
+    runs = {}
+    for fast in ("1", "0"):
+        env = dict(os.environ, LONGPROFILE_FAST_EXIT=fast, PYTHONPATH=str(hook), HOOK_FILE=str(tmp_path / f"h{fast}"))
+        ok = subprocess.run([sys.executable, "-m", "longprofile", "road", "iri", str(tmp_path / "p.csv"), "-o",
+                             str(tmp_path / f"iri{fast}.csv")], capture_output=True, text=True, env=env)
+        bad = subprocess.run([sys.executable, "-m", "longprofile", "road", "iri", str(tmp_path / "missing.csv")],
+                             capture_output=True, text=True, env=env)
+        runs[fast] = (ok.returncode, ok.stdout.replace(fast + ".csv", ""), bad.returncode, bad.stdout,
+                      (tmp_path / f"iri{fast}.csv").read_bytes(), (tmp_path / f"h{fast}").read_text())
+    assert runs["1"] == runs["0"]
+    assert runs["1"][0] == 0 and runs["1"][2] == 2 and runs["1"][-1] == "ran" and runs["1"][4].count(b"\n") > 3

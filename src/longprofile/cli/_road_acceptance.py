@@ -50,9 +50,7 @@ def acceptance_command(
     ps = result.pay_summary
     pay = "" if ps["mean_pay_factor"] is None else f", mean pay factor {ps['mean_pay_factor']:.4f}"
     console.print(f"{ps['lots']} lot(s){pay}; {ps['localized_defects']} localized roughness area(s)"
-                  + ("" if grinding is None else f"; grinding {'reaches' if grinding.achieved else 'CANNOT reach'} "
-                     f"{grinding.threshold:g} {s.iri_unit} in {grinding.metadata['areas']} area(s)"),
-                  markup=False, soft_wrap=True)
+                  + ("" if grinding is None else "; " + grinding.summary()), markup=False, soft_wrap=True)
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 
 

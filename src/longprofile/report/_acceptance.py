@@ -270,8 +270,8 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
                 f"({ps['lots_with_pay']} lots with pay, {ps['lots_without_pay']} without).</p>")
     grind_html = ""
     if grinding is not None:
-        verdict = ("All areas reach the target." if grinding.achieved
-                   else "<b>Some areas cannot reach the target within the depth limit.</b>")
+        line = html.escape(grinding.summary()[:1].upper() + grinding.summary()[1:] + ".")
+        verdict = line if grinding.achieved else f"<b>{line}</b>"
         grind_html = (f"<h2>Grinding simulation (target {grinding.threshold:g} {iu})</h2>"
                       f"<p>{verdict} "
                       f"Model: {html.escape(grinding.metadata['model'])}.</p>"

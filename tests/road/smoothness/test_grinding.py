@@ -51,3 +51,45 @@ def test_depth_limit_flags_not_achieved_and_no_defect_no_grind():
 def test_needs_threshold():
     with pytest.raises(InputError, match="threshold"):
         simulate_grinding(_road(), spec_from_dict({"index": "iri"}))
+
+
+def _two_tracks():
+    x = np.arange(0, 800, 0.025)
+    bumps = sum(5e-3 * np.exp(-((x - s) / 0.4) ** 2) for s in (200.0, 520.0))
+    left = 4e-3 * np.sin(2 * np.pi * x / 37) + bumps + 7e-3 * np.exp(-((x - 350) / 0.3) ** 2)  # left only
+    z = np.column_stack([left, 3e-3 * np.sin(2 * np.pi * x / 23) + bumps])
+    return Profile(distance=x, elevation=z, tracks=("left", "right"))
+
+
+def test_grinding_fixes_the_defects_of_the_acceptance_by_its_index():
+    """Spec index "auto" on two tracks: the acceptance's localized index (and defects) are the MRI; the grinding
+    must use the same index (before: the worst track, so the grind list and the before/after map did not describe
+    the report's defects)."""
+    from longprofile.road.smoothness._acceptance import smoothness_acceptance
+
+    prof = _two_tracks()
+    spec = spec_from_dict({"lot": {"length": 200.0}, "localized": {"threshold": 2.0}})
+    acc = smoothness_acceptance(prof, spec)
+    assert acc.spec.index == "mri" and len(acc.defects) >= 2
+    for g in (simulate_grinding(prof, spec, acceptance=acc), simulate_grinding(prof, spec)):
+        np.testing.assert_array_equal(g.index_before, acc.localized["index"].to_numpy())
+        assert g.metadata["areas"] == len(acc.defects)  # these defects are far apart: one area each
+        # where nothing was ground, the index after equals the index before (same index, same car run)
+        assert np.nanmax(g.index_after[acc.localized["station"].to_numpy() < 150.0]
+                         - g.index_before[acc.localized["station"].to_numpy() < 150.0]) == 0.0
+        assert np.nanmax(g.index_after) <= 2.0
+        # the worst track of the left-only bump (MRI below the threshold) is not ground
+        assert not ((g.grinds.start <= 351.0) & (g.grinds.end >= 349.0)).any()
+    worst = simulate_grinding(prof, spec_from_dict({"index": "iri", "localized": {"threshold": 2.0}}))
+    assert ((worst.grinds.start <= 351.0) & (worst.grinds.end >= 349.0)).any()
+
+
+def test_summary_counts_the_areas_that_cannot_be_reached():
+    prof = _road(bump=30e-3)
+    spec = spec_from_dict({"index": "iri", "localized": {"threshold": 2.0}, "grinding": {"max_depth": 2.0}})
+    assert simulate_grinding(prof, spec).summary() == ("grinding brings 0 of 1 must-grind area(s) to <= 2 m/km; 1 "
+                                                       "CANNOT be brought below it within the depth limit (2 mm)")
+    ok = simulate_grinding(_road(), spec_from_dict({"index": "iri", "localized": {"threshold": 2.0}}))
+    assert ok.summary() == "grinding brings all 1 must-grind area(s) to <= 2 m/km"
+    none = simulate_grinding(_road(bump=0.0), spec)
+    assert none.summary() == "no must-grind area (localized index <= 2 m/km)"

@@ -275,6 +275,18 @@ def _runs(mask):
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
 
 
+def resolve_index(spec: AcceptanceSpec, tracks) -> AcceptanceSpec:
+    """``spec`` with ``index = "auto"`` resolved for the profile's ``tracks``: MRI for two tracks, IRI otherwise (the
+    rule of the lots, the localized index and the grinding alike); an MRI asked of other than two tracks is an
+    error."""
+    if spec.index == "auto":
+        spec = replace(spec, index="mri" if len(tracks) == 2 else "iri")
+    if spec.index == "mri" and len(tracks) != 2:
+        raise InputError(f"the MRI needs exactly two tracks; the profile has {list(tracks)}: set index = "
+                         "\"iri\" in the spec ([lot] index) or choose two tracks.")
+    return spec
+
+
 def localized_index(profile: Profile, spec: AcceptanceSpec, *, tracks=None, rs=None):
     """Continuous short-interval IRI (spec units) at window centres; NaN where a window touches an exclusion.
 
@@ -376,11 +388,7 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     bounds_u = x0u + spec.lot_length * np.arange(n_lots + 1)
     zones = _merge(spec.exclusions)
     rs = rectified_slope(profile, tracks=tracks)  # no inserted limits: keeps the fast constant-step run
-    if spec.index == "auto":
-        spec = replace(spec, index="mri" if len(rs.tracks) == 2 else "iri")
-    if spec.index == "mri" and len(rs.tracks) != 2:
-        raise InputError(f"the MRI needs exactly two tracks; the profile has {list(rs.tracks)}: set index = "
-                         "\"iri\" in the spec ([lot] index) or choose two tracks.")
+    spec = resolve_index(spec, rs.tracks)
     st, cum = _cumulative(rs)
     a, b = bounds_u[:-1] * scale, bounds_u[1:] * scale
     a, b = np.maximum(a, st[0]), np.minimum(b, st[-1])

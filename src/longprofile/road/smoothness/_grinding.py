@@ -17,6 +17,7 @@ from ._acceptance import (
     _localized_values,
     default_spec,
     localized_index,
+    resolve_index,
     validate_spec,
 )
 
@@ -46,9 +47,9 @@ class GrindingResult:
     achieved : bool
         Every area reached the threshold within the depth limit.
     station, index_before, index_after : (M,) ndarray
-        Localized index (IRI unit) at the window centres (length unit) before and after grinding; after
-        grinding it is re-simulated from the first cut of each area to ``margin`` after it (the golden car is
-        causal), and the value before elsewhere (unchanged profile).
+        Localized index (IRI unit) at the window centres (length unit) before and after grinding: the index of
+        :func:`~longprofile.road.smoothness_acceptance` (MRI of two tracks unless the spec says ``index = "iri"``:
+        the worst track), after grinding from one golden-car run of the whole ground profile.
     metadata : dict
     """
 
@@ -60,6 +61,21 @@ class GrindingResult:
     index_before: np.ndarray = None
     index_after: np.ndarray = None
     metadata: dict = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """One line: how many must-grind areas the grinding brings below the threshold, and how many it cannot
+        (depth limit)."""
+        n = int(self.metadata.get("areas", self.grinds["area"].nunique()))
+        unit = self.metadata.get("iri_unit", "")
+        target = f"{self.threshold:g} {unit}".strip()
+        if n == 0:
+            return f"no must-grind area (localized index <= {target})"
+        failed = int(self.grinds.loc[~self.grinds["achieved"].astype(bool), "area"].nunique())
+        if failed == 0:
+            return f"grinding brings all {n} must-grind area(s) to <= {target}"
+        depth = f"{self.metadata.get('max_depth', float('nan')):g} {self.metadata.get('depth_unit', '')}".strip()
+        return (f"grinding brings {n - failed} of {n} must-grind area(s) to <= {target}; {failed} CANNOT be "
+                f"brought below it within the depth limit ({depth})")
 
 
 def _chord_deviation(x, z, half):
@@ -75,19 +91,6 @@ def _row_max(a: np.ndarray) -> np.ndarray:
     for j in range(1, a.shape[-1]):
         np.maximum(out, a[..., j], out=out)
     return out
-
-
-def _localized_index_arrays(xs, zg, names, spec):
-    """``(centres, index)`` of :func:`localized_index` of the profile ``(xs, zg)`` (a sub-profile of a validated
-    profile, golden car with the defaults of rectified_slope) without building and re-validating a Profile."""
-    if np.isnan(zg.sum()):
-        raise InputError("the grinding simulation needs elevations without NaN around each must-grind area.")
-    rs = _run_arrays(xs, zg.copy(), names, 11.0, None, 0.25, None, _is_regular(xs))[0]
-    st, cum = _cumulative(rs)
-    centres = _localized_centres(xs, st, spec)
-    vals = _localized_values(st, cum, centres, spec)
-    index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else _row_max(vals)
-    return centres / spec.metres_per_unit, index
 
 
 def _cumulative_resumed(shared, cum0, rest):
@@ -243,8 +246,7 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
         Profile kept before an area when re-simulating it, m (default 40 m: the lead-in plus the decay of the
         initial transient of the golden car, whose sprung mode decays as exp(-c t / 2) = exp(-3 t)).
     margin : float
-        Profile kept after an area for the localized index after grinding, m (default 60 m: a change is
-        forgotten by the car to ~3e-4 after 60 m at 80 km/h).
+        Profile after an area in which a run of cutting that touches it may continue, m (default 60 m).
     tolerance : float
         Bisection stops when the grinder setting is known to this, m (default 0.02 mm).
     acceptance : AcceptanceResult, optional
@@ -280,21 +282,21 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
         "localized_window", "localized_step", "units", "exclusions"))
     if same and f"iri_{acceptance.tracks[0]}" in acceptance.localized:
         # the per-track values are those localized_index gives (same run, windows and exclusions); the index
-        # is formed here by this spec's rule (spec "auto": the worst track, as localized_index(profile, spec))
+        # is formed below by this spec's rule
         centres = acceptance.localized["station"].to_numpy()
         names = acceptance.tracks
         vals = np.column_stack([acceptance.localized[f"iri_{t}"].to_numpy(dtype=float) for t in names])
-        index = vals.mean(axis=1) if (spec.index == "mri" and vals.shape[1] == 2) else vals.max(axis=1)
     else:
-        centres, _, index, names = localized_index(profile, loc_spec, tracks=tracks)
+        centres, vals, _, names = localized_index(profile, loc_spec, tracks=tracks)
+    spec = resolve_index(spec, names)  # "auto": the index of the acceptance (MRI of two tracks), its defects
+    loc_spec = replace(spec, localized_threshold=target)
+    index = vals.mean(axis=1) if spec.index == "mri" else vals.max(axis=1)
     x = profile.distance
     z_all = np.column_stack([profile.track(t) for t in names])
     z_new = z_all.copy()
     above = np.nan_to_num(index, nan=-np.inf) > target
     w = spec.localized_window * scale
     areas = _must_grind_areas(centres, above, scale, w)
-    index_after = np.array(index, dtype=float, copy=True)
-    centres_m = centres * scale
     half = 0.5 * spec.grinder_length * scale
     max_depth = spec.grind_max_depth * spec.depth_factor
     rows = []
@@ -310,22 +312,14 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
                                                     spec, scale, w, target, tolerance)
         all_ok &= ok
         z_new[i0:i1] = zg
-        changed = np.flatnonzero(_row_max(cut) > 0)
-        if changed.size:
-            cs, idx = _localized_index_arrays(xs, zg, names, loc_spec)
-            # the car is causal: windows ending before the first cut are unchanged; later ones are re-simulated
-            # up to the end of the sub-profile (``margin`` after the area: the golden car's memory)
-            r0 = xs[changed[0]] - w / 2
-            r1 = cs[-1] * scale
-            m = slice(int(np.searchsorted(centres_m, r0, side="left")),  # centres sorted: the windows with
-                      int(np.searchsorted(centres_m, r1, side="right")))  # r0 <= centre (m) <= r1
-            index_after[m] = np.interp(centres[m], cs, idx)
         rows.extend(_grind_rows(n, names, cut, xs, scale, spec, ok, before, after))
     ground_profile = Profile(distance=x, elevation=z_new, tracks=names, name=(profile.name + " ground").strip())
+    # the localized index after grinding: one run of the whole ground profile (as smoothness_acceptance on it)
+    index_after = localized_index(ground_profile, loc_spec)[2] if rows else np.array(index, dtype=float, copy=True)
     meta = {"model": "one-pass grinder: cut = clip(d - c, 0, max_depth), d = deviation from a chord of "
                      "grinder_length; c by grid refinement per area (longprofile assumption)",
             "grinder_length": spec.grinder_length, "max_depth": spec.grind_max_depth,
-            "depth_unit": "mm" if spec.units == "si" else "in", "areas": len(areas)}
+            "depth_unit": "mm" if spec.units == "si" else "in", "areas": len(areas), "iri_unit": spec.iri_unit}
     grinds = pd.DataFrame(rows, columns=["area", "track", "start", "end", "length", "max_depth", "mean_depth",
                                          "achieved", "peak_before", "peak_after"])
     return GrindingResult(grinds=grinds, profile=ground_profile, threshold=target, achieved=bool(all_ok),
