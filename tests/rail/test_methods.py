@@ -137,6 +137,71 @@ def test_temporal_smoothing_equals_dense_conditioning_with_the_shared_reference_
         smooth_through_time(obs, sd, reference_share=1.0)
 
 
+def _per_station_smoothing(mu, sd, process_std=None, reference_share=0.5, noise_variance_by_day=None):
+    """The through-time smoothing as it was written before the batched engine call: one StateSpaceModel and one
+    shared_covariance_smoother run per station and candidate q (the oracle of the batched implementation)."""
+    from longprofile.rail._temporal import PROCESS_STD_GRID
+    from longprofile.statespace import StateSpaceModel, shared_covariance_smoother
+
+    D, N = mu.shape
+    var = np.maximum(sd, 1e-7) ** 2
+    Y = mu.copy()
+    Y[0] = np.nan
+    if noise_variance_by_day is not None:
+        ws = np.minimum(np.min(noise_variance_by_day[1:]) / noise_variance_by_day, 1.0)
+        ws[0] = 1.0
+        var_white, var_drift = var * ws[:, None], var * (1 - ws[:, None])
+    else:
+        var_white, var_drift = var, None
+
+    def run(q, j):
+        v = var_white[:, j]
+        var_ref = reference_share * float(np.median(v[1:]))
+        model = StateSpaceModel(np.eye(2), [[1.0, -1.0]], np.diag([q**2, 0.0]), ((1 - reference_share) * v)
+                                .reshape(D, 1, 1), np.zeros(2), np.diag([1e-16, max(var_ref, 1e-20)]))
+        return shared_covariance_smoother(model, Y[:, j:j + 1])
+
+    q = process_std
+    if q is None:
+        ll = [sum(run(g, j).filtered.log_likelihood for j in range(N)) for g in PROCESS_STD_GRID]
+        q = PROCESS_STD_GRID[int(np.argmax(ll))]
+    mean, std, rate_std = np.empty((D, N)), np.empty((D, N)), np.full((D, N), np.nan)
+    for j in range(N):
+        sm = run(q, j)
+        mean[:, j] = sm.mean[:, 0]
+        P = sm.cov[:, 0, 0]
+        Pr = P[1:] + P[:-1] - 2 * sm.cross_cov[:, 0, 0]
+        if var_drift is not None:
+            walk = np.maximum.accumulate(var_drift[:, j])
+            P, Pr = P + walk, Pr + np.diff(walk)
+        std[:, j] = np.sqrt(P)
+        rate_std[1:, j] = np.sqrt(np.maximum(Pr, 0.0))
+    return q, mean, std, rate_std
+
+
+@settings(max_examples=15, deadline=None)
+@given(D=st.integers(2, 40), N=st.integers(1, 6), seed=st.integers(0, 2**16), drift=st.booleans(),
+       given_q=st.booleans(), missing=st.sampled_from([0.0, 0.1]), share=st.sampled_from([0.0, 0.5]))
+def test_batched_through_time_smoothing_equals_one_smoother_per_station(D, N, seed, drift, given_q, missing, share):
+    """The grid search over q and the smoother run as ONE batch of the engine's filter (per-series covariances);
+    it must equal one model and one smoother per station and candidate q to round-off (and pick the same q)."""
+    rng = np.random.default_rng(seed)
+    q_true = rng.choice([1e-4, 1e-3])
+    mu = np.vstack([np.zeros(N), np.cumsum(rng.normal(0, q_true, (D - 1, N)), axis=0)])
+    sd = rng.uniform(2e-4, 1e-3, (D, N))
+    mu = mu + sd * rng.standard_normal((D, N))
+    mu[1:][rng.random((D - 1, N)) < missing] = np.nan
+    nv = np.cumsum(rng.uniform(1e-10, 1e-9, D)) if drift else None
+    q = 1e-3 if given_q else None
+    got = smooth_through_time(mu, sd, process_std=q, reference_share=share, noise_variance_by_day=nv)
+    q_ref, mean, std, rate_std = _per_station_smoothing(mu, sd, q, share, nv)
+    assert got.process_std == q_ref
+    np.testing.assert_allclose(got.mean, mean, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(got.std, std, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(got.rate_std, rate_std, rtol=1e-7, atol=1e-13)
+    np.testing.assert_allclose(got.rate[1:], np.diff(mean, axis=0), rtol=1e-9, atol=1e-15)
+
+
 def test_alarm_probabilities_are_gaussian_tail_probabilities():
     days = pd.date_range("2020-01-01", periods=2).to_numpy()
     mean = np.array([[0.0, -0.004], [0.0, -0.012]])

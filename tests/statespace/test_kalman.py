@@ -338,6 +338,66 @@ def test_batched_equals_loop_over_series(md, B):
         assert fb.n_observed[i] == f.n_observed
 
 
+def _series_cov(rng, model, B, T, tv):
+    """Per-series Q, R, P0 of a batch of B series (time-varying Q and R when ``tv``)."""
+    n, m = model.n_states, model.n_obs
+    steps = lambda k, K: np.stack([random_spd(rng, k) for _ in range(K)])  # noqa: E731
+    return {"process_cov": np.stack([steps(n, T - 1) if tv else random_spd(rng, n) for _ in range(B)]),
+            "obs_cov": np.stack([steps(m, T) if tv else random_spd(rng, m) for _ in range(B)]),
+            "initial_cov": np.stack([random_spd(rng, n) for _ in range(B)])}
+
+
+@PROPS
+@given(model_and_data(), st.integers(2, 4), st.booleans(), st.sampled_from(
+    [("process_cov", "obs_cov", "initial_cov"), ("obs_cov",), ("process_cov", "initial_cov")]))
+def test_per_series_covariances_equal_one_model_per_series(md, B, tv, names):
+    """series_cov: each series of the batch is filtered and smoothed exactly as with its own model (bit for bit:
+    the same compiled loop), whatever missing pattern each series has."""
+    model, y = md
+    T = y.shape[0]
+    rng = np.random.default_rng(B + 10 * tv)
+    yb = np.stack([y + rng.normal(size=y.shape) for _ in range(B)])
+    yb[rng.random(size=yb.shape) < 0.2] = np.nan  # missing patterns differ between the series
+    per = {k: v for k, v in _series_cov(rng, model, B, T, tv).items() if k in names}
+    fb = kalman_filter(model, yb, series_cov=per)
+    sb = rts_smoother(model, fb)
+    llb = log_likelihood(model, yb, series_cov=per)
+    for i in range(B):
+        own = StateSpaceModel(model.transition, model.observation, per.get("process_cov", [model.process_cov] * B)[i],
+                              per.get("obs_cov", [model.obs_cov] * B)[i], model.initial_mean,
+                              per.get("initial_cov", [model.initial_cov] * B)[i], state_offset=model.state_offset,
+                              obs_offset=model.obs_offset)
+        f = kalman_filter(own, yb[i])
+        s = rts_smoother(own, f)
+        for a, b in ((fb.mean[i], f.mean), (fb.cov[i], f.cov), (fb.innovation_cov[i], f.innovation_cov),
+                     (sb.mean[i], s.mean), (sb.cov[i], s.cov), (sb.cross_cov[i], s.cross_cov)):
+            assert_array_equal(a, b)
+        assert fb.log_likelihood[i] == f.log_likelihood == llb[i]
+    if "obs_cov" in per:  # the per-series covariances are used: the model's own R gives another likelihood
+        assert not np.array_equal(kalman_filter(model, yb).log_likelihood, fb.log_likelihood)
+
+
+def test_per_series_covariances_are_validated():
+    rng = np.random.default_rng(0)
+    model = random_model(rng, 2, 1, 5)
+    y = rng.normal(size=(3, 5, 1))
+    ok = _series_cov(rng, model, 3, 5, False)
+    with pytest.raises(ShapeError, match="batch"):
+        kalman_filter(model, y[0], series_cov={"obs_cov": ok["obs_cov"][:1]})
+    with pytest.raises(ShapeError, match="one per series"):
+        kalman_filter(model, y, series_cov={"obs_cov": ok["obs_cov"][:2]})
+    with pytest.raises(ShapeError, match="one per series"):
+        kalman_filter(model, y, series_cov={"process_cov": np.ones((3, 5, 2, 2))})  # T steps, not T-1
+    with pytest.raises(ShapeError, match="unknown per-series term"):
+        kalman_filter(model, y, series_cov={"transition": ok["process_cov"]})
+    bad = ok["process_cov"].copy()
+    bad[1] = -np.eye(2)
+    with pytest.raises(ModelError, match="positive semi-definite"):
+        kalman_filter(model, y, series_cov={"process_cov": bad})
+    with pytest.raises(InputError):
+        kalman_filter(model, y, series_cov={"initial_cov": np.full((3, 2, 2), np.nan)})
+
+
 @PROPS
 @given(model_and_data(), st.data())
 def test_all_missing_step_is_pure_prediction(md, data):

@@ -23,7 +23,7 @@ import pandas as pd
 from scipy.special import ndtr
 
 from ..errors import InputError
-from ..statespace import StateSpaceModel, shared_covariance_smoother
+from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
 
 __all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "PROCESS_STD_GRID"]
 
@@ -52,13 +52,37 @@ class TemporalSettlement:
     process_std: float
 
 
-def _station_model(var_obs, q, reference_share):
-    D = var_obs.size
-    var_ref = reference_share * float(np.median(var_obs[1:])) if D > 1 else 0.0
-    return StateSpaceModel(transition=np.eye(2), observation=np.array([[1.0, -1.0]]),
-                           process_cov=np.diag([q**2, 0.0]),
-                           obs_cov=((1.0 - reference_share) * var_obs).reshape(D, 1, 1),
-                           initial_mean=np.zeros(2), initial_cov=np.diag([1e-16, max(var_ref, 1e-20)]))
+#: The through-time model's structure (state (s_d, a_0), y_d = s_d - a_0): its noise and initial covariances
+#: differ per station and candidate q and are given per series (``series_cov`` of the engine's filter).
+_STRUCTURE = StateSpaceModel(transition=np.eye(2), observation=np.array([[1.0, -1.0]]), process_cov=np.zeros((2, 2)),
+                             obs_cov=np.ones((1, 1)), initial_mean=np.zeros(2), initial_cov=np.eye(2))
+
+
+def _station_covariances(var_obs, qs, reference_share):
+    """Per-series covariances of the through-time model for every station j (columns of ``var_obs`` (D, N)) and
+    candidate q: series g N + j is station j with q = qs[g]. Returns the engine's ``series_cov`` dict."""
+    D, N = var_obs.shape
+    G = len(qs)
+    var_ref = reference_share * np.median(var_obs[1:], axis=0) if D > 1 else np.zeros(N)
+    P0 = np.zeros((N, 2, 2))
+    P0[:, 0, 0] = 1e-16
+    P0[:, 1, 1] = np.maximum(var_ref, 1e-20)
+    Q = np.zeros((G, N, 2, 2))
+    Q[:, :, 0, 0] = np.asarray(qs, float)[:, None] ** 2
+    R = np.broadcast_to(((1.0 - reference_share) * var_obs).T[None, :, :, None, None], (G, N, D, 1, 1))
+    return {"process_cov": Q.reshape(G * N, 2, 2), "obs_cov": R.reshape(G * N, D, 1, 1),
+            "initial_cov": np.broadcast_to(P0, (G, N, 2, 2)).reshape(G * N, 2, 2)}
+
+
+def _station_smoother(Y, var_white, qs, reference_share, *, smooth):
+    """The engine's filter (and RTS smoother when ``smooth``) of every station and candidate q in one batch:
+    (filter or smoother result, log-likelihood (G, N))."""
+    D, N = Y.shape
+    cov = _station_covariances(var_white, qs, reference_share)
+    y = np.broadcast_to(Y.T[None, :, :, None], (len(qs), N, D, 1)).reshape(len(qs) * N, D, 1)
+    f = kalman_filter(_STRUCTURE, y, store_covariances=smooth, series_cov=cov)
+    ll = np.asarray(f.log_likelihood).reshape(len(qs), N)
+    return (rts_smoother(_STRUCTURE, f) if smooth else f), ll
 
 
 def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_share: float = 0.5,
@@ -109,31 +133,26 @@ def smooth_through_time(daily_mean, daily_std, *, process_std=None, reference_sh
     else:
         var_white, var_drift = var, None
 
-    def run(q, j):
-        return shared_covariance_smoother(_station_model(var_white[:, j], q, reference_share), Y[:, j:j + 1])
-
-    if process_std is None:
-        ll = [sum(run(q, j).filtered.log_likelihood for j in range(N)) for q in PROCESS_STD_GRID]
-        q = PROCESS_STD_GRID[int(np.argmax(ll))]
+    if process_std is None:  # every station and candidate q in one batch of the engine's filter
+        _, ll = _station_smoother(Y, var_white, PROCESS_STD_GRID, reference_share, smooth=False)
+        q = PROCESS_STD_GRID[int(np.argmax(ll.sum(axis=1)))]
     else:
         q = float(process_std)
         if not (np.isfinite(q) and q > 0):
             raise InputError(f"process_std must be > 0 (m/day); got {process_std!r}.")
-    mean = np.empty((D, N)); std = np.empty((D, N))
+    sm, _ = _station_smoother(Y, var_white, (q,), reference_share, smooth=True)
+    mean = sm.mean[:, :, 0].T.copy()
+    P = sm.cov[:, :, 0, 0].T  # (D, N)
     rate = np.full((D, N), np.nan); rate_std = np.full((D, N), np.nan)
-    for j in range(N):
-        sm = run(q, j)
-        mean[:, j] = sm.mean[:, 0]
-        P = sm.cov[:, 0, 0]
-        Pr = P[1:] + P[:-1] - 2 * sm.cross_cov[:, 0, 0] if D > 1 else None
-        if var_drift is not None:
-            walk = np.maximum.accumulate(var_drift[:, j])
-            P = P + walk
-            Pr = Pr + np.diff(walk) if D > 1 else None
-        std[:, j] = np.sqrt(P)
-        if D > 1:
-            rate[1:, j] = np.diff(sm.mean[:, 0])
-            rate_std[1:, j] = np.sqrt(np.maximum(Pr, 0.0))
+    Pr = P[1:] + P[:-1] - 2 * sm.cross_cov[:, :, 0, 0].T if D > 1 else None
+    if var_drift is not None:
+        walk = np.maximum.accumulate(var_drift, axis=0)
+        P = P + walk
+        Pr = Pr + np.diff(walk, axis=0) if D > 1 else None
+    std = np.sqrt(P)
+    if D > 1:
+        rate[1:] = np.diff(mean, axis=0)
+        rate_std[1:] = np.sqrt(np.maximum(Pr, 0.0))
     return TemporalSettlement(mean=mean, std=std, rate=rate, rate_std=rate_std, process_std=q)
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError, ShapeError
 from . import _kernels
 from ._model import StateSpaceModel
-from ._prepare import linear_inputs, prepare_observations
+from ._prepare import linear_inputs, prepare_observations, series_covariances
 from ._results import FilterResult, SmootherResult
 from ._status import raise_status
 
@@ -73,7 +73,8 @@ def _raise_status(status: np.ndarray, batched: bool) -> None:
     raise_status(status[2], status[1], "kalman", series=status[0] if batched else None)
 
 
-def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool = True) -> FilterResult:
+def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool = True,
+                  series_cov: dict | None = None) -> FilterResult:
     r"""Kalman filter with missing data (NaN) and a Joseph-form covariance update.
 
     Parameters
@@ -92,6 +93,13 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
         If False, only means, innovations and the likelihood are returned
         (``cov``, ``pred_cov``, ``innovation_cov`` are None): O(T n) memory,
         for very long signals.
+    series_cov : dict, optional
+        Noise and initial covariances that differ between the series of a batch (B, T, m) ``y``, replacing
+        the model's: ``"process_cov"`` (B, n, n) or (B, T-1, n, n), ``"obs_cov"`` (B, m, m) or (B, T, m, m),
+        ``"initial_cov"`` (B, n, n); each finite, symmetric, positive semi-definite. Every series then runs
+        its own covariance recursion in the same compiled loop (e.g. one smoother per station and candidate
+        process noise in one call, ``rail.smooth_through_time``). :func:`rts_smoother` needs nothing more
+        (it uses the filtered covariances and F).
 
     Returns
     -------
@@ -146,7 +154,7 @@ def kalman_filter(model: StateSpaceModel, y, *, u=None, store_covariances: bool 
     >>> res.mean.shape, res.cov.shape
     ((50, 1), (50, 1, 1))
     """
-    return _kalman_filter(model, y, u, store_covariances, None)
+    return _kalman_filter(model, y, u, store_covariances, None, series_cov)
 
 
 def kalman_filter_final_cov(model: StateSpaceModel, y) -> tuple[FilterResult, np.ndarray, np.ndarray]:
@@ -157,13 +165,20 @@ def kalman_filter_final_cov(model: StateSpaceModel, y) -> tuple[FilterResult, np
     return replace(res, innovation_cov=final[2]), final[0]
 
 
-def _kalman_filter(model, y, u, store_covariances, final):
+def _kalman_filter(model, y, u, store_covariances, final, series_cov=None):
     Y, batched = prepare_observations(model, y)
     nb, T, m = Y.shape
     U = linear_inputs(model, u, T, nb)
     if U is None:
         U = np.zeros((1, T, 0))
     terms = kernel_terms(model)
+    if series_cov and not batched:
+        raise ShapeError("series_cov gives covariances per series of a batch: pass y as (B, T, m).")
+    per = series_covariances(model, nb, T, dict(series_cov or {}))
+    # the kernel's noise and initial covariances carry a leading series axis: 1 (shared) or nb
+    Q = _readonly(per["process_cov"]) if "process_cov" in per else terms["Q"][None]
+    R = _readonly(per["obs_cov"]) if "obs_cov" in per else terms["R"][None]
+    P0 = _readonly(per["initial_cov"]) if "initial_cov" in per else terms["P0"][None]
     n = model.n_states
     store = bool(store_covariances)
     cshape = (nb, T) if store else (1, 1)
@@ -173,8 +188,8 @@ def _kalman_filter(model, y, u, store_covariances, final):
     nobs = np.empty(nb, dtype=np.int64)
     status = np.empty(3, dtype=np.int64)
     _kernels.kalman_filter_kernel(
-        terms["F"], terms["H"], terms["Q"], terms["R"], terms["Bm"], terms["Dm"], terms["c"], terms["d"],
-        terms["x0"], terms["P0"], _readonly(Y), _readonly(U), store,
+        terms["F"], terms["H"], Q, R, terms["Bm"], terms["Dm"], terms["c"], terms["d"],
+        terms["x0"], P0, _readonly(Y), _readonly(U), store,
         mean, cov, pmean, pcov, innov, icov, ll, nobs, status)
     _raise_status(status, batched)
     if final is not None:  # means-only: the last step's covariances, from the kernel's scratch; the S_k
@@ -191,7 +206,7 @@ def _kalman_filter(model, y, u, store_covariances, final):
         log_likelihood_steps=ll, n_observed=nobs if batched else int(nobs[0]), method="joseph")
 
 
-def log_likelihood(model: StateSpaceModel, y, *, u=None) -> float | np.ndarray:
+def log_likelihood(model: StateSpaceModel, y, *, u=None, series_cov: dict | None = None) -> float | np.ndarray:
     """Gaussian log-likelihood of ``y`` under ``model`` (prediction-error decomposition).
 
     Parameters
@@ -202,6 +217,8 @@ def log_likelihood(model: StateSpaceModel, y, *, u=None) -> float | np.ndarray:
         Observations; NaN components are missing and do not count.
     u : (T, p) or (B, T, p) array_like, optional
         Known inputs.
+    series_cov : dict, optional
+        Per-series noise and initial covariances of a batch (:func:`kalman_filter`).
 
     Returns
     -------
@@ -212,7 +229,7 @@ def log_likelihood(model: StateSpaceModel, y, *, u=None) -> float | np.ndarray:
     -----
     Runs the means-only filter (no covariance storage); see :func:`kalman_filter`.
     """
-    return kalman_filter(model, y, u=u, store_covariances=False).log_likelihood
+    return kalman_filter(model, y, u=u, store_covariances=False, series_cov=series_cov).log_likelihood
 
 
 def smoother_arrays(model: StateSpaceModel, filtered: FilterResult, *, store_gains: bool = False):

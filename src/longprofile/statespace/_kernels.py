@@ -89,10 +89,13 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
         status[2] = OK
         for b in range(NB):
             ub = b if u.shape[0] > 1 else 0
+            qb = b if Q.shape[0] > 1 else 0  # per-series covariances (leading series axis 1 or NB)
+            rb = b if R.shape[0] > 1 else 0
+            pb = b if P0.shape[0] > 1 else 0
             for i in range(n):
                 x[i] = x0[i]
                 for j in range(n):
-                    P[i, j] = P0[i, j]
+                    P[i, j] = P0[pb, i, j]
             count = 0
             for t in range(T):
                 sb = b if store else 0
@@ -104,7 +107,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                         for j in range(n):
                             pcov[sb, st, i, j] = P[i, j]
                 kh = _at(H.shape[0], t)
-                kr = _at(R.shape[0], t)
+                kr = _at(R.shape[1], t)
                 kd = _at(Dm.shape[0], t)
                 kdo = _at(d.shape[0], t)
                 affine_map(H, kh, x, m, n, Dm, kd, u, ub, t, d, kdo, yhat)  # H x + D u + d
@@ -118,7 +121,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                 # S = H P H' + R, symmetric, over all m components
                 for i in range(m):
                     for j in range(i + 1):
-                        s = 0.5 * (R[kr, i, j] + R[kr, j, i])
+                        s = 0.5 * (R[rb, kr, i, j] + R[rb, kr, j, i])
                         for l in range(n):
                             s += H[kh, i, l] * PHt[l, j]
                         S[i, j] = s
@@ -193,7 +196,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                         for a in range(m):
                             s = 0.0
                             for a2 in range(m):
-                                s += Kg[i, a2] * R[kr, a2, a]
+                                s += Kg[i, a2] * R[rb, kr, a2, a]
                             KR[i, a] = s
                     for i in range(n):
                         for j in range(i + 1):
@@ -212,7 +215,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                             cov[sb, st, i, j] = P[i, j]
                 if t < T - 1:
                     kf = _at(F.shape[0], t)
-                    kq = _at(Q.shape[0], t)
+                    kq = _at(Q.shape[1], t)
                     kb = _at(Bm.shape[0], t)
                     kc = _at(c.shape[0], t)
                     affine_map(F, kf, x, n, n, Bm, kb, u, ub, t, c, kc, xn)  # F x + B u + c
@@ -226,7 +229,7 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                             FP[i, j] = s
                     for i in range(n):
                         for j in range(i + 1):
-                            s = 0.5 * (Q[kq, i, j] + Q[kq, j, i])
+                            s = 0.5 * (Q[qb, kq, i, j] + Q[qb, kq, j, i])
                             for l in range(n):
                                 s += FP[i, l] * F[kf, j, l]
                             P[i, j] = s
@@ -240,11 +243,12 @@ def kalman_filter_kernel(F, H, Q, R, Bm, Dm, c, d, x0, P0, y, u, store,
                          mean, cov, pmean, pcov, innov, icov, ll, nobs, status):
     """Joseph-form Kalman filter over a batch, NaN components = missing.
 
-    Shapes: F (KF,n,n), H (KH,m,n), Q (KQ,n,n), R (KR,m,m), Bm (KB,n,p),
-    Dm (KD,m,p), c (Kc,n), d (Kd,m), x0 (n,), P0 (n,n), y (NB,T,m),
+    Shapes: F (KF,n,n), H (KH,m,n), Q (SQ,KQ,n,n), R (SR,KR,m,m), Bm (KB,n,p),
+    Dm (KD,m,p), c (Kc,n), d (Kd,m), x0 (n,), P0 (SP,n,n), y (NB,T,m),
     u (1 or NB, T, p). Outputs: mean, pmean (NB,T,n); innov (NB,T,m);
     ll (NB,T); nobs (NB,) int64; cov, pcov (NB,T,n,n) and icov (NB,T,m,m)
-    when ``store`` else (1,1,.,.) scratch; status (3,) int64.
+    when ``store`` else (1,1,.,.) scratch; status (3,) int64. The series axes SQ, SR, SP of the noise and
+    initial covariances are 1 (shared by the batch) or NB (one per series).
     """
     kernel = _make_filter_kernel(_fixed(x0.shape[0], MAX_FIXED_STATES), _fixed(y.shape[2], MAX_FIXED_OBS))
     kernel(F, H, Q, R, Bm, Dm, c, d, x0, P0, y, u, store, mean, cov, pmean, pcov, innov, icov, ll, nobs, status)

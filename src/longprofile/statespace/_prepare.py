@@ -123,3 +123,39 @@ def noise_terms(Q: np.ndarray, R: np.ndarray, n_steps: int) -> tuple[np.ndarray,
     if Q3.shape[0] == 0:
         Q3 = np.zeros((1,) + Q3.shape[1:])
     return Q3, R3
+
+
+#: Covariances a batch may give per series (:func:`series_covariances`): name -> (model field, base rank, side).
+SERIES_COVARIANCES = {"process_cov": (2, "transition"), "obs_cov": (2, "observation"), "initial_cov": (2, None)}
+
+
+def series_covariances(model, n_batch: int, n_steps: int, given: dict) -> dict:
+    """Validate per-series covariances of a batch of ``n_batch`` series of ``n_steps`` samples.
+
+    ``given`` maps "process_cov", "obs_cov", "initial_cov" to arrays with a leading series axis: (B, n, n) /
+    (B, m, m) constant in time, or (B, T-1, n, n) (process) / (B, T, m, m) (observation) time-varying; the
+    initial covariance is (B, n, n). Each must be finite, symmetric and positive semi-definite. Returns the
+    arrays with a time axis of length 1 when constant (initial: no time axis), C-contiguous float64.
+    """
+    from .._validation import require_symmetric_psd
+
+    sizes = {"process_cov": model.n_states, "obs_cov": model.n_obs, "initial_cov": model.n_states}
+    out = {}
+    for name, arr in given.items():
+        if name not in SERIES_COVARIANCES:
+            raise ShapeError(f"unknown per-series term {name!r}; known: {sorted(SERIES_COVARIANCES)}.")
+        if arr is None:
+            continue
+        k = sizes[name]
+        _, side = SERIES_COVARIANCES[name]
+        a = as_float_array(name, arr, ndim=(3,) if side is None else (3, 4))
+        steps = None if side is None else (n_steps - 1 if side == "transition" else n_steps)
+        want = [(n_batch, k, k)] + ([] if side is None else [(n_batch, steps, k, k)])
+        if a.shape not in want:
+            raise ShapeError(f"per-series {name} must have shape {' or '.join(map(str, want))} (one per series of "
+                             f"the batch of {n_batch}); got {a.shape}.")
+        require_symmetric_psd(f"per-series {name}", a)
+        if side is not None and a.ndim == 3:
+            a = a[:, None]
+        out[name] = np.ascontiguousarray(a)
+    return out
