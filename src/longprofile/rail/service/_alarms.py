@@ -140,9 +140,11 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
 
 def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
     """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data")."""
-    last = dict(s.execute(select(Sensor.sensor_id, func.max(Reading.ts)).join(Reading, Reading.sensor_pk == Sensor.id,
-                                                                             isouter=True)
-                          .where(Sensor.site_id == site.id, Sensor.active.is_(True)).group_by(Sensor.sensor_id)).all())
+    # one index seek per sensor on the (sensor_pk, ts) key: a join grouped by sensor scanned every reading of
+    # the site (0.67 s at 5.3 M readings, docs/rail-service.md, Measured)
+    newest = select(func.max(Reading.ts)).where(Reading.sensor_pk == Sensor.id).scalar_subquery()
+    last = dict(s.execute(select(Sensor.sensor_id, newest).where(Sensor.site_id == site.id,
+                                                                 Sensor.active.is_(True))).all())
     if not last:
         return []
     seen = [t for t in last.values() if t is not None]
