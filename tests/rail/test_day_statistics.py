@@ -1,6 +1,8 @@
 """Per-day statistics of daily_angles (the cache of the monitoring service): carried over a new day, a late
 reading or a revision, they give the daily angles of a full recomputation (docs/rail-service.md)."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -130,3 +132,44 @@ def test_settlement_from_the_statistics_equals_estimate_settlement(site):
     with pytest.raises(InputError, match="thermal model"):
         estimate_settlement_from_daily(site, res.daily, thermal="none")
     assert isinstance(res.to_table(), pd.DataFrame)
+
+
+def _exact_corrected_medians(readings, ids, days, k, tref):
+    """(D, N) median of a - k_j (T - T_ref) per day and sensor over the readings (no outliers in them), by hand."""
+    out = np.full((len(days), len(ids)), np.nan)
+    day = readings["timestamp"].dt.normalize().to_numpy()
+    for j, sid in enumerate(ids):
+        for d, dd in enumerate(days):
+            r = readings[(readings["sensor_id"] == sid).to_numpy() & (day == dd)]
+            out[d, j] = np.median(r["angle_deg"] - k[j] * (r["temperature_c"] - tref))
+    return out
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**16), delta=st.sampled_from([-2e-3, -1e-4, 3e-4, 1e-3]))
+def test_cached_medians_follow_a_new_coefficient_by_their_first_order_update(seed, delta):
+    """A cached day's median was computed with the coefficient k of its run (coef_deg_per_c); when the sensor's k
+    moves to k' (a later day moved the median of the per-day slopes) the combine stage carries it by
+    m(k') = m(k) - (k' - k)(T_m - T_ref), whose error is at most |k' - k| x the day's temperature range (the median
+    is 1-Lipschitz; docs/rail-service.md). The temperatures (17-23 °C) are far from T_ref = 5 °C, so without the
+    update the error |k' - k| |T_m - T_ref| is at least twice that bound: this test fails if the update is removed."""
+    rng = np.random.default_rng(seed)
+    ids = ["A", "B", "C"]
+    t = pd.date_range("2024-03-01", periods=4 * 48, freq="30min")
+    temp = 20 + 3 * np.sin(2 * np.pi * (t.hour.to_numpy() + t.minute.to_numpy() / 60) / 24)
+    rows = pd.DataFrame({"timestamp": np.repeat(t.to_numpy(), 3), "sensor_id": np.tile(ids, t.size),
+                         "temperature_c": np.repeat(temp, 3)})
+    rows["angle_deg"] = (rng.uniform(-0.1, 0.1, 3)[np.tile(np.arange(3), t.size)]
+                         + 2e-3 * rows["temperature_c"] + 5e-3 * rng.standard_normal(len(rows)))
+    rows = rows.sort_values(["sensor_id", "timestamp"], kind="stable").reset_index(drop=True)
+    stats = day_statistics(rows, ids, reference_temp_c=5.0)
+    assert stats.n_outliers.sum() == 0  # the hand-made medians below use every reading
+    moved = dataclasses.replace(stats, thermal_coef=stats.thermal_coef + delta)  # k' != the k of every cached day
+    got = daily_angles_from_statistics(moved).angle_deg
+    exact = _exact_corrected_medians(rows, ids, stats.days, moved.thermal_coef, 5.0)
+    bound = abs(delta) * stats.temp_range_c
+    without_update = abs(delta) * np.abs(stats.median_temp_c - 5.0)
+    assert np.all(without_update > 2 * bound)  # the test can tell the update from its absence
+    assert np.all(np.abs(got - exact) <= bound + 1e-12)
+    # and with the coefficient the medians were computed with, the combine stage returns them as they are
+    np.testing.assert_array_equal(daily_angles_from_statistics(stats).angle_deg, stats.median_deg)
