@@ -6,7 +6,7 @@ StateSpaceModel        -- linear-Gaussian model x[k+1] = F x + B u + c + w, y = 
 
 Linear inference
 ----------------
-kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched).
+kalman_filter          -- Kalman filter (Joseph form, NaN = missing, batched; per-series Q, R, P0: series_cov).
 rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covariances.
 log_likelihood         -- prediction-error log-likelihood.
 shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
