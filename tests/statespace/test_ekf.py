@@ -1,4 +1,5 @@
-"""Extended Kalman filter and smoother: linear limit, filterpy's EKF, finite differences, compiled vs Python."""
+"""Extended Kalman filter and smoother: linear limit, filterpy's EKF, finite differences, the reference EKF, plain
+Python model functions (compiled by the model)."""
 
 import numpy as np
 import pytest
@@ -15,6 +16,8 @@ from longprofile.statespace import (
     kalman_filter,
     rts_smoother,
 )
+
+from ._ekf_reference import reference_ekf
 
 # ---------------------------------------------------------------- a linear model with input and offset
 _rng = np.random.default_rng(42)
@@ -76,18 +79,18 @@ def linear_case(T=120):
     return lin, (Q, R, x0, P0), y, u
 
 
-@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("plain", [False, True])
 @pytest.mark.parametrize("analytic", [True, False])
-def test_linear_model_equals_kalman_filter_and_rts(compiled, analytic):
+def test_linear_model_equals_kalman_filter_and_rts(plain, analytic):
     lin, (Q, R, x0, P0), y, u = linear_case()
     fns = (lin_f, lin_h, lin_fj, lin_hj)
-    if not compiled:
+    if plain:  # plain Python functions: the model compiles them (numba.njit) for the compiled loops
         fns = tuple(fn.py_func for fn in fns)
     f, h, fj, hj = fns
     if not analytic:
         fj = hj = None
     model = NonlinearStateSpaceModel(f, h, Q, R, x0, P0, transition_jacobian=fj, observation_jacobian=hj)
-    assert model.is_compiled is compiled
+    assert model.is_compiled
     kf = kalman_filter(lin, y, u=u)
     ekf = extended_kalman_filter(model, y, u=u)
     tol = 1e-10 if analytic else 1e-8  # finite differences of an affine map are exact to ~1e-10 relative
@@ -110,7 +113,7 @@ def test_linear_model_equals_kalman_filter_and_rts(compiled, analytic):
 
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 10_000), n=st.integers(1, 3), m=st.integers(1, 2), missing=st.floats(0.0, 0.5))
-def test_random_linear_models_python_path_equals_kalman_filter(seed, n, m, missing):
+def test_random_linear_models_with_plain_python_functions_equal_kalman_filter(seed, n, m, missing):
     rng = np.random.default_rng(seed)
     F = rng.standard_normal((n, n))
     F *= 0.9 / max(abs(np.linalg.eigvals(F)))
@@ -209,18 +212,22 @@ def test_pendulum_matches_filterpy_extended_kalman_filter():
     np.testing.assert_allclose(ours.cov, np.array(covs), atol=1e-10)
 
 
-def test_compiled_and_python_paths_agree_on_nonlinear_model_with_missing_data():
+def test_compiled_filter_equals_the_reference_ekf_on_nonlinear_model_with_missing_data():
     y = pendulum_data(T=200, seed=4)
     y[7, 1] = np.nan
     y[20] = np.nan
     x0, P0 = np.array([0.5, 0.1]), np.diag([0.2, 0.5])
     compiled = NonlinearStateSpaceModel(pend_f, pend_h, PEND_Q, PEND_R, x0, P0, pend_fj, pend_hj)
     python = NonlinearStateSpaceModel(pend_f.py_func, pend_h.py_func, PEND_Q, PEND_R, x0, P0, pend_fj.py_func,
-                                      pend_hj.py_func)
+                                      pend_hj.py_func)  # plain functions, compiled by the model
     a, b = extended_kalman_filter(compiled, y), extended_kalman_filter(python, y)
-    for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation", "transition_jacobians",
+    ref = reference_ekf(pend_f.py_func, pend_h.py_func, PEND_Q, PEND_R, x0, P0, y, fj=pend_fj.py_func,
+                        hj=pend_hj.py_func)
+    for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation", "innovation_cov", "transition_jacobians",
                  "observation_jacobians", "log_likelihood_steps"):
-        np.testing.assert_allclose(getattr(a, name), getattr(b, name), atol=1e-12, rtol=0, err_msg=name)
+        np.testing.assert_allclose(getattr(a, name), getattr(ref, name), atol=1e-12, rtol=0, err_msg=name)
+        np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+    assert a.n_observed == ref.n_observed
     sa, sb = extended_rts_smoother(compiled, a), extended_rts_smoother(python, b)
     np.testing.assert_allclose(sa.mean, sb.mean, atol=1e-12)
     # smoothing never increases the posterior variance
@@ -269,6 +276,10 @@ def test_model_and_input_errors():
     bad_h = NonlinearStateSpaceModel(pend_f.py_func, lambda x, u, k: x[:1], PEND_Q, PEND_R, x0, P0)
     with pytest.raises(ShapeError, match=r"observation_fn must return shape \(2,\)"):
         extended_kalman_filter(bad_h, np.zeros((5, 2)))
+    with pytest.raises(ModelError, match="observation_fn could not be compiled by numba .*Untyped global name"):
+        NonlinearStateSpaceModel(pend_f.py_func, lambda x, u, k: np.asarray(object()), PEND_Q, PEND_R, x0, P0)
+    with pytest.raises(ModelError, match=r"observation_fn must return a 1-D float array .*float64"):
+        NonlinearStateSpaceModel(pend_f.py_func, lambda x, u, k: x[0], PEND_Q, PEND_R, x0, P0)
     model = NonlinearStateSpaceModel(pend_f.py_func, pend_h.py_func, PEND_Q, PEND_R, x0, P0)
     with pytest.raises(ShapeError, match="m = 2 columns"):
         extended_kalman_filter(model, np.zeros((5, 3)))

@@ -1,5 +1,6 @@
 """The EKF's compiled loops: typed by signature (cached on disk, a new process loads it) or by identity, with
-separate model functions or fused in-place steps -- the same numbers as the Python loop everywhere."""
+separate model functions or fused in-place steps -- the same numbers as the reference EKF (a plain NumPy loop,
+``tests/statespace/_ekf_reference.py``) everywhere."""
 
 import subprocess
 import sys
@@ -12,6 +13,8 @@ from numba import njit
 from longprofile.errors import InputError, ModelError
 from longprofile.statespace import NonlinearStateSpaceModel, StateSpaceModel, extended_kalman_filter, kalman_filter
 from longprofile.statespace._ekf import cached_ekf_kernel, model_function_types
+
+from ._ekf_reference import reference_ekf
 
 _rng = np.random.default_rng(7)
 F_LIN = np.array([[0.9, 0.1, 0.0], [-0.1, 0.8, 0.2], [0.0, 0.05, 0.95]])
@@ -131,15 +134,15 @@ def _data(T=200):
     return y, u
 
 
-def _python(model):
-    """The same model with the jitted functions' Python bodies (runs the engine's Python EKF loop)."""
-    py = [None if fn is None else fn.py_func for fn in (model.transition_fn, model.observation_fn,
-                                                        model.transition_jacobian, model.observation_jacobian)]
-    return NonlinearStateSpaceModel(py[0], py[1], model.process_cov, model.obs_cov, model.initial_mean,
-                                    model.initial_cov, transition_jacobian=py[2], observation_jacobian=py[3])
+def _reference(model, y, u=None):
+    """The reference EKF on the Python bodies of the model's jitted functions, one series at a time."""
+    fns = [None if fn is None else fn.py_func for fn in (model.transition_fn, model.observation_fn,
+                                                         model.transition_jacobian, model.observation_jacobian)]
+    return reference_ekf(fns[0], fns[1], model.process_cov, model.obs_cov, model.initial_mean, model.initial_cov,
+                         y, u, fj=fns[2], hj=fns[3])
 
 
-def test_linear_model_matches_the_kalman_filter_and_the_python_loop():
+def test_linear_model_matches_the_kalman_filter_and_the_reference_ekf():
     y, u = _data()
     x0, P0 = np.array([0.5, -0.2, 0.1]), np.eye(3)
     model = NonlinearStateSpaceModel(lin_f, lin_h, Q_LIN, R_LIN, x0, P0, transition_jacobian=lin_fj,
@@ -151,8 +154,7 @@ def test_linear_model_matches_the_kalman_filter_and_the_python_loop():
     np.testing.assert_allclose(got.mean, kf.mean, atol=1e-10)
     np.testing.assert_allclose(got.cov, kf.cov, atol=1e-10)
     assert got.log_likelihood == pytest.approx(kf.log_likelihood, abs=1e-8)
-    # the engine's Python path on the same functions (no compile of the uncached loop in the test)
-    ref = extended_kalman_filter(_python(model), y, u=u)
+    ref = _reference(model, y, u)
     for name in ("mean", "cov", "pred_mean", "pred_cov", "innovation_cov", "transition_jacobians",
                  "observation_jacobians", "log_likelihood_steps"):
         np.testing.assert_allclose(getattr(got, name), getattr(ref, name), rtol=1e-12, atol=1e-12)
@@ -160,7 +162,7 @@ def test_linear_model_matches_the_kalman_filter_and_the_python_loop():
     assert got.n_observed == ref.n_observed and got.method == "ekf"
 
 
-def test_finite_difference_jacobians_batches_and_means_only_match_the_python_loop():
+def test_finite_difference_jacobians_batches_and_means_only_match_the_reference_ekf():
     T = 150
     truth = 0.3 * np.sin(0.05 * np.arange(T))
     y = (np.sin(truth) + 0.05 * _rng.normal(size=T))[:, None]
@@ -169,9 +171,10 @@ def test_finite_difference_jacobians_batches_and_means_only_match_the_python_loo
     yb = np.stack([y, y[::-1]])
     for store in (True, False):
         got = extended_kalman_filter(model, yb, store_covariances=store)
-        ref = extended_kalman_filter(_python(model), yb, store_covariances=store)
-        np.testing.assert_allclose(got.mean, ref.mean, rtol=1e-8, atol=1e-10)  # FD amplifies ulp differences
-        np.testing.assert_allclose(got.log_likelihood, ref.log_likelihood, rtol=1e-8)
+        for b in range(2):
+            ref = _reference(model, yb[b])
+            np.testing.assert_allclose(got.mean[b], ref.mean, rtol=1e-8, atol=1e-10)  # FD amplifies ulp differences
+            np.testing.assert_allclose(got.log_likelihood[b], ref.log_likelihood, rtol=1e-8)
         assert (got.cov is None) == (not store)
 
 
@@ -204,7 +207,7 @@ def test_jitted_functions_of_another_signature_run_the_per_process_loop():
     assert strided.is_compiled and model_function_types(strided) is None
     assert model_function_types(NonlinearStateSpaceModel(pend_f, pend_h, np.eye(2), np.eye(1), np.zeros(2),
                                                          P0)) is not None
-    np.testing.assert_allclose(extended_kalman_filter(strided, y).mean, extended_kalman_filter(_python(strided), y).mean,
+    np.testing.assert_allclose(extended_kalman_filter(strided, y).mean, _reference(strided, y).mean,
                                rtol=1e-10, atol=1e-12)
 
 

@@ -386,16 +386,13 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     ``S_b = H_bb P_b H_bb' + R_bb``, ``K_b = P_b H_bb' S_b^-1``, ``x_b += K_b (y_o - yhat_o)``,
     Joseph update of P_b. Then ``x[k+1|k] = f(x[k|k])`` (all blocks, coupled) and
     ``P_b <- F_bb P_b F_bb' + Q_bb``. Thesis 003 (Plancke), §3.1 eq. (3.3): the per-corner filters of a car.
-    The compiled loop needs numba-jitted model functions (plain Python functions are rejected); it calls
-    the model's fused steps when it has them (``transition_step``/``observation_step`` of
+    The compiled loop calls the model's numba-jitted functions (plain Python functions are compiled by the
+    model): its fused steps when it has them (``transition_step``/``observation_step`` of
     :class:`NonlinearStateSpaceModel`; only the diagonal blocks of the Jacobians they write are used and
     checked), else f, h and the Jacobians (None = central finite differences).
     """
     if not isinstance(model, NonlinearStateSpaceModel):
         raise InputError(f"block_extended_kalman_filter needs a NonlinearStateSpaceModel; got {type(model).__name__}.")
-    if not model.is_compiled:
-        raise InputError("block_extended_kalman_filter runs a compiled loop: transition_fn, observation_fn and the "
-                         "given Jacobians must be numba @njit functions.")
     n, m = model.n_states, model.n_obs
     Y = as_float_array("y", y, ndim=(1, 2))
     if Y.ndim == 1:

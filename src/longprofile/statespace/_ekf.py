@@ -9,7 +9,6 @@ from typing import Callable
 import numpy as np
 from numba import typeof, types
 from numba.core.errors import NumbaError
-from scipy.linalg import cho_factor, cho_solve
 
 from .._jit import njit
 from .._validation import as_float_array, require_symmetric_psd
@@ -20,18 +19,10 @@ from ._linalg_kernels import FD_REL_STEP
 from ._model import StateSpaceModel
 from ._prepare import as_observation_batch, noise_terms, nonlinear_inputs
 from ._results import FilterResult, SmootherResult
-from ._status import (
-    COVARIANCE_NOT_FINITE,
-    NOT_PD,
-    OBSERVATION_NOT_FINITE,
-    TRANSITION_NOT_FINITE,
-    raise_status,
-    status_error,
-)
+from ._status import raise_status
 
 __all__ = ["NonlinearStateSpaceModel", "extended_kalman_filter", "extended_rts_smoother", "is_jitted", "check_functions"]
 
-_LOG2PI = float(np.log(2.0 * np.pi))
 
 
 def is_jitted(fn) -> bool:
@@ -87,21 +78,23 @@ class NonlinearStateSpaceModel:
         The Jacobian arrays start at zero and keep their content between calls:
         entries that are always zero need not be written. The filters check the
         steps against the separate functions at the initial state (ModelError
-        if they disagree); the Python loop and the smoother use the separate
+        if they disagree); the checks and the smoother use the separate
         functions.
 
     Notes
     -----
-    When ``transition_fn`` and ``observation_fn`` (and the Jacobians and steps
-    that are given) are numba ``@njit`` functions, :func:`extended_kalman_filter`
-    runs a compiled loop that calls them (about a microsecond per step for n = 3,
-    m = 2). Functions that compile for C-contiguous float64 arrays, i.e.
-    ``(x (n,), u (p,), k int64) -> array``, run in a loop compiled for their
-    *signature* and cached on disk by numba (compiled once per machine; a new
-    process loads it); other jitted functions run in a loop compiled for their
-    identity (once per process). Otherwise the same algorithm runs in a Python
-    loop. Finite differences use the central step h_j = eps^(1/3) max(|x_j|, 1)
-    (error O(h^2) + O(eps/h)), in both paths.
+    The filters run compiled loops (numba) that call the model functions (about a microsecond per step
+    for n = 3, m = 2). Plain Python functions are compiled with ``numba.njit`` when the model is built
+    (numba's nopython mode: numpy operations numba supports; arrays they read from enclosing scopes are
+    frozen at compile time), each behind a small compiled wrapper that returns a new C-contiguous float64
+    array; a function numba cannot compile is refused with a :class:`~longprofile.errors.ModelError` when the
+    model is built. Jitted functions that compile for C-contiguous float64 arrays, i.e.
+    ``(x (n,), u (p,), k int64) -> array``, run in a loop compiled for their *signature* and cached on disk
+    by numba (compiled once per machine; a new process loads it); other jitted functions run in a loop
+    compiled for their identity (once per process). Finite differences use the central step
+    h_j = eps^(1/3) max(|x_j|, 1) (error O(h^2) + O(eps/h)). (Until 2026-12-03 plain Python functions ran
+    a second, pure-Python copy of the filter; it is now the test suite's oracle,
+    ``tests/statespace/_ekf_reference.py``.)
     """
 
     transition_fn: Callable
@@ -156,9 +149,12 @@ class NonlinearStateSpaceModel:
                 raise InputError(f"{name} must be a numba @njit function g(x, u, k, out, out_jacobian) (the compiled "
                                  f"loops call it); got {type(val).__name__}. Leave it None to use transition_fn / "
                                  "observation_fn.")
-        fns = [self.transition_fn, self.observation_fn]
-        fns += [fn for fn in (self.transition_jacobian, self.observation_jacobian) if fn is not None]
-        object.__setattr__(self, "_compiled", all(is_jitted(fn) for fn in fns))
+        for name, ndim in (("transition_fn", 1), ("observation_fn", 1), ("transition_jacobian", 2),
+                           ("observation_jacobian", 2)):
+            fn = getattr(self, name)
+            if fn is not None and not is_jitted(fn):
+                object.__setattr__(self, name, compile_model_function(fn, ndim, name=name))
+        object.__setattr__(self, "_compiled", True)
 
     @property
     def n_states(self) -> int:
@@ -172,8 +168,65 @@ class NonlinearStateSpaceModel:
 
     @property
     def is_compiled(self) -> bool:
-        """True when all model functions are numba-jitted, so the filter runs a compiled loop."""
+        """True: every model function is numba-jitted (plain Python functions are compiled when the model is
+        built), so the filters run compiled loops. Kept for compatibility; always True since 2026-12-03."""
         return self._compiled
+
+
+def _as_new_vector(g):
+    """A function returning ``g(x, u, k)`` copied into a new C-contiguous float64 vector (jitted by the caller)."""
+    def f(x, u, k):
+        r = np.asarray(g(x, u, k))
+        out = np.empty(r.shape[0])
+        for i in range(r.shape[0]):  # a loop, not a slice assignment: cheaper to compile
+            out[i] = r[i]
+        return out
+    return f
+
+
+def _as_new_matrix(g):
+    """A function returning ``g(x, u, k)`` copied into a new C-contiguous float64 matrix (jitted by the caller)."""
+    def f(x, u, k):
+        r = np.asarray(g(x, u, k))
+        out = np.empty((r.shape[0], r.shape[1]))
+        for i in range(r.shape[0]):
+            for j in range(r.shape[1]):
+                out[i, j] = r[i, j]
+        return out
+    return f
+
+
+def compile_model_function(fn, ndim: int, *, name: str = "the model function"):
+    """``fn(x, u, k)`` (plain Python) compiled with ``numba.njit`` for C-contiguous float64 ``x`` (n,), ``u`` (p,)
+    and an int64 ``k``, so that the compiled loops typed by signature (cached on disk) can call it. When it does
+    not return a new C-contiguous float64 array of ``ndim`` dimensions (1: f, h; 2: Jacobians) -- e.g. it returns
+    an array it read from an enclosing scope, which numba freezes read-only -- a jitted wrapper copies the result
+    into one. ModelError, naming the function, if numba cannot compile it or its result is not such an array."""
+    args = FUNCTION_TYPE.signature.args
+    inner = njit(fn)
+    try:
+        inner.compile(args)
+    except NumbaError as exc:
+        raise ModelError(f"{name} could not be compiled by numba (the filters run compiled loops; plain Python "
+                         f"functions are compiled with numba.njit, which supports numpy arrays and scalars, not "
+                         f"Python objects): {_first_line(exc)}") from None
+    want = (FUNCTION_TYPE if ndim == 1 else JACOBIAN_TYPE).signature.return_type
+    if inner.overloads[args].signature.return_type == want:
+        return inner
+    out = njit((_as_new_vector if ndim == 1 else _as_new_matrix)(inner))
+    try:
+        out.compile(args)
+    except NumbaError:
+        got = inner.overloads[args].signature.return_type
+        raise ModelError(f"{name} must return a {ndim}-D float array (fn(x, u, k)); numba types its result as "
+                         f"{got}.") from None
+    return out
+
+
+def _first_line(exc) -> str:
+    """The first line of a numba error that says what failed (not numba's "Failed in ... pipeline" header)."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip() and not ln.strip().startswith("Failed in")]
+    return lines[0] if lines else type(exc).__name__
 
 
 def _fd_jacobian_py(fn, x, u, k):
@@ -193,7 +246,7 @@ def _fd_jacobian_py(fn, x, u, k):
 
 
 def _call(model, which, x, u, k):
-    """Evaluate f/h or their Jacobians in the Python path (finite differences when absent)."""
+    """Evaluate f/h or their Jacobians from Python, for the checks and the smoother (finite differences when absent)."""
     if which == "f":
         return np.asarray(model.transition_fn(x, u, k), dtype=np.float64)
     if which == "h":
@@ -214,6 +267,9 @@ def check_functions(model, u0):
     for which, name, shape in expect:
         try:
             out = _call(model, which, x, u0, 0)
+        except NumbaError as exc:
+            raise ModelError(f"{name} could not be compiled by numba (the filters run compiled loops): "
+                             f"{_first_line(exc)}") from None
         except (ValueError, TypeError, IndexError, ArithmeticError) as exc:
             raise ModelError(f"{name} failed when called as fn(x, u, k) with x = initial_mean (shape ({n},)), "
                              f"u of shape {u0.shape}, k = 0: {type(exc).__name__}: {exc}") from exc
@@ -221,74 +277,6 @@ def check_functions(model, u0):
             raise ShapeError(f"{name} must return shape {shape}; it returned {out.shape} at x = initial_mean.")
         if not np.all(np.isfinite(out)):
             raise ModelError(f"{name} returned non-finite values at x = initial_mean, k = 0: {out}.")
-
-
-def _ekf_python(model, Q3, R3, y, u, store):
-    T, m = y.shape
-    n = model.n_states
-    mean = np.empty((T, n))
-    pmean = np.empty((T, n))
-    innov = np.full((T, m), np.nan)
-    ll_steps = np.zeros(T)
-    cov = np.empty((T, n, n)) if store else None
-    pcov = np.empty((T, n, n)) if store else None
-    icov = np.empty((T, m, m)) if store else None
-    Fj = np.empty((max(T - 1, 0), n, n)) if store else None
-    Hj = np.empty((T, m, n)) if store else None
-    x = model.initial_mean.copy()
-    P = model.initial_cov.copy()
-    eye = np.eye(n)
-    n_obs = 0
-    for k in range(T):
-        uk = u[k]
-        R = R3[k if R3.shape[0] > 1 else 0]
-        pmean[k] = x
-        if store:
-            pcov[k] = P
-        yhat = _call(model, "h", x, uk, k)
-        H = _call(model, "H", x, uk, k)
-        if not (np.all(np.isfinite(H)) and np.all(np.isfinite(yhat))):
-            raise status_error(OBSERVATION_NOT_FINITE, k, "ekf")
-        if store:
-            Hj[k] = H
-        S = H @ P @ H.T + 0.5 * (R + R.T)
-        S = 0.5 * (S + S.T)
-        if store:
-            icov[k] = S
-        obs = ~np.isnan(y[k])
-        if obs.any():
-            Ho = H[obs]
-            e = y[k, obs] - yhat[obs]
-            try:
-                c = cho_factor(S[np.ix_(obs, obs)], lower=True)
-            except np.linalg.LinAlgError:
-                raise status_error(NOT_PD, k, "ekf") from None
-            K = cho_solve(c, Ho @ P).T
-            x = x + K @ e
-            A = eye - K @ Ho
-            P = A @ P @ A.T + K @ R[np.ix_(obs, obs)] @ K.T
-            P = 0.5 * (P + P.T)
-            innov[k, obs] = e
-            ll_steps[k] = -0.5 * (obs.sum() * _LOG2PI + 2.0 * np.sum(np.log(np.diag(c[0]))) + e @ cho_solve(c, e))
-            n_obs += int(obs.sum())
-        mean[k] = x
-        if store:
-            cov[k] = P
-        if k < T - 1:
-            F = _call(model, "F", x, uk, k)
-            xn = _call(model, "f", x, uk, k)
-            if not (np.all(np.isfinite(F)) and np.all(np.isfinite(xn))):
-                raise status_error(TRANSITION_NOT_FINITE, k, "ekf")
-            if store:
-                Fj[k] = F
-            x = xn
-            Qk = Q3[k if Q3.shape[0] > 1 else 0]
-            with np.errstate(over="ignore", invalid="ignore"):
-                P = F @ P @ F.T + 0.5 * (Qk + Qk.T)
-            if not np.all(np.isfinite(P)):
-                raise status_error(COVARIANCE_NOT_FINITE, k, "ekf")
-            P = 0.5 * (P + P.T)
-    return mean, cov, pmean, pcov, innov, icov, ll_steps, n_obs, Fj, Hj
 
 
 def ekf_kernel_outputs(T: int, n: int, m: int, store: bool) -> tuple:
@@ -476,8 +464,7 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
     u0 = U[0, 0] if U.shape[1] else np.zeros(0)
     check_functions(model, u0)
     check_model_steps(model, u0)
-    run = _ekf_compiled if model.is_compiled else _ekf_python
-    outs = [run(model, Q3, R3, Y[b], U[b], store_covariances) for b in range(Y.shape[0])]
+    outs = [_ekf_compiled(model, Q3, R3, Y[b], U[b], store_covariances) for b in range(Y.shape[0])]
     if batched:
         def stack(i):
             return None if outs[0][i] is None else np.stack([o[i] for o in outs])
