@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_float_array
+from .._validation import as_float_array, require_symmetric_psd
 from ..errors import ShapeError
 
 __all__ = ["as_observation_batch", "prepare_observations", "check_inputs", "linear_inputs", "prepare_inputs",
@@ -125,8 +125,9 @@ def noise_terms(Q: np.ndarray, R: np.ndarray, n_steps: int) -> tuple[np.ndarray,
     return Q3, R3
 
 
-#: Covariances a batch may give per series (:func:`series_covariances`): name -> (model field, base rank, side).
-SERIES_COVARIANCES = {"process_cov": (2, "transition"), "obs_cov": (2, "observation"), "initial_cov": (2, None)}
+#: Covariances a batch may give per series (:func:`series_covariances`): name -> the side whose time axis a
+#: time-varying array has ("transition": T-1 steps, "observation": T), None for the initial covariance.
+SERIES_COVARIANCES = {"process_cov": "transition", "obs_cov": "observation", "initial_cov": None}
 
 
 def series_covariances(model, n_batch: int, n_steps: int, given: dict) -> dict:
@@ -137,8 +138,6 @@ def series_covariances(model, n_batch: int, n_steps: int, given: dict) -> dict:
     initial covariance is (B, n, n). Each must be finite, symmetric and positive semi-definite. Returns the
     arrays with a time axis of length 1 when constant (initial: no time axis), C-contiguous float64.
     """
-    from .._validation import require_symmetric_psd
-
     sizes = {"process_cov": model.n_states, "obs_cov": model.n_obs, "initial_cov": model.n_states}
     out = {}
     for name, arr in given.items():
@@ -147,7 +146,7 @@ def series_covariances(model, n_batch: int, n_steps: int, given: dict) -> dict:
         if arr is None:
             continue
         k = sizes[name]
-        _, side = SERIES_COVARIANCES[name]
+        side = SERIES_COVARIANCES[name]
         a = as_float_array(name, arr, ndim=(3,) if side is None else (3, 4))
         steps = None if side is None else (n_steps - 1 if side == "transition" else n_steps)
         want = [(n_batch, k, k)] + ([] if side is None else [(n_batch, steps, k, k)])
