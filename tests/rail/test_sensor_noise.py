@@ -35,7 +35,21 @@ def test_per_station_sigma_matches_the_dense_posterior(seed, n):
     # tolerances of the scalar comparison (test_rigidity.py): the dense inverse is ill-conditioned
     assert np.max(np.abs(ss.z_mean - dense.z_mean)) < 1e-9
     np.testing.assert_allclose(ss.z_std, dense.z_std, rtol=2e-5, atol=1e-10)
-    # ... and a real test of the per-station R: one sigma for all (their median) is far from it
+
+
+def test_per_station_sigma_is_not_one_sigma_for_all():
+    """The per-station R matters: one sigma for all (their median) is far from the dense per-station posterior.
+
+    A fixed case with 20 stations and sigmas spread 20x: in the random property above, a draw of 4 stations with
+    one observed is decided by the prior, whatever the sigmas (a fresh-clone run drew one: 7e-4 relative)."""
+    rng = np.random.default_rng(3)
+    n = 20
+    x = np.cumsum(rng.uniform(1.0, 6.0, n))
+    m = rng.normal(0.0, 1e-4, n)
+    sigma = np.geomspace(5e-6, 1e-4, n)[rng.permutation(n)]
+    dense = rigidity_posterior_dense(x, m, sigma=sigma, rigidity=1e-9, first_slope_prior_std=FIRST_SLOPE_PRIOR_STD)
+    ss = rigidity_posterior(x, m, sigma=sigma, rigidity=1e-9)
+    np.testing.assert_allclose(ss.z_std, dense.z_std, rtol=2e-5, atol=1e-10)
     med = rigidity_posterior(x, m, sigma=float(np.median(sigma)), rigidity=1e-9)
     assert np.max(np.abs(med.z_std - dense.z_std)) > 1e-3 * np.max(dense.z_std)
 
