@@ -198,3 +198,29 @@ def test_dashboard_pages_and_the_daily_report(app):
     assert client.get("/sites/mitt/report/1999-01-01").status_code == 404
     api = client.get("/api/v1/sites/mitt/settlement").json()
     assert api["day"] == last[:10] and len(api["rows"]) == 58 and api["run"]["data_complete_to"]
+
+
+def test_the_report_folder_of_the_app_is_removed_when_its_lifespan_ends(site, tmp_path, monkeypatch):
+    """Without a report_dir the app keeps its day reports in a temporary directory of its own, removed at shutdown
+    (test runs and restarts left one longprofile-reports-* folder in /tmp each)."""
+    import tempfile
+
+    from longprofile.rail.service._recompute import recompute
+
+    db, _, r = site
+    _core.add_user(db, "tester", "viewer1", "viewer1-password", "viewer")
+    _core.ingest(db, "mitt", r.to_dict("records"))
+    recompute(db, "mitt")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp))
+
+    def folders():
+        return sorted(p for p in tmp.iterdir() if p.name.startswith("longprofile-reports-"))
+
+    with TestClient(create_app(db, background=False)) as client:
+        login(client, "viewer1", "viewer1-password")
+        rep = client.get(f"/sites/mitt/report/{r['timestamp'].max()[:10]}")
+        assert rep.status_code == 200
+        assert len(folders()) == 1 and list(folders()[0].rglob("index.html"))
+    assert folders() == []

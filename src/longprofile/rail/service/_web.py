@@ -174,11 +174,28 @@ class _App:
         self.db, self.notifier, self.secure_cookies = db, notifier, secure_cookies
         self.signer = SessionSigner(db)
         self.worker = ServiceWorker(db, notifier, tick_s=tick_s)
-        self.report_root = Path(report_dir) if report_dir else Path(tempfile.mkdtemp(prefix="longprofile-reports-"))
+        self._report_dir = Path(report_dir) if report_dir else None
+        self._report_tmp: tempfile.TemporaryDirectory | None = None
         self.env = Environment(loader=FileSystemLoader(str(TEMPLATES)), autoescape=select_autoescape(["html"]))
         self.png_cache = _LRU()
         self.report_lock = threading.Lock()
         self.worker.after_run = self.prerender
+
+    @property
+    def report_root(self) -> Path:
+        """Folder of the cached day reports: ``report_dir``, or a temporary directory the app owns, made on the
+        first report and removed by :meth:`close` (the end of the app's lifespan) or when the app is collected."""
+        if self._report_dir is not None:
+            return self._report_dir
+        if self._report_tmp is None:
+            self._report_tmp = tempfile.TemporaryDirectory(prefix="longprofile-reports-")
+        return Path(self._report_tmp.name)
+
+    def close(self):
+        """Remove the app's temporary report directory (a later report makes a new one)."""
+        tmp, self._report_tmp = self._report_tmp, None
+        if tmp is not None:
+            tmp.cleanup()
 
     def prerender(self, name):
         """Draw the newest day's profile into the PNG cache, so the first page view after a run is fast."""
@@ -635,12 +652,15 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     async def lifespan(app):
         if background:
             ctx.worker.start()
-        yield
-        ctx.worker.stop()
+        try:
+            yield
+        finally:
+            ctx.worker.stop()
+            ctx.close()
 
     app = FastAPI(title="longprofile rail monitoring", version=__version__, lifespan=lifespan, docs_url=None,
                   redoc_url=None, openapi_url=None)
-    app.state.db, app.state.worker, app.state.notifier = db, ctx.worker, notifier
+    app.state.db, app.state.worker, app.state.notifier, app.state.ctx = db, ctx.worker, notifier, ctx
     _add_error_handlers(app, ctx)
     _add_site_api_routes(app, ctx)
     _add_result_api_routes(app, ctx)
