@@ -22,6 +22,8 @@ day_statistics, DayStatistics -- the per-day stage of daily_angles (linear / non
 daily_angles_from_statistics -- its combine stage: DailyAngles from DayStatistics.
 statistics_window           -- the days to recompute after a change, and the readings they need.
 DAY_FIELDS                  -- the per-day fields of DayStatistics, in storage order.
+MEDIAN_LINES                -- readings per day kept next to the median, for exact medians at a new coefficient.
+NOISE_STD_TOLERANCE         -- relative drift of a sensor's noise std up to which cached outlier sets are kept.
 first_order_response        -- first-order thermal lag of a temperature series.
 rigidity_cost_matrix        -- the cost matrix C of Lemma 4.1 (§4.2).
 rigidity_posterior_dense    -- the paper's dense posterior (reference, O(N^3)).
@@ -69,7 +71,7 @@ _EXPORTS = {
                  "estimate_settlement", "estimate_settlement_from_daily", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
     "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time"),
-    "._thermal": ("DAY_FIELDS", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
+    "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
                   "day_statistics", "first_order_response", "statistics_window"),
 }
 
@@ -84,7 +86,7 @@ __all__ = [
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
-    "statistics_window", "DAY_FIELDS",
+    "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -26,7 +26,7 @@ from ._data import SiteData
 
 __all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS", "DayStatistics",
            "day_statistics", "daily_angles_from_statistics", "statistics_window", "MEDIAN_UPDATE_TOLERANCE_DEG",
-           "NOISE_QUANTILE_TOLERANCE"]
+           "NOISE_STD_TOLERANCE", "MEDIAN_LINES"]
 
 THERMAL_MODELS = ("linear", "lagged", "none")
 #: Candidate time constants of the lagged thermal model, hours.
@@ -152,13 +152,22 @@ def _slice_regression(day, a, T, n_days):
 #: (1e-4 deg, paper 004 §1.3). Beyond it the sensor's days are recomputed from its readings.
 MEDIAN_UPDATE_TOLERANCE_DEG = 1e-5
 #: Per-day fields of :class:`DayStatistics`, (D, N) each, in storage order.
-#: A cached sensor keeps its noise std (the outlier threshold) while the fraction of all its readings with
-#: |deviation| below / at most noise / 1.4826 stays within 0.5 +- this (:func:`day_statistics`, Notes).
-NOISE_QUANTILE_TOLERANCE = 0.01
+#: A cached sensor keeps its noise std s (the outlier threshold) while the exact noise std of all its readings
+#: (the median of 1.4826 |deviation|) is within s (1 +- this), decided exactly from per-day counts
+#: (:func:`day_statistics`, Notes).
+NOISE_STD_TOLERANCE = 0.01
 DAY_FIELDS = ("n_raw", "raw_median_deg", "raw_spread_deg", "noise_used_deg", "n_dev_below", "n_dev_at_most",
               "n_outliers", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
-              "median_temp_c", "temp_range_c", "temperature_sum_c", "n_temperature", "last_ts")
-_INT_FIELDS = ("n_raw", "n_dev_below", "n_dev_at_most", "n_outliers", "n_kept", "n_temperature", "last_ts")
+              "median_temp_c", "temp_range_c", "temperature_sum_c", "n_temperature", "last_ts",
+              "n_below_lines", "median_window_deg_per_c")
+_INT_FIELDS = ("n_raw", "n_dev_below", "n_dev_at_most", "n_outliers", "n_kept", "n_temperature", "last_ts",
+               "n_below_lines")
+#: Kept readings per (day, sensor) whose (angle, temperature) are kept with the day's statistics: the ones whose
+#: corrected angle is nearest the day's median (``DayStatistics.median_lines``). From them the median at another
+#: thermal coefficient k' is exact while |k' - k| <= ``median_window_deg_per_c`` (:func:`day_statistics`, Notes).
+MEDIAN_LINES = 16
+#: Per-day fields of shape (D, N, 2 MEDIAN_LINES): not among DAY_FIELDS (one value per day and sensor).
+_LINE_FIELDS = ("median_lines",)
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,8 +191,9 @@ class DayStatistics:
         Robust noise std s of the sensor the day was computed with (1.4826 median |angle - 7-sample running
         median| over the sensor's readings, §3), deg; the outlier threshold is 8 max(s, 1e-4).
     n_dev_below, n_dev_at_most : (D, N) int ndarray
-        Readings with |deviation| < s / 1.4826 and <= s / 1.4826: summed over the days, they tell whether s is
-        still the median of all the sensor's readings (exactly, without the readings).
+        Readings with 1.4826 |deviation| < s (1 - e) and <= s (1 + e), e = :data:`NOISE_STD_TOLERANCE`: summed
+        over the days, they tell whether the noise std of all the sensor's readings is still within s (1 +- e)
+        (exactly, without the readings).
     n_outliers : (D, N) int ndarray
     n_kept : (D, N) int ndarray
         Readings kept (after outlier removal).
@@ -204,6 +214,13 @@ class DayStatistics:
         Sum and count of the finite temperatures of all the day's readings (site-mean daily temperature).
     last_ts : (D, N) int ndarray
         Newest reading of the day, seconds since 1970 UTC (-1: none).
+    n_below_lines, median_window_deg_per_c : (D, N) ndarray
+        Kept readings below the median lines, and the half-width W of the coefficients k' around
+        ``coef_deg_per_c`` for which the median of the corrected angles is the median of the lines' (shifted by
+        the ranks below them): exact for |k' - k| <= W (inf: every kept reading is a line).
+    median_lines : (D, N, 2 MEDIAN_LINES) ndarray
+        Angles (first half) and temperatures (second half) of the :data:`MEDIAN_LINES` kept readings whose
+        corrected angle is nearest the day's median, NaN-padded.
     noise_deg, raw_std_deg, thermal_coef : (N,) ndarray
         Per-sensor values of :class:`DailyAngles`.
     unfitted : (N,) bool ndarray
@@ -236,6 +253,9 @@ class DayStatistics:
     temperature_sum_c: np.ndarray
     n_temperature: np.ndarray
     last_ts: np.ndarray
+    n_below_lines: np.ndarray
+    median_window_deg_per_c: np.ndarray
+    median_lines: np.ndarray
     noise_deg: np.ndarray
     raw_std_deg: np.ndarray
     thermal_coef: np.ndarray
@@ -248,7 +268,7 @@ class DayStatistics:
     def select_days(self, mask) -> "DayStatistics":
         """The same statistics on the days where ``mask`` (D,) is true."""
         m = np.asarray(mask, bool)
-        return replace(self, days=self.days[m], **{f: getattr(self, f)[m] for f in DAY_FIELDS})
+        return replace(self, days=self.days[m], **{f: getattr(self, f)[m] for f in DAY_FIELDS + _LINE_FIELDS})
 
     def replace_sensors(self, other: "DayStatistics") -> "DayStatistics":
         """These statistics with the sensors of ``other`` (recomputed from all their readings) put in; the
@@ -258,7 +278,7 @@ class DayStatistics:
             raise InputError("replace_sensors: the other statistics have days these do not have.")
         cols = [self.sensor_ids.index(s) for s in other.sensor_ids]
         new = {}
-        for f in DAY_FIELDS:
+        for f in DAY_FIELDS + _LINE_FIELDS:
             v = getattr(self, f).copy()
             empty = _empty_days(self.days.size, len(cols))[f]
             empty[idx] = getattr(other, f)
@@ -305,6 +325,7 @@ def _empty_days(D: int, N: int) -> dict:
     for f in _INT_FIELDS:
         out[f] = np.zeros((D, N), dtype=np.int64)
     out["last_ts"][:] = -1
+    out["median_lines"] = np.full((D, N, 2 * MEDIAN_LINES), np.nan)
     return out
 
 
@@ -357,8 +378,8 @@ def _sensor_days(a, T, dev, day, D, *, noise, tref, coef_of):
     ad = np.abs(dev)
     out["noise_used_deg"] = np.where(out["n_raw"] > 0, noise, np.nan)
     m = noise / 1.4826 if np.isfinite(noise) else 0.0
-    out["n_dev_below"] = np.bincount(day[ad < m], minlength=D)
-    out["n_dev_at_most"] = np.bincount(day[ad <= m], minlength=D)
+    out["n_dev_below"] = np.bincount(day[ad < m * (1 - NOISE_STD_TOLERANCE)], minlength=D)
+    out["n_dev_at_most"] = np.bincount(day[ad <= m * (1 + NOISE_STD_TOLERANCE)], minlength=D)
     keep = ad <= OUTLIER_THRESHOLD * max(noise if np.isfinite(noise) else 0.0, 1e-4)
     out["n_outliers"] = np.bincount(day[~keep], minlength=D)
     a, T, day = a[keep], T[keep], day[keep]
@@ -367,14 +388,65 @@ def _sensor_days(a, T, dev, day, D, *, noise, tref, coef_of):
     out["thermal_slope"] = slope
     k, fitted = coef_of(slope, out["n_kept"])
     out["coef_deg_per_c"] = np.where(out["n_raw"] > 0, k, np.nan)
-    med, Tm = _group_median(day, a - k * (T - tref), D, weights_of=T)
+    v = a - k * (T - tref)
+    med, Tm = _group_median(day, v, D, weights_of=T)
     out["median_deg"], out["median_temp_c"] = med, Tm
     tmax = np.full(D, -np.inf)
     np.maximum.at(tmax, day, T)
     tmin = np.full(D, np.inf)
     np.minimum.at(tmin, day, T)
     out["temp_range_c"] = np.where(out["n_kept"] > 0, tmax - tmin, np.nan)
+    out["median_lines"], out["n_below_lines"], out["median_window_deg_per_c"] = _median_lines(
+        day, a, T, v, med, D, out["temp_range_c"])
     return out, k, fitted
+
+
+def _median_lines(day, a, T, v, med, D, temp_range):
+    """The MEDIAN_LINES kept readings per day whose corrected angle v is nearest the day's median, the number of
+    the others below the median, and the half-width W of the coefficients around k within which they give the
+    median exactly.
+
+    Each reading's corrected angle is a line in k, v_i(k') = a_i - k' (T_i - T_ref); relative to the line through
+    the median with the mid-range temperature, each moves by at most |k' - k| rho / 2 (rho: the day's
+    temperature range), and so does every order statistic. The readings left out are at least h from the
+    median at k, the two middle ones within d (half their gap; 0 for an odd count). While |k' - k| rho <= h - d,
+    no reading left out below (above) rises above (falls below) the middle ones, so the median at k' is the
+    median of the lines' v_i(k') at the ranks (n - 1) // 2 and n // 2 less the number left out below.
+    """
+    K = MEDIAN_LINES
+    dist = np.abs(v - med[day])
+    order = np.lexsort((dist, day))
+    ds = day[order]
+    n = np.bincount(ds, minlength=D)
+    start = np.concatenate([[0], np.cumsum(n)[:-1]])
+    rank = np.arange(ds.size) - start[ds]
+    inc = rank < K
+    lines = np.full((D, 2 * K), np.nan)
+    sel = order[inc]
+    lines[ds[inc], rank[inc]] = a[sel]
+    lines[ds[inc], K + rank[inc]] = T[sel]
+    out = order[~inc]
+    n_below = np.bincount(day[out][v[out] < med[day[out]]], minlength=D)
+    h = np.full(D, np.inf)
+    np.minimum.at(h, day[out], dist[out])
+    by_value = np.lexsort((v, day))  # the middle readings' distance from the median: half their gap (0 if odd)
+    has = n > 0
+    d = np.full(D, np.inf)
+    d[has] = np.maximum(dist[by_value[(start + (n - 1) // 2)[has]]], dist[by_value[(start + n // 2)[has]]])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        window = np.where(temp_range > 0, (h - d) / temp_range, np.inf)
+    return lines, n_below, np.where(n > 0, window, np.nan)
+
+
+def _lines_median(lines, n_kept, n_below, k, tref):
+    """Median of the corrected angles a - k (T - T_ref) at ``k`` from the median lines (M, 2 MEDIAN_LINES) of M
+    (day, sensor) pairs with their kept counts and counts below the lines (:func:`_median_lines`); the same
+    arithmetic as the median over all kept readings."""
+    K = MEDIAN_LINES
+    v = np.sort(lines[:, :K] - k[:, None] * (lines[:, K:] - tref), axis=1)  # NaN (padding) last
+    rows = np.arange(v.shape[0])
+    lo, hi = (n_kept - 1) // 2 - n_below, n_kept // 2 - n_below
+    return (v[rows, lo] + v[rows, hi]) / 2
 
 
 def _coef_rule(thermal, quiet_mask):
@@ -390,13 +462,14 @@ def _coef_rule(thermal, quiet_mask):
 
 
 def _noise_still_median(fields, j) -> bool:
-    """Is the sensor's kept noise std still (within NOISE_QUANTILE_TOLERANCE) the median of all its readings?"""
-    n = fields["n_raw"][:, j].sum()
+    """Is the noise std of all the sensor's readings (1.4826 x the median |deviation|, the mean of the two middle
+    values for an even count) still within NOISE_STD_TOLERANCE of the kept one s? Exactly: the lower middle value
+    is >= s (1 - e) while fewer than (n - 1) // 2 + 1 readings are below it, the upper one <= s (1 + e) while at
+    least n // 2 + 1 are at most it."""
+    n = int(fields["n_raw"][:, j].sum())
     if n == 0:
         return True
-    tol = NOISE_QUANTILE_TOLERANCE
-    return bool(fields["n_dev_below"][:, j].sum() <= (0.5 + tol) * n
-                and fields["n_dev_at_most"][:, j].sum() >= (0.5 - tol) * n)
+    return bool(fields["n_dev_below"][:, j].sum() <= (n - 1) // 2 and fields["n_dev_at_most"][:, j].sum() >= n // 2 + 1)
 
 
 def _approx_raw_std(raw_median, raw_spread, n_raw) -> float:
@@ -447,15 +520,17 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
     Without ``previous`` the result is exact: the noise std s (1.4826 median |deviation| over all readings)
     and the raw spread (MAD of all raw angles) come from every reading, as in paper 004 §3. With
     ``previous`` (assumptions, docs/rail-service.md) each sensor keeps the s of its cached days (so the outlier
-    threshold 8 s, and every cached outlier set, stay as they are) while the counts of readings with
-    |deviation| below / at most s / 1.4826, summed over all days, stay within 0.5 +- NOISE_QUANTILE_TOLERANCE
-    of all its readings (s is then between the 45 % and 55 % quantiles of 1.4826 |deviation|); the raw spread
+    threshold 8 s, and every cached outlier set, stay as they are) while the noise std of all its readings is
+    within s (1 +- NOISE_STD_TOLERANCE), decided exactly from the per-day counts of readings with
+    1.4826 |deviation| below s (1 - e) / at most s (1 + e) (only readings within that band of the outlier
+    threshold can then be set aside differently from the full computation); the raw spread
     is the larger of the count-weighted median of the within-day spreads and the robust spread of the daily
     medians (it only feeds the dead-sensor test, < 1e-4 deg). The thermal coefficient is exact in both cases
-    (the median of the per-day slopes of the same outlier sets). A cached day's median moves to the new k by
-    the first-order update m(k') = m(k) - (k' - k)(T_m - T_ref), exact while the median reading stays the
-    same, error at most |k' - k| * temp_range <= :data:`MEDIAN_UPDATE_TOLERANCE_DEG`. Sensors beyond either
-    tolerance are listed in ``stale_sensors``.
+    (the median of the per-day slopes of the same outlier sets). A cached day's median at the new k is
+    computed exactly from its :data:`MEDIAN_LINES` median lines while |k' - k| <= ``median_window_deg_per_c``
+    (:func:`_median_lines`); beyond, by the first-order update m(k') = m(k) - (k' - k)(T_m - T_ref), exact while
+    the median reading stays the same, error at most |k' - k| * temp_range <= :data:`MEDIAN_UPDATE_TOLERANCE_DEG`.
+    Sensors beyond either tolerance are listed in ``stale_sensors``.
     """
     if thermal not in ("linear", "none"):
         raise InputError(f"day_statistics supports thermal='linear' or 'none'; got {thermal!r} (the lagged model "
@@ -485,7 +560,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
     coef_rule = _coef_rule(thermal, quiet_mask)
     fields = _empty_days(D, N)
     if prev is not None:
-        for f in DAY_FIELDS:
+        for f in DAY_FIELDS + _LINE_FIELDS:
             fields[f][:P] = getattr(prev, f)
     noise, rawstd, coef = np.full(N, np.nan), np.zeros(N), np.zeros(N)
     unfitted = np.zeros(N, bool)
@@ -582,13 +657,15 @@ def _update_cached(fields, j, P, k) -> bool:
     """Can sensor j's cached days (< P) be carried to coefficient ``k``? False when not exact enough.
 
     The kept noise std must still be the median |deviation| of all the sensor's readings (old and new days,
-    within :data:`NOISE_QUANTILE_TOLERANCE`), and the first-order update of each median from the k it was
+    within :data:`NOISE_STD_TOLERANCE`), and the first-order update of each median from the k it was
     computed with (:func:`daily_angles_from_statistics`) must be within :data:`MEDIAN_UPDATE_TOLERANCE_DEG`.
     """
     if P == 0:
         return True
     has = fields["n_raw"][:P, j] > 0
-    err = np.abs(k - fields["coef_deg_per_c"][:P, j]) * np.nan_to_num(fields["temp_range_c"][:P, j])
+    dk = np.abs(k - fields["coef_deg_per_c"][:P, j])
+    exact = dk <= fields["median_window_deg_per_c"][:P, j]  # the median lines give the exact median
+    err = np.where(exact, 0.0, dk * np.nan_to_num(fields["temp_range_c"][:P, j]))
     return _noise_still_median(fields, j) and not np.any(err[has] > MEDIAN_UPDATE_TOLERANCE_DEG)
 
 
@@ -608,12 +685,18 @@ def daily_angles_from_statistics(stats: DayStatistics) -> DailyAngles:
     if stats.stale_sensors:
         raise InputError(f"day statistics of sensor(s) {list(stats.stale_sensors)[:5]} are stale: recompute them "
                          "from their readings (day_statistics without previous).")
-    # each median was computed with k = coef_deg_per_c; carried to the sensor's k by the first-order update
+    # each median was computed with k = coef_deg_per_c; carried to the sensor's k exactly from its median lines
+    # within their window (below), else by the first-order update
     # m(k') = m(k) - (k' - k)(T_m - T_ref) (exact while the median reading stays the same; error bound in
     # day_statistics); a no-op (k' = k) on statistics computed from all readings
     dk = stats.thermal_coef[None, :] - stats.coef_deg_per_c
     angle = np.where(stats.n_kept > 0, stats.median_deg - np.where(dk != 0, dk, 0.0)
                      * (stats.median_temp_c - stats.reference_temp_c), np.nan)
+    # within the window of its median lines the median at the new k is computed exactly from them
+    di, sj = np.nonzero((dk != 0) & (np.abs(dk) <= stats.median_window_deg_per_c) & (stats.n_kept > 0))
+    if di.size:
+        angle[di, sj] = _lines_median(stats.median_lines[di, sj], stats.n_kept[di, sj], stats.n_below_lines[di, sj],
+                                      stats.thermal_coef[sj], stats.reference_temp_c)
     change = np.full_like(angle, np.nan)
     for j in range(angle.shape[1]):
         ok = np.nonzero(np.isfinite(angle[:, j]))[0]

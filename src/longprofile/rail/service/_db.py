@@ -19,6 +19,7 @@ from sqlalchemy import (
     ForeignKey,
     Index,
     Integer,
+    LargeBinary,
     String,
     Text,
     UniqueConstraint,
@@ -241,6 +242,10 @@ class DayStat(Base):
     temperature_sum_c: Mapped[float | None] = mapped_column(Float, nullable=True)
     n_temperature: Mapped[int] = mapped_column(Integer)
     last_ts: Mapped[int] = mapped_column(BigInteger)
+    n_below_lines: Mapped[int] = mapped_column(Integer, default=0)
+    median_window_deg_per_c: Mapped[float | None] = mapped_column(Float, nullable=True)
+    # DayStatistics.median_lines of the day: 2 MEDIAN_LINES little-endian float64 (angles, then temperatures)
+    median_lines: Mapped[bytes | None] = mapped_column(LargeBinary, nullable=True)
 
 
 class HealthRow(Base):

@@ -15,7 +15,6 @@ import math
 import time
 from dataclasses import replace
 from datetime import datetime, timezone
-from itertools import chain
 
 import numpy as np
 import pandas as pd
@@ -25,6 +24,8 @@ from ... import __version__
 from ...errors import InputError, LongprofileError
 from .. import (
     DAY_FIELDS,
+    MEDIAN_LINES,
+    NOISE_STD_TOLERANCE,
     DayStatistics,
     daily_angles_from_statistics,
     day_statistics,
@@ -78,19 +79,36 @@ def _iso(ts):
     return None if ts is None else datetime.fromtimestamp(ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def _float_columns(s, query, n_columns: int, *, chunk: int = 65536) -> np.ndarray:
+def _float_columns(s, query, n_columns: int, *, chunk: int = 65536, blob: int = 0):
     """(rows, n_columns) float64 array of a query's numeric rows (NULL -> NaN).
 
-    The rows are fetched through Core in chunks; each chunk is flattened into one list of Python floats and
-    converted at once. ``np.array`` on a list of SQLAlchemy ``Row`` objects probes every row for the array
-    protocols (each probe a failed key lookup) and took 9 of the 11.7 s of loading 432 000 readings
-    (docs/rail-service.md, Measured).
+    The query is compiled by SQLAlchemy for the session's dialect and run on the raw DBAPI cursor (sqlite3 or
+    psycopg), whose plain tuples numpy converts a chunk at a time: SQLAlchemy's ``Row`` processing took a third
+    of loading the day cache and the readings (docs/rail-service.md, Measured), and ``np.array`` on ``Row``
+    objects probes each for the array protocols (9 of 11.7 s of loading 432 000 readings). With ``blob`` the
+    query's last column holds ``blob`` little-endian float64 per row (NULL -> NaN) and the result is
+    (array, (rows, blob) array).
     """
-    result = s.connection().execute(query)
-    parts = []
-    while rows := result.fetchmany(chunk):
-        parts.append(np.array(list(chain.from_iterable(rows)), dtype=float))  # a flat list: None -> NaN
-    return (np.concatenate(parts) if parts else np.empty(0)).reshape(-1, n_columns)
+    conn = s.connection()
+    compiled = query.compile(dialect=conn.dialect, compile_kwargs={"render_postcompile": True})
+    params = compiled.construct_params()
+    args = tuple(params[k] for k in compiled.positiontup) if compiled.positional else params
+    cur = conn.connection.dbapi_connection.cursor()
+    parts, blobs = [], []
+    nan = np.full(blob, np.nan).astype("<f8").tobytes()
+    try:
+        cur.execute(str(compiled), args)
+        while rows := cur.fetchmany(chunk):
+            if blob:
+                blobs.append(np.frombuffer(b"".join(nan if r[-1] is None else bytes(r[-1]) for r in rows), "<f8"))
+                rows = [r[:-1] for r in rows]
+            parts.append(np.array(rows, dtype=float).reshape(-1, n_columns))  # None -> NaN
+    finally:
+        cur.close()
+    arr = np.concatenate(parts) if parts else np.empty((0, n_columns))
+    if not blob:
+        return arr
+    return arr, (np.concatenate(blobs) if blobs else np.empty(0)).reshape(-1, blob).astype(float)
 
 
 def _sensor_table(sens) -> pd.DataFrame:
@@ -160,6 +178,7 @@ def _readings_frame(s, site: Site, sens, *, from_ts=None, pks=None, chunk: int =
 
 def _cache_key(site: Site, thermal: str) -> str:
     blob = json.dumps({"thermal": thermal, "reference_temp_c": REFERENCE_TEMP_C, "fields": DAY_FIELDS,
+                       "median_lines": MEDIAN_LINES, "noise_std_tolerance": NOISE_STD_TOLERANCE,
                        "baseline_start": site.baseline_start_ts, "code": __version__}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
@@ -167,12 +186,12 @@ def _cache_key(site: Site, thermal: str) -> str:
 def _load_day_cache(s, site: Site, sens, thermal: str) -> DayStatistics | None:
     """The site's cached per-day statistics of its active sensors (None when there are none)."""
     cols = ("sensor_pk", "day") + DAY_FIELDS
-    q = select(*[getattr(DayStat, c) for c in cols]).where(DayStat.site_id == site.id)
-    arr = _float_columns(s, q, len(cols))
+    q = select(*[getattr(DayStat, c) for c in cols], DayStat.median_lines).where(DayStat.site_id == site.id)
+    arr, lines = _float_columns(s, q, len(cols), blob=2 * MEDIAN_LINES)
     col = {pk: j for j, (pk, *_) in enumerate(sens)}
     pk = arr[:, 0].astype(np.int64)
     keep = np.isin(pk, np.fromiter(col, dtype=np.int64, count=len(col)))
-    arr, pk = arr[keep], pk[keep]
+    arr, pk, lines = arr[keep], pk[keep], lines[keep]
     if arr.shape[0] == 0:
         return None
     dnum = arr[:, 1].astype(np.int64)
@@ -188,6 +207,8 @@ def _load_day_cache(s, site: Site, sens, thermal: str) -> DayStatistics | None:
             v[:] = 0.0
         v[di, sj] = arr[:, 2 + k].astype(np.int64) if integer else arr[:, 2 + k]
         fields[f] = v
+    fields["median_lines"] = np.full((D, N, 2 * MEDIAN_LINES), np.nan)
+    fields["median_lines"][di, sj] = lines
     nan = np.full(N, np.nan)
     return DayStatistics(days=(udays * _DAY_S * 10**9).astype("datetime64[ns]"), sensor_ids=[r[1] for r in sens],
                          **fields, noise_deg=nan, raw_std_deg=nan, thermal_coef=nan, unfitted=np.zeros(N, bool),
@@ -265,6 +286,9 @@ def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebui
     data = {"site_id": [int(site.id)] * di.size, "sensor_pk": pks[sj].tolist(), "day": dnum[di].tolist()}
     for f in DAY_FIELDS:
         data[f] = _column_values(getattr(stats, f)[di, sj])
+    lines = np.ascontiguousarray(stats.median_lines[di, sj], dtype="<f8").tobytes()
+    width = 2 * MEDIAN_LINES * 8
+    data["median_lines"] = [lines[i:i + width] for i in range(0, len(lines), width)]
     bulk_insert(s, DayStat.__table__, data)
     state = s.get(DayCache, site.id)
     if state is None:
