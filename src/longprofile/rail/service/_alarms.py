@@ -81,15 +81,22 @@ def _enqueue(s, site: Site, alarm: Alarm, event: str):
                      next_try_ts=0))
 
 
+def open_alarms(s, site: Site) -> dict:
+    """{open_key: Alarm} of the site's open alarms (one query for a run's many transitions)."""
+    return {a.open_key: a for a in s.scalars(select(Alarm).where(Alarm.site_id == site.id,
+                                                                 Alarm.open_key.is_not(None)))}
+
+
 def transition(s, site: Site, quantity: str, subject: str, level: str | None, *, value=None, threshold=None,
-               day=None, message="", run_id=None) -> str:
+               day=None, message="", run_id=None, opened: dict | None = None) -> str:
     """Move the open alarm of (site, quantity, subject) to ``level`` (None = clear).
 
     Returns what happened: "none" (same level: de-duplicated), "raised", "changed" (cleared + raised) or
-    "cleared". Notifications go to the outbox in the caller's transaction.
+    "cleared". Notifications go to the outbox in the caller's transaction. ``opened``: the site's open alarms
+    from :func:`open_alarms` in this transaction (kept up to date here) instead of one query per call.
     """
     key = f"{site.id}:{quantity}:{subject}"
-    cur = s.scalar(select(Alarm).where(Alarm.open_key == key))
+    cur = s.scalar(select(Alarm).where(Alarm.open_key == key)) if opened is None else opened.get(key)
     if cur is not None and cur.level == level:
         cur.value, cur.day = value, day  # the latest value, no new alarm
         return "none"
@@ -98,6 +105,8 @@ def transition(s, site: Site, quantity: str, subject: str, level: str | None, *,
     what = "raised"
     if cur is not None:
         cur.state, cur.open_key, cur.cleared_ts = "cleared", None, now_ts()
+        if opened is not None:
+            opened.pop(key, None)
         cur.cleared_reason = "back within thresholds" if level is None else f"level changed to {level}"
         s.flush()
         _enqueue(s, site, cur, "cleared")
@@ -107,6 +116,8 @@ def transition(s, site: Site, quantity: str, subject: str, level: str | None, *,
                   value=value, threshold=threshold, day=day, message=message, raised_ts=now_ts(), raised_run_id=run_id)
         s.add(a)
         s.flush()
+        if opened is not None:
+            opened[key] = a
         _enqueue(s, site, a, "raised")
     return what
 
@@ -121,17 +132,19 @@ def thresholds_of(s, site: Site) -> dict:
 def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list[str]:
     """Alarm transitions after a run: the three quantities and the sensor-health alarms."""
     events = []
+    opened = open_alarms(s, site)
     day = pd.Timestamp(res.days[-1]).strftime("%Y-%m-%d")
     unit = {"settlement": "mm", "rate": "mm/day", "twist": "mm"}
     for q, (lv, val, thr, where) in quantity_levels(res, thresholds_of(s, site), probability=probability).items():
         msg = "" if lv is None else (f"{q} {1e3 * val:+.1f} {unit[q]} at {where} on {day} "
                                      f"(|{q}| > {1e3 * thr:.1f} {unit[q]}, {lv} level)")
-        w = transition(s, site, q, "site", lv, value=val, threshold=thr, day=day, message=msg, run_id=run_id)
+        w = transition(s, site, q, "site", lv, value=val, threshold=thr, day=day, message=msg, run_id=run_id,
+                       opened=opened)
         if w != "none":
             events.append(f"{q}:{w}")
     for sid, st, detail in zip(res.health.sensor_ids, res.health.status, res.health.detail):
         lv = None if st == "ok" else "action"
-        w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id,
+        w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id, opened=opened,
                        message="" if lv is None else f"sensor {sid} {st}: {detail}")
         if w != "none":
             events.append(f"health:{sid}:{w}")
@@ -156,6 +169,7 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
         ref = now_ts() if now is None else int(now)
     limit = site.no_data_hours * 3600.0
     events = []
+    opened = open_alarms(s, site)
     for sid, t in sorted(last.items()):
         stale = t is None or ref - t > limit
         lv = "alert" if stale else None
@@ -163,7 +177,7 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
                                     f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
                                     f"(limit {site.no_data_hours:g} h)")
         w = transition(s, site, "no_data", sid, lv, value=None if t is None else (ref - t) / 3600.0,
-                       threshold=site.no_data_hours, message=msg)
+                       threshold=site.no_data_hours, message=msg, opened=opened)
         if w != "none":
             events.append(f"no_data:{sid}:{w}")
     return events
