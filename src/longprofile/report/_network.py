@@ -170,19 +170,22 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
         Files written, ``index.html`` first.
     """
     out = report_folder(outdir, inputs, writes=_REPORT_FILES, overwrite=overwrite)
-    res = summary.results
-    counts = summary.counts
-    n_files = len(res.manifest)
-    good, poor = summary.limits
-    unit, su = summary.iri_unit, summary.station_unit
-
-    # tables
     tables = {"routes.csv": summary.routes, "worst_segments.csv": summary.worst, "failed.csv": summary.failed}
-    written = []
-    for fname, df in tables.items():
-        written.append(write_csv(df, out / fname))
+    written = [write_csv(df, out / fname) for fname, df in tables.items()]
+    figs, drawn = _network_figures(summary)
+    for stale in out.glob("routes-*.png"):  # an earlier report of a bigger network
+        if stale.name not in figs:
+            stale.unlink()
+    paths, images = write_figures(figs, out)
+    written.extend(paths)
+    page = _network_page(summary, tables, figs, images, drawn, title)
+    written.insert(0, write_text(out / "index.html", page))
+    return written
 
-    # figures: condition strips (all routes up to MAX_ROUTES_DRAWN, by name), a few worst routes, the histogram
+
+def _network_figures(summary):
+    """The figures by file name (condition strips of the routes drawn, the worst routes, the histogram) and the
+    routes drawn: all up to MAX_ROUTES_DRAWN, by name."""
     routes = summary.routes
     drawn = sorted(routes["route"].head(MAX_ROUTES_DRAWN)) if len(routes) else []
     figs = {}
@@ -196,16 +199,15 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
         figs["worst_routes.png"] = plot_worst_routes(summary, worst_routes)
     if len(summary.segments):
         figs["iri_histogram.png"] = plot_iri_histogram(summary)
-    for stale in out.glob("routes-*.png"):  # an earlier report of a bigger network
-        if stale.name not in figs:
-            stale.unlink()
-    paths, images = write_figures(figs, out)
-    written.extend(paths)
+    return figs, drawn
 
-    def img(fname, alt):
-        return img_tag(images, fname, alt)
 
-    # cards
+def _network_cards(summary) -> list[str]:
+    """The summary cards of the page: files, network length, mean segment IRI, condition shares."""
+    counts, routes = summary.counts, summary.routes
+    n_files = len(summary.results.manifest)
+    good, poor = summary.limits
+    unit, su = summary.iri_unit, summary.station_unit
     km = summary.length / (1000.0 if su == "m" else (5280.0 if su == "ft" else 1.0))
     length_unit = {"m": "km", "ft": "mi"}.get(su, su)
     cards = [f'<div class="card">Network<b>{km:.1f} {length_unit}</b><span class="small">{len(summary.segments)} '
@@ -220,8 +222,12 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     cards.insert(0, f'<div class="card{bad}">Files<b>{counts["ok"] + counts["skipped"]} / {n_files} done</b>'
                  f'<span class="small">{counts["error"]} failed'
                  + (f", {counts['skipped']} kept from an earlier run" if counts["skipped"] else "") + "</span></div>")
+    return cards
 
-    # tables as HTML
+
+def _network_tables_html(summary) -> tuple[str, str, str, str]:
+    """The HTML of the worst segments, the routes (first 100, and a note on the others) and the warnings."""
+    routes, su = summary.routes, summary.station_unit
     highlight = (lambda c, v: _condition(float(v), summary.limits)
                  if (str(c) in summary.value_columns or c in ("segment_iri", "mean_iri", "max_iri"))
                  and isinstance(v, (float, np.floating)) else "")
@@ -243,6 +249,21 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
                        f"{html.escape(str(r.warning))}</td></tr>" for r in summary.warnings.head(500).itertuples())
         warn_html = (f"<h2>Results to check ({len(summary.warnings)})</h2><table><thead><tr><th>file</th>"
                      f"<th class='l'>warning</th></tr></thead><tbody>{rows}</tbody></table>")
+    return worst_html, routes_html, more_routes, warn_html
+
+
+def _network_page(summary, tables, figs, images, drawn, title) -> str:
+    """``index.html`` of the network report: cards, figures (embedded), tables and the run's details."""
+    res, counts, routes = summary.results, summary.counts, summary.routes
+    n_files = len(res.manifest)
+    good, poor = summary.limits
+    unit = summary.iri_unit
+
+    def img(fname, alt):
+        return img_tag(images, fname, alt)
+
+    cards = _network_cards(summary)
+    worst_html, routes_html, more_routes, warn_html = _network_tables_html(summary)
     strips = "".join(img(f, "condition along each route") for f in figs if f.startswith("routes-"))
     drawn_note = (f"<p class='small'>The {len(drawn)} routes with the highest mean IRI of {len(routes)} are drawn; "
                   "all are in routes.csv.</p>" if len(routes) > len(drawn) else "")
@@ -250,7 +271,7 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
     name = title or f"Network roughness report — {res.folder.name}"
     meta = (f"{n_files} input files, task {res.task}; IRI in {unit} per segment (the IRI report of each file); "
             f"segment IRI = {summary.segment_iri}.")
-    page = f"""<!DOCTYPE html>
+    return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}{_EXTRA_CSS}</style></head>
 <body>
 <h1>{html.escape(name)}</h1>
@@ -278,5 +299,3 @@ longprofile {html.escape(str(version))}. Files in this folder: {' · '.join(html
 Definitions and assumptions: docs/batch.md.</p>
 </body></html>
 """
-    written.insert(0, write_text(out / "index.html", page))
-    return written
