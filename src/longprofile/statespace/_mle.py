@@ -154,23 +154,8 @@ def fit_mle(build: Callable[[np.ndarray], StateSpaceModel], y, theta0, *, u=None
     parameters is not positive definite (flat or non-identifiable direction),
     std_errors and cov are NaN and the message says so.
     """
-    theta0 = as_float_array("theta0", theta0, ndim=1, allow_nan=False)
+    theta0, names, bounds, lo, hi = _check_parameters(theta0, param_names, bounds)
     k = theta0.size
-    if k < 1:
-        raise ShapeError("theta0 must have at least one parameter.")
-    names = tuple(param_names) if param_names is not None else tuple(f"theta[{i}]" for i in range(k))
-    if len(names) != k:
-        raise ShapeError(f"param_names must have one name per parameter ({k}); got {len(names)}.")
-    if bounds is not None:
-        bounds = [tuple(b) for b in bounds]
-        if len(bounds) != k or any(len(b) != 2 for b in bounds):
-            raise ShapeError(f"bounds must be {k} (low, high) pairs; got {bounds}.")
-        lo = np.array([-np.inf if b[0] is None else float(b[0]) for b in bounds])
-        hi = np.array([np.inf if b[1] is None else float(b[1]) for b in bounds])
-        if np.any(lo >= hi) or np.any(theta0 < lo) or np.any(theta0 > hi):
-            raise InputError(f"theta0 = {theta0} must lie within bounds {bounds} (with low < high).")
-    else:
-        lo, hi = np.full(k, -np.inf), np.full(k, np.inf)
     nll = _neg_loglik_factory(build, y, u)
     f0 = nll(theta0)
     if not np.isfinite(f0):
@@ -205,6 +190,36 @@ def fit_mle(build: Callable[[np.ndarray], StateSpaceModel], y, theta0, *, u=None
     notes = [str(res.message)]
     if not free.all():
         notes.append("at a bound (standard error undefined): " + ", ".join(n for n, f in zip(names, free) if not f))
+    std, cov = _standard_errors(nll, params, steps, free, nan_cov, notes)
+    return result(std, cov, True, "; ".join(notes))
+
+
+def _check_parameters(theta0, param_names, bounds):
+    """fit_mle's parameter arguments checked: (theta0, names, bounds as tuples, low and high bounds)."""
+    theta0 = as_float_array("theta0", theta0, ndim=1, allow_nan=False)
+    k = theta0.size
+    if k < 1:
+        raise ShapeError("theta0 must have at least one parameter.")
+    names = tuple(param_names) if param_names is not None else tuple(f"theta[{i}]" for i in range(k))
+    if len(names) != k:
+        raise ShapeError(f"param_names must have one name per parameter ({k}); got {len(names)}.")
+    if bounds is not None:
+        bounds = [tuple(b) for b in bounds]
+        if len(bounds) != k or any(len(b) != 2 for b in bounds):
+            raise ShapeError(f"bounds must be {k} (low, high) pairs; got {bounds}.")
+        lo = np.array([-np.inf if b[0] is None else float(b[0]) for b in bounds])
+        hi = np.array([np.inf if b[1] is None else float(b[1]) for b in bounds])
+        if np.any(lo >= hi) or np.any(theta0 < lo) or np.any(theta0 > hi):
+            raise InputError(f"theta0 = {theta0} must lie within bounds {bounds} (with low < high).")
+    else:
+        lo, hi = np.full(k, -np.inf), np.full(k, np.inf)
+    return theta0, names, bounds, lo, hi
+
+
+def _standard_errors(nll, params, steps, free, nan_cov, notes):
+    """(std, cov) of the free parameters from the Richardson Hessian of -log L at the optimum (NaN elsewhere; NaN
+    everywhere, and a line appended to ``notes``, when that Hessian is not positive definite)."""
+    k = params.size
     std = np.full(k, np.nan)
     cov = nan_cov.copy()
     if free.any():
@@ -231,4 +246,4 @@ def fit_mle(build: Callable[[np.ndarray], StateSpaceModel], y, theta0, *, u=None
         else:
             notes.append("Hessian of -log L not positive definite at the optimum (flat or non-identifiable "
                          "direction): standard errors undefined")
-    return result(std, cov, True, "; ".join(notes))
+    return std, cov
