@@ -289,23 +289,7 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     dt = log.dt
     w = log.wheel_speeds
     v = R * 0.5 * (w[:, 2] + w[:, 3])
-    problems = []
-    vmax = float(np.max(vehicle.wheel_radius_of_each * w))
-    if vmax > 95.0:
-        problems.append(f"wheel_speed_*: R omega reaches {vmax:.4g} m/s (> 95 m/s): wheel speeds in rpm or deg/s? "
-                        "declare the unit (e.g. 'wheel_speed_fl [rpm]'), or check wheels.radius")
-    smax = float(np.max(np.abs(log.steering_angle)))
-    if smax > 0.8:
-        problems.append(f"steering_angle reaches {smax:.3g} rad ({math.degrees(smax):.0f} deg), beyond a road wheel's "
-                        "lock (~0.7 rad): a steering-WHEEL angle (divide by the steering ratio) or degrees "
-                        "('steering_angle [deg]')?")
-    rmax = float(np.max(np.abs(log.yaw_rate)))
-    if rmax > 3.0:
-        problems.append(f"yaw_rate reaches {rmax:.3g} rad/s (> 3 rad/s): deg/s? declare 'yaw_rate [deg/s]'")
-    for k in ("accel_x", "accel_y"):
-        amax = float(np.max(np.abs(getattr(log, k))))
-        if amax > 20.0:
-            problems.append(f"{k} reaches {amax:.3g} m/s^2 (> 2 g): check its unit")
+    problems = _range_problems(log, vehicle)
     smooth = max(1, int(round(0.2 / dt)))  # 0.2 s moving average: the checks are about gains, not noise
     rw = _moving_average(R * (w[:, 3] - w[:, 2]) / Sb, smooth)
     r = _moving_average(log.yaw_rate, smooth)
@@ -319,25 +303,8 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     delta = _moving_average(steer, smooth)
     min_n = max(3, int(round(0.5 / dt)))  # half a second of turning (or accelerating)
     moving = vs > 3.0
-    checks = []
-
-    k1, n1 = _slope_through_origin(rw, r, moving & (np.abs(rw) > 0.03), min_n)
-    ok1 = None if math.isnan(k1) else bool(0.93 <= k1 <= 1.07)
-    checks.append(LogCheck("yaw_rate_vs_wheels", k1, (0.93, 1.07), n1, ok1))
-    if ok1 is False:
-        hint = _likely_factor(k1, {
-            "yaw_rate in deg/s (declare 'yaw_rate [deg/s]')": 180 / math.pi,
-            "yaw_rate of opposite sign: a z-down / y-to-the-right (SAE) frame or a clockwise-positive gyro; negate "
-            "yaw_rate and accel_y (and steering_angle if positive to the right)": -1.0,
-            # a wheel column holding X = c omega is read as omega' = c omega, so the ratio is 1/c
-            "wheel speeds in m/s (declare 'wheel_speed_* [m/s]')": 1.0 / R,
-            "wheel speeds in km/h (declare 'wheel_speed_* [km/h]')": 1.0 / (3.6 * R),
-            "wheel speeds in rpm (declare 'wheel_speed_* [rpm]')": 2 * math.pi / 60,
-            "left and right wheel columns swapped": -1.0,
-        })
-        if 0.8 <= k1 <= 1.25:
-            hint += "; or wrong wheels.radius / body.track in the vehicle file"
-        problems.append(f"yaw_rate / (R (omega_rr - omega_rl) / track) = {k1:.3g}, expected 1 (eq. (18)): {hint}")
+    checks = [_yaw_rate_check(rw, r, moving, min_n, R, problems)]
+    ok1 = checks[0].ok
     vr = vs * r
     k2, n2 = _slope_through_origin(vr, ay, moving & (np.abs(vr) > 0.5), min_n)
     ok2 = None if math.isnan(k2) else bool(0.75 <= k2 <= 1.3)
@@ -353,16 +320,7 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     ok3 = None if math.isnan(k3) else bool(0.3 <= k3 <= 1.3)
     checks.append(LogCheck("steering_vs_yaw_rate", k3, (0.3, 1.3), n3, ok3))
     if ok3 is False and yaw_ok:
-        if k3 < 0:
-            hint = (f"{steer_name} has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
-                    f"negate {'steering_angle' if wheel_steering is None else 'steer_fl and steer_fr'}")
-        elif k3 < 0.3:
-            hint = (f"{steer_name} is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
-                    "steering-WHEEL angle (divide by the steering ratio) or degrees ('steering_angle [deg]')")
-        else:
-            hint = f"{steer_name} too small: in mrad? or a steering ratio applied twice"
-        problems.append(f"yaw_rate / (V_x {steer_name} / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
-                        f"model, understeering car): {hint}")
+        problems.append(_steering_problem(k3, steer_name, wheel_steering is None))
     dv = np.gradient(vs, dt)
     dv = _moving_average(dv, smooth)
     k4, n4 = _slope_through_origin(dv, ax, moving & (np.abs(dv) > 0.5), min_n)
@@ -390,6 +348,64 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     if problems and raise_on_error:
         raise UnitsError(f"{source}: implausible channels (units or signs): " + "; ".join(problems) + ".")
     return tuple(checks)
+
+
+def _range_problems(log, vehicle) -> list[str]:
+    """The channels out of any plausible range (wheel speeds, steering angle, yaw rate, accelerations)."""
+    problems = []
+    vmax = float(np.max(vehicle.wheel_radius_of_each * log.wheel_speeds))
+    if vmax > 95.0:
+        problems.append(f"wheel_speed_*: R omega reaches {vmax:.4g} m/s (> 95 m/s): wheel speeds in rpm or deg/s? "
+                        "declare the unit (e.g. 'wheel_speed_fl [rpm]'), or check wheels.radius")
+    smax = float(np.max(np.abs(log.steering_angle)))
+    if smax > 0.8:
+        problems.append(f"steering_angle reaches {smax:.3g} rad ({math.degrees(smax):.0f} deg), beyond a road wheel's "
+                        "lock (~0.7 rad): a steering-WHEEL angle (divide by the steering ratio) or degrees "
+                        "('steering_angle [deg]')?")
+    rmax = float(np.max(np.abs(log.yaw_rate)))
+    if rmax > 3.0:
+        problems.append(f"yaw_rate reaches {rmax:.3g} rad/s (> 3 rad/s): deg/s? declare 'yaw_rate [deg/s]'")
+    for k in ("accel_x", "accel_y"):
+        amax = float(np.max(np.abs(getattr(log, k))))
+        if amax > 20.0:
+            problems.append(f"{k} reaches {amax:.3g} m/s^2 (> 2 g): check its unit")
+    return problems
+
+
+def _yaw_rate_check(rw, r, moving, min_n, R, problems) -> LogCheck:
+    """``yaw_rate_vs_wheels``: the gyro against the rear wheels' speed difference (eq. (18)); a failure's likely
+    cause is appended to ``problems``."""
+    k1, n1 = _slope_through_origin(rw, r, moving & (np.abs(rw) > 0.03), min_n)
+    ok1 = None if math.isnan(k1) else bool(0.93 <= k1 <= 1.07)
+    if ok1 is False:
+        hint = _likely_factor(k1, {
+            "yaw_rate in deg/s (declare 'yaw_rate [deg/s]')": 180 / math.pi,
+            "yaw_rate of opposite sign: a z-down / y-to-the-right (SAE) frame or a clockwise-positive gyro; negate "
+            "yaw_rate and accel_y (and steering_angle if positive to the right)": -1.0,
+            # a wheel column holding X = c omega is read as omega' = c omega, so the ratio is 1/c
+            "wheel speeds in m/s (declare 'wheel_speed_* [m/s]')": 1.0 / R,
+            "wheel speeds in km/h (declare 'wheel_speed_* [km/h]')": 1.0 / (3.6 * R),
+            "wheel speeds in rpm (declare 'wheel_speed_* [rpm]')": 2 * math.pi / 60,
+            "left and right wheel columns swapped": -1.0,
+        })
+        if 0.8 <= k1 <= 1.25:
+            hint += "; or wrong wheels.radius / body.track in the vehicle file"
+        problems.append(f"yaw_rate / (R (omega_rr - omega_rl) / track) = {k1:.3g}, expected 1 (eq. (18)): {hint}")
+    return LogCheck("yaw_rate_vs_wheels", k1, (0.93, 1.07), n1, ok1)
+
+
+def _steering_problem(k3, steer_name, steering_angle_channel: bool) -> str:
+    """The failed ``steering_vs_yaw_rate`` check's message: sign, a steering-wheel angle or degrees, too small."""
+    if k3 < 0:
+        hint = (f"{steer_name} has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
+                f"negate {'steering_angle' if steering_angle_channel else 'steer_fl and steer_fr'}")
+    elif k3 < 0.3:
+        hint = (f"{steer_name} is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
+                "steering-WHEEL angle (divide by the steering ratio) or degrees ('steering_angle [deg]')")
+    else:
+        hint = f"{steer_name} too small: in mrad? or a steering ratio applied twice"
+    return (f"yaw_rate / (V_x {steer_name} / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
+            f"model, understeering car): {hint}")
 
 
 #: Tolerance of the left-right steer difference around the Ackermann one, rad (2 deg: toe, compliance steer).
