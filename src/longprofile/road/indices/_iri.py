@@ -821,6 +821,31 @@ class IRIReport(ReportUnits):
         return frame
 
 
+def _report_mode_and_units(mode, units) -> tuple[str, str]:
+    """iri_report's ``mode`` and ``units`` normalised (stripped, lower case) and checked."""
+    mode_key = str(mode).strip().lower() if isinstance(mode, str) else mode
+    if mode_key not in REPORT_MODES:
+        raise InputError(f"unknown mode {mode!r}; use one of {', '.join(REPORT_MODES)}.")
+    units_key = str(units).strip().lower() if isinstance(units, str) else units
+    if units_key not in REPORT_UNITS:
+        raise InputError(f"unknown units {units!r}; use 'si' (m, m/km) or 'us' (ft, in/mi). (The elevation unit "
+                         "of a file is given when reading it, e.g. read_profile(..., units='mm').)")
+    return mode_key, units_key
+
+
+def _report_start(start, x0, x1, tol_u, lu) -> float:
+    """The station of the first interval, report unit: ``start`` (default the first station) checked to lie in
+    the profile [x0, x1) within ``tol_u``."""
+    first = x0 if start is None else start
+    try:
+        first = float(first)
+    except (TypeError, ValueError):
+        raise InputError(f"start must be a number ({lu}); got {start!r}.") from None
+    if not np.isfinite(first) or first < x0 - tol_u or first >= x1 - tol_u:
+        raise InputError(f"start must lie within the profile ({x0:.3f} .. {x1:.3f} {lu}); got {start!r}.")
+    return max(first, x0)
+
+
 def _report_length(name, value, unit):
     return require_positive(f"{name} ({unit})", value)
 
@@ -982,13 +1007,7 @@ def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0
     ASTM E1926-08 (R2015); Sayers, Gillespie, Paterson, World Bank Technical Paper 46 (1986); Sayers, TRR 1501
     (1995) for MRI/HRI; FHWA ProVAL (continuous IRI, 25 ft base length).
     """
-    mode_key = str(mode).strip().lower() if isinstance(mode, str) else mode
-    if mode_key not in REPORT_MODES:
-        raise InputError(f"unknown mode {mode!r}; use one of {', '.join(REPORT_MODES)}.")
-    units_key = str(units).strip().lower() if isinstance(units, str) else units
-    if units_key not in REPORT_UNITS:
-        raise InputError(f"unknown units {units!r}; use 'si' (m, m/km) or 'us' (ft, in/mi). (The elevation unit "
-                         "of a file is given when reading it, e.g. read_profile(..., units='mm').)")
+    mode_key, units_key = _report_mode_and_units(mode, units)
     u = REPORT_UNITS[units_key]
     lu, scale = u["length_unit"], u["metres_per_unit"]
     ma_mode = _moving_average_mode(moving_average)
@@ -1001,14 +1020,7 @@ def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0
     dx = _is_regular(x)
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
     tol_u = tol / scale
-    first = x0 if start is None else start
-    try:
-        first = float(first)
-    except (TypeError, ValueError):
-        raise InputError(f"start must be a number ({lu}); got {start!r}.") from None
-    if not np.isfinite(first) or first < x0 - tol_u or first >= x1 - tol_u:
-        raise InputError(f"start must lie within the profile ({x0:.3f} .. {x1:.3f} {lu}); got {start!r}.")
-    first = max(first, x0)
+    first = _report_start(start, x0, x1, tol_u, lu)
     starts_u, ends_u, bounds_u, grid = _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval,
                                                          window, step)
     bounds_m = np.minimum(bounds_u * scale, x[-1])
