@@ -541,18 +541,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
     N = len(ids)
     ts = pd.to_datetime(readings["timestamp"])
     day_all = ts.dt.normalize()
-    if previous is not None:
-        if list(previous.sensor_ids) != ids or previous.thermal != thermal \
-                or previous.reference_temp_c != float(reference_temp_c):
-            raise InputError("day_statistics: previous statistics are of other sensors, thermal model or T_ref.")
-        first = pd.Timestamp(first_day).normalize()
-        prev = previous.select_days(pd.DatetimeIndex(previous.days) < first)
-        new_days = pd.DatetimeIndex(np.sort(day_all[day_all >= first].unique()))
-        days = pd.DatetimeIndex(np.concatenate([pd.DatetimeIndex(prev.days).to_numpy(), new_days.to_numpy()]))
-        P = prev.days.size
-    else:
-        first, prev, P = None, None, 0
-        days = pd.DatetimeIndex(np.sort(day_all.unique()))
+    first, prev, P, days = _statistics_days(day_all, ids, thermal, reference_temp_c, first_day, previous)
     D = len(days)
     if D == 0:
         raise InputError("the readings table is empty.")
@@ -580,10 +569,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
         dj, Tj_all = dnum[rows], tmp_all[rows]
         inwin = day_all.to_numpy()[rows] >= first.to_datetime64() if first is not None else np.ones(rows.size, bool)
         tfin = np.isfinite(Tj_all) & inwin
-        fields["temperature_sum_c"][:, j] = np.where(np.arange(D) >= P, 0.0, fields["temperature_sum_c"][:, j])
-        fields["n_temperature"][:, j] = np.where(np.arange(D) >= P, 0, fields["n_temperature"][:, j])
-        np.add.at(fields["temperature_sum_c"][:, j], dj[tfin], Tj_all[tfin])
-        np.add.at(fields["n_temperature"][:, j], dj[tfin], 1)
+        _add_temperatures(fields, j, P, dj[tfin], Tj_all[tfin])
         fin = np.isfinite(ang_all[rows]) & np.isfinite(Tj_all)
         a, T, d, w, t = ang_all[rows][fin], Tj_all[fin], dj[fin], inwin[fin], tsec[rows][fin]
         if a.size == 0:
@@ -601,13 +587,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
             base = {f: fields[f][:P, j] for f in DAY_FIELDS}
         loc = d - P
         Dn = D - P
-
-        def coef_of(slope_new, n_kept_new, j=j, base=base):
-            if base is None:
-                return coef_rule(slope_new, n_kept_new)
-            return coef_rule(np.concatenate([base["thermal_slope"], slope_new]),
-                             np.concatenate([base["n_kept"], n_kept_new]))
-
+        coef_of = _sensor_coef_rule(coef_rule, base)
         if prev is not None:
             s_hf = _kept_noise(fields, j, P)
             if s_hf is None:  # no cached day of this sensor: its noise needs all its readings
@@ -628,6 +608,41 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
     return DayStatistics(days=days.to_numpy(), sensor_ids=ids, **fields, noise_deg=noise, raw_std_deg=rawstd,
                          thermal_coef=coef, unfitted=unfitted, thermal=thermal, reference_temp_c=tref,
                          exact=prev is None, stale_sensors=tuple(stale))
+
+
+def _statistics_days(day_all, ids, thermal, reference_temp_c, first_day, previous):
+    """The days of day_statistics' result: (first recomputed day, kept days of ``previous``, their number P, all
+    days), ``previous`` checked to be of the same sensors, thermal model and T_ref."""
+    if previous is None:
+        return None, None, 0, pd.DatetimeIndex(np.sort(day_all.unique()))
+    if list(previous.sensor_ids) != ids or previous.thermal != thermal \
+            or previous.reference_temp_c != float(reference_temp_c):
+        raise InputError("day_statistics: previous statistics are of other sensors, thermal model or T_ref.")
+    first = pd.Timestamp(first_day).normalize()
+    prev = previous.select_days(pd.DatetimeIndex(previous.days) < first)
+    new_days = pd.DatetimeIndex(np.sort(day_all[day_all >= first].unique()))
+    days = pd.DatetimeIndex(np.concatenate([pd.DatetimeIndex(prev.days).to_numpy(), new_days.to_numpy()]))
+    return first, prev, prev.days.size, days
+
+
+def _add_temperatures(fields, j, P, day, temperature):
+    """Sensor j's temperature sums and counts of the recomputed days (>= P) from its finite readings in the window."""
+    D = fields["temperature_sum_c"].shape[0]
+    fields["temperature_sum_c"][:, j] = np.where(np.arange(D) >= P, 0.0, fields["temperature_sum_c"][:, j])
+    fields["n_temperature"][:, j] = np.where(np.arange(D) >= P, 0, fields["n_temperature"][:, j])
+    np.add.at(fields["temperature_sum_c"][:, j], day, temperature)
+    np.add.at(fields["n_temperature"][:, j], day, 1)
+
+
+def _sensor_coef_rule(coef_rule, base):
+    """``coef_rule`` of one sensor: the slopes and counts of its cached days (``base``; None: no cache) first."""
+    if base is None:
+        return coef_rule
+
+    def coef_of(slope_new, n_kept_new):
+        return coef_rule(np.concatenate([base["thermal_slope"], slope_new]),
+                         np.concatenate([base["n_kept"], n_kept_new]))
+    return coef_of
 
 
 def _carry_over(fields, j, P, D, prev, coef_rule, tref, stale, sid, noise, rawstd, coef, unfitted):
