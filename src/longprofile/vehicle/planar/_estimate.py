@@ -297,17 +297,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     slope), and (b) increased by the parameter terms of :class:`SlopeUncertainty` (and, for the cascade, the
     tracking lag (-1/p1 - 1/p2) |d theta/dt|). See docs/vehicle-slope.md, Calibration.
     """
-    if method not in ("cascade", "joint"):
-        raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
-    if speed_measurement not in ("robust", "rear-mean"):
-        raise InputError(f"speed_measurement must be 'robust' or 'rear-mean'; got {speed_measurement!r}.")
-    if not isinstance(log, DriveLog):
-        raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
-    vehicle = default_vehicle() if vehicle is None else vehicle
-    tuning = EKFTuning.for_method(method) if tuning is None else tuning
-    unc = SlopeUncertainty() if uncertainty is None else uncertainty
-    if not isinstance(unc, SlopeUncertainty):
-        raise InputError(f"uncertainty must be a SlopeUncertainty; got {type(unc).__name__}.")
+    vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
     from ...statespace import extended_kalman_filter
 
     dt = log.dt
@@ -316,43 +306,11 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
 
     ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
     y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
-    rear = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
-    slow = rear < _MIN_SPEED
-    if slow.any():
-        k = int(np.argmax(slow))
-        raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
-                         f"t = {log.time[k]:g} s ({rear[k]:.3g} m/s); the planar model of paper 001 (slips of eq. "
-                         "(18)) is not valid near standstill: cut those parts of the log.")
-    if initial_state is None:
-        x0 = [float(y[0, 0]) if np.isfinite(y[0, 0]) else float(rear[0]), 0.0, y[0, 1]]
-    else:
-        x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
-        if x0.shape != (3,):
-            raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
-        x0 = x0.tolist()
-    if method != "cascade":
-        model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
-    else:
-        model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
-    if np.any(ref.std != tuning.speed_std):  # per-sample R from the speed std (any value where V_x is missing)
-        from dataclasses import replace
-
-        R_t = np.zeros((y.shape[0], 2, 2))
-        R_t[:, 0, 0] = np.square(np.where(np.isnan(ref.std), tuning.speed_std, ref.std))
-        R_t[:, 1, 1] = tuning.yaw_rate_std ** 2
-        model = replace(model, obs_cov=R_t)
+    rear = _rear_speed(log, vehicle)
+    model = _slope_filter_model(vehicle, dt, method, _slope_initial_state(initial_state, y, rear), tuning, ref, y)
     filtered = extended_kalman_filter(model, y, u=u)
     mean, cov = filtered.mean, filtered.cov
-    T = y.shape[0]
-    p = vehicle.as_array()
-    slope_for_loads = mean[:, 3].copy() if method != "cascade" else np.zeros(T)
-    fx = np.empty((T, 4))
-    fy = np.empty((T, 4))
-    fx_std = np.empty((T, 4))
-    fy_std = np.empty((T, 4))
-    res = np.empty(T)
-    res_std = np.empty(T)
-    _forces_along(mean, cov, u, p, slope_for_loads, tuning.wheel_speed_rel_std, fx, fy, fx_std, fy_std, res, res_std)
+    fx, fy, fx_std, fy_std, res, res_std = _tyre_forces(mean, cov, u, vehicle, method, tuning)
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
     std = np.sqrt(var)
     n_win = int(round(unc.nis_window / dt))
@@ -378,6 +336,76 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
                          observer_gain=gain, speed_reference=ref)
+
+
+def _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty):
+    """estimate_slope's settings checked, with their defaults: (vehicle, EKF tuning, uncertainty)."""
+    if method not in ("cascade", "joint"):
+        raise InputError(f"method must be 'cascade' or 'joint'; got {method!r}.")
+    if speed_measurement not in ("robust", "rear-mean"):
+        raise InputError(f"speed_measurement must be 'robust' or 'rear-mean'; got {speed_measurement!r}.")
+    if not isinstance(log, DriveLog):
+        raise InputError(f"log must be a DriveLog; got {type(log).__name__}.")
+    vehicle = default_vehicle() if vehicle is None else vehicle
+    tuning = EKFTuning.for_method(method) if tuning is None else tuning
+    unc = SlopeUncertainty() if uncertainty is None else uncertainty
+    if not isinstance(unc, SlopeUncertainty):
+        raise InputError(f"uncertainty must be a SlopeUncertainty; got {type(unc).__name__}.")
+    return vehicle, tuning, unc
+
+
+def _rear_speed(log, vehicle) -> np.ndarray:
+    """The mean rear-wheel speed R (omega_rl + omega_rr) / 2, m/s, checked to stay above _MIN_SPEED."""
+    rear = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+    slow = rear < _MIN_SPEED
+    if slow.any():
+        k = int(np.argmax(slow))
+        raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
+                         f"t = {log.time[k]:g} s ({rear[k]:.3g} m/s); the planar model of paper 001 (slips of eq. "
+                         "(18)) is not valid near standstill: cut those parts of the log.")
+    return rear
+
+
+def _slope_initial_state(initial_state, y, rear) -> list:
+    """The prior mean of (V_x, V_y, r): ``initial_state`` checked, or the first speed reading, 0, the first gyro."""
+    if initial_state is None:
+        return [float(y[0, 0]) if np.isfinite(y[0, 0]) else float(rear[0]), 0.0, y[0, 1]]
+    x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
+    if x0.shape != (3,):
+        raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
+    return x0.tolist()
+
+
+def _slope_filter_model(vehicle, dt, method, x0, tuning, ref, y):
+    """The EKF of the method (eq. (20), or the joint one with the grade), with a per-sample R from the speed
+    reference's std when it varies."""
+    if method != "cascade":
+        model = slope_ekf_model(vehicle, dt, initial_state=x0 + [0.0], tuning=tuning)
+    else:
+        model = planar_ekf_model(vehicle, dt, initial_state=x0, tuning=tuning)
+    if np.any(ref.std != tuning.speed_std):  # per-sample R from the speed std (any value where V_x is missing)
+        from dataclasses import replace
+
+        R_t = np.zeros((y.shape[0], 2, 2))
+        R_t[:, 0, 0] = np.square(np.where(np.isnan(ref.std), tuning.speed_std, ref.std))
+        R_t[:, 1, 1] = tuning.yaw_rate_std ** 2
+        model = replace(model, obs_cov=R_t)
+    return model
+
+
+def _tyre_forces(mean, cov, u, vehicle, method, tuning):
+    """(fx, fy, fx_std, fy_std, F_res, F_res std) along the estimate (loads at the joint EKF's grade, or level)."""
+    T = mean.shape[0]
+    p = vehicle.as_array()
+    slope_for_loads = mean[:, 3].copy() if method != "cascade" else np.zeros(T)
+    fx = np.empty((T, 4))
+    fy = np.empty((T, 4))
+    fx_std = np.empty((T, 4))
+    fy_std = np.empty((T, 4))
+    res = np.empty(T)
+    res_std = np.empty(T)
+    _forces_along(mean, cov, u, p, slope_for_loads, tuning.wheel_speed_rel_std, fx, fy, fx_std, fy_std, res, res_std)
+    return fx, fy, fx_std, fy_std, res, res_std
 
 
 def nis_inflation(innovation, innovation_cov, window: int) -> np.ndarray:
