@@ -299,6 +299,35 @@ def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: st
     experience", SAE 2000-01-1633. The slip compensation with a tyre model and the accelerometer is
     this module's own step (it needs no brake pressure, which a drive log does not have).
     """
+    vehicle, (speed_std, accel_std, stiff, max_std, force_window, transient_time, brake_force) = _reference_settings(
+        log, vehicle, method, speed_std, accel_std, tyre_rel_std, max_std, force_window, transient_time, brake_force)
+    T = log.time.size
+    if method == "rear-mean":
+        v = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+        rw = vehicle.wheel_radius_of_each * log.wheel_speeds
+        slip = (rw - v[:, None]) / np.maximum(np.maximum(rw, v[:, None]), 0.5)
+        return SpeedReference(speed=v, std=np.full(T, speed_std), source=np.full(T, _REAR_MEAN, dtype=np.int8),
+                              wheel_slip=slip, method=method)
+    mu = _friction_rows(vehicle, friction, T)
+    free_axle = {"front": 1, "rear": 0, "all": -1}[vehicle.driven_axle]  # 0 = front wheels free, 1 = rear
+    p = vehicle.as_array()
+    kin = np.empty((T, 4))
+    f_raw = np.empty(T)
+    _wheel_kinematics(log.wheel_speeds, log.front_steering, log.yaw_rate, log.accel_x, log.accel_y, p, kin, f_raw)
+    force, change = _averaged_force(f_raw, log.dt, force_window, transient_time)
+    speed = np.empty(T)
+    std = np.empty(T)
+    source = np.empty(T, dtype=np.int8)
+    slip = np.empty((T, 4))
+    _robust_kernel(kin, force, f_raw, change, log.accel_x, log.accel_y, mu, p, free_axle, float(brake_force),
+                   speed_std, accel_std, stiff, max_std, speed, std, source, slip)
+    return SpeedReference(speed=speed, std=std, source=source, wheel_slip=slip, method=method)
+
+
+def _reference_settings(log, vehicle, method, speed_std, accel_std, tyre_rel_std, max_std, force_window,
+                        transient_time, brake_force):
+    """speed_reference's arguments checked: the vehicle (default :func:`default_vehicle`) and the settings
+    (speed_std, accel_std, tyre_rel_std, max_std, force_window, transient_time, brake_force) as floats."""
     if method not in ("robust", "rear-mean"):
         raise InputError(f"method must be 'robust' or 'rear-mean'; got {method!r}.")
     if not isinstance(log, DriveLog):
@@ -315,37 +344,28 @@ def speed_reference(log: DriveLog, vehicle: Vehicle | None = None, *, method: st
     if brake_force is None:
         brake_force = vehicle.engine_brake_torque / _driven_radius(vehicle)
     brake_force = require_positive("brake_force", brake_force, strict=False)
-    T = log.time.size
-    if method == "rear-mean":
-        v = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
-        rw = vehicle.wheel_radius_of_each * log.wheel_speeds
-        slip = (rw - v[:, None]) / np.maximum(np.maximum(rw, v[:, None]), 0.5)
-        return SpeedReference(speed=v, std=np.full(T, speed_std), source=np.full(T, _REAR_MEAN, dtype=np.int8),
-                              wheel_slip=slip, method=method)
+    return vehicle, (speed_std, accel_std, stiff, max_std, force_window, transient_time, brake_force)
+
+
+def _friction_rows(vehicle, friction, T) -> np.ndarray:
+    """The adhesion of each wheel at each sample (T, 4): ``friction`` (default ``vehicle.friction``) checked."""
     mu = np.asarray(vehicle.friction, dtype=float) if friction is None else np.asarray(friction, dtype=float)
     if mu.shape not in ((4,), (T, 4)) or not np.all(np.isfinite(mu)) or np.any(mu <= 0):
         raise InputError(f"friction must be positive finite values of shape (4,) or (T, 4) = ({T}, 4); got shape "
                          f"{mu.shape}.")
-    mu = np.ascontiguousarray(np.broadcast_to(mu, (T, 4)))
-    free_axle = {"front": 1, "rear": 0, "all": -1}[vehicle.driven_axle]  # 0 = front wheels free, 1 = rear
-    p = vehicle.as_array()
-    kin = np.empty((T, 4))
-    f_raw = np.empty(T)
-    _wheel_kinematics(log.wheel_speeds, log.front_steering, log.yaw_rate, log.accel_x, log.accel_y, p, kin, f_raw)
+    return np.ascontiguousarray(np.broadcast_to(mu, (T, 4)))
+
+
+def _averaged_force(f_raw, dt, force_window, transient_time):
+    """(force, change): the accelerometer force averaged over ``force_window`` (causal) and |its change over the
+    last ``transient_time``|, the force uncertainty after a brake apply or release."""
     # the encoders report the mean speed over their last tooth pitches: average the force over a similar
     # window, and count its change over the last transient_time as force uncertainty (brake apply/release)
-    dt = log.dt
+    T = f_raw.shape[0]
     w = max(1, int(round(force_window / dt)))
     c = np.concatenate(([0.0], np.cumsum(f_raw)))
     idx = np.arange(1, T + 1)
     force = (c[idx] - c[np.maximum(idx - w, 0)]) / np.minimum(idx, w)
     n = max(1, int(round(transient_time / dt)))
     change = np.abs(force - force[np.maximum(np.arange(T) - n, 0)])
-    speed = np.empty(T)
-    std = np.empty(T)
-    source = np.empty(T, dtype=np.int8)
-    slip = np.empty((T, 4))
-    _robust_kernel(kin, force, f_raw, change, log.accel_x, log.accel_y, mu, p, free_axle, float(brake_force),
-                   speed_std, accel_std, stiff, max_std, speed, std, source, slip)
-    return SpeedReference(speed=speed, std=std, source=source, wheel_slip=slip, method=method)
-
+    return force, change
