@@ -72,46 +72,40 @@ def _recursion_kernel(a, b, u, x0, c, a_step, b_step, store_states, store_output
     return x
 
 
-@njit(cache=True, nogil=True)
-def _recursion_kernel_4(a, b, u, x0, c, a_step, b_step, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
-    # Same recursion as _recursion_kernel for n = 4 with the state held in scalars (about 3x faster: the
-    # golden quarter car of the IRI and other 4-state models). Same operation order per component.
-    p = u.shape[1]
-    q = c.shape[0]
-    x0_ = x0[0]
-    x1_ = x0[1]
-    x2_ = x0[2]
-    x3_ = x0[3]
+@njit(cache=True, inline="always")
+def _add_input_4(b, kb, u, k, y0, y1, y2, y3):
+    """(y0, .., y3) + B[kb] u[k] for n = 4, input by input (the operation order of :func:`_recursion_kernel`)."""
+    for j in range(u.shape[1]):
+        ukj = u[k, j]
+        y0 += b[kb, 0, j] * ukj
+        y1 += b[kb, 1, j] * ukj
+        y2 += b[kb, 2, j] * ukj
+        y3 += b[kb, 3, j] * ukj
+    return y0, y1, y2, y3
+
+
+@njit(cache=True, inline="always")
+def _put_4(arr, row, x0_, x1_, x2_, x3_):
+    """arr[row, :4] = (x0_, x1_, x2_, x3_)."""
+    arr[row, 0] = x0_
+    arr[row, 1] = x1_
+    arr[row, 2] = x2_
+    arr[row, 3] = x3_
+
+
+@njit(cache=True, inline="always")
+def _store_4(k, x0_, x1_, x2_, x3_, c, store_states, store_outputs, states, outputs):
+    """Row k + 1 of the states (the state after step k) and row k of the outputs C x, for n = 4."""
     if store_states:
-        states[0, 0] = x0_
-        states[0, 1] = x1_
-        states[0, 2] = x2_
-        states[0, 3] = x3_
-    for k in range(u.shape[0]):
-        ka = k * a_step
-        kb = k * b_step
-        y0 = a[ka, 0, 0] * x0_ + a[ka, 0, 1] * x1_ + a[ka, 0, 2] * x2_ + a[ka, 0, 3] * x3_
-        y1 = a[ka, 1, 0] * x0_ + a[ka, 1, 1] * x1_ + a[ka, 1, 2] * x2_ + a[ka, 1, 3] * x3_
-        y2 = a[ka, 2, 0] * x0_ + a[ka, 2, 1] * x1_ + a[ka, 2, 2] * x2_ + a[ka, 2, 3] * x3_
-        y3 = a[ka, 3, 0] * x0_ + a[ka, 3, 1] * x1_ + a[ka, 3, 2] * x2_ + a[ka, 3, 3] * x3_
-        for j in range(p):
-            ukj = u[k, j]
-            y0 += b[kb, 0, j] * ukj
-            y1 += b[kb, 1, j] * ukj
-            y2 += b[kb, 2, j] * ukj
-            y3 += b[kb, 3, j] * ukj
-        x0_ = y0
-        x1_ = y1
-        x2_ = y2
-        x3_ = y3
-        if store_states:
-            states[k + 1, 0] = x0_
-            states[k + 1, 1] = x1_
-            states[k + 1, 2] = x2_
-            states[k + 1, 3] = x3_
-        if store_outputs:
-            for r in range(q):
-                outputs[k, r] = c[r, 0] * x0_ + c[r, 1] * x1_ + c[r, 2] * x2_ + c[r, 3] * x3_
+        _put_4(states, k + 1, x0_, x1_, x2_, x3_)
+    if store_outputs:
+        for r in range(c.shape[0]):
+            outputs[k, r] = c[r, 0] * x0_ + c[r, 1] * x1_ + c[r, 2] * x2_ + c[r, 3] * x3_
+
+
+@njit(cache=True, inline="always")
+def _vector_4(x0_, x1_, x2_, x3_):
+    """The state held in four scalars as a (4,) array."""
     x = np.empty(4)
     x[0] = x0_
     x[1] = x1_
@@ -121,11 +115,31 @@ def _recursion_kernel_4(a, b, u, x0, c, a_step, b_step, store_states, store_outp
 
 
 @njit(cache=True, nogil=True)
+def _recursion_kernel_4(a, b, u, x0, c, a_step, b_step, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
+    # Same recursion as _recursion_kernel for n = 4 with the state held in scalars (about 3x faster: the
+    # golden quarter car of the IRI and other 4-state models). Same operation order per component.
+    x0_ = x0[0]
+    x1_ = x0[1]
+    x2_ = x0[2]
+    x3_ = x0[3]
+    if store_states:
+        _put_4(states, 0, x0_, x1_, x2_, x3_)
+    for k in range(u.shape[0]):
+        ka = k * a_step
+        kb = k * b_step
+        y0 = a[ka, 0, 0] * x0_ + a[ka, 0, 1] * x1_ + a[ka, 0, 2] * x2_ + a[ka, 0, 3] * x3_
+        y1 = a[ka, 1, 0] * x0_ + a[ka, 1, 1] * x1_ + a[ka, 1, 2] * x2_ + a[ka, 1, 3] * x3_
+        y2 = a[ka, 2, 0] * x0_ + a[ka, 2, 1] * x1_ + a[ka, 2, 2] * x2_ + a[ka, 2, 3] * x3_
+        y3 = a[ka, 3, 0] * x0_ + a[ka, 3, 1] * x1_ + a[ka, 3, 2] * x2_ + a[ka, 3, 3] * x3_
+        x0_, x1_, x2_, x3_ = _add_input_4(b, kb, u, k, y0, y1, y2, y3)
+        _store_4(k, x0_, x1_, x2_, x3_, c, store_states, store_outputs, states, outputs)
+    return _vector_4(x0_, x1_, x2_, x3_)
+
+
+@njit(cache=True, nogil=True)
 def _recursion_kernel_4_const(a, b, u, x0, c, store_states, store_outputs, states, outputs):  # pragma: no cover - compiled
     # n = 4 with constant A and B: A held in registers (the IRI golden car on a constant step).
     # Same operation order per component as the other kernels (identical results).
-    p = u.shape[1]
-    q = c.shape[0]
     a00, a01, a02, a03 = a[0, 0, 0], a[0, 0, 1], a[0, 0, 2], a[0, 0, 3]
     a10, a11, a12, a13 = a[0, 1, 0], a[0, 1, 1], a[0, 1, 2], a[0, 1, 3]
     a20, a21, a22, a23 = a[0, 2, 0], a[0, 2, 1], a[0, 2, 2], a[0, 2, 3]
@@ -135,39 +149,15 @@ def _recursion_kernel_4_const(a, b, u, x0, c, store_states, store_outputs, state
     x2_ = x0[2]
     x3_ = x0[3]
     if store_states:
-        states[0, 0] = x0_
-        states[0, 1] = x1_
-        states[0, 2] = x2_
-        states[0, 3] = x3_
+        _put_4(states, 0, x0_, x1_, x2_, x3_)
     for k in range(u.shape[0]):
         y0 = a00 * x0_ + a01 * x1_ + a02 * x2_ + a03 * x3_
         y1 = a10 * x0_ + a11 * x1_ + a12 * x2_ + a13 * x3_
         y2 = a20 * x0_ + a21 * x1_ + a22 * x2_ + a23 * x3_
         y3 = a30 * x0_ + a31 * x1_ + a32 * x2_ + a33 * x3_
-        for j in range(p):
-            ukj = u[k, j]
-            y0 += b[0, 0, j] * ukj
-            y1 += b[0, 1, j] * ukj
-            y2 += b[0, 2, j] * ukj
-            y3 += b[0, 3, j] * ukj
-        x0_ = y0
-        x1_ = y1
-        x2_ = y2
-        x3_ = y3
-        if store_states:
-            states[k + 1, 0] = x0_
-            states[k + 1, 1] = x1_
-            states[k + 1, 2] = x2_
-            states[k + 1, 3] = x3_
-        if store_outputs:
-            for r in range(q):
-                outputs[k, r] = c[r, 0] * x0_ + c[r, 1] * x1_ + c[r, 2] * x2_ + c[r, 3] * x3_
-    x = np.empty(4)
-    x[0] = x0_
-    x[1] = x1_
-    x[2] = x2_
-    x[3] = x3_
-    return x
+        x0_, x1_, x2_, x3_ = _add_input_4(b, 0, u, k, y0, y1, y2, y3)
+        _store_4(k, x0_, x1_, x2_, x3_, c, store_states, store_outputs, states, outputs)
+    return _vector_4(x0_, x1_, x2_, x3_)
 
 
 @njit(cache=True, nogil=True)
