@@ -29,7 +29,7 @@ from .._validation import as_float_array
 from ..errors import InputError, ShapeError
 from ._ekf import NonlinearStateSpaceModel, check_functions, check_model_steps, model_function_types, model_functions
 from ._ekf_kernels import model_eval
-from ._linalg_kernels import all_finite1, copy1, copy2
+from ._linalg_kernels import all_finite1, copy1, copy2, gather_block, joseph_entry, matmul_into
 from ._prepare import check_inputs, noise_terms
 from ._results import FilterResult
 from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, TRANSITION_NOT_FINITE, raise_status
@@ -43,18 +43,9 @@ _LOG2PI = float(np.log(2.0 * np.pi))
 def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
                   Pb, Hb, PHt, S_all, L, K, A, AP, KR, obs, e, w):
     """Joseph-form update of one block in place (scratch arrays given). Returns (status, n observed, loglik)."""
-    for i in range(ns):
-        for j in range(ns):
-            Pb[i, j] = P[si[i], si[j]]
-    for a in range(no):
-        for j in range(ns):
-            Hb[a, j] = Jh[oi[a], si[j]]
-    for i in range(ns):
-        for a in range(no):
-            t = 0.0
-            for j in range(ns):
-                t += Pb[i, j] * Hb[a, j]
-            PHt[i, a] = t
+    gather_block(P, si, si, ns, ns, Pb)
+    gather_block(Jh, oi, si, no, ns, Hb)
+    matmul_into(Pb, Hb.T, ns, ns, no, PHt)  # P H'
     for a in range(no):
         for b in range(a, no):
             t = 0.5 * (R[oi[a], oi[b]] + R[oi[b], oi[a]])
@@ -120,12 +111,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
             for a in range(mo):
                 t -= K[i, a] * Hb[obs[a], j]
             A[i, j] = t
-    for i in range(ns):
-        for j in range(ns):
-            t = 0.0
-            for q in range(ns):
-                t += A[i, q] * Pb[q, j]
-            AP[i, j] = t
+    matmul_into(A, Pb, ns, ns, ns, AP)
     for i in range(ns):
         for a in range(mo):
             t = 0.0
@@ -134,13 +120,7 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
             KR[i, a] = t
     for i in range(ns):
         for j in range(i, ns):
-            t = 0.0
-            for q in range(ns):
-                t += AP[i, q] * A[j, q]
-            v = 0.0
-            for a in range(mo):
-                v += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
-            t += 0.5 * v
+            t = joseph_entry(AP, A, KR, K, i, j, ns, mo)
             P[si[i], si[j]] = t
             P[si[j], si[i]] = t
     for a in range(mo):
@@ -150,16 +130,10 @@ def _block_update(x, P, Jh, yhat, yk, R, si, ns, oi, no, innov_k, icov_k, store,
 
 @njit(cache=True, inline="always")
 def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
-    for i in range(ns):
-        for j in range(ns):
-            Fb[i, j] = Jf[si[i], si[j]]
-            Pb[i, j] = P[si[i], si[j]]
-    for i in range(ns):
-        for j in range(ns):
-            t = 0.0
-            for q in range(ns):
-                t += Fb[i, q] * Pb[q, j]
-            AP[i, j] = t
+    """Covariance prediction F P F' + Q of one block in place (scratch arrays given)."""
+    gather_block(Jf, si, si, ns, ns, Fb)
+    gather_block(P, si, si, ns, ns, Pb)
+    matmul_into(Fb, Pb, ns, ns, ns, AP)
     for i in range(ns):
         for j in range(i, ns):
             t = 0.5 * (Q[si[i], si[j]] + Q[si[j], si[i]])
@@ -169,16 +143,22 @@ def _block_predict(P, Jf, Q, si, ns, Fb, Pb, AP):
             P[si[j], si[i]] = t
 
 
-@njit(cache=True)
-def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store,
-                Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
-    """Update every block (their state sets are disjoint, so the order does not matter)."""
+@njit(cache=True, inline="always")
+def _clear_step(innov_k, icov_k, store):
+    """A step's innovation to NaN (components no block observes stay missing) and, if stored, its covariance to 0."""
     for a in range(innov_k.shape[0]):
         innov_k[a] = np.nan
     if store:
         for a in range(icov_k.shape[0]):
             for b in range(icov_k.shape[1]):
                 icov_k[a, b] = 0.0
+
+
+@njit(cache=True)
+def _update_all(x, P, Jh, yhat, yk, R, sidx, scount, oidx, ocount, innov_k, icov_k, store,
+                Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
+    """Update every block (their state sets are disjoint, so the order does not matter)."""
+    _clear_step(innov_k, icov_k, store)
     ll = 0.0
     n_obs = 0
     for b in range(sidx.shape[0]):
@@ -227,12 +207,7 @@ def _blocks_finite(J, ridx, rcount, cidx, ccount):
 def _update_all_uniform(x, P, Jh, yhat, yk, R, sidx, ns, oidx, no, innov_k, icov_k, store,
                         Pb, Hb, PHt, S, L, K, A, AP, KR, obs, e, w):
     """:func:`_update_all` for blocks of equal sizes ``ns``, ``no`` (compile-time constants: unrolled loops)."""
-    for a in range(innov_k.shape[0]):
-        innov_k[a] = np.nan
-    if store:
-        for a in range(icov_k.shape[0]):
-            for b in range(icov_k.shape[1]):
-                icov_k[a, b] = 0.0
+    _clear_step(innov_k, icov_k, store)
     ll = 0.0
     n_obs = 0
     for b in range(sidx.shape[0]):

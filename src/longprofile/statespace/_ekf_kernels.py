@@ -32,17 +32,15 @@ from ._linalg_kernels import (
     copy1,
     copy2,
     fd_jacobian,
-    forward_sub,
-    inverse_diagonal,
+    innovation_loglik,
     joseph_update,
     sandwich_sym,
     solve_rows,
+    update_scratch,
 )
 from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, TRANSITION_NOT_FINITE
 
 __all__ = ["ekf_kernel", "model_eval", "fd_jacobian", "FD_REL_STEP"]
-
-_LOG2PI = float(np.log(2.0 * np.pi))
 
 
 def model_eval(fn, jac, step, x, u, k, xw, out, J):
@@ -107,16 +105,7 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
             K[i, a] = PHt[i, obs[a]]
     if not cholesky_lower(L, mo, 0.0):
         return NOT_PD, 0, 0.0
-    inverse_diagonal(L, mo, dinv)
-    logdet = 0.0
-    for a in range(mo):
-        w[a] = e[a]
-        logdet += 2.0 * np.log(L[a, a])
-    forward_sub(L, dinv, mo, w)
-    quad = 0.0
-    for a in range(mo):
-        quad += w[a] * w[a]
-    ll = -0.5 * (mo * _LOG2PI + logdet + quad)
+    ll = innovation_loglik(L, dinv, e, mo, mo, w)
     solve_rows(L, dinv, mo, K, n, w)  # K = P H_o' S_o^-1
     for i in range(n):
         s = x[i]
@@ -151,16 +140,9 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
     y_hat = np.empty(m)
     Jf = np.zeros((n, n))
     Jh = np.zeros((m, n))
-    S = np.empty((m, m))
-    L = np.empty((m, m))
-    PHt = np.empty((n, m))
-    K = np.empty((n, m))
+    S, L, PHt, K, KR, e, w, dinv = update_scratch(n, m)
     A = np.empty((n, n))
     AP = np.empty((n, n))
-    KR = np.empty((n, m))
-    e = np.empty(m)
-    w = np.empty(m)
-    dinv = np.empty(m)
     Ho = np.empty((m, n))
     Ro = np.empty((m, m))
     obs = np.empty(m, np.int64)

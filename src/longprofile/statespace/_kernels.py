@@ -30,7 +30,15 @@ import numpy as np
 
 from .._jit import njit
 from ._linalg_kernels import FASTMATH as _FASTMATH
-from ._linalg_kernels import affine_map, cholesky_lower, forward_sub, inverse_diagonal, solve_rows
+from ._linalg_kernels import (
+    affine_map,
+    cholesky_lower,
+    forward_sub,
+    inverse_diagonal,
+    matmul_into,
+    solve_rows,
+    update_scratch,
+)
 from ._linalg_kernels import at as _at
 from ._status import NOT_PD, OK
 
@@ -73,17 +81,10 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
         P = np.empty((n, n))
         AP = np.empty((n, n))
         FP = np.empty((n, n))
-        PHt = np.empty((n, m))
         APHt = np.empty((n, m))
-        S = np.empty((m, m))
-        L = np.empty((m, m))
-        Kg = np.empty((n, m))
-        KR = np.empty((n, m))
-        e = np.empty(m)
-        w = np.empty(m)
+        S, L, PHt, Kg, KR, e, w, dinv = update_scratch(n, m)
         yhat = np.empty(m)
         obs = np.empty(m, np.bool_)
-        dinv = np.empty(m)
         status[0] = -1
         status[1] = -1
         status[2] = OK
@@ -157,6 +158,8 @@ def _make_filter_kernel(n_fixed: int, m_fixed: int):
                         status[1] = t
                         status[2] = NOT_PD
                         return
+                    # _linalg_kernels.innovation_loglik written out: called here, it changed the rounding of
+                    # this fastmath kernel (1 ulp in some steps' likelihood with n, m fixed, measured)
                     inverse_diagonal(L, m, dinv)
                     logdet = 0.0
                     for i in range(m):
@@ -352,12 +355,7 @@ def _pinv_gain(Pp, FP, G, n):
                 if ev[l] > cut:
                     s += V[i, l] * V[j, l] / ev[l]
             A[i, j] = s
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for l in range(n):
-                s += FP[l, i] * A[l, j]
-            G[i, j] = s
+    matmul_into(FP.T, A, n, n, n, G)
 
 
 def rts_smoother_kernel(F, mean, cov, pmean, pcov, store_gains, sm, sc, cc, gains):

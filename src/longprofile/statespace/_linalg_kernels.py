@@ -3,9 +3,13 @@
 One copy of each helper for :mod:`._kernels` (linear filter/smoother),
 :mod:`._ekf_kernels` (extended Kalman filter) and the other compiled loops of
 ``statespace``. They work in place on the leading block of preallocated
-scratch arrays (sizes passed explicitly), never allocate, and trust their
+scratch arrays (sizes passed explicitly), never allocate (but
+:func:`update_scratch`, which allocates those arrays), and trust their
 inputs. All but :func:`fd_jacobian` are ``cache=True``; numba inlines them into
-the callers' loops, so splitting them out costs nothing at run time.
+the callers' loops, so splitting them out costs nothing at run time. The
+``inline="always"`` ones are inlined by numba itself, so they are compiled with
+their caller's floating-point flags (the same operations as the loops they
+replaced, in fastmath and strict callers alike).
 
 Floating-point flags: contraction (FMA) and reassociation are allowed;
 NaN/inf semantics are kept (missing data is NaN).
@@ -17,18 +21,23 @@ every caller (no stale machine code, nothing to delete by hand).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._jit import njit
 
 __all__ = [
     "FASTMATH", "FD_REL_STEP", "at", "cholesky_lower", "inverse_diagonal", "forward_sub", "backward_sub_t",
-    "solve_rows", "affine_map", "joseph_update", "sandwich_sym", "copy1", "copy2", "all_finite1", "all_finite2",
-    "fd_jacobian",
+    "solve_rows", "affine_map", "joseph_update", "joseph_entry", "sandwich_sym", "gather_block", "matmul_into",
+    "update_scratch", "innovation_loglik", "LOG2PI", "copy1", "copy2", "all_finite1", "all_finite2", "fd_jacobian",
 ]
 
 # Floating-point contraction/reassociation only: NaN and inf semantics are kept (missing data is NaN).
 FASTMATH = {"contract", "reassoc", "nsz", "arcp"}
+
+#: log(2 pi), of the Gaussian log-likelihood.
+LOG2PI = float(np.log(2.0 * np.pi))
 
 # Central differences: truncation O(h^2), round-off O(eps/h) -> h ~ eps^(1/3) relative to the state's scale.
 FD_REL_STEP = float(np.finfo(float).eps ** (1.0 / 3.0))
@@ -136,29 +145,72 @@ def joseph_update(P, K, Ho, Ro, n, k, A, AP, KR):
             for a in range(k):
                 s -= K[i, a] * Ho[a, j]
             A[i, j] = s
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for c in range(n):
-                s += A[i, c] * P[c, j]
-            AP[i, j] = s
-    for i in range(n):
-        for a in range(k):
-            s = 0.0
-            for b in range(k):
-                s += K[i, b] * Ro[b, a]
-            KR[i, a] = s
+    matmul_into(A, P, n, n, n, AP)
+    matmul_into(K, Ro, n, k, k, KR)
     for i in range(n):
         for j in range(i, n):
-            s = 0.0
-            for c in range(n):
-                s += AP[i, c] * A[j, c]
-            t = 0.0
-            for a in range(k):
-                t += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
-            s += 0.5 * t
+            s = joseph_entry(AP, A, KR, K, i, j, n, k)
             P[i, j] = s
             P[j, i] = s
+
+
+@njit(cache=True, inline="always")
+def joseph_entry(AP, A, KR, K, i, j, n, k):
+    """Entry (i, j) of the Joseph-form covariance AP A' + (KR K' + K KR')/2 from its products (n states, k
+    observed): AP = (I - K H) P, A = I - K H, KR = K R (see :func:`joseph_update`)."""
+    s = 0.0
+    for c in range(n):
+        s += AP[i, c] * A[j, c]
+    t = 0.0
+    for a in range(k):
+        t += KR[i, a] * K[j, a] + KR[j, a] * K[i, a]
+    s += 0.5 * t
+    return s
+
+
+@njit(cache=True, inline="always")
+def gather_block(src, rows, cols, r, c, out):
+    """out[a, b] = src[rows[a], cols[b]] for a < r, b < c (a block of a matrix at the given indices)."""
+    for a in range(r):
+        for b in range(c):
+            out[a, b] = src[rows[a], cols[b]]
+
+
+@njit(cache=True, inline="always")
+def matmul_into(X, Y, r, inner, c, out):
+    """out[:r, :c] = X[:r, :inner] Y[:inner, :c], each entry summed in the order of the inner index (Y may be a
+    transposed view: ``Y.T`` gives X Y')."""
+    for i in range(r):
+        for j in range(c):
+            s = 0.0
+            for q in range(inner):
+                s += X[i, q] * Y[q, j]
+            out[i, j] = s
+
+
+@njit(cache=True, inline="always")
+def innovation_loglik(L, dinv, e, k, n_obs, w):
+    """log N(e; 0, S) of an innovation e (k,) from the Cholesky factor L (k, k) of its covariance S, with
+    ``n_obs`` observed components in the 2 pi term (rows of L that are the identity add nothing). Writes the
+    inverse diagonal of L into ``dinv`` and the whitened innovation L^-1 e into ``w``."""
+    inverse_diagonal(L, k, dinv)
+    logdet = 0.0
+    for a in range(k):
+        w[a] = e[a]
+        logdet += 2.0 * math.log(L[a, a])
+    forward_sub(L, dinv, k, w)
+    quad = 0.0
+    for a in range(k):
+        quad += w[a] * w[a]
+    return -0.5 * (n_obs * LOG2PI + logdet + quad)
+
+
+@njit(cache=True, inline="always")
+def update_scratch(n, m):
+    """The scratch arrays of a measurement update with n states and m observations, allocated:
+    S, L (m, m); PHt, K, KR (n, m); e, w, dinv (m,)."""
+    return (np.empty((m, m)), np.empty((m, m)), np.empty((n, m)), np.empty((n, m)), np.empty((n, m)),
+            np.empty(m), np.empty(m), np.empty(m))
 
 
 @njit(cache=True, fastmath=FASTMATH)
