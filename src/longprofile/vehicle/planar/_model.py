@@ -305,6 +305,22 @@ def _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr):
     return 1.0, 0.0, 0.0
 
 
+@njit(cache=True, inline="always")
+def _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, ay):
+    """Wheel i (FL, FR, RL, RR): (rolling radius, C_x0, C_y0, x_i, y_i, lever arm, normal load F_n of eq. (19))
+    for the static load ``w`` = M g cos(theta), the longitudinal transfer ``dxl`` and the lateral acceleration."""
+    front = i < 2
+    left = (i % 2) == 0
+    sb, R, cx0, cy0 = _axle(p, front)
+    hb = 0.5 * sb
+    xi = lf if front else -lr
+    yi = hb if left else -hb
+    lever = lr if front else lf
+    lat = lever * h * m * ay / (sb * L)
+    fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+    return R, cx0, cy0, xi, yi, lever, fn
+
+
 @njit(cache=True)
 def planar_fused(vx, vy, r, u, p, slope):
     """Allocation-free eq. (11)-(19) for the EKF inner loop: rates, Jacobian and slope derivative.
@@ -335,16 +351,7 @@ def planar_fused(vx, vy, r, u, p, slope):
     gy0 = gy1 = gy2 = gy3 = 0.0
     gm0 = gm1 = gm2 = gm3 = 0.0
     for i in range(4):
-        front = i < 2
-        left = (i % 2) == 0
-        sb, R, cx0, cy0 = _axle(p, front)
-        hb = 0.5 * sb
-        xi = lf if front else -lr
-        yi = hb if left else -hb
-        lever = lr if front else lf
-        # eq. (19)
-        lat = lever * h * m * ay / (sb * L)
-        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, ay)
         dfn_ds = lever * dw / (2.0 * L)
         c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
@@ -426,15 +433,7 @@ def planar_rates_fast(vx, vy, r, u, p, slope):
     sfy = 0.0
     mz = 0.0
     for i in range(4):
-        front = i < 2
-        left = (i % 2) == 0
-        sb, R, cx0, cy0 = _axle(p, front)
-        hb = 0.5 * sb
-        xi = lf if front else -lr
-        yi = hb if left else -hb
-        lever = lr if front else lf
-        lat = lever * h * m * u[U_AY] / (sb * L)
-        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, u[U_AY])
         c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
         vyi = vy + r * xi
@@ -570,15 +569,7 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
     g2 = 0.0
     v_in = 0.0
     for i in range(4):
-        front = i < 2
-        left = (i % 2) == 0
-        sb, R, cx0, cy0 = _axle(p, front)
-        hb = 0.5 * sb
-        xi = lf if front else -lr
-        yi = hb if left else -hb
-        lever = lr if front else lf
-        lat = lever * h * m * u[k, U_AY] / (sb * L)
-        fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
+        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, u[k, U_AY])
         c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
         vxi = vx - r * yi
         vyi = vy + r * xi
