@@ -356,6 +356,30 @@ def corner_transition(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road
     return out
 
 
+@njit(cache=True, inline="always")
+def _corner_jacobian_block(J, c, corner, coupling, ks, cd, kt, dt, alpha_veh, alpha_road):
+    """The 8 structurally non-zero entries of corner c's 4 x 4 block of the decentralised transition Jacobian."""
+    i = 4 * c
+    inv_mw = 1.0 / corner[c, CMW]
+    w = -coupling[c, c] - inv_mw
+    J[i, i] = 1.0 + dt * w * cd[c]
+    J[i, i + 1] = dt * w * (ks[c] + corner[c, CKBAR])
+    _corner_jacobian_rest(J, c, coupling, kt, inv_mw, dt, alpha_veh, alpha_road)
+
+
+@njit(cache=True, inline="always")
+def _corner_jacobian_rest(J, c, coupling, kt, inv_mw, dt, alpha_veh, alpha_road):
+    """The entries of corner c's block of the transition Jacobian that no other corner changes: the body force's
+    coupling and tyre terms, the displacement's integration and the two disturbances' poles."""
+    i = 4 * c
+    J[i, i + 2] = dt * coupling[c, c]
+    J[i, i + 3] = dt * kt * inv_mw
+    J[i + 1, i] = dt
+    J[i + 1, i + 1] = 1.0
+    J[i + 2, i + 2] = alpha_veh
+    J[i + 3, i + 3] = alpha_road
+
+
 @njit(cache=True)
 def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, alpha_road, decentralised, mr):
     """Jacobian A_d = I + Te A_c (16, 16) of :func:`corner_transition` (analytic spring, damper, MR-map slopes)."""
@@ -364,17 +388,7 @@ def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, a
     J = np.zeros((16, 16))
     if decentralised:  # fast path: own corner only (the other corners' forces are inputs)
         for c in range(4):
-            i = 4 * c
-            inv_mw = 1.0 / corner[c, CMW]
-            w = -coupling[c, c] - inv_mw
-            J[i, i] = 1.0 + dt * w * cd[c]
-            J[i, i + 1] = dt * w * (ks[c] + corner[c, CKBAR])
-            J[i, i + 2] = dt * coupling[c, c]
-            J[i, i + 3] = dt * kt * inv_mw
-            J[i + 1, i] = dt
-            J[i + 1, i + 1] = 1.0
-            J[i + 2, i + 2] = alpha_veh
-            J[i + 3, i + 3] = alpha_road
+            _corner_jacobian_block(J, c, corner, coupling, ks, cd, kt, dt, alpha_veh, alpha_road)
         return J
     # dF_g / d dZ_e and dF_g / d dZdot_e
     dF_dz = np.zeros((4, 4))
@@ -402,12 +416,7 @@ def corner_transition_jacobian(x, u, corner, coupling, scalars, dt, alpha_veh, a
             J[i, j] = dt * dv
             J[i, j + 1] = dt * dz
         J[i, i] += 1.0
-        J[i, i + 2] = dt * coupling[c, c]
-        J[i, i + 3] = dt * kt * inv_mw
-        J[i + 1, i] = dt
-        J[i + 1, i + 1] = 1.0
-        J[i + 2, i + 2] = alpha_veh
-        J[i + 3, i + 3] = alpha_road
+        _corner_jacobian_rest(J, c, coupling, kt, inv_mw, dt, alpha_veh, alpha_road)
     return J
 
 
@@ -528,16 +537,7 @@ def corner_transition_step(x, u, corner, coupling, scalars, dt, alpha_veh, alpha
         out[i + 1] = x[i + 1] + dt * x[i]
         out[i + 2] = alpha_veh * x[i + 2]
         out[i + 3] = alpha_road * x[i + 3]
-        inv_mw = 1.0 / corner[c, CMW]
-        w = -coupling[c, c] - inv_mw
-        J[i, i] = 1.0 + dt * w * cd[c]
-        J[i, i + 1] = dt * w * (ks[c] + corner[c, CKBAR])
-        J[i, i + 2] = dt * coupling[c, c]
-        J[i, i + 3] = dt * kt * inv_mw
-        J[i + 1, i] = dt
-        J[i + 1, i + 1] = 1.0
-        J[i + 2, i + 2] = alpha_veh
-        J[i + 3, i + 3] = alpha_road
+        _corner_jacobian_block(J, c, corner, coupling, ks, cd, kt, dt, alpha_veh, alpha_road)
 
 
 @njit(cache=True)
