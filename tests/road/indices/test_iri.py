@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import expm
 
@@ -42,11 +42,14 @@ def _expm_oracle(dx):
 
 @settings(max_examples=60, deadline=None)
 @given(dx=st.floats(1e-4, 5.0))
+@example(dx=3.234375)  # failed the old elementwise tolerance (2e-12 against 1e-13)
 def test_golden_car_matrices_equal_scipy_expm(dx):
     st_, pr = golden_car_matrices(dx)
     st0, pr0 = _expm_oracle(dx)
-    np.testing.assert_allclose(st_, st0, rtol=1e-13, atol=1e-14 * np.abs(st0).max())
-    np.testing.assert_allclose(pr, pr0, rtol=1e-12, atol=1e-13 * np.abs(pr0).max())
+    # normwise, as a matrix exponential is accurate: both routines err by ~1e-15 of the largest entry, so a
+    # small entry can be off by 1e-14 relative to itself (6000 steps over (1e-4, 5] m: worst 1.7e-14 of the max)
+    np.testing.assert_array_less(np.abs(st_ - st0), 1e-13 * np.abs(st0).max())
+    np.testing.assert_array_less(np.abs(pr - pr0), 1e-13 * np.abs(pr0).max())
     assert st_.flags.c_contiguous and pr.flags.c_contiguous
 
 
