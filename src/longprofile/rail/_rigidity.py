@@ -36,6 +36,7 @@ from ..statespace import (
     StateSpaceModel,
     posterior_sample,
     process_noise_moments,
+    shared_covariance_log_likelihood,
     shared_covariance_smoother,
     smoother_noise_covariance,
 )
@@ -459,9 +460,7 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
                            penalty_order=penalty_order, segment_weights=segment_weights)
     n = model.n_states
-    Y = np.full((M.shape[0], N, 2), np.nan)
-    Y[:, :, 0] = M
-    Y[:, -1, 1] = z_ends[1]
+    Y = _slope_observations(M, z_ends[1])
     D = M.shape[0]
     pattern = np.isnan(M)
     if (pattern == pattern[0]).all():  # the usual case: one covariance pass, shared (read-only views)
@@ -489,6 +488,50 @@ def rigidity_posterior(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: flo
     return ProfilePosterior(x=x, z_mean=zm, slope_mean=tm, z_std=np.sqrt(sc[..., 0, 0]),
                             slope_std=np.sqrt(sc[..., 1, 1]), station_cov=sc, cross_cov=cc, full_cov=None,
                             log_likelihood=ll, method="state-space")
+
+
+def _slope_observations(M, z_end: float) -> np.ndarray:
+    """(D, N, 2) observations of :func:`rigidity_model`: the slopes, and the end anchor in the last altitude row."""
+    Y = np.full(M.shape + (2,), np.nan)
+    Y[:, :, 0] = M
+    Y[:, -1, 1] = z_end
+    return Y
+
+
+def rigidity_log_likelihood(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
+                            sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), penalty_order: int = 2,
+                            segment_weights=None):
+    r"""Marginal log-likelihood of each profile under the rigidity model: :func:`rigidity_posterior`'s
+    ``log_likelihood`` without the posterior.
+
+    Parameters
+    ----------
+    x, slopes, sigma, rigidity, sigma_z, z_ends, penalty_order, segment_weights
+        As in :func:`rigidity_posterior`.
+
+    Returns
+    -------
+    float or (D,) ndarray
+        log p(m_d | r, sigma) of each profile (Kalman-filter prediction-error decomposition of
+        :func:`rigidity_model`), bit for bit the value :func:`rigidity_posterior` reports.
+
+    Notes
+    -----
+    The quantity paper 004's rigidity is fitted by (maximum marginal likelihood, docs/rail.md). Profiles sharing a
+    missing pattern share one forward covariance pass (:func:`longprofile.statespace.shared_covariance_log_likelihood`);
+    no RTS pass, no posterior arrays: what a search over r evaluates a hundred times per recompute.
+    """
+    x = _check_stations(x)
+    m = _as_profiles("slopes", slopes, x.size)
+    M = m if m.ndim == 2 else m[None]
+    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
+    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
+                           penalty_order=penalty_order, segment_weights=segment_weights)
+    Y = _slope_observations(M, z_ends[1])
+    ll = np.empty(M.shape[0])
+    for rows, _pat in _pattern_groups(np.isnan(M)):
+        ll[rows] = shared_covariance_log_likelihood(model, Y[rows])
+    return ll if m.ndim == 2 else float(ll[0])
 
 
 def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
@@ -522,9 +565,7 @@ def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity:
                            segment_weights=segment_weights)
     _, Qbar = _iwp_terms(x, rigidity * (x[-1] - x[0]) / 2.0, _check_order(penalty_order))
     Qinv = np.linalg.inv(Qbar)
-    Y = np.full((M.shape[0], N, 2), np.nan)
-    Y[:, :, 0] = M
-    Y[:, -1, 1] = 0.0
+    Y = _slope_observations(M, 0.0)
     out = np.empty((M.shape[0], N - 1))
     for rows, _pat in _pattern_groups(np.isnan(M)):
         sm = shared_covariance_smoother(model, Y[rows])

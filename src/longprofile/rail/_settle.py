@@ -25,6 +25,7 @@ from ._rigidity import (
     initial_profile_posterior,
     max_settlement_interval,
     measurement_std,
+    rigidity_log_likelihood,
     rigidity_posterior,
     segment_process_energy,
 )
@@ -366,9 +367,9 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
     def nll(logr):
         if not -60 < logr < 5:
             return 1e300
-        return -float(sum(np.sum(rigidity_posterior(x, rows[idx], sigma=_station_sigma(s, factors),
-                                                    rigidity=float(np.exp(logr)),
-                                                    sigma_z=sigma_z, penalty_order=penalty_order).log_likelihood)
+        return -float(sum(np.sum(rigidity_log_likelihood(x, rows[idx], sigma=_station_sigma(s, factors),
+                                                         rigidity=float(np.exp(logr)), sigma_z=sigma_z,
+                                                         penalty_order=penalty_order))
                           for idx, s in groups))
 
     grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]

@@ -21,7 +21,7 @@ from ._model import StateSpaceModel
 from ._prepare import prepare_observations
 from ._results import FilterResult, SmootherResult
 
-__all__ = ["shared_covariance_smoother", "smoother_noise_covariance"]
+__all__ = ["shared_covariance_log_likelihood", "shared_covariance_smoother", "smoother_noise_covariance"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
 
@@ -36,8 +36,8 @@ def _per_step(model: StateSpaceModel, name: str, length: int, base_shape: tuple)
 
 
 @njit(cache=True)
-def _cov_pass(F, Q, H, R, P0, obs):
-    """Data-independent part: predicted/filtered covariances, gains, innovation precisions, smoother gains."""
+def _filter_cov_pass(F, Q, H, R, P0, obs):
+    """Data-independent part of the filter: predicted/filtered covariances, gains, innovation precisions."""
     T, m, n = H.shape
     Pp = np.empty((T, n, n))
     Pf = np.empty((T, n, n))
@@ -45,9 +45,6 @@ def _cov_pass(F, Q, H, R, P0, obs):
     S = np.empty((T, m, m))
     Sinv = np.zeros((T, m, m))
     logdet = np.zeros(T)
-    Ps = np.empty((T, n, n))
-    G = np.zeros((max(T - 1, 1), n, n))
-    cc = np.empty((max(T - 1, 0), n, n))
     P = P0.copy()
     eye = np.eye(n)
     for k in range(T):
@@ -84,6 +81,16 @@ def _cov_pass(F, Q, H, R, P0, obs):
         if k < T - 1:
             P = F[k] @ P @ F[k].T + Q[k]
             P = 0.5 * (P + P.T)
+    return Pp, Pf, K, S, Sinv, logdet
+
+
+@njit(cache=True)
+def _smoother_cov_pass(F, Pp, Pf):
+    """Data-independent part of the RTS smoother: smoothed covariances, smoother gains, lag-one cross-covariances."""
+    T, n = Pf.shape[0], Pf.shape[1]
+    Ps = np.empty((T, n, n))
+    G = np.zeros((max(T - 1, 1), n, n))
+    cc = np.empty((max(T - 1, 0), n, n))
     Ps[T - 1] = Pf[T - 1]
     for k in range(T - 2, -1, -1):
         Gk = np.linalg.solve(Pp[k + 1], F[k] @ Pf[k]).T
@@ -91,18 +98,65 @@ def _cov_pass(F, Q, H, R, P0, obs):
         Psk = Pf[k] + Gk @ (Ps[k + 1] - Pp[k + 1]) @ Gk.T
         Ps[k] = 0.5 * (Psk + Psk.T)
         cc[k] = Gk @ Ps[k + 1]
-    return Pp, Pf, K, S, Sinv, logdet, Ps, G, cc
+    return Ps, G, cc
+
+
+def _cov_pass(F, Q, H, R, P0, obs):
+    """Data-independent part of filter and smoother: (Pp, Pf, K, S, Sinv, logdet, Ps, G, cc)."""
+    Pp, Pf, K, S, Sinv, logdet = _filter_cov_pass(F, Q, H, R, P0, obs)
+    return (Pp, Pf, K, S, Sinv, logdet) + _smoother_cov_pass(F, Pp, Pf)
+
+
+@njit(cache=True, inline="always")
+def _mean_update(y_k, d_k, H_k, K_k, Sinv_k, obs_k, x, e):  # pragma: no cover - compiled
+    """Filter update of one mean through the shared gain: e = innovation (0 where missing), x += K e; e' S^-1 e."""
+    m, n = H_k.shape
+    for j in range(m):
+        if obs_k[j]:
+            acc = y_k[j] - d_k[j]
+            for i in range(n):
+                acc -= H_k[j, i] * x[i]
+            e[j] = acc
+        else:
+            e[j] = 0.0
+    quad = 0.0
+    for j in range(m):
+        if obs_k[j]:
+            for jj in range(m):
+                quad += e[j] * Sinv_k[j, jj] * e[jj]
+    for i in range(n):
+        acc = 0.0
+        for j in range(m):
+            acc += K_k[i, j] * e[j]
+        x[i] += acc
+    return quad
+
+
+@njit(cache=True, inline="always")
+def _mean_predict(F_k, c_k, x, xn):  # pragma: no cover - compiled
+    """x <- F x + c (through the scratch vector xn)."""
+    n = x.shape[0]
+    for i in range(n):
+        acc = c_k[i]
+        for jj in range(n):
+            acc += F_k[i, jj] * x[jj]
+        xn[i] = acc
+    for i in range(n):
+        x[i] = xn[i]
 
 
 @njit(cache=True)
-def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):  # pragma: no cover - compiled
-    """Means of every series through the shared gains (filter then smoother); no allocation inside the loops."""
+def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step, store):  # pragma: no cover - compiled
+    """Means of every series through the shared gains (filter then smoother) and the per-step log-likelihood terms
+    (B, T); with ``store`` False only the latter (the filter's mean recursion, no means kept, no smoother pass).
+    No allocation inside the loops."""
     B, T, m = Y.shape
     n = x0.shape[0]
-    mf = np.empty((B, T, n))
-    mp = np.empty((B, T, n))
-    ms = np.empty((B, T, n))
-    innov = np.full((B, T, m), np.nan)
+    Bs = B if store else 0
+    mf = np.empty((Bs, T, n))
+    mp = np.empty((Bs, T, n))
+    ms = np.empty((Bs, T, n))
+    innov = np.full((Bs, T, m), np.nan)
     ll = np.zeros((B, T))
     e = np.zeros(m)
     x = np.empty(n)
@@ -111,39 +165,23 @@ def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):  # pragm
         for i in range(n):
             x[i] = x0[i]
         for k in range(T):
-            for i in range(n):
-                mp[b, k, i] = x[i]
+            if store:
+                for i in range(n):
+                    mp[b, k, i] = x[i]
             if n_obs_step[k] > 0:
-                for j in range(m):
-                    if obs[k, j]:
-                        acc = Y[b, k, j] - d[k, j]
-                        for i in range(n):
-                            acc -= H[k, j, i] * x[i]
-                        e[j] = acc
-                        innov[b, k, j] = acc
-                    else:
-                        e[j] = 0.0
-                quad = 0.0
-                for j in range(m):
-                    if obs[k, j]:
-                        for jj in range(m):
-                            quad += e[j] * Sinv[k, j, jj] * e[jj]
-                for i in range(n):
-                    acc = 0.0
+                quad = _mean_update(Y[b, k], d[k], H[k], K[k], Sinv[k], obs[k], x, e)
+                if store:
                     for j in range(m):
-                        acc += K[k, i, j] * e[j]
-                    x[i] += acc
+                        if obs[k, j]:
+                            innov[b, k, j] = e[j]
                 ll[b, k] = -0.5 * (n_obs_step[k] * 1.8378770664093453 + logdet[k] + quad)
-            for i in range(n):
-                mf[b, k, i] = x[i]
+            if store:
+                for i in range(n):
+                    mf[b, k, i] = x[i]
             if k < T - 1:
-                for i in range(n):
-                    acc = c[k, i]
-                    for jj in range(n):
-                        acc += F[k, i, jj] * x[jj]
-                    xn[i] = acc
-                for i in range(n):
-                    x[i] = xn[i]
+                _mean_predict(F[k], c[k], x, xn)
+        if not store:
+            continue
         for i in range(n):
             ms[b, T - 1, i] = mf[b, T - 1, i]
         for k in range(T - 2, -1, -1):
@@ -153,6 +191,34 @@ def _mean_pass(Y, F, c, H, d, x0, K, Sinv, logdet, G, obs, n_obs_step):  # pragm
                     acc += G[k, i, jj] * (ms[b, k + 1, jj] - mp[b, k + 1, jj])
                 ms[b, k, i] = acc
     return mf, mp, ms, innov, ll
+
+
+def _shared_terms(model: StateSpaceModel, y, name: str):
+    """Checked observations and per-step model terms of a shared-covariance batch:
+    (Y with NaN as 0, batched, obs (T, m) bool, F, Q, c, H, R, d)."""
+    if model.n_inputs:
+        raise ShapeError(f"{name} does not take known inputs (the model has B or D); "
+                         "use kalman_filter / rts_smoother instead.")
+    Y, batched = prepare_observations(model, y)
+    B, T, m = Y.shape
+    n = model.n_states
+    nan = np.isnan(Y)
+    if B > 1 and (nan != nan[0]).any():
+        bad = int(np.nonzero((nan != nan[0]).any(axis=(1, 2)))[0][0])
+        raise ShapeError(f"every series must have NaN at the same places to share covariances; series {bad} "
+                         "differs from series 0. Group the series by missing pattern, or use kalman_filter.")
+    F = _per_step(model, "transition", max(T - 1, 1), (n, n))
+    Q = _per_step(model, "process_cov", max(T - 1, 1), (n, n))
+    c = _per_step(model, "state_offset", max(T - 1, 1), (n,))
+    H = _per_step(model, "observation", T, (m, n))
+    R = _per_step(model, "obs_cov", T, (m, m))
+    d = _per_step(model, "obs_offset", T, (m,))
+    return np.where(nan, 0.0, Y), batched, np.ascontiguousarray(~nan[0]), F, Q, c, H, R, d
+
+
+def _not_positive_definite() -> ModelError:
+    return ModelError("an innovation or predicted covariance is not positive definite; obs_cov (R) must be "
+                      "positive definite on the observed components and the prior proper.")
 
 
 def shared_covariance_smoother(model: StateSpaceModel, y) -> SmootherResult:
@@ -192,34 +258,15 @@ def shared_covariance_smoother(model: StateSpaceModel, y) -> SmootherResult:
     makes a year of daily posteriors take well under a second. Same timing
     convention as :func:`kalman_filter`.
     """
-    if model.n_inputs:
-        raise ShapeError("shared_covariance_smoother does not take known inputs (the model has B or D); "
-                         "use kalman_filter / rts_smoother instead.")
-    Y, batched = prepare_observations(model, y)
-    B, T, m = Y.shape
-    n = model.n_states
-    nan = np.isnan(Y)
-    obs = ~nan[0]
-    if B > 1 and (nan != nan[0]).any():
-        bad = int(np.nonzero((nan != nan[0]).any(axis=(1, 2)))[0][0])
-        raise ShapeError(f"every series must have NaN at the same places to share covariances; series {bad} "
-                         "differs from series 0. Group the series by missing pattern, or use kalman_filter.")
-    F = _per_step(model, "transition", max(T - 1, 1), (n, n))
-    Q = _per_step(model, "process_cov", max(T - 1, 1), (n, n))
-    c = _per_step(model, "state_offset", max(T - 1, 1), (n,))
-    H = _per_step(model, "observation", T, (m, n))
-    R = _per_step(model, "obs_cov", T, (m, m))
-    d = _per_step(model, "obs_offset", T, (m,))
-    obs = np.ascontiguousarray(obs)
+    Yz, batched, obs, F, Q, c, H, R, d = _shared_terms(model, y, "shared_covariance_smoother")
+    B, T = Yz.shape[:2]
     try:
         Pp, Pf, K, S, Sinv, logdet, Ps, G, cc = _cov_pass(F, Q, H, R, np.ascontiguousarray(model.initial_cov), obs)
     except np.linalg.LinAlgError:
-        raise ModelError("an innovation or predicted covariance is not positive definite; obs_cov (R) must be "
-                         "positive definite on the observed components and the prior proper.") from None
+        raise _not_positive_definite() from None
     n_obs_step = obs.sum(axis=1).astype(np.int64)
-    Yz = np.where(nan, 0.0, Y)
     mf, mp, ms, innov, ll = _mean_pass(Yz, F, c, H, d, np.ascontiguousarray(model.initial_mean), K, Sinv, logdet,
-                                       G, obs, n_obs_step)
+                                       G, obs, n_obs_step, True)
     if not batched:
         mf, mp, ms, innov, ll = mf[0], mp[0], ms[0], innov[0], ll[0]
     n_observed = int(obs.sum())
@@ -228,6 +275,46 @@ def shared_covariance_smoother(model: StateSpaceModel, y) -> SmootherResult:
         log_likelihood=ll.sum(axis=-1) if batched else float(ll.sum()), log_likelihood_steps=ll,
         n_observed=np.full(B, n_observed) if batched else n_observed, method="shared-covariance")
     return SmootherResult(mean=ms, cov=Ps, cross_cov=cc[: max(T - 1, 0)], filtered=filtered)
+
+
+def shared_covariance_log_likelihood(model: StateSpaceModel, y) -> float | np.ndarray:
+    r"""Log-likelihood of each series of a batch sharing one model and one missing pattern (filter only).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        As in :func:`shared_covariance_smoother`.
+    y : (T, m) or (B, T, m) array_like
+        As in :func:`shared_covariance_smoother` (one NaN pattern for the whole batch).
+
+    Returns
+    -------
+    float or (B,) ndarray
+        log p(y_b) of each series: equal, bit for bit, to ``shared_covariance_smoother(model, y)
+        .filtered.log_likelihood``.
+
+    Raises
+    ------
+    ShapeError, ModelError
+        As :func:`shared_covariance_smoother`.
+
+    Notes
+    -----
+    The prediction-error decomposition needs only the forward pass: the filter's covariance
+    recursion once (no RTS backward pass, no smoother gains) and, per series, the mean recursion
+    through the shared gains accumulating -(m_k log 2 pi + log det S_k + e_k^T S_k^-1 e_k) / 2, with no
+    means, innovations or smoothed states stored. This is what a maximum-likelihood search over a
+    model's parameters evaluates many times (e.g. the rigidity of paper 004's prior over a year of days).
+    """
+    Yz, batched, obs, F, Q, c, H, R, d = _shared_terms(model, y, "shared_covariance_log_likelihood")
+    try:
+        _, _, K, _, Sinv, logdet = _filter_cov_pass(F, Q, H, R, np.ascontiguousarray(model.initial_cov), obs)
+    except np.linalg.LinAlgError:
+        raise _not_positive_definite() from None
+    no_gains = np.zeros((0, K.shape[1], K.shape[1]))  # the smoother's gains are not used without ``store``
+    ll = _mean_pass(Yz, F, c, H, d, np.ascontiguousarray(model.initial_mean), K, Sinv, logdet, no_gains, obs,
+                    obs.sum(axis=1).astype(np.int64), False)[-1]
+    return ll.sum(axis=-1) if batched else float(ll[0].sum())
 
 
 @njit(cache=True)
