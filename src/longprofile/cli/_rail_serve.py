@@ -15,7 +15,8 @@ from ._common import console
 
 __all__ = ["register", "site_app"]
 
-site_app = typer.Typer(help="Manage monitored sites: sensors, survey, thresholds, loggers, channels, users, audit.",
+site_app = typer.Typer(help="Manage monitored sites: sensors, survey, control surveys, thresholds, loggers, channels, "
+                            "users, audit.",
                        no_args_is_help=True)
 
 DB_OPT = typer.Option(..., "--db", help="Database URL: sqlite:///site.db or postgresql://user@host:port/db.")
@@ -41,10 +42,14 @@ def _actor(actor):
         return "cli"
 
 
-def _rows(path: Path):
+def _rows(path: Path, text=()):
     from ..io import read_table
 
-    return read_table(path).to_dict("records")
+    t = read_table(path)
+    for c in text:  # e.g. dates as written (a Parquet date column is a timestamp)
+        if c in t.columns:
+            t[c] = [v if v is None or isinstance(v, str) else str(v) for v in t[c]]
+    return t.to_dict("records")
 
 
 def _print(obj):
@@ -164,6 +169,25 @@ def site_survey(name: str = typer.Argument(...), file: Path = typer.Option(..., 
     from ..rail import service as _service
 
     _print(_service.put_survey(_db(db), _actor(actor), name, _rows(file)))
+
+
+@site_app.command("controls")
+def site_controls(name: str = typer.Argument(...),
+                  file: Path = typer.Option(None, "--file", help="controls table (date, x_m, z_m), as for rail settle; "
+                                                                 "each date in it replaces that date's survey."),
+                  delete: str = typer.Option(None, "--delete", help="Remove the control survey of this date "
+                                                                    "(YYYY-MM-DD) instead."),
+                  db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Store control (levelling) surveys of a site, compared with the settlement at the next recompute."""
+    from ..errors import InputError
+    from ..rail import service as _service
+
+    if (file is None) == (delete is None):
+        raise InputError("give either --file controls.csv or --delete YYYY-MM-DD.")
+    if delete is not None:
+        _print(_service.delete_controls(_db(db), _actor(actor), name, delete))
+        return
+    _print(_service.put_controls(_db(db), _actor(actor), name, _rows(file, text=("date",))))
 
 
 @site_app.command("threshold")

@@ -22,7 +22,7 @@ from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
-from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, angle_noise
+from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, SiteData, angle_noise, validate_site
 from ._db import (
     LEVELS,
     QUANTITIES,
@@ -30,6 +30,7 @@ from ._db import (
     Audit,
     Batch,
     Channel,
+    ControlPoint,
     Database,
     Logger,
     Reading,
@@ -42,8 +43,9 @@ from ._db import (
     now_ts,
 )
 
-__all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "set_threshold",
-           "add_logger", "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
+__all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "put_controls",
+           "delete_controls", "get_controls", "set_threshold", "add_logger",
+           "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
            "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
 
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
@@ -51,6 +53,7 @@ SENSOR_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:-]{0,63}$")
 #: A reading later than the server clock by more than this is refused (clock-skewed logger).
 MAX_FUTURE_SKEW_S = 300
 MAX_BATCH_ROWS = 50_000
+CONTROL_COLUMNS = SiteData.TABLE_COLUMNS["controls"]  # date, x_m, z_m: the controls table of ``rail settle``
 
 
 class NotFound(InputError):
@@ -173,7 +176,10 @@ def get_site(db: Database, name: str) -> dict:
                          s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id).order_by(SurveyPoint.x_m))]
         out["thresholds"] = {f"{t.quantity}.{t.level}": t.value for t in
                              s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
-        out["loggers"] = [lg.name for lg in s.scalars(select(Logger).where(Logger.site_id == site.id))]
+        lgs = list(s.scalars(select(Logger).where(Logger.site_id == site.id).order_by(Logger.name)))
+        out["loggers"] = [lg.name for lg in lgs]
+        out["control_dates"] = list(s.scalars(select(ControlPoint.date).where(ControlPoint.site_id == site.id)
+                                              .distinct().order_by(ControlPoint.date)))
         out["channels"] = [{"kind": c.kind, "target": c.target} for c in
                            s.scalars(select(Channel).where(Channel.site_id == site.id))]
     return out
@@ -262,6 +268,132 @@ def put_survey(db: Database, actor: str, name: str, rows) -> dict:
             site.dirty_from_ts = site.baseline_start_ts or 0
             site.data_version = (site.data_version or 0) + 1
     return {"points": len(pts)}
+
+
+def _first_reading_day(s, site: Site) -> str | None:
+    """The UTC day of the site's first reading that a recompute uses (from the baseline start on)."""
+    q = select(func.min(Reading.ts)).where(Reading.site_id == site.id)
+    if site.baseline_start_ts is not None:
+        q = q.where(Reading.ts >= site.baseline_start_ts)
+    ts = s.scalar(q)
+    return None if ts is None else datetime.fromtimestamp(ts, timezone.utc).strftime("%Y-%m-%d")
+
+
+def _check_controls(s, site: Site, rows, now: int) -> dict:
+    """{date: [(x_m, z_m), ...]} of control rows, validated as ``rail settle`` validates a controls table
+    (``validate_site``: columns, ISO dates, finite numbers) plus what the service refuses on top: unknown columns,
+    duplicate (date, x_m), points outside the span of the site's active sensors (``validate_site`` warns and
+    compares none of them), dates before the site's first reading or after today."""
+    from ._recompute import load_site_tables
+
+    rows = list(rows)
+    if not rows:
+        raise InputError("no control points given (columns: date, x_m, z_m).")
+    for i, r in enumerate(rows):
+        if not isinstance(r, dict):
+            raise InputError(f"control row {i}: expected an object with {list(CONTROL_COLUMNS)}.")
+        extra = sorted(set(r) - set(CONTROL_COLUMNS))
+        if extra:
+            raise InputError(f"control row {i}: unknown column(s) {extra[:3]}; expected {list(CONTROL_COLUMNS)}.")
+    table = pd.DataFrame(rows).astype(object)  # a missing column is validate_site's error
+    if "date" in table:
+        table["date"] = [v if v is None or isinstance(v, str) else str(v) for v in table["date"]]
+    sensors, survey = load_site_tables(s, site)
+    empty = pd.DataFrame({c: pd.Series(dtype=object) for c in READING_COLUMNS})
+    ct = validate_site(sensors, empty, survey, table).controls  # the checks of `rail settle`, nothing re-implemented
+    dates = ct["date"].dt.strftime("%Y-%m-%d")
+    dup = pd.DataFrame({"d": dates, "x": ct["x_m"]}).duplicated()
+    if dup.any():
+        i = int(np.nonzero(dup.to_numpy())[0][0])
+        raise InputError(f"controls: two altitudes at x = {ct['x_m'][i]:g} m on {dates[i]}; keep one per date and "
+                         "position.")
+    x = np.sort(sensors["x_m"].to_numpy(float))
+    out = (ct["x_m"] < x[0]) | (ct["x_m"] > x[-1])
+    if out.any():
+        i = int(np.nonzero(out.to_numpy())[0][0])
+        raise InputError(f"controls: x = {ct['x_m'][i]:g} m on {dates[i]} lies outside the sensors' span "
+                         f"{x[0]:g}..{x[-1]:g} m ({int(out.sum())} point(s)); such points cannot be compared.")
+    first, today = _first_reading_day(s, site), datetime.fromtimestamp(now, timezone.utc).strftime("%Y-%m-%d")
+    if first is None:
+        raise InputError(f"site {site.name!r} has no readings yet: a control survey is compared with the settlement "
+                         "since the first reading; load it once readings arrived.")
+    for bad, why in ((dates < first, f"before the site's first reading ({first})"),
+                     (dates > today, f"in the future (today is {today} UTC)")):
+        if bad.any():
+            raise InputError(f"controls: date {dates[bad].iloc[0]} is {why}.")
+    out_by_date: dict = {}
+    for d, xm, zm in zip(dates, ct["x_m"], ct["z_m"]):
+        out_by_date.setdefault(d, []).append((float(xm), float(zm)))
+    return {d: sorted(v) for d, v in out_by_date.items()}
+
+
+def _control_dates(s, site: Site) -> dict:
+    out: dict = {}
+    for c in s.scalars(select(ControlPoint).where(ControlPoint.site_id == site.id)
+                       .order_by(ControlPoint.date, ControlPoint.x_m)):
+        out.setdefault(c.date, []).append((c.x_m, c.z_m))
+    return out
+
+
+def _controls_changed(site: Site, s):
+    """A control survey touches no daily statistic, only the comparison: the next run recomputes from the newest
+    reading's day (an earlier pending change is kept), not from the first day."""
+    if site.dirty_from_ts is None:
+        newest = s.scalar(select(func.max(Reading.ts)).where(Reading.site_id == site.id))
+        site.dirty_from_ts = newest if newest is not None else (site.baseline_start_ts or 0)
+    site.data_version = (site.data_version or 0) + 1
+
+
+def put_controls(db: Database, actor: str, name: str, rows, *, now: int | None = None) -> dict:
+    """Store control surveys (``date``, ``x_m``, ``z_m`` rows): each date in ``rows`` replaces that date's survey;
+    other dates are kept. Returns {"dates": [...], "points": n, "changed": [dates changed]}."""
+    now = now_ts() if now is None else int(now)
+    with db.write() as s:
+        site = _site(s, name)
+        new = _check_controls(s, site, rows, now)
+        have = _control_dates(s, site)
+        changed = []
+        for d, pts in sorted(new.items()):
+            old = have.get(d)
+            if old == pts:
+                continue
+            s.execute(ControlPoint.__table__.delete().where(ControlPoint.site_id == site.id, ControlPoint.date == d))
+            s.add_all([ControlPoint(site_id=site.id, date=d, x_m=x, z_m=z) for x, z in pts])
+            _audit(s, actor, site.id, "controls", d, "replace" if old else "create", old, pts)
+            changed.append(d)
+        if changed:
+            _controls_changed(site, s)
+    return {"dates": sorted(new), "points": sum(len(v) for v in new.values()), "changed": changed}
+
+
+def delete_controls(db: Database, actor: str, name: str, date: str) -> dict:
+    """Remove the control survey of one date (``YYYY-MM-DD``)."""
+    with db.write() as s:
+        site = _site(s, name)
+        old = _control_dates(s, site).get(date) if isinstance(date, str) else None
+        if old is None:
+            raise NotFound(f"site {name!r} has no control survey on {str(date)[:40]!r}.")
+        s.execute(ControlPoint.__table__.delete().where(ControlPoint.site_id == site.id, ControlPoint.date == date))
+        _audit(s, actor, site.id, "controls", date, "delete", old, None)
+        _controls_changed(site, s)
+    return {"deleted": date, "points": len(old)}
+
+
+def get_controls(db: Database, name: str) -> dict:
+    """The stored control surveys and the newest successful run's comparison with them."""
+    from ._db import ControlComparison
+    from ._recompute import latest_run
+
+    with db.read() as s:
+        site = _site(s, name)
+        points = [{"date": d, "x_m": x, "z_m": z} for d, pts in _control_dates(s, site).items() for x, z in pts]
+        run = latest_run(s, site)
+        comp = [] if run is None else [
+            {"date": c.date, "x_m": c.x_m, "dz_control_m": c.dz_control_m, "dz_estimate_m": c.dz_estimate_m,
+             "std_m": c.std_m, "inside_90": c.inside_90}
+            for c in s.scalars(select(ControlComparison).where(ControlComparison.run_id == run.id)
+                               .order_by(ControlComparison.date, ControlComparison.x_m))]
+    return {"controls": points, "run_id": None if run is None else run.id, "comparison": comp}
 
 
 def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str, value) -> dict:
@@ -393,8 +525,9 @@ class IngestResult:
 
 
 def parse_batch(body: bytes, content_type: str | None, *, required=("timestamp", "sensor_id"),
-                expected=READING_COLUMNS) -> list[dict]:
-    """Rows of a CSV (header: the ``rail settle`` readings columns) or JSON (list or {"readings": [...]}) batch."""
+                expected=READING_COLUMNS, key: str = "readings") -> list[dict]:
+    """Rows of a CSV (header: the ``rail settle`` readings columns, or ``expected``) or JSON (a list, or
+    {``key``: [...]}) batch."""
     ct = (content_type or "").split(";")[0].strip().lower()
     if len(body) > 64 * 2**20:
         raise InputFormatError("batch larger than 64 MiB; send smaller batches (e.g. 1 000 readings).")
@@ -420,9 +553,9 @@ def parse_batch(body: bytes, content_type: str | None, *, required=("timestamp",
             raise InputFormatError(f"the JSON batch does not parse: {exc.msg} at line {exc.lineno} "
                                    f"column {exc.colno}.") from None
         if isinstance(data, dict):
-            data = data.get("readings")
+            data = data.get(key)
         if not isinstance(data, list):
-            raise InputFormatError('JSON batch: expected a list of readings or {"readings": [...]}.')
+            raise InputFormatError(f'JSON batch: expected a list of {key} or {{"{key}": [...]}}.')
         rows = data
     else:
         raise InputFormatError(f"unsupported content type {ct!r}; send text/csv or application/json.")

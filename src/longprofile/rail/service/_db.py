@@ -87,6 +87,18 @@ class SurveyPoint(Base):
     z_m: Mapped[float] = mapped_column(Float)
 
 
+class ControlPoint(Base):
+    """A point of a control (levelling) survey of the track: altitude ``z_m`` at ``x_m`` on ``date``
+    (``YYYY-MM-DD``, UTC), the ``controls`` table of ``rail settle``."""
+    __tablename__ = "control_points"
+    __table_args__ = (UniqueConstraint("site_id", "date", "x_m", name="uq_control_site_date_x"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    site_id: Mapped[int] = mapped_column(ForeignKey("sites.id"), index=True)
+    date: Mapped[str] = mapped_column(String(10))
+    x_m: Mapped[float] = mapped_column(Float)
+    z_m: Mapped[float] = mapped_column(Float)
+
+
 class Threshold(Base):
     __tablename__ = "thresholds"
     __table_args__ = (UniqueConstraint("site_id", "quantity", "level", name="uq_threshold"),)
@@ -207,6 +219,19 @@ class ResultRow(Base):
     smoothed_std_m: Mapped[float | None] = mapped_column(Float, nullable=True)
     rate_m_per_day: Mapped[float | None] = mapped_column(Float, nullable=True)
     rate_std_m_per_day: Mapped[float | None] = mapped_column(Float, nullable=True)
+
+
+class ControlComparison(Base):
+    """A run's comparison of its settlement with the control surveys (``SettlementResult.controls``)."""
+    __tablename__ = "control_comparisons"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), index=True)
+    date: Mapped[str] = mapped_column(String(10))
+    x_m: Mapped[float] = mapped_column(Float)
+    dz_control_m: Mapped[float] = mapped_column(Float)
+    dz_estimate_m: Mapped[float] = mapped_column(Float)
+    std_m: Mapped[float] = mapped_column(Float)
+    inside_90: Mapped[bool] = mapped_column(Boolean)
 
 
 class DayCache(Base):

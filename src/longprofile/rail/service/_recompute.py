@@ -36,6 +36,8 @@ from .. import (
 )
 from ._alarms import evaluate_no_data, evaluate_result, thresholds_of
 from ._db import (
+    ControlComparison,
+    ControlPoint,
     Database,
     DayCache,
     DayStat,
@@ -49,7 +51,8 @@ from ._db import (
     now_ts,
 )
 
-__all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "DEFAULT_SETTINGS", "KEEP_RUNS"]
+__all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "load_site_tables", "controls_table",
+           "DEFAULT_SETTINGS", "KEEP_RUNS"]
 
 DEFAULT_SETTINGS = {"thermal": "linear", "n_monte_carlo": 0, "alarm_probability": 0.5, "sigma_deg": None,
                     "rigidity": None, "exclude": []}
@@ -122,6 +125,21 @@ def _survey_table(s, site: Site):
     sv = list(s.execute(select(SurveyPoint.x_m, SurveyPoint.z_m).where(SurveyPoint.site_id == site.id)
                         .order_by(SurveyPoint.x_m)))
     return pd.DataFrame({"x_m": [p[0] for p in sv], "z_m": [p[1] for p in sv]}) if sv else None
+
+
+def controls_table(s, site: Site, *, upto: str | None = None):
+    """The site's control surveys as the ``controls`` table ``rail settle`` reads (date as ``YYYY-MM-DD`` text,
+    x_m, z_m; dates up to ``upto``), or None when there are none."""
+    q = select(ControlPoint.date, ControlPoint.x_m, ControlPoint.z_m).where(ControlPoint.site_id == site.id)
+    if upto is not None:
+        q = q.where(ControlPoint.date <= upto)
+    rows = list(s.execute(q.order_by(ControlPoint.date, ControlPoint.x_m)))
+    return pd.DataFrame(rows, columns=["date", "x_m", "z_m"]) if rows else None
+
+
+def load_site_tables(s, site: Site):
+    """(sensors, survey) tables of a site as a recompute reads them (active sensors, by station)."""
+    return _sensor_table(_active_sensors(s, site)), _survey_table(s, site)
 
 
 def load_site_data(s, site: Site, *, chunk: int = 65536):
@@ -337,10 +355,27 @@ def _store_results(s, run_id: int, tab: pd.DataFrame) -> int:
     return bulk_insert(s, ResultRow.__table__, cols)
 
 
-def _settings_hash(site, sensors, survey, thresholds, settings) -> str:
-    blob = json.dumps({"settings": settings, "sensors": sensors.to_dict("list"),
-                       "survey": None if survey is None else survey.to_dict("list"), "thresholds": thresholds,
-                       "baseline": [site.baseline_start_ts, site.baseline_end_ts]}, sort_keys=True, default=str)
+#: Columns of ``control_comparisons``, as in ``SettlementResult.controls``.
+CONTROL_RESULT_COLUMNS = ("date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "inside_90")
+
+
+def _store_controls(s, run_id: int, controls: pd.DataFrame | None) -> int:
+    """The run's comparison with the control surveys (``SettlementResult.controls``; nothing when None)."""
+    if controls is None or len(controls) == 0:
+        return 0
+    cols = {"run_id": [int(run_id)] * len(controls)}
+    for c in CONTROL_RESULT_COLUMNS:
+        cols[c] = _column_values(controls[c].to_numpy())
+    return bulk_insert(s, ControlComparison.__table__, cols)
+
+
+def _settings_hash(site, sensors, survey, thresholds, settings, controls=None) -> str:
+    what = {"settings": settings, "sensors": sensors.to_dict("list"),
+            "survey": None if survey is None else survey.to_dict("list"), "thresholds": thresholds,
+            "baseline": [site.baseline_start_ts, site.baseline_end_ts]}
+    if controls is not None:  # absent without controls: the hash of a site without them is unchanged
+        what["controls"] = controls.to_dict("list")
+    blob = json.dumps(what, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
@@ -365,10 +400,10 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         settings = {**DEFAULT_SETTINGS, **site.settings}
         thresholds = thresholds_of(s, site)
         sens = _active_sensors(s, site)
-        sensors, survey = _sensor_table(sens), _survey_table(s, site)
+        sensors, survey, controls = _sensor_table(sens), _survey_table(s, site), controls_table(s, site)
         last = latest_run(s, site, ok_only=False)
         site_id = site.id
-        shash = _settings_hash(site, sensors, survey, thresholds, settings)
+        shash = _settings_hash(site, sensors, survey, thresholds, settings, controls)
         if (not force and last is not None and last.data_version == version and last.settings_hash == shash
                 and last.code_version == __version__):
             return {"run_id": last.id, "status": "unchanged", "message": "", "events": [],
@@ -391,7 +426,7 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         last_ts = {k: int(v.value // 10**9) for k, v in readings.groupby("sensor_id")["timestamp"].max().items()}
     status, message, res = "ok", "", None
     try:
-        sitedata = validate_site(sensors, readings, survey)
+        sitedata = validate_site(sensors, readings, survey, controls)
         quiet = _quiet_days(site, readings["timestamp"].dt.normalize().unique() if stats is None else stats.days)
         options = dict(
             thermal=settings["thermal"], quiet_days=quiet,
@@ -421,6 +456,7 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
             _store_day_cache(s, site, sens, stats, first_day, rebuilt, settings["thermal"], version)
         if res is not None:
             _store_results(s, run.id, res.to_table())
+            _store_controls(s, run.id, res.controls)
             s.execute(HealthRow.__table__.insert(), [
                 {"run_id": run.id, "sensor_id": sid, "status": str(st), "reason": str(d),
                  "last_reading_ts": int(last_ts[sid]) if last_ts.get(sid, -1) >= 0 else None}
@@ -431,6 +467,7 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
             if old:
                 s.execute(delete(ResultRow).where(ResultRow.run_id.in_(old)))
                 s.execute(delete(HealthRow).where(HealthRow.run_id.in_(old)))
+                s.execute(delete(ControlComparison).where(ControlComparison.run_id.in_(old)))
         events += evaluate_no_data(s, site)
         run.finished_ts = now_ts()
         # the site is clean only if nothing arrived meanwhile (compare-and-set on the watermark)

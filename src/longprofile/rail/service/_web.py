@@ -232,6 +232,13 @@ class _App:
         return name
 
     @staticmethod
+    async def table_rows(request: Request, expected, required=None, key: str = "readings") -> list:
+        """Rows of a CSV or JSON table body (``core.parse_batch``); an empty body is no rows."""
+        raw = await request.body()
+        return core.parse_batch(raw, request.headers.get("content-type"), required=required or expected,
+                                expected=expected, key=key) if raw else []
+
+    @staticmethod
     async def json_body(request: Request):
         try:
             return json.loads(await request.body() or b"null")
@@ -393,18 +400,32 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
     @app.put("/api/v1/sites/{site}/sensors")
     async def api_sensors(site: str, request: Request):
         user = person(request, "engineer")
-        raw = await request.body()
-        rows = core.parse_batch(raw, request.headers.get("content-type"), required=("sensor_id", "x_m"),
-                                expected=("sensor_id", "x_m", "z_m", "active")) if raw else []
+        rows = await ctx.table_rows(request, ("sensor_id", "x_m", "z_m", "active"), ("sensor_id", "x_m"))
         return await run_in_threadpool(lambda: core.put_sensors(db, user[0], site_name(site), rows))
 
     @app.put("/api/v1/sites/{site}/survey")
     async def api_survey(site: str, request: Request):
         user = person(request, "engineer")
-        raw = await request.body()
-        rows = core.parse_batch(raw, request.headers.get("content-type"), required=("x_m", "z_m"),
-                                expected=("x_m", "z_m")) if raw else []
+        rows = await ctx.table_rows(request, ("x_m", "z_m"))
         return await run_in_threadpool(lambda: core.put_survey(db, user[0], site_name(site), rows))
+
+    @app.get("/api/v1/sites/{site}/controls")
+    def api_get_controls(site: str, request: Request):
+        person(request)
+        return core.get_controls(db, site_name(site))
+
+    @app.put("/api/v1/sites/{site}/controls")
+    async def api_controls(site: str, request: Request):
+        user = person(request, "engineer")
+        rows = await ctx.table_rows(request, core.CONTROL_COLUMNS, key="controls")
+        return await run_in_threadpool(lambda: core.put_controls(db, user[0], site_name(site), rows))
+
+    @app.delete("/api/v1/sites/{site}/controls/{date}")
+    def api_delete_controls(site: str, date: str, request: Request):
+        user = person(request, "engineer")
+        if not DAY_RE.match(date):
+            raise core.NotFound("no control survey on this date.")
+        return core.delete_controls(db, user[0], site_name(site), date)
 
     @app.put("/api/v1/sites/{site}/thresholds/{quantity}/{level}")
     async def api_threshold(site: str, quantity: str, level: str, request: Request):
@@ -561,8 +582,10 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         for a in alarms:
             a["raised"] = _iso(a["raised_ts"])
             a["acked"] = _iso(a["ack_ts"])
+        controls = core.get_controls(db, st.name)["comparison"]
         return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
-                          alarms=alarms, health=health, can_ack=role_at_least(page_user(request)[1], "engineer"))
+                          alarms=alarms, health=health, controls=controls,
+                          can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
     def sensor_page(request: Request, site: str, sensor: str):
@@ -675,16 +698,17 @@ def _write_day_report(db: Database, name: str, day: str, folder: Path):
     from ...report import write_rail_report
     from .. import estimate_settlement, validate_site
     from ._alarms import thresholds_of
-    from ._recompute import DEFAULT_SETTINGS, load_site_data
+    from ._recompute import DEFAULT_SETTINGS, controls_table, load_site_data
 
     with db.read() as s:
         st = s.scalar(select(Site).where(Site.name == name))
         settings = {**DEFAULT_SETTINGS, **st.settings}
         thr = thresholds_of(s, st)
         sensors, readings, survey = load_site_data(s, st)
+        controls = controls_table(s, st, upto=day)
     end = pd.Timestamp(day) + pd.Timedelta(days=1)
     readings = readings[readings["timestamp"] < end]
-    res = estimate_settlement(validate_site(sensors, readings, survey), thermal=settings["thermal"],
+    res = estimate_settlement(validate_site(sensors, readings, survey, controls), thermal=settings["thermal"],
                               n_monte_carlo=max(int(settings["n_monte_carlo"]), 500),
                               settlement_threshold_m=thr.get("settlement", {}).get("alert"),
                               rate_threshold_m_per_day=thr.get("rate", {}).get("alert"),
