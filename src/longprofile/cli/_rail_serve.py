@@ -212,6 +212,24 @@ def site_logger(name: str = typer.Argument(...), logger: str = typer.Argument(..
     typer.echo(_service.add_logger(_db(db), _actor(actor), name, logger))
 
 
+@site_app.command("logger-revoke")
+def site_logger_revoke(name: str = typer.Argument(...), logger: str = typer.Argument(..., help="Logger name."),
+                       db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Revoke a logger's API key (401 from its next request; its stored readings stay)."""
+    from ..rail import service as _service
+
+    _print(_service.revoke_logger(_db(db), _actor(actor), name, logger))
+
+
+@site_app.command("logger-rotate")
+def site_logger_rotate(name: str = typer.Argument(...), logger: str = typer.Argument(..., help="Logger name."),
+                       db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Give a logger a new API key and print it (shown once); the old key stops working at once."""
+    from ..rail import service as _service
+
+    typer.echo(_service.rotate_logger(_db(db), _actor(actor), name, logger))
+
+
 @site_app.command("channel")
 def site_channel(name: str = typer.Argument(...), kind: str = typer.Argument(..., help="webhook or smtp."),
                  target: str = typer.Argument(..., help="URL or e-mail address."), db: str = DB_OPT,

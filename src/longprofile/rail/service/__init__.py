@@ -4,7 +4,7 @@ Needs the ``serve`` extra (``pip install 'longprofile[serve]'``); start it with 
 Importing this package imports nothing of the extra; the modules do:
 
 _db         -- SQLAlchemy 2 models, ``Database(url)`` (SQLite WAL or PostgreSQL, Alembic migrations at start-up).
-_core       -- sites, sensors, survey, control surveys, thresholds, loggers, channels, users
+_core       -- sites, sensors, survey, control surveys, thresholds, loggers (keys revoked, rotated), channels, users
                (audited) and ``ingest``.
 _recompute  -- ``recompute(db, site)``: stored readings -> ``estimate_settlement`` -> versioned run and results.
 _alarms     -- alarm levels (``settlement_alarms``), lifecycle, "no data", notification outbox and delivery.
@@ -22,7 +22,8 @@ from ..._lazy import lazy_namespace
 _EXPORTS = {
     "._db": ("Database",),
     "._core": ("add_channel", "add_logger", "add_user", "audit_trail", "create_site", "delete_controls", "get_controls",
-               "get_site", "ingest", "list_sites", "put_controls", "put_sensors", "put_survey", "set_threshold", "update_site"),
+               "get_site", "ingest", "list_sites", "put_controls", "put_sensors", "put_survey", "revoke_logger",
+               "rotate_logger", "set_threshold", "update_site"),
     "._recompute": ("recompute",),
     "._alarms": ("Notifier", "list_alarms"),
     "._web": ("create_app",),

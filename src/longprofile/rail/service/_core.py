@@ -44,7 +44,7 @@ from ._db import (
 )
 
 __all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "put_controls",
-           "delete_controls", "get_controls", "set_threshold", "add_logger",
+           "delete_controls", "get_controls", "set_threshold", "add_logger", "revoke_logger", "rotate_logger",
            "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
            "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
 
@@ -178,6 +178,7 @@ def get_site(db: Database, name: str) -> dict:
                              s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
         lgs = list(s.scalars(select(Logger).where(Logger.site_id == site.id).order_by(Logger.name)))
         out["loggers"] = [lg.name for lg in lgs]
+        out["revoked_loggers"] = [lg.name for lg in lgs if not lg.active]
         out["control_dates"] = list(s.scalars(select(ControlPoint.date).where(ControlPoint.site_id == site.id)
                                               .distinct().order_by(ControlPoint.date)))
         out["channels"] = [{"kind": c.kind, "target": c.target} for c in
@@ -447,6 +448,40 @@ def add_logger(db: Database, actor: str, name: str, logger: str) -> str:
             raise InputError(f"logger {logger!r} already exists on site {name!r}.")
         s.add(Logger(site_id=site.id, name=logger, key_id=key_id, key_hash=_key_hash(secret), active=True))
         _audit(s, actor, site.id, "logger", logger, "create", None, {"key_id": key_id})
+    return f"lpk_{key_id}_{secret}"
+
+
+def _logger(s, site: Site, logger: str) -> Logger:
+    lg = s.scalar(select(Logger).where(Logger.site_id == site.id, Logger.name == logger)) \
+        if isinstance(logger, str) else None
+    if lg is None:
+        raise NotFound(f"unknown logger {str(logger)[:64]!r} on site {site.name!r}.")
+    return lg
+
+
+def revoke_logger(db: Database, actor: str, name: str, logger: str) -> dict:
+    """Revoke a logger's API key: its next request gets 401; the readings it sent stay."""
+    with db.write() as s:
+        site = _site(s, name)
+        lg = _logger(s, site, logger)
+        if lg.active:
+            lg.active = False
+            _audit(s, actor, site.id, "logger", logger, "revoke", {"key_id": lg.key_id, "active": True},
+                   {"key_id": lg.key_id, "active": False})
+    return {"logger": logger, "active": False}
+
+
+def rotate_logger(db: Database, actor: str, name: str, logger: str) -> str:
+    """Give a logger a new API key (returned once, only its hash stored); the old key gets 401 at once. A revoked
+    logger is re-activated with the new key."""
+    key_id = secrets.token_hex(8)
+    secret = secrets.token_urlsafe(32)
+    with db.write() as s:
+        site = _site(s, name)
+        lg = _logger(s, site, logger)
+        old = {"key_id": lg.key_id, "active": lg.active}
+        lg.key_id, lg.key_hash, lg.active = key_id, _key_hash(secret), True
+        _audit(s, actor, site.id, "logger", logger, "rotate", old, {"key_id": key_id, "active": True})
     return f"lpk_{key_id}_{secret}"
 
 

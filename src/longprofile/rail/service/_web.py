@@ -445,6 +445,16 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
         key = await run_in_threadpool(lambda: core.add_logger(db, user[0], site_name(site), str(body["name"])))
         return {"name": body["name"], "api_key": key}
 
+    @app.post("/api/v1/sites/{site}/loggers/{logger}/revoke")
+    def api_logger_revoke(site: str, logger: str, request: Request):
+        user = person(request, "admin")
+        return core.revoke_logger(db, user[0], site_name(site), logger)
+
+    @app.post("/api/v1/sites/{site}/loggers/{logger}/rotate")
+    def api_logger_rotate(site: str, logger: str, request: Request):
+        user = person(request, "admin")
+        return {"name": logger, "api_key": core.rotate_logger(db, user[0], site_name(site), logger)}
+
     @app.post("/api/v1/sites/{site}/channels")
     async def api_channel(site: str, request: Request):
         user = person(request, "admin")
