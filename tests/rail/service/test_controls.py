@@ -195,13 +195,14 @@ def test_the_api_takes_csv_and_json_with_the_survey_roles_and_shows_the_comparis
     assert client.delete("/api/v1/sites/mitt/controls/..%2Fx", headers=eng).status_code == 404
 
 
-def test_the_cli_stores_a_controls_file_as_rail_settle_reads_it(loaded, tmp_path):
+def test_the_cli_stores_a_controls_file_as_rail_settle_reads_it(loaded, tmp_path, monkeypatch):
     import typer
     from typer.testing import CliRunner
 
     from longprofile.cli._rail_serve import register
 
     db, _, _ = loaded
+    monkeypatch.setattr("longprofile.cli._rail_serve._db", lambda url: db)  # one engine (PostgreSQL: closed at the end)
     app = typer.Typer()
     register(app)
     runner = CliRunner()

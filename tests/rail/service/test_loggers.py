@@ -85,13 +85,14 @@ def test_only_the_newest_key_of_an_active_logger_is_accepted(ops):
     assert accepted == [False] * (len(keys) - 1) + [active]
 
 
-def test_the_cli_revokes_and_rotates_keys(site, tmp_path):
+def test_the_cli_revokes_and_rotates_keys(site, monkeypatch):
     import typer
     from typer.testing import CliRunner
 
     from longprofile.cli._rail_serve import register
 
     db, key, _ = site
+    monkeypatch.setattr("longprofile.cli._rail_serve._db", lambda url: db)  # one engine (PostgreSQL: closed at the end)
     app = typer.Typer()
     register(app)
     runner = CliRunner()
