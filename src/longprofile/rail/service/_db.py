@@ -369,6 +369,9 @@ class Database:
         self.Session = sessionmaker(self.engine, expire_on_commit=False)
         # SQLite has one writer: serialise this process's write transactions (no SQLITE_BUSY upgrades)
         self._write_lock = threading.RLock() if self.is_sqlite else None
+        #: this process's copies of committed tables it wrote, each checked against the database before use
+        #: (the recompute's day cache: ``_recompute._day_cache_rows``)
+        self.memo: dict = {}
         if migrate:
             self.migrate()
 

@@ -18,7 +18,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 import pandas as pd
-from sqlalchemy import BigInteger, Integer, delete, select, update
+from sqlalchemy import BigInteger, Integer, delete, func, select, update
 
 from ... import __version__
 from ...errors import InputError, LongprofileError
@@ -201,11 +201,38 @@ def _cache_key(site: Site, thermal: str) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
-def _load_day_cache(s, site: Site, sens, thermal: str) -> DayStatistics | None:
+_CACHE_COLUMNS = ("sensor_pk", "day") + DAY_FIELDS
+
+
+def _day_cache_rows(s, site: Site, memo: dict | None = None):
+    """All ``day_stats`` rows of a site as ((rows, columns) float array, (rows, 2 MEDIAN_LINES) median lines).
+
+    ``memo`` is the process's copy (``Database.memo``) of what the last run of this process stored: it is used
+    instead of reading the table when the table's state (``day_cache``: key, data version, update time) and row
+    count are still the ones that run committed, i.e. no other process has written the cache since. Both paths
+    give the same arrays (the values are float64, integer or NULL, which round-trip the database exactly; tested
+    bit for bit in tests/rail/service/test_day_cache_memo.py; a writer that leaves key, version, update second and
+    row count as they were would have to store the same data version, i.e. the same rows).
+    """
+    state = s.get(DayCache, site.id)
+    mine = None if memo is None else memo.get(("day_cache", site.id))
+    if mine is not None and state is not None and mine[0] == (state.key, state.data_version, state.updated_ts):
+        n = s.scalar(select(func.count()).select_from(DayStat).where(DayStat.site_id == site.id))
+        if n == mine[1].shape[0]:
+            return mine[1], mine[2]
+    q = select(*[getattr(DayStat, c) for c in _CACHE_COLUMNS], DayStat.median_lines).where(
+        DayStat.site_id == site.id)
+    return _float_columns(s, q, len(_CACHE_COLUMNS), blob=2 * MEDIAN_LINES)
+
+
+def _load_day_cache(s, site: Site, sens, thermal: str, memo: dict | None = None) -> DayStatistics | None:
     """The site's cached per-day statistics of its active sensors (None when there are none)."""
-    cols = ("sensor_pk", "day") + DAY_FIELDS
-    q = select(*[getattr(DayStat, c) for c in cols], DayStat.median_lines).where(DayStat.site_id == site.id)
-    arr, lines = _float_columns(s, q, len(cols), blob=2 * MEDIAN_LINES)
+    return _day_cache_statistics(_day_cache_rows(s, site, memo), sens, thermal)
+
+
+def _day_cache_statistics(rows, sens, thermal: str) -> DayStatistics | None:
+    """``DayStatistics`` of the active sensors ``sens`` from the cache's rows (None when none is theirs)."""
+    arr, lines = rows
     col = {pk: j for j, (pk, *_) in enumerate(sens)}
     pk = arr[:, 0].astype(np.int64)
     keep = np.isin(pk, np.fromiter(col, dtype=np.int64, count=len(col)))
@@ -241,31 +268,33 @@ def _quiet_days(site: Site, days) -> list | None:
     return sorted(d[d < pd.Timestamp(site.baseline_end_ts, unit="s")].strftime("%Y-%m-%d")) or None
 
 
-def cached_statistics(s, site: Site, sens, thermal: str, dirty_from):
+def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict | None = None):
     """Per-day statistics of the site: the cache, with the days from the earliest change recomputed from raw.
 
-    Returns (stats, window readings, rows to store as {"days": day numbers from, "sensors": pks rebuilt},
-    the first recomputed day as days since 1970 or None for a full build). Days before the change come from
+    Returns (stats, window readings, the first recomputed day as days since 1970 or None for a full build,
+    the sensor columns rebuilt from all their readings, the cache's rows as read: see :func:`_day_cache_rows`,
+    None for a full build). Days before the change come from
     ``day_stats``; the readings from the day before the change (3 readings of running-median context further
     back) are loaded and ``day_statistics(previous=...)`` recomputes those days; sensors it finds stale are
     recomputed from all their readings.
     """
     ids = [r[1] for r in sens]
     state = s.get(DayCache, site.id)
-    prev = None
+    prev = rows = None
     if state is not None and state.key == _cache_key(site, thermal):
-        prev = _load_day_cache(s, site, sens, thermal)
+        rows = _day_cache_rows(s, site, memo)
+        prev = _day_cache_statistics(rows, sens, thermal)
     if prev is not None and dirty_from is not None and dirty_from < int(prev.days[0].astype("datetime64[s]")
                                                                          .astype(np.int64)) + _DAY_S:
         prev = None  # a change on the first day (settings, sensors, baseline): build from every reading
     if prev is None:
         readings = _readings_frame(s, site, sens)
         if readings.empty:
-            return None, readings, None, None
+            return None, readings, None, None, None
         days = pd.DatetimeIndex(readings["timestamp"].dt.normalize().unique())
         stats = day_statistics(readings, ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C,
                                quiet_days=_quiet_days(site, days))
-        return stats, readings, None, list(range(len(ids)))
+        return stats, readings, None, list(range(len(ids))), None
     # no recorded change (a forced run): the newest cached day is recomputed, so the window is never empty
     changed = (pd.Timestamp(prev.days[-1]) if dirty_from is None
                else pd.Timestamp(int(dirty_from), unit="s").normalize())
@@ -282,11 +311,16 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from):
         sub = _readings_frame(s, site, sens, pks=[sens[j][0] for j in rebuilt])
         stats = stats.replace_sensors(day_statistics(sub, [ids[j] for j in rebuilt], thermal=thermal,
                                                      reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet))
-    return stats, window, int(pd.Timestamp(first).value // (_DAY_S * 10**9)), rebuilt
+    return stats, window, int(pd.Timestamp(first).value // (_DAY_S * 10**9)), rebuilt, rows
 
 
-def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebuilt, thermal: str, version: int):
-    """Replace the cached rows from ``first_day`` on (all days when None) and all rows of ``rebuilt`` sensors."""
+def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebuilt, thermal: str, version: int,
+                     rows=None):
+    """Replace the cached rows from ``first_day`` on (all days when None) and all rows of ``rebuilt`` sensors.
+
+    Returns the memo entry of what the table now holds: ((key, data version, update time), rows, median lines),
+    the arrays :func:`_day_cache_rows` would read back (``rows`` = those it read before this change).
+    """
     dnum = np.asarray(stats.days).astype("datetime64[D]").astype(np.int64)
     pks = np.array([r[0] for r in sens], dtype=np.int64)
     if first_day is None:
@@ -309,10 +343,26 @@ def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebui
     data["median_lines"] = [lines[i:i + width] for i in range(0, len(lines), width)]
     bulk_insert(s, DayStat.__table__, data)
     state = s.get(DayCache, site.id)
+    key, ts = _cache_key(site, thermal), now_ts()
     if state is None:
-        s.add(DayCache(site_id=site.id, key=_cache_key(site, thermal), data_version=version, updated_ts=now_ts()))
+        s.add(DayCache(site_id=site.id, key=key, data_version=version, updated_ts=ts))
     else:
-        state.key, state.data_version, state.updated_ts = _cache_key(site, thermal), version, now_ts()
+        state.key, state.data_version, state.updated_ts = key, version, ts
+    new = np.column_stack([pks[sj], dnum[di]] + [getattr(stats, f)[di, sj] for f in DAY_FIELDS]).astype(float)
+    new_lines = stats.median_lines[di, sj].astype("<f8").astype(float)
+    if s.connection().dialect.name == "sqlite":
+        new += 0.0  # SQLite stores a REAL with no fraction as an integer: -0.0 reads back as 0.0
+    if first_day is not None and rows is not None:
+        arr, lines = rows
+        drop = arr[:, 1] >= first_day
+        if rebuilt:
+            drop |= np.isin(arr[:, 0], pks[rebuilt].astype(float))
+        new, new_lines = np.concatenate([arr[~drop], new]), np.concatenate([lines[~drop], new_lines])
+    elif first_day is not None:
+        return None  # the rows before the change were not read: nothing to remember
+    new.setflags(write=False)
+    new_lines.setflags(write=False)
+    return (key, version, ts), new, new_lines
 
 
 #: Columns of ``results`` written by a run, and the column of ``SettlementResult.to_table()`` each comes from.
@@ -411,9 +461,10 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         # linear / no thermal model: per-day statistics cached in day_stats, only the changed days from raw;
         # the lagged model fits its lag over the whole record: every reading, every run
         cached = settings["thermal"] in ("linear", "none")
-        stats = first_day = rebuilt = None
+        stats = first_day = rebuilt = cache_rows = None
         if cached:
-            stats, readings, first_day, rebuilt = cached_statistics(s, site, sens, settings["thermal"], dirty_from)
+            stats, readings, first_day, rebuilt, cache_rows = cached_statistics(
+                s, site, sens, settings["thermal"], dirty_from, db.memo)
         else:
             _, readings, _ = load_site_data(s, site)
     t_load = time.perf_counter() - t0
@@ -452,8 +503,10 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
                   message=message, warnings_json=json.dumps([] if res is None else list(res.warnings)))
         s.add(run)
         s.flush()
+        memo = None
         if stats is not None:  # the cache follows the raw readings whatever the run's outcome
-            _store_day_cache(s, site, sens, stats, first_day, rebuilt, settings["thermal"], version)
+            memo = _store_day_cache(s, site, sens, stats, first_day, rebuilt, settings["thermal"], version,
+                                    cache_rows)
         if res is not None:
             _store_results(s, run.id, res.to_table())
             _store_controls(s, run.id, res.controls)
@@ -473,6 +526,10 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         # the site is clean only if nothing arrived meanwhile (compare-and-set on the watermark)
         s.execute(update(Site).where(Site.id == site_id, Site.data_version == version).values(dirty_from_ts=None))
         run_id = run.id
+    # remembered only once committed (a failed transaction leaves the previous entry: it still describes the table)
+    db.memo.pop(("day_cache", site_id), None)
+    if memo is not None:
+        db.memo[("day_cache", site_id)] = memo
     return {"run_id": run_id, "status": status, "message": message, "events": events,
             "seconds": time.perf_counter() - t0, "data_complete_to": _iso(complete_to),
             "timings": {"load": t_load, "estimate": t_estimate,
