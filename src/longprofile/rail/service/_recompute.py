@@ -260,6 +260,51 @@ def _day_cache_statistics(rows, sens, thermal: str) -> DayStatistics | None:
                          thermal=thermal, reference_temp_c=REFERENCE_TEMP_C, exact=False)
 
 
+#: Columns of :func:`sensor_daily_statistics`.
+SENSOR_DAILY_COLUMNS = ("day", "n_raw", "raw_median_deg", "median_deg", "mean_temp_c", "temp_range_c")
+
+
+def sensor_daily_statistics(s, site: Site, sensor_id: str) -> pd.DataFrame:
+    """One sensor's per-day statistics for its time-series page: ``day`` (``YYYY-MM-DD``), readings that day,
+    the median raw angle (deg), the median thermally corrected angle (deg; NaN when not cached), the mean
+    temperature and the kept readings' temperature range (degC). The definitions are ``rail.day_statistics``'s.
+
+    From the day cache (one indexed read of the sensor's rows) when it is kept for the site's thermal model;
+    otherwise (the lagged model, which fits over the whole record) ``day_statistics`` of the sensor's readings
+    with the linear model, whose corrected median is then left out (it is not the one the estimate used).
+    """
+    sens = [r for r in _active_sensors(s, site) if r[1] == sensor_id]
+    if not sens:
+        raise InputError(f"unknown sensor {sensor_id[:64]!r} on site {site.name!r}.")
+    thermal = {**DEFAULT_SETTINGS, **site.settings}["thermal"]
+    state = s.get(DayCache, site.id)
+    if thermal in ("linear", "none") and state is not None and state.key == _cache_key(site, thermal):
+        rows = s.execute(select(DayStat.day, DayStat.n_raw, DayStat.raw_median_deg, DayStat.median_deg,
+                                DayStat.temperature_sum_c, DayStat.n_temperature, DayStat.temp_range_c)
+                         .where(DayStat.sensor_pk == sens[0][0]).order_by(DayStat.day)).all()
+        df = pd.DataFrame(rows, columns=["day", "n_raw", "raw_median_deg", "median_deg", "temperature_sum_c",
+                                         "n_temperature", "temp_range_c"])
+        day = pd.to_datetime(df["day"].to_numpy(np.int64) * _DAY_S, unit="s")
+        fields = {f: df[f].to_numpy(float) for f in ("raw_median_deg", "median_deg", "temperature_sum_c",
+                                                     "temp_range_c")}
+        n_raw, n_temp = df["n_raw"].to_numpy(np.int64), df["n_temperature"].to_numpy(np.int64)
+    else:
+        readings = _readings_frame(s, site, sens)
+        if readings.empty:
+            return pd.DataFrame(columns=list(SENSOR_DAILY_COLUMNS))
+        st = day_statistics(readings, [sensor_id], thermal="linear", reference_temp_c=REFERENCE_TEMP_C)
+        day = pd.DatetimeIndex(st.days)
+        fields = {f: getattr(st, f)[:, 0].astype(float) for f in ("raw_median_deg", "median_deg",
+                                                                  "temperature_sum_c", "temp_range_c")}
+        fields["median_deg"] = np.full(day.size, np.nan)
+        n_raw, n_temp = st.n_raw[:, 0], st.n_temperature[:, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_t = np.where(n_temp > 0, fields["temperature_sum_c"] / n_temp, np.nan)
+    return pd.DataFrame({"day": day.strftime("%Y-%m-%d"), "n_raw": n_raw, "raw_median_deg": fields["raw_median_deg"],
+                         "median_deg": fields["median_deg"], "mean_temp_c": mean_t,
+                         "temp_range_c": fields["temp_range_c"]})
+
+
 def _quiet_days(site: Site, days) -> list | None:
     """Days before the baseline end: the thermal fit's quiet days (None without a baseline end)."""
     if site.baseline_end_ts is None:

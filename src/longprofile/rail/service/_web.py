@@ -27,7 +27,7 @@ from . import _core as core
 from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
 from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site
-from ._recompute import latest_run, recompute
+from ._recompute import latest_run, recompute, sensor_daily_statistics
 
 __all__ = ["create_app", "ServiceWorker"]
 
@@ -131,10 +131,13 @@ def profile_png(rows: pd.DataFrame, alarms: list[dict], title: str) -> bytes:
     return _fig_png(fig)
 
 
-def sensor_png(rows: pd.DataFrame, title: str) -> bytes:
+def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str) -> bytes:
+    """The sensor page's figure: altitude change with its 90 % band (the run's results), then the day's median
+    raw and thermally corrected angle and the mean temperature (``sensor_daily_statistics``), on one time axis."""
     z90 = 1.6448536269514722
-    fig = _figure(10, 3.5)
-    ax = fig.add_subplot()
+    fig = _figure(10, 7.5)
+    fig.subplots_adjust(left=0.08, right=0.99, bottom=0.09, top=0.95, hspace=0.12)
+    ax, ax_a, ax_t = fig.subplots(3, 1, sharex=True)
     d = pd.to_datetime(rows["day"])
     m = rows["smoothed_dz_m"].fillna(rows["dz_m"]).to_numpy(float) * 1e3
     sd = rows["smoothed_std_m"].fillna(rows["dz_std_m"]).to_numpy(float) * 1e3
@@ -144,7 +147,22 @@ def sensor_png(rows: pd.DataFrame, title: str) -> bytes:
     ax.set_ylabel("altitude change (mm)")
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=7)
-    fig.autofmt_xdate()
+    dd = pd.to_datetime(daily["day"])
+    ax_a.plot(dd, daily["raw_median_deg"].to_numpy(float), ".-", color="tab:gray", ms=3, lw=0.8,
+              label="median raw reading of the day")
+    if daily["median_deg"].notna().any():
+        ax_a.plot(dd, daily["median_deg"].to_numpy(float), ".-", color="tab:purple", ms=3, lw=0.8,
+                  label="median thermally corrected angle")
+    ax_a.set_ylabel("angle (deg)")
+    ax_a.legend(fontsize=7)
+    t, half = daily["mean_temp_c"].to_numpy(float), daily["temp_range_c"].to_numpy(float) / 2.0
+    ax_t.fill_between(dd, t - half, t + half, color="tab:red", alpha=0.15, label="± half the day's range")
+    ax_t.plot(dd, t, ".-", color="tab:red", ms=3, lw=0.8, label="mean temperature of the day")
+    ax_t.set_ylabel("temperature (°C)")
+    ax_t.legend(fontsize=7)
+    for label in ax_t.get_xticklabels():
+        label.set_rotation(30)
+        label.set_ha("right")
     return _fig_png(fig)
 
 
@@ -665,10 +683,12 @@ def _add_figure_routes(app: FastAPI, ctx: _App):
                                         ResultRow.smoothed_std_m).where(ResultRow.run_id == run.id,
                                                                         ResultRow.sensor_id == sensor)
                                  .order_by(ResultRow.day)).all()
-            if not rows:
-                raise core.NotFound("unknown sensor.")
+                if not rows:
+                    raise core.NotFound("unknown sensor.")
+                daily = sensor_daily_statistics(s, s.get(Site, st.id), sensor)
             df = pd.DataFrame(rows, columns=["day", "dz_m", "dz_std_m", "smoothed_dz_m", "smoothed_std_m"])
-            return sensor_png(df, f"{st.name} / {sensor}: altitude change at the sensor, 90 % band")
+            return sensor_png(df, daily, f"{st.name} / {sensor}: altitude change at the sensor (90 % band), "
+                                         "angle and temperature")
 
         return Response(ctx.png_cache.get_or(("sensor", run.id, sensor), make), media_type="image/png")
 
