@@ -12,7 +12,11 @@ on recordings with effects the reconstruction's model does not have, drawn at ra
 * ``noise levels``     -- white measurement noise of 0.5-10 % of the signal RMS;
 * ``coloured noise``   -- AR(1) measurement noise (correlation 0.5-5 m), 2-5 %; the model has white noise;
 * ``trailer mismatch`` -- the recording made by a trailer whose pendulum and damper frequencies are 0.8-1.2 x and
-  gain 0.95-1.05 x the model's (speed, wear, calibration);
+  gain 0.95-1.05 x the model's (speed, wear, calibration); scored twice on the same draws: without and with the
+  instrument-uncertainty term (``reconstruct_profile(instrument_uncertainty=...)``) at the tolerance a user would
+  declare for such a trailer, +-20 % on each frequency and +-5 % on the gain read as uniform: 1-sigma
+  20 % / sqrt(3) = 11.5 % and 5 % / sqrt(3) = 2.9 % (the declared tolerance, the same for every draw, not each
+  draw's truth);
 * ``signal drift``     -- a slow random-walk drift of the sensor added to the signal;
 * ``measured road``    -- the Sroubek-Sorel measured profile (../shared/reference-data, 0.25 m resampled to
   0.05 m, 543 m) with random noise (skipped when the reference data are absent).
@@ -24,7 +28,7 @@ is the true profile through the same detrending (``detrend_profile``); the truth
 profile itself (its offset and longest waves are unobservable: a calibrated ``raw_std_m`` must say so).
 
 Run: ``python -m benchmarks road_calibration`` (full: 8 draws per family) or ``--quick`` (one 600 m draw of two
-families).
+families, the trailer mismatch with and without the declared tolerance).
 """
 
 from __future__ import annotations
@@ -37,6 +41,13 @@ import numpy as np
 from benchmarks._common import BenchRow, CoverageScore
 
 AREA = "road_calibration"
+#: The trailer-mismatch tolerance as the user declares it (uniform +-20 % frequencies, +-5 % gain -> 1-sigma).
+DECLARED_TOLERANCE = dict(frequency=0.20 / np.sqrt(3), gain=0.05 / np.sqrt(3))
+#: Scored families: (row label, recording family, declared instrument uncertainty or None).
+FAMILIES = [(f, f, None) for f in ("own model", "road classes", "short waves", "noise levels", "coloured noise",
+                                   "trailer mismatch")] + [
+    ("trailer mismatch, declared tolerance", "trailer mismatch", DECLARED_TOLERANCE),
+    ("signal drift", "signal drift", None), ("measured road", "measured road", None)]
 LENGTH, DX, SPEED, EDGE = 2000.0, 0.05, 20.0, 100.0
 CLASSES = ("A", "B", "C", "D", "E")
 SOREL = Path(__file__).resolve().parents[1] / ".." / "shared" / "reference-data" / "sorel-iri-profile" / "profile_1.txt"
@@ -94,9 +105,13 @@ def _recording(family, rng, nominal, length=LENGTH):
     return u, y0 + noise
 
 
-def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH) -> dict:
-    """Scores per printed std: {"smoother std_m": CoverageScore, ...} for one family."""
-    from longprofile.road.apl import apl_model, detrend_profile, reconstruct_profile
+def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH,
+              instrument_uncertainty: dict | None = None) -> dict:
+    """Scores per printed std: {"smoother std_m": CoverageScore, ...} for one family (the draws depend on the family
+    and the seed only; ``instrument_uncertainty``: the InstrumentUncertainty fields passed to the reconstruction)."""
+    from longprofile.road.apl import InstrumentUncertainty, apl_model, detrend_profile, reconstruct_profile
+
+    unc = None if instrument_uncertainty is None else InstrumentUncertainty(**instrument_uncertainty)
 
     nominal = apl_model(SPEED, DX)
     rng = np.random.default_rng([seed, sum(map(ord, family))])
@@ -108,7 +123,7 @@ def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH) ->
         keep = slice(int(EDGE / DX), u.size - int(EDGE / DX))
         u_det = detrend_profile(u, DX)
         for method in ("smoother", "fixed-lag"):
-            rec = reconstruct_profile(y, nominal, method=method)
+            rec = reconstruct_profile(y, nominal, method=method, instrument_uncertainty=unc)
             err = rec.profile.elevation.reshape(-1) - u_det
             rms[method].append(float(np.sqrt(np.mean(err[keep] ** 2))))
             if rec.profile.std is not None:
@@ -119,18 +134,17 @@ def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH) ->
 
 
 def run(quick: bool) -> list[BenchRow]:
-    families = ["own model", "road classes", "short waves", "noise levels", "coloured noise", "trailer mismatch", "signal drift",
-                "measured road"]
+    families = FAMILIES
     length = LENGTH
-    if quick:  # a smoke run: two families, one short draw each
-        families, length = ["own model", "trailer mismatch"], 600.0
+    if quick:  # a smoke run: three rows, one short draw each
+        families, length = [f for f in FAMILIES if f[1] in ("own model", "trailer mismatch")], 600.0
     if not SOREL.exists():
-        families = [f for f in families if f != "measured road"]
+        families = [f for f in families if f[1] != "measured road"]
     draws = 1 if quick else 8
     rows = []
-    for family in families:
+    for family, recording, uncertainty in families:
         t0 = time.perf_counter()
-        out = calibrate(family, draws, length=length)
+        out = calibrate(recording, draws, length=length, instrument_uncertainty=uncertainty)
         dt = time.perf_counter() - t0
         for key, sc in out["scores"].items():
             if sc.n == 0:

@@ -76,6 +76,13 @@ def reconstruct_command(
     highpass: float = typer.Option(100.0, "--highpass-wavelength", help="Detrending cut-off wavelength, m."),
     lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: 4 pendulum time constants, 83 m "
                                                    "at 20 m/s)."),
+    instrument_uncertainty: str = typer.Option(
+        None, "--instrument-uncertainty",
+        help="Declared 1-sigma uncertainty of the trailer model, added to std_m (smoother and fixed-lag only), e.g. "
+             "freq=0.115,gain=0.029: freq = relative 1-sigma of each natural frequency (pendulum, damper), gain = "
+             "relative 1-sigma of the gain, each in [0, 1) (a uniform tolerance of +-t is t/sqrt(3)); optional "
+             "window=<m>, an averaging length of the squared sensitivity (default 0: per sample). Costs one more "
+             "reconstruction per uncertain parameter. Default: none (std_m is the posterior std alone)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the reconstruction to this PNG."),
     overwrite: bool = OVERWRITE,
 ):
@@ -83,8 +90,9 @@ def reconstruct_command(
     import numpy as np
 
     from ..io import read_apl_signal, write_erd, write_table
-    from ..road.apl import reconstruct_recording
+    from ..road.apl import InstrumentUncertainty, reconstruct_recording
 
+    uncertainty = None if instrument_uncertainty is None else InstrumentUncertainty.parse(instrument_uncertainty)
     out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     signal = read_apl_signal(file, column=column)
@@ -92,7 +100,8 @@ def reconstruct_command(
         task = bar.add_task(f"reconstruct ({method})", total=1)
         rec = reconstruct_recording(signal, speed=speed, dx=dx, model_file=model, source=str(file), method=method,
                                     q=q, r=r, input_model=input_model, correlation_length=correlation_length,
-                                    highpass_wavelength=highpass, lag_m=lag)
+                                    highpass_wavelength=highpass, lag_m=lag,
+                                    instrument_uncertainty=uncertainty)
         bar.advance(task)
     if Path(output).suffix.lower() == ".erd":
         write_erd(rec.to_profile(name=f"{method} reconstruction of {Path(file).name}"),

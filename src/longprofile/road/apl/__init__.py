@@ -26,6 +26,8 @@ is_detectable              -- §5.2 detectability (PBH) of an augmented model.
 fit_noise_variances        -- q and r by maximum likelihood (NoiseFit).
 smoother_error_std         -- stationary posterior std of the smoothed elevation in a waveband.
 fixed_lag_error_std        -- the same for the fixed-lag estimate (its steady-state filter measured by an impulse).
+InstrumentUncertainty      -- declared 1-sigma of the trailer's frequencies and gain, added to the printed std
+                              (instrument_error_variance, perturbed_instrument, instrument_parameters; issue 13).
 detrend_profile            -- remove what the APL cannot see (quadratic + zero-phase high-pass).
 
 Synthetic profiles with truth
@@ -55,6 +57,13 @@ from ._deprecated import plot_frequency_response
 from ._double_filter import double_filter
 from ._files import load_model, save_model
 from ._identify import IDENTIFICATION_STRUCTURES, check_identification_structure, identify_trailer
+from ._instrument_uncertainty import (
+                   INSTRUMENT_ERROR_WINDOW_M,
+                   InstrumentUncertainty,
+                   instrument_error_variance,
+                   instrument_parameters,
+                   perturbed_instrument,
+)
 from ._model import (
                    PAPER_IDENTIFIED_MODELS,
                    RC_TIME_CONSTANT,
@@ -94,5 +103,6 @@ __all__ = [
     "white_noise_profile", "simulate_apl_recording", "APLRecording", "SYNTHETIC_PROFILES", "apl_model_from_dict",
     "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
     "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES", "check_identification_structure",
-    "reconstruct_recording",
+    "reconstruct_recording", "InstrumentUncertainty", "INSTRUMENT_ERROR_WINDOW_M", "instrument_error_variance",
+    "instrument_parameters", "perturbed_instrument",
 ]

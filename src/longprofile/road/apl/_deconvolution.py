@@ -7,7 +7,7 @@ z_k = [x_k; u_k] (eqs. 9-12) is handed to the state-space engine. No filter loop
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import linalg, optimize, signal
@@ -25,6 +25,7 @@ from ...statespace import (
     rts_smoother,
 )
 from ._double_filter import double_filter
+from ._instrument_uncertainty import InstrumentUncertainty, instrument_error_variance
 from ._model import APLModel, _check_profile_spacing
 
 __all__ = [
@@ -681,6 +682,11 @@ class Reconstruction:
         distance[k] + lag_m).
     correlation_length : float or None
         AR(1) correlation length used, m (None for the Wiener model).
+    instrument_uncertainty : InstrumentUncertainty or None
+        The declared instrument uncertainty included in ``profile.std`` (None: not included).
+    instrument_std : (T,) ndarray or None
+        Its part of ``profile.std`` alone, m (``profile.std``^2 = posterior std^2 + instrument_std^2; None
+        without an instrument uncertainty).
     """
 
     profile: Profile
@@ -694,6 +700,8 @@ class Reconstruction:
     highpass_wavelength: float | None
     lag_m: float | None = None
     correlation_length: float | None = None
+    instrument_uncertainty: InstrumentUncertainty | None = None
+    instrument_std: np.ndarray | None = None
 
     def to_frame(self):
         """The ``road reconstruct`` table: ``distance_m, elevation_m, std_m, raw_m, raw_std_m`` (NaN where a std
@@ -730,7 +738,8 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
                         r: float | None = None, input_model: str | None = None,
                         correlation_length: float | None = None, highpass_wavelength: float | None = 100.0,
                         min_length: float | None = None, stationary: bool | None = None,
-                        lag_m: float | None = None) -> Reconstruction:
+                        lag_m: float | None = None,
+                        instrument_uncertainty: InstrumentUncertainty | str | None = None) -> Reconstruction:
     """Reconstruct the road profile from an APL signal.
 
     Parameters
@@ -767,6 +776,15 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     lag_m : float, optional
         ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default
         :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s).
+    instrument_uncertainty : InstrumentUncertainty or str, optional
+        The declared relative 1-sigma of the trailer model's natural frequencies and gain (a string is read by
+        :meth:`InstrumentUncertainty.parse`, e.g. ``"freq=0.115,gain=0.029"``). ``"smoother"`` and
+        ``"fixed-lag"`` with a ``highpass_wavelength`` only (the methods that print ``profile.std``): the
+        reconstruction is rerun once per uncertain parameter with that parameter perturbed by its sigma (same
+        q, r, latency) and the square of the change of the detrended estimate (per sample, or averaged over
+        ``window_m``) is added to the variance (:func:`instrument_error_variance`; assumptions: linearisation,
+        independent parameters; docs/road-apl.md "Calibration" for the measured coverage). Default None:
+        the std is the posterior std alone, as before.
 
     Returns
     -------
@@ -775,7 +793,8 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     Raises
     ------
     InputError
-        Unknown method, too short a record, q without r, NaN with ``"double"``.
+        Unknown method, too short a record, q without r, NaN with ``"double"``, an invalid instrument
+        uncertainty or one with a method that prints no std.
     UnitsError
         Signal spacing differs from the instrument's dx.
     ConvergenceError
@@ -798,13 +817,14 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         input_model = "ar1" if method == "fixed-lag" else "wiener"
     if method == "fixed-lag" and input_model == "ar1" and correlation_length is None:
         correlation_length = FIXED_LAG_CORRELATION_LENGTH
+    uncertainty = _instrument_uncertainty_of(instrument_uncertainty, method, highpass_wavelength)
     y, dx, distance, name = _signal_of(signal_, instrument)
     if method == "fixed-lag":
         lag_m = _fixed_lag_latency(instrument, lag_m)
     _check_record(y, dx, min_length, highpass_wavelength)
     run = _Run(instrument=instrument, method=method, y=y, dx=dx, distance=distance, name=name,
                input_model=input_model, correlation_length=correlation_length,
-               highpass_wavelength=highpass_wavelength, lag_m=lag_m)
+               highpass_wavelength=highpass_wavelength, lag_m=lag_m, uncertainty=uncertainty)
     if method == "double":
         return _reconstruct_double(run)
     return _reconstruct_kalman(run, q, r, stationary)
@@ -827,6 +847,23 @@ class _Run:
     correlation_length: float | None
     highpass_wavelength: float | None
     lag_m: float | None
+    uncertainty: InstrumentUncertainty | None = None
+
+
+def _instrument_uncertainty_of(value, method: str, highpass_wavelength) -> InstrumentUncertainty | None:
+    """The checked ``instrument_uncertainty`` of :func:`reconstruct_profile` (None when not given)."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        value = InstrumentUncertainty.parse(value)
+    elif not isinstance(value, InstrumentUncertainty):
+        raise InputError(f"instrument_uncertainty must be an InstrumentUncertainty or a string like "
+                         f"'freq=0.115,gain=0.029'; got {type(value).__name__}.")
+    if method not in ("smoother", "fixed-lag") or highpass_wavelength is None:
+        raise InputError(f"instrument_uncertainty enters the printed std, which method='smoother' and 'fixed-lag' "
+                         f"with a highpass_wavelength print; got method={method!r}, "
+                         f"highpass_wavelength={highpass_wavelength}.")
+    return value
 
 
 def _fixed_lag_latency(instrument: APLModel, lag_m: float | None) -> float:
@@ -914,6 +951,28 @@ def _smoother_pass(run: _Run, model: StateSpaceModel, q, r, stationary: bool):
 _KALMAN_PASSES = {"smoother": _smoother_pass, "filter": _filter_pass, "fixed-lag": _fixed_lag_pass}
 
 
+def _kalman_estimate(run: _Run, q, r, stationary: bool):
+    """The augmented model and the method's pass: (mean, variance or None, latency or None, detrended mean)."""
+    model = apl_deconvolution_model(run.instrument, q, r, input_model=run.input_model,
+                                    correlation_length=run.correlation_length, dx=run.dx)
+    mean, cov, lag_m = _KALMAN_PASSES[run.method](run, model, q, r, stationary)
+    return mean, cov, lag_m, detrend_profile(mean, run.dx, highpass_wavelength=run.highpass_wavelength)
+
+
+def _instrument_std(run: _Run, q, r, stationary: bool, elevation: np.ndarray) -> np.ndarray | None:
+    """Per-sample std (m) of the error the declared instrument uncertainty causes: the same estimate
+    (:func:`_kalman_estimate`, same q, r and latency) rerun with each parameter perturbed
+    (:func:`instrument_error_variance`). None without an uncertainty."""
+    if run.uncertainty is None:
+        return None
+
+    def rerun(instrument: APLModel) -> np.ndarray:
+        return _kalman_estimate(replace(run, instrument=instrument, uncertainty=None), q, r, stationary)[3]
+
+    var = instrument_error_variance(run.instrument, run.uncertainty, elevation, rerun, run.dx)
+    return None if var is None else np.sqrt(var)
+
+
 def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruction:
     """The Kalman methods: noise variances, the augmented model, the method's pass, detrending and the std."""
     y = run.y
@@ -925,10 +984,7 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
         raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); the long-record path needs a "
                          "complete record: use stationary=False (exact filter across gaps) or cut the record.")
     q, r, fit = _noise_variances(run, q, r, stationary)
-    model = apl_deconvolution_model(run.instrument, q, r, input_model=run.input_model,
-                                    correlation_length=run.correlation_length, dx=run.dx)
-    mean, cov, lag_m = _KALMAN_PASSES[run.method](run, model, q, r, stationary)
-    elevation = detrend_profile(mean, run.dx, highpass_wavelength=run.highpass_wavelength)
+    mean, cov, lag_m, elevation = _kalman_estimate(run, q, r, stationary)
     std = None
     if run.method == "smoother" and run.highpass_wavelength is not None:
         s = smoother_error_std(run.instrument, q, r, input_model=run.input_model,
@@ -939,9 +995,13 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
         s = fixed_lag_error_std(run.instrument, q, r, lag_m, correlation_length=run.correlation_length, dx=run.dx,
                                 highpass_wavelength=run.highpass_wavelength)
         std = np.broadcast_to(s, y.shape)
+    instrument_std = _instrument_std(run, q, r, stationary, elevation)
+    if instrument_std is not None:
+        std = np.sqrt(std ** 2 + instrument_std ** 2)
     prof = Profile(run.distance, elevation, std=std, name=f"{run.method} reconstruction of {run.name}".strip())
     raw_std = None if cov is None else np.sqrt(np.maximum(cov, 0.0))
     return Reconstruction(profile=prof, raw_elevation=mean, raw_std=raw_std, method=run.method,
                           q=float(q), r=float(r), noise_fit=fit, input_model=run.input_model,
                           highpass_wavelength=run.highpass_wavelength, lag_m=lag_m,
-                          correlation_length=run.correlation_length if run.input_model == "ar1" else None)
+                          correlation_length=run.correlation_length if run.input_model == "ar1" else None,
+                          instrument_uncertainty=run.uncertainty, instrument_std=instrument_std)
