@@ -217,3 +217,48 @@ def test_a_stored_negative_zero_is_remembered_as_the_database_gives_it_back(site
         assert np.array_equal(a, b, equal_nan=True)
         assert np.array_equal(np.signbit(a), np.signbit(b))
     assert np.signbit(t_lines).any()  # the median-line blob is bytes: -0.0 kept on every database
+
+
+def test_a_writer_committing_between_a_runs_read_and_its_store_is_not_remembered_over(tmp_path, monkeypatch):
+    """Another process's run commits while this run estimates (between its read of the cache and its store): this
+    run must not remember rows it did not see; its next run equals a process without the memo."""
+    a, b = Database(f"sqlite:///{tmp_path}/a.db"), Database(f"sqlite:///{tmp_path}/b.db")
+    r = _setup(a)
+    _setup(b)
+    steps = _steps(r)
+    days = sorted(r["timestamp"].str[:10].unique())
+    for db in (a, b):
+        _ingest(db, steps[0])
+        recompute(db, "mitt")
+        _ingest(db, steps[1])
+    late = r[r["timestamp"].str[:10] == days[1]].iloc[[5]].copy()  # a revision of day 1: an earlier change
+    late["angle_deg"] = late["angle_deg"] + 0.2
+    real, busy = _recompute.estimate_settlement_from_daily, []
+
+    def with_other_writer(*args, **kw):
+        if not busy:
+            busy.append(1)
+            other = Database(f"sqlite:///{tmp_path}/a.db")
+            _ingest(other, late)
+            assert recompute(other, "mitt")["status"] == "ok"
+            other.dispose()
+        return real(*args, **kw)
+
+    monkeypatch.setattr(_recompute, "estimate_settlement_from_daily", with_other_writer)
+    assert recompute(a, "mitt")["status"] == "ok"
+    assert busy
+    monkeypatch.setattr(_recompute, "estimate_settlement_from_daily", real)
+    entry = a.memo.get(("day_cache", _site_id(a)))
+    assert entry is None or np.array_equal(_sorted(*entry[1:])[0], _sorted(*_table_rows(a))[0], equal_nan=True)
+    # b: the same readings in the order they were committed, every run reading the table
+    recompute(b, "mitt")
+    _ingest(b, late)
+    for db, rows in ((a, steps[2]), (b, steps[2])):
+        _ingest(db, rows)
+    ra = recompute(a, "mitt")
+    b.memo.clear()
+    rb = recompute(b, "mitt")
+    assert ra["status"] == rb["status"] == "ok"
+    _assert_memo_is_the_table(a)
+    pd.testing.assert_frame_equal(_results(a, ra["run_id"]), _results(b, rb["run_id"]), check_exact=True)
+    a.dispose(), b.dispose()

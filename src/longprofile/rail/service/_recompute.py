@@ -317,8 +317,8 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
     """Per-day statistics of the site: the cache, with the days from the earliest change recomputed from raw.
 
     Returns (stats, window readings, the first recomputed day as days since 1970 or None for a full build,
-    the sensor columns rebuilt from all their readings, the cache's rows as read: see :func:`_day_cache_rows`,
-    None for a full build). Days before the change come from
+    the sensor columns rebuilt from all their readings, the cache's rows as read (:func:`_day_cache_rows`) and
+    the ``day_cache`` state they were read at, None for a full build). Days before the change come from
     ``day_stats``; the readings from the day before the change (3 readings of running-median context further
     back) are loaded and ``day_statistics(previous=...)`` recomputes those days; sensors it finds stale are
     recomputed from all their readings.
@@ -327,8 +327,8 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
     state = s.get(DayCache, site.id)
     prev = rows = None
     if state is not None and state.key == _cache_key(site, thermal):
-        rows = _day_cache_rows(s, site, memo)
-        prev = _day_cache_statistics(rows, sens, thermal)
+        rows = _day_cache_rows(s, site, memo) + ((state.key, state.data_version, state.updated_ts),)
+        prev = _day_cache_statistics(rows[:2], sens, thermal)
     if prev is not None and dirty_from is not None and dirty_from < int(prev.days[0].astype("datetime64[s]")
                                                                          .astype(np.int64)) + _DAY_S:
         prev = None  # a change on the first day (settings, sensors, baseline): build from every reading
@@ -364,7 +364,9 @@ def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebui
     """Replace the cached rows from ``first_day`` on (all days when None) and all rows of ``rebuilt`` sensors.
 
     Returns the memo entry of what the table now holds: ((key, data version, update time), rows, median lines),
-    the arrays :func:`_day_cache_rows` would read back (``rows`` = those it read before this change).
+    the arrays :func:`_day_cache_rows` would read back (``rows`` = (rows, median lines, ``day_cache`` state) read
+    before this change); None when they cannot be known: an incremental change whose rows were not read, or
+    another writer's run committed since they were read (then only the table knows the rows kept).
     """
     dnum = np.asarray(stats.days).astype("datetime64[D]").astype(np.int64)
     pks = np.array([r[0] for r in sens], dtype=np.int64)
@@ -388,6 +390,8 @@ def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebui
     data["median_lines"] = [lines[i:i + width] for i in range(0, len(lines), width)]
     bulk_insert(s, DayStat.__table__, data)
     state = s.get(DayCache, site.id)
+    unchanged = rows is not None and state is not None and rows[2] == (state.key, state.data_version,
+                                                                       state.updated_ts)
     key, ts = _cache_key(site, thermal), now_ts()
     if state is None:
         s.add(DayCache(site_id=site.id, key=key, data_version=version, updated_ts=ts))
@@ -397,14 +401,14 @@ def _store_day_cache(s, site: Site, sens, stats: DayStatistics, first_day, rebui
     new_lines = stats.median_lines[di, sj].astype("<f8").astype(float)
     if s.connection().dialect.name == "sqlite":
         new += 0.0  # SQLite stores a REAL with no fraction as an integer: -0.0 reads back as 0.0
-    if first_day is not None and rows is not None:
-        arr, lines = rows
+    if first_day is not None and unchanged:
+        arr, lines, _ = rows
         drop = arr[:, 1] >= first_day
         if rebuilt:
             drop |= np.isin(arr[:, 0], pks[rebuilt].astype(float))
         new, new_lines = np.concatenate([arr[~drop], new]), np.concatenate([lines[~drop], new_lines])
     elif first_day is not None:
-        return None  # the rows before the change were not read: nothing to remember
+        return None
     new.setflags(write=False)
     new_lines.setflags(write=False)
     return (key, version, ts), new, new_lines
