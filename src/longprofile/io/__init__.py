@@ -15,14 +15,34 @@ atomic_path, atomic_write_bytes, save_figure -- write through a temporary file i
 read_rail_site -- read a rail inclinometer site (sensors, readings, survey, controls tables) and validate it.
 """
 
-from ._atomic import atomic_path, atomic_write_bytes, save_figure
-from ._erd import read_erd, write_erd
-from ._profile_files import read_profile, write_profile
-from ._profiles import is_reconstruct_output, read_apl_signal, read_sampled_column
-from ._rail import read_rail_site
-from ._report_tables import read_report_table, write_report_table
-from ._tables import read_table, write_table
+from .._lazy import lazy_namespace
+
+_EXPORTS = {
+    "._atomic": (
+        "atomic_path", "atomic_write_bytes", "save_figure",
+    ),
+    "._erd": (
+        "read_erd", "write_erd",
+    ),
+    "._profile_files": (
+        "read_profile", "write_profile",
+    ),
+    "._profiles": (
+        "is_reconstruct_output", "read_apl_signal", "read_sampled_column",
+    ),
+    "._rail": (
+        "read_rail_site",
+    ),
+    "._report_tables": (
+        "read_report_table", "write_report_table",
+    ),
+    "._tables": (
+        "read_table", "write_table",
+    ),
+}
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
            "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "is_reconstruct_output",
            "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site"]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -37,60 +37,44 @@ simulate_apl_recording, APLRecording -- a noisy trailer recording of one of them
 (random ISO 8608 roads: longprofile.road.iso8608_profile)
 """
 
-from ._deconvolution import (
-                   FIXED_LAG_CORRELATION_LENGTH,
-                   FIXED_LAG_TIME_CONSTANTS,
-                   RECONSTRUCTION_METHODS,
-                   NoiseFit,
-                   Reconstruction,
-                   apl_deconvolution_model,
-                   default_fixed_lag,
-                   detrend_profile,
-                   fit_noise_variances,
-                   fixed_lag_error_std,
-                   instrument_state_space,
-                   is_detectable,
-                   reconstruct_profile,
-                   smoother_error_std,
-)
-from ._deprecated import plot_frequency_response
-from ._double_filter import double_filter
-from ._files import load_model, save_model
-from ._identify import IDENTIFICATION_STRUCTURES, check_identification_structure, identify_trailer
-from ._instrument_uncertainty import (
-                   INSTRUMENT_ERROR_WINDOW_M,
-                   InstrumentUncertainty,
-                   instrument_error_variance,
-                   instrument_parameters,
-                   perturbed_instrument,
-)
-from ._model import (
-                   PAPER_IDENTIFIED_MODELS,
-                   RC_TIME_CONSTANT,
-                   TABLE1_CONFIGURATIONS,
-                   APLModel,
-                   FrequencyResponse,
-                   TrailerPoles,
-                   apl_filter,
-                   apl_model,
-                   apl_model_from_dict,
-                   apl_model_from_polynomials,
-                   apl_response,
-                   frequency_response,
-                   paper_identified_model,
-                   passband,
-)
-from ._synthetic import (
-                   SYNTHETIC_PROFILES,
-                   APLRecording,
-                   bump_profile,
-                   crenel_profile,
-                   simulate_apl_recording,
-                   sine_arcs_profile,
-                   speed_hump_profile,
-                   white_noise_profile,
-)
-from ._workflow import reconstruct_recording
+from ..._lazy import lazy_namespace
+
+_EXPORTS = {
+    "._deconvolution": (
+        "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS", "RECONSTRUCTION_METHODS", "NoiseFit",
+        "Reconstruction", "apl_deconvolution_model", "default_fixed_lag", "detrend_profile", "fit_noise_variances",
+        "fixed_lag_error_std", "instrument_state_space", "is_detectable", "reconstruct_profile",
+        "smoother_error_std",
+    ),
+    "._deprecated": (
+        "plot_frequency_response",
+    ),
+    "._double_filter": (
+        "double_filter",
+    ),
+    "._files": (
+        "load_model", "save_model",
+    ),
+    "._identify": (
+        "IDENTIFICATION_STRUCTURES", "check_identification_structure", "identify_trailer",
+    ),
+    "._instrument_uncertainty": (
+        "INSTRUMENT_ERROR_WINDOW_M", "InstrumentUncertainty", "instrument_error_variance", "instrument_parameters",
+        "perturbed_instrument",
+    ),
+    "._model": (
+        "PAPER_IDENTIFIED_MODELS", "RC_TIME_CONSTANT", "TABLE1_CONFIGURATIONS", "APLModel", "FrequencyResponse",
+        "TrailerPoles", "apl_filter", "apl_model", "apl_model_from_dict", "apl_model_from_polynomials",
+        "apl_response", "frequency_response", "paper_identified_model", "passband",
+    ),
+    "._synthetic": (
+        "SYNTHETIC_PROFILES", "APLRecording", "bump_profile", "crenel_profile", "simulate_apl_recording",
+        "sine_arcs_profile", "speed_hump_profile", "white_noise_profile",
+    ),
+    "._workflow": (
+        "reconstruct_recording",
+    ),
+}
 
 __all__ = [
     "APLModel", "TrailerPoles", "TABLE1_CONFIGURATIONS", "RC_TIME_CONSTANT", "PAPER_IDENTIFIED_MODELS",
@@ -106,3 +90,5 @@ __all__ = [
     "reconstruct_recording", "InstrumentUncertainty", "INSTRUMENT_ERROR_WINDOW_M", "instrument_error_variance",
     "instrument_parameters", "perturbed_instrument",
 ]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

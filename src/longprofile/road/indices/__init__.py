@@ -16,40 +16,37 @@ profilograph_trace, profilograph_index -- California profilograph simulation and
 joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASHTO R 36 practice).
 """
 
-from ._faulting import FaultingResult, find_joints, joint_faulting, step_statistic
-from ._iri import (
-                   GOLDEN_CAR,
-                   IRIReport,
-                   IRIResult,
-                   RectifiedSlope,
-                   golden_car_matrices,
-                   iri,
-                   iri_report,
-                   rectified_slope,
-)
-from ._iso8608 import (
-                   ISO8608_BAND,
-                   ISO8608_CLASSES,
-                   ISO8608Fit,
-                   ProfilePSD,
-                   fit_iso8608,
-                   iso8608_class,
-                   iso8608_gd,
-                   iso8608_profile,
-                   profile_psd,
-)
-from ._profilograph import ProfileIndexResult, ProfilographTrace, profilograph_index, profilograph_trace
-from ._ride_number import RideNumberResult, ride_number
-from ._roughness import (
-                   APL_BANDS,
-                   LocalizedRoughness,
-                   RoughnessDefect,
-                   WavebandEnergy,
-                   localized_roughness,
-                   waveband_energy,
-)
-from ._straightedge import StraightedgeDefect, StraightedgeResult, rolling_straightedge
-from ._summary import RoughnessAnalysis, analyse_roughness
+from ..._lazy import lazy_namespace
+
+_EXPORTS = {
+    "._faulting": (
+        "FaultingResult", "find_joints", "joint_faulting", "step_statistic",
+    ),
+    "._iri": (
+        "GOLDEN_CAR", "IRIReport", "IRIResult", "RectifiedSlope", "golden_car_matrices", "iri", "iri_report",
+        "rectified_slope",
+    ),
+    "._iso8608": (
+        "ISO8608_BAND", "ISO8608_CLASSES", "ISO8608Fit", "ProfilePSD", "fit_iso8608", "iso8608_class", "iso8608_gd",
+        "iso8608_profile", "profile_psd",
+    ),
+    "._profilograph": (
+        "ProfileIndexResult", "ProfilographTrace", "profilograph_index", "profilograph_trace",
+    ),
+    "._ride_number": (
+        "RideNumberResult", "ride_number",
+    ),
+    "._roughness": (
+        "APL_BANDS", "LocalizedRoughness", "RoughnessDefect", "WavebandEnergy", "localized_roughness",
+        "waveband_energy",
+    ),
+    "._straightedge": (
+        "StraightedgeDefect", "StraightedgeResult", "rolling_straightedge",
+    ),
+    "._summary": (
+        "RoughnessAnalysis", "analyse_roughness",
+    ),
+}
 
 __all__ = ["iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
@@ -60,3 +57,5 @@ __all__ = ["iso8608_profile",
     "ride_number", "RideNumberResult", "rolling_straightedge", "StraightedgeResult", "StraightedgeDefect",
     "profilograph_trace", "ProfilographTrace", "profilograph_index", "ProfileIndexResult", "joint_faulting",
     "FaultingResult", "find_joints", "step_statistic"]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -7,17 +7,23 @@ smoothness_acceptance, read_spec, default_spec -- lots, localized roughness, exc
 simulate_grinding -- must-grind areas and the shallowest grind below a localized-roughness threshold.
 """
 
-from ._acceptance import AcceptanceResult, AcceptanceSpec, default_spec, read_spec, smoothness_acceptance
-from ._compare import (
-                       R56_THRESHOLDS,
-                       CertificationResult,
-                       ProfileComparison,
-                       certify_profiler,
-                       compare_profiles,
-                       resample_profile,
-)
-from ._grinding import GrindingResult, simulate_grinding
+from ..._lazy import lazy_namespace
+
+_EXPORTS = {
+    "._acceptance": (
+        "AcceptanceResult", "AcceptanceSpec", "default_spec", "read_spec", "smoothness_acceptance",
+    ),
+    "._compare": (
+        "R56_THRESHOLDS", "CertificationResult", "ProfileComparison", "certify_profiler", "compare_profiles",
+        "resample_profile",
+    ),
+    "._grinding": (
+        "GrindingResult", "simulate_grinding",
+    ),
+}
 
 __all__ = ["compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
            "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
            "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]
+
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

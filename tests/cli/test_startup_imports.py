@@ -1,0 +1,77 @@
+"""Start-up guard (issue 12): a command imports only the heavy libraries it uses.
+
+Each command runs in a fresh interpreter (``cli.app.main``), which then lists the heavy top-level modules found in
+``sys.modules``. A module-level import of matplotlib, scipy.signal, pandas or the service stack added to a module on
+a light command's path makes the matching case fail (checked 2026-12-03 by re-adding ``import matplotlib`` to
+``cli/_common.py`` and ``from scipy import signal`` to ``road/indices/_iri.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+HEAVY = ("matplotlib", "scipy.signal", "scipy.stats", "scipy.optimize", "pandas", "pyarrow", "numba",
+         "sqlalchemy", "fastapi", "jinja2", "alembic")
+
+_DRIVER = (
+    "import json, sys\n"
+    "from longprofile.cli.app import main\n"
+    "args = json.loads(sys.argv[1])\n"
+    "code = main(args) if args is not None else 0\n"
+    "heavy = json.loads(sys.argv[3])\n"
+    "open(sys.argv[2], 'w').write(json.dumps([code, [m for m in heavy if m in sys.modules]]))\n"
+)
+
+
+def _heavy_imports(args, tmp_path) -> set[str]:
+    out = tmp_path / "modules.json"
+    proc = subprocess.run([sys.executable, "-c", _DRIVER, json.dumps(args), str(out), json.dumps(HEAVY)],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    code, found = json.loads(out.read_text())
+    assert code == 0, proc.stdout + proc.stderr
+    return set(found)
+
+
+@pytest.fixture
+def profile_csv(tmp_path):
+    x = np.arange(0.0, 300.0, 0.25)
+    path = tmp_path / "p.csv"
+    path.write_text("distance_m,elevation_m\n" + "\n".join(f"{d:.6f},{1e-3 * np.sin(d / 3.0):.9f}" for d in x) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("args", [None, ["--help"], ["road", "--help"], ["rail", "site", "--help"],
+                                  ["vehicle", "vertical", "--help"]], ids=["import", "help", "road-help",
+                                                                           "rail-site-help", "vertical-help"])
+def test_app_and_help_import_no_heavy_library(args, tmp_path):
+    assert _heavy_imports(args, tmp_path) == set()
+
+
+def test_road_convert_to_erd_loads_no_numba_scipy_or_matplotlib(profile_csv, tmp_path):
+    found = _heavy_imports(["road", "convert", str(profile_csv), str(tmp_path / "p.erd")], tmp_path)
+    assert found <= {"pandas", "pyarrow"}, found  # the CSV reader
+
+
+def test_road_iri_loads_no_scipy_signal_matplotlib_or_service(profile_csv, tmp_path):
+    found = _heavy_imports(["road", "iri", str(profile_csv), "--units", "us", "-o", str(tmp_path / "iri.csv")],
+                           tmp_path)
+    assert found <= {"pandas", "pyarrow", "numba"}, found
+
+
+def test_vehicle_simulate_loads_no_scipy_signal_matplotlib_or_service(tmp_path):
+    found = _heavy_imports(["vehicle", "simulate", "--scenario", "hill", "--duration", "1", "-o",
+                            str(tmp_path / "log.csv")], tmp_path)
+    assert found <= {"pandas", "pyarrow", "numba"}, found
+
+
+def test_road_simulate_loads_no_numba_matplotlib_or_service(tmp_path):
+    found = _heavy_imports(["road", "simulate", "--road-class", "C", "--length", "200", "-o", str(tmp_path / "r.csv")],
+                           tmp_path)
+    # the APL response is scipy.signal.sosfilt (scipy.signal imports scipy.stats and scipy.optimize)
+    assert found <= {"pandas", "pyarrow", "scipy.signal", "scipy.stats", "scipy.optimize"}, found
