@@ -14,11 +14,19 @@ report     -- plots and HTML reports.
 errors     -- the exception hierarchy.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("longprofile")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
-    __version__ = "0.0.0"
-
 __all__ = ["__version__"]
+
+
+def __getattr__(name: str):
+    """``__version__`` from the installed distribution, read on first use (importlib.metadata costs 0.1-0.2 s of
+    start-up, which most commands do not need)."""
+    if name != "__version__":
+        raise AttributeError(f"module 'longprofile' has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        value = version("longprofile")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
+        value = "0.0.0"
+    globals()["__version__"] = value
+    return value

@@ -8,7 +8,6 @@ import sys
 import typer
 from rich.markup import escape
 
-from .. import __version__
 from .._memory import tune_process_memory
 from ..errors import LongprofileError
 from ._common import console
@@ -32,6 +31,8 @@ longprofile implements methods from:
 
 def _version_callback(value: bool):
     if value:
+        from .. import __version__
+
         typer.echo(f"longprofile {__version__}")
         raise typer.Exit()
 
