@@ -1,7 +1,8 @@
 """longprofile.vehicle.planar: planar vehicle states and road slope (paper 001, Sebsadji, Glaser, Mammar).
 
-Modules: ``_params`` (the vehicle description, TOML), ``_dugoff`` (tyre model (15)-(17)), ``_model`` (model
-equations (11)-(19) as numba kernels, the EKF models of eq. (20) and the slope observer (21)), ``_simulate``
+Modules: ``_params`` (the vehicle description, TOML), ``_dugoff`` (tyre model (15)-(17)), ``_equations`` (each
+equation of (11)-(19) once, inlined numba functions), ``_model`` (the model kernels composed from them, the EKF
+models of eq. (20) and the slope observer (21)), ``_simulate``
 (4-wheel RK4 simulator and sensor log), ``_speed_reference`` (slip-robust V_x measurement), ``_estimate``
 (:func:`estimate_slope`), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
 Everything here is also exported by :mod:`longprofile.vehicle` (except the studies).

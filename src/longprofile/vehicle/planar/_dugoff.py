@@ -22,7 +22,9 @@ def dugoff_grad(slip, tan_alpha, normal_force, mu, cx0, cy0):
     Returns ``(fx, fy, dfx_dslip, dfx_dtan, dfy_dslip, dfy_dtan, dfx_dfn, dfy_dfn)``. Written without the
     1/(1 - slip) factor in the adhesion-limited branch (sigma < 1), where
     F = C * s * G * (2 - sigma) / S with G = mu Fn / 2 and S = sqrt(Cx0^2 s^2 + Cy0^2 t^2),
-    so that the formula stays finite as the slip approaches 1.
+    so that the formula stays finite as the slip approaches 1. The one Dugoff kernel of the package: a caller that
+    uses only (fx, fy) gets the partials dropped by the compiler (for S > 1e-12, sigma >= 1 exactly when
+    (1 - s) G >= S, the test of the value-only version this replaced).
     """
     one_m = 1.0 - slip
     g = 0.5 * mu * max(normal_force, 0.0)
@@ -52,19 +54,6 @@ def dugoff_grad(slip, tan_alpha, normal_force, mu, cx0, cy0):
     return (fx, fy, cx0 * g * (h + slip * dh_dl), cx0 * g * slip * dh_dt,
             cy0 * g * tan_alpha * dh_dl, cy0 * g * (h + tan_alpha * dh_dt),
             cx0 * slip * (h + g * dh_dg) * dg_dfn, cy0 * tan_alpha * (h + g * dh_dg) * dg_dfn)
-
-
-@njit(cache=True, inline="always")
-def dugoff_values(slip, tan_alpha, normal_force, mu, cx0, cy0):
-    """Dugoff forces ``(fx, fy)`` only (same formulas as :func:`dugoff_grad`)."""
-    one_m = 1.0 - slip
-    g = 0.5 * mu * max(normal_force, 0.0)
-    s = np.sqrt(cx0 * cx0 * slip * slip + cy0 * cy0 * tan_alpha * tan_alpha)
-    if s <= _TINY or one_m * g >= s:
-        inv = 1.0 / one_m
-        return cx0 * slip * inv, cy0 * tan_alpha * inv
-    h = (2.0 - one_m * g / s) / s
-    return cx0 * g * slip * h, cy0 * g * tan_alpha * h
 
 
 @njit(cache=True)

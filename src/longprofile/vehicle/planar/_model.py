@@ -26,50 +26,31 @@ import numpy as np
 from ..._jit import njit
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, ShapeError
-from ._dugoff import dugoff_grad, dugoff_values
-from ._params import (
-    GRAVITY,
-    P_CX0_F,
-    P_CX0_R,
-    P_CXA,
-    P_CY0_F,
-    P_CY0_R,
-    P_CYA,
-    P_G,
-    P_H,
-    P_IZ,
-    P_LF,
-    P_LR,
-    P_MASS,
-    P_R_F,
-    P_R_R,
-    P_TRACK_F,
-    P_TRACK_R,
-    Vehicle,
+from ._equations import (
+    body_rates,
+    body_rates_grad,
+    load_terms,
+    wheel_body_force,
+    wheel_forces,
+    wheel_geometry,
+    wheel_normal_load,
+    wheel_sums,
 )
+from ._params import GRAVITY, P_CXA, P_G, P_LF, P_LR, P_MASS, P_TRACK_F, P_TRACK_R, Vehicle
 
 if TYPE_CHECKING:
     from ._simulate import DriveLog
 
 U_DELTA, U_OMEGA, U_AX, U_AY, U_SLOPE, U_MU, U_DELTA_FR = 0, 1, 5, 6, 7, 8, 12
 N_INPUTS = 13
-#: Floor of the slip denominator max(R omega, V) of eq. (18), m/s: the model is not meant for standstill.
-V_MIN = 0.5
 
-
-@njit(cache=True, inline="always")
-def slip_ratio(rw, vw, R):
-    """Longitudinal slip of eq. (18) and its derivatives: ``(lambda, d lambda/d v_w, d lambda/d omega)``.
-
-    ``rw`` = R omega (m/s), ``vw`` the wheel-plane speed (m/s). Driving (R omega >= v_w): (R omega - v_w)/(R omega);
-    braking: R omega / v_w - 1; below :data:`V_MIN` the denominator is held at V_MIN (the model is not meant for
-    standstill). The one definition every kernel of this module uses.
-    """
-    if rw >= vw and rw >= V_MIN:
-        return (rw - vw) / rw, -1.0 / rw, R * vw / (rw * rw)
-    if vw >= V_MIN:
-        return rw / vw - 1.0, -rw / (vw * vw), R / vw
-    return (rw - vw) / V_MIN, -1.0 / V_MIN, R / V_MIN
+# ------------------------------------------------------------------------------------------ model kernels
+#
+# Every equation is written once in ._equations; the kernels below only compose it. Two families:
+# the simulator's array kernels (normal_loads, tyre_kinematics_forces, body_sums, body_derivative, and
+# planar_rates_jac built on them) and the EKF's allocation-free scalar kernels (planar_fused: value and
+# derivatives; planar_rates_fast: the same per-wheel function without the derivatives; forces_fused: the
+# forces and their std), which share _ekf_wheel.
 
 
 @njit(cache=True)
@@ -80,19 +61,10 @@ def normal_loads(p, ax, ay, slope, out):
     rigid body on a grade: the longitudinal transfer is H M a_x / L with a_x = dV_x/dt - r V_y + g sin(theta).
     Each axle carries its share of the lateral force (l_r/L front, l_f/L rear) over its own track.
     """
-    m = p[P_MASS]
-    lf = p[P_LF]
-    lr = p[P_LR]
-    L = lf + lr
-    h = p[P_H]
-    sbf = p[P_TRACK_F]
-    sbr = p[P_TRACK_R]
-    w = m * p[P_G] * math.cos(slope)
-    dx = h * m * ax / (2.0 * L)
-    out[0] = lr * w / (2.0 * L) - dx - lr * h * m * ay / (sbf * L)
-    out[1] = lr * w / (2.0 * L) - dx + lr * h * m * ay / (sbf * L)
-    out[2] = lf * w / (2.0 * L) + dx - lf * h * m * ay / (sbr * L)
-    out[3] = lf * w / (2.0 * L) + dx + lf * h * m * ay / (sbr * L)
+    L, w, dxl = load_terms(p, ax, slope)
+    for i in range(4):
+        _, _, sb, lever, _, _, _ = wheel_geometry(p, i)
+        out[i] = wheel_normal_load(p, i, sb, lever, L, w, dxl, ay)
 
 
 @njit(cache=True)
@@ -107,83 +79,14 @@ def tyre_kinematics_forces(vx, vy, r, delta_l, delta_r, omega, fn, mu, p, slip, 
     its component along the wheel plane, the slip angle is delta_i - atan(v_y,i / v_x,i); delta_i is
     ``delta_l`` (FL), ``delta_r`` (FR) or 0 (rear). Track, radius and stiffnesses are those of the wheel's axle.
     """
-    lf = p[P_LF]
-    lr = p[P_LR]
     for i in range(4):
-        front = i < 2
-        hb = 0.5 * p[P_TRACK_F] if front else 0.5 * p[P_TRACK_R]
-        R = p[P_R_F] if front else p[P_R_R]
-        cx0 = p[P_CX0_F] if front else p[P_CX0_R]
-        cy0 = p[P_CY0_F] if front else p[P_CY0_R]
-        xi = lf if front else -lr
-        yi = hb if (i % 2) == 0 else -hb
-        di = (delta_l if i == 0 else delta_r) if front else 0.0
-        c = math.cos(di)
-        s = math.sin(di)
-        vxi = vx - r * yi
-        vyi = vy + r * xi
-        # derivatives of (vxi, vyi) w.r.t. (vx, vy, r): (1, 0, -yi) and (0, 1, xi)
-        vw = vxi * c + vyi * s
-        dvw0 = c
-        dvw1 = s
-        dvw2 = -yi * c + xi * s
-        rw = R * omega[i]
-        lam, dl, dlw = slip_ratio(rw, vw, R)
-        beta = math.atan2(vyi, vxi)
-        a = di - beta
-        t = math.tan(a)
-        q = vxi * vxi + vyi * vyi
-        # d(beta) = (vxi d(vyi) - vyi d(vxi)) / q ; d(alpha) = -d(beta) ; d(t) = (1 + t^2) d(alpha)
-        k = -(1.0 + t * t) / q
-        dt0 = k * (-vyi)
-        dt1 = k * vxi
-        dt2 = k * (vxi * xi + vyi * yi)
-        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn[i], mu[i], cx0, cy0)
-        dfn[0, i] = fxn
-        dfn[1, i] = fyn
+        xi, yi, _, _, R, cx0, cy0 = wheel_geometry(p, i)
+        di = (delta_l if i == 0 else delta_r) if i < 2 else 0.0
+        (slip[i], alpha[i], fx[i], fy[i], dfx[i, 0], dfx[i, 1], dfx[i, 2], dfy[i, 0], dfy[i, 1], dfy[i, 2],
+         dfn[0, i], dfn[1, i], fxl, fyl, dlw) = wheel_forces(vx, vy, r, xi, yi, math.cos(di), math.sin(di), 0.0, di,
+                                                             R, omega[i], fn[i], mu[i], cx0, cy0, True, True)
         dfw[0, i] = fxl * dlw
         dfw[1, i] = fyl * dlw
-        slip[i] = lam
-        alpha[i] = a
-        fx[i] = f_x
-        fy[i] = f_y
-        dfx[i, 0] = fxl * dl * dvw0 + fxt * dt0
-        dfx[i, 1] = fxl * dl * dvw1 + fxt * dt1
-        dfx[i, 2] = fxl * dl * dvw2 + fxt * dt2
-        dfy[i, 0] = fyl * dl * dvw0 + fyt * dt0
-        dfy[i, 1] = fyl * dl * dvw1 + fyt * dt1
-        dfy[i, 2] = fyl * dl * dvw2 + fyt * dt2
-
-
-@njit(cache=True, inline="always")
-def _wheel_sums(fx0, fx1, fx2, fx3, fy0, fy1, fy2, fy3, delta_l, delta_r, lf, lr, hbf, hbr):
-    """Eq. (12)-(14) on 4 wheel-axis force pairs (FL, FR, RL, RR): body-axis sums and yaw moment.
-
-    With one steering angle the front pair is summed before the rotation (the form of the paper); with
-    two, each front wheel is rotated by its own angle.
-    """
-    if delta_l == delta_r:
-        c = math.cos(delta_l)
-        s = math.sin(delta_l)
-        fxf = fx0 + fx1
-        fyf = fy0 + fy1
-        sfx = fxf * c - fyf * s + fx2 + fx3
-        sfy = fxf * s + fyf * c + fy2 + fy3
-        mz = (lf * fxf * s + lf * fyf * c + hbf * (fx1 - fx0) * c + hbr * (fx3 - fx2)
-              - hbf * (fy1 - fy0) * s - lr * (fy2 + fy3))
-        return sfx, sfy, mz
-    c0 = math.cos(delta_l)
-    s0 = math.sin(delta_l)
-    c1 = math.cos(delta_r)
-    s1 = math.sin(delta_r)
-    bx0 = c0 * fx0 - s0 * fy0
-    by0 = s0 * fx0 + c0 * fy0
-    bx1 = c1 * fx1 - s1 * fy1
-    by1 = s1 * fx1 + c1 * fy1
-    sfx = bx0 + bx1 + fx2 + fx3
-    sfy = by0 + by1 + fy2 + fy3
-    mz = lf * (by0 + by1) + hbf * (bx1 - bx0) + hbr * (fx3 - fx2) - lr * (fy2 + fy3)
-    return sfx, sfy, mz
 
 
 @njit(cache=True, inline="always")
@@ -193,21 +96,15 @@ def body_sums(fx, fy, delta_l, delta_r, p):
     ``delta_l``, ``delta_r``: front-left and front-right road-wheel angles (rad). The rear wheels are not
     steered (the angle beta of (12)-(13) is zero for the cars modelled here).
     """
-    return _wheel_sums(fx[0], fx[1], fx[2], fx[3], fy[0], fy[1], fy[2], fy[3], delta_l, delta_r,
-                       p[P_LF], p[P_LR], 0.5 * p[P_TRACK_F], 0.5 * p[P_TRACK_R])
+    return wheel_sums(fx[0], fx[1], fx[2], fx[3], fy[0], fy[1], fy[2], fy[3], delta_l, delta_r,
+                      p[P_LF], p[P_LR], 0.5 * p[P_TRACK_F], 0.5 * p[P_TRACK_R])
 
 
 @njit(cache=True)
 def body_sums_grad(dfx, dfy, delta_l, delta_r, p, out):
     """Gradient (3 sums x 3 states) of :func:`body_sums` given the force gradients (4, 3)."""
-    lf = p[P_LF]
-    lr = p[P_LR]
-    hbf = 0.5 * p[P_TRACK_F]
-    hbr = 0.5 * p[P_TRACK_R]
     for j in range(3):
-        out[0, j], out[1, j], out[2, j] = _wheel_sums(dfx[0, j], dfx[1, j], dfx[2, j], dfx[3, j], dfy[0, j],
-                                                      dfy[1, j], dfy[2, j], dfy[3, j], delta_l, delta_r,
-                                                      lf, lr, hbf, hbr)
+        out[0, j], out[1, j], out[2, j] = body_sums(dfx[:, j], dfy[:, j], delta_l, delta_r, p)
 
 
 @njit(cache=True)
@@ -216,10 +113,7 @@ def body_derivative(vx, vy, r, sfx, sfy, mz, slope, p, out):
 
     Aerodynamic drag is written C V|V| (the paper's C V^2 changes sign with V).
     """
-    m = p[P_MASS]
-    out[0] = sfx / m + r * vy - p[P_CXA] * vx * abs(vx) / m - p[P_G] * math.sin(slope)
-    out[1] = sfy / m - r * vx - p[P_CYA] * vy * abs(vy) / m
-    out[2] = mz / p[P_IZ]
+    out[0], out[1], out[2] = body_rates(vx, vy, r, sfx, sfy, mz, slope, p)
 
 
 @njit(cache=True)
@@ -247,21 +141,8 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
     body_derivative(x[0], x[1], x[2], sfx, sfy, mz, slope, p, xdot)
     g = np.empty((3, 3))
     body_sums_grad(dfx, dfy, dl, dr, p, g)
-    m = p[P_MASS]
-    iz = p[P_IZ]
-    for j in range(3):
-        jac[0, j] = g[0, j] / m
-        jac[1, j] = g[1, j] / m
-        jac[2, j] = g[2, j] / iz
-    jac[0, 0] -= 2.0 * p[P_CXA] * abs(x[0]) / m
-    jac[0, 1] += x[2]
-    jac[0, 2] += x[1]
-    jac[1, 0] -= x[2]
-    jac[1, 1] -= 2.0 * p[P_CYA] * abs(x[1]) / m
-    jac[1, 2] -= x[0]
-    # slope: gravity component and the static loads M g cos(theta) of eq. (19)
-    L = p[P_LF] + p[P_LR]
-    dw = -m * p[P_G] * math.sin(slope) / (2.0 * L)
+    # slope: the static loads M g cos(theta) of eq. (19) (gravity itself is in body_rates_grad)
+    dw = -p[P_MASS] * p[P_G] * math.sin(slope) / (2.0 * (p[P_LF] + p[P_LR]))
     gx = np.empty(4)
     gy = np.empty(4)
     for i in range(4):
@@ -269,17 +150,10 @@ def planar_rates_jac(x, u, p, slope, xdot, jac, dslope):
         gx[i] = dfn[0, i] * dfn_i
         gy[i] = dfn[1, i] * dfn_i
     s_fx, s_fy, s_mz = body_sums(gx, gy, dl, dr, p)
-    dslope[0] = s_fx / m - p[P_G] * math.cos(slope)
-    dslope[1] = s_fy / m
-    dslope[2] = s_mz / iz
-
-
-@njit(cache=True, inline="always")
-def _axle(p, front):
-    """(track, rolling radius, C_x0, C_y0) of the front (``front`` True) or the rear axle."""
-    if front:
-        return p[P_TRACK_F], p[P_R_F], p[P_CX0_F], p[P_CY0_F]
-    return p[P_TRACK_R], p[P_R_R], p[P_CX0_R], p[P_CY0_R]
+    (jac[0, 0], jac[0, 1], jac[0, 2], jac[1, 0], jac[1, 1], jac[1, 2], jac[2, 0], jac[2, 1], jac[2, 2],
+     dslope[0], dslope[1], dslope[2]) = body_rates_grad(x[0], x[1], x[2], slope, p, g[0, 0], g[0, 1], g[0, 2],
+                                                        g[1, 0], g[1, 1], g[1, 2], g[2, 0], g[2, 1], g[2, 2],
+                                                        s_fx, s_fy, s_mz)
 
 
 @njit(cache=True, inline="always")
@@ -296,53 +170,39 @@ def _front_angles(delta_l, delta_r):
 
 
 @njit(cache=True, inline="always")
-def _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr):
-    """(cos, sin, tan) of the steering angle of wheel i (FL, FR, RL, RR; the rear wheels are not steered)."""
+def _ekf_wheel(p, i, vx, vy, r, angles, L, w, dxl, ay, omega, mu, grad):
+    """Wheel i of the EKF kernels: eq. (19) load, then :func:`wheel_forces` with the rational slip angle.
+
+    ``angles`` is :func:`_front_angles` (the rear wheels are not steered); ``(L, w, dxl)`` is
+    :func:`load_terms`. Returns ``(c, s, x_i, y_i, lever, F_x, F_y, dFx/d(V_x, V_y, r) (3), dFy/d(...) (3),
+    dFx/dF_n, dFy/dF_n, dFx/dlambda, dFy/dlambda, dlambda/domega)``; ``grad`` as in :func:`wheel_forces`.
+    """
+    xi, yi, sb, lever, R, cx0, cy0 = wheel_geometry(p, i)
+    fn = wheel_normal_load(p, i, sb, lever, L, w, dxl, ay)
+    cdl, sdl, tdl, cdr, sdr, tdr = angles
     if i == 0:
-        return cdl, sdl, tdl
-    if i == 1:
-        return cdr, sdr, tdr
-    return 1.0, 0.0, 0.0
-
-
-@njit(cache=True, inline="always")
-def _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, ay):
-    """Wheel i (FL, FR, RL, RR): (rolling radius, C_x0, C_y0, x_i, y_i, lever arm, normal load F_n of eq. (19))
-    for the static load ``w`` = M g cos(theta), the longitudinal transfer ``dxl`` and the lateral acceleration."""
-    front = i < 2
-    left = (i % 2) == 0
-    sb, R, cx0, cy0 = _axle(p, front)
-    hb = 0.5 * sb
-    xi = lf if front else -lr
-    yi = hb if left else -hb
-    lever = lr if front else lf
-    lat = lever * h * m * ay / (sb * L)
-    fn = lever * w / (2.0 * L) + (-dxl if front else dxl) + (lat if not left else -lat)
-    return R, cx0, cy0, xi, yi, lever, fn
+        c, s, td = cdl, sdl, tdl
+    elif i == 1:
+        c, s, td = cdr, sdr, tdr
+    else:
+        c, s, td = 1.0, 0.0, 0.0
+    _, _, f_x, f_y, a0, a1, a2, b0, b1, b2, fxn, fyn, fxl, fyl, dlw = wheel_forces(
+        vx, vy, r, xi, yi, c, s, td, 0.0, R, omega, fn, mu, cx0, cy0, False, grad)
+    return c, s, xi, yi, lever, f_x, f_y, a0, a1, a2, b0, b1, b2, fxn, fyn, fxl, fyl, dlw
 
 
 @njit(cache=True)
 def planar_fused(vx, vy, r, u, p, slope):
     """Allocation-free eq. (11)-(19) for the EKF inner loop: rates, Jacobian and slope derivative.
 
-    Same mathematics as :func:`planar_rates_jac` (the readable version, also used by the simulator),
-    written with scalars only so the compiled EKF loop does not allocate; tests check the EKF step
-    against the simulator's physics and the Jacobian against finite differences. Returns a 15-tuple:
-    ``(dvx, dvy, dr, J00, J01, J02, J10, J11, J12, J20, J21, J22, ds0, ds1, ds2)``.
+    Same equations as :func:`planar_rates_jac` (the simulator's kernels), composed with scalars only so the
+    compiled EKF loop does not allocate (the slip angle in its rational form, the body sums accumulated wheel by
+    wheel); tests check it against planar_rates_jac and the Jacobian against finite differences. Returns a
+    15-tuple: ``(dvx, dvy, dr, J00, J01, J02, J10, J11, J12, J20, J21, J22, ds0, ds1, ds2)``.
     """
-    m = p[P_MASS]
-    iz = p[P_IZ]
-    lf = p[P_LF]
-    lr = p[P_LR]
-    L = lf + lr
-    h = p[P_H]
-    grav = p[P_G]
-    ax = u[U_AX]
-    ay = u[U_AY]
-    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[U_DELTA], u[U_DELTA_FR])
-    w = m * grav * math.cos(slope)
-    dw = -m * grav * math.sin(slope)
-    dxl = h * m * ax / (2.0 * L)
+    L, w, dxl = load_terms(p, u[U_AX], slope)
+    angles = _front_angles(u[U_DELTA], u[U_DELTA_FR])
+    dw = -p[P_MASS] * p[P_G] * math.sin(slope)
     # accumulated body sums and their derivatives w.r.t. (vx, vy, r, slope)
     sfx = 0.0
     sfy = 0.0
@@ -351,104 +211,44 @@ def planar_fused(vx, vy, r, u, p, slope):
     gy0 = gy1 = gy2 = gy3 = 0.0
     gm0 = gm1 = gm2 = gm3 = 0.0
     for i in range(4):
-        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, ay)
+        c, s, xi, yi, lever, f_x, f_y, a0, a1, a2, b0, b1, b2, fxn, fyn, _, _, _ = _ekf_wheel(
+            p, i, vx, vy, r, angles, L, w, dxl, u[U_AY], u[U_OMEGA + i], u[U_MU + i], True)
         dfn_ds = lever * dw / (2.0 * L)
-        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
-        vxi = vx - r * yi
-        vyi = vy + r * xi
-        vw = vxi * c + vyi * s
-        dvw2 = -yi * c + xi * s
-        rw = R * u[U_OMEGA + i]
-        lam, dl, _ = slip_ratio(rw, vw, R)
-        # tan(alpha) = tan(delta_i - atan(vyi / vxi)) = (td vxi - vyi) / (vxi + td vyi), no trig per wheel
-        num = td * vxi - vyi
-        den = vxi + td * vyi
-        t = num / den
-        # d t / d(vxi, vyi), then chain to (vx, vy, r): d vxi = (1, 0, -yi), d vyi = (0, 1, xi)
-        tx = (td * den - num) / (den * den)
-        ty = (-den - num * td) / (den * den)
-        dt0 = tx
-        dt1 = ty
-        dt2 = -yi * tx + xi * ty
-        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[U_MU + i], cx0, cy0)
-        ax0 = fxl * dl * c + fxt * dt0
-        ax1 = fxl * dl * s + fxt * dt1
-        ax2 = fxl * dl * dvw2 + fxt * dt2
-        ax3 = fxn * dfn_ds
-        ay0 = fyl * dl * c + fyt * dt0
-        ay1 = fyl * dl * s + fyt * dt1
-        ay2 = fyl * dl * dvw2 + fyt * dt2
-        ay3 = fyn * dfn_ds
-        # eq. (12)-(14): body-axis components and moment arm of this wheel
-        bx = c * f_x - s * f_y
-        by = s * f_x + c * f_y
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, f_x, f_y)
         sfx += bx
         sfy += by
-        mz += xi * by - yi * bx
-        bx0 = c * ax0 - s * ay0
-        bx1 = c * ax1 - s * ay1
-        bx2 = c * ax2 - s * ay2
-        bx3 = c * ax3 - s * ay3
-        by0 = s * ax0 + c * ay0
-        by1 = s * ax1 + c * ay1
-        by2 = s * ax2 + c * ay2
-        by3 = s * ax3 + c * ay3
-        gx0 += bx0
-        gx1 += bx1
-        gx2 += bx2
-        gx3 += bx3
-        gy0 += by0
-        gy1 += by1
-        gy2 += by2
-        gy3 += by3
-        gm0 += xi * by0 - yi * bx0
-        gm1 += xi * by1 - yi * bx1
-        gm2 += xi * by2 - yi * bx2
-        gm3 += xi * by3 - yi * bx3
-    cxa = p[P_CXA]
-    cya = p[P_CYA]
-    dvx = sfx / m + r * vy - cxa * vx * abs(vx) / m - grav * math.sin(slope)
-    dvy = sfy / m - r * vx - cya * vy * abs(vy) / m
-    dr = mz / iz
-    return (dvx, dvy, dr,
-            gx0 / m - 2.0 * cxa * abs(vx) / m, gx1 / m + r, gx2 / m + vy,
-            gy0 / m - r, gy1 / m - 2.0 * cya * abs(vy) / m, gy2 / m - vx,
-            gm0 / iz, gm1 / iz, gm2 / iz,
-            gx3 / m - grav * math.cos(slope), gy3 / m, gm3 / iz)
+        mz += mzi
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, a0, b0)
+        gx0, gy0, gm0 = gx0 + bx, gy0 + by, gm0 + mzi
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, a1, b1)
+        gx1, gy1, gm1 = gx1 + bx, gy1 + by, gm1 + mzi
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, a2, b2)
+        gx2, gy2, gm2 = gx2 + bx, gy2 + by, gm2 + mzi
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, fxn * dfn_ds, fyn * dfn_ds)
+        gx3, gy3, gm3 = gx3 + bx, gy3 + by, gm3 + mzi
+    dvx, dvy, dr = body_rates(vx, vy, r, sfx, sfy, mz, slope, p)
+    j00, j01, j02, j10, j11, j12, j20, j21, j22, ds0, ds1, ds2 = body_rates_grad(
+        vx, vy, r, slope, p, gx0, gx1, gx2, gy0, gy1, gy2, gm0, gm1, gm2, gx3, gy3, gm3)
+    return dvx, dvy, dr, j00, j01, j02, j10, j11, j12, j20, j21, j22, ds0, ds1, ds2
 
 
 @njit(cache=True)
 def planar_rates_fast(vx, vy, r, u, p, slope):
-    """(dV_x/dt, dV_y/dt, dr/dt) of eq. (11)-(19) without derivatives (the EKF's f); same maths as
-    :func:`planar_fused`."""
-    m = p[P_MASS]
-    lf = p[P_LF]
-    lr = p[P_LR]
-    L = lf + lr
-    h = p[P_H]
-    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[U_DELTA], u[U_DELTA_FR])
-    w = m * p[P_G] * math.cos(slope)
-    dxl = h * m * u[U_AX] / (2.0 * L)
+    """(dV_x/dt, dV_y/dt, dr/dt) of eq. (11)-(19) without derivatives (the EKF's f): the value part of
+    :func:`planar_fused` (same per-wheel function, its derivatives not computed or dropped by the compiler)."""
+    L, w, dxl = load_terms(p, u[U_AX], slope)
+    angles = _front_angles(u[U_DELTA], u[U_DELTA_FR])
     sfx = 0.0
     sfy = 0.0
     mz = 0.0
     for i in range(4):
-        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, u[U_AY])
-        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
-        vxi = vx - r * yi
-        vyi = vy + r * xi
-        vw = vxi * c + vyi * s
-        rw = R * u[U_OMEGA + i]
-        lam = slip_ratio(rw, vw, R)[0]
-        t = (td * vxi - vyi) / (vxi + td * vyi)
-        f_x, f_y = dugoff_values(lam, t, fn, u[U_MU + i], cx0, cy0)
-        bx = c * f_x - s * f_y
-        by = s * f_x + c * f_y
+        c, s, xi, yi, _, f_x, f_y, _, _, _, _, _, _, _, _, _, _, _ = _ekf_wheel(
+            p, i, vx, vy, r, angles, L, w, dxl, u[U_AY], u[U_OMEGA + i], u[U_MU + i], False)
+        bx, by, mzi = wheel_body_force(c, s, xi, yi, f_x, f_y)
         sfx += bx
         sfy += by
-        mz += xi * by - yi * bx
-    return (sfx / m + r * vy - p[P_CXA] * vx * abs(vx) / m - p[P_G] * math.sin(slope),
-            sfy / m - r * vx - p[P_CYA] * vy * abs(vy) / m, mz / p[P_IZ])
+        mz += mzi
+    return body_rates(vx, vy, r, sfx, sfy, mz, slope, p)
 
 
 @njit(cache=True)
@@ -535,6 +335,12 @@ def joint_step(x, u, p, dt, out, F):
 
 
 @njit(cache=True, inline="always")
+def _quad3(a0, a1, a2, c00, c01, c02, c11, c12, c22):
+    """a' C a for a 3-vector a and the symmetric C given by its upper triangle."""
+    return a0 * a0 * c00 + a1 * a1 * c11 + a2 * a2 * c22 + 2.0 * (a0 * a1 * c01 + a0 * a2 * c02 + a1 * a2 * c12)
+
+
+@njit(cache=True, inline="always")
 def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, fy_std, k):
     """Tyre forces at the estimate ``mean[k]`` and their std by the delta method through (18)->(15)-(17).
 
@@ -544,19 +350,13 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
     ``omega_rel_std`` the relative std of the wheel-speed inputs (independent wheels), whose
     contribution is added. Writes row k of fx, fy and their stds (T, 4) and returns
     ``(F_res, F_res std)``, F_res = sum F_X + M r V_y - C_x V_x|V_x| of eq. (21) in N. Allocation-free.
+    The per-wheel forces and derivatives are those of :func:`planar_fused` (:func:`_ekf_wheel`).
     """
-    m = p[P_MASS]
-    lf = p[P_LF]
-    lr = p[P_LR]
-    L = lf + lr
-    h = p[P_H]
     vx = mean[k, 0]
     vy = mean[k, 1]
     r = mean[k, 2]
-    theta = slope[k]
-    cdl, sdl, tdl, cdr, sdr, tdr = _front_angles(u[k, U_DELTA], u[k, U_DELTA_FR])
-    w = m * p[P_G] * math.cos(theta)
-    dxl = h * m * u[k, U_AX] / (2.0 * L)
+    L, w, dxl = load_terms(p, u[k, U_AX], slope[k])
+    angles = _front_angles(u[k, U_DELTA], u[k, U_DELTA_FR])
     c00 = cov[k, 0, 0]
     c01 = cov[k, 0, 1]
     c02 = cov[k, 0, 2]
@@ -569,45 +369,23 @@ def forces_fused(mean, cov, u, p, slope, omega_rel_std, fx_out, fy_out, fx_std, 
     g2 = 0.0
     v_in = 0.0
     for i in range(4):
-        R, cx0, cy0, xi, yi, lever, fn = _wheel_geometry(p, i, lf, lr, h, m, L, w, dxl, u[k, U_AY])
-        c, s, td = _wheel_angle(i, cdl, sdl, tdl, cdr, sdr, tdr)
-        vxi = vx - r * yi
-        vyi = vy + r * xi
-        vw = vxi * c + vyi * s
-        dvw2 = -yi * c + xi * s
         omega = u[k, U_OMEGA + i]
-        rw = R * omega
-        lam, dl, dlw = slip_ratio(rw, vw, R)
-        num = td * vxi - vyi
-        den = vxi + td * vyi
-        t = num / den
-        tx = (td * den - num) / (den * den)
-        ty = (-den - num * td) / (den * den)
-        dt0 = tx
-        dt1 = ty
-        dt2 = -yi * tx + xi * ty
-        f_x, f_y, fxl, fxt, fyl, fyt, fxn, fyn = dugoff_grad(lam, t, fn, u[k, U_MU + i], cx0, cy0)
-        a0 = fxl * dl * c + fxt * dt0
-        a1 = fxl * dl * s + fxt * dt1
-        a2 = fxl * dl * dvw2 + fxt * dt2
-        b0 = fyl * dl * c + fyt * dt0
-        b1 = fyl * dl * s + fyt * dt1
-        b2 = fyl * dl * dvw2 + fyt * dt2
+        c, s, xi, yi, _, f_x, f_y, a0, a1, a2, b0, b1, b2, _, _, fxl, fyl, dlw = _ekf_wheel(
+            p, i, vx, vy, r, angles, L, w, dxl, u[k, U_AY], omega, u[k, U_MU + i], True)
         wv = (omega_rel_std * omega) ** 2
         fx_out[k, i] = f_x
         fy_out[k, i] = f_y
-        qx = (a0 * a0 * c00 + a1 * a1 * c11 + a2 * a2 * c22
-              + 2.0 * (a0 * a1 * c01 + a0 * a2 * c02 + a1 * a2 * c12)) + fxl * fxl * dlw * dlw * wv
-        qy = (b0 * b0 * c00 + b1 * b1 * c11 + b2 * b2 * c22
-              + 2.0 * (b0 * b1 * c01 + b0 * b2 * c02 + b1 * b2 * c12)) + fyl * fyl * dlw * dlw * wv
+        qx = _quad3(a0, a1, a2, c00, c01, c02, c11, c12, c22) + fxl * fxl * dlw * dlw * wv
+        qy = _quad3(b0, b1, b2, c00, c01, c02, c11, c12, c22) + fyl * fyl * dlw * dlw * wv
         fx_std[k, i] = math.sqrt(max(qx, 0.0))
         fy_std[k, i] = math.sqrt(max(qy, 0.0))
-        sfx += c * f_x - s * f_y
-        g0 += c * a0 - s * b0
-        g1 += c * a1 - s * b1
-        g2 += c * a2 - s * b2
-        d = (c * fxl - s * fyl) * dlw
+        sfx += wheel_body_force(c, s, xi, yi, f_x, f_y)[0]
+        g0 += wheel_body_force(c, s, xi, yi, a0, b0)[0]
+        g1 += wheel_body_force(c, s, xi, yi, a1, b1)[0]
+        g2 += wheel_body_force(c, s, xi, yi, a2, b2)[0]
+        d = wheel_body_force(c, s, xi, yi, fxl, fyl)[0] * dlw
         v_in += d * d * wv
+    m = p[P_MASS]
     cxa = p[P_CXA]
     res = sfx + m * r * vy - cxa * vx * abs(vx)
     g0 -= 2.0 * cxa * abs(vx)
