@@ -227,13 +227,13 @@ def _predict_all_uniform(P, Jf, Q, sidx, ns, Fb, Pb, AP):
 
 
 @njit
-def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
+def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
                   mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, ns_uniform, no_uniform):
     """The lock-step loop of the local filters.
 
     The model enters as in :func:`._ekf_kernels.ekf_kernel`: separate functions (``fstep``, ``hstep``
     None; ``fjac``/``hjac`` None = finite differences) or fused in-place steps (the others None),
-    evaluated through :func:`._ekf_kernels.model_eval`. When every block has ``ns_uniform`` states and
+    evaluated through :func:`._ekf_kernels.model_eval`, with the model's ``params`` (None: none) after k. When every block has ``ns_uniform`` states and
     ``no_uniform`` observations (> 0; passed as numba literals, so the block loops have compile-time
     trip counts and are unrolled), the uniform block routines are used.
     """
@@ -260,7 +260,7 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, sc
         copy1(x, pmean[k])
         if store:
             copy2(P, pcov[k])
-        yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
+        yhat = model_eval(h, hjac, hstep, params, x, uk, k, xw, y_hat, Jh)
         if not _blocks_finite(Jh, oidx, ocount, sidx, scount):
             state[0] = OBSERVATION_NOT_FINITE
             state[1] = k
@@ -285,7 +285,7 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, sidx, sc
         if store:
             copy2(P, cov[k])
         if k < T - 1:
-            xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
+            xn = model_eval(f, fjac, fstep, params, x, uk, k, xw, x_next, Jf)
             if not (all_finite1(xn) and _blocks_finite(Jf, sidx, scount, sidx, scount)):
                 state[0] = TRANSITION_NOT_FINITE
                 state[1] = k
@@ -406,7 +406,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
     state = np.zeros(2, np.int64)
     fns = model_functions(model)
-    data = (Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
+    data = (model.kernel_params(), Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
             np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
             cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
     # equal block sizes: passed as numba literals, the block loops get compile-time trip counts (unrolled)

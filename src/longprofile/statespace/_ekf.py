@@ -67,6 +67,16 @@ class NonlinearStateSpaceModel:
         Analytic df/dx. Central finite differences when None.
     observation_jacobian : callable ``h_jac(x, u, k) -> (m, n) ndarray``, optional
         Analytic dh/dx. Central finite differences when None.
+    params : (P,) array_like, optional
+        Model parameters passed unchanged to every model function. When given, every function takes them as
+        an extra argument after ``k``: ``f(x, u, k, params)``, ``h(x, u, k, params)``, the Jacobians
+        ``f_jac(x, u, k, params)``, ``h_jac(x, u, k, params)`` and the fused steps
+        ``transition_step(x, u, k, params, x_next, F)``, ``observation_step(x, u, k, params, y_hat, H)``
+        (dynamax's ``f(x, u, k, params)``). Stored as a read-only finite float64 vector (the functions must
+        not modify it). None (default): the functions take ``(x, u, k)`` (``(x, u, k, out, J)`` for the
+        steps). Parameters read at run time instead of frozen into a closure let ONE compiled function (and
+        one compiled filter loop) serve every parameter set: a new vehicle is a new array, not a new
+        compilation.
     transition_step, observation_step : numba ``@njit`` functions, optional (both or neither)
         Fused, allocation-free versions of the model for the compiled loops:
         ``transition_step(x, u, k, x_next, F)`` writes ``f(x, u, k)`` into
@@ -89,7 +99,8 @@ class NonlinearStateSpaceModel:
     frozen at compile time), each behind a small compiled wrapper that returns a new C-contiguous float64
     array; a function numba cannot compile is refused with a :class:`~longprofile.errors.ModelError` when the
     model is built. Jitted functions that compile for C-contiguous float64 arrays, i.e.
-    ``(x (n,), u (p,), k int64) -> array``, run in a loop compiled for their *signature* and cached on disk
+    ``(x (n,), u (p,), k int64) -> array`` (with ``params`` (P,) after ``k`` when the model has them), run in a
+    loop compiled for their *signature* and cached on disk
     by numba (compiled once per machine; a new process loads it); other jitted functions run in a loop
     compiled for their identity (once per process). Finite differences use the central step
     h_j = eps^(1/3) max(|x_j|, 1) (error O(h^2) + O(eps/h)). (Until 2026-12-03 plain Python functions ran
@@ -107,16 +118,20 @@ class NonlinearStateSpaceModel:
     observation_jacobian: Callable | None = None
     transition_step: Callable | None = None
     observation_step: Callable | None = None
+    params: np.ndarray | None = None
     _compiled: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
+        if self.params is not None:
+            object.__setattr__(self, "params", _as_params(self.params))
+        call = self.call_signature
         for name in ("transition_fn", "observation_fn"):
             if not callable(getattr(self, name)):
-                raise InputError(f"{name} must be callable as fn(x, u, k); got {type(getattr(self, name)).__name__}.")
+                raise InputError(f"{name} must be callable as {call}; got {type(getattr(self, name)).__name__}.")
         for name in ("transition_jacobian", "observation_jacobian"):
             val = getattr(self, name)
             if val is not None and not callable(val):
-                raise InputError(f"{name} must be None (finite differences) or callable as fn(x, u, k); "
+                raise InputError(f"{name} must be None (finite differences) or callable as {call}; "
                                  f"got {type(val).__name__}.")
         x0 = as_float_array("initial_mean", self.initial_mean, ndim=1, allow_nan=False)
         P0 = as_float_array("initial_cov", self.initial_cov, ndim=2, allow_nan=False)
@@ -146,15 +161,36 @@ class NonlinearStateSpaceModel:
         for name in ("transition_step", "observation_step"):
             val = getattr(self, name)
             if val is not None and not is_jitted(val):
-                raise InputError(f"{name} must be a numba @njit function g(x, u, k, out, out_jacobian) (the compiled "
+                raise InputError(f"{name} must be a numba @njit function {self.step_signature} (the compiled "
                                  f"loops call it); got {type(val).__name__}. Leave it None to use transition_fn / "
                                  "observation_fn.")
         for name, ndim in (("transition_fn", 1), ("observation_fn", 1), ("transition_jacobian", 2),
                            ("observation_jacobian", 2)):
             fn = getattr(self, name)
             if fn is not None and not is_jitted(fn):
-                object.__setattr__(self, name, compile_model_function(fn, ndim, name=name))
+                object.__setattr__(self, name, compile_model_function(fn, ndim, name=name,
+                                                                      with_params=self.params is not None))
         object.__setattr__(self, "_compiled", True)
+
+    @property
+    def call_signature(self) -> str:
+        """How the model functions are called: ``"fn(x, u, k)"``, or ``"fn(x, u, k, params)"`` with params."""
+        return "fn(x, u, k)" if self.params is None else "fn(x, u, k, params)"
+
+    @property
+    def step_signature(self) -> str:
+        """How the fused steps are called: ``"g(x, u, k, out, out_jacobian)"`` (params inserted after k)."""
+        return "g(x, u, k, out, out_jacobian)" if self.params is None else "g(x, u, k, params, out, out_jacobian)"
+
+    def model_args(self, x, u, k) -> tuple:
+        """The arguments of a model function at (x, u, k): ``(x, u, k)`` or ``(x, u, k, params)`` (a writeable
+        copy of params: the functions are compiled for writeable arrays)."""
+        return (x, u, k) if self.params is None else (x, u, k, self.kernel_params())
+
+    def kernel_params(self):
+        """``params`` as the compiled loops take it: None, or a writeable C-contiguous copy (the loops are typed
+        for writeable arrays; the model's own copy is read-only)."""
+        return None if self.params is None else np.array(self.params)
 
     @property
     def n_states(self) -> int:
@@ -173,52 +209,81 @@ class NonlinearStateSpaceModel:
         return self._compiled
 
 
-def _as_new_vector(g):
-    """A function returning ``g(x, u, k)`` copied into a new C-contiguous float64 vector (jitted by the caller)."""
-    def f(x, u, k):
-        r = np.asarray(g(x, u, k))
-        out = np.empty(r.shape[0])
-        for i in range(r.shape[0]):  # a loop, not a slice assignment: cheaper to compile
-            out[i] = r[i]
-        return out
+def _as_params(value) -> np.ndarray:
+    """``params`` of a model: a read-only, C-contiguous, finite float64 vector (InputError / ShapeError else)."""
+    try:
+        dtype = np.asarray(value).dtype
+    except (TypeError, ValueError):  # ragged nested sequences
+        dtype = np.dtype(object)
+    if dtype.kind not in "iuf":
+        raise InputError(f"params must be a 1-D array of real numbers (float64; passed unchanged to every model "
+                         f"function); got dtype {dtype}.")
+    arr = np.ascontiguousarray(as_float_array("params", value, ndim=1, allow_nan=False)).copy()
+    arr.setflags(write=False)
+    return arr
+
+
+@njit
+def _new_vector(r):
+    """``r`` copied into a new C-contiguous float64 vector (a loop, not a slice assignment: cheaper to compile)."""
+    r = np.asarray(r)
+    out = np.empty(r.shape[0])
+    for i in range(r.shape[0]):
+        out[i] = r[i]
+    return out
+
+
+@njit
+def _new_matrix(r):
+    """``r`` copied into a new C-contiguous float64 matrix."""
+    r = np.asarray(r)
+    out = np.empty((r.shape[0], r.shape[1]))
+    for i in range(r.shape[0]):
+        for j in range(r.shape[1]):
+            out[i, j] = r[i, j]
+    return out
+
+
+def _copying(g, ndim: int, with_params: bool):
+    """A function returning ``g``'s result copied into a new C-contiguous float64 array (jitted by the caller)."""
+    copy = _new_vector if ndim == 1 else _new_matrix
+    if with_params:
+        def f(x, u, k, params):
+            return copy(g(x, u, k, params))
+    else:
+        def f(x, u, k):
+            return copy(g(x, u, k))
     return f
 
 
-def _as_new_matrix(g):
-    """A function returning ``g(x, u, k)`` copied into a new C-contiguous float64 matrix (jitted by the caller)."""
-    def f(x, u, k):
-        r = np.asarray(g(x, u, k))
-        out = np.empty((r.shape[0], r.shape[1]))
-        for i in range(r.shape[0]):
-            for j in range(r.shape[1]):
-                out[i, j] = r[i, j]
-        return out
-    return f
-
-
-def compile_model_function(fn, ndim: int, *, name: str = "the model function"):
-    """``fn(x, u, k)`` (plain Python) compiled with ``numba.njit`` for C-contiguous float64 ``x`` (n,), ``u`` (p,)
-    and an int64 ``k``, so that the compiled loops typed by signature (cached on disk) can call it. When it does
-    not return a new C-contiguous float64 array of ``ndim`` dimensions (1: f, h; 2: Jacobians) -- e.g. it returns
-    an array it read from an enclosing scope, which numba freezes read-only -- a jitted wrapper copies the result
-    into one. ModelError, naming the function, if numba cannot compile it or its result is not such an array."""
-    args = FUNCTION_TYPE.signature.args
+def compile_model_function(fn, ndim: int, *, name: str = "the model function", with_params: bool = False):
+    """``fn(x, u, k)`` (``fn(x, u, k, params)`` with ``with_params``; plain Python) compiled with ``numba.njit``
+    for C-contiguous float64 ``x`` (n,), ``u`` (p,), an int64 ``k`` (and float64 ``params`` (P,)), so that the
+    compiled loops typed by signature (cached on disk) can call it. When it does not return a new C-contiguous
+    float64 array of ``ndim`` dimensions (1: f, h; 2: Jacobians) -- e.g. it returns an array it read from an
+    enclosing scope, which numba freezes read-only -- a jitted wrapper copies the result into one. ModelError,
+    naming the function, if numba cannot compile it or its result is not such an array."""
+    ftype = _function_types(with_params)[0 if ndim == 1 else 1]
+    args = ftype.signature.args
+    call = "fn(x, u, k, params)" if with_params else "fn(x, u, k)"
     inner = njit(fn)
     try:
         inner.compile(args)
+    except TypeError as exc:  # numba's "Signature mismatch": the function does not take these arguments
+        raise ModelError(f"{name} must be callable as {call}: {_first_line(exc)}") from None
     except NumbaError as exc:
         raise ModelError(f"{name} could not be compiled by numba (the filters run compiled loops; plain Python "
                          f"functions are compiled with numba.njit, which supports numpy arrays and scalars, not "
                          f"Python objects): {_first_line(exc)}") from None
-    want = (FUNCTION_TYPE if ndim == 1 else JACOBIAN_TYPE).signature.return_type
+    want = ftype.signature.return_type
     if inner.overloads[args].signature.return_type == want:
         return inner
-    out = njit((_as_new_vector if ndim == 1 else _as_new_matrix)(inner))
+    out = njit(_copying(inner, ndim, with_params))
     try:
         out.compile(args)
     except NumbaError:
         got = inner.overloads[args].signature.return_type
-        raise ModelError(f"{name} must return a {ndim}-D float array (fn(x, u, k)); numba types its result as "
+        raise ModelError(f"{name} must return a {ndim}-D float array ({call}); numba types its result as "
                          f"{got}.") from None
     return out
 
@@ -229,7 +294,7 @@ def _first_line(exc) -> str:
     return lines[0] if lines else type(exc).__name__
 
 
-def _fd_jacobian_py(fn, x, u, k):
+def _fd_jacobian_py(fn, x, u, k, *params):
     n = x.shape[0]
     cols = []
     xw = x.copy()
@@ -237,25 +302,27 @@ def _fd_jacobian_py(fn, x, u, k):
         step = FD_REL_STEP * max(abs(x[j]), 1.0)
         hi, lo = x[j] + step, x[j] - step
         xw[j] = hi
-        a = np.asarray(fn(xw, u, k), dtype=np.float64)
+        a = np.asarray(fn(xw, u, k, *params), dtype=np.float64)
         xw[j] = lo
-        b = np.asarray(fn(xw, u, k), dtype=np.float64)
+        b = np.asarray(fn(xw, u, k, *params), dtype=np.float64)
         xw[j] = x[j]
         cols.append((a - b) / (hi - lo))
     return np.stack(cols, axis=-1)
 
 
 def _call(model, which, x, u, k):
-    """Evaluate f/h or their Jacobians from Python, for the checks and the smoother (finite differences when absent)."""
+    """Evaluate f/h or their Jacobians from Python, for the checks and the smoother (finite differences when
+    absent); the model's params, if any, are passed after k."""
+    args = model.model_args(x, u, k)
     if which == "f":
-        return np.asarray(model.transition_fn(x, u, k), dtype=np.float64)
+        return np.asarray(model.transition_fn(*args), dtype=np.float64)
     if which == "h":
-        return np.asarray(model.observation_fn(x, u, k), dtype=np.float64)
+        return np.asarray(model.observation_fn(*args), dtype=np.float64)
     if which == "F":
-        jac = model.transition_jacobian
-        return _fd_jacobian_py(model.transition_fn, x, u, k) if jac is None else np.asarray(jac(x, u, k), float)
-    jac = model.observation_jacobian
-    return _fd_jacobian_py(model.observation_fn, x, u, k) if jac is None else np.asarray(jac(x, u, k), float)
+        fn, jac = model.transition_fn, model.transition_jacobian
+    else:
+        fn, jac = model.observation_fn, model.observation_jacobian
+    return _fd_jacobian_py(fn, *args) if jac is None else np.asarray(jac(*args), float)
 
 
 def check_functions(model, u0):
@@ -271,12 +338,17 @@ def check_functions(model, u0):
             raise ModelError(f"{name} could not be compiled by numba (the filters run compiled loops): "
                              f"{_first_line(exc)}") from None
         except (ValueError, TypeError, IndexError, ArithmeticError) as exc:
-            raise ModelError(f"{name} failed when called as fn(x, u, k) with x = initial_mean (shape ({n},)), "
-                             f"u of shape {u0.shape}, k = 0: {type(exc).__name__}: {exc}") from exc
+            raise ModelError(f"{name} failed when called as {model.call_signature} with x = initial_mean (shape "
+                             f"({n},)), u of shape {u0.shape}, k = 0{_params_note(model)}: {type(exc).__name__}: "
+                             f"{exc}") from exc
         if out.shape != shape:
             raise ShapeError(f"{name} must return shape {shape}; it returned {out.shape} at x = initial_mean.")
         if not np.all(np.isfinite(out)):
             raise ModelError(f"{name} returned non-finite values at x = initial_mean, k = 0: {out}.")
+
+
+def _params_note(model) -> str:
+    return "" if model.params is None else f", params of shape {model.params.shape}"
 
 
 def ekf_kernel_outputs(T: int, n: int, m: int, store: bool) -> tuple:
@@ -306,7 +378,7 @@ def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
 def _ekf_compiled(model, Q3, R3, y, u, store):
     T, m = y.shape
     outputs = ekf_kernel_outputs(T, model.n_states, m, store)
-    data = (Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
+    data = (model.kernel_params(), Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
     fns = model_functions(model)
     fn_types = model_function_types(model)
     if fn_types is None:  # jitted functions of another signature: loop compiled for their identity, per process
@@ -335,6 +407,17 @@ FUNCTION_TYPE = types.FunctionType(_VEC(_VEC, _VEC, types.int64))
 JACOBIAN_TYPE = types.FunctionType(_MAT(_VEC, _VEC, types.int64))
 #: Type of the fused steps: (x, u, k, out (n,) or (m,), out_jacobian) -> None.
 STEP_TYPE = types.FunctionType(types.none(_VEC, _VEC, types.int64, _VEC, _MAT))
+#: The same with model parameters (P,) after k: f(x, u, k, params), step(x, u, k, params, out, out_jacobian).
+FUNCTION_TYPE_PARAMS = types.FunctionType(_VEC(_VEC, _VEC, types.int64, _VEC))
+JACOBIAN_TYPE_PARAMS = types.FunctionType(_MAT(_VEC, _VEC, types.int64, _VEC))
+STEP_TYPE_PARAMS = types.FunctionType(types.none(_VEC, _VEC, types.int64, _VEC, _VEC, _MAT))
+
+
+def _function_types(with_params: bool) -> tuple:
+    """(function, Jacobian, step) types of the model functions without or with params."""
+    if with_params:
+        return FUNCTION_TYPE_PARAMS, JACOBIAN_TYPE_PARAMS, STEP_TYPE_PARAMS
+    return FUNCTION_TYPE, JACOBIAN_TYPE, STEP_TYPE
 
 
 @functools.cache
@@ -370,7 +453,8 @@ def _function_type(fn, ftype):
 def model_function_types(model):
     """numba types of :func:`model_functions` for the signature-typed (disk-cached) loop, or None when a
     function does not compile for C-contiguous float64 arrays with the exact return type."""
-    kinds = (FUNCTION_TYPE, FUNCTION_TYPE, JACOBIAN_TYPE, JACOBIAN_TYPE, STEP_TYPE, STEP_TYPE)
+    fn_t, jac_t, step_t = _function_types(model.params is not None)
+    kinds = (fn_t, fn_t, jac_t, jac_t, step_t, step_t)
     out = tuple(_function_type(fn, ftype) for fn, ftype in zip(model_functions(model), kinds))
     return None if any(t is None for t in out) else out
 
@@ -391,11 +475,11 @@ def check_model_steps(model, u0, jacobian_mask=None):
             ("observation_step", model.observation_step, "h", m, None if jacobian_mask is None else jacobian_mask[1])):
         out, J = np.zeros(size), np.zeros((size, n))
         try:
-            step(x0, u0, 0, out, J)
+            step(*model.model_args(x0, u0, 0), out, J)
         except (ValueError, TypeError, IndexError, ArithmeticError, NumbaError) as exc:
-            raise ModelError(f"{name} failed when called as g(x, u, k, out, out_jacobian) with x = initial_mean "
-                             f"(shape ({n},)), u of shape {u0.shape}, k = 0, out ({size},), out_jacobian ({size}, {n})"
-                             f": {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
+            raise ModelError(f"{name} failed when called as {model.step_signature} with x = initial_mean "
+                             f"(shape ({n},)), u of shape {u0.shape}, k = 0{_params_note(model)}, out ({size},), "
+                             f"out_jacobian ({size}, {n}): {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
         ref = _call(model, which, x0, u0, 0)
         Jref = _call(model, which.upper(), x0, u0, 0)
         sel = np.ones(J.shape, bool) if mask is None else mask

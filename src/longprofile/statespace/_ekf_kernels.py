@@ -7,6 +7,9 @@ The model enters as numba functions passed as arguments, in one of two conventio
 * fused in-place steps ``fstep(x, u, k, x_next, F)`` and ``hstep(x, u, k, y_hat, H)`` that write the
   function and its Jacobian into the loop's preallocated arrays (no allocation per step).
 
+With model parameters (the loop's ``params`` argument an array instead of None) every call gets them after
+``k``: ``f(x, u, k, params)``, ``fstep(x, u, k, params, x_next, F)``.
+
 The arguments of the unused convention are ``None`` and numba prunes their branches at compile
 time, so there is one loop for both. The loop is compiled either for the functions' identity
 (numba dispatchers: calls inlined, compiled once per process) or for their signature
@@ -28,6 +31,7 @@ from .._jit import njit
 from ._linalg_kernels import (
     FD_REL_STEP,
     all_finite2,
+    call_model,
     cholesky_lower,
     copy1,
     copy2,
@@ -43,33 +47,41 @@ from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, 
 __all__ = ["ekf_kernel", "model_eval", "fd_jacobian", "FD_REL_STEP"]
 
 
-def model_eval(fn, jac, step, x, u, k, xw, out, J):
+def model_eval(fn, jac, step, params, x, u, k, xw, out, J):
     """Value of a model function at (x, u, k), its Jacobian written into J (compiled code only).
 
     ``step`` given (fused convention): ``step(x, u, k, out, J)`` and ``out`` is returned; otherwise
     ``fn(x, u, k)`` is returned and J is ``jac(x, u, k)`` or central finite differences (``jac`` None,
-    ``xw`` scratch). The convention is chosen when numba types the call (see the overload below), so
-    the loop has no run-time branch and the unused functions may be None.
+    ``xw`` scratch). With model parameters (``params`` an array, not None) every call gets them after
+    ``k``: ``fn(x, u, k, params)``, ``step(x, u, k, params, out, J)``. The conventions are chosen when numba
+    types the call (see the overload below), so the loop has no run-time branch and the unused functions
+    may be None.
     """
     raise NotImplementedError("model_eval runs inside numba-compiled loops only")
 
 
 @overload(model_eval, inline="always")
-def _model_eval_overload(fn, jac, step, x, u, k, xw, out, J):
+def _model_eval_overload(fn, jac, step, params, x, u, k, xw, out, J):
     if not isinstance(step, types.NoneType):
-        def fused(fn, jac, step, x, u, k, xw, out, J):
-            step(x, u, k, out, J)
+        if isinstance(params, types.NoneType):
+            def fused(fn, jac, step, params, x, u, k, xw, out, J):
+                step(x, u, k, out, J)
+                return out
+            return fused
+
+        def fused_params(fn, jac, step, params, x, u, k, xw, out, J):
+            step(x, u, k, params, out, J)
             return out
-        return fused
+        return fused_params
     if isinstance(jac, types.NoneType):
-        def finite_differences(fn, jac, step, x, u, k, xw, out, J):
-            fd_jacobian(fn, x, u, k, xw, J)
-            return fn(x, u, k)
+        def finite_differences(fn, jac, step, params, x, u, k, xw, out, J):
+            fd_jacobian(fn, params, x, u, k, xw, J)
+            return call_model(fn, params, x, u, k)
         return finite_differences
 
-    def analytic(fn, jac, step, x, u, k, xw, out, J):
-        copy2(jac(x, u, k), J)
-        return fn(x, u, k)
+    def analytic(fn, jac, step, params, x, u, k, xw, out, J):
+        copy2(call_model(jac, params, x, u, k), J)
+        return call_model(fn, params, x, u, k)
     return analytic
 
 
@@ -119,13 +131,14 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
 
 
 @njit
-def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
+def ekf_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, store,
                mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
     """EKF over one series. ``store`` False: cov/pcov/icov/Fj/Hj are dummies and not written.
 
     ``fstep``/``hstep`` None: the model is ``f``, ``h`` and the Jacobians (None = finite differences);
     otherwise the fused steps are called and ``f``, ``h``, ``fjac``, ``hjac`` are None. The Jacobian
-    arrays the steps write into start at zero and keep their content between calls.
+    arrays the steps write into start at zero and keep their content between calls. ``params`` (None or a
+    1-D float64 array) is passed unchanged to every model call (:func:`model_eval`).
     ``state`` (2,) int64 receives (status, step). Returns the number of observed components.
     Only this loop is compiled per set of model functions; the linear algebra is in cached helpers.
     """
@@ -154,7 +167,7 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
         copy1(x, pmean[k])
         if store:
             copy2(P, pcov[k])
-        yhat = model_eval(h, hjac, hstep, x, uk, k, xw, y_hat, Jh)
+        yhat = model_eval(h, hjac, hstep, params, x, uk, k, xw, y_hat, Jh)
         if not all_finite2(Jh, m, n):
             state[0] = OBSERVATION_NOT_FINITE
             state[1] = k
@@ -175,7 +188,7 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, Q3, R3, x0, P0, y, u, store,
         if store:
             copy2(P, cov[k])
         if k < T - 1:
-            xn = model_eval(f, fjac, fstep, x, uk, k, xw, x_next, Jf)
+            xn = model_eval(f, fjac, fstep, params, x, uk, k, xw, x_next, Jf)
             if not all_finite2(Jf, n, n):
                 state[0] = TRANSITION_NOT_FINITE
                 state[1] = k

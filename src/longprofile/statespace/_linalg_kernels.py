@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from .._jit import njit
 
@@ -31,6 +33,7 @@ __all__ = [
     "FASTMATH", "FD_REL_STEP", "at", "cholesky_lower", "inverse_diagonal", "forward_sub", "backward_sub_t",
     "solve_rows", "affine_map", "joseph_update", "joseph_entry", "sandwich_sym", "gather_block", "matmul_into",
     "update_scratch", "innovation_loglik", "LOG2PI", "copy1", "copy2", "all_finite1", "all_finite2", "fd_jacobian",
+    "call_model",
 ]
 
 # Floating-point contraction/reassociation only: NaN and inf semantics are kept (missing data is NaN).
@@ -271,9 +274,31 @@ def all_finite2(a, r, c):
     return True
 
 
+def call_model(fn, params, x, u, k):
+    """``fn(x, u, k)`` when ``params`` is None, else ``fn(x, u, k, params)`` (compiled code only).
+
+    The model-parameter convention of :class:`longprofile.statespace.NonlinearStateSpaceModel`: the choice is
+    made when numba types the call (``params`` None or an array), so the compiled loops have no run-time branch.
+    """
+    raise NotImplementedError("call_model runs inside numba-compiled loops only")
+
+
+@overload(call_model, inline="always")
+def _call_model_overload(fn, params, x, u, k):
+    if isinstance(params, types.NoneType):
+        def without_params(fn, params, x, u, k):
+            return fn(x, u, k)
+        return without_params
+
+    def with_params(fn, params, x, u, k):
+        return fn(x, u, k, params)
+    return with_params
+
+
 @njit
-def fd_jacobian(fn, x, u, k, xw, J):
-    """Central-difference Jacobian of fn(., u, k) at x into J (rows: outputs); xw is scratch of x's size.
+def fd_jacobian(fn, params, x, u, k, xw, J):
+    """Central-difference Jacobian of fn(., u, k) (``fn(., u, k, params)`` unless ``params`` is None) at x
+    into J (rows: outputs); xw is scratch of x's size.
 
     Step h_j = eps^(1/3) max(|x_j|, 1), re-derived as (x + h) - (x - h) so the divisor is exact.
     Not cached: numba specialises it per user function (keyed on the function's identity).
@@ -286,9 +311,9 @@ def fd_jacobian(fn, x, u, k, xw, J):
         hi = x[j] + step
         lo = x[j] - step
         xw[j] = hi
-        a = fn(xw, u, k)
+        a = call_model(fn, params, xw, u, k)
         xw[j] = lo
-        b = fn(xw, u, k)
+        b = call_model(fn, params, xw, u, k)
         xw[j] = x[j]
         inv = 1.0 / (hi - lo)
         for i in range(a.shape[0]):
