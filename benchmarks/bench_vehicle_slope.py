@@ -36,7 +36,7 @@ def _filterpy_ekf(model, y, u, n_steps):
 
     class _EKF(ExtendedKalmanFilter):
         def predict_x(self, u=0):
-            self.x = model.transition_fn(self.x, u, 0)
+            self.x = model.transition_fn(*model.model_args(self.x, u, 0))
 
     kf = _EKF(dim_x=model.n_states, dim_z=model.n_obs)
     kf.x = model.initial_mean.copy()
@@ -46,10 +46,10 @@ def _filterpy_ekf(model, y, u, n_steps):
     out = np.empty((n_steps, model.n_states))
     for k in range(n_steps):
         uk = u[k]
-        kf.update(y[k], HJacobian=lambda x, uk=uk: model.observation_jacobian(x, uk, 0),
-                  Hx=lambda x, uk=uk: model.observation_fn(x, uk, 0))
+        kf.update(y[k], HJacobian=lambda x, uk=uk: model.observation_jacobian(*model.model_args(x, uk, 0)),
+                  Hx=lambda x, uk=uk: model.observation_fn(*model.model_args(x, uk, 0)))
         out[k] = kf.x
-        kf.F = model.transition_jacobian(kf.x, uk, 0)
+        kf.F = model.transition_jacobian(*model.model_args(kf.x, uk, 0))
         kf.predict(u=uk)
     return out
 

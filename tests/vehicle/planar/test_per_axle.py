@@ -370,7 +370,7 @@ def test_a_staggered_simulation_is_consistent_with_the_ekf_step():
         for label, (dl, dr) in (("wheels", tr.wheel_steering[k]), ("bicycle", (tr.steering_angle[k],) * 2)):
             u = np.concatenate([[dl], tr.wheel_speeds[k], [tr.accel_x[k - 1], tr.accel_y[k - 1]], [tr.slope[k]],
                                 tr.friction[k], [dr]])  # the simulator's loads lag one step
-            worst[label] = np.maximum(worst[label], np.abs(model.transition_fn(x, u, k) - x_next))
+            worst[label] = np.maximum(worst[label], np.abs(model.transition_fn(*model.model_args(x, u, k)) - x_next))
     assert np.all(worst["wheels"] < 2e-5), worst
     assert worst["bicycle"][1] > 2 * worst["wheels"][1]  # one angle for both wheels is a model error here
 

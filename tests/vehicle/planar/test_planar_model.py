@@ -21,12 +21,12 @@ STAGGERED = CAR.with_changes(track=(1.58, 1.60), wheel_radius=(0.30, 0.309), lon
 G = 9.80665
 
 
-def _fd(fn, x, u, h=1e-6):
+def _fd(fn, x, u, params, h=1e-6):
     cols = []
     for j in range(x.size):
         e = np.zeros_like(x)
         e[j] = h * max(1.0, abs(x[j]))
-        cols.append((fn(x + e, u, 0) - fn(x - e, u, 0)) / (2 * e[j]))
+        cols.append((fn(x + e, u, 0, params) - fn(x - e, u, 0, params)) / (2 * e[j]))
     return np.stack(cols, axis=1)
 
 
@@ -53,13 +53,15 @@ def test_ekf_jacobians_match_finite_differences(point):
     x, u, theta = point
     for car in (CAR, STAGGERED):  # equal axles, and per-axle track, radius and stiffnesses
         model = planar_ekf_model(car, 1e-3)
-        F = model.transition_jacobian(x, u, 0)
-        np.testing.assert_allclose(F, _fd(model.transition_fn, x, u), rtol=1e-5, atol=1e-8)
-        H = model.observation_jacobian(x, u, 0)
-        np.testing.assert_allclose(H, _fd(model.observation_fn, x, u), atol=1e-9)
+        p = model.kernel_params()
+        F = model.transition_jacobian(x, u, 0, p)
+        np.testing.assert_allclose(F, _fd(model.transition_fn, x, u, p), rtol=1e-5, atol=1e-8)
+        H = model.observation_jacobian(x, u, 0, p)
+        np.testing.assert_allclose(H, _fd(model.observation_fn, x, u, p), atol=1e-9)
         joint = slope_ekf_model(car, 1e-3)
         xj = np.append(x, theta)
-        np.testing.assert_allclose(joint.transition_jacobian(xj, u, 0), _fd(joint.transition_fn, xj, u),
+        pj = joint.kernel_params()
+        np.testing.assert_allclose(joint.transition_jacobian(xj, u, 0, pj), _fd(joint.transition_fn, xj, u, pj),
                                    rtol=1e-5, atol=1e-8)
 
 
@@ -72,7 +74,7 @@ def test_eq20_yaw_row_uses_yaw_inertia_not_mass():
     u[1:5] = 20.0 / CAR.wheel_radius
     u[2] *= 1.002
     u[8:12] = 1.0
-    x1 = model.transition_fn(x, u, 0)
+    x1 = model.transition_fn(*model.model_args(x, u, 0))
     fx = CAR.longitudinal_stiffness * 0.002 / 1.002 / (1 - 0.002 / 1.002)  # Dugoff linear branch, eq. (15)
     mz = CAR.track / 2 * fx
     assert (x1[2] - x[2]) / 1e-3 == pytest.approx(mz / CAR.yaw_inertia, rel=1e-6)
@@ -134,5 +136,5 @@ def test_ekf_transition_agrees_with_the_simulator_physics():
                             [tr.slope[k]], tr.friction[k], [tr.steering_angle[k]]])  # loads lag one step
         x = np.array([tr.vx[k], tr.vy[k], tr.yaw_rate[k]])
         x_next = np.array([tr.vx[k + 1], tr.vy[k + 1], tr.yaw_rate[k + 1]])
-        worst = np.maximum(worst, np.abs(model.transition_fn(x, u, k) - x_next))
+        worst = np.maximum(worst, np.abs(model.transition_fn(*model.model_args(x, u, k)) - x_next))
     assert np.all(worst < [2e-5, 2e-5, 2e-5]), worst

@@ -60,17 +60,17 @@ def test_engine_ekf_matches_filterpy_on_the_vehicle_model(paper):
 
     class EKF(ExtendedKalmanFilter):
         def predict_x(self, u=0):
-            self.x = model.transition_fn(self.x, u, 0)
+            self.x = model.transition_fn(*model.model_args(self.x, u, 0))
 
     kf = EKF(dim_x=3, dim_z=2)
     kf.x, kf.P, kf.R, kf.Q = (model.initial_mean.copy(), model.initial_cov.copy(), model.obs_cov.copy(),
                               model.process_cov.copy())
     for k in range(400):
-        kf.update(y[k], HJacobian=lambda x, k=k: model.observation_jacobian(x, u[k], k),
-                  Hx=lambda x, k=k: model.observation_fn(x, u[k], k))
+        kf.update(y[k], HJacobian=lambda x, k=k: model.observation_jacobian(*model.model_args(x, u[k], k)),
+                  Hx=lambda x, k=k: model.observation_fn(*model.model_args(x, u[k], k)))
         np.testing.assert_allclose(kf.x, ests["cascade"].filtered.mean[k], rtol=1e-10, atol=1e-12)
         np.testing.assert_allclose(kf.P, ests["cascade"].filtered.cov[k], rtol=1e-8, atol=1e-16)
-        kf.F = model.transition_jacobian(kf.x, u[k], k)
+        kf.F = model.transition_jacobian(*model.model_args(kf.x, u[k], k))
         kf.predict(u=u[k])
 
 

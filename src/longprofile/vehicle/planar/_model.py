@@ -16,7 +16,6 @@ Conventions (used by every kernel here):
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -462,53 +461,91 @@ class EKFTuning:
 
 # ------------------------------------------------------------------------------------------ model functions
 
-# The closures are cached on disk (numba keys closures on the values they capture: the vehicle
-# parameters, dt and the model variant), and the engine's disk-cached EKF loop calls them through
-# function pointers, so a new process (the CLI) loads everything instead of compiling it.
+# Module-level, disk-cached model functions with the engine's parameter convention f(x, u, k, params):
+# ``params`` = ``Vehicle.as_array()`` followed by dt (:func:`ekf_params`). The vehicle and the step are read
+# at run time, so one compiled function per variant (cascade / joint) serves every vehicle and dt, and the
+# engine's disk-cached EKF loop calls them through function pointers: a new process (the CLI) loads
+# everything instead of compiling it, whatever the car.
 
-@functools.lru_cache(maxsize=32)
-def _ekf_functions(params: tuple, dt: float, joint: bool):
+def ekf_params(vehicle: Vehicle, dt: float) -> np.ndarray:
+    """``params`` of the vehicle EKF models: ``Vehicle.as_array()`` then ``dt`` as the last entry."""
+    return np.append(vehicle.as_array(), float(dt))
+
+
+@njit(cache=True, inline="always")
+def _dt(params):
+    """dt, the last entry of the EKF's params (:func:`ekf_params`)."""
+    return params[params.shape[0] - 1]
+
+
+@njit(cache=True)
+def ekf_f(x, u, k, params):
+    """x[k+1] of eq. (20), state (V_x, V_y, r) (:func:`ekf_next`; ``params`` of :func:`ekf_params`)."""
+    return ekf_next(x, u, params, _dt(params))
+
+
+@njit(cache=True)
+def ekf_f_jac(x, u, k, params):
+    """Jacobian (3, 3) of :func:`ekf_f`."""
+    return ekf_jacobian(x, u, params, _dt(params))
+
+
+@njit(cache=True)
+def ekf_f_step(x, u, k, params, out, F):
+    """Fused :func:`ekf_f` and its Jacobian (:func:`ekf_step`)."""
+    ekf_step(x, u, params, _dt(params), out, F)
+
+
+@njit(cache=True)
+def joint_f(x, u, k, params):
+    """Augmented transition, state (V_x, V_y, r, theta_r) (:func:`joint_next`)."""
+    return joint_next(x, u, params, _dt(params))
+
+
+@njit(cache=True)
+def joint_f_jac(x, u, k, params):
+    """Jacobian (4, 4) of :func:`joint_f`."""
+    return joint_jacobian(x, u, params, _dt(params))
+
+
+@njit(cache=True)
+def joint_f_step(x, u, k, params, out, F):
+    """Fused :func:`joint_f` and its Jacobian (:func:`joint_step`)."""
+    joint_step(x, u, params, _dt(params), out, F)
+
+
+@njit(cache=True)
+def ekf_h(x, u, k, params):
+    """Measurements (V_x, r) of eq. (20), for either state (3 or 4 states)."""
+    y = np.empty(2)
+    y[0] = x[0]
+    y[1] = x[2]
+    return y
+
+
+@njit(cache=True)
+def ekf_h_jac(x, u, k, params):
+    """Jacobian (2, n) of :func:`ekf_h`."""
+    H = np.zeros((2, x.shape[0]))
+    H[0, 0] = 1.0
+    H[1, 2] = 1.0
+    return H
+
+
+@njit(cache=True)
+def ekf_h_step(x, u, k, params, out, H):  # H keeps its content between calls: the two ones are written each time
+    """Fused :func:`ekf_h` and its Jacobian."""
+    out[0] = x[0]
+    out[1] = x[2]
+    H[0, 0] = 1.0
+    H[1, 2] = 1.0
+
+
+def _ekf_functions(joint: bool) -> tuple:
     """(f, f_jac, h, h_jac, f_step, h_step) of eq. (20) (``joint``: with the grade as 4th state)."""
-    p = np.array(params)
-    n = 4 if joint else 3
-
-    @njit(cache=True)
-    def f(x, u, k):
-        return joint_next(x, u, p, dt) if joint else ekf_next(x, u, p, dt)
-
-    @njit(cache=True)
-    def f_jac(x, u, k):
-        return joint_jacobian(x, u, p, dt) if joint else ekf_jacobian(x, u, p, dt)
-
-    @njit(cache=True)
-    def f_step(x, u, k, out, F):
-        if joint:
-            joint_step(x, u, p, dt, out, F)
-        else:
-            ekf_step(x, u, p, dt, out, F)
-
-    @njit(cache=True)
-    def h(x, u, k):
-        y = np.empty(2)
-        y[0] = x[0]
-        y[1] = x[2]
-        return y
-
-    @njit(cache=True)
-    def h_jac(x, u, k):
-        H = np.zeros((2, n))
-        H[0, 0] = 1.0
-        H[1, 2] = 1.0
-        return H
-
-    @njit(cache=True)
-    def h_step(x, u, k, out, H):  # H keeps its content between calls: the two ones are written each time
-        out[0] = x[0]
-        out[1] = x[2]
-        H[0, 0] = 1.0
-        H[1, 2] = 1.0
-
-    return f, f_jac, h, h_jac, f_step, h_step
+    if joint:
+        return joint_f, joint_f_jac, ekf_h, ekf_h_jac, joint_f_step, ekf_h_step
+    return ekf_f, ekf_f_jac, ekf_h, ekf_h_jac, ekf_f_step, ekf_h_step
 
 
 def _nonlinear_model_class():
@@ -535,7 +572,8 @@ def planar_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0
     -------
     NonlinearStateSpaceModel
         numba-jitted ``f``, ``h``, analytic Jacobians and the fused steps (one tyre-force evaluation per
-        step for f and F); inputs are rows of :func:`planar_inputs`.
+        step for f and F), called as ``f(x, u, k, params)`` with ``params`` = :func:`ekf_params` (the vehicle
+        and dt; the same compiled functions for every vehicle); inputs are rows of :func:`planar_inputs`.
 
     Notes
     -----
@@ -550,12 +588,12 @@ def planar_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0
     x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
     if x0.shape != (3,):
         raise ShapeError(f"initial_state must be (V_x, V_y, r); got shape {x0.shape}.")
-    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(tuple(vehicle.as_array().tolist()), dt, False)
+    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(False)
     Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd]) * dt
     R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
     P0 = np.diag(np.square(tuning.initial_std[:3]))
     return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac,
-                                     transition_step=f_step, observation_step=h_step)
+                                     transition_step=f_step, observation_step=h_step, params=ekf_params(vehicle, dt))
 
 
 def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.0, 0.0),
@@ -571,12 +609,12 @@ def slope_ekf_model(vehicle: Vehicle, dt: float, *, initial_state=(20.0, 0.0, 0.
     x0 = as_float_array("initial_state", initial_state, ndim=1, allow_nan=False)
     if x0.shape != (4,):
         raise ShapeError(f"initial_state must be (V_x, V_y, r, theta_r); got shape {x0.shape}.")
-    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(tuple(vehicle.as_array().tolist()), dt, True)
+    f, f_jac, h, h_jac, f_step, h_step = _ekf_functions(True)
     Q = np.diag([tuning.vx_rate_psd, tuning.vy_rate_psd, tuning.yaw_accel_psd, tuning.slope_rate_psd]) * dt
     R = np.diag([tuning.speed_std ** 2, tuning.yaw_rate_std ** 2])
     P0 = np.diag(np.square(tuning.initial_std))
     return _nonlinear_model_class()(f, h, Q, R, x0, P0, transition_jacobian=f_jac, observation_jacobian=h_jac,
-                                     transition_step=f_step, observation_step=h_step)
+                                     transition_step=f_step, observation_step=h_step, params=ekf_params(vehicle, dt))
 
 
 def planar_inputs(log: DriveLog, vehicle: Vehicle, *, friction=None, slope=None) -> np.ndarray:
