@@ -250,8 +250,8 @@ def test_friction_changes_the_simulated_car():
 
 def test_the_model_functions_are_disk_cached_so_a_new_process_does_not_compile_them():
     """Start-up (issues 12, 14): without numba's disk cache every ``vehicle vertical estimate`` compiled the six
-    closures and the engine loop specialised on them again (13 compilations, ~3 s of its 8.6 s). numba keys a
-    cached closure on the values it captures (the car's parameters), so each car gets its own cached code."""
+    closures and the engine loop specialised on them again (13 compilations, ~3 s of its 8.6 s). Since issue 12
+    they are module-level functions taking the car as ``params``: one cached set for every car."""
     from numba.core.caching import NullCache
 
     from longprofile.vehicle.vertical._model import VerticalVehicleParams, vertical_ekf_model

@@ -9,6 +9,7 @@ and rebuilds the absolute body and wheel velocities as the thesis does (§4.3.4.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -24,13 +25,8 @@ from ._model import (
     N_U,
     STATE_BLOCKS,
     U_ACT,
-    U_ALPHA_ROAD,
-    U_ALPHA_VEH,
     U_AX,
     U_AY,
-    U_CONFIG,
-    U_DECENTRALISED,
-    U_DT,
     U_MR_FY,
     U_MR_VY,
     U_PSIDD,
@@ -183,14 +179,19 @@ class VerticalStateEstimate:
 
 
 def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSettings | None = None,
-                        decentralised: bool = True, actuator_force=None, yaw_cutoff: float = 5.0,
+                        decentralised: bool | None = None, actuator_force=None, yaw_cutoff: float = 5.0,
                         mr_map: MRDamperParams | None = None, mr_map_velocity: str = "displacement",
                         mr_velocity_cutoff: float = 20.0) -> np.ndarray:
-    """The (T, 17) known-input rows of :func:`vertical_ekf_model` for a sensor record.
+    """The (T, 12) known-input rows of :func:`vertical_ekf_model` for a sensor record.
 
     Columns: a_x, a_y (measured), psidd (:func:`yaw_acceleration` of the measured yaw rate), the four actuator
-    forces (default 0), then dt, alpha_veh, alpha_route, config, decentralised (constants), then the in-model
-    MR map: yield force per corner and yield velocity (0 unless ``mr_map_velocity="filter"``).
+    forces (default 0), then the in-model MR map: yield force per corner and yield velocity (0 unless
+    ``mr_map_velocity="filter"``).
+
+    Deprecated (issue 12): dt, alpha_veh, alpha_route, config and decentralised are no longer columns of the
+    row (they were columns 7-11 of a 17-column row) but parameters of the model
+    (:func:`vertical_ekf_model`, ``decentralised=``). ``settings`` and ``decentralised`` are accepted and
+    ignored, with a DeprecationWarning; pass them to :func:`vertical_ekf_model`.
 
     With ``mr_map`` (the filter's MR map, e.g. :func:`nominal_mr_map`; needs ``sensors.damper_current``):
     ``mr_map_velocity="displacement"`` adds :func:`mr_actuator_force` at
@@ -199,8 +200,12 @@ def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSetti
     ``F_max (1 - exp(-i / i_sat))``, and ``v_y`` into the last five columns: the model evaluates
     ``F_y tanh(dZ21dot / v_y)`` at its own velocity state (thesis §3.1).
     """
+    for name, value in (("settings", settings), ("decentralised", decentralised)):
+        if value is not None:
+            warnings.warn(f"vertical_ekf_inputs({name}=...) is deprecated and ignored: {name} is a parameter of "
+                          f"the model since issue 12; pass it to vertical_ekf_model(..., {name}=...).",
+                          DeprecationWarning, stacklevel=2)
     T = sensors.time.shape[0]
-    s = settings or thesis_filter_settings(sensors.config, sensors.dt)
     u = np.zeros((T, N_U))
     u[:, U_AX] = sensors.ax
     u[:, U_AY] = sensors.ay
@@ -226,10 +231,6 @@ def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSetti
         else:
             u[:, U_MR_FY:U_MR_FY + 4] = _mr_yield_force(np.asarray(sensors.damper_current, float), mr_map)
             u[:, U_MR_VY] = mr_map.yield_velocity
-    av, ar = s.alphas(sensors.dt)
-    u[:, U_DT], u[:, U_ALPHA_VEH], u[:, U_ALPHA_ROAD] = sensors.dt, av, ar
-    u[:, U_CONFIG] = sensors.config
-    u[:, U_DECENTRALISED] = 1.0 if decentralised else 0.0
     return u
 
 
@@ -296,9 +297,10 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     p = params or VerticalVehicleParams()
     config = sensors.config
     s = settings or thesis_filter_settings(config, sensors.dt)
-    model = vertical_ekf_model(config, sensors.dt, params=p, settings=s, fused_steps=decentralised)
-    u = vertical_ekf_inputs(sensors, settings=s, decentralised=decentralised, actuator_force=actuator_force,
-                            yaw_cutoff=yaw_cutoff, mr_map=mr_map, mr_map_velocity=mr_map_velocity)
+    model = vertical_ekf_model(config, sensors.dt, params=p, settings=s, fused_steps=decentralised,
+                               decentralised=decentralised)
+    u = vertical_ekf_inputs(sensors, actuator_force=actuator_force, yaw_cutoff=yaw_cutoff, mr_map=mr_map,
+                            mr_map_velocity=mr_map_velocity)
     y = sensors.displacement
     if config == 2:
         y = np.hstack([y, sensors.body_accel])
@@ -533,7 +535,7 @@ def estimate_vertical_states_linear(sensors: VerticalSensors, *, params: Vertica
     p = params or VerticalVehicleParams()
     config = sensors.config
     model = vertical_linear_model(config, sensors.dt, params=p, settings=settings)
-    u = vertical_ekf_inputs(sensors, settings=settings, yaw_cutoff=yaw_cutoff)
+    u = vertical_ekf_inputs(sensors, yaw_cutoff=yaw_cutoff)
     y = sensors.displacement
     if config == 2:
         y = np.hstack([y, sensors.body_accel])

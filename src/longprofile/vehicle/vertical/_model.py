@@ -40,8 +40,9 @@ Compiled transition / observation functions of the thesis-003 corner filters, st
 
 State (16,): for corner c = 0..3 (FL, FR, RL, RR) the block ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``
 (thesis §3.5.2: relative velocity m/s, relative displacement m, vehicle disturbance force N, tyre deflection m).
-Known input: ``u[0:7] = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]`` (further columns carry filter settings,
-see :func:`longprofile.vehicle.vertical.vertical_ekf_inputs`).
+Known input: ``u[0:7] = [a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR]``, then the in-model MR map (last five
+columns, see :func:`longprofile.vehicle.vertical.vertical_ekf_inputs`); the car and the filter settings (dt,
+alphas, configuration, Jacobian structure) are the model's ``params`` (:func:`vertical_model_params`).
 
 Transition (thesis (4.7), explicit Euler at Te, digest §6.3)::
 
@@ -55,7 +56,7 @@ Transition (thesis (4.7), explicit Euler at Te, digest §6.3)::
 The tensions ``F_e`` of the OTHER corners (and the opposite corner's anti-roll-bar term) are computed from
 the other corners' current estimates — the thesis's "forces fed from the other filters" (§3.1, eq. (3.3)).
 
-Jacobians: with ``decentralised=True`` the transition Jacobian is block-diagonal: each corner
+Jacobians: with ``decentralised=True`` (a model parameter) the transition Jacobian is block-diagonal: each corner
 differentiates only its own state, the other corners' forces being known inputs — exactly the thesis's four
 per-corner EKFs run in lock-step (block-diagonal Q, R, P0 and H keep the covariance block-diagonal, so the
 stacked filter equals the four local filters). With ``decentralised=False`` the full Jacobian (cross-corner
@@ -74,7 +75,6 @@ slope of every Jacobian gains ``F_y,c / v_y (1 - tanh^2)`` (:func:`mr_map_force`
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -87,7 +87,7 @@ from ._params import SENSOR_CONFIGS, VerticalVehicleParams
 
 __all__ = ["vertical_params_arrays", "spring_force", "damper_force", "mr_controlled_force", "mr_map_force",
            "skyhook_current", "CornerFilterSettings", "thesis_filter_settings", "vertical_ekf_model",
-           "vertical_linear_model", "MR_MAP_VELOCITIES"]
+           "vertical_linear_model", "MR_MAP_VELOCITIES", "vertical_model_params"]
 
 N_CORNERS = 4
 CORNER_NAMES = ("FL", "FR", "RL", "RR")
@@ -660,68 +660,114 @@ def _engine():
 STATE_BLOCKS = np.repeat(np.arange(4), 4)
 
 
-# Columns of the EKF's known-input row: the measured manoeuvre inputs, the actuator forces, then the filter
-# settings. Carrying the settings in the input row lets ONE compiled kernel serve every configuration
-# (numba compiles the engine's loop once per set of model functions). The last five columns are the MR map
-# evaluated INSIDE the model (``mr_map_velocity="filter"``): the map's yield force at the logged current per
-# corner (N) and its yield velocity (m/s; 0 = no in-model map, the passive / precomputed-input path).
+# Columns of the EKF's known-input row (N_U = 12): the measured manoeuvre inputs, the actuator forces, then the
+# MR map evaluated INSIDE the model (``mr_map_velocity="filter"``): the map's yield force at the logged current
+# per corner (N) and its yield velocity (m/s; 0 = no in-model map, the passive / precomputed-input path). The
+# model functions read the map from the LAST five columns, so a legacy 17-column row (which had dt, alpha_veh,
+# alpha_route, config and decentralised in columns 7-11, now model parameters) still gives the same result.
 U_AX, U_AY, U_PSIDD, U_ACT = 0, 1, 2, 3
-U_DT, U_ALPHA_VEH, U_ALPHA_ROAD, U_CONFIG, U_DECENTRALISED = 7, 8, 9, 10, 11
-U_MR_FY, U_MR_VY = 12, 16
-N_U = 17
+U_MR_FY, U_MR_VY = 7, 11
+N_U = 12
 #: Where the MR map's velocity comes from (:func:`estimate_vertical_states`).
 MR_MAP_VELOCITIES = ("displacement", "filter")
 
+# Layout of the model's params (the engine's f(x, u, k, params)): the corner table (4, N_COL) row by row, the
+# coupling matrix (4, 4) row by row, the scalars (N_SCAL,), then the filter settings. Read at run time, so ONE
+# compiled set of model functions serves every car, sample period, configuration and Jacobian structure.
+PAR_CORNER = 0
+PAR_COUPLING = PAR_CORNER + N_CORNERS * N_COL
+PAR_SCALARS = PAR_COUPLING + N_CORNERS * N_CORNERS
+PAR_DT = PAR_SCALARS + N_SCAL
+PAR_ALPHA_VEH, PAR_ALPHA_ROAD, PAR_CONFIG, PAR_DECENTRALISED = PAR_DT + 1, PAR_DT + 2, PAR_DT + 3, PAR_DT + 4
+N_PAR = PAR_DT + 5
 
-@functools.lru_cache(maxsize=8)
-def _compiled_functions(corner_b: bytes, coupling_b: bytes, scalars_b: bytes):
-    """numba closures f(x,u,k), h(x,u,k) and their Jacobians with the vehicle parameters frozen in (cached in
-    memory here, and on disk by numba, which keys a closure on the values it captures: a new process with the
-    same car loads the machine code instead of compiling it, as for the planar model)."""
-    corner = np.frombuffer(corner_b).reshape(4, -1).copy()
-    coupling = np.frombuffer(coupling_b).reshape(4, 4).copy()
-    scalars = np.frombuffer(scalars_b).copy()
 
-    # u[U_MR_FY:U_MR_VY + 1] is the ``mr`` argument of the model functions (a view, no copy)
-    @njit(cache=True)
-    def f(x, u, k):
-        return corner_transition(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
-                                 u[U_MR_FY:U_MR_VY + 1])
+def vertical_model_params(params: VerticalVehicleParams, config: int, dt: float, alpha_veh: float,
+                          alpha_road: float, decentralised: bool) -> np.ndarray:
+    """The (N_PAR,) = (96,) ``params`` vector of the corner EKF model functions.
 
-    @njit(cache=True)
-    def jf(x, u, k):
-        return corner_transition_jacobian(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH],
-                                          u[U_ALPHA_ROAD], u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
+    Offsets: ``[PAR_CORNER:PAR_COUPLING]`` the corner table of :func:`vertical_params_arrays` (4 x 17, row by
+    row), ``[PAR_COUPLING:PAR_SCALARS]`` the coupling matrix (4 x 4), ``[PAR_SCALARS:PAR_DT]`` the 7 scalars,
+    then dt (s), alpha_veh, alpha_route, config (1, 2, 3) and decentralised (1.0 block-diagonal Jacobians,
+    0.0 full) at ``PAR_DT .. PAR_DECENTRALISED``.
+    """
+    corner, coupling, scalars = vertical_params_arrays(params)
+    out = np.empty(N_PAR)
+    out[PAR_CORNER:PAR_COUPLING] = corner.ravel()
+    out[PAR_COUPLING:PAR_SCALARS] = coupling.ravel()
+    out[PAR_SCALARS:PAR_DT] = scalars
+    out[PAR_DT:] = (dt, alpha_veh, alpha_road, config, 1.0 if decentralised else 0.0)
+    return out
 
-    @njit(cache=True)
-    def h(x, u, k):
-        return corner_observation(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1])
 
-    @njit(cache=True)
-    def jh(x, u, k):
-        return corner_observation_jacobian(x, u, corner, coupling, scalars, int(u[U_CONFIG]),
-                                           u[U_DECENTRALISED] > 0.5, u[U_MR_FY:U_MR_VY + 1])
+@njit(cache=True, inline="always")
+def _unpack(params):
+    """Views (corner (4, 17), coupling (4, 4), scalars (7,)) of the model's params (no copy)."""
+    corner = params[PAR_CORNER:PAR_COUPLING].reshape((N_CORNERS, N_COL))
+    coupling = params[PAR_COUPLING:PAR_SCALARS].reshape((N_CORNERS, N_CORNERS))
+    return corner, coupling, params[PAR_SCALARS:PAR_DT]
 
-    @njit(cache=True)
-    def f_step(x, u, k, out, J):
-        corner_transition_step(x, u, corner, coupling, scalars, u[U_DT], u[U_ALPHA_VEH], u[U_ALPHA_ROAD],
-                               u[U_MR_FY:U_MR_VY + 1], out, J)
 
-    @njit(cache=True)
-    def h_step(x, u, k, out, H):
-        corner_observation_step(x, u, corner, coupling, scalars, int(u[U_CONFIG]), u[U_MR_FY:U_MR_VY + 1], out, H)
+@njit(cache=True, inline="always")
+def _mr(u):
+    """The ``mr`` argument (5,) of the corner functions: the last five columns of the input row (a view)."""
+    return u[u.shape[0] - 5:]
 
-    return f, jf, h, jh, f_step, h_step
+
+@njit(cache=True)
+def vertical_f(x, u, k, params):
+    """Transition of the corner EKF model (:func:`corner_transition`; ``params``: :func:`vertical_model_params`)."""
+    corner, coupling, scalars = _unpack(params)
+    return corner_transition(x, u, corner, coupling, scalars, params[PAR_DT], params[PAR_ALPHA_VEH],
+                             params[PAR_ALPHA_ROAD], _mr(u))
+
+
+@njit(cache=True)
+def vertical_f_jac(x, u, k, params):
+    """Transition Jacobian (:func:`corner_transition_jacobian`)."""
+    corner, coupling, scalars = _unpack(params)
+    return corner_transition_jacobian(x, u, corner, coupling, scalars, params[PAR_DT], params[PAR_ALPHA_VEH],
+                                      params[PAR_ALPHA_ROAD], params[PAR_DECENTRALISED] > 0.5, _mr(u))
+
+
+@njit(cache=True)
+def vertical_h(x, u, k, params):
+    """Observation (:func:`corner_observation`)."""
+    corner, coupling, scalars = _unpack(params)
+    return corner_observation(x, u, corner, coupling, scalars, int(params[PAR_CONFIG]), _mr(u))
+
+
+@njit(cache=True)
+def vertical_h_jac(x, u, k, params):
+    """Observation Jacobian (:func:`corner_observation_jacobian`)."""
+    corner, coupling, scalars = _unpack(params)
+    return corner_observation_jacobian(x, u, corner, coupling, scalars, int(params[PAR_CONFIG]),
+                                       params[PAR_DECENTRALISED] > 0.5, _mr(u))
+
+
+@njit(cache=True)
+def vertical_f_step(x, u, k, params, out, J):
+    """Fused transition and block-diagonal Jacobian (:func:`corner_transition_step`)."""
+    corner, coupling, scalars = _unpack(params)
+    corner_transition_step(x, u, corner, coupling, scalars, params[PAR_DT], params[PAR_ALPHA_VEH],
+                           params[PAR_ALPHA_ROAD], _mr(u), out, J)
+
+
+@njit(cache=True)
+def vertical_h_step(x, u, k, params, out, H):
+    """Fused observation and block-diagonal Jacobian (:func:`corner_observation_step`)."""
+    corner, coupling, scalars = _unpack(params)
+    corner_observation_step(x, u, corner, coupling, scalars, int(params[PAR_CONFIG]), _mr(u), out, H)
 
 
 def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicleParams | None = None,
-                       settings: CornerFilterSettings | None = None, fused_steps: bool = True):
+                       settings: CornerFilterSettings | None = None, fused_steps: bool = True,
+                       decentralised: bool = True):
     """The thesis's corner EKFs as one :class:`~longprofile.statespace.NonlinearStateSpaceModel` (16 states).
 
     Run it with :func:`~longprofile.statespace.block_extended_kalman_filter` (one block per corner: the
     thesis's four per-corner EKFs, the other corners' forces entering through their estimates, §3.1) or with
-    :func:`~longprofile.statespace.extended_kalman_filter` (centralised full-car EKF); the input column
-    ``decentralised`` selects block-diagonal (1) or full (0) Jacobians.
+    :func:`~longprofile.statespace.extended_kalman_filter` (centralised full-car EKF, ``decentralised=False``).
 
     Parameters
     ----------
@@ -740,15 +786,20 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
         so they serve :func:`~longprofile.statespace.block_extended_kalman_filter`; build the model with
         ``fused_steps=False`` for the centralised ``extended_kalman_filter`` (which checks the full Jacobian
         and refuses the steps with a ModelError).
+    decentralised : bool, default True
+        Block-diagonal Jacobians (each corner differentiates its own state only: the thesis's per-corner
+        filters) or, False, the full Jacobians of the centralised EKF (needs ``fused_steps=False``). Until
+        issue 12 this was the ``decentralised`` column of the input row.
 
     Returns
     -------
     NonlinearStateSpaceModel
-        Transition/observation functions are numba-jitted (``f(x, u, k)``, ``h(x, u, k)``); the known
-        input row (17,) is ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR, dt, alpha_veh, alpha_route, config,
-        decentralised, F_y,FL, F_y,FR, F_y,RL, F_y,RR, v_y]`` — build it with :func:`vertical_ekf_inputs`
-        (the last five: the MR map inside the model, ``v_y = 0`` = none). State order per corner c:
-        ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``.
+        Transition/observation functions are module-level numba functions called as ``f(x, u, k, params)``
+        with ``params`` = :func:`vertical_model_params` (the car, dt, alpha_veh, alpha_route, config and
+        ``decentralised``: one compiled set of functions for every car and setting); the known input row
+        (12,) is ``[a_x, a_y, psidd, U_FL, U_FR, U_RL, U_RR, F_y,FL, F_y,FR, F_y,RL, F_y,RR, v_y]`` — build
+        it with :func:`vertical_ekf_inputs` (the last five: the MR map inside the model, ``v_y = 0`` = none).
+        State order per corner c: ``x[4c:4c+4] = [dZ21dot, dZ21, P, dZ10]``.
     """
     NonlinearStateSpaceModel = _engine()[0]
     if config not in SENSOR_CONFIGS:
@@ -758,9 +809,10 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
     s = settings or thesis_filter_settings(config, dt)
     if config != 1 and s.accel_var is None:
         raise InputError(f"configuration {config} has accelerometers: settings.accel_var must be given.")
-    corner, coupling, scalars = vertical_params_arrays(p)
+    if fused_steps and not decentralised:
+        raise InputError("the fused model steps write the per-corner (block-diagonal) Jacobians only: build the "
+                         "centralised model (decentralised=False) with fused_steps=False.")
     av, ar = s.alphas(dt)
-    f, jf, h, jh, f_step, h_step = _compiled_functions(corner.tobytes(), coupling.tobytes(), scalars.tobytes())
     q = np.zeros(16)
     q[2::4] = (1 - av) ** 2 * s.vehicle_var
     q[3::4] = (1 - ar) ** 2 * s.road_var
@@ -769,10 +821,12 @@ def vertical_ekf_model(config: int, dt: float = 1e-3, *, params: VerticalVehicle
     if config != 1:
         r[4:] = s.accel_var
     return NonlinearStateSpaceModel(
-        transition_fn=f, observation_fn=h, process_cov=np.diag(q), obs_cov=np.diag(r),
+        transition_fn=vertical_f, observation_fn=vertical_h, process_cov=np.diag(q), obs_cov=np.diag(r),
         initial_mean=np.zeros(16), initial_cov=np.diag(np.tile(s.initial_var, 4)),
-        transition_jacobian=jf, observation_jacobian=jh, transition_step=f_step if fused_steps else None,
-        observation_step=h_step if fused_steps else None)
+        transition_jacobian=vertical_f_jac, observation_jacobian=vertical_h_jac,
+        transition_step=vertical_f_step if fused_steps else None,
+        observation_step=vertical_h_step if fused_steps else None,
+        params=vertical_model_params(p, config, dt, av, ar, decentralised))
 
 
 def vertical_linear_model(config: int, dt: float = 1e-3, *, params: VerticalVehicleParams | None = None,
@@ -792,22 +846,19 @@ def vertical_linear_model(config: int, dt: float = 1e-3, *, params: VerticalVehi
     """
     from ...statespace import StateSpaceModel
 
-    nl = vertical_ekf_model(config, dt, params=params, settings=settings)
-    s = settings or thesis_filter_settings(config, dt)
-    av, ar = s.alphas(dt)
+    nl = vertical_ekf_model(config, dt, params=params, settings=settings, fused_steps=False, decentralised=False)
     u0 = np.zeros(N_U)
-    u0[U_DT], u0[U_ALPHA_VEH], u0[U_ALPHA_ROAD], u0[U_CONFIG], u0[U_DECENTRALISED] = dt, av, ar, config, 0.0
     x0 = np.zeros(16)
-    F = nl.transition_jacobian(x0, u0, 0)
-    H = nl.observation_jacobian(x0, u0, 0)
+    F = nl.transition_jacobian(*nl.model_args(x0, u0, 0))
+    H = nl.observation_jacobian(*nl.model_args(x0, u0, 0))
     B = np.empty((16, 7))
     D = np.empty((H.shape[0], 7))
-    f0, h0 = nl.transition_fn(x0, u0, 0), nl.observation_fn(x0, u0, 0)
+    f0, h0 = nl.transition_fn(*nl.model_args(x0, u0, 0)), nl.observation_fn(*nl.model_args(x0, u0, 0))
     for j in range(7):
         uj = u0.copy()
         uj[j] = 1.0  # f and h are affine in the inputs: one unit step gives the exact column
-        B[:, j] = nl.transition_fn(x0, uj, 0) - f0
-        D[:, j] = nl.observation_fn(x0, uj, 0) - h0
+        B[:, j] = nl.transition_fn(*nl.model_args(x0, uj, 0)) - f0
+        D[:, j] = nl.observation_fn(*nl.model_args(x0, uj, 0)) - h0
     return StateSpaceModel(transition=F, observation=H, process_cov=np.asarray(nl.process_cov),
                            obs_cov=np.asarray(nl.obs_cov), initial_mean=np.zeros(16),
                            initial_cov=np.asarray(nl.initial_cov), input_transition=B, input_observation=D)
