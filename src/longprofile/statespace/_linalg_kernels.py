@@ -295,26 +295,39 @@ def _call_model_overload(fn, params, x, u, k):
     return with_params
 
 
-@njit
 def fd_jacobian(fn, params, x, u, k, xw, J):
     """Central-difference Jacobian of fn(., u, k) (``fn(., u, k, params)`` unless ``params`` is None) at x
-    into J (rows: outputs); xw is scratch of x's size.
+    into J (rows: outputs); xw is scratch of x's size (compiled code only).
 
     Step h_j = eps^(1/3) max(|x_j|, 1), re-derived as (x + h) - (x - h) so the divisor is exact.
     Not cached: numba specialises it per user function (keyed on the function's identity).
+
+    An overload, not an ``@njit`` function: numba looks an overload's implementation up by the exact
+    argument types, whereas a jitted function first rates its compiled signatures against the new
+    arguments -- and rating a 3-argument model function against a signature compiled for a 4-argument
+    one (``f(x, u, k, params)``) raises a ``TypeError`` that numba does not catch (numba 0.68,
+    ``types.Dispatcher.can_convert_to`` catches ``NumbaError`` only). Models with and without
+    parameters in one process then failed to compile.
     """
-    n = x.shape[0]
-    for j in range(n):
-        xw[j] = x[j]
-    for j in range(n):
-        step = FD_REL_STEP * max(abs(x[j]), 1.0)
-        hi = x[j] + step
-        lo = x[j] - step
-        xw[j] = hi
-        a = call_model(fn, params, xw, u, k)
-        xw[j] = lo
-        b = call_model(fn, params, xw, u, k)
-        xw[j] = x[j]
-        inv = 1.0 / (hi - lo)
-        for i in range(a.shape[0]):
-            J[i, j] = (a[i] - b[i]) * inv
+    raise NotImplementedError("fd_jacobian runs inside numba-compiled loops only")
+
+
+@overload(fd_jacobian)
+def _fd_jacobian_overload(fn, params, x, u, k, xw, J):
+    def impl(fn, params, x, u, k, xw, J):
+        n = x.shape[0]
+        for j in range(n):
+            xw[j] = x[j]
+        for j in range(n):
+            step = FD_REL_STEP * max(abs(x[j]), 1.0)
+            hi = x[j] + step
+            lo = x[j] - step
+            xw[j] = hi
+            a = call_model(fn, params, xw, u, k)
+            xw[j] = lo
+            b = call_model(fn, params, xw, u, k)
+            xw[j] = x[j]
+            inv = 1.0 / (hi - lo)
+            for i in range(a.shape[0]):
+                J[i, j] = (a[i] - b[i]) * inv
+    return impl
