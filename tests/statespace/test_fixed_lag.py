@@ -184,3 +184,29 @@ def test_known_inputs_match_the_smoother_of_the_prefix(stationary):
         else:
             ref = rts_smoother(model, kalman_filter(model, y[:s + 1], u=u[:s + 1])).mean[t]
         assert_allclose(res.mean[t], ref, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**31 - 1), T=st.integers(2, 40), n=st.integers(1, 4), k=st.integers(1, 3),
+       lag=st.integers(1, 45))
+def test_window_sums_equal_the_term_by_term_sums(seed, T, n, k, lag):
+    # the two-stacks composition of the compiled kernel against the definition, summed term by term per t:
+    # a_t = sum_{i=1..L_t} M_t...M_{t+i-1} g_{t+i}, B_t likewise with G, L_t = min(lag, T - 1 - t); any lag,
+    # including lags that do not divide T and lags longer than the record
+    from longprofile.statespace._fixed_lag_kernels import fixed_lag_window_sums
+    rng = np.random.default_rng(seed)
+    M = rng.normal(size=(T - 1, n, n)) * 0.6
+    g = rng.normal(size=(T, n))
+    A = rng.normal(size=(T, n, n))
+    G = A @ np.swapaxes(A, 1, 2)
+    Ps = rng.normal(size=(T, k, n))
+    dmean, dcov = np.empty((T, k)), np.empty((T, k, k))
+    fixed_lag_window_sums(M, g, G, Ps, min(lag, T - 1), dmean, dcov)
+    for t in range(T):
+        phi, a, B = np.eye(n), np.zeros(n), np.zeros((n, n))
+        for i in range(1, min(lag, T - 1 - t) + 1):
+            phi = phi @ M[t + i - 1]
+            a += phi @ g[t + i]
+            B += phi @ G[t + i] @ phi.T
+        assert_allclose(dmean[t], Ps[t] @ a, rtol=1e-9, atol=1e-9)
+        assert_allclose(dcov[t], Ps[t] @ B @ Ps[t].T, rtol=1e-9, atol=1e-9)

@@ -14,6 +14,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from .._validation import as_float_array
 from ..errors import InputError
+from ._fixed_lag_kernels import fixed_lag_window_sums
 from ._kalman import kalman_filter
 from ._model import StateSpaceModel
 from ._results import FilterResult
@@ -112,15 +113,15 @@ def _exact(model, Y, u, lag, states):
         HwT = np.ascontiguousarray(np.swapaxes(Hw, 1, 2))
         closed = np.eye(n) - (filt.pred_cov[:-1] @ HwT[:-1]) @ Hw[:-1]
         closed_T = np.ascontiguousarray(np.swapaxes(F @ closed, 1, 2))
-        ew = ew[:, :, None]
-        # psi[t] = Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)'
-        psi = filt.pred_cov[:, states, :].copy()
-        for i in range(1, L + 1):
-            rows = T - i
-            psi = psi[:rows] @ closed_T[i - 1:i - 1 + rows]
-            c = psi @ HwT[i:]  # Cov(x_t[states], e_{t+i}) L^-T, (rows, k, m)
-            mean[:rows] += (c @ ew[i:])[..., 0]
-            cov[:rows] -= c @ np.swapaxes(c, 1, 2)
+        # Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)': the L future
+        # innovations' gains, summed as compositions of maps (._fixed_lag_kernels, O(T n^3) for any L)
+        g = np.ascontiguousarray((HwT @ ew[:, :, None])[..., 0])  # H' S^-1 e
+        G = np.ascontiguousarray(HwT @ Hw)  # H' S^-1 H
+        Ps = np.ascontiguousarray(filt.pred_cov[:, states, :])
+        dmean, dcov = np.empty_like(mean), np.empty_like(cov)
+        fixed_lag_window_sums(closed_T, g, G, Ps, L, dmean, dcov)
+        mean += dmean
+        cov -= dcov
     return filt, mean, cov
 
 
@@ -181,7 +182,8 @@ def fixed_lag_smoother(model: StateSpaceModel, y, lag: int, *, u=None, stationar
         Known inputs, as in :func:`kalman_filter`.
     stationary : bool, default False
         False: exact, on :func:`kalman_filter` with per-step gains and covariances
-        (O(T n^2) memory, O(T L n^2 k) time). True: constant gains of :func:`steady_state_gain`
+        (O(T n^2) memory, O(T n^3) time for any L: the lag sums as compositions of maps,
+        :mod:`._fixed_lag_kernels`). True: constant gains of :func:`steady_state_gain`
         on :func:`steady_state_filter` (time-invariant, detectable model, complete data; the
         first samples carry the steady-state filter's start-up transient; O(T n) memory, the L
         future innovations summed by FFT convolution: fast for long L and long records).
