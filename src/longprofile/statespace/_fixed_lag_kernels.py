@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import njit
-from ._linalg_kernels import FASTMATH
+from ._linalg_kernels import FASTMATH, matmul_into
 
 __all__ = ["fixed_lag_window_sums"]
 
@@ -30,18 +30,8 @@ __all__ = ["fixed_lag_window_sums"]
 @njit(cache=True, fastmath=FASTMATH)
 def _congruence(A, X, n, work, out):
     """out = A X A' (A, X (n, n)); work (n, n)."""
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for q in range(n):
-                s += A[i, q] * X[q, j]
-            work[i, j] = s
-    for i in range(n):
-        for j in range(n):
-            s = 0.0
-            for q in range(n):
-                s += work[i, q] * A[j, q]
-            out[i, j] = s
+    matmul_into(A, X, n, n, n, work)
+    matmul_into(work, A.T, n, n, n, out)
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -86,11 +76,7 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
                     for q in range(n):
                         s += M[t, i, q] * v[q]
                     c[i] = s
-                    for j in range(n):
-                        s = 0.0
-                        for q in range(n):
-                            s += M[t, i, q] * phi[q, j]
-                        A[i, j] = s
+                matmul_into(M[t], phi, n, n, n, A)
                 phi[:, :] = A
                 _congruence(M[t], X, n, work, C)
             if t < T:
@@ -106,12 +92,7 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
         for t in range(b, min(b + L, T)):
             jm = t + L - 1
             if t > b and jm <= T - 2:
-                for i in range(n):  # A = pphi M_j
-                    for j in range(n):
-                        s = 0.0
-                        for q in range(n):
-                            s += pphi[i, q] * M[jm, q, j]
-                        A[i, j] = s
+                matmul_into(pphi, M[jm], n, n, n, A)
                 for i in range(n):
                     s = pc[i]
                     for q in range(n):
@@ -123,12 +104,7 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
                         pC[i, j] += X[i, j]
                 pphi[:, :] = A
             r = t - b
-            for a in range(k):  # Q = Ps[t] S_phi
-                for j in range(n):
-                    s = 0.0
-                    for q in range(n):
-                        s += Ps[t, a, q] * sphi[r, q, j]
-                    Q[a, j] = s
+            matmul_into(Ps[t], sphi[r], k, n, n, Q)
             for a in range(k):
                 s = 0.0
                 for q in range(n):
