@@ -18,6 +18,8 @@ on recordings with effects the reconstruction's model does not have, drawn at ra
   20 % / sqrt(3) = 11.5 % and 5 % / sqrt(3) = 2.9 % (the declared tolerance, the same for every draw, not each
   draw's truth);
 * ``signal drift``     -- a slow random-walk drift of the sensor added to the signal;
+* ``gaps``             -- the own-model recording with 1-3 dropouts (NaN) of 1-20 m each at random places; besides
+  the whole record, ``std_m`` is scored on the samples inside the gaps alone (the Kalman methods bridge them);
 * ``measured road``    -- the Sroubek-Sorel measured profile (../shared/reference-data, 0.25 m resampled to
   0.05 m, 543 m) with random noise (skipped when the reference data are absent).
 
@@ -47,7 +49,7 @@ DECLARED_TOLERANCE = dict(frequency=0.20 / np.sqrt(3), gain=0.05 / np.sqrt(3))
 FAMILIES = [(f, f, None) for f in ("own model", "road classes", "short waves", "noise levels", "coloured noise",
                                    "trailer mismatch")] + [
     ("trailer mismatch, declared tolerance", "trailer mismatch", DECLARED_TOLERANCE),
-    ("signal drift", "signal drift", None), ("measured road", "measured road", None)]
+    ("signal drift", "signal drift", None), ("gaps", "gaps", None), ("measured road", "measured road", None)]
 LENGTH, DX, SPEED, EDGE = 2000.0, 0.05, 20.0, 100.0
 CLASSES = ("A", "B", "C", "D", "E")
 SOREL = Path(__file__).resolve().parents[1] / ".." / "shared" / "reference-data" / "sorel-iri-profile" / "profile_1.txt"
@@ -102,7 +104,14 @@ def _recording(family, rng, nominal, length=LENGTH):
         noise = rng.normal(0.0, frac * rms, u.size)
     if family == "signal drift":
         noise = noise + np.cumsum(rng.normal(0.0, 0.002 * rms, u.size))  # ~0.4 x RMS over the record
-    return u, y0 + noise
+    y = y0 + noise
+    if family == "gaps":
+        edge = int(EDGE / DX)
+        for _ in range(int(rng.integers(1, 4))):
+            width = int(rng.uniform(1.0, 20.0) / DX)
+            start = int(rng.integers(edge, u.size - edge - width))
+            y[start:start + width] = np.nan
+    return u, y
 
 
 def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH,
@@ -115,8 +124,10 @@ def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH,
 
     nominal = apl_model(SPEED, DX)
     rng = np.random.default_rng([seed, sum(map(ord, family))])
-    scores = {k: CoverageScore() for k in ("smoother std_m", "smoother raw_std_m", "fixed-lag std_m",
-                                    "fixed-lag raw_std_m")}
+    keys = ["smoother std_m", "smoother raw_std_m", "fixed-lag std_m", "fixed-lag raw_std_m"]
+    if family == "gaps":
+        keys += ["smoother std_m in gaps", "fixed-lag std_m in gaps"]
+    scores = {k: CoverageScore() for k in keys}
     rms = {"smoother": [], "fixed-lag": []}
     for _ in range(draws):
         u, y = _recording(family, rng, nominal, length)
@@ -127,7 +138,11 @@ def calibrate(family: str, draws: int, seed: int = 0, length: float = LENGTH,
             err = rec.profile.elevation.reshape(-1) - u_det
             rms[method].append(float(np.sqrt(np.mean(err[keep] ** 2))))
             if rec.profile.std is not None:
-                scores[f"{method} std_m"].add(err[keep], np.asarray(rec.profile.std).reshape(-1)[keep])
+                std = np.asarray(rec.profile.std).reshape(-1)
+                scores[f"{method} std_m"].add(err[keep], std[keep])
+                gaps = np.isnan(y)
+                if gaps.any():
+                    scores[f"{method} std_m in gaps"].add(err[gaps], std[gaps])
             if rec.raw_std is not None:
                 scores[f"{method} raw_std_m"].add((rec.raw_elevation - u)[keep], rec.raw_std[keep])
     return {"scores": scores, "rms_mm": {m: 1e3 * np.median(v) for m, v in rms.items()}}

@@ -158,8 +158,14 @@ def test_errors():
         fixed_lag_smoother(model, y, 2, states=[5])
     with pytest.raises(InputError, match="states"):
         fixed_lag_smoother(model, y, 2, states=[])
+    with pytest.raises(InputError, match="exact gains only"):
+        fixed_lag_smoother(model, np.zeros((2, 20, 1)), 2, stationary=True)
+    with pytest.raises(InputError, match="no known inputs"):
+        fixed_lag_smoother(model, np.zeros((2, 20, 1)), 2, u=np.zeros((20, 1)))
+    two_patterns = np.zeros((2, 20, 1))
+    two_patterns[1, 4] = np.nan
     with pytest.raises(ShapeError):
-        fixed_lag_smoother(model, np.zeros((2, 20, 1)), 2)
+        fixed_lag_smoother(model, two_patterns, 2)
     blind = StateSpaceModel(np.diag([1.0, 0.5]), np.array([[0.0, 1.0]]), np.eye(2), np.eye(1), np.zeros(2),
                             np.eye(2))
     with pytest.raises(NotDetectableError):
@@ -196,17 +202,34 @@ def test_window_sums_equal_the_term_by_term_sums(seed, T, n, k, lag):
     from longprofile.statespace._fixed_lag_kernels import fixed_lag_window_sums
     rng = np.random.default_rng(seed)
     M = rng.normal(size=(T - 1, n, n)) * 0.6
-    g = rng.normal(size=(T, n))
+    S = int(rng.integers(1, 4))  # series sharing M, G, Ps
+    g = rng.normal(size=(S, T, n))
     A = rng.normal(size=(T, n, n))
     G = A @ np.swapaxes(A, 1, 2)
     Ps = rng.normal(size=(T, k, n))
-    dmean, dcov = np.empty((T, k)), np.empty((T, k, k))
+    dmean, dcov = np.empty((S, T, k)), np.empty((T, k, k))
     fixed_lag_window_sums(M, g, G, Ps, min(lag, T - 1), dmean, dcov)
     for t in range(T):
-        phi, a, B = np.eye(n), np.zeros(n), np.zeros((n, n))
+        phi, a, B = np.eye(n), np.zeros((S, n)), np.zeros((n, n))
         for i in range(1, min(lag, T - 1 - t) + 1):
             phi = phi @ M[t + i - 1]
-            a += phi @ g[t + i]
+            a += g[:, t + i] @ phi.T
             B += phi @ G[t + i] @ phi.T
-        assert_allclose(dmean[t], Ps[t] @ a, rtol=1e-9, atol=1e-9)
+        assert_allclose(dmean[:, t], a @ Ps[t].T, rtol=1e-9, atol=1e-9)
         assert_allclose(dcov[t], Ps[t] @ B @ Ps[t].T, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("missing", [False, True], ids=["complete", "missing"])
+def test_a_batch_equals_one_call_per_series(missing):
+    rng = np.random.default_rng(4)
+    model = random_model(rng, 3, 2, 60)
+    Y = rng.normal(size=(5, 60, 2))
+    if missing:
+        Y[:, 10:14, 0] = np.nan
+        Y[:, 30, :] = np.nan
+    res = fixed_lag_smoother(model, Y, 7, states=[2, 0])
+    assert res.mean.shape == (5, 60, 2) and res.cov.shape == (60, 2, 2)
+    for b in range(5):
+        one = fixed_lag_smoother(model, Y[b], 7, states=[2, 0])
+        assert_allclose(res.mean[b], one.mean, rtol=0, atol=1e-10)
+        assert_allclose(res.cov, one.cov, rtol=0, atol=1e-12)

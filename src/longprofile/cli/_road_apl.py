@@ -121,7 +121,8 @@ def reconstruct_command(
     n_missing = int(np.isnan(signal.elevation[:, 0]).sum())
     if n_missing:
         console.print(f"[yellow]note:[/yellow] {n_missing} missing (NaN) sample(s) in {column!r} were bridged by the "
-                      f"{method}; raw_std_m shows the larger uncertainty there.")
+                      f"{method}; {'raw_std_m includes' if rec.profile.std is None else 'std_m and raw_std_m include'} "
+                      "the larger uncertainty there.")
 
 
 def identify_command(

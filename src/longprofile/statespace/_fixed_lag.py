@@ -18,6 +18,7 @@ from ._fixed_lag_kernels import fixed_lag_window_sums
 from ._kalman import kalman_filter
 from ._model import StateSpaceModel
 from ._results import FilterResult
+from ._shared_cov import shared_covariance_smoother
 from ._steady import steady_state_filter, steady_state_gain
 
 __all__ = ["FixedLagResult", "fixed_lag_smoother"]
@@ -30,9 +31,9 @@ class FixedLagResult:
     Attributes
     ----------
     mean : (T, k) ndarray
-        E[x_t[states] | y_0..min(t + lag, T - 1)].
+        E[x_t[states] | y_0..min(t + lag, T - 1)]; (B, T, k) for a batch.
     cov : (T, k, k) ndarray
-        The matching posterior covariances (read-only).
+        The matching posterior covariances (read-only; shared by a batch).
     std : (T, k) ndarray
         Square roots of their diagonals.
     states : (k,) ndarray of int
@@ -78,13 +79,14 @@ def _whitened(H, S, e):
     """Whitened observation matrices and innovations on the observed rows o of each step.
 
     With S_oo = L L' (Cholesky): Hw_t = L^-1 H_o and ew_t = L^-1 e_o, zero rows where y is missing, so
-    that H_o' S_oo^-1 H_o = Hw' Hw and H_o' S_oo^-1 e_o = Hw' ew. Returns Hw (T, m, n), ew (T, m).
+    that H_o' S_oo^-1 H_o = Hw' Hw and H_o' S_oo^-1 e_o = Hw' ew. ``e`` is (B, T, m): B series sharing the missing
+    pattern of the first. Returns Hw (T, m, n), ew (B, T, m).
     """
-    T, m = e.shape
+    B, T, m = e.shape
     n = H.shape[-1]
     Hw = np.zeros((T, m, n))
-    ew = np.zeros((T, m))
-    missing = np.isnan(e)
+    ew = np.zeros((B, T, m))
+    missing = np.isnan(e[0])
     patterns, which = np.unique(missing, axis=0, return_inverse=True)
     which = np.asarray(which).reshape(-1)
     for p, pattern in enumerate(patterns):
@@ -94,18 +96,28 @@ def _whitened(H, S, e):
         t = np.flatnonzero(which == p)
         chol = np.linalg.cholesky(S[t][:, o[:, None], o[None, :]])
         Hw[t[:, None], o[None, :]] = np.linalg.solve(chol, H[t][:, o, :])
-        ew[t[:, None], o[None, :]] = np.linalg.solve(chol, e[t][:, o, None])[..., 0]
+        for k in range(B):
+            ew[k][t[:, None], o[None, :]] = np.linalg.solve(chol, e[k][t][:, o, None])[..., 0]
     return Hw, ew
 
 
 def _exact(model, Y, u, lag, states):
-    filt = kalman_filter(model, Y, u=u, store_covariances=True)
-    T, n = filt.mean.shape
+    batched = Y.ndim == 3
+    if batched:
+        if u is not None:
+            raise InputError("a batch of series y (B, T, m) takes no known inputs u (the batch shares one "
+                             "filter's covariances); call fixed_lag_smoother once per series with its u.")
+        filt = shared_covariance_smoother(model, Y).filtered  # one covariance pass for the batch
+        means, innov = filt.mean, filt.innovation
+    else:
+        filt = kalman_filter(model, Y, u=u, store_covariances=True)
+        means, innov = filt.mean[None], filt.innovation[None]
+    T, n = means.shape[1:]
     F = model.transition
     H = model.observation
     H = np.broadcast_to(H, (T, *H.shape)) if H.ndim == 2 else H
-    Hw, ew = _whitened(H, filt.innovation_cov, filt.innovation)
-    mean = filt.mean[:, states].copy()
+    Hw, ew = _whitened(H, filt.innovation_cov, innov)
+    mean = means[:, :, states].copy()
     cov = filt.cov[:, states[:, None], states[None, :]].copy()
     L = min(lag, T - 1)
     if L > 0:
@@ -115,14 +127,14 @@ def _exact(model, Y, u, lag, states):
         closed_T = np.ascontiguousarray(np.swapaxes(F @ closed, 1, 2))
         # Cov(x_t[states], eps_{t+i} | y_<t) = P_t|t-1[states, :] (closed_{t+i-1} ... closed_t)': the L future
         # innovations' gains, summed as compositions of maps (._fixed_lag_kernels, O(T n^3) for any L)
-        g = np.ascontiguousarray((HwT @ ew[:, :, None])[..., 0])  # H' S^-1 e
+        g = np.ascontiguousarray((HwT[None] @ ew[..., None])[..., 0])  # H' S^-1 e, per series
         G = np.ascontiguousarray(HwT @ Hw)  # H' S^-1 H
         Ps = np.ascontiguousarray(filt.pred_cov[:, states, :])
         dmean, dcov = np.empty_like(mean), np.empty_like(cov)
         fixed_lag_window_sums(closed_T, g, G, Ps, L, dmean, dcov)
         mean += dmean
         cov -= dcov
-    return filt, mean, cov
+    return filt, (mean if batched else mean[0]), cov
 
 
 def _stationary(model, Y, u, lag, states):
@@ -174,8 +186,10 @@ def fixed_lag_smoother(model: StateSpaceModel, y, lag: int, *, u=None, stationar
     ----------
     model : StateSpaceModel
         Linear-Gaussian model; time-varying terms are accepted with ``stationary=False``.
-    y : (T,) or (T, m) array_like
-        Observations; NaN = missing (``stationary=False`` only). Batches are not accepted.
+    y : (T,) or (T, m) or (B, T, m) array_like
+        Observations; NaN = missing (``stationary=False`` only). A batch (B, T, m) of series sharing one
+        missing pattern runs with ``stationary=False`` and without ``u``: one covariance pass for all
+        (:func:`shared_covariance_smoother`'s filter), the lag sums per series.
     lag : int
         L >= 0, samples.
     u : (T, p) array_like, optional
@@ -223,8 +237,11 @@ def fixed_lag_smoother(model: StateSpaceModel, y, lag: int, *, u=None, stationar
     if not isinstance(model, StateSpaceModel):
         raise InputError(f"fixed_lag_smoother needs a StateSpaceModel; got {type(model).__name__}.")
     lag = _check_lag(lag)
-    arr = as_float_array("y", y, ndim=(1, 2))
+    arr = as_float_array("y", y, ndim=(1, 2, 3))
     idx = _check_states(states, model.n_states)
+    if stationary and arr.ndim == 3:
+        raise InputError("a batch of series y (B, T, m) runs with the exact gains only (stationary=False); call "
+                         "the stationary smoother once per series.")
     if stationary:
         filt, mean, cov = _stationary(model, arr, u, lag, idx)
         method = "steady-state"

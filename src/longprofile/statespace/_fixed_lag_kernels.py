@@ -36,22 +36,22 @@ def _congruence(A, X, n, work, out):
 
 @njit(cache=True, fastmath=FASTMATH)
 def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
-    """dmean[t] = Ps[t] a_t and dcov[t] = Ps[t] B_t Ps[t]' for every t (module docstring).
+    """dmean[s, t] = Ps[t] a_t of series s and dcov[t] = Ps[t] B_t Ps[t]' for every t (module docstring).
 
-    M (T - 1, n, n), g (T, n), G (T, n, n), Ps (T, k, n) (the selected rows of the predicted covariance),
-    lag >= 1; dmean (T, k) and dcov (T, k, k) are written.
+    M (T - 1, n, n), G (T, n, n), Ps (T, k, n) (the selected rows of the predicted covariance) are shared by the
+    batch; g (S, T, n) holds each series' H' S^-1 e. lag >= 1; dmean (S, T, k) and dcov (T, k, k) are written.
     """
-    T, n = g.shape
+    S, T, n = g.shape
     k = Ps.shape[1]
     L = lag
     sphi = np.empty((L, n, n))  # suffix maps of the current block: S_t = T_t o ... o T_{b+L-1}
-    sc = np.empty((L, n))
+    sc = np.empty((L, S, n))
     sC = np.empty((L, n, n))
     phi = np.empty((n, n))
-    c = np.empty(n)
+    c = np.empty((S, n))
     C = np.empty((n, n))
     pphi = np.empty((n, n))  # prefix map of the next block: P = T_{b+L} o ... o T_{t+L-1}
-    pc = np.empty(n)
+    pc = np.empty((S, n))
     pC = np.empty((n, n))
     A = np.empty((n, n))
     X = np.empty((n, n))
@@ -60,22 +60,24 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
     Q = np.empty((k, n))
     for b in range(0, T, L):
         # suffixes, from the block's last map down to its first (identity maps beyond T - 2)
+        c[:, :] = 0.0
         for i in range(n):
-            c[i] = 0.0
             for j in range(n):
                 phi[i, j] = 1.0 if i == j else 0.0
                 C[i, j] = 0.0
         for t in range(b + L - 1, b - 1, -1):
             if t <= T - 2:
+                for r in range(S):
+                    for i in range(n):
+                        v[i] = g[r, t + 1, i] + c[r, i]
+                    for i in range(n):
+                        acc = 0.0
+                        for q in range(n):
+                            acc += M[t, i, q] * v[q]
+                        c[r, i] = acc
                 for i in range(n):
-                    v[i] = g[t + 1, i] + c[i]
                     for j in range(n):
                         X[i, j] = G[t + 1, i, j] + C[i, j]
-                for i in range(n):
-                    s = 0.0
-                    for q in range(n):
-                        s += M[t, i, q] * v[q]
-                    c[i] = s
                 matmul_into(M[t], phi, n, n, n, A)
                 phi[:, :] = A
                 _congruence(M[t], X, n, work, C)
@@ -84,8 +86,8 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
                 sc[t - b] = c
                 sC[t - b] = C
         # windows of the block: S_t o P, with P grown by one map per step
+        pc[:, :] = 0.0
         for i in range(n):
-            pc[i] = 0.0
             for j in range(n):
                 pphi[i, j] = 1.0 if i == j else 0.0
                 pC[i, j] = 0.0
@@ -93,31 +95,33 @@ def fixed_lag_window_sums(M, g, G, Ps, lag, dmean, dcov):
             jm = t + L - 1
             if t > b and jm <= T - 2:
                 matmul_into(pphi, M[jm], n, n, n, A)
-                for i in range(n):
-                    s = pc[i]
-                    for q in range(n):
-                        s += A[i, q] * g[jm + 1, q]
-                    pc[i] = s
+                for r in range(S):
+                    for i in range(n):
+                        acc = pc[r, i]
+                        for q in range(n):
+                            acc += A[i, q] * g[r, jm + 1, q]
+                        pc[r, i] = acc
                 _congruence(A, G[jm + 1], n, work, X)
                 for i in range(n):
                     for j in range(n):
                         pC[i, j] += X[i, j]
                 pphi[:, :] = A
-            r = t - b
-            matmul_into(Ps[t], sphi[r], k, n, n, Q)
-            for a in range(k):
-                s = 0.0
-                for q in range(n):
-                    s += Q[a, q] * pc[q] + Ps[t, a, q] * sc[r, q]
-                dmean[t, a] = s
+            w = t - b
+            matmul_into(Ps[t], sphi[w], k, n, n, Q)
+            for r in range(S):
+                for a in range(k):
+                    acc = 0.0
+                    for q in range(n):
+                        acc += Q[a, q] * pc[r, q] + Ps[t, a, q] * sc[w, r, q]
+                    dmean[r, t, a] = acc
             for a in range(k):
                 for a2 in range(k):
-                    s = 0.0
+                    acc = 0.0
                     for i in range(n):
                         qi = 0.0
                         pi = 0.0
                         for j in range(n):
                             qi += pC[i, j] * Q[a2, j]
-                            pi += sC[r, i, j] * Ps[t, a2, j]
-                        s += Q[a, i] * qi + Ps[t, a, i] * pi
-                    dcov[t, a, a2] = s
+                            pi += sC[w, i, j] * Ps[t, a2, j]
+                        acc += Q[a, i] * qi + Ps[t, a, i] * pi
+                    dcov[t, a, a2] = acc

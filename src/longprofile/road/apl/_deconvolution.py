@@ -23,8 +23,10 @@ from ...statespace import (
     long_record_log_likelihood,
     long_record_smoother,
     rts_smoother,
+    shared_covariance_smoother,
 )
 from ._double_filter import double_filter
+from ._gap_uncertainty import gap_error_variance
 from ._instrument_uncertainty import InstrumentUncertainty, instrument_error_variance
 from ._model import APLModel, _check_profile_spacing
 
@@ -973,6 +975,30 @@ def _instrument_std(run: _Run, q, r, stationary: bool, elevation: np.ndarray) ->
     return None if var is None else np.sqrt(var)
 
 
+def _gap_variance(run: _Run, q, r) -> np.ndarray | None:
+    """Variance (m^2) the record's gaps add to the error of the detrended estimate, per sample, by Monte Carlo on the
+    reconstruction's own model and pass (:func:`._gap_uncertainty.gap_error_variance`); None without gaps."""
+    missing = np.isnan(run.y)
+    if not missing.any() or run.highpass_wavelength is None:
+        return None
+    model = apl_deconvolution_model(run.instrument, q, r, input_model=run.input_model,
+                                    correlation_length=run.correlation_length, dx=run.dx)
+    if run.method == "fixed-lag":
+        lag = int(round(run.lag_m / run.dx))
+
+        def estimate(Y):
+            return fixed_lag_smoother(model, Y, lag, states=[-1]).mean[..., 0]
+    else:
+        def estimate(Y):
+            return shared_covariance_smoother(model, Y).mean[..., -1]
+
+    def detrend(E):
+        return detrend_profile(E, run.dx, highpass_wavelength=run.highpass_wavelength)
+
+    margin = int(np.ceil(2 * run.highpass_wavelength / run.dx))
+    return gap_error_variance(missing, model, estimate, detrend, margin)
+
+
 def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruction:
     """The Kalman methods: noise variances, the augmented model, the method's pass, detrending and the std."""
     y = run.y
@@ -998,6 +1024,9 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
     instrument_std = _instrument_std(run, q, r, stationary, elevation)
     if instrument_std is not None:
         std = np.sqrt(std ** 2 + instrument_std ** 2)
+    gap_var = None if std is None else _gap_variance(run, q, r)
+    if gap_var is not None:
+        std = np.sqrt(std ** 2 + gap_var)
     prof = Profile(run.distance, elevation, std=std, name=f"{run.method} reconstruction of {run.name}".strip())
     raw_std = None if cov is None else np.sqrt(np.maximum(cov, 0.0))
     return Reconstruction(profile=prof, raw_elevation=mean, raw_std=raw_std, method=run.method,
