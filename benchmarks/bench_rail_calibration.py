@@ -6,7 +6,7 @@ not model) is drawn for several seeds and estimated with the ``rail settle`` cal
 (``estimate_settlement`` defaults, Monte Carlo 200 draws); the harness is
 ``longprofile.rail._calibration.calibrate_family``.
 
-Run: ``python -m benchmarks rail_calibration`` (full: 12 draws per family + 100 faulty sites) or
+Run: ``python -m benchmarks rail_calibration`` (full: 100 draws per family, 100 faulty sites) or
 ``python -m benchmarks --quick rail_calibration`` (3 small sites, seconds).
 """
 
@@ -66,7 +66,10 @@ def run(quick: bool) -> list[BenchRow]:
     if quick:
         plan = [("drift", (0,)), ("faults", (1,)), ("sparse-drift", (2,))]
     else:
-        plan = [(name, range(100, 112)) for name in SCENARIO_FAMILIES if name != "faults"]
+        # 100 sites per family: a site's errors are correlated over its days and stations, so the pooled coverage of
+        # 12 sites scatters over about +-5 points even when the model is right (2026-12-04: on 100 drift sites, 90.0 %
+        # pooled, and the 90 % range of a 12-site mean drawn from them 84.8-94.5 %)
+        plan = [(name, range(100, 200)) for name in SCENARIO_FAMILIES if name != "faults"]
         plan.append(("faults", range(200, 300)))
     for name, seeds in plan:
         fam = SCENARIO_FAMILIES[name]
