@@ -118,6 +118,8 @@ def reconstruct_command(
     if rec.lag_m is not None:
         extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"
     console.print(f"reconstructed {signal.n_samples} samples by {method}{extra} -> {output}")
+    for warning in rec.warnings:
+        console.print(f"[yellow]warning:[/yellow] {warning}")
     n_missing = int(np.isnan(signal.elevation[:, 0]).sum())
     if n_missing:
         console.print(f"[yellow]note:[/yellow] {n_missing} missing (NaN) sample(s) in {column!r} were bridged by the "

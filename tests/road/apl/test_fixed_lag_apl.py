@@ -129,3 +129,22 @@ def test_the_detrended_fixed_lag_std_matches_its_error_on_the_models_own_road():
         assert np.all(std == std[0]) and std[0] > 0
         ratio = float(np.std((rec.profile.elevation.reshape(-1) - truth)[keep]) / std[0])
         assert band[0] <= ratio <= band[1], (method, ratio)
+
+
+def test_the_fixed_lag_warns_where_its_std_was_measured_too_narrow():
+    # docs/road-apl.md "The fixed-lag at 6 m/s": coverage 34 % at 6 m/s with the default lag (no warning would be a
+    # silent wrong band), 97 % at 20 m/s with the default, 64-71 % at 20 m/s with a 10-24 m lag
+    from longprofile.road.apl import apl_model, default_fixed_lag
+    from longprofile.road.apl._deconvolution import fixed_lag_calibration_warning
+
+    slow, fast = apl_model(6.0, 0.05), apl_model(20.0, 0.05)
+    assert "13 % of its peak gain" in fixed_lag_calibration_warning(slow, default_fixed_lag(slow), 100.0)
+    assert fixed_lag_calibration_warning(slow, 120.0, 100.0) is None
+    assert fixed_lag_calibration_warning(fast, default_fixed_lag(fast), 100.0) is None
+    assert "under 50 m" in fixed_lag_calibration_warning(fast, 24.0, 100.0)
+    assert fixed_lag_calibration_warning(fast, 24.0, None) is None
+    rng = np.random.default_rng(0)
+    y = apl_response(np.cumsum(rng.normal(0, 1e-3, 6000)), slow) + rng.normal(0, 1e-5, 6000)
+    rec = reconstruct_profile(y, slow, method="fixed-lag", q=1e-6, r=1e-9)
+    assert len(rec.warnings) == 1 and "6 m/s" in rec.warnings[0]
+    assert reconstruct_profile(y, slow, method="smoother", q=1e-6, r=1e-9).warnings == ()

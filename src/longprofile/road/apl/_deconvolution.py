@@ -63,6 +63,14 @@ RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
 FIXED_LAG_CORRELATION_LENGTH = 2.0
 #: Default lag of ``method="fixed-lag"``, in pendulum time constants (see :func:`default_fixed_lag`).
 FIXED_LAG_TIME_CONSTANTS = 4.0
+#: When the fixed-lag's printed std is calibrated, in detrending wavelengths of lag (named assumption, measured on two
+#: configurations, docs/road-apl.md "The fixed-lag at 6 m/s"): at least FIXED_LAG_SHORT_LAGS; and where the trailer's
+#: gain at half the detrending wavelength is below FIXED_LAG_LONG_WAVE_GAIN of its peak, at least
+#: FIXED_LAG_CALIBRATED_LAGS. Table 1, 20 m/s (gain 0.98): lag 10 / 24 / 50 / 83 m -> 64 / 71 / 86 / 97 % coverage of the
+#: 90 % band; 6 m/s (gain 0.13): 24 / 50 / 83 / 120 m -> 34 / 75 / 62 / 91 %.
+FIXED_LAG_LONG_WAVE_GAIN = 0.5
+FIXED_LAG_CALIBRATED_LAGS = 1.2
+FIXED_LAG_SHORT_LAGS = 0.5
 
 
 def default_fixed_lag(instrument: APLModel, *, n_time_constants: float = FIXED_LAG_TIME_CONSTANTS) -> float:
@@ -664,8 +672,9 @@ class Reconstruction:
     ----------
     profile : Profile
         The reconstructed elevation after :func:`detrend_profile` (what the APL can see), m;
-        ``profile.std`` is the stationary posterior std of that detrended elevation (None for
-        ``"double"``).
+        ``profile.std`` is the stationary posterior std of that detrended elevation, with the declared
+        instrument uncertainty and, in and around gaps, the variance the gaps add (None for ``"double"``
+        and ``"filter"``).
     raw_elevation : (T,) ndarray
         The estimate before detrending (relative to the first station), m.
     raw_std : (T,) ndarray or None
@@ -689,6 +698,8 @@ class Reconstruction:
     instrument_std : (T,) ndarray or None
         Its part of ``profile.std`` alone, m (``profile.std``^2 = posterior std^2 + instrument_std^2; None
         without an instrument uncertainty).
+    warnings : tuple of str
+        What the caller should know about the printed std (e.g. :func:`fixed_lag_calibration_warning`).
     """
 
     profile: Profile
@@ -704,6 +715,7 @@ class Reconstruction:
     correlation_length: float | None = None
     instrument_uncertainty: InstrumentUncertainty | None = None
     instrument_std: np.ndarray | None = None
+    warnings: tuple[str, ...] = ()
 
     def to_frame(self):
         """The ``road reconstruct`` table: ``distance_m, elevation_m, std_m, raw_m, raw_std_m`` (NaN where a std
@@ -975,6 +987,34 @@ def _instrument_std(run: _Run, q, r, stationary: bool, elevation: np.ndarray) ->
     return None if var is None else np.sqrt(var)
 
 
+def fixed_lag_calibration_warning(instrument: APLModel, lag_m: float, highpass_wavelength: float | None) -> str | None:
+    """A warning when the fixed-lag's printed std is not calibrated for this trailer, speed and lag, else None.
+
+    The printed std of the fixed-lag comes from its AR(1) road model, which has little power at long waves; the
+    error at those waves shrinks only with about a wavelength of look-ahead, the more so where the trailer barely
+    sees them. A lag shorter than FIXED_LAG_SHORT_LAGS detrending wavelengths, or, where the trailer's gain at
+    half the detrending wavelength (the long end of the 0.5-50 m roughness band at the default 100 m) is below
+    FIXED_LAG_LONG_WAVE_GAIN of its peak, shorter than FIXED_LAG_CALIBRATED_LAGS wavelengths, gets a warning
+    (named assumption; measured in docs/road-apl.md).
+    """
+    if highpass_wavelength is None or instrument.dx is None or lag_m >= FIXED_LAG_CALIBRATED_LAGS * highpass_wavelength:
+        return None
+    speed = instrument.dx / instrument.dt
+    grid = np.geomspace(1e-3, 0.5 / instrument.dt, 2000)
+    gain = float(np.abs(instrument.response_at(speed / (highpass_wavelength / 2)))
+                 / np.abs(instrument.response_at(grid)).max())
+    if gain >= FIXED_LAG_LONG_WAVE_GAIN:
+        if lag_m < FIXED_LAG_SHORT_LAGS * highpass_wavelength:
+            return (f"with a lag of {lag_m:g} m (under {FIXED_LAG_SHORT_LAGS * highpass_wavelength:g} m) the fixed-lag's "
+                    f"std_m is too narrow (measured at 20 m/s: 64-71 % coverage of the 90 % band at 10-24 m, 97 % at the "
+                    f"default 83 m; docs/road-apl.md). Use a longer lag, or the smoother.")
+        return None
+    return (f"the trailer sees {highpass_wavelength / 2:g} m waves at {100 * gain:.0f} % of its peak gain at "
+            f"{speed:g} m/s: with a lag of {lag_m:g} m the fixed-lag's std_m is too narrow (measured at 6 m/s: 34 % "
+            f"coverage of the 90 % band at the default lag, 91 % at 120 m; docs/road-apl.md). Use the smoother, or a "
+            f"lag of at least {FIXED_LAG_CALIBRATED_LAGS * highpass_wavelength:g} m.")
+
+
 def _gap_variance(run: _Run, q, r) -> np.ndarray | None:
     """Variance (m^2) the record's gaps add to the error of the detrended estimate, per sample, by Monte Carlo on the
     reconstruction's own model and pass (:func:`._gap_uncertainty.gap_error_variance`); None without gaps."""
@@ -997,6 +1037,14 @@ def _gap_variance(run: _Run, q, r) -> np.ndarray | None:
 
     margin = int(np.ceil(2 * run.highpass_wavelength / run.dx))
     return gap_error_variance(missing, model, estimate, detrend, margin)
+
+
+def _std_warnings(run: _Run, lag_m) -> tuple[str, ...]:
+    """The warnings of a Kalman reconstruction's printed std (:func:`fixed_lag_calibration_warning`)."""
+    if run.method != "fixed-lag" or lag_m is None:
+        return ()
+    w = fixed_lag_calibration_warning(run.instrument, lag_m, run.highpass_wavelength)
+    return () if w is None else (w,)
 
 
 def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruction:
@@ -1033,4 +1081,5 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
                           q=float(q), r=float(r), noise_fit=fit, input_model=run.input_model,
                           highpass_wavelength=run.highpass_wavelength, lag_m=lag_m,
                           correlation_length=run.correlation_length if run.input_model == "ar1" else None,
-                          instrument_uncertainty=run.uncertainty, instrument_std=instrument_std)
+                          instrument_uncertainty=run.uncertainty, instrument_std=instrument_std,
+                          warnings=_std_warnings(run, lag_m))
