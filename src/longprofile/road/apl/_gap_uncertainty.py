@@ -90,12 +90,17 @@ def gap_error_variance(missing: np.ndarray, model: StateSpaceModel, estimate: Ca
     out = np.zeros(missing.size)
     for lo, hi in windows:
         tw = hi - lo
-        draws = [simulate(model, tw, rng=gen) for _ in range(n_draws)]
-        truth = np.stack([x[:, -1] for x, _ in draws])
-        complete = np.stack([y for _, y in draws])
-        gapped = complete.copy()
-        gapped[:, missing[lo:hi]] = np.nan
-        e_gap = detrend((truth - estimate(gapped)).T)
-        e_full = detrend((truth - estimate(complete)).T)
-        out[lo:hi] = np.maximum(np.mean(e_gap ** 2 - e_full ** 2, axis=1), 0.0)
+        # draws in chunks: the estimates of a chunk hold (chunk, tw, n) means (about 40 MB at most per chunk)
+        chunk = int(max(1, min(n_draws, 5e6 // max(1, tw * model.n_states))))
+        excess = np.zeros(tw)
+        for start in range(0, n_draws, chunk):
+            draws = [simulate(model, tw, rng=gen) for _ in range(min(chunk, n_draws - start))]
+            truth = np.stack([x[:, -1] for x, _ in draws])
+            complete = np.stack([y for _, y in draws])
+            gapped = complete.copy()
+            gapped[:, missing[lo:hi]] = np.nan
+            e_gap = detrend((truth - estimate(gapped)).T)
+            e_full = detrend((truth - estimate(complete)).T)
+            excess += np.sum(e_gap ** 2 - e_full ** 2, axis=1)
+        out[lo:hi] = np.maximum(excess / n_draws, 0.0)
     return out
