@@ -145,6 +145,12 @@ def test_the_fixed_lag_warns_where_its_std_was_measured_too_narrow():
     assert fixed_lag_calibration_warning(fast, 24.0, None) is None
     rng = np.random.default_rng(0)
     y = apl_response(np.cumsum(rng.normal(0, 1e-3, 6000)), slow) + rng.normal(0, 1e-5, 6000)
-    rec = reconstruct_profile(y, slow, method="fixed-lag", q=1e-6, r=1e-9)
-    assert len(rec.warnings) == 1 and "6 m/s" in rec.warnings[0]
+    short = reconstruct_profile(y, slow, method="fixed-lag", q=1e-6, r=1e-9, lag_m=default_fixed_lag(slow))
+    assert len(short.warnings) == 1 and "6 m/s" in short.warnings[0]
+    # the default lag is the calibrated one there: 120 m at 6 m/s (4 time constants are 24 m), no warning
+    default = reconstruct_profile(y, slow, method="fixed-lag", q=1e-6, r=1e-9)
+    assert default.lag_m == pytest.approx(120.0) and default.warnings == ()
+    fast_default = reconstruct_profile(apl_response(np.cumsum(rng.normal(0, 1e-3, 6000)), fast), fast,
+                                       method="fixed-lag", q=1e-6, r=1e-9)
+    assert fast_default.lag_m == pytest.approx(round(default_fixed_lag(fast) / 0.05) * 0.05)  # unchanged at 20 m/s
     assert reconstruct_profile(y, slow, method="smoother", q=1e-6, r=1e-9).warnings == ()

@@ -788,8 +788,11 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         above LONG_RECORD_SAMPLES (200 000) samples. Both paths give the same profile (to round-off) and work
         with the same models; only ``raw_std`` differs (None on the long-record smoother path).
     lag_m : float, optional
-        ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default
-        :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s).
+        ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default: the longer of
+        :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s) and
+        :func:`fixed_lag_calibrated_lag` (the shortest lag measured with a calibrated std: 50 m, or 120 m where the
+        trailer barely sees 50 m waves, e.g. Table 1 at 6 m/s, 20 s). A shorter lag gets a warning
+        (``Reconstruction.warnings``).
     instrument_uncertainty : InstrumentUncertainty or str, optional
         The declared relative 1-sigma of the trailer model's natural frequencies and gain (a string is read by
         :meth:`InstrumentUncertainty.parse`, e.g. ``"freq=0.115,gain=0.029"``). ``"smoother"`` and
@@ -834,7 +837,7 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     uncertainty = _instrument_uncertainty_of(instrument_uncertainty, method, highpass_wavelength)
     y, dx, distance, name = _signal_of(signal_, instrument)
     if method == "fixed-lag":
-        lag_m = _fixed_lag_latency(instrument, lag_m)
+        lag_m = _fixed_lag_latency(instrument, lag_m, highpass_wavelength)
     _check_record(y, dx, min_length, highpass_wavelength)
     run = _Run(instrument=instrument, method=method, y=y, dx=dx, distance=distance, name=name,
                input_model=input_model, correlation_length=correlation_length,
@@ -880,10 +883,11 @@ def _instrument_uncertainty_of(value, method: str, highpass_wavelength) -> Instr
     return value
 
 
-def _fixed_lag_latency(instrument: APLModel, lag_m: float | None) -> float:
-    """The fixed-lag latency, m: :func:`default_fixed_lag` or the checked ``lag_m``."""
+def _fixed_lag_latency(instrument: APLModel, lag_m: float | None, highpass_wavelength: float | None) -> float:
+    """The fixed-lag latency, m: the checked ``lag_m``, or by default the longer of :func:`default_fixed_lag` and
+    :func:`fixed_lag_calibrated_lag` (so that the default's printed std is one measured calibrated)."""
     if lag_m is None:
-        lag_m = default_fixed_lag(instrument)
+        lag_m = max(default_fixed_lag(instrument), fixed_lag_calibrated_lag(instrument, highpass_wavelength)[0])
     elif not np.isfinite(lag_m) or lag_m < 0:
         raise InputError(f"lag_m must be a finite latency >= 0 m; got {lag_m}.")
     return float(lag_m)
@@ -987,32 +991,41 @@ def _instrument_std(run: _Run, q, r, stationary: bool, elevation: np.ndarray) ->
     return None if var is None else np.sqrt(var)
 
 
-def fixed_lag_calibration_warning(instrument: APLModel, lag_m: float, highpass_wavelength: float | None) -> str | None:
-    """A warning when the fixed-lag's printed std is not calibrated for this trailer, speed and lag, else None.
+def fixed_lag_calibrated_lag(instrument: APLModel, highpass_wavelength: float | None) -> tuple[float, float]:
+    """The shortest lag (m) at which the fixed-lag's printed std was measured calibrated, and the trailer's gain.
 
     The printed std of the fixed-lag comes from its AR(1) road model, which has little power at long waves; the
     error at those waves shrinks only with about a wavelength of look-ahead, the more so where the trailer barely
-    sees them. A lag shorter than FIXED_LAG_SHORT_LAGS detrending wavelengths, or, where the trailer's gain at
-    half the detrending wavelength (the long end of the 0.5-50 m roughness band at the default 100 m) is below
-    FIXED_LAG_LONG_WAVE_GAIN of its peak, shorter than FIXED_LAG_CALIBRATED_LAGS wavelengths, gets a warning
-    (named assumption; measured in docs/road-apl.md).
+    sees them. Returns (FIXED_LAG_SHORT_LAGS x the detrending wavelength, or FIXED_LAG_CALIBRATED_LAGS x it where the
+    trailer's gain at half the detrending wavelength -- the long end of the 0.5-50 m roughness band at the default
+    100 m -- is below FIXED_LAG_LONG_WAVE_GAIN of its peak; that gain). (0, nan) without detrending or spacing. A
+    named assumption from two configurations (docs/road-apl.md, "The fixed-lag at 6 m/s").
     """
-    if highpass_wavelength is None or instrument.dx is None or lag_m >= FIXED_LAG_CALIBRATED_LAGS * highpass_wavelength:
-        return None
+    if highpass_wavelength is None or instrument.dx is None:
+        return 0.0, float("nan")
     speed = instrument.dx / instrument.dt
     grid = np.geomspace(1e-3, 0.5 / instrument.dt, 2000)
     gain = float(np.abs(instrument.response_at(speed / (highpass_wavelength / 2)))
                  / np.abs(instrument.response_at(grid)).max())
-    if gain >= FIXED_LAG_LONG_WAVE_GAIN:
-        if lag_m < FIXED_LAG_SHORT_LAGS * highpass_wavelength:
-            return (f"with a lag of {lag_m:g} m (under {FIXED_LAG_SHORT_LAGS * highpass_wavelength:g} m) the fixed-lag's "
-                    f"std_m is too narrow (measured at 20 m/s: 64-71 % coverage of the 90 % band at 10-24 m, 97 % at the "
-                    f"default 83 m; docs/road-apl.md). Use a longer lag, or the smoother.")
+    lags = FIXED_LAG_CALIBRATED_LAGS if gain < FIXED_LAG_LONG_WAVE_GAIN else FIXED_LAG_SHORT_LAGS
+    return lags * highpass_wavelength, gain
+
+
+def fixed_lag_calibration_warning(instrument: APLModel, lag_m: float, highpass_wavelength: float | None) -> str | None:
+    """A warning when ``lag_m`` is shorter than :func:`fixed_lag_calibrated_lag` (the printed std too narrow), else
+    None."""
+    shortest, gain = fixed_lag_calibrated_lag(instrument, highpass_wavelength)
+    if lag_m >= shortest:
         return None
+    speed = instrument.dx / instrument.dt
+    if gain >= FIXED_LAG_LONG_WAVE_GAIN:
+        return (f"with a lag of {lag_m:g} m (under {shortest:g} m) the fixed-lag's std_m is too narrow (measured at "
+                f"20 m/s: 64-71 % coverage of the 90 % band at 10-24 m, 97 % at the default 83 m; docs/road-apl.md). "
+                f"Use a longer lag, or the smoother.")
     return (f"the trailer sees {highpass_wavelength / 2:g} m waves at {100 * gain:.0f} % of its peak gain at "
             f"{speed:g} m/s: with a lag of {lag_m:g} m the fixed-lag's std_m is too narrow (measured at 6 m/s: 34 % "
-            f"coverage of the 90 % band at the default lag, 91 % at 120 m; docs/road-apl.md). Use the smoother, or a "
-            f"lag of at least {FIXED_LAG_CALIBRATED_LAGS * highpass_wavelength:g} m.")
+            f"coverage of the 90 % band with a 24 m lag, 87-91 % at 120 m; docs/road-apl.md). Use the smoother, or a "
+            f"lag of at least {shortest:g} m.")
 
 
 def _gap_variance(run: _Run, q, r) -> np.ndarray | None:
