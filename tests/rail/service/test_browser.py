@@ -102,11 +102,12 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         drv.find_element(By.ID, "username").send_keys("eng1")
         drv.find_element(By.ID, "password").send_keys("eng1-password")
         drv.find_element(By.ID, "login").click()
-        assert drv.find_element(By.ID, "sites").text.find("mitt") >= 0
+        wait = WebDriverWait(drv, 30)  # a navigation may still be under way when click() returns (loaded CI machine)
+        assert wait.until(ec.presence_of_element_located((By.ID, "sites"))).text.find("mitt") >= 0
         _shot(drv, tmp_path, "rail-service-sites.png")
         drv.find_element(By.LINK_TEXT, "mitt").click()
-        assert "Data complete to" in drv.find_element(By.ID, "complete").text
-        assert "settlement" not in drv.find_element(By.ID, "alarm-table").text
+        assert "Data complete to" in wait.until(ec.presence_of_element_located((By.ID, "complete"))).text
+        assert "settlement" not in wait.until(ec.presence_of_element_located((By.ID, "alarm-table"))).text
         # the days of the works arrive through the ingestion API
         send(r[days >= "2019-11-21"])
         assert _wait(lambda: any(a["quantity"] == "settlement" for a in list_alarms(db, "mitt")))
@@ -123,7 +124,8 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         row = _alarm_row(drv, "settlement", "acknowledged", "eng1", "track crew informed")
         _shot(drv, tmp_path, "rail-service-acknowledged.png")
         drv.find_element(By.LINK_TEXT, "S30").click()
-        assert drv.execute_script("return document.getElementById('series').naturalWidth") > 500
+        wait.until(lambda d: d.execute_script("var i = document.getElementById('series'); "
+                                              "return i !== null && i.complete && i.naturalWidth > 500"))
         _shot(drv, tmp_path, "rail-service-sensor.png")
     a = [x for x in list_alarms(db, "mitt") if x["quantity"] == "settlement"][0]
     assert (a["state"], a["ack_by"], a["ack_comment"]) == ("acknowledged", "eng1", "track crew informed")
