@@ -96,8 +96,7 @@ def _whitened(H, S, e):
         t = np.flatnonzero(which == p)
         chol = np.linalg.cholesky(S[t][:, o[:, None], o[None, :]])
         Hw[t[:, None], o[None, :]] = np.linalg.solve(chol, H[t][:, o, :])
-        for k in range(B):
-            ew[k][t[:, None], o[None, :]] = np.linalg.solve(chol, e[k][t][:, o, None])[..., 0]
+        ew[:, t[:, None], o[None, :]] = np.linalg.solve(chol, e[:, t][:, :, o, None])[..., 0]  # all series at once
     return Hw, ew
 
 
