@@ -120,12 +120,46 @@ def test_which_command_lines_get_a_figure_helper():
 
 
 def test_the_helper_runs_by_default_only_where_it_was_measured_to_help(monkeypatch):
-    from longprofile.cli.app import _figure_helper_wanted
+    from longprofile.cli.app import _figure_helper
 
     monkeypatch.delenv("LONGPROFILE_FIGURES", raising=False)
-    assert _figure_helper_wanted(["road", "acceptance", "p.erd", "-o", "acc/"])
-    assert _figure_helper_wanted(["road", "convert", "p.erd", "p.parquet", "--plot", "p.png"])
-    assert not _figure_helper_wanted(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])
-    assert not _figure_helper_wanted(["road", "convert", "p.erd", "p.parquet"])  # draws nothing
+    assert _figure_helper(["road", "acceptance", "p.erd", "-o", "acc/"]) == (True, ())
+    assert _figure_helper(["road", "convert", "p.erd", "p.parquet", "--plot", "p.png"]) == (True, ())
+    on, preload = _figure_helper(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])
+    assert on and any(p.startswith("longprofile.vehicle.vertical") for p in preload)
+    assert _figure_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"]) == (False, ())
+    assert _figure_helper(["road", "convert", "p.erd", "p.parquet"]) == (False, ())  # draws nothing
     monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
-    assert _figure_helper_wanted(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])
+    assert _figure_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"]) == (True, ())
+
+
+def test_every_preload_of_the_helper_resolves():
+    """A misspelt module or name in the table would make the helper fail at start (and every figure be drawn
+    inline): each entry is imported and its names fetched, as the helper does."""
+    from longprofile.cli.app import _HELPER_COMMANDS
+    from longprofile.report._render import _warm
+
+    entries = sorted({e for preload in _HELPER_COMMANDS.values() for e in preload})
+    assert entries
+    _warm(tuple(entries))
+    with pytest.raises(AttributeError):
+        _warm(("longprofile.rail:NoSuchResult",))
+
+
+def _imported(name):
+    import sys
+
+    return name in sys.modules
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="no fork start method")
+def test_the_helper_imports_its_preload_before_the_first_figure():
+    import sys
+
+    assert "mailbox" not in sys.modules or pytest.skip("mailbox already imported in this process")
+    renderer = BackgroundRenderer(preload=("mailbox",))
+    try:
+        assert renderer.submit(_imported, "mailbox").result() is True
+    finally:
+        renderer.close()
+    assert "mailbox" not in sys.modules  # imported in the helper only

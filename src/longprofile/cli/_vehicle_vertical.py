@@ -157,9 +157,14 @@ def estimate(
         console.print(f"wrote {profile} (chainage {prof.distance[0]:g}..{prof.distance[-1]:.4g} m) and {iri_out} "
                       f"({res.segment_start.size} segments of {segment:g} m); section IRI m/km: {sec}")
     if plot is not None:
+        from dataclasses import replace
+
         from ..report import plot_vertical_estimate
 
-        save_plot(plot, plot_vertical_estimate, est, frame, savefig={"dpi": 110}, announce=True)
+        # the figure draws the per-corner arrays: the engine's output (covariances, 43 MB on a 5 s log) is not sent
+        # to the figure helper
+        save_plot(plot, plot_vertical_estimate, replace(est, filtered=None), frame, savefig={"dpi": 110},
+                  announce=True)
 
 
 @vertical_app.command("tables")

@@ -84,22 +84,32 @@ def _draws_figures(args) -> bool:
     return any(words[:len(c)] == c for c in _FIGURE_COMMANDS)
 
 
-#: Commands whose figures the helper draws by default: those where it was measured to shorten the command
-#: (2026-12-02, interleaved fresh runs at load 0.5-1; docs/architecture.md). Where the figure's arguments need
-#: heavy domain modules that the helper must import first (vehicle vertical estimate, road reconstruct, rail
-#: settle), it made the command 0.3-1.0 s slower, so the others draw inline unless ``LONGPROFILE_FIGURES=helper``.
-_HELPER_COMMANDS = (("road", "acceptance"), ("road", "convert"), ("road", "compare"), ("differentiate",))
+#: Commands whose figures the helper draws by default, with what the helper imports while the command computes:
+#: the modules (``"module"`` or ``"module:name,name"``, names fetched to load a lazy package's submodules) that
+#: unpickling and drawing the figure's arguments need (report/_render.py). Without a preload, a figure whose
+#: arguments come from heavy domain modules (vehicle vertical estimate, road reconstruct, rail settle) made the
+#: command 0.3-1.5 s slower: the helper imported them only when the figure arrived. Measured 2026-12-04 (docs/
+#: architecture.md, "Start-up"); the other commands draw inline unless ``LONGPROFILE_FIGURES=helper``.
+_HELPER_COMMANDS = {
+    ("road", "acceptance"): (), ("road", "convert"): (), ("road", "compare"): (), ("differentiate",): (),
+    ("road", "reconstruct"): ("longprofile.road.apl:Reconstruction,detrend_profile",),
+    ("road", "report"): ("pandas", "longprofile.road:analyse_roughness"),
+    ("rail", "settle"): ("pandas", "longprofile.rail:SettlementResult"),
+    ("vehicle", "vertical", "estimate"): ("pandas", "longprofile.vehicle.vertical:VerticalStateEstimate,CORNER_NAMES"),
+    ("vehicle", "vertical", "tables"): ("pandas",),
+}
 
 
-def _figure_helper_wanted(args) -> bool:
+def _figure_helper(args) -> tuple[bool, tuple[str, ...]]:
     """Whether to start the figure helper for this command line (:data:`_HELPER_COMMANDS`, or any command that
-    draws with ``LONGPROFILE_FIGURES=helper``)."""
+    draws with ``LONGPROFILE_FIGURES=helper``), and what it preloads."""
     if not _draws_figures(args):
-        return False
-    if os.environ.get("LONGPROFILE_FIGURES", "").lower() == "helper":
-        return True
+        return False, ()
     words = tuple(str(a) for a in args if not str(a).startswith("-"))
-    return any(words[:len(c)] == c for c in _HELPER_COMMANDS)
+    for command, preload in _HELPER_COMMANDS.items():
+        if words[:len(command)] == command:
+            return True, preload
+    return os.environ.get("LONGPROFILE_FIGURES", "").lower() == "helper", ()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -113,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     # a command that draws figures (of _HELPER_COMMANDS) gets a helper process now, before its imports: matplotlib
     # loads and the figures are drawn there while this process reads and computes (report/_render.py)
     try:
-        with figure_renderer(background=_figure_helper_wanted(sys.argv[1:] if argv is None else argv)) as renderer, \
-                use_renderer(renderer):
+        background, preload = _figure_helper(sys.argv[1:] if argv is None else argv)
+        with figure_renderer(background=background, preload=preload) as renderer, use_renderer(renderer):
             # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
             code = app(args=argv, standalone_mode=False)
     except LongprofileError as exc:

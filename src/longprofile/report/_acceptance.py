@@ -16,6 +16,7 @@ import numpy as np
 
 from ..io import atomic_path, atomic_write_bytes
 from ._html import REPORT_FILES, report_folder, write_text
+from ._layout import fixed_figure
 from ._render import current_renderer
 
 __all__ = ["plot_certification", "write_acceptance_report"]
@@ -25,15 +26,9 @@ _ACCEPTANCE_FILES = REPORT_FILES["acceptance"]
 
 
 def _figure(width=10.0, height=3.4):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    # fixed margins: a layout engine doubles the drawing time; titles are given y=1.0 (where matplotlib's automatic
-    # placement puts them on these axes, without top ticks) so that drawing skips measuring the axes for it
-    fig = Figure(figsize=(width, height), dpi=90)
-    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.5 / height, top=1 - 0.35 / height)
-    FigureCanvasAgg(fig)
-    return fig
+    # titles are given y=1.0 (where matplotlib's automatic placement puts them on these axes, without top ticks)
+    # so that drawing skips measuring the axes for it
+    return fixed_figure(width, height, bottom=0.5, dpi=90)
 
 
 def _prepare(outdir, inputs, names, overwrite=True):

@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._layout import fixed_figure, fixed_grid
+
 __all__ = ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response"]
 
 
 def _figure(rows, height=2.6, sharex=True):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(10, height * rows), layout="constrained")
-    return fig, np.atleast_1d(fig.subplots(rows, 1, sharex=sharex))
+    """``rows`` panels, fixed margins; gaps for the x labels and titles of every panel unless they share x."""
+    fig = fixed_figure(10.0, height * rows, left=1.0, top=0.4)
+    return fig, fixed_grid(fig, rows, 1, hspace=0.45 if sharex else 0.85, sharex=sharex)[:, 0]
 
 
 def plot_recording(distance, true_elevation, signal, *, title=""):

@@ -43,8 +43,10 @@ class InlineRenderer:
         return fut
 
 
-def _warm() -> None:
-    """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg)."""
+def _warm(preload=()) -> None:
+    """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg), then import the
+    ``preload`` modules (those the submitted figures' arguments will need to be unpickled)."""
+    import importlib
     import io
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -54,6 +56,11 @@ def _warm() -> None:
     FigureCanvasAgg(fig)
     fig.add_subplot().set_title("warm")
     fig.savefig(io.BytesIO(), format="png")
+    for entry in preload:  # "module" or "module:name,name" (names fetched: a lazy package loads their submodules)
+        module, _, names = entry.partition(":")
+        mod = importlib.import_module(module)
+        for name in filter(None, names.split(",")):
+            getattr(mod, name)
 
 
 def _ready() -> bool:
@@ -83,15 +90,18 @@ class _Job:
 
 
 class BackgroundRenderer:
-    """One helper process (``fork``) that draws the submitted figures; see the module docstring."""
+    """One helper process (``fork``) that draws the submitted figures; see the module docstring.
+
+    ``preload``: modules the helper imports after matplotlib, while the command computes (e.g. the domain
+    package whose result classes the figures receive: unpickled there without waiting for their imports)."""
 
     background = True
 
-    def __init__(self):
+    def __init__(self, preload=()):
         from concurrent.futures import ProcessPoolExecutor
 
         self._pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"),
-                                         initializer=_warm)
+                                         initializer=_warm, initargs=(tuple(preload),))
         self._pool.submit(_ready)  # starts the helper now: matplotlib is imported while the command computes
 
     def submit(self, fn, /, *args, **kwargs) -> _Job:
@@ -143,14 +153,15 @@ def _can_fork() -> bool:
 
 
 @contextmanager
-def figure_renderer(background: bool = True):
-    """A renderer for a command's figures: a :class:`BackgroundRenderer` (helper process started now) where it can
-    run, else an :class:`InlineRenderer`; the helper is stopped on exit. Start it before the command's imports."""
+def figure_renderer(background: bool = True, preload=()):
+    """A renderer for a command's figures: a :class:`BackgroundRenderer` (helper process started now, importing
+    matplotlib and the ``preload`` modules) where it can run, else an :class:`InlineRenderer`; the helper is
+    stopped on exit. Start it before the command's imports."""
     if not (background and _can_fork()):
         yield InlineRenderer()
         return
     try:
-        renderer = BackgroundRenderer()
+        renderer = BackgroundRenderer(preload)
     except OSError:  # no process could be started (limits): draw here
         yield InlineRenderer()
         return

@@ -13,6 +13,7 @@ import pandas as pd
 
 from ..io import save_figure
 from ._html import REPORT_FILES, figure_pngs, img_tag, report_folder, write_csv, write_pngs, write_text
+from ._layout import fixed_figure
 from ._render import current_renderer
 
 __all__ = ["IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "write_road_report", "road_report_tables",
@@ -26,12 +27,7 @@ _GOOD, _FAIR, _POOR = "#2e7d32", "#f9a825", "#c62828"
 
 
 def _figure(width=10.0, height=3.6):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
+    return fixed_figure(width, height, left=0.85, dpi=110)
 
 
 def _envelope(x, y, max_points=60000):

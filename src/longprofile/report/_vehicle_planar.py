@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._layout import fixed_figure, fixed_grid
+
 __all__ = ["plot_slope_estimate", "plot_drive", "plot_sensitivity", "plot_speed_measurement"]
 
 _WHEELS = ("fl", "fr", "rl", "rr")
@@ -11,16 +13,9 @@ _TRUTH_COLUMNS = ["true_vx", "true_vy", "true_yaw_rate", "true_slope"] + [f"true
 
 
 def _figure(rows, height=2.1, *, left=0.9, right=0.2, bottom=0.5, top=0.45, gap=0.3):
-    """``rows`` panels sharing the time axis, with fixed margins and gaps in inches (suptitle on top): a layout
-    engine measured every artist before each draw (0.18 s of a 0.48 s states figure)."""
-    from matplotlib.figure import Figure
-
-    w, h = 9.0, height * rows
-    fig = Figure(figsize=(w, h))
-    panel = (h - top - bottom - (rows - 1) * gap) / rows
-    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h, hspace=gap / panel)
-    axes = fig.subplots(rows, 1, sharex=True)
-    return fig, np.atleast_1d(axes)
+    """``rows`` panels sharing the time axis, with fixed margins and gaps in inches (suptitle on top)."""
+    fig = fixed_figure(9.0, height * rows, left=left, right=right, bottom=bottom, top=top)
+    return fig, fixed_grid(fig, rows, 1, hspace=gap, sharex=True)[:, 0]
 
 
 def _band(ax, t, value, std, color, label):

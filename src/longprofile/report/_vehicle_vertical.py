@@ -9,6 +9,8 @@ if TYPE_CHECKING:
 
     from ..vehicle.vertical import VerticalSimulation, VerticalStateEstimate
 
+from ._layout import fixed_figure, fixed_grid
+
 __all__ = ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_tables"]
 
 
@@ -62,8 +64,6 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None, l
 
     ``label`` names the ``states`` curve in the legend (default ``"estimate (config N)"``).
     """
-    from matplotlib.figure import Figure
-
     from ..vehicle.vertical import CORNER_NAMES
 
     config = states.config if config is None else config
@@ -79,8 +79,8 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None, l
               ("tyre_force", "true_tyre_force", "dynamic tyre load (N)"),
               ("body_velocity", "true_body_velocity", "body velocity above wheel (m/s)"),
               ("wheel_velocity", "true_wheel_velocity", "wheel velocity (m/s)"))
-    fig = Figure(figsize=(9, 11))
-    axes = fig.subplots(len(panels), 1, sharex=True)
+    fig = fixed_figure(9.0, 11.0, left=0.95, top=0.5)
+    axes = fixed_grid(fig, len(panels), 1, hspace=0.25, sharex=True)[:, 0]
     for ax, (attr, tcol, ylabel) in zip(axes, panels):
         col = f"{tcol}_{name}"
         if truth is not None and col in truth.columns:
@@ -91,7 +91,6 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None, l
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(f"Vertical states, corner {name} — {method} (thesis 003)")
-    fig.tight_layout()
     return fig
 
 
@@ -113,12 +112,11 @@ def plot_thesis_tables(table: pd.DataFrame):
         One panel per test; eps (%) clipped at -50 % for readability (the bar is labelled with its value).
     """
     import numpy as np
-    from matplotlib.figure import Figure
 
     tests = list(dict.fromkeys(table["test"]))
     colours = {1: "tab:blue", 2: "tab:orange", 3: "tab:green"}
-    fig = Figure(figsize=(10, 4 * len(tests)))
-    axes = np.atleast_1d(fig.subplots(len(tests), 1))
+    fig = fixed_figure(10.0, 4.0 * len(tests), bottom=0.7, top=0.85)
+    axes = fixed_grid(fig, len(tests), 1, hspace=0.7)[:, 0]
     ref = table["reference"].iloc[0] if "reference" in table.columns else "truth"
     for ax, test in zip(axes, tests):
         sub = table[table["test"] == test]
@@ -145,5 +143,5 @@ def plot_thesis_tables(table: pd.DataFrame):
     fig.legend(handles, labels, ncol=6, fontsize=7, loc="lower center")
     car = f"car: {table['car'].iloc[0]}, " if "car" in table.columns and len(table) else ""
     fig.suptitle(f"Thesis 003 result tables reproduced on the simulator ({car}reference: {ref})")
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
+
     return fig
