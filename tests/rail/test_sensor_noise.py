@@ -110,15 +110,21 @@ def _random_walk_site(seed, D=60, N=40, bowl=0.0):
 
 @pytest.mark.parametrize("bowl", [0.0, 2e-3])
 def test_sensor_noise_factors_recover_each_sensors_drift(bowl):
-    """Relative drift diffusion of 40 sensors over 60 days, with or without a bowl 20x the drift's daily step."""
-    errs = []
+    """Relative drift diffusion of 40 sensors over 60 days, with or without a bowl 20x the drift's daily step.
+
+    The slope of log(estimate) on log(truth) measures how much the factors are compressed towards 1: the
+    median of the squared residuals (before session 20) gave 0.58-0.63 on these seeds and correlations
+    0.82-0.85, which fail the bounds below; the clipped mean square gives 0.72-0.87 and 0.89-0.93."""
+    errs, slopes = [], []
     for seed in range(5):
         x, M, f = _random_walk_site(seed, bowl=bowl)
         est = sensor_noise_factors(x, M)
         truth = f / np.sqrt(np.mean(f**2))
         errs.append(np.median(np.abs(np.log(est[1:-1] / truth[1:-1]))))
-        assert np.corrcoef(np.log(est[1:-1]), np.log(f[1:-1]))[0, 1] > 0.7
-    assert np.median(errs) < 0.25  # typical factor within ~25 %
+        assert np.corrcoef(np.log(est[1:-1]), np.log(f[1:-1]))[0, 1] > 0.86
+        slopes.append(np.polyfit(np.log(f[1:-1]), np.log(est[1:-1]), 1)[0])
+    assert np.median(errs) < 0.2  # typical factor within ~20 %
+    assert np.median(slopes) > 0.7
 
 
 def test_sensor_noise_factors_are_one_for_alike_sensors_and_for_tiny_sites():

@@ -254,12 +254,15 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
 #: Bounds of a sensor's noise variance relative to the site's (:func:`sensor_noise_factors`): f^2 in [1/4, 16].
 SENSOR_VARIANCE_BOUNDS = (0.25, 16.0)
 #: Weight of the pull of every sensor's relative variance towards 1 (ridge term of :func:`sensor_noise_factors`).
-SENSOR_VARIANCE_RIDGE = 0.3
-#: Fewest day-to-day changes for per-sensor noise factors (:func:`sensor_noise_factors`; fewer: all 1). A median of
-#: 5 chi-square(1) values still varies by a factor ~2; the ridge and the bounds keep such factors moderate.
+SENSOR_VARIANCE_RIDGE = 0.1
+#: Fewest day-to-day changes for per-sensor noise factors (:func:`sensor_noise_factors`; fewer: all 1). A mean
+#: square of 5 values still varies by a factor ~2; the ridge and the bounds keep such factors moderate.
 SENSOR_FACTOR_MIN_DAYS = 5
-#: Median of a chi-square variable with one degree of freedom (median of z^2, z ~ N(0, 1)).
-CHI2_1_MEDIAN = 0.454936
+#: Where a sensor's day-scaled residuals are clipped, in robust std (1.4826 median|r|) of that sensor's own.
+SENSOR_RESIDUAL_CLIP = 3.0
+#: E[min(z^2, 9)] for z ~ N(0, 1): the mean square of a Gaussian winsorized at 3 std (makes the clipped mean
+#: square of :func:`sensor_noise_factors` consistent for a Gaussian sensor).
+WINSORIZED_Z2_MEAN = 0.995007
 
 
 def sensor_noise_factors(x, slopes) -> np.ndarray:
@@ -270,9 +273,12 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     quiet ones and put most of the error into the profile (beyond paper 004, whose noise is one sigma).
     The departures r_{d,i} of each interior sensor's *day-to-day* slope change from the line through
     its two neighbours' (:func:`daily_noise_sigma` uses the cumulative changes), divided by the day's
-    robust spread over the sensors, have a per-sensor robust mean square s_i = median_d(r^2) / 0.455
-    (the median of chi-square(1)); a drift adds to every day's increment, the bowl only to the few
-    work days', which the median sets aside. With g = f^2, E s_i = (g_i + w_l^2 g_{i-1} + w_r^2 g_{i+1})
+    robust spread over the sensors, have a per-sensor robust mean square s_i: the mean over the days of
+    r^2 with each r clipped at SENSOR_RESIDUAL_CLIP times the sensor's robust std (1.4826 median_d |r|),
+    divided by WINSORIZED_Z2_MEAN (its value for a Gaussian sensor). A drift adds to every day's
+    increment, the bowl only to the few work days', which the clipping bounds (docs/rail.md, step 9: the
+    former median(r^2)/0.455 with ridge 0.3 compressed the factors, log-slope 0.47 on the true ones on
+    calibration sites, against 0.62 now). With g = f^2, E s_i = (g_i + w_l^2 g_{i-1} + w_r^2 g_{i+1})
     / c_i^2 (the line's weights w_l, w_r, c_i^2 = 1 + w_l^2 + w_r^2), so g is the non-negative
     least-squares solution of these N - 2 equations plus a ridge SENSOR_VARIANCE_RIDGE (g_i - 1) = 0
     for every sensor (the end sensors have no equation of their own), clipped to SENSOR_VARIANCE_BOUNDS.
@@ -306,7 +312,8 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN days or sensors (excluded neighbours)
         r = r / (1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True))
-        msq = np.nanmedian(r**2, axis=0) / CHI2_1_MEDIAN
+        clip = SENSOR_RESIDUAL_CLIP * 1.4826 * np.nanmedian(np.abs(r), axis=0, keepdims=True)
+        msq = np.nanmean(np.clip(r, -clip, clip) ** 2, axis=0) / WINSORIZED_Z2_MEAN
     hl, hr = xs[1:-1] - xs[:-2], xs[2:] - xs[1:-1]
     wl, wr = hr / (hl + hr), hl / (hl + hr)
     c2 = 1.0 + wl**2 + wr**2
