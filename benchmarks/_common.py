@@ -70,12 +70,14 @@ class CoverageScore:
 
     ``add(err, std)`` takes errors (estimate - truth) and the printed stds (broadcast to the errors; non-finite or
     non-positive stds skipped); ``coverage`` is the share of covered samples, ``rms_z`` the RMS of err/std,
-    ``pit_shares`` the PIT = Phi(err/std) decile shares, ``by_draw`` the coverage of each ``add`` call.
+    ``pit_shares`` the PIT = Phi(err/std) decile shares, ``by_draw`` the coverage of each ``add`` call, ``rms_error``
+    the RMS of the errors themselves.
     """
 
     inside: int = 0
     n: int = 0
     z2: float = 0.0
+    e2: float = 0.0
     pit: np.ndarray = field(default_factory=lambda: np.zeros(10))
     by_draw: list = field(default_factory=list)
 
@@ -92,6 +94,7 @@ class CoverageScore:
         self.inside += inside
         self.n += int(ok.sum())
         self.z2 += float(np.sum(z * z))
+        self.e2 += float(np.sum(err[ok] ** 2))
         self.pit += np.bincount(np.minimum((ndtr(z) * 10).astype(int), 9), minlength=10)
         self.by_draw.append(inside / ok.sum())
 
@@ -102,6 +105,10 @@ class CoverageScore:
     @property
     def rms_z(self):
         return float(np.sqrt(self.z2 / self.n)) if self.n else float("nan")
+
+    @property
+    def rms_error(self):
+        return float(np.sqrt(self.e2 / self.n)) if self.n else float("nan")
 
     @property
     def pit_shares(self):

@@ -76,6 +76,10 @@ def slope(
                                       "has no V_x measurement."),
     max_grade: float = typer.Option(0.10, "--max-grade", help="Warn where the estimated grade |tan(slope)| exceeds "
                                     "this (0.10 = 10 %; the slope_plausible column uses 10 %)."),
+    force_correction: bool = typer.Option(True, "--force-correction/--no-force-correction", help="Correct the "
+                                          "slope for the drive's force-model error (mass, tyres, rolling resistance) "
+                                          "measured against the longitudinal accelerometer (docs/vehicle-slope.md, "
+                                          "Calibration); --no-force-correction: the paper's estimate."),
     overwrite: bool = OVERWRITE,
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
@@ -97,9 +101,18 @@ def slope(
     if unchecked:
         console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
     with console.status("estimating states and slope..."):
-        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement)
+        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement,
+                             force_correction=force_correction)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
+    fit = est.force_fit
+    if fit is not None and fit.n_blocks == 0:
+        console.print("[yellow]log too short for the force check against the accelerometer (under 7 s): the slope "
+                      "is not corrected and its std uses the stated mass and tyre uncertainty[/yellow]")
+    elif fit is not None:
+        console.print(f"force model vs accelerometer ({fit.n_blocks} blocks of 1 s): relative error {100 * fit.beta:+.1f} "
+                      f"+- {100 * fit.beta_std:.1f} %, constant {100 * fit.offset:+.2f} +- {100 * fit.offset_std:.2f} % "
+                      "of grade (the slope is corrected for both)")
     for w in est.warnings(max_missing=max_missing, max_slope=math.atan(max_grade)):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:

@@ -4,13 +4,14 @@ Modules: ``_params`` (the vehicle description, TOML), ``_dugoff`` (tyre model (1
 equation of (11)-(19) once, inlined numba functions), ``_model`` (the model kernels composed from them, the EKF
 models of eq. (20) and the slope observer (21)), ``_simulate``
 (4-wheel RK4 simulator and sensor log), ``_speed_reference`` (slip-robust V_x measurement), ``_estimate``
-(:func:`estimate_slope`), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
+(:func:`estimate_slope`), ``_force_check`` (the drive's force error against the accelerometer), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
 Everything here is also exported by :mod:`longprofile.vehicle` (except the studies).
 """
 
 from ._dugoff import TyreForces, dugoff_forces
 from ._estimate import SlopeEstimate, SlopeUncertainty, estimate_slope, nis_inflation
 from ._evaluate import PAPER_PROTOTYPE_ERRORS, accuracy_scores, sensitivity_study, speed_measurement_study
+from ._force_check import ForceScaleFit, force_scale_fit
 from ._model import (
                         EKFTuning,
                         planar_ekf_model,
@@ -43,6 +44,6 @@ __all__ = [
     "EKFTuning", "planar_ekf_model", "slope_ekf_model", "planar_inputs", "planar_measurements",
     "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
-    "SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation",
+    "SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation", "ForceScaleFit", "force_scale_fit",
     "accuracy_scores", "sensitivity_study", "speed_measurement_study", "PAPER_PROTOTYPE_ERRORS",
 ]

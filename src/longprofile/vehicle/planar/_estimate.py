@@ -22,6 +22,7 @@ import numpy as np
 from ..._jit import njit
 from ..._validation import as_float_array
 from ...errors import InputError, ModelError, ShapeError
+from ._force_check import ForceScaleFit, force_scale_fit
 from ._model import (
     EKFTuning,
     forces_fused,
@@ -31,7 +32,7 @@ from ._model import (
     slope_observer_gain,
     slope_observer_matrices,
 )
-from ._params import Vehicle, default_vehicle
+from ._params import GRAVITY, Vehicle, default_vehicle
 from ._simulate import DriveLog
 
 __all__ = ["SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation"]
@@ -44,6 +45,9 @@ _MIN_SPEED = 2.0
 
 #: Largest plausible |tan(theta)| (a 10 % grade, issue 13): steeper estimates are flagged (``slope_plausible``).
 MAX_PLAUSIBLE_GRADE = 0.10
+#: Force-model errors against the accelerometer (|beta|, |c| of :class:`ForceScaleFit`) beyond which
+#: :meth:`SlopeEstimate.warnings` warns: 30 % of the force (twice the stated prior std), 3 % of grade.
+FORCE_ERROR_WARN = (0.30, 0.03)
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,14 @@ class SlopeUncertainty:
         Length of the moving window of the NIS inflation, s (1 s); 0 turns the inflation off.
     tracking_lag : bool
         Add the cascade observer's lag to a changing grade, (-1/p1 - 1/p2) |d sin(theta)/dt|, to its slope std.
+    accel_gain_std, accel_offset_std : float
+        When :func:`estimate_slope` corrects the force model from the accelerometer (``force_correction``): the
+        relative std of the accelerometer's scale, body pitch included (1 deg of pitch per g reads as 1.7 %; the
+        simulator has neither), 0.02, and the std of its offset, m/s^2 (0.02, as ``SensorSpec.accel_offset``),
+        which the corrected slope inherits (offset / g).
+    offset_prior_std : float
+        Prior std of the force model's constant error, in sin(theta) (0.03; rolling resistance alone, which model
+        (21) leaves out, is 0.01-0.015).
 
     Notes
     -----
@@ -93,10 +105,13 @@ class SlopeUncertainty:
     gyro_bias_std: float = 5e-4
     nis_window: float = 1.0
     tracking_lag: bool = True
+    accel_gain_std: float = 0.02
+    accel_offset_std: float = 0.02
+    offset_prior_std: float = 0.03
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
-                  "nis_window"):
+                  "nis_window", "accel_gain_std", "accel_offset_std", "offset_prior_std"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{k} must be a finite number >= 0; got {v!r}.")
@@ -104,7 +119,7 @@ class SlopeUncertainty:
     @classmethod
     def noise_only(cls) -> "SlopeUncertainty":
         """No parameter terms and no NIS inflation: the filters' own stds."""
-        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tracking_lag=False)
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tracking_lag=False, accel_gain_std=0.0, accel_offset_std=0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,6 +152,9 @@ class SlopeEstimate:
     speed_reference : SpeedReference or None
         The V_x measurement the EKF was given, per sample: speed, std (NaN = missing) and source code
         (:data:`~longprofile.vehicle.SPEED_SOURCES`: which wheels were trusted, slip-compensated or missing).
+    force_fit : ForceScaleFit or None
+        The drive's force-model error against the accelerometer (:func:`force_scale_fit`) that ``slope`` was
+        corrected for; None with ``force_correction=False`` or without parameter uncertainty.
     """
 
     time: np.ndarray
@@ -158,6 +176,7 @@ class SlopeEstimate:
     filtered: object
     observer_gain: np.ndarray | None = None
     speed_reference: object = None
+    force_fit: ForceScaleFit | None = None
 
     def to_frame(self):
         """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
@@ -215,6 +234,13 @@ class SlopeEstimate:
                        f"% grade) at {int(np.sum(s > max_slope))} sample(s), first at t = {self.time[k]:.6g} s "
                        f"({self.slope[k]:.3g} rad; column slope_plausible): unless the road is that steep, check the "
                        "vehicle mass, wheels.radius and the friction (see docs/vehicle-slope.md, Measured results).")
+        fit = self.force_fit
+        if fit is not None and (abs(fit.beta) > FORCE_ERROR_WARN[0] or abs(fit.offset) > FORCE_ERROR_WARN[1]):
+            out.append(f"the model's longitudinal force and the accelerometer disagree: relative error "
+                       f"{100 * fit.beta:+.1f} % (+- {100 * fit.beta_std:.1f} %), constant {100 * fit.offset:+.2f} % of "
+                       "grade; the slope was corrected for both, which holds if the accelerometer is right: check "
+                       "the vehicle mass and tyre stiffness, the accelerometer's offset and sign (accel_x forward), "
+                       "or run with force_correction=False (CLI --no-force-correction) for the paper's estimate.")
         return out
 
 
@@ -228,7 +254,7 @@ def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std,
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
                    poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None,
                    initial_state=None, speed_measurement: str = "robust",
-                   uncertainty: SlopeUncertainty | None = None) -> SlopeEstimate:
+                   uncertainty: SlopeUncertainty | None = None, force_correction: bool = True) -> SlopeEstimate:
     r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
 
     Parameters
@@ -259,6 +285,9 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     uncertainty : SlopeUncertainty, optional
         Stated parameter uncertainty and NIS window added to the printed stds (default ``SlopeUncertainty()``;
         ``SlopeUncertainty.noise_only()`` for the filters' stds alone).
+    force_correction : bool
+        Correct the slope for the drive's force-model error measured against the accelerometer (Notes; default
+        True); ``False``: the paper's estimate with the stated mass, force and wheel-radius terms.
 
     Returns
     -------
@@ -291,11 +320,12 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
 
     Joint: the augmented EKF (:func:`slope_ekf_model`); its stds come from its covariance.
 
-    Calibration (issue 13): every printed variance is then (a) multiplied by the NIS inflation
-    max(1, moving mean over ``uncertainty.nis_window`` of nu^2 / S) of the innovations that carry it (V_x's for
-    V_x and the joint slope, the gyro's for r, the larger for V_y, the observer's output error for the cascade
-    slope), and (b) increased by the parameter terms of :class:`SlopeUncertainty` (and, for the cascade, the
-    tracking lag (-1/p1 - 1/p2) |d theta/dt|). See docs/vehicle-slope.md, Calibration.
+    Calibration (issue 13; docs/vehicle-slope.md, Calibration): every printed variance is (a) multiplied by the
+    NIS inflation of the innovations that carry it (:func:`nis_inflation`) and (b) increased by the parameter
+    terms of :class:`SlopeUncertainty` and the cascade's tracking lag. Force correction (beyond the paper):
+    mass, tyre and constant force errors shift sin(theta) by beta F_res/(M g) + c for the whole drive; the
+    accelerometer sees F_res/M without the grade, so :func:`force_scale_fit` estimates (beta, c) and
+    :func:`_force_corrected` removes them (std: their posterior and the accelerometer's own errors).
     """
     vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
     from ...statespace import extended_kalman_filter
@@ -320,13 +350,15 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         slope = mean[:, 3].copy()
         s_var = var[:, 3] * kappa[:, 0] * (1.0 - np.sin(slope) ** 2)  # of sin(theta), to add the terms below
         lag = 0.0
+        force_shape = None
     else:
         missing = np.isnan(y[:, 0])
         speed = np.where(missing, mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
         speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
-        slope, s_var, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
+        slope, s_var, gain, force_shape = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
         lag = float(sum(-1.0 / p for p in poles)) if unc.tracking_lag else 0.0
-    s_var = s_var + _parameter_var(vehicle, unc, res, mean[:, 0], slope, dt, lag)
+    slope, s_var, fit = _force_corrected(vehicle, unc, force_correction, log.accel_x, mean, slope, s_var, res,
+                                         force_shape, dt, lag)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
     std = np.sqrt(np.column_stack([var[:, 0] * kappa[:, 0] + (unc.radius_rel_std * mean[:, 0]) ** 2,
                                    var[:, 1] * kappa.max(axis=1),
@@ -335,7 +367,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
-                         observer_gain=gain, speed_reference=ref)
+                         observer_gain=gain, speed_reference=ref, force_fit=fit)
 
 
 def _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty):
@@ -431,19 +463,51 @@ def nis_inflation(innovation, innovation_cov, window: int) -> np.ndarray:
     return np.maximum(out, 1.0)
 
 
-def _parameter_var(vehicle, unc, res, vx, slope, dt, lag):
-    """Variance (T,) of sin(theta) from the stated parameter errors and the observer lag (SlopeUncertainty Notes)."""
+def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, force_shape, dt, lag):
+    """(slope, variance of sin(theta), fit) with the force-model correction and the parameter terms.
+
+    ``fit`` is :func:`force_scale_fit` of the drive (None without ``force_correction`` or without a stated mass
+    and force uncertainty). Without a fit (or with too short a log: ``n_blocks`` 0) the slope is unchanged and
+    the stated mass, force and wheel-radius terms are added; with one, sin(theta) - beta s - c is returned, s the shift per unit
+    relative force error (the cascade observer's response ``force_shape``, else F_res averaged / (M g)), and its
+    variance is the posterior of (beta, c), the accelerometer's gain and offset errors and the fit's residual
+    variance (estimate_slope, Notes)."""
+    shape = _observer_mean(res, dt, lag) / (vehicle.mass * GRAVITY)
+    force_var = unc.mass_rel_std ** 2 + unc.force_rel_std ** 2
+    fit = None
+    if force_correction and force_var > 0:
+        fit = force_scale_fit(res, accel_x, mean[:, 2], mean[:, 1], vehicle.mass, dt,
+                              beta_prior_std=math.sqrt(force_var), offset_prior_std=unc.offset_prior_std)
+    corrected = fit is not None and fit.n_blocks > 0
+    if corrected:
+        if force_shape is not None:  # the cascade: the observer's own response to its force input
+            shape = force_shape
+        slope = np.arcsin(np.clip(np.sin(slope) - fit.beta * shape - fit.offset, -1.0, 1.0))
+        s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * fit.cov[0, 1] * shape \
+            + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2 + np.nan_to_num(fit.residual_std) ** 2
+        force_var = 0.0
+    s_var = s_var + _parameter_var(vehicle, unc, shape, force_var, mean[:, 0], slope, dt, lag, wheels=not corrected)
+    return slope, s_var, fit
+
+
+def _observer_mean(x, dt, lag):
+    """Moving mean of ``x`` over the observer's time constant (``lag``, at least 0.2 s): it low-passes its inputs."""
     from scipy.ndimage import uniform_filter1d
 
-    from ._params import GRAVITY
+    return uniform_filter1d(x, size=max(int(round(max(lag, 0.2) / dt)), 1), mode="nearest")
 
-    n = max(int(round(max(lag, 0.2) / dt)), 1)  # the observer's time constant: it low-passes its inputs
+
+def _parameter_var(vehicle, unc, shape, force_var, vx, slope, dt, lag, wheels=True):
+    """Variance (T,) of sin(theta) from the parameter errors and the observer lag (SlopeUncertainty Notes).
+
+    ``shape`` is the shift of sin(theta) per unit relative force error (F_res averaged over the observer's time
+    constant / (M g), or the cascade observer's response), ``force_var`` the variance of the relative force
+    error; ``wheels``: add the fake slips of unequal wheel radii (not when the force correction took them out)."""
     mg = vehicle.mass * GRAVITY
-    f_bar = uniform_filter1d(res, size=n, mode="nearest")
-    accel = np.gradient(uniform_filter1d(vx, size=n, mode="nearest"), dt)
-    rate = np.gradient(uniform_filter1d(np.sin(slope), size=n, mode="nearest"), dt)
-    return ((unc.mass_rel_std ** 2 + unc.force_rel_std ** 2) * f_bar ** 2
-            + (sum(vehicle.longitudinal_stiffnesses) * unc.wheel_radius_rel_std) ** 2) / mg ** 2 \
+    accel = np.gradient(_observer_mean(vx, dt, lag), dt)
+    rate = np.gradient(_observer_mean(np.sin(slope), dt, lag), dt)
+    w = sum(vehicle.longitudinal_stiffnesses) * unc.wheel_radius_rel_std / mg if wheels else 0.0
+    return force_var * shape ** 2 + w ** 2 \
         + (unc.radius_rel_std * accel / GRAVITY) ** 2 + (lag * rate) ** 2
 
 
@@ -452,7 +516,9 @@ def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win):
 
     ``speed_std`` (m/s) is the median std of the observer's speed input (the V_x measurement, or the EKF's
     V_x where the measurement is missing). Returns the slope, the variance (T,) of sin(theta) (stationary
-    Lyapunov value times the NIS inflation of the observer's output error) and the gain."""
+    Lyapunov value times the NIS inflation of the observer's output error), the gain, and the observer's
+    response (T,) of sin(theta) to its force input alone, per unit relative force error (the observer is linear:
+    a force error beta F_res moves sin(theta) by beta times it)."""
     from scipy.linalg import solve_continuous_lyapunov
 
     from ...statespace import luenberger_observer
@@ -473,4 +539,6 @@ def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win):
     # output error y - C x_hat = v - e_1: predicted variance P_11 + speed_std^2 (e_1 and v treated as independent)
     e_y = (speed - state[:, 0])[:, None]
     kappa = nis_inflation(e_y, np.full((s.size, 1, 1), P[0, 0] + speed_std ** 2), n_win)[:, 0]
-    return slope, max(P[1, 1], 0.0) * kappa, L
+    force_response = luenberger_observer(A, B, C, L, np.zeros_like(speed), u=res[:, None], x0=np.zeros(2),
+                                         dt=dt).state[:, 1]
+    return slope, max(P[1, 1], 0.0) * kappa, L, force_response
