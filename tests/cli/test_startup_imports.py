@@ -75,3 +75,11 @@ def test_road_simulate_loads_no_numba_matplotlib_or_service(tmp_path):
                            tmp_path)
     # the APL response is scipy.signal.sosfilt (scipy.signal imports scipy.stats and scipy.optimize)
     assert found <= {"pandas", "pyarrow", "scipy.signal", "scipy.stats", "scipy.optimize"}, found
+
+
+def test_road_compare_loads_no_scipy_signal_or_service(profile_csv, tmp_path):
+    run = tmp_path / "run.csv"
+    run.write_text(profile_csv.read_text())
+    found = _heavy_imports(["road", "compare", str(profile_csv), str(run), "-o", str(tmp_path / "cmp")], tmp_path)
+    # the cross-correlation is scipy.fft's (scipy.signal's import is ~0.4 s, issue 12)
+    assert found <= {"pandas", "pyarrow", "numba"}, found

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from longprofile.errors import InputError
 from longprofile.road import Profile, iso8608_profile
 from longprofile.road.smoothness._compare import (
+    _full_correlation,
     _xcorr,
     certify_profiler,
     compare_profiles,
@@ -156,3 +157,15 @@ def test_cli_compare_erd_runs(tmp_path, long_profile):
     bad = CliRunner().invoke(_cli(), ["compare", str(ref), runs[0], "-o", str(out), "--filter", "bandpass",
                                       "--overwrite"])
     assert isinstance(bad.exception, InputError) and "band" in str(bad.exception)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n_q=st.integers(1, 3000), n_p=st.integers(1, 3000), seed=st.integers(0, 2**16))
+def test_full_correlation_equals_scipy_signal_correlate(n_q, n_p, seed):
+    """The FFT cross-correlation of the alignment (scipy.fft) against the oracle scipy.signal.correlate."""
+    from scipy.signal import correlate
+
+    rng = np.random.default_rng(seed)
+    q, p = rng.normal(size=n_q), rng.normal(size=n_p)
+    want = correlate(q, p, mode="full", method="direct")
+    np.testing.assert_allclose(_full_correlation(q, p), want, atol=1e-9 * max(1.0, np.abs(want).max()))
