@@ -100,3 +100,15 @@ def test_cli_prints_the_fit_and_no_force_correction_gives_the_papers_estimate(tm
     # the same drive, the own car: the corrected band is several times narrower and still holds the truth
     assert np.median(a["slope_std"][keep]) < 0.5 * np.median(b["slope_std"][keep])
     assert np.mean(np.abs(a["slope"] - truth)[keep] <= Z90 * a["slope_std"][keep]) >= 0.9
+
+
+def test_a_reversed_accelerometer_is_named_in_the_warnings(heavy_hill):
+    """accel_x of the wrong sign makes d ~ 2 F_res/(M g): far beyond the prior, so warnings() says so."""
+    from dataclasses import replace
+
+    sim, car = heavy_hill
+    good = estimate_slope(sim.log, car)
+    bad = estimate_slope(replace(sim.log, accel_x=-sim.log.accel_x), car)
+    assert not any("accelerometer disagree" in w for w in good.warnings())
+    assert abs(bad.force_fit.beta) > 0.3
+    assert any("accelerometer disagree" in w for w in bad.warnings())

@@ -350,15 +350,14 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
         slope = mean[:, 3].copy()
         s_var = var[:, 3] * kappa[:, 0] * (1.0 - np.sin(slope) ** 2)  # of sin(theta), to add the terms below
         lag = 0.0
-        force_shape = None
     else:
         missing = np.isnan(y[:, 0])
         speed = np.where(missing, mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
         speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
-        slope, s_var, gain, force_shape = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
+        slope, s_var, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
         lag = float(sum(-1.0 / p for p in poles)) if unc.tracking_lag else 0.0
     slope, s_var, fit = _force_corrected(vehicle, unc, force_correction, log.accel_x, mean, slope, s_var, res,
-                                         force_shape, dt, lag)
+                                         gain, dt, lag)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
     std = np.sqrt(np.column_stack([var[:, 0] * kappa[:, 0] + (unc.radius_rel_std * mean[:, 0]) ** 2,
                                    var[:, 1] * kappa.max(axis=1),
@@ -463,25 +462,30 @@ def nis_inflation(innovation, innovation_cov, window: int) -> np.ndarray:
     return np.maximum(out, 1.0)
 
 
-def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, force_shape, dt, lag):
+def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, gain, dt, lag):
     """(slope, variance of sin(theta), fit) with the force-model correction and the parameter terms.
 
     ``fit`` is :func:`force_scale_fit` of the drive (None without ``force_correction`` or without a stated mass
     and force uncertainty). Without a fit (or with too short a log: ``n_blocks`` 0) the slope is unchanged and
     the stated mass, force and wheel-radius terms are added; with one, sin(theta) - beta s - c is returned, s the shift per unit
-    relative force error (the cascade observer's response ``force_shape``, else F_res averaged / (M g)), and its
+    relative force error (the cascade observer's response to its force input, observer gain ``gain``; the joint,
+    ``gain`` None: F_res averaged / (M g)), and its
     variance is the posterior of (beta, c), the accelerometer's gain and offset errors and the fit's residual
     variance (estimate_slope, Notes)."""
-    shape = _observer_mean(res, dt, lag) / (vehicle.mass * GRAVITY)
     force_var = unc.mass_rel_std ** 2 + unc.force_rel_std ** 2
     fit = None
     if force_correction and force_var > 0:
         fit = force_scale_fit(res, accel_x, mean[:, 2], mean[:, 1], vehicle.mass, dt,
                               beta_prior_std=math.sqrt(force_var), offset_prior_std=unc.offset_prior_std)
     corrected = fit is not None and fit.n_blocks > 0
+    if corrected and gain is not None:  # the cascade: the observer is linear, a force error beta F_res moves
+        from ...statespace import luenberger_observer  # its sin(theta) by beta times its response to F_res alone
+
+        A, B, C = slope_observer_matrices(vehicle)
+        shape = luenberger_observer(A, B, C, gain, np.zeros_like(res), u=res[:, None], x0=np.zeros(2), dt=dt).state[:, 1]
+    else:
+        shape = _observer_mean(res, dt, lag) / (vehicle.mass * GRAVITY)
     if corrected:
-        if force_shape is not None:  # the cascade: the observer's own response to its force input
-            shape = force_shape
         slope = np.arcsin(np.clip(np.sin(slope) - fit.beta * shape - fit.offset, -1.0, 1.0))
         s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * fit.cov[0, 1] * shape \
             + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2 + np.nan_to_num(fit.residual_std) ** 2
@@ -516,9 +520,7 @@ def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win):
 
     ``speed_std`` (m/s) is the median std of the observer's speed input (the V_x measurement, or the EKF's
     V_x where the measurement is missing). Returns the slope, the variance (T,) of sin(theta) (stationary
-    Lyapunov value times the NIS inflation of the observer's output error), the gain, and the observer's
-    response (T,) of sin(theta) to its force input alone, per unit relative force error (the observer is linear:
-    a force error beta F_res moves sin(theta) by beta times it)."""
+    Lyapunov value times the NIS inflation of the observer's output error) and the gain."""
     from scipy.linalg import solve_continuous_lyapunov
 
     from ...statespace import luenberger_observer
@@ -539,6 +541,4 @@ def _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win):
     # output error y - C x_hat = v - e_1: predicted variance P_11 + speed_std^2 (e_1 and v treated as independent)
     e_y = (speed - state[:, 0])[:, None]
     kappa = nis_inflation(e_y, np.full((s.size, 1, 1), P[0, 0] + speed_std ** 2), n_win)[:, 0]
-    force_response = luenberger_observer(A, B, C, L, np.zeros_like(speed), u=res[:, None], x0=np.zeros(2),
-                                         dt=dt).state[:, 1]
-    return slope, max(P[1, 1], 0.0) * kappa, L, force_response
+    return slope, max(P[1, 1], 0.0) * kappa, L
