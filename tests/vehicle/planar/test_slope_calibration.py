@@ -117,3 +117,55 @@ def test_ten_percent_flag_fires_on_steep_slope_not_on_flat_drive(paper):
     assert MAX_PLAUSIBLE_GRADE == 0.10
     downhill = replace(est, slope=-np.abs(est.slope) - np.arctan(0.101))
     assert not downhill.slope_plausible().any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(2, 60), st.floats(0.01, 1.0))
+def test_nis_floor_bounds_the_factors_and_equals_inflation_above_one(seed, window, floor):
+    rng = np.random.default_rng(seed)
+    T = 200
+    cov = np.broadcast_to(rng.uniform(0.1, 10.0, (T, 1, 1)), (T, 1, 1)).copy()
+    nu = rng.normal(0.0, rng.uniform(0.05, 3.0) * np.sqrt(cov[:, :, 0]))
+    scale = nis_inflation(nu, cov, window, floor=floor)
+    assert np.all(scale >= floor) and np.all(scale <= np.maximum(nis_inflation(nu, cov, window), 1.0))
+    np.testing.assert_array_equal(np.maximum(scale, 1.0), nis_inflation(nu, cov, window))
+
+
+def test_nis_floor_recovers_a_variance_ratio_below_one_and_rejects_bad_floors():
+    rng = np.random.default_rng(1)
+    T, w = 100_000, 1000
+    cov = np.full((T, 1, 1), 8.0)
+    too_large = nis_inflation(rng.normal(0.0, np.sqrt(2.0), (T, 1)), cov, w, floor=0.1)  # the filter says 8, truth 2
+    assert abs(np.median(too_large) - 0.25) < 0.02
+    assert np.all(nis_inflation(rng.normal(0.0, 0.1, (T, 1)), cov, w, floor=0.1) == 0.1)  # NIS 1/800: the floor
+    for bad in (0.0, -1.0, 1.5, float("nan")):
+        with pytest.raises(InputError):
+            nis_inflation(np.ones((10, 1)), np.ones((10, 1, 1)), 3, floor=bad)
+        with pytest.raises(InputError):
+            SlopeUncertainty(nis_floor=bad)
+
+
+def test_yaw_rate_band_is_calibrated_when_the_tuning_overstates_the_gyro_noise():
+    """The default tuning states a gyro noise of 3e-3 rad/s, the simulated gyro has 2e-3: with inflation only the
+    yaw-rate band over-covered (99.7 % on the calibration benchmark); the NIS scaling brings it near 90 %."""
+    car = default_vehicle()
+    inside = {1.0: [], 0.1: []}
+    for seed in range(3):
+        sim = simulate_drive(drive_scenario("paper", duration=12.0), seed=seed)
+        keep = sim.log.time >= 2.0
+        for floor in inside:
+            est = estimate_slope(sim.log, car, uncertainty=SlopeUncertainty(nis_floor=floor))
+            err = (est.yaw_rate - sim.truth.yaw_rate)[keep]
+            inside[floor].append(np.abs(err) <= Z90 * est.yaw_rate_std[keep])
+    before, after = (float(np.mean(np.concatenate(inside[f]))) for f in (1.0, 0.1))
+    assert before > 0.98, before
+    assert 0.85 <= after <= 0.95, after
+
+
+def test_joint_slope_band_narrows_but_still_covers_a_heavy_car(heavy_hill):
+    sim, car = heavy_hill
+    a = estimate_slope(sim.log, car, method="joint", uncertainty=SlopeUncertainty(nis_floor=1.0))
+    b = estimate_slope(sim.log, car, method="joint")
+    np.testing.assert_array_equal(a.slope, b.slope)  # the stds change, not the estimate
+    assert np.all(b.slope_std <= a.slope_std) and np.median(b.slope_std) < 0.9 * np.median(a.slope_std)
+    assert 0.85 <= _coverage(sim, b) <= 1.0
