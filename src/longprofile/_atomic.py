@@ -108,5 +108,18 @@ def save_figure(fig, path, **savefig_kwargs) -> Path:
         fmt = matplotlib.rcParams["savefig.format"]
     savefig_kwargs.setdefault("format", fmt)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, **savefig_kwargs)
+        fig.savefig(tmp, **png_defaults(savefig_kwargs))
     return path
+
+
+#: zlib level of the PNGs written by :func:`save_figure` and the reports: 1 encodes a 20 000-point figure in
+#: 10 ms instead of 34 ms (matplotlib's default, 6) for files ~14 % larger (measured 2026-12-06; start-up, issue 12)
+PNG_COMPRESS_LEVEL = 1
+
+
+def png_defaults(savefig_kwargs: dict) -> dict:
+    """``savefig_kwargs`` with ``pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}`` added for a PNG (format
+    ``"png"``) unless the caller passed ``pil_kwargs``."""
+    if str(savefig_kwargs.get("format", "")).lower() == "png" and "pil_kwargs" not in savefig_kwargs:
+        return {**savefig_kwargs, "pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}}
+    return savefig_kwargs

@@ -83,3 +83,10 @@ def test_road_compare_loads_no_scipy_signal_or_service(profile_csv, tmp_path):
     found = _heavy_imports(["road", "compare", str(profile_csv), str(run), "-o", str(tmp_path / "cmp")], tmp_path)
     # the cross-correlation is scipy.fft's (scipy.signal's import is ~0.4 s, issue 12)
     assert found <= {"pandas", "pyarrow", "numba"}, found
+
+
+def test_road_report_loads_no_scipy_signal_or_service(profile_csv, tmp_path):
+    found = _heavy_imports(["road", "report", str(profile_csv), "-o", str(tmp_path / "report")], tmp_path)
+    # the Welch PSD is matplotlib.mlab's (scipy.signal's import is ~0.35 s of the command, issue 12); matplotlib
+    # draws the figures (here, or in the figure helper process when a core is free)
+    assert found <= {"pandas", "pyarrow", "numba", "matplotlib", "jinja2"}, found  # jinja2: the page template

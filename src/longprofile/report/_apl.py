@@ -39,34 +39,31 @@ def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None,
 
     fig, (ax, ax2) = _figure(2, 3.4, sharex=False)
     x = np.asarray(distance)
+    # the zoom panel shows a 60 m window in the middle: only its samples (and one beyond each end) are drawn there
+    mid = x[x.size // 2]
+    zoom = slice(max(int(np.searchsorted(x, mid - 30)) - 1, 0), int(np.searchsorted(x, mid + 30, side="right")) + 1)
     ax.plot(x, 1e3 * np.asarray(signal), color="0.6", lw=0.7, label="APL signal")
     if truth is not None and dx is not None:
         t = detrend_profile(np.asarray(truth) - truth[0], dx, highpass_wavelength=highpass_wavelength)
         ax.plot(x, 1e3 * t, color="k", lw=1.0, label="true (detrended)")
-        ax2.plot(x, 1e3 * t, color="k", lw=1.0, label="true (detrended)")
+        ax2.plot(x[zoom], 1e3 * t[zoom], color="k", lw=1.0, label="true (detrended)")
     for name, rec in reconstructions.items():
-        if isinstance(rec, Reconstruction):
-            z = rec.profile.elevation[:, 0]
-            line, = ax.plot(x, 1e3 * z, lw=0.8, label=name)
-            ax2.plot(x, 1e3 * z, lw=0.8, color=line.get_color(), label=name)
-            if rec.profile.std is not None:
-                s = rec.profile.std[:, 0]
-                ax2.fill_between(x, 1e3 * (z - 1.645 * s), 1e3 * (z + 1.645 * s), color=line.get_color(), alpha=0.25,
-                                 label=f"{name} 90 % band")
-        else:
-            line, = ax.plot(x, 1e3 * np.asarray(rec), lw=0.8, label=name)
-            ax2.plot(x, 1e3 * np.asarray(rec), lw=0.8, color=line.get_color(), label=name)
+        z = rec.profile.elevation[:, 0] if isinstance(rec, Reconstruction) else np.asarray(rec)
+        line, = ax.plot(x, 1e3 * z, lw=0.8, label=name)
+        ax2.plot(x[zoom], 1e3 * z[zoom], lw=0.8, color=line.get_color(), label=name)
+        if isinstance(rec, Reconstruction) and rec.profile.std is not None:
+            z, s = z[zoom], rec.profile.std[zoom, 0]
+            ax2.fill_between(x[zoom], 1e3 * (z - 1.645 * s), 1e3 * (z + 1.645 * s), color=line.get_color(),
+                             alpha=0.25, label=f"{name} 90 % band")
     ax.set_ylabel("elevation (mm)")
     ax.set_xlabel("distance (m)")
-    ax.legend(fontsize=7, ncol=3)
+    ax.legend(fontsize=7, ncol=3, loc="upper right")  # a fixed place: "best" searches every vertex of the record
     ax.set_title(title)
-    # zoom on a 60 m window in the middle
-    mid = x[x.size // 2]
     ax2.set_xlim(mid - 30, mid + 30)
     ax2.set_title(f"zoom on {mid - 30:g}-{mid + 30:g} m", fontsize=9)
     ax2.set_ylabel("elevation (mm)")
     ax2.set_xlabel("distance (m)")
-    ax2.legend(fontsize=7, ncol=3)
+    ax2.legend(fontsize=7, ncol=3, loc="upper right")
     return fig
 
 

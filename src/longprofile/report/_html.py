@@ -8,6 +8,7 @@ import io
 import os
 from pathlib import Path
 
+from .._atomic import png_defaults
 from ..errors import OutputError
 from ..io import atomic_path, atomic_write_bytes
 
@@ -103,7 +104,7 @@ def write_text(path: Path, text: str) -> Path:
 def png_bytes(fig, **savefig_kwargs) -> bytes:
     """A matplotlib Figure as PNG bytes."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", **savefig_kwargs)
+    fig.savefig(buf, **png_defaults({"format": "png", **savefig_kwargs}))
     return buf.getvalue()
 
 

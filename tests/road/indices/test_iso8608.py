@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.signal import periodogram
+from scipy.signal import periodogram, welch
 
 from longprofile.errors import InputError
 from longprofile.road import (
@@ -50,6 +50,30 @@ def test_welch_fit_recovers_class_and_waviness(road_class, seed):
     assert fit.road_class == road_class and fit.road_class_free == road_class
     np.testing.assert_allclose(fit.gd_n0, ISO8608_CLASSES[road_class][1], rtol=0.25)
     assert abs(fit.waviness - 2.0) < 0.15
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(16, 3000), frac=st.floats(0.01, 1.0), detrend=st.sampled_from(["linear", "constant"]),
+       window=st.sampled_from(["hann", "hamming"]), tracks=st.integers(1, 3), seed=st.integers(0, 2**31))
+def test_welch_equals_scipy_signal_welch(n, frac, detrend, window, tracks, seed):
+    # the external oracle: scipy.signal.welch with the same segments, window, detrending and density scaling
+    dx = 0.05
+    rng = np.random.default_rng(seed)
+    z = np.cumsum(rng.normal(size=(n, tracks)), axis=0) * 1e-3 + rng.normal(size=tracks) * 0.1
+    p = Profile(distance=np.arange(n) * dx, elevation=z, tracks=tuple(f"t{k}" for k in range(tracks)))
+    nper = max(8, int(frac * n))
+    psd = profile_psd(p, segment_length=nper * dx, detrend=detrend, window=window)
+    f, pxx = welch(z, fs=1 / dx, window=window, nperseg=nper, noverlap=nper // 2, detrend=detrend,
+                   scaling="density", axis=0)
+    np.testing.assert_allclose(psd.wavenumber, f, rtol=1e-12)
+    np.testing.assert_allclose(psd.psd, pxx, rtol=1e-9, atol=1e-12 * pxx.max())
+    assert psd.psd.shape == (f.size, tracks)
+
+
+def test_welch_refuses_an_unknown_detrending():
+    p = iso8608_profile(200.0, 0.1, "C", rng=0)
+    with pytest.raises(InputError, match="detrend must be"):
+        profile_psd(p, detrend="quadratic")
 
 
 def test_fit_recovers_other_waviness():
