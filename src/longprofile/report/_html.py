@@ -140,7 +140,7 @@ def _environment():
     """The Jinja2 environment of the report templates (package data ``report/templates/``), made once.
 
     ``autoescape=False``: the writers pass HTML (values escaped with :func:`html.escape` where they are text), so a
-    page is the same bytes as the f-string it replaced. ``StrictUndefined``: a name missing from the context is an
+    page is the same bytes as the f-string each replaced. ``StrictUndefined``: a name missing from the context is an
     error, not an empty string. Jinja2 is imported here, when the first page is rendered: commands that write no
     report never load it.
     """
