@@ -6,7 +6,6 @@ Every number comes from :func:`longprofile.road.smoothness._acceptance.smoothnes
 
 from __future__ import annotations
 
-import base64
 import html
 import io
 import json
@@ -14,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path, atomic_write_bytes
-from ._html import REPORT_FILES, report_folder, write_text
+from ..io import atomic_path
+from ._html import REPORT_FILES, img_tag, render, report_folder, write_pngs, write_text
 from ._layout import fixed_figure
 from ._render import current_renderer
 
@@ -223,19 +222,28 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         Files written, ``index.html`` first.
     """
     out = _prepare(outdir, inputs, _ACCEPTANCE_FILES, overwrite)
-    spec = result.spec
-    lu, iu = spec.length_unit, spec.iri_unit
-    figures: dict = {}
-    written: list[Path] = []
     renderer = renderer or current_renderer()
     jobs = _submit_figures(renderer, result)  # drawn while the grinding runs and the tables are written
     if callable(grinding):
         grinding = grinding()
     jobs["localized.png"] = _submit_localized_figure(renderer, result, grinding)
+    tables, written = _write_tables(out, result, grinding, ground_profile)
+    paths, images = write_pngs({name: jobs[name].result() for name in ("lots.png", "localized.png", "histogram.png")},
+                               out)
+    written += paths
+    written.append(write_text(out / "summary.json", json.dumps(_summary(result, grinding), indent=2, default=float)))
+    page = render("acceptance_report.html", **_page_context(result, grinding, list(tables), images, title))
+    return [write_text(out / "index.html", page)] + written
+
+
+def _write_tables(out: Path, result, grinding, ground_profile: bool) -> tuple[dict, list[Path]]:
+    """Write the tables (lots, localized roughness as Parquet, defects, histogram, grinds; the ground profile when
+    asked and ground); return them by file name and the paths written."""
     tables = {"lots.csv": result.lots, "localized.parquet": result.localized, "defects.csv": result.defects,
               "histogram.csv": result.histogram}
     if grinding is not None:
         tables["grinds.csv"] = grinding.grinds
+    written = []
     for name, frame in tables.items():
         if name.endswith(".parquet"):  # one row per sample: Parquet (a CSV of 400k rows takes ~0.6 s)
             with atomic_path(out / name) as tmp:
@@ -247,50 +255,46 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
         from ..io import write_profile
 
         written.append(write_profile(grinding.profile, out / "profile_ground.csv"))
-    for name in ("lots.png", "localized.png", "histogram.png"):
-        data = jobs[name].result()
-        atomic_write_bytes(out / name, data)
-        figures[name] = base64.b64encode(data).decode("ascii")
-        written.append(out / name)
+    return tables, written
+
+
+def _summary(result, grinding) -> dict:
+    """``summary.json``: pay summary, metadata, the spec and (with a grinding) its outcome."""
     summary = {"pay": result.pay_summary, "metadata": result.metadata,
-               "spec": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(spec).items()}}
+               "spec": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(result.spec).items()}}
     if grinding is not None:
         summary["grinding"] = {"threshold": grinding.threshold, "achieved": grinding.achieved,
                                "areas": int(grinding.grinds["area"].nunique()) if len(grinding.grinds) else 0,
                                **grinding.metadata}
-    written.append(write_text(out / "summary.json", json.dumps(summary, indent=2, default=float)))
-    ps = result.pay_summary
-    pay_line = ("" if ps.get("mean_pay_factor") is None else
-                f"<p>Length-weighted mean pay factor: <b>{ps['mean_pay_factor']:.4f}</b> "
-                f"({ps['lots_with_pay']} lots with pay, {ps['lots_without_pay']} without).</p>")
-    grind_html = ""
-    if grinding is not None:
-        line = html.escape(grinding.summary()[:1].upper() + grinding.summary()[1:] + ".")
-        verdict = line if grinding.achieved else f"<b>{line}</b>"
-        grind_html = (f"<h2>Grinding simulation (target {grinding.threshold:g} {iu})</h2>"
-                      f"<p>{verdict} "
-                      f"Model: {html.escape(grinding.metadata['model'])}.</p>"
-                      + (_table(grinding.grinds) if len(grinding.grinds) else "<p>No must-grind area.</p>"))
-    threshold_text = "" if spec.localized_threshold is None else f", threshold {spec.localized_threshold:g} {iu}"
-    ma_reason = html.escape(str(result.metadata.get("moving_average_reason", "")))
-    name = title or "Smoothness acceptance"
-    img = lambda n: f'<img alt="{n}" src="data:image/png;base64,{figures[n]}">'  # noqa: E731
-    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>{html.escape(name)}</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;font-size:12px}}
-td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}img{{max-width:100%}}</style></head><body>
-<h1>{html.escape(name)}</h1>
-<p>Units: {lu}, {iu}. Lots of {spec.lot_length:g} {lu}; index {spec.index.upper()}; localized window
-{spec.localized_window:g} {lu}{threshold_text}; {len(spec.exclusions)} exclusion zone(s).
-Moving average: {ma_reason}.</p>
-{pay_line}
-<h2>Lots</h2>{img('lots.png')}{_table(result.lots)}
-<h2>Localized roughness</h2>{img('localized.png')}
-<p>{ps['localized_defects']} area(s) above the threshold, {ps['localized_defect_length']:.1f} {lu} in total.</p>
-{_table(result.defects)}
-{grind_html}
-<h2>Histogram</h2>{img('histogram.png')}{_table(result.histogram)}
-<p>Tables: {', '.join(tables)}; summary.json.</p></body></html>"""
-    return [write_text(out / "index.html", page)] + written
+    return summary
+
+
+def _grinding_context(grinding) -> dict | None:
+    """The grinding section of the page: target, verdict (bold when not achieved), model, grind list (HTML)."""
+    if grinding is None:
+        return None
+    line = html.escape(grinding.summary()[:1].upper() + grinding.summary()[1:] + ".")
+    return {"threshold": f"{grinding.threshold:g}", "verdict": line if grinding.achieved else f"<b>{line}</b>",
+            "model": html.escape(grinding.metadata["model"]),
+            "table": _table(grinding.grinds) if len(grinding.grinds) else ""}
+
+
+def _page_context(result, grinding, tables: list[str], images: dict, title: str | None) -> dict:
+    """Everything ``templates/acceptance_report.html`` shows: escaped text, numbers as shown, HTML tables, the
+    figures as ``<img>`` tags by file name."""
+    spec, ps = result.spec, result.pay_summary
+    pay = (None if ps.get("mean_pay_factor") is None else
+           {"mean": f"{ps['mean_pay_factor']:.4f}", "lots_with": ps["lots_with_pay"],
+            "lots_without": ps["lots_without_pay"]})
+    return dict(name=html.escape(title or "Smoothness acceptance"), lu=spec.length_unit, iu=spec.iri_unit,
+                lot_length=f"{spec.lot_length:g}", index=spec.index.upper(), window=f"{spec.localized_window:g}",
+                threshold=("" if spec.localized_threshold is None else f"{spec.localized_threshold:g}"),
+                n_exclusions=len(spec.exclusions),
+                ma_reason=html.escape(str(result.metadata.get("moving_average_reason", ""))), pay=pay,
+                img={n: img_tag(images, n, n) for n in images}, lots_table=_table(result.lots),
+                n_defects=ps["localized_defects"], defect_length=f"{ps['localized_defect_length']:.1f}",
+                defects_table=_table(result.defects), grinding=_grinding_context(grinding),
+                histogram_table=_table(result.histogram), tables=tables)
 
 
 def plot_certification(result, comparisons, path) -> Path:

@@ -1,8 +1,10 @@
-"""Pieces shared by the HTML reports: the report folder, figures written as PNG and embedded in the page."""
+"""Pieces shared by the HTML reports: the report folder, figures written as PNG and embedded in the page, and the
+page itself rendered from its Jinja2 template in ``report/templates/`` (:func:`render`)."""
 
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import io
 import os
@@ -13,7 +15,7 @@ from ..errors import OutputError
 from ..io import atomic_path, atomic_write_bytes
 
 __all__ = ["REPORT_FILES", "report_folder", "png_bytes", "write_figures", "write_pngs", "figure_pngs", "img_tag",
-           "write_csv", "write_text"]
+           "write_csv", "write_text", "render"]
 
 #: The files each report writes into its folder (an input of one of these names there is never overwritten).
 REPORT_FILES: dict[str, tuple[str, ...]] = {
@@ -132,3 +134,23 @@ def figure_pngs(builder, /, *args, savefig: dict | None = None, **kwargs) -> dic
 def img_tag(images: dict[str, str], fname: str, alt: str) -> str:
     """An ``<img>`` embedding the PNG ``fname`` of :func:`write_figures` (the page works without its folder)."""
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{images[fname]}">'
+
+
+@functools.lru_cache(maxsize=1)
+def _environment():
+    """The Jinja2 environment of the report templates (package data ``report/templates/``), made once.
+
+    ``autoescape=False``: the writers pass HTML (values escaped with :func:`html.escape` where they are text), so a
+    page is the same bytes as the f-string each replaced. ``StrictUndefined``: a name missing from the context is an
+    error, not an empty string. Jinja2 is imported here, when the first page is rendered: commands that write no
+    report never load it.
+    """
+    import jinja2
+
+    return jinja2.Environment(loader=jinja2.PackageLoader("longprofile.report", "templates"), autoescape=False,
+                              keep_trailing_newline=True, undefined=jinja2.StrictUndefined)
+
+
+def render(template: str, /, **context) -> str:
+    """Render ``report/templates/<template>`` with ``context`` (values are HTML already, see :func:`_environment`)."""
+    return _environment().get_template(template).render(**context)

@@ -1,8 +1,8 @@
 """Network roughness report: one HTML page over a batch results folder, its PNG figures and CSV tables.
 
-Rendering only: every number comes from :func:`longprofile.batch.summarize_network`. The page is built like the
-single-file report (f-strings with :func:`html.escape`, figures embedded as PNG), so no template engine is
-needed.
+Rendering only: every number comes from :func:`longprofile.batch.summarize_network`. The page is
+``report/templates/network_report.html`` (Jinja2), like the single-file report: text escaped with
+:func:`html.escape` here, figures embedded as PNG.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._html import REPORT_FILES, img_tag, report_folder, write_csv, write_figures, write_text
+from ._html import REPORT_FILES, img_tag, render, report_folder, write_csv, write_figures, write_text
 from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _table_html
 
 __all__ = ["write_network_report", "plot_network_routes", "plot_iri_histogram"]
@@ -178,7 +178,7 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
             stale.unlink()
     paths, images = write_figures(figs, out)
     written.extend(paths)
-    page = _network_page(summary, tables, figs, images, drawn, title)
+    page = render("network_report.html", **_page_context(summary, tables, figs, images, drawn, title))
     written.insert(0, write_text(out / "index.html", page))
     return written
 
@@ -225,8 +225,8 @@ def _network_cards(summary) -> list[str]:
     return cards
 
 
-def _network_tables_html(summary) -> tuple[str, str, str, str]:
-    """The HTML of the worst segments, the routes (first 100, and a note on the others) and the warnings."""
+def _network_tables(summary) -> tuple[str, str]:
+    """The HTML tables of the worst segments and of the routes (first 100); "" for an empty one."""
     routes, su = summary.routes, summary.station_unit
     highlight = (lambda c, v: _condition(float(v), summary.limits)
                  if (str(c) in summary.value_columns or c in ("segment_iri", "mean_iri", "max_iri"))
@@ -234,68 +234,38 @@ def _network_tables_html(summary) -> tuple[str, str, str, str]:
     dup = ["segment_iri"] if summary.segment_iri_column is not None else []  # a copy of a column shown
     worst = summary.worst.drop(columns=["file", "condition"] + dup, errors="ignore")
     worst = worst.rename(columns={"start": f"start_{su}", "end": f"end_{su}"})
-    worst_html = (_table_html(worst, fmt="{:.2f}", highlight=highlight) if len(worst)
-                  else "<p>No segment.</p>")
+    worst_html = _table_html(worst, fmt="{:.2f}", highlight=highlight) if len(worst) else ""
     rtab = routes.head(100).copy()
     for c in ("good", "fair", "poor"):
         rtab[c] = [_pct(x) for x in rtab[c]]
     rtab = rtab.drop(columns=["file"]).rename(columns={"start": f"start_{su}", "end": f"end_{su}",
                                                        "length": f"length_{su}"})
-    routes_html = (_table_html(rtab, fmt="{:.2f}", highlight=highlight) if len(rtab) else "<p>No route.</p>")
-    more_routes = (f"<p class='small'>{len(routes) - 100} more routes in routes.csv.</p>" if len(routes) > 100 else "")
-    warn_html = ""
-    if len(summary.warnings):
-        rows = "".join(f'<tr><td class="path">{html.escape(str(r.path))}</td><td class="err">'
-                       f"{html.escape(str(r.warning))}</td></tr>" for r in summary.warnings.head(500).itertuples())
-        warn_html = (f"<h2>Results to check ({len(summary.warnings)})</h2><table><thead><tr><th>file</th>"
-                     f"<th class='l'>warning</th></tr></thead><tbody>{rows}</tbody></table>")
-    return worst_html, routes_html, more_routes, warn_html
+    routes_html = _table_html(rtab, fmt="{:.2f}", highlight=highlight) if len(rtab) else ""
+    return worst_html, routes_html
 
 
-def _network_page(summary, tables, figs, images, drawn, title) -> str:
-    """``index.html`` of the network report: cards, figures (embedded), tables and the run's details."""
-    res, counts, routes = summary.results, summary.counts, summary.routes
+#: The alternative text of each figure of the page (the condition strips: every ``routes-NN.png``).
+_ALT = {"worst_routes.png": "worst routes", "iri_histogram.png": "histogram"}
+
+
+def _page_context(summary, tables, figs, images, drawn, title) -> dict:
+    """Everything ``templates/network_report.html`` shows: cards, figures as ``<img>`` tags, tables, the run."""
+    res, routes = summary.results, summary.routes
     n_files = len(res.manifest)
-    good, poor = summary.limits
-    unit = summary.iri_unit
-
-    def img(fname, alt):
-        return img_tag(images, fname, alt)
-
-    cards = _network_cards(summary)
-    worst_html, routes_html, more_routes, warn_html = _network_tables_html(summary)
-    strips = "".join(img(f, "condition along each route") for f in figs if f.startswith("routes-"))
-    drawn_note = (f"<p class='small'>The {len(drawn)} routes with the highest mean IRI of {len(routes)} are drawn; "
-                  "all are in routes.csv.</p>" if len(routes) > len(drawn) else "")
-    version = res.manifest["longprofile_version"].iloc[0] if n_files else ""
+    worst_table, routes_table = _network_tables(summary)
     name = title or f"Network roughness report — {res.folder.name}"
-    meta = (f"{n_files} input files, task {res.task}; IRI in {unit} per segment (the IRI report of each file); "
-            f"segment IRI = {summary.segment_iri}.")
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(name)}</title><style>{_CSS}{_EXTRA_CSS}</style></head>
-<body>
-<h1>{html.escape(name)}</h1>
-<p class="sub">{html.escape(meta)}</p>
-<div class="cards">{''.join(cards)}</div>
-<h2>Condition along each route</h2>
-{strips or '<p>No route has results.</p>'}
-{drawn_note}
-<p class="small">Each row is a route (a file), each coloured block a segment: good below {good:.3g} {unit},
-poor above {poor:.3g} {unit} (FHWA condition limits), fair in between; grey = no value.</p>
-{'<h2>IRI along the worst routes</h2>' + img('worst_routes.png', 'worst routes') if 'worst_routes.png' in images else ''}
-<h2>Distribution of the segment IRI</h2>
-{img('iri_histogram.png', 'histogram') if 'iri_histogram.png' in images else '<p>No segment.</p>'}
-<h2>Worst segments</h2>
-{worst_html}
-<h2>Routes, worst mean IRI first</h2>
-{routes_html}
-{more_routes}
-<h2>Files that failed ({counts['error']})</h2>
-{_failed_html(summary.failed)}
-{warn_html}
-<h2>Run</h2>
-<p class="small">Results folder {html.escape(str(res.folder))}; options {html.escape(json.dumps(res.options))};
-longprofile {html.escape(str(version))}. Files in this folder: {' · '.join(html.escape(f) for f in list(tables) + list(figs))}.
-Definitions and assumptions: docs/batch.md.</p>
-</body></html>
-"""
+    meta = (f"{n_files} input files, task {res.task}; IRI in {summary.iri_unit} per segment (the IRI report of each "
+            f"file); segment IRI = {summary.segment_iri}.")
+    warnings = summary.warnings
+    return dict(
+        name=html.escape(name), css=_CSS + _EXTRA_CSS, meta=html.escape(meta), cards=_network_cards(summary),
+        img={f: img_tag(images, f, _ALT.get(f, "condition along each route")) for f in images},
+        strips=[img_tag(images, f, "condition along each route") for f in figs if f.startswith("routes-")],
+        n_drawn=len(drawn), n_routes=len(routes), good=f"{summary.limits[0]:.3g}", poor=f"{summary.limits[1]:.3g}",
+        unit=summary.iri_unit, worst_table=worst_table, routes_table=routes_table,
+        n_failed=summary.counts["error"], failed_table=_failed_html(summary.failed),
+        n_warnings=len(warnings), warnings=[(html.escape(str(r.path)), html.escape(str(r.warning)))
+                                            for r in warnings.head(500).itertuples()],
+        folder=html.escape(str(res.folder)), options=html.escape(json.dumps(res.options)),
+        version=html.escape(str(res.manifest["longprofile_version"].iloc[0] if n_files else "")),
+        files=[html.escape(f) for f in list(tables) + list(figs)])

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ._html import REPORT_FILES, figure_pngs, report_folder, write_csv, write_pngs, write_text
+from ._html import REPORT_FILES, figure_pngs, render, report_folder, write_csv, write_pngs, write_text
 from ._layout import fixed_figure, fixed_grid
 from ._render import current_renderer
 
@@ -223,6 +223,82 @@ def _report_figures(result) -> dict:
     return figs
 
 
+def _sensor_table(result) -> pd.DataFrame:
+    """``sensors.csv``: one row per sensor (health, noise factor, thermal fit, initial profile and angle)."""
+    return pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
+                         "detail": result.health.detail, "loo_score": result.health.loo_score,
+                         **{k: v for k, v in (("reversal_z", result.health.reversal_z),
+                                              ("reversal_llr", result.health.reversal_llr),
+                                              ("step_z", result.health.step_z)) if v is not None},
+                         **({} if result.sensor_noise_factor is None
+                            else {"noise_factor": result.sensor_noise_factor}),
+                         "thermal_coef_deg_per_c": result.daily.thermal_coef,
+                         "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers,
+                         "initial_z_m": result.initial.z_mean, "initial_z_std_m": result.initial.z_std,
+                         "initial_angle_deg": np.rad2deg(np.arctan(result.initial.slope_mean)),
+                         "initial_angle_std_deg": np.rad2deg(result.initial.slope_std)})
+
+
+def _max_settlement_table(result) -> pd.DataFrame:
+    """The maximum settlement per day (Monte Carlo mean, std and 90 % interval), mm."""
+    maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],
+                         "max settlement mean (mm)": 1e3 * result.max_settlement_mean,
+                         "std (mm)": 1e3 * result.max_settlement_std})
+    if result.max_settlement_lower is not None:  # the 90 % interval (simultaneous band; not mean -/+ 1.645 std)
+        maxs["90 % low (mm)"] = 1e3 * result.max_settlement_lower
+        maxs["90 % high (mm)"] = 1e3 * result.max_settlement_upper
+    return maxs
+
+
+def _control_summary(controls) -> pd.DataFrame:
+    """Per control survey: points, RMS difference estimate - control (mm), share inside the 90 % band."""
+    return controls.groupby("date").apply(lambda d: pd.Series({
+        "points": len(d), "RMS diff (mm)": 1e3 * np.sqrt(np.mean((d.dz_control_m - d.dz_estimate_m) ** 2)),
+        "inside 90 % (%)": 100 * d.inside_90.mean()}), include_groups=False).reset_index()
+
+
+def _alarm_summary(alarms: pd.DataFrame) -> pd.DataFrame:
+    """One row per station and kind (first and last day, worst value and threshold in mm or mm/day)."""
+    alarms = alarms.copy()
+    if len(alarms):
+        alarms["value"] = alarms["value"] * 1e3
+        alarms["threshold"] = alarms["threshold"] * 1e3
+        alarms = (alarms.groupby(["sensor_id", "x_m", "kind"], sort=False)
+                  .agg(first_date=("date", "min"), last_date=("date", "max"), days=("date", "size"),
+                       threshold=("threshold", "first"), worst_value=("value", lambda v: v.iloc[np.argmax(np.abs(v))]),
+                       max_probability=("probability", "max"))
+                  .reset_index().sort_values(["first_date", "x_m"]))
+        alarms = alarms.rename(columns={"worst_value": "worst value (mm or mm/day)",
+                                        "threshold": "threshold (mm or mm/day)"})
+    return alarms
+
+
+def _method_context(result) -> dict:
+    """The page's first paragraph: the site, the days and the settings of the fit (strings)."""
+    st = result.settings
+    order = st.get("penalty_order", 2)
+    return dict(n_sensors=f"{len(result.sensor_ids)}", length=f"{result.x[-1] - result.x[0]:.1f}",
+                n_days=f"{result.days.size}", first_day=_day_label(result.days[0]),
+                last_day=_day_label(result.days[-1]), thermal=html.escape(str(st.get("thermal"))),
+                sigma=f"{st.get('sigma_deg', float('nan')):.2e}",
+                sigma_source="estimated" if st.get("sigma_estimated") else "given", penalty_order=f"{order}",
+                rigidity=f"{st.get('rigidity', float('nan')):.2e}", rigidity_power=f"{2 * order - 2}",
+                rigidity_source="maximum likelihood" if st.get("rigidity_estimated") else "given",
+                process_std=f"{1e3 * (st.get('process_std') or float('nan')):.3g}",
+                alarm_probability=f"{st.get('alarm_probability')}")
+
+
+def _page_context(result, title: str, health: pd.DataFrame, images: dict) -> dict:
+    """Everything ``templates/rail_report.html`` shows: escaped text, HTML tables, base64 PNGs by figure name."""
+    flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
+    return dict(title=html.escape(title), **_method_context(result),
+                warnings=[html.escape(w) for w in result.warnings],
+                flagged_table=_table_html(flagged), alarms_table=_table_html(_alarm_summary(result.alarms)),
+                controls_table=("" if result.controls is None else _table_html(_control_summary(result.controls))),
+                max_table=_table_html(_max_settlement_table(result)),
+                imgs={name.removesuffix(".png"): b64 for name, b64 in images.items()})
+
+
 def write_rail_report(result, outdir, *, title: str = "Track settlement report", inputs=(),
                       overwrite: bool = True) -> list[Path]:
     """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
@@ -243,80 +319,18 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     -------
     list of Path
         Files written.
+
+    Notes
+    -----
+    The page is ``report/templates/rail_report.html`` (Jinja2).
     """
     out = report_folder(outdir, inputs, writes=REPORT_FILES["rail"], overwrite=overwrite, what="report",
                         hint=f"the report needs a folder, e.g. {Path(outdir).with_suffix('')}_report/.")
     # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
     figures = current_renderer().submit(figure_pngs, _report_figures, result, savefig={"dpi": 110})
-    written = []
-    table = result.to_table()
-    written.append(write_csv(table, out / "settlement.csv"))
-    written.append(write_csv(result.alarms, out / "alarms.csv"))
-    health = pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
-                           "detail": result.health.detail, "loo_score": result.health.loo_score,
-                           **{k: v for k, v in (("reversal_z", result.health.reversal_z),
-                                                ("reversal_llr", result.health.reversal_llr),
-                                                ("step_z", result.health.step_z)) if v is not None},
-                           **({} if result.sensor_noise_factor is None
-                              else {"noise_factor": result.sensor_noise_factor}),
-                           "thermal_coef_deg_per_c": result.daily.thermal_coef,
-                           "thermal_lag_h": result.daily.thermal_lag_hours, "outliers": result.daily.n_outliers,
-                           "initial_z_m": result.initial.z_mean, "initial_z_std_m": result.initial.z_std,
-                           "initial_angle_deg": np.rad2deg(np.arctan(result.initial.slope_mean)),
-                           "initial_angle_std_deg": np.rad2deg(result.initial.slope_std)})
-    written.append(write_csv(health, out / "sensors.csv"))
+    health = _sensor_table(result)
+    written = [write_csv(result.to_table(), out / "settlement.csv"), write_csv(result.alarms, out / "alarms.csv"),
+               write_csv(health, out / "sensors.csv")]
     paths, images = write_pngs(figures.result(), out)
-    written = paths + written  # the figures first, as the report has always listed them
-    imgs = {name.removesuffix(".png"): b64 for name, b64 in images.items()}
-    st = result.settings
-    flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
-    maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],
-                         "max settlement mean (mm)": 1e3 * result.max_settlement_mean,
-                         "std (mm)": 1e3 * result.max_settlement_std})
-    if result.max_settlement_lower is not None:  # the 90 % interval (simultaneous band; not mean -/+ 1.645 std)
-        maxs["90 % low (mm)"] = 1e3 * result.max_settlement_lower
-        maxs["90 % high (mm)"] = 1e3 * result.max_settlement_upper
-    ctrl_summary = ""
-    if result.controls is not None:
-        c = result.controls
-        g = c.groupby("date").apply(lambda d: pd.Series({
-            "points": len(d), "RMS diff (mm)": 1e3 * np.sqrt(np.mean((d.dz_control_m - d.dz_estimate_m) ** 2)),
-            "inside 90 % (%)": 100 * d.inside_90.mean()}), include_groups=False).reset_index()
-        ctrl_summary = "<h2>Control surveys</h2>" + _table_html(g) + f'<img src="data:image/png;base64,{imgs["controls"]}">'
-    alarms = result.alarms.copy()
-    if len(alarms):
-        alarms["value"] = alarms["value"] * 1e3
-        alarms["threshold"] = alarms["threshold"] * 1e3
-        alarms = (alarms.groupby(["sensor_id", "x_m", "kind"], sort=False)
-                  .agg(first_date=("date", "min"), last_date=("date", "max"), days=("date", "size"),
-                       threshold=("threshold", "first"), worst_value=("value", lambda v: v.iloc[np.argmax(np.abs(v))]),
-                       max_probability=("probability", "max"))
-                  .reset_index().sort_values(["first_date", "x_m"]))
-        alarms = alarms.rename(columns={"worst_value": "worst value (mm or mm/day)",
-                                        "threshold": "threshold (mm or mm/day)"})
-    warn = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or "<li>none</li>"
-    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>body{{font-family:sans-serif;max-width:1150px;margin:auto;padding:1em}} table{{border-collapse:collapse;font-size:12px}}
-td,th{{border:1px solid #ccc;padding:2px 6px}} img{{max-width:100%}} .warn li{{color:#8a4b00}}</style></head><body>
-<h1>{html.escape(title)}</h1>
-<p>{len(result.sensor_ids)} sensors over {result.x[-1] - result.x[0]:.1f} m, {result.days.size} days
-({_day_label(result.days[0])} to {_day_label(result.days[-1])}). Method: paper 004 (SNCF / Sorbonne) rigidity
-posterior on the state-space engine; thermal model <b>{html.escape(str(st.get('thermal')))}</b>; slope noise
-sigma = {st.get('sigma_deg', float('nan')):.2e} deg ({'estimated' if st.get('sigma_estimated') else 'given'});
-settlement prior: penalty order {st.get('penalty_order', 2)} (2 = the paper's ||f''||<sup>2</sup>, 3 = ||f'''||<sup>2</sup>),
-rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-{2 * st.get('penalty_order', 2) - 2}</sup>
-({'maximum likelihood' if st.get('rigidity_estimated') else 'given'}); day-to-day settlement std
-{1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % posterior bands of the fitted model (docs/rail.md).</p>
-<h2>Warnings</h2><ul class="warn">{warn}</ul>
-<h2>Flagged sensors (excluded)</h2>{_table_html(flagged)}
-<h2>Alarms</h2><p>One row per station and kind (first and last day of exceedance with probability at
-least {st.get('alarm_probability')}); every station-day is in alarms.csv.</p>{_table_html(alarms)}
-<h2>Settlement profiles per day, 90 % bands</h2><img src="data:image/png;base64,{imgs['profiles_by_week']}">
-<h2>Settlement through time and daily rate</h2><img src="data:image/png;base64,{imgs['through_time']}">
-<img src="data:image/png;base64,{imgs['settlement_map']}">
-{ctrl_summary}
-<h2>Maximum settlement (Monte Carlo, §4.3)</h2>{_table_html(maxs)}
-<h2>Initial profile and angles (§4.4)</h2><img src="data:image/png;base64,{imgs['initial_profile']}">
-<p>Tables: settlement.csv, alarms.csv, sensors.csv.</p></body></html>"""
-    written.insert(0, write_text(out / "index.html", page))
-    return written
+    page = render("rail_report.html", **_page_context(result, title, health, images))
+    return [write_text(out / "index.html", page)] + paths + written  # the figures before the tables, as always

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..io import save_figure
-from ._html import REPORT_FILES, figure_pngs, img_tag, report_folder, write_csv, write_pngs, write_text
+from ._html import REPORT_FILES, figure_pngs, img_tag, render, report_folder, write_csv, write_pngs, write_text
 from ._layout import fixed_figure
 from ._render import current_renderer
 
@@ -361,15 +361,6 @@ def _section_html(analysis, tables, images, limits) -> dict[str, str]:
     return dict(seg_table=seg_table, def_table=def_table, wave_html=wave_html, psd_html=psd_html)
 
 
-def _render(template: str, **context) -> str:
-    """Render ``templates/<template>`` (package data) with Jinja2; the context values are HTML already."""
-    import jinja2
-
-    env = jinja2.Environment(loader=jinja2.PackageLoader("longprofile.report", "templates"), autoescape=False,
-                             keep_trailing_newline=True)
-    return env.get_template(template).render(**context)
-
-
 def write_road_report(analysis, outdir, *, reference=None, reference_label: str = "reference",
                       limits=IRI_CONDITION_LIMITS, title: str | None = None, inputs=(),
                       overwrite: bool = True) -> list[Path]:
@@ -424,7 +415,7 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     ma = "applied" if res.moving_average else "not needed at this spacing"
     if getattr(res, "moving_average_reason", ""):
         ma = f"{'applied' if res.moving_average else 'not applied'} ({html.escape(res.moving_average_reason)})"
-    page = _render(
+    page = render(
         "road_report.html", name=html.escape(name), css=_CSS, meta=html.escape(meta),
         cards=_summary_cards(analysis, reference, reference_label, limits),
         notes="".join(f'<div class="note">{html.escape(n)}</div>' for n in analysis.notes),
