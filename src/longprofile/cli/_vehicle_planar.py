@@ -80,6 +80,11 @@ def slope(
                                           "slope for the drive's force-model error (mass, tyres, rolling resistance) "
                                           "measured against the longitudinal accelerometer (docs/vehicle-slope.md, "
                                           "Calibration); --no-force-correction: the paper's estimate."),
+    sensor_calibration: bool = typer.Option(True, "--sensor-calibration/--no-sensor-calibration", help="Estimate "
+                                            "the gyro offset and the wheels' relative radii from the log and correct "
+                                            "the gyro and each axle's left/right difference before the filters "
+                                            "(docs/vehicle-slope.md, Calibration); "
+                                            "--no-sensor-calibration: the log as it is."),
     overwrite: bool = OVERWRITE,
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
@@ -102,7 +107,7 @@ def slope(
         console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
     with console.status("estimating states and slope..."):
         est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement,
-                             force_correction=force_correction)
+                             force_correction=force_correction, sensor_calibration=sensor_calibration)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
     fit = est.force_fit
@@ -113,6 +118,14 @@ def slope(
         console.print(f"force model vs accelerometer ({fit.n_blocks} blocks of 1 s): relative error {100 * fit.beta:+.1f} "
                       f"+- {100 * fit.beta_std:.1f} %, constant {100 * fit.offset:+.2f} +- {100 * fit.offset_std:.2f} % "
                       "of grade (the slope is corrected for both)")
+    cal = est.sensor_calibration
+    if cal is not None:
+        scales = "/".join(f"{100 * x:+.3f}" for x in cal.wheel_scale)
+        stds = "/".join(f"{100 * x:.3f}" for x in cal.wheel_scale_std)
+        console.print(f"gyro and wheels from the log (blocks of 1 s: {cal.n_blocks[0]} rear, {cal.n_blocks[1]} front "
+                      f"left/right, {cal.n_blocks[2]} straight front/rear): gyro offset {cal.gyro_offset:+.2e} "
+                      f"+- {cal.gyro_offset_std:.1e} rad/s, wheel scale FL/FR/RL/RR {scales} % (+- {stds} %, relative "
+                      "to the rear axle; the gyro and each axle's left/right difference corrected)")
     for w in est.warnings(max_missing=max_missing, max_slope=math.atan(max_grade)):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:

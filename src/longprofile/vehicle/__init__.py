@@ -21,6 +21,7 @@ slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
 SlopeUncertainty      -- the parameter uncertainty added to the printed stds; nis_inflation (innovation consistency).
 force_scale_fit       -- the drive's relative force error (mass, tyres) against the accelerometer; ForceScaleFit.
+calibrate_sensors     -- the gyro offset and the wheels' relative scale errors from the log; SensorCalibration.
 EKFTuning             -- EKF noise settings.
 speed_reference       -- slip-robust V_x measurement (torque-free / slip-compensated wheels, per-sample std,
                          missing when no wheel is trustworthy); SpeedReference, SPEED_SOURCES.
@@ -68,7 +69,7 @@ _EXPORTS = {
     ".planar": ("Vehicle", "default_vehicle", "load_vehicle", "SIMULATOR_ONLY", "TyreForces", "dugoff_forces",
                 "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
                 "drive_scenario", "simulate_drive", "ackermann_angles", "EKFTuning", "SlopeEstimate", "SlopeUncertainty",
-                "nis_inflation", "ForceScaleFit", "force_scale_fit",
+                "nis_inflation", "ForceScaleFit", "force_scale_fit", "SensorCalibration", "calibrate_sensors",
                 "estimate_slope", "planar_ekf_model",
                 "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
                 "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
@@ -96,7 +97,7 @@ __all__ = [
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
     "simulate_drive", "ackermann_angles", "LOG_COLUMNS",
     "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation", "ForceScaleFit", "force_scale_fit",
-    "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
+    "SensorCalibration", "calibrate_sensors", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "plot_slope_estimate", "plot_drive",

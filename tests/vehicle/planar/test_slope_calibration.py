@@ -73,7 +73,7 @@ def test_noise_only_is_the_stationary_lyapunov_std(paper):
     s_std = old.slope_std * np.cos(old.slope)
     assert np.ptp(s_std) < 1e-12 * s_std.max()  # one stationary value of sin(theta)'s std
     assert old.force_fit is None  # no parameter uncertainty: nothing to correct
-    stated = estimate_slope(sim.log, default_vehicle(), force_correction=False)
+    stated = estimate_slope(sim.log, default_vehicle(), force_correction=False, sensor_calibration=False)
     for e in (est, stated):
         assert np.all(e.slope_std > old.slope_std) and np.all(e.vx_std >= old.vx_std)
     np.testing.assert_array_equal(stated.slope, old.slope)  # without the force correction the estimate is the same

@@ -4,7 +4,9 @@ Modules: ``_params`` (the vehicle description, TOML), ``_dugoff`` (tyre model (1
 equation of (11)-(19) once, inlined numba functions), ``_model`` (the model kernels composed from them, the EKF
 models of eq. (20) and the slope observer (21)), ``_simulate``
 (4-wheel RK4 simulator and sensor log), ``_speed_reference`` (slip-robust V_x measurement), ``_estimate``
-(:func:`estimate_slope`), ``_force_check`` (the drive's force error against the accelerometer), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
+(:func:`estimate_slope`), ``_force_check`` (the drive's force error against the accelerometer),
+``_sensor_calibration`` (the gyro offset and relative wheel radii from the log), ``_regression`` (block means,
+conjugate regression), ``_evaluate`` (accuracy and sensitivity studies). Figures: :mod:`longprofile.report`.
 Everything here is also exported by :mod:`longprofile.vehicle` (except the studies).
 """
 
@@ -22,6 +24,7 @@ from ._model import (
                         slope_observer_matrices,
 )
 from ._params import GRAVITY, SIMULATOR_ONLY, WHEELS, Vehicle, default_vehicle, load_vehicle
+from ._sensor_calibration import SensorCalibration, calibrate_sensors
 from ._simulate import (
                         LOG_COLUMNS,
                         SCENARIOS,
@@ -45,5 +48,6 @@ __all__ = [
     "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation", "ForceScaleFit", "force_scale_fit",
+    "SensorCalibration", "calibrate_sensors",
     "accuracy_scores", "sensitivity_study", "speed_measurement_study", "PAPER_PROTOTYPE_ERRORS",
 ]

@@ -33,6 +33,7 @@ from ._model import (
     slope_observer_matrices,
 )
 from ._params import GRAVITY, Vehicle, default_vehicle
+from ._sensor_calibration import SensorCalibration, calibrate_sensors
 from ._simulate import DriveLog
 
 __all__ = ["SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation"]
@@ -48,6 +49,10 @@ MAX_PLAUSIBLE_GRADE = 0.10
 #: Force-model errors against the accelerometer (|beta|, |c| of :class:`ForceScaleFit`) beyond which
 #: :meth:`SlopeEstimate.warnings` warns: 30 % of the force (twice the stated prior std), 3 % of grade.
 FORCE_ERROR_WARN = (0.30, 0.03)
+#: A gyro offset or a wheel scale error found in the log (:class:`SensorCalibration`) beyond this many times its
+#: stated std (``SlopeUncertainty.gyro_bias_std``, ``wheel_radius_rel_std``), and beyond 3 posterior stds, is named
+#: by :meth:`SlopeEstimate.warnings`.
+SENSOR_ERROR_WARN = 5.0
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,12 @@ class SlopeUncertainty:
     offset_prior_std : float
         Prior std of the force model's constant error, in sin(theta) (0.03; rolling resistance alone, which model
         (21) leaves out, is 0.01-0.015).
+    gyro_offset_prior_std, wheel_scale_prior_std : float
+        When :func:`estimate_slope` calibrates the sensors from the log (``sensor_calibration``): the prior stds of
+        the gyro's offset, rad/s, and of each wheel speed's relative scale error before that calibration
+        (:func:`~longprofile.vehicle.calibrate_sensors`). The gyro offset's posterior std then replaces
+        ``gyro_bias_std`` (the stated error left after a calibration done elsewhere); ``wheel_radius_rel_std`` stays
+        (the front/rear difference is not corrected). 0 turns the calibration off.
 
     Notes
     -----
@@ -116,10 +127,13 @@ class SlopeUncertainty:
     accel_offset_std: float = 0.02
     offset_prior_std: float = 0.03
     nis_floor: float = 0.1
+    gyro_offset_prior_std: float = 5e-4
+    wheel_scale_prior_std: float = 5e-3
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
-                  "nis_window", "accel_gain_std", "accel_offset_std", "offset_prior_std"):
+                  "nis_window", "accel_gain_std", "accel_offset_std", "offset_prior_std", "gyro_offset_prior_std",
+                  "wheel_scale_prior_std"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"{k} must be a finite number >= 0; got {v!r}.")
@@ -130,7 +144,7 @@ class SlopeUncertainty:
     def noise_only(cls) -> "SlopeUncertainty":
         """No parameter terms and no NIS inflation: the filters' own stds."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, nis_floor=1.0, tracking_lag=False, accel_gain_std=0.0,
-                   accel_offset_std=0.0)
+                   accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,6 +180,12 @@ class SlopeEstimate:
     force_fit : ForceScaleFit or None
         The drive's force-model error against the accelerometer (:func:`force_scale_fit`) that ``slope`` was
         corrected for; None with ``force_correction=False`` or without parameter uncertainty.
+    sensor_calibration : SensorCalibration or None
+        The gyro offset and relative wheel scale errors found in the log (:func:`calibrate_sensors`); the gyro and
+        each axle's left/right difference were corrected before the filters; None with ``sensor_calibration=False``
+        or without calibration priors.
+    uncertainty : SlopeUncertainty or None
+        The stated uncertainties behind the stds (and the warnings' thresholds).
     """
 
     time: np.ndarray
@@ -188,6 +208,8 @@ class SlopeEstimate:
     observer_gain: np.ndarray | None = None
     speed_reference: object = None
     force_fit: ForceScaleFit | None = None
+    sensor_calibration: SensorCalibration | None = None
+    uncertainty: SlopeUncertainty | None = None
 
     def to_frame(self):
         """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
@@ -252,7 +274,28 @@ class SlopeEstimate:
                        "grade; the slope was corrected for both, which holds if the accelerometer is right: check "
                        "the vehicle mass and tyre stiffness, the accelerometer's offset and sign (accel_x forward), "
                        "or run with force_correction=False (CLI --no-force-correction) for the paper's estimate.")
+        out += _sensor_warnings(self.sensor_calibration, self.uncertainty)
         return out
+
+
+def _sensor_warnings(cal, unc) -> list:
+    """The gyro offset and wheel scale errors far beyond their stated stds (SENSOR_ERROR_WARN), as warnings."""
+    if cal is None or unc is None:
+        return []
+    out = []
+    b, b_std = cal.gyro_offset, cal.gyro_offset_std
+    if abs(b) > max(SENSOR_ERROR_WARN * unc.gyro_bias_std, 3 * b_std):
+        out.append(f"the gyro reads {b:+.2e} rad/s (+- {b_std:.1e}) off the wheel speeds' yaw rate, more than "
+                   f"{SENSOR_ERROR_WARN:g} x the stated offset std {unc.gyro_bias_std:g} rad/s: it was subtracted, but "
+                   "check the gyro's zero (standstill calibration) and mounting.")
+    e, e_std = cal.wheel_scale, cal.wheel_scale_std
+    far = np.abs(e) > np.maximum(SENSOR_ERROR_WARN * unc.wheel_radius_rel_std, 3 * e_std)
+    if far.any():
+        names = ", ".join(f"{w} {100 * x:+.2f} %" for w, x, f in zip(("FL", "FR", "RL", "RR"), e, far) if f)
+        out.append(f"wheel speed scale errors beyond {SENSOR_ERROR_WARN:g} x the stated {unc.wheel_radius_rel_std:g} "
+                   f"(relative to the rear axle): {names}; left/right differences were corrected, but check the "
+                   "tyres (pressure, wear, a spare wheel) and wheels.radius.")
+    return out
 
 
 @njit(cache=True)
@@ -265,7 +308,8 @@ def _forces_along(mean, cov, u, p, slope, omega_rel_std, fx, fy, fx_std, fy_std,
 def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str = "cascade",
                    poles=(-5.0, -7.0), tuning: EKFTuning | None = None, friction=None,
                    initial_state=None, speed_measurement: str = "robust",
-                   uncertainty: SlopeUncertainty | None = None, force_correction: bool = True) -> SlopeEstimate:
+                   uncertainty: SlopeUncertainty | None = None, force_correction: bool = True,
+                   sensor_calibration: bool = True) -> SlopeEstimate:
     r"""Estimate V_x, V_y, yaw rate, tyre forces and the road slope from a drive log (paper 001).
 
     Parameters
@@ -299,6 +343,13 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     force_correction : bool
         Correct the slope for the drive's force-model error measured against the accelerometer (Notes; default
         True); ``False``: the paper's estimate with the stated mass, force and wheel-radius terms.
+    sensor_calibration : bool
+        Estimate the gyro offset and the wheels' relative scale errors from the log
+        (:func:`~longprofile.vehicle.calibrate_sensors`) and correct the gyro and the wheel speeds before the filters
+        (default True; Notes): the gyro and each axle's left/right difference; the front/rear difference, read
+        against the accelerometer, is only reported (the force correction takes the same constant).
+        ``False``: the log as it is, with the stated ``gyro_bias_std`` in the yaw-rate std (the estimator before
+        2026-12-06, bit for bit).
 
     Returns
     -------
@@ -337,19 +388,12 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     mass, tyre and constant force errors shift sin(theta) by beta F_res/(M g) + c for the whole drive; the
     accelerometer sees F_res/M without the grade, so :func:`force_scale_fit` estimates (beta, c) and
     :func:`_force_corrected` removes them (std: their posterior and the accelerometer's own errors).
+    Sensor calibration (beyond the paper; ESC-style, van Zanten SAE 2000-01-1633): :func:`calibrate_sensors`.
     """
     vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
-    from ...statespace import extended_kalman_filter
-
+    log, cal = _calibrated(log, vehicle, unc, sensor_calibration)
     dt = log.dt
-    u = planar_inputs(log, vehicle, friction=friction)
-    from ._speed_reference import speed_reference
-
-    ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
-    y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
-    rear = _rear_speed(log, vehicle)
-    model = _slope_filter_model(vehicle, dt, method, _slope_initial_state(initial_state, y, rear), tuning, ref, y)
-    filtered = extended_kalman_filter(model, y, u=u)
+    u, ref, y, filtered = _filtered(log, vehicle, method, tuning, friction, initial_state, speed_measurement)
     mean, cov = filtered.mean, filtered.cov
     fx, fy, fx_std, fy_std, res, res_std = _tyre_forces(mean, cov, u, vehicle, method, tuning)
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
@@ -372,14 +416,41 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     slope, s_var, fit = _force_corrected(vehicle, unc, force_correction, log.accel_x, mean, slope, s_var, res,
                                          gain, dt, lag)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
+    gyro_std = unc.gyro_bias_std if cal is None else cal.gyro_offset_std
     std = np.sqrt(np.column_stack([var[:, 0] * kappa[:, 0] + (unc.radius_rel_std * mean[:, 0]) ** 2,
-                                   var[:, 1] * kappa.max(axis=1),
-                                   var[:, 2] * scale[:, 1] + unc.gyro_bias_std ** 2]))
+                                   var[:, 1] * kappa.max(axis=1), var[:, 2] * scale[:, 1] + gyro_std ** 2]))
     return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
-                         observer_gain=gain, speed_reference=ref, force_fit=fit)
+                         observer_gain=gain, speed_reference=ref, force_fit=fit, sensor_calibration=cal,
+                         uncertainty=unc)
+
+
+def _filtered(log, vehicle, method, tuning, friction, initial_state, speed_measurement):
+    """(u, ref, y, filtered): the model inputs, the V_x measurement, the measurements (V_x NaN where missing) and
+    the engine's EKF result of the method on ``log``."""
+    from ...statespace import extended_kalman_filter
+    from ._speed_reference import speed_reference
+
+    u = planar_inputs(log, vehicle, friction=friction)
+    ref = speed_reference(log, vehicle, method=speed_measurement, speed_std=tuning.speed_std, friction=friction)
+    y = np.column_stack([ref.speed, log.yaw_rate])  # V_x NaN where missing (no trustworthy wheel)
+    rear = _rear_speed(log, vehicle)
+    model = _slope_filter_model(vehicle, log.dt, method, _slope_initial_state(initial_state, y, rear), tuning, ref, y)
+    return u, ref, y, extended_kalman_filter(model, y, u=u)
+
+
+def _calibrated(log, vehicle, unc, sensor_calibration):
+    """(log, calibration): the log with the gyro offset and the wheels' left/right scale differences found in it
+    corrected (:func:`calibrate_sensors`, its front/rear part left out), or the log as it is and None (calibration
+    off, or no calibration prior)."""
+    if not (sensor_calibration and unc.gyro_offset_prior_std > 0 and unc.wheel_scale_prior_std > 0):
+        return log, None
+    cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.gyro_offset_prior_std,
+                            wheel_prior_std=unc.wheel_scale_prior_std, accel_offset_std=unc.accel_offset_std,
+                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6))
+    return cal.corrected(log, front_rear=False), cal
 
 
 def _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty):

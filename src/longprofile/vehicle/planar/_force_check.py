@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import InputError
+from ._regression import block_means, conjugate_regression
 
 __all__ = ["ForceScaleFit", "force_scale_fit"]
 
@@ -119,19 +120,13 @@ def force_scale_fit(resisting_force, accel_x, yaw_rate, vy, mass: float, dt: flo
     d = x - (ax + r * vy) / GRAVITY
     n = max(int(round(block / dt)), 1)
     start = min(int(round(skip / dt)), T)
-    nb = (T - start) // n
-    xb = x[start:start + nb * n].reshape(nb, n).mean(axis=1)
-    db = d[start:start + nb * n].reshape(nb, n).mean(axis=1)
+    xb = block_means(x, n, start)
+    db = block_means(d, n, start)
     ok = np.isfinite(xb) & np.isfinite(db)
     xb, db = xb[ok], db[ok]
     prior = np.array([beta_prior_std, offset_prior_std], dtype=float)
     if xb.size < FORCE_FIT_MIN_BLOCKS:
         return ForceScaleFit(0.0, 0.0, np.diag(prior ** 2), prior, float("nan"), 0)
-    X = np.column_stack([xb, np.ones_like(xb)])
-    coef, *_ = np.linalg.lstsq(X, db, rcond=None)
-    resid = db - X @ coef
-    s2 = max(float(resid @ resid) / (xb.size - 2), 1e-30)
-    cov = np.linalg.inv(np.diag(1.0 / prior ** 2) + X.T @ X / s2)
-    mean = cov @ (X.T @ db) / s2
+    mean, cov, s2 = conjugate_regression(np.column_stack([xb, np.ones_like(xb)]), db, prior)
     return ForceScaleFit(beta=float(mean[0]), offset=float(mean[1]), cov=cov, prior_std=prior,
                          residual_std=float(math.sqrt(s2)), n_blocks=int(xb.size))
