@@ -144,3 +144,24 @@ def test_std_option_is_validated():
         derivative(np.arange(50.0), 0.1, method="ml", window=5, std="bias")
     with pytest.raises(InputError, match="std must be one of"):
         derivative_kalman(np.arange(50.0), 0.1, q_over_r=1.0, std=None)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n_steps=st.integers(1, 60), width=st.integers(1, 80), centred=st.booleans(), nan_share=st.sampled_from([0.0, 0.3]),
+       seed=st.integers(0, 1000))
+def test_moving_mean_is_the_mean_of_the_finite_values_in_the_window(n_steps, width, centred, nan_share, seed):
+    from longprofile.signal._total_std import _moving_mean
+
+    rng = np.random.default_rng(seed)
+    v = rng.random((2, n_steps))
+    v[rng.random(v.shape) < nan_share] = np.nan
+    got = _moving_mean(v, width, centred)
+    lo_off, hi_off = (width // 2, width - width // 2) if centred else (width - 1, 1)
+    for b in range(2):
+        for k in range(n_steps):
+            window = v[b, max(k - lo_off, 0):min(k + hi_off, n_steps)]
+            finite = window[np.isfinite(window)]
+            if finite.size:
+                assert abs(got[b, k] - finite.mean()) <= 1e-12
+            else:
+                assert np.isnan(got[b, k])

@@ -11,16 +11,19 @@ when the window is long or q/r small for the signal. ``std="total"`` adds a plug
   Kalman differentiator the same model with a time scale ``_KALMAN_SPEEDUP`` times shorter (q/r x
   speedup^(2 degree + 2));
 * the difference delta = estimate - companion is a linear filter of the data, so its *noise* variance
-  ``sigma^2 sum g^2`` is known (FIR: the difference of the taps; Kalman: the impulse response of the stationary
+  ``sigma^2 sum g^2`` is known (FIR: the difference of the taps; Kalman: the impulse response of the converged
   filters / smoothers);
 * the squared bias is ``max(0, mean(delta^2) - sigma^2 sum g^2)``, the mean over a moving window of ``_SPAN``
   times the estimator's memory (trailing for causal estimators, centred for the smoother), as in the variance
   matching of Mehra (1972, "Approaches to adaptive filtering", IEEE TAC 17(5)): an observed second moment
   minus its predicted noise part;
-* ``std_total = sqrt(std_noise^2 + _BIAS_GAIN * bias^2)``.
+* ``std_total = sqrt(std_noise^2 + _BIAS_GAIN * bias^2)``. For the Kalman methods std_noise is the posterior std
+  scaled to the white-noise part of the converged filter (the posterior also holds the model's own random-jerk
+  uncertainty, which the plug-in bias replaces) and the bias is scaled by :func:`kalman_bias_scale` (the part
+  the companion keeps).
 
-The constants were chosen on the calibration harness's tuning seed (``benchmarks/bench_signal_calibration.py``,
-``calibrate(..., seed=1000)``) and reported on seed 0.
+The constants were set a priori and checked on the calibration harness's tuning seed
+(``benchmarks/bench_signal_calibration.py``, ``calibrate(..., seed=1000)``); the benchmark reports seed 0.
 """
 
 from __future__ import annotations
@@ -53,21 +56,15 @@ def check_std(std) -> str:
 def _moving_mean(v: np.ndarray, width: int, centred: bool) -> np.ndarray:
     """Mean of the finite values of each row of v (B, T) over a moving window of ``width`` samples.
 
-    Trailing (samples k - width + 1 .. k) or centred; shorter at the ends; NaN where the window has no finite value.
+    Trailing (samples k - width + 1 .. k) or centred (k - width // 2 .. k + width - width // 2 - 1); shorter at the
+    ends; NaN where the window has no finite value (compiled: :func:`._kernels.moving_mean_kernel`).
     """
-    n_series, n_steps = v.shape
-    ok = np.isfinite(v)
-    zero = np.zeros((n_series, 1))
-    total = np.concatenate([zero, np.cumsum(np.where(ok, v, 0.0), axis=1)], axis=1)
-    count = np.concatenate([zero, np.cumsum(ok, axis=1, dtype=float)], axis=1)
-    k = np.arange(n_steps)
-    if centred:
-        lo, hi = np.maximum(k - width // 2, 0), np.minimum(k + width - width // 2, n_steps)
-    else:
-        lo, hi = np.maximum(k + 1 - width, 0), k + 1
-    n = count[:, hi] - count[:, lo]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > 0, (total[:, hi] - total[:, lo]) / n, np.nan)
+    from ._kernels import moving_mean_kernel
+
+    before, after = (width // 2, width - width // 2) if centred else (width - 1, 1)
+    out = np.empty(v.shape)
+    moving_mean_kernel(np.ascontiguousarray(v, dtype=float), before, after, out)
+    return out
 
 
 def bias_variance(delta: np.ndarray, noise_var: np.ndarray, memory: float, *, centred: bool) -> np.ndarray:
@@ -79,7 +76,7 @@ def bias_variance(delta: np.ndarray, noise_var: np.ndarray, memory: float, *, ce
     """
     width = max(int(np.ceil(_SPAN * memory)), 1)
     excess = _moving_mean(delta * delta, width, centred) - np.asarray(noise_var, dtype=float)[:, None]
-    return _BIAS_GAIN * np.maximum(np.nan_to_num(excess, nan=0.0), 0.0)
+    return _BIAS_GAIN * np.fmax(excess, 0.0)  # fmax: 0 where excess is NaN
 
 
 def kalman_time_scale(dt: float, q_over_r: float, degree: int) -> float:
