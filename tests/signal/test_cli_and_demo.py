@@ -70,3 +70,24 @@ def test_bad_options_are_library_errors_exit_2(tmp_path, capsys):
     assert "does not take smooth" in capsys.readouterr().err
     assert main(["differentiate", str(src), "-c", "x", "--dt", "0.001", "-o", out]) == 2
     assert "requires window" in capsys.readouterr().err
+
+
+def test_differentiate_std_option_selects_what_derivative_std_covers(tmp_path, capsys):
+    src = tmp_path / "signal.csv"
+    x = _write_signal(src)
+    tables = {}
+    for std in ("total", "noise"):
+        out = tmp_path / f"{std}.csv"
+        assert main(["differentiate", str(src), "-c", "x", "--dt", "0.001", "-w", "120", "--std", std,
+                     "-o", str(out)]) == 0
+        assert f"derivative_std: {std}" in " ".join(capsys.readouterr().err.split())
+        tables[std] = pd.read_csv(out)
+        lib = derivative(x, 0.001, method="ml", window=120, std=std)
+        np.testing.assert_allclose(tables[std]["derivative_std"], lib.derivative_std, rtol=1e-12, equal_nan=True)
+    np.testing.assert_array_equal(tables["total"]["derivative"], tables["noise"]["derivative"])
+    # a 120-sample window on a 3 Hz sine: the bias dominates, the total std is far above the noise-only one
+    assert (tables["total"]["derivative_std"] > 3 * tables["noise"]["derivative_std"]).mean() > 0.5
+    assert main(["differentiate", str(src), "-c", "x", "--dt", "0.001", "-w", "10", "--std", "bias",
+                 "-o", str(tmp_path / "bad.csv")]) == 2
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "std must be one of ('total', 'noise')" in lines[0]

@@ -45,7 +45,7 @@ def differentiate(
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
     dt: float = typer.Option(..., "--dt", help="Sample interval, s."),
     output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
-                                                            "derivative_std (one row per input row)."),
+                                                            "derivative_std (one row per input row; see --std)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
     window: int | None = typer.Option(None, "--window", "-w",
                                       help="N, past samples per estimate; required by ml and polyfit (e.g. 45)."),
@@ -58,6 +58,11 @@ def differentiate(
     steady_state: bool = typer.Option(False, "--steady-state",
                                       help="Kalman: constant-gain filter/smoother (fast, O(T) memory, no NaN)."),
     noise_std: float | None = typer.Option(None, "--noise-std", help="Noise std of the signal (estimated if omitted)."),
+    std: str = typer.Option("total", "--std",
+                            help="What derivative_std covers: 'total' (default), the white-noise error plus an "
+                                 "estimate of the model (bias, lag) error from a higher-order companion estimate; "
+                                 "'noise', the white-noise error only (the std before issue 13). docs/signal.md, "
+                                 "Calibration."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the signal and its derivative (PNG)."),
     overwrite: bool = OVERWRITE,
 ):
@@ -68,7 +73,7 @@ def differentiate(
     from ..signal import check_derivative_options, derivative
 
     options = dict(window=window, degree=degree, noise_std=noise_std, q_over_r=q_over_r,
-                   smooth=True if smooth else None, steady_state=True if steady_state else None)
+                   smooth=True if smooth else None, steady_state=True if steady_state else None, std=std)
     check_derivative_options(method, options, flags=True)
     out = check_output_path(output, file, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
@@ -79,7 +84,8 @@ def differentiate(
         res = derivative(x, dt, method=method, order=order, **options)
     write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
                               "derivative_std": res.derivative_std}), out)
-    console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g})")
+    console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g}, "
+                  f"derivative_std: {std})")
     if plot is not None:
         from ..report import plot_derivative
 

@@ -14,6 +14,7 @@ from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
 from . import _coefficients as _coef
 from ._kernels import moment_filter_kernel
+from ._total_std import bias_variance, check_std, kalman_bias_scale, kalman_impulse_gains, kalman_time_scale
 
 __all__ = [
     "DerivativeResult",
@@ -47,10 +48,12 @@ class DerivativeResult:
         NaN where the estimator has no full window (the first ``window``
         samples of the FIR methods) or where the window holds a NaN input.
     derivative_std : ndarray, shape of ``x``
-        Standard deviation of the noise-induced error of ``derivative``
-        (same units), from the variance gain and the noise standard deviation
-        (FIR methods) or the state covariance (Kalman). It does not include the
-        model (bias) error. NaN where ``derivative`` is NaN.
+        Standard deviation of the error of ``derivative`` (same units). With
+        ``std="total"`` (the default) the noise-induced part plus a plug-in
+        estimate of the model (bias, lag) error; with ``std="noise"`` the
+        noise-induced part only, from the variance gain and the noise standard
+        deviation (FIR methods) or the state covariance (Kalman). NaN where
+        ``derivative`` is NaN.
     method : str
         The registry name of the estimator.
     params : dict
@@ -211,8 +214,32 @@ def _run_fir(series: np.ndarray, window: int, degree: int, outputs, implementati
     return [out[o] for o in range(n_out)]
 
 
+def _fir_bias_var(series, dt, window, degree, order, kind, implementation, noise_var) -> np.ndarray:
+    """Plug-in squared bias (B, T) of a degree-d FIR from its difference with the degree-(d+1) estimator.
+
+    The companion is the same kind of fit (``kind`` "ml" or "polyfit") of degree d + 1 on the same window (on
+    max(N, d + 1) past samples: N = d + 1 when N = d); ``noise_var`` (B,) the noise variance of the samples.
+    """
+    design = _coef._polyfit_design if kind == "polyfit" else _coef._ml_design
+    h0, c = design(window, degree, order)
+    wide = max(window, degree + 1)
+    h0_c, c_c = design(wide, degree + 1, order)
+    taps = np.zeros(wide + 1)
+    taps[:window + 1] = _coef._float_taps(h0, c, window)
+    taps -= _coef._float_taps(h0_c, c_c, wide)
+    if wide == window:  # a polynomial in the lag: the running-moment kernel (or lfilter) on the same window
+        diff_c = tuple(a - b for a, b in zip(tuple(c) + (Fraction(0),), c_c))
+        delta = _run_fir(series, window, degree + 1, [(h0 - h0_c, diff_c, dt ** order, None)], implementation)[0]
+    else:  # N = d: a handful of taps
+        from scipy.signal import lfilter
+
+        delta = lfilter(taps / dt ** order, 1.0, series, axis=-1)
+        delta[:, :wide] = np.nan
+    return bias_variance(delta, noise_var * float(np.sum(taps ** 2)) / dt ** (2 * order), window + 1, centred=False)
+
+
 def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design, taps_exact, noise_std,
-                method, params, implementation) -> DerivativeResult:
+                method, params, implementation, std_option="noise", kind="ml") -> DerivativeResult:
     if arr.shape[axis] < window + 1:
         raise InputError(f"x has {arr.shape[axis]} samples along axis {axis}, fewer than the window of "
                          f"{window + 1} samples (N = {window} past samples + the current one) that one estimate "
@@ -225,6 +252,12 @@ def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design
     value, deriv, std = _run_fir(series, window, degree,
                                  [(*value_design, 1.0, None), (*deriv_design, dt ** order, None),
                                   (*zero, 1.0, std_series)], implementation)
+    if std_option == "total":
+        noise_var = np.ascontiguousarray(np.broadcast_to(ns, moved_shape[:-1])).reshape(-1) ** 2
+        std = np.sqrt(std * std + _fir_bias_var(series, dt, window, degree, order, kind, implementation, noise_var))
+        params = dict(params, std="total")
+    else:
+        params = dict(params, std="noise")
     noise_param = float(ns.flat[0]) if ns.size == 1 and np.all(ns == ns.flat[0]) else ns.copy()
     return DerivativeResult(value=_from_series(value, moved_shape, axis),
                             derivative=_from_series(deriv, moved_shape, axis),
@@ -235,7 +268,7 @@ def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design
 
 # --------------------------------------------------------------------------- estimators
 def derivative_ml(x, dt, *, window: int, degree: int = 2, order: int = 1, noise_std=None, axis: int = 0,
-                  implementation: str = "recursive") -> DerivativeResult:
+                  implementation: str = "recursive", std: str = "total") -> DerivativeResult:
     r"""Maximum-likelihood polynomial differentiator of paper 002 §3 (causal, recursive).
 
     Parameters
@@ -263,6 +296,14 @@ def derivative_ml(x, dt, *, window: int, degree: int = 2, order: int = 1, noise_
         (compiled, independent of N, moments recomputed exactly every N+1
         samples). ``"fir"``: :func:`scipy.signal.lfilter` with the N+1 taps.
         Both give the same numbers to round-off.
+    std : {"total", "noise"}, default "total"
+        What ``derivative_std`` covers. ``"noise"``: the white-noise part only,
+        ``noise_std * sqrt(sum h^2) / dt**order`` (constant; the only std before
+        issue 13). ``"total"``: its square plus a plug-in squared bias, the
+        moving mean (trailing, 4(N+1) samples) of the squared difference from the
+        degree-(d+1) estimate on the same window minus that difference's own
+        noise variance (Fan & Gijbels 1996, §3.2-3.3; see docs/signal.md,
+        "Calibration"). Estimates are the same for both.
 
     Returns
     -------
@@ -273,7 +314,8 @@ def derivative_ml(x, dt, *, window: int, degree: int = 2, order: int = 1, noise_
     Raises
     ------
     InputError
-        window < degree, order outside 1..degree, dt <= 0, infinite samples.
+        window < degree, order outside 1..degree, dt <= 0, infinite samples,
+        std not "total" or "noise".
 
     See Also
     --------
@@ -299,14 +341,15 @@ def derivative_ml(x, dt, *, window: int, degree: int = 2, order: int = 1, noise_
     window, degree, _ = _coef._check_design(window, degree, 1)
     order = _check_order(order, degree, f"a degree-{degree} motion model")
     implementation = _check_implementation(implementation)
+    std = check_std(std)
     taps = _coef.ml_coefficients(window, degree, order)
     return _fir_result(arr, dt, axis, window, degree, order, _coef._ml_design(window, degree, 0),
                        _coef._ml_design(window, degree, order), taps, noise_std, "ml",
-                       {"window": window, "degree": degree}, implementation)
+                       {"window": window, "degree": degree}, implementation, std, "ml")
 
 
 def derivative_polyfit(x, dt, *, window: int, degree: int = 2, order: int = 1, noise_std=None, axis: int = 0,
-                       implementation: str = "recursive") -> DerivativeResult:
+                       implementation: str = "recursive", std: str = "total") -> DerivativeResult:
     r"""Causal least-squares polynomial fit on the N+1 newest samples (Savitzky-Golay end point).
 
     Same parameters, returns and errors as :func:`derivative_ml`; ``value`` is the
@@ -335,11 +378,11 @@ def derivative_polyfit(x, dt, *, window: int, degree: int = 2, order: int = 1, n
     taps = _coef.polyfit_coefficients(window, degree, order)
     return _fir_result(arr, dt, axis, window, degree, order, _coef._polyfit_design(window, degree, 0),
                        _coef._polyfit_design(window, degree, order), taps, noise_std, "polyfit",
-                       {"window": window, "degree": degree}, implementation)
+                       {"window": window, "degree": degree}, implementation, check_std(std), "polyfit")
 
 
 def derivative_backward(x, dt, *, degree: int = 1, order: int = 1, noise_std=None, axis: int = 0,
-                        implementation: str = "recursive") -> DerivativeResult:
+                        implementation: str = "recursive", std: str = "total") -> DerivativeResult:
     r"""Backward difference of order n = ``degree`` (paper 002 Table 1a, eq. 1 and 3).
 
     Uses the n+1 samples x[k-n..k]; exact on polynomials of degree <= n; NaN on
@@ -367,7 +410,7 @@ def derivative_backward(x, dt, *, degree: int = 1, order: int = 1, noise_std=Non
     # the ML design with N = d has exactly these taps (tested); it supplies the moment form.
     return _fir_result(arr, dt, axis, degree, degree, order, _coef._ml_design(degree, degree, 0),
                        _coef._ml_design(degree, degree, order), taps, noise_std, "backward",
-                       {"window": degree, "degree": degree}, implementation)
+                       {"window": degree, "degree": degree}, implementation, check_std(std), "ml")
 
 
 def kalman_differentiator_model(dt: float, *, q_over_r: float, noise_std: float = 1.0, degree: int = 2,
@@ -427,7 +470,8 @@ def kalman_differentiator_model(dt: float, *, q_over_r: float, noise_std: float 
 
 
 def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1, noise_std=None,
-                      smooth: bool = False, steady_state: bool = False, axis: int = 0) -> DerivativeResult:
+                      smooth: bool = False, steady_state: bool = False, axis: int = 0,
+                      std: str = "total") -> DerivativeResult:
     r"""Kalman differentiator (paper 002 §2.3) on the state-space engine.
 
     Parameters
@@ -461,13 +505,23 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
         is the constant stationary value, and NaN samples are refused (InputError).
     axis : int, default 0
         Sample axis.
+    std : {"total", "noise"}, default "total"
+        What ``derivative_std`` covers. ``"noise"``: the posterior std of the
+        model (the only std before issue 13), which leaves out the lag/bias of
+        a mistuned q/r. ``"total"``: its square plus a plug-in squared bias,
+        the moving mean (4 time scales; trailing for the filter, centred for
+        the smoother) of the squared difference from a companion estimate with
+        q/r x 2^(2 degree + 2) (half the time scale) minus that difference's
+        own noise variance (variance matching, Mehra 1972; see docs/signal.md,
+        "Calibration"). Runs the filter twice. Estimates are the same for both.
 
     Returns
     -------
     DerivativeResult
         ``value`` the filtered/smoothed signal, ``derivative`` the state
         component ``order``, ``derivative_std`` its posterior std (time-varying,
-        large during the start-up transient).
+        large during the start-up transient), with the bias term for
+        ``std="total"``.
 
     Notes
     -----
@@ -487,15 +541,6 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     >>> bool(abs(res.derivative[-1] - np.cos(t[-1])) < 1e-2)
     True
     """
-    from ..statespace import (
-        kalman_filter,
-        rts_smoother,
-        steady_state_filter,
-        steady_state_gain,
-        steady_state_smoothed_cov,
-        steady_state_smoother,
-    )
-
     arr, dt, axis = _prepare(x, dt, axis)
     q_over_r = require_positive("q_over_r", q_over_r)
     degree = _coef._check_int("degree", degree, 1)
@@ -505,6 +550,7 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
     for flag_name, flag in (("smooth", smooth), ("steady_state", steady_state)):
         if not isinstance(flag, (bool, np.bool_)):
             raise InputError(f"{flag_name} must be True or False; got {flag!r}.")
+    std_option = check_std(std)
     ns = _noise_std(noise_std, arr, axis)
     if np.any(ns <= 0):
         raise InputError("noise_std must be > 0 for the Kalman differentiator (r = noise_std**2 is the "
@@ -512,38 +558,79 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
                          "quantised data; give noise_std explicitly).")
     series, moved_shape = _to_series(arr, axis)
     ns_series = np.ascontiguousarray(np.broadcast_to(ns, moved_shape[:-1])).reshape(-1)
-    n_series, n_steps = series.shape
     value = np.empty_like(series)
     deriv = np.empty_like(series)
     std = np.empty_like(series)
+    options = dict(dt=dt, degree=degree, order=order, smooth=bool(smooth), steady_state=bool(steady_state))
     # group series by noise level (one model per distinct r; usually one)
     for level in np.unique(ns_series):
         idx = np.nonzero(ns_series == level)[0]
-        block = series[idx]
-        finite = np.isfinite(block)
-        if not finite.any(axis=1).all():
-            raise InputError("a series of x has no finite sample; the Kalman differentiator needs data.")
-        first = np.argmax(finite, axis=1)
-        ref = block[np.arange(block.shape[0]), first]
-        model = kalman_differentiator_model(dt, q_over_r=q_over_r, noise_std=float(level), degree=degree)
-        y = (block - ref[:, None])[:, :, None]
-        if steady_state:
-            gain = steady_state_gain(model)
-            post = steady_state_smoother(model, y, gain=gain) if smooth else steady_state_filter(model, y, gain=gain)
-            cov = steady_state_smoothed_cov(model) if smooth else gain.cov
-            std[idx] = np.sqrt(max(cov[order, order], 0.0))
-        else:
-            filtered = kalman_filter(model, y)
-            post = rts_smoother(model, filtered) if smooth else filtered
-            std[idx] = np.sqrt(np.maximum(post.cov[:, :, order, order], 0.0))
-        value[idx] = post.mean[:, :, 0] + ref[:, None]
-        deriv[idx] = post.mean[:, :, order]
+        value[idx], deriv[idx], std[idx] = _kalman_block(series[idx], q_over_r, float(level), **options)
+    if std_option == "total":
+        std = np.sqrt(_kalman_total_var(series, deriv, std, q_over_r, ns_series, **options))
     noise_param = float(ns.flat[0]) if ns.size == 1 and np.all(ns == ns.flat[0]) else ns.copy()
     return DerivativeResult(
         value=_from_series(value, moved_shape, axis), derivative=_from_series(deriv, moved_shape, axis),
         derivative_std=_from_series(std, moved_shape, axis), method="kalman",
         params={"q_over_r": q_over_r, "degree": degree, "order": order, "noise_std": noise_param,
-                "smooth": bool(smooth), "steady_state": bool(steady_state)})
+                "smooth": bool(smooth), "steady_state": bool(steady_state), "std": std_option})
+
+
+def _kalman_block(block, q_over_r, level, *, dt, degree, order, smooth, steady_state):
+    """(value, derivative, noise-only std) of the Kalman differentiator on series (B, T) sharing noise std ``level``."""
+    from ..statespace import (
+        kalman_filter,
+        rts_smoother,
+        steady_state_filter,
+        steady_state_gain,
+        steady_state_smoothed_cov,
+        steady_state_smoother,
+    )
+
+    finite = np.isfinite(block)
+    if not finite.any(axis=1).all():
+        raise InputError("a series of x has no finite sample; the Kalman differentiator needs data.")
+    first = np.argmax(finite, axis=1)
+    ref = block[np.arange(block.shape[0]), first]
+    model = kalman_differentiator_model(dt, q_over_r=q_over_r, noise_std=level, degree=degree)
+    y = (block - ref[:, None])[:, :, None]
+    if steady_state:
+        gain = steady_state_gain(model)
+        post = steady_state_smoother(model, y, gain=gain) if smooth else steady_state_filter(model, y, gain=gain)
+        cov = steady_state_smoothed_cov(model) if smooth else gain.cov
+        std = np.full(block.shape, np.sqrt(max(cov[order, order], 0.0)))
+    else:
+        filtered = kalman_filter(model, y)
+        post = rts_smoother(model, filtered) if smooth else filtered
+        std = np.sqrt(np.maximum(post.cov[:, :, order, order], 0.0))
+    return post.mean[:, :, 0] + ref[:, None], post.mean[:, :, order], std
+
+
+def _kalman_total_var(series, deriv, post_std, q_over_r, ns_series, *, dt, degree, order, smooth, steady_state):
+    """Total error variance (B, T) of the Kalman derivative: white-noise part plus a plug-in squared bias.
+
+    The model's posterior variance holds the noise part and the model's own (random-jerk) bias; the latter is
+    replaced by the plug-in one: the posterior variance is scaled by (noise variance / posterior variance) of the
+    converged filter, and the squared bias is estimated from the difference with a companion filter, the same model
+    with q/r x ``_KALMAN_SPEEDUP``^(2 degree + 2) (time scale that many times shorter), whose noise variance is
+    noise_std^2 x the sum of squares of its impulse response, and scaled by :func:`._total_std.kalman_bias_scale`
+    (the bias the companion keeps).
+    """
+    from ._total_std import _KALMAN_SPEEDUP
+
+    fast_q = q_over_r * _KALMAN_SPEEDUP ** (2 * degree + 2)
+    options = dict(dt=dt, degree=degree, order=order, smooth=smooth, steady_state=steady_state)
+    fast = np.empty_like(deriv)
+    for level in np.unique(ns_series):
+        idx = np.nonzero(ns_series == level)[0]
+        fast[idx] = _kalman_block(series[idx], fast_q, float(level), **options)[1]
+    scale = kalman_time_scale(dt, q_over_r, degree)
+    noise_gain, delta_gain, post_gain = kalman_impulse_gains(
+        kalman_differentiator_model(dt, q_over_r=q_over_r, degree=degree),
+        kalman_differentiator_model(dt, q_over_r=fast_q, degree=degree), order, smooth, scale)
+    bias2 = bias_variance(deriv - fast, ns_series ** 2 * delta_gain, scale, centred=smooth)
+    return post_std * post_std * min(1.0, noise_gain / post_gain) + bias2 * kalman_bias_scale(degree, order,
+                                                                                                smooth) ** 2
 
 
 # --------------------------------------------------------------------------- registry
@@ -573,16 +660,17 @@ class DerivativeMethod:
 
 
 DERIVATIVE_METHODS: Mapping[str, DerivativeMethod] = MappingProxyType({
-    "ml": DerivativeMethod(derivative_ml, ("window", "degree", "order", "noise_std", "implementation"),
+    "ml": DerivativeMethod(derivative_ml, ("window", "degree", "order", "noise_std", "implementation", "std"),
                            ("window",), True,
                            "paper 002 §3 maximum-likelihood polynomial differentiator (anchored at x[k])"),
-    "polyfit": DerivativeMethod(derivative_polyfit, ("window", "degree", "order", "noise_std", "implementation"),
+    "polyfit": DerivativeMethod(derivative_polyfit, ("window", "degree", "order", "noise_std", "implementation",
+                                                     "std"),
                                 ("window",), True,
                                 "causal least-squares polynomial fit on N+1 samples (Savitzky-Golay end point)"),
-    "backward": DerivativeMethod(derivative_backward, ("degree", "order", "noise_std", "implementation"),
+    "backward": DerivativeMethod(derivative_backward, ("degree", "order", "noise_std", "implementation", "std"),
                                  (), True, "backward difference of order n = degree (paper 002 Table 1a)"),
     "kalman": DerivativeMethod(derivative_kalman, ("q_over_r", "degree", "order", "noise_std", "smooth",
-                                                   "steady_state"),
+                                                   "steady_state", "std"),
                                ("q_over_r",), None,
                                "Kalman differentiator, random-jerk model (paper 002 §2.3); smooth=True for RTS"),
 })
@@ -615,7 +703,8 @@ def check_derivative_options(method: str, options: Mapping[str, Any], *, flags: 
     Raises
     ------
     InputError
-        Unknown method, an option the method does not take, a missing required option.
+        Unknown method, an option the method does not take, a missing required option, a ``std`` other than
+        "total" or "noise".
 
     Examples
     --------
@@ -633,6 +722,8 @@ def check_derivative_options(method: str, options: Mapping[str, Any], *, flags: 
             raise InputError(f"method {method!r} does not take {name}={val!r}; its options are "
                              f"{list(spec.parameters)}.")
         kwargs[name] = val
+    if "std" in kwargs:
+        check_std(kwargs["std"])
     missing = [name for name in spec.required if name not in kwargs]
     if not missing:
         return kwargs
@@ -647,7 +738,7 @@ def check_derivative_options(method: str, options: Mapping[str, Any], *, flags: 
 def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: int | None = None,
                order: int = 1, axis: int = 0, noise_std=None, q_over_r: float | None = None,
                smooth: bool | None = None, steady_state: bool | None = None,
-               implementation: str | None = None) -> DerivativeResult:
+               implementation: str | None = None, std: str | None = None) -> DerivativeResult:
     """Estimate the derivative of a noisy sampled signal with any registered method.
 
     Parameters
@@ -678,6 +769,10 @@ def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: 
         Kalman only: constant-gain (stationary) filter/smoother for long records.
     implementation : {"recursive", "fir"}, optional
         FIR methods only.
+    std : {"total", "noise"}, optional
+        What ``derivative_std`` covers (default "total": noise and model error;
+        "noise": the white-noise part only). See :func:`derivative_ml` and
+        :func:`derivative_kalman`.
 
     Returns
     -------
@@ -699,5 +794,5 @@ def derivative(x, dt, *, method: str = "ml", window: int | None = None, degree: 
     """
     kwargs = check_derivative_options(method, {"window": window, "degree": degree, "noise_std": noise_std,
                                                "q_over_r": q_over_r, "smooth": smooth, "steady_state": steady_state,
-                                               "implementation": implementation})
+                                               "implementation": implementation, "std": std})
     return DERIVATIVE_METHODS[method].function(x, dt, axis=axis, order=order, **kwargs)

@@ -22,7 +22,7 @@ import numpy as np
 
 from .._jit import njit
 
-__all__ = ["moment_filter_kernel"]
+__all__ = ["moment_filter_kernel", "moving_mean_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -261,3 +261,47 @@ def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
         _save_state(b, pos, n_seen, last_nan, since, ref, ref_set, p, g, lnan, since_b, rb, rset)
         for j in range(degree + 1):
             sums[b, j] = s[j]
+
+
+@njit(cache=True, nogil=True)
+def moving_mean_kernel(v, before, after, out):
+    """Mean of the finite values of each row of v (B, T) over the window [k - before, k + after), clipped at the ends.
+
+    Written to out (B, T), NaN where the window holds no finite value. A running sum and count (O(1) per sample),
+    recomputed exactly every ``before + after`` samples so round-off cannot accumulate.
+    """
+    n_series, n_steps = v.shape
+    period = max(before + after, 1)
+    for r in range(n_series):
+        row = v[r]
+        total = 0.0
+        count = 0
+        lo = 0
+        hi = 0
+        since = 0
+        for k in range(n_steps):
+            new_hi = min(k + after, n_steps)
+            new_lo = max(k - before, 0)
+            while hi < new_hi:
+                x = row[hi]
+                if not np.isnan(x):
+                    total += x
+                    count += 1
+                hi += 1
+            while lo < new_lo:
+                x = row[lo]
+                if not np.isnan(x):
+                    total -= x
+                    count -= 1
+                lo += 1
+            since += 1
+            if since >= period:
+                total = 0.0
+                count = 0
+                for j in range(lo, hi):
+                    x = row[j]
+                    if not np.isnan(x):
+                        total += x
+                        count += 1
+                since = 0
+            out[r, k] = total / count if count > 0 else np.nan

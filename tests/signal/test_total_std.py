@@ -1,0 +1,167 @@
+"""``derivative_std``: the total-error std (default) against the noise-only one (issue 13, docs/signal.md Calibration)."""
+
+import hashlib
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError
+from longprofile.signal import derivative, derivative_kalman, kalman_differentiator_model, variance_gain
+from longprofile.signal import polyfit_coefficients as _polyfit_taps
+from longprofile.statespace import kalman_filter, rts_smoother
+
+DT = 1e-3
+Z90 = 1.6448536269514722
+
+
+def _band_limited(seed, n=6000, cutoff=5.0, noise=1e-3):
+    """Band-limited random signal (30 sines up to ``cutoff`` Hz), its derivative, and noisy samples."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    f = rng.uniform(0.0, cutoff, 30)
+    a, ph = rng.standard_normal(30) / np.sqrt(30), rng.uniform(0, 2 * np.pi, 30)
+    arg = 2 * np.pi * f[:, None] * t + ph[:, None]
+    clean = (a[:, None] * np.sin(arg)).sum(0)
+    truth = (a[:, None] * 2 * np.pi * f[:, None] * np.cos(arg)).sum(0)
+    sigma = noise * np.std(clean)
+    return clean + sigma * rng.standard_normal(n), truth, sigma
+
+
+def _coverage(res, truth, skip=1500):
+    err, std = (res.derivative - truth)[skip:], res.derivative_std[skip:]
+    return float(np.mean(np.abs(err) <= Z90 * std))
+
+
+# --------------------------------------------------------------------------- the noise-only option is today's std
+def _digest(res):
+    h = hashlib.sha256()
+    for a in (res.value, res.derivative, res.derivative_std):
+        h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+    return h.hexdigest()[:16]
+
+
+def _digest_cases():
+    rng = np.random.default_rng(20261206)
+    t = np.arange(3000) * DT
+    x = np.sin(2 * np.pi * 1.3 * t) + 0.5 * np.sin(2 * np.pi * 4.1 * t + 1) + 0.01 * rng.standard_normal(t.size)
+    xn = x.copy()
+    xn[[700, 701, 1900]] = np.nan
+    x2 = np.column_stack([x, 2 * x + 0.02 * rng.standard_normal(t.size)])
+    return {"ml45": (x, dict(method="ml", window=45, degree=2)),
+            "ml-nan": (xn, dict(method="ml", window=30, degree=3, noise_std=0.01)),
+            "ml-fir": (x, dict(method="ml", window=12, degree=1, implementation="fir", noise_std=0.01)),
+            "polyfit": (x2, dict(method="polyfit", window=20, degree=1, noise_std=[0.01, 0.03])),
+            "polyfit-o2": (x, dict(method="polyfit", window=60, degree=2, order=2)),
+            "backward": (x, dict(method="backward", degree=2)),
+            "kalman": (xn, dict(method="kalman", q_over_r=1e9, noise_std=0.01)),
+            "kalman-smooth": (x2, dict(method="kalman", q_over_r=1e8, smooth=True)),
+            "kalman-ss": (x, dict(method="kalman", q_over_r=1e10, steady_state=True, order=2, noise_std=0.01))}
+
+
+#: sha256 (first 16 hex) of value, derivative, derivative_std computed by the code before issue 13 (commit 1f45edc,
+#: which had only the noise-only std) on :func:`_digest_cases`.
+BEFORE_ISSUE_13 = {"ml45": "fb06f4aae9c6e3c8", "ml-nan": "b5b1f943c574b8c6", "ml-fir": "a4f43d18b53e2b26",
+                   "polyfit": "8d1d99aa55682d1f", "polyfit-o2": "ca9b8b44e53556b4", "backward": "30e077385e64e27f",
+                   "kalman": "3843b8cec24822ca", "kalman-smooth": "d78e13f77b85e948",
+                   "kalman-ss": "557a6e3289de3e8a"}
+
+
+@pytest.mark.parametrize("name", sorted(_digest_cases()))
+def test_noise_option_is_bit_identical_to_the_std_before_issue_13(name):
+    x, kwargs = _digest_cases()[name]
+    assert _digest(derivative(x, DT, std="noise", **kwargs)) == BEFORE_ISSUE_13[name]
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), method=st.sampled_from(["ml", "polyfit", "backward"]),
+       degree=st.integers(1, 3), window=st.integers(3, 80), order=st.integers(1, 2), given_noise=st.booleans())
+def test_fir_total_std_keeps_the_estimates_and_is_at_least_the_noise_std(seed, method, degree, window, order,
+                                                                        given_noise):
+    order = min(order, degree)
+    x, _, sigma = _band_limited(seed, n=600, cutoff=20.0, noise=1e-2)
+    kwargs = dict(method=method, degree=degree, order=order, noise_std=sigma if given_noise else None)
+    if method != "backward":
+        kwargs["window"] = max(window, degree)
+    total, noise = derivative(x, DT, **kwargs), derivative(x, DT, std="noise", **kwargs)
+    np.testing.assert_array_equal(total.derivative, noise.derivative)
+    np.testing.assert_array_equal(total.value, noise.value)
+    np.testing.assert_array_equal(np.isnan(total.derivative_std), np.isnan(noise.derivative))
+    ok = np.isfinite(noise.derivative_std)
+    assert np.all(total.derivative_std[ok] >= noise.derivative_std[ok])
+    assert total.params["std"] == "total" and noise.params["std"] == "noise"
+
+
+def test_fir_noise_std_is_the_tap_formula():
+    x, _, _ = _band_limited(3, n=400)
+    res = derivative(x, DT, method="polyfit", window=25, degree=2, noise_std=0.01, std="noise")
+    expected = 0.01 * np.sqrt(float(variance_gain(_polyfit_taps(25, 2)))) / DT
+    np.testing.assert_array_equal(res.derivative_std[25:], expected)
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_kalman_noise_std_is_the_posterior_std(smooth):
+    x, _, sigma = _band_limited(4, n=800)
+    res = derivative_kalman(x, DT, q_over_r=1e9, noise_std=sigma, smooth=smooth, std="noise")
+    model = kalman_differentiator_model(DT, q_over_r=1e9, noise_std=sigma)
+    post = kalman_filter(model, (x - x[0])[:, None])
+    post = rts_smoother(model, post) if smooth else post
+    np.testing.assert_array_equal(res.derivative_std, np.sqrt(np.maximum(post.cov[:, 1, 1], 0.0)))
+
+
+# --------------------------------------------------------------------------- coverage where the bias dominates
+#: (method options, window or q/r far from the error-optimal one for a 5 Hz band at 1e-3 noise: bias dominates)
+BIASED = [dict(method="ml", degree=2, window=180), dict(method="polyfit", degree=1, window=90),
+          dict(method="ml", degree=1, window=60), dict(method="polyfit", degree=2, window=250),
+          dict(method="kalman", q_over_r=1e8), dict(method="kalman", q_over_r=6e7, smooth=True)]
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 100_000), case=st.sampled_from(range(len(BIASED))))
+def test_total_std_covers_where_the_bias_dominates(seed, case):
+    # four random signals pooled (one signal's coverage scatters: its bias varies slowly)
+    cover = {"noise": [], "total": []}
+    for k in range(4):
+        x, truth, sigma = _band_limited(seed + k)
+        for std in cover:
+            cover[std].append(_coverage(derivative(x, DT, std=std, noise_std=sigma, **BIASED[case]), truth))
+    assert np.mean(cover["noise"]) < 0.7  # the noise-only std misses the bias
+    assert 0.8 <= np.mean(cover["total"]) <= 0.98
+
+
+@pytest.mark.parametrize("kwargs", [dict(method="polyfit", degree=2, window=40),
+                                    dict(method="kalman", q_over_r=1e10)])
+def test_total_std_covers_pure_noise(kwargs):
+    # no signal: no bias; the total std must not blow up the noise-only interval
+    x = np.random.default_rng(9).normal(0.0, 0.1, 40_000)
+    res = derivative(x, DT, noise_std=0.1, **kwargs)
+    assert 0.88 <= _coverage(res, np.zeros_like(x), skip=2000) <= 0.97
+
+
+def test_std_option_is_validated():
+    with pytest.raises(InputError, match="std must be one of"):
+        derivative(np.arange(50.0), 0.1, method="ml", window=5, std="bias")
+    with pytest.raises(InputError, match="std must be one of"):
+        derivative_kalman(np.arange(50.0), 0.1, q_over_r=1.0, std=None)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n_steps=st.integers(1, 60), width=st.integers(1, 80), centred=st.booleans(), nan_share=st.sampled_from([0.0, 0.3]),
+       seed=st.integers(0, 1000))
+def test_moving_mean_is_the_mean_of_the_finite_values_in_the_window(n_steps, width, centred, nan_share, seed):
+    from longprofile.signal._total_std import _moving_mean
+
+    rng = np.random.default_rng(seed)
+    v = rng.random((2, n_steps))
+    v[rng.random(v.shape) < nan_share] = np.nan
+    got = _moving_mean(v, width, centred)
+    lo_off, hi_off = (width // 2, width - width // 2) if centred else (width - 1, 1)
+    for b in range(2):
+        for k in range(n_steps):
+            window = v[b, max(k - lo_off, 0):min(k + hi_off, n_steps)]
+            finite = window[np.isfinite(window)]
+            if finite.size:
+                assert abs(got[b, k] - finite.mean()) <= 1e-12
+            else:
+                assert np.isnan(got[b, k])
