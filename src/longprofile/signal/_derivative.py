@@ -254,7 +254,9 @@ def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design
                                   (*zero, 1.0, std_series)], implementation)
     if std_option == "total":
         noise_var = np.ascontiguousarray(np.broadcast_to(ns, moved_shape[:-1])).reshape(-1) ** 2
-        std = np.sqrt(std * std + _fir_bias_var(series, dt, window, degree, order, kind, implementation, noise_var))
+        total = _fir_bias_var(series, dt, window, degree, order, kind, implementation, noise_var)
+        total += np.square(std, out=std)  # in place: std is replaced below
+        std = np.sqrt(total, out=total)
         params = dict(params, std="total")
     else:
         params = dict(params, std="noise")

@@ -53,8 +53,9 @@ def check_std(std) -> str:
     return std
 
 
-def _moving_mean(v: np.ndarray, width: int, centred: bool) -> np.ndarray:
-    """Mean of the finite values of each row of v (B, T) over a moving window of ``width`` samples.
+def _moving_mean(v: np.ndarray, width: int, centred: bool, *, square: bool = False) -> np.ndarray:
+    """Mean of the finite values of each row of v (B, T) (of their squares with ``square``) over a moving window of
+    ``width`` samples.
 
     Trailing (samples k - width + 1 .. k) or centred (k - width // 2 .. k + width - width // 2 - 1); shorter at the
     ends; NaN where the window has no finite value (compiled: :func:`._kernels.moving_mean_kernel`).
@@ -63,7 +64,7 @@ def _moving_mean(v: np.ndarray, width: int, centred: bool) -> np.ndarray:
 
     before, after = (width // 2, width - width // 2) if centred else (width - 1, 1)
     out = np.empty(v.shape)
-    moving_mean_kernel(np.ascontiguousarray(v, dtype=float), before, after, out)
+    moving_mean_kernel(np.ascontiguousarray(v, dtype=float), before, after, out, square)
     return out
 
 
@@ -75,8 +76,11 @@ def bias_variance(delta: np.ndarray, noise_var: np.ndarray, memory: float, *, ce
     (docs/signal.md, Calibration).
     """
     width = max(int(np.ceil(_SPAN * memory)), 1)
-    excess = _moving_mean(delta * delta, width, centred) - np.asarray(noise_var, dtype=float)[:, None]
-    return _BIAS_GAIN * np.fmax(excess, 0.0)  # fmax: 0 where excess is NaN
+    excess = _moving_mean(delta, width, centred, square=True)  # squared in the kernel: no (B, T) temporary
+    excess -= np.asarray(noise_var, dtype=float)[:, None]
+    np.fmax(excess, 0.0, out=excess)  # fmax: 0 where excess is NaN
+    excess *= _BIAS_GAIN
+    return excess
 
 
 def kalman_time_scale(dt: float, q_over_r: float, degree: int) -> float:
