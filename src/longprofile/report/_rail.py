@@ -223,6 +223,14 @@ def _report_figures(result) -> dict:
     return figs
 
 
+def _through_time_phrase(st: dict) -> str:
+    """How the days are tied together, for the report's method paragraph."""
+    if st.get("joint_days"):
+        return ("all days in one posterior (sensor drift correlated over the days, settlement prior fitted per day: "
+                "docs/rail.md step 10)")
+    return f"day-to-day settlement std {1e3 * (st.get('process_std') or float('nan')):.3g} mm/day"
+
+
 def write_rail_report(result, outdir, *, title: str = "Track settlement report", inputs=(),
                       overwrite: bool = True) -> list[Path]:
     """Write ``outdir/index.html`` (figures embedded), the PNGs and CSV tables of a settlement result.
@@ -305,8 +313,7 @@ posterior on the state-space engine; thermal model <b>{html.escape(str(st.get('t
 sigma = {st.get('sigma_deg', float('nan')):.2e} deg ({'estimated' if st.get('sigma_estimated') else 'given'});
 settlement prior: penalty order {st.get('penalty_order', 2)} (2 = the paper's ||f''||<sup>2</sup>, 3 = ||f'''||<sup>2</sup>),
 rigidity r = {st.get('rigidity', float('nan')):.2e} m<sup>-{2 * st.get('penalty_order', 2) - 2}</sup>
-({'maximum likelihood' if st.get('rigidity_estimated') else 'given'}); day-to-day settlement std
-{1e3 * (st.get('process_std') or float('nan')):.3g} mm/day. Bands: 90 % posterior bands of the fitted model (docs/rail.md).</p>
+({'maximum likelihood' if st.get('rigidity_estimated') else 'given'}); {_through_time_phrase(st)}. Bands: 90 % posterior bands of the fitted model (docs/rail.md).</p>
 <h2>Warnings</h2><ul class="warn">{warn}</ul>
 <h2>Flagged sensors (excluded)</h2>{_table_html(flagged)}
 <h2>Alarms</h2><p>One row per station and kind (first and last day of exceedance with probability at
