@@ -144,7 +144,7 @@ def drift_sites():
 def test_random_walk_drift_is_subtracted_not_only_down_weighted(drift_sites):
     """Sites whose sensors drift as random walks (scenario family "drift", small sites, calibration seeds): the
     all-days estimate's settlement error is below the per-day one's on the whole (mean over six sites at least 10 %
-    lower: measured 0.78 against 0.97 mm) and below 1 mm RMS at the median site (measured 0.82 mm)."""
+    lower: measured 0.69 against 0.97 mm) and below 1 mm RMS at the median site (measured 0.63 mm)."""
     new = np.array([_rms(sc, a) for sc, a, _ in drift_sites])
     old = np.array([_rms(sc, b) for sc, _, b in drift_sites])
     assert new.mean() < 0.9 * old.mean()
@@ -156,7 +156,7 @@ def test_random_walk_drift_is_subtracted_not_only_down_weighted(drift_sites):
 
 def test_the_joint_bands_cover_the_truth(drift_sites):
     """Daily and rate 90 % bands of the all-days posterior on the same sites: pooled coverage 80-98 % (measured
-    85.6 % and 96.0 %)."""
+    85.4 % and 94.8 %)."""
     z = np.concatenate([((res.dz - sc.truth.settlement)[1:] / res.dz_std[1:]).ravel() for sc, res, _ in drift_sites])
     assert 0.80 <= np.mean(np.abs(z) <= 1.6448536) <= 0.98
     zr = np.concatenate([((res.smoothed.rate - np.diff(sc.truth.settlement, axis=0, prepend=np.nan))[1:]
@@ -183,3 +183,30 @@ def test_joint_days_false_is_the_step9_estimate_bit_for_bit(family, seed):
         h.update(np.ascontiguousarray(arrs[k], dtype=float).tobytes())
     assert h.hexdigest() == STEP9_DIGESTS[(family, seed)]
     assert res.increment_rigidity is None and res.noise_day_cov is None and not res.settings["joint_days"]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_residual_factors_recover_the_drifters_better_than_the_neighbour_equations(seed):
+    """Sensors drifting as random walks of diffusion spread over a decade, a settlement already removed (the fitted
+    slope changes are the truth, 0): the factors from each sensor's own residual increments follow the true relative
+    drift (log-slope 0.8-1.2, correlation > 0.9) better than the neighbour-equation factors (step 9). Measured on
+    seeds 0-2: log-slope 0.87 / 0.86 / 0.89 against 0.69 / 0.48 / 0.70, correlation 0.96 / 0.96 / 0.96 against
+    0.89 / 0.77 / 0.90."""
+    from longprofile.rail._settle import residual_noise_factors, sensor_noise_factors
+
+    rng = np.random.default_rng(seed)
+    N, D = 40, 25
+    x = np.cumsum(rng.uniform(2.0, 4.0, N))
+    q = np.exp(rng.uniform(np.log(1.7e-5), np.log(1.7e-4), N))
+    M = np.cumsum(rng.normal(0.0, 1.0, (D, N)) * q, axis=0) + rng.normal(0.0, 1e-5, (D, N))
+    M -= M[0]
+    f_nb = sensor_noise_factors(x, M)
+    f_res = residual_noise_factors(M, np.zeros_like(M), np.ones(D - 1, bool), reference_factors=f_nb)
+    lt = np.log(q / np.exp(np.mean(np.log(q))))
+    slope, _ = np.polyfit(lt, np.log(f_res), 1)
+    assert 0.8 < slope < 1.2
+    c_res = np.corrcoef(lt, np.log(f_res))[0, 1]
+    c_nb = np.corrcoef(lt, np.log(f_nb))[0, 1]
+    assert c_res > 0.9 and c_res > c_nb
+    # the scale of the reference factors is kept (the day covariance was fitted with it)
+    assert np.mean(np.log(f_res)) == pytest.approx(np.mean(np.log(f_nb)), abs=0.05)

@@ -45,7 +45,8 @@ from ._thermal import DailyAngles, daily_angles
 
 __all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "estimate_settlement_from_daily",
            "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit", "day_difference_sigma", "affine_correction",
-           "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights", "increment_rigidity"]
+           "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights", "increment_rigidity",
+           "residual_noise_factors"]
 
 #: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
 #: reference and with the temperature difference from it, :func:`daily_noise_sigma`) or "white" (one std).
@@ -334,6 +335,60 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     g, _ = nnls(np.vstack([A[use], lam * np.eye(n)]), np.concatenate([msq[use], np.full(n, lam)]))
     f[idx] = np.sqrt(np.clip(g, *SENSOR_VARIANCE_BOUNDS))
     return f
+
+
+#: Re-estimations of the sensor factors from the all-days posterior (:func:`residual_noise_factors`); docs/rail.md
+#: step 10 (calibration seeds 300-339: one pass lowered the RMS median on drift 0.79 -> 0.73 mm).
+JOINT_FACTOR_REFITS = 1
+#: Bounds of f^2 from :func:`residual_noise_factors` (wider than SENSOR_VARIANCE_BOUNDS: no neighbour deconvolution).
+RESIDUAL_VARIANCE_BOUNDS = (1.0 / 16.0, 64.0)
+
+
+def residual_noise_factors(slopes, fitted_slopes, quiet, *, reference_factors) -> np.ndarray:
+    r"""Sensor noise factors f_i from the residual day-to-day increments of a fitted settlement (issue 13, step 10).
+
+    :func:`sensor_noise_factors` must tell a sensor's noise from its neighbours' (the departures from the neighbours'
+    line mix three sensors). Given the all-days posterior's slope changes theta_hat (docs/rail.md step 10), the
+    increments r_{d,i} = Delta(m - theta_hat)_{d,i} on the quiet days (those whose settlement increment has the
+    floor prior: the work days set aside; all days when fewer than SENSOR_FACTOR_MIN_DAYS are quiet) are mostly
+    sensor i's own drift increments. Each day is divided by its robust spread over the sensors, each sensor's values
+    clipped at SENSOR_RESIDUAL_CLIP robust std of its own, and g_i = mean square / WINSORIZED_Z2_MEAN is rescaled
+    to the geometric mean of ``reference_factors``^2 (the day covariance was fitted with those), clipped to
+    RESIDUAL_VARIANCE_BOUNDS. Assumption: the posterior absorbs little of a sensor's quiet-day increments (the
+    quiet days' prior is stiff).
+
+    Parameters
+    ----------
+    slopes, fitted_slopes : (D, N) ndarray
+        Daily slope changes and their posterior mean, rad (NaN columns: excluded sensors).
+    quiet : (D-1,) bool array_like
+        Whether the increment from day d - 1 to day d is a quiet one.
+    reference_factors : (N,) ndarray
+        The factors the fit used (:func:`sensor_noise_factors`).
+
+    Returns
+    -------
+    (N,) ndarray
+        f_i (the reference factor where a sensor has no residual).
+    """
+    quiet = np.asarray(quiet, bool)
+    res = np.diff(np.asarray(slopes, float) - np.asarray(fitted_slopes, float), axis=0)
+    if quiet.sum() >= SENSOR_FACTOR_MIN_DAYS:
+        res = res[quiet]
+    f0 = np.asarray(reference_factors, float)
+    keep = np.isfinite(res).sum(axis=0) > 0
+    if keep.sum() < 5:
+        return f0.copy()
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = res[:, keep] / (1.4826 * np.nanmedian(np.abs(res[:, keep]), axis=1, keepdims=True))
+        clip = SENSOR_RESIDUAL_CLIP * 1.4826 * np.nanmedian(np.abs(r), axis=0, keepdims=True)
+        g = np.nanmean(np.clip(r, -clip, clip) ** 2, axis=0) / WINSORIZED_Z2_MEAN
+    ok = np.isfinite(g) & (g > 0)
+    out = f0.copy()
+    gk = g[ok] * np.exp(np.mean(np.log(f0[keep][ok] ** 2)) - np.mean(np.log(g[ok])))
+    out[np.nonzero(keep)[0][ok]] = np.sqrt(np.clip(gk, *RESIDUAL_VARIANCE_BOUNDS))
+    return out
 
 
 def _site_temperature_change(daily: DailyAngles):
@@ -949,6 +1004,7 @@ class _JointFit:
     smoothed: TemporalSettlement
     sigma: float
     sigma_by_day: np.ndarray
+    factors: np.ndarray | None
 
 
 def _fill_missing_days(M, t):
@@ -974,6 +1030,26 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     if n_filled:
         warnings.append(f"{n_filled} sensor-day(s) without a daily angle were filled by linear interpolation over the "
                         "days of their sensor (the all-days model needs every kept sensor on every day).")
+    noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    for _ in range(JOINT_FACTOR_REFITS if factors is not None else 0):
+        quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
+        factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    modes = jp.modes
+    post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
+    rate = np.full(M.shape, np.nan)
+    rate[1:] = np.diff(jp.z_mean, axis=0)
+    smoothed = TemporalSettlement(mean=jp.z_mean, std=jp.z_std, rate=rate, rate_std=jp.rate_std,
+                                  process_std=float("nan"))
+    sig_days = np.sqrt(np.diag(noise.cov))
+    sig_days = np.r_[sig_days[0], sig_days]
+    return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
+                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors)
+
+
+def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
+    """One fit of the all-days model with given sensor factors: (noise covariance, increment prior, segment weights,
+    JointPosterior)."""
     noise = day_noise_covariance(x, M, day_offsets=t, temperature_change=_site_temperature_change(daily),
                                  sensor_factors=factors, floor=0.5 * sig)
     orders = PENALTY_ORDERS if opt.penalty_order is None else (opt.penalty_order,)
@@ -986,15 +1062,7 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
                if opt.spatial_prior else None)
     jp = joint_posterior(x, M, modes, penalty_order=order, sensor_factors=factors, sigma_z=opt.sigma_z,
                          segment_weights=weights)
-    post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
-    rate = np.full(M.shape, np.nan)
-    rate[1:] = np.diff(jp.z_mean, axis=0)
-    smoothed = TemporalSettlement(mean=jp.z_mean, std=jp.z_std, rate=rate, rate_std=jp.rate_std,
-                                  process_std=float("nan"))
-    sig_days = np.sqrt(np.diag(noise.cov))
-    sig_days = np.r_[sig_days[0], sig_days]
-    return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
-                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days)
+    return noise, prior, weights, jp
 
 
 def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSettings):
@@ -1172,6 +1240,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         prior_fit, order, rig, sig, sig_days = joint.prior.fit, joint.prior.penalty_order, joint.modes.rigidity, \
             joint.sigma, joint.sigma_by_day
         weights, post = joint.weights, joint.post
+        factors = joint.factors
         mc_mean, mc_std, mc_lo, mc_hi = _joint_max_settlement(x, joint, order, factors, opt)
     integrated = _chain_integrations(x, M, health, initial)
     smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt,
