@@ -122,9 +122,10 @@ def test_drift_model_keeps_the_daily_noise_when_its_prior_is_at_the_stiffest():
     # a sparse site whose bowl spans most sensors: with the per-day noise the likelihood wants the stiffest prior
     # (the settlement explained as noise): refused and reported; the prior is then fitted with the day-to-day sigma
     # and the per-day noise is kept (step 7; before, the white model replaced it and under-covered drifting sites)
+    # (the per-day model of step 9, joint_days=False: the all-days model of step 10 has no such safeguard)
     sc = simulate_scenario("sparse-drift", 111)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
-    res = estimate_settlement(site, n_monte_carlo=0, through_time=False, sensor_noise=False)
+    res = estimate_settlement(site, n_monte_carlo=0, through_time=False, sensor_noise=False, joint_days=False)
     assert res.settings["error_model"] == "drift"
     assert any("at its stiffest" in w for w in res.warnings)
     assert res.rigidity > 1.01 * 1e-14

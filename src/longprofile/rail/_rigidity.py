@@ -53,6 +53,7 @@ __all__ = [
     "sample_profiles",
     "max_settlement_monte_carlo",
     "max_settlement_interval",
+    "max_settlement_from_draws",
     "MaxSettlement",
     "measurement_std",
     "segment_process_energy",
@@ -805,7 +806,27 @@ def max_settlement_interval(x, slopes, n_samples: int = 2000, *, sigma: float = 
                               segment_weights=segment_weights)
     draws = sample_profiles(x, m, n_samples, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, rng=rng,
                             penalty_order=penalty_order, segment_weights=segment_weights)  # (S, D, N)
-    mu, sd = post.z_mean, post.z_std
+    return max_settlement_from_draws(draws, post.z_mean, post.z_std, level=level)
+
+
+def max_settlement_from_draws(draws, mean, std, *, level: float = 0.9) -> MaxSettlement:
+    r"""The maximum settlement and its simultaneous-band interval (:func:`max_settlement_interval`) from given draws.
+
+    Parameters
+    ----------
+    draws : (S, D, N) array_like
+        Posterior draws of D profiles at N stations, m.
+    mean, std : (D, N) array_like
+        Their posterior means and stds, m (stations of std 0 do not widen the band).
+    level : float, default 0.9
+        Probability of the simultaneous band.
+
+    Returns
+    -------
+    MaxSettlement
+    """
+    draws = np.asarray(draws, float)
+    mu, sd = np.asarray(mean, float), np.asarray(std, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(sd > 0, np.abs(draws - mu) / sd, 0.0).max(axis=-1)  # (S, D)
     c = np.quantile(t, level, axis=0)

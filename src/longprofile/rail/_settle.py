@@ -15,6 +15,17 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import FROZEN_MIN_READINGS, SensorHealth, assess_sensors
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
+from ._joint import (
+    DayModes,
+    _neighbour_residuals,
+    _neighbour_weights,
+    _noise_groups,
+    _posterior_by_level,
+    _station_sigma,
+    day_modes,
+    day_noise_covariance,
+    joint_posterior,
+)
 from ._rigidity import (
     DEFAULT_RIGIDITY,
     DEFAULT_SIGMA_A,
@@ -23,10 +34,10 @@ from ._rigidity import (
     Z90,
     ProfilePosterior,
     initial_profile_posterior,
+    max_settlement_from_draws,
     max_settlement_interval,
-    measurement_std,
     rigidity_log_likelihood,
-    rigidity_posterior,
+    sample_profiles,
     segment_process_energy,
 )
 from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
@@ -34,13 +45,12 @@ from ._thermal import DailyAngles, daily_angles
 
 __all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "estimate_settlement_from_daily",
            "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit", "day_difference_sigma", "affine_correction",
-           "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights"]
+           "daily_noise_sigma", "ERROR_MODELS", "segment_prior_weights", "increment_rigidity",
+           "residual_noise_factors"]
 
 #: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
 #: reference and with the temperature difference from it, :func:`daily_noise_sigma`) or "white" (one std).
 ERROR_MODELS = ("drift", "white")
-#: Relative width of the noise-level groups that share one covariance pass (log scale).
-_SIGMA_LEVEL_STEP = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +113,13 @@ class SettlementResult:
     prior_weights : (N-1,) ndarray or None
         w_i of :func:`segment_prior_weights`: the change prior's r on the segment between stations i and i+1 is
         ``rigidity * w_i`` (all 1 with ``spatial_prior=False`` or a given ``rigidity``).
+    increment_rigidity : (D,) ndarray or None
+        With the all-days model (``joint_days=True``): r_d of the settlement's increment from day d - 1 to day d
+        (:func:`increment_rigidity`; NaN on day 0); ``rigidity`` is then their maximum and ``smoothed`` is the
+        all-days posterior itself (its ``process_std`` NaN). None for the per-day model.
+    noise_day_cov : (D-1, D-1) ndarray or None
+        With the all-days model: the day covariance R of the slope-change error of a sensor of factor 1 over days
+        1..D-1, rad^2 (:func:`~longprofile.rail._joint.day_noise_covariance`); sensor i's is f_i^2 R.
     """
 
     days: np.ndarray
@@ -133,6 +150,8 @@ class SettlementResult:
     prior_weights: np.ndarray | None = None
     max_settlement_lower: np.ndarray | None = None
     max_settlement_upper: np.ndarray | None = None
+    increment_rigidity: np.ndarray | None = None
+    noise_day_cov: np.ndarray | None = None
 
     def to_table(self) -> pd.DataFrame:
         """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
@@ -175,14 +194,6 @@ def day_difference_sigma(slopes) -> float:
         raise InputError("the daily slope changes do not vary from day to day: the noise cannot be estimated; "
                          "pass sigma.")
     return s
-
-
-def _neighbour_residuals(x, slopes):
-    """Departure of each interior sensor's slope change from the line through its two neighbours' (same day),
-    divided by its std under independent noise of unit std (the line's own error included)."""
-    hl, hr = x[1:-1] - x[:-2], x[2:] - x[1:-1]
-    pred = (hr * slopes[:, :-2] + hl * slopes[:, 2:]) / (hl + hr)
-    return (slopes[:, 1:-1] - pred) / np.sqrt(1.0 + (hl**2 + hr**2) / (hl + hr) ** 2)
 
 
 def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, floor: float = 0.0):
@@ -314,9 +325,7 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
         r = r / (1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True))
         clip = SENSOR_RESIDUAL_CLIP * 1.4826 * np.nanmedian(np.abs(r), axis=0, keepdims=True)
         msq = np.nanmean(np.clip(r, -clip, clip) ** 2, axis=0) / WINSORIZED_Z2_MEAN
-    hl, hr = xs[1:-1] - xs[:-2], xs[2:] - xs[1:-1]
-    wl, wr = hr / (hl + hr), hl / (hl + hr)
-    c2 = 1.0 + wl**2 + wr**2
+    wl, wr, c2 = _neighbour_weights(xs)
     n = xs.size
     A = np.zeros((n - 2, n))
     rows = np.arange(n - 2)
@@ -328,37 +337,64 @@ def sensor_noise_factors(x, slopes) -> np.ndarray:
     return f
 
 
+#: Re-estimations of the sensor factors from the all-days posterior (:func:`residual_noise_factors`); docs/rail.md
+#: step 10 (calibration seeds 300-339: one pass lowered the RMS median on drift 0.79 -> 0.73 mm).
+JOINT_FACTOR_REFITS = 1
+#: Bounds of f^2 from :func:`residual_noise_factors` (wider than SENSOR_VARIANCE_BOUNDS: no neighbour deconvolution).
+RESIDUAL_VARIANCE_BOUNDS = (1.0 / 16.0, 64.0)
+
+
+def residual_noise_factors(slopes, fitted_slopes, quiet, *, reference_factors) -> np.ndarray:
+    r"""Sensor noise factors f_i from the residual day-to-day increments of a fitted settlement (issue 13, step 10).
+
+    :func:`sensor_noise_factors` must tell a sensor's noise from its neighbours' (the departures from the neighbours'
+    line mix three sensors). Given the all-days posterior's slope changes theta_hat (docs/rail.md step 10), the
+    increments r_{d,i} = Delta(m - theta_hat)_{d,i} on the quiet days (those whose settlement increment has the
+    floor prior: the work days set aside; all days when fewer than SENSOR_FACTOR_MIN_DAYS are quiet) are mostly
+    sensor i's own drift increments. Each day is divided by its robust spread over the sensors, each sensor's values
+    clipped at SENSOR_RESIDUAL_CLIP robust std of its own, and g_i = mean square / WINSORIZED_Z2_MEAN is rescaled
+    to the geometric mean of ``reference_factors``^2 (the day covariance was fitted with those), clipped to
+    RESIDUAL_VARIANCE_BOUNDS. Assumption: the posterior absorbs little of a sensor's quiet-day increments (the
+    quiet days' prior is stiff).
+
+    Parameters
+    ----------
+    slopes, fitted_slopes : (D, N) ndarray
+        Daily slope changes and their posterior mean, rad (NaN columns: excluded sensors).
+    quiet : (D-1,) bool array_like
+        Whether the increment from day d - 1 to day d is a quiet one.
+    reference_factors : (N,) ndarray
+        The factors the fit used (:func:`sensor_noise_factors`).
+
+    Returns
+    -------
+    (N,) ndarray
+        f_i (the reference factor where a sensor has no residual).
+    """
+    quiet = np.asarray(quiet, bool)
+    res = np.diff(np.asarray(slopes, float) - np.asarray(fitted_slopes, float), axis=0)
+    if quiet.sum() >= SENSOR_FACTOR_MIN_DAYS:
+        res = res[quiet]
+    f0 = np.asarray(reference_factors, float)
+    keep = np.isfinite(res).sum(axis=0) > 0
+    if keep.sum() < 5:
+        return f0.copy()
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = res[:, keep] / (1.4826 * np.nanmedian(np.abs(res[:, keep]), axis=1, keepdims=True))
+        clip = SENSOR_RESIDUAL_CLIP * 1.4826 * np.nanmedian(np.abs(r), axis=0, keepdims=True)
+        g = np.nanmean(np.clip(r, -clip, clip) ** 2, axis=0) / WINSORIZED_Z2_MEAN
+    ok = np.isfinite(g) & (g > 0)
+    out = f0.copy()
+    gk = g[ok] * np.exp(np.mean(np.log(f0[keep][ok] ** 2)) - np.mean(np.log(g[ok])))
+    out[np.nonzero(keep)[0][ok]] = np.sqrt(np.clip(gk, *RESIDUAL_VARIANCE_BOUNDS))
+    return out
+
+
 def _site_temperature_change(daily: DailyAngles):
     """Site-mean daily mean temperature of each day minus the reference day's, °C (0 where unknown)."""
     T = np.asarray(daily.temperature_mean_c, float)
     return np.nan_to_num(T - T[0]) if np.isfinite(T[0]) else np.zeros(len(daily.days))
-
-
-def _noise_groups(sig_d):
-    """Index arrays of the days sharing one noise level (log step :data:`_SIGMA_LEVEL_STEP`) and that level."""
-    key = np.round(np.log(sig_d) / _SIGMA_LEVEL_STEP).astype(int)
-    return [(idx, float(np.exp(np.median(np.log(sig_d[idx])))))
-            for idx in (np.nonzero(key == k)[0] for k in np.unique(key))]
-
-
-def _station_sigma(s: float, factors):
-    """The noise std of each station on a day of level ``s``: s, or s f_i with per-sensor factors."""
-    return s if factors is None else s * factors
-
-
-def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order, factors=None, weights=None):
-    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day (times f_i)."""
-    D, N = M.shape
-    out = {k: np.empty((D, N)) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
-    for idx, s in _noise_groups(sig_d):
-        sig = _station_sigma(s, factors)
-        post = rigidity_posterior(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                  penalty_order=penalty_order, segment_weights=weights)
-        for k in ("z_mean", "z_std", "slope_mean", "slope_std"):
-            out[k][idx] = getattr(post, k)
-        out["noise_std"][idx] = measurement_std(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                                penalty_order=penalty_order, segment_weights=weights)
-    return out
 
 
 #: log10 grids of r searched before the Brent refinement, per penalty order (r in m^-2 for 2, m^-4 for 3).
@@ -494,6 +530,80 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
     best = max(lls, key=lls.get)
     return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs,
                           sigma=float(sigma) if np.ndim(sigma) == 0 else float(np.median(sigma)))
+
+
+#: Floor of the per-day settlement-increment rigidity r_d relative to the largest (:func:`increment_rigidity`): a day
+#: without works keeps 2 % of the busiest day's prior intensity (creep, and works the data barely show). Chosen on
+#: calibration seeds 300-339 (docs/rail.md, step 10).
+INCREMENT_PRIOR_FLOOR = 0.02
+
+
+@dataclass(frozen=True)
+class IncrementPrior:
+    """Prior of the settlement's day-to-day increments (:func:`increment_rigidity`). K = D - 1 days.
+
+    Attributes
+    ----------
+    penalty_order : int
+        2 = the paper's ||f''||^2 prior, 3 = ||f‴||^2 (the larger maximised likelihood of all increments).
+    rigidity_by_day : (K,) ndarray
+        r_d of the increment from day d - 1 to day d (m^-2 or m^-4), floored at INCREMENT_PRIOR_FLOOR x the largest.
+    fit : ChangePriorFit
+        The stationary fit over all increments that chose the order.
+    """
+
+    penalty_order: int
+    rigidity_by_day: np.ndarray
+    fit: ChangePriorFit
+
+
+def increment_rigidity(x, slopes, *, noise_cov, sigma_z: float = DEFAULT_SIGMA_Z, penalty_orders=PENALTY_ORDERS,
+                       sensor_factors=None, floor: float = INCREMENT_PRIOR_FLOOR) -> IncrementPrior:
+    r"""Prior intensity of each day's settlement increment, by maximum likelihood (issue 13, step 10).
+
+    Beyond paper 004, whose prior (§4.2, π(f) ∝ exp(-||f''||^2 / r)) is the same on every day: the settlement of a
+    site grows in steps during a few nights of works, the sensors' drift every day. The day-to-day increments
+    Delta m_d = m_d - m_{d-1} of the slope changes have, under the noise model of
+    :func:`~longprofile.rail._joint.day_noise_covariance`, the noise std sqrt((Delta R Delta^T)_{dd}) f_i; the
+    penalty order is the one with the larger likelihood of all increments (:func:`fit_change_prior`), and r_d
+    maximises the likelihood of increment d alone (:func:`fit_noise_and_rigidity`'s grid and Brent search), then is
+    floored at ``floor`` times the largest (a quiet day's ML r is at the stiffest of the grid: no change at all).
+    The increments' noise correlation (white noise's differences) is neglected in this fit only.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+    noise_cov : (D-1, D-1) array_like
+        R of a sensor of factor 1 over days 1..D-1 (:func:`~longprofile.rail._joint.day_noise_covariance`).
+    sigma_z, penalty_orders, sensor_factors
+        As in :func:`fit_change_prior`.
+    floor : float, default INCREMENT_PRIOR_FLOOR
+        0 < floor <= 1.
+
+    Returns
+    -------
+    IncrementPrior
+    """
+    if not 0.0 < floor <= 1.0:
+        raise InputError(f"floor must be in (0, 1]; got {floor!r}.")
+    M = np.asarray(slopes, float)
+    K = M.shape[0] - 1
+    R = np.asarray(noise_cov, float)
+    if R.shape != (K, K):
+        raise InputError(f"noise_cov must be ({K}, {K}) for {K + 1} days; got shape {R.shape}.")
+    Delta = np.eye(K) - np.eye(K, k=-1)
+    dM = np.diff(M, axis=0)
+    s_inc = np.sqrt(np.diag(Delta @ R @ Delta.T))
+    fit = fit_change_prior(x, dM, sigma=s_inc, sigma_z=sigma_z, penalty_orders=penalty_orders,
+                           sensor_factors=sensor_factors)
+    f = None if sensor_factors is None else np.asarray(sensor_factors, float)
+    rd = np.array([_fit_rigidity(x, dM[d:d + 1], float(s_inc[d]), sigma_z, fit.penalty_order, f)[0]
+                   for d in range(K)])
+    return IncrementPrior(penalty_order=fit.penalty_order, rigidity_by_day=np.maximum(rd, floor * float(rd.max())),
+                          fit=fit)
 
 
 #: EM steps of :func:`segment_prior_weights`, started from the stationary prior (w = 1); chosen on calibration
@@ -668,6 +778,13 @@ class SettlementSettings:
     spatial_prior : bool, default True
         With the fitted change prior (``rigidity=None``): a space-varying r, larger where the data say the
         track moves (:func:`segment_prior_weights`); False keeps one r along the track (stationary prior).
+    joint_days : bool, default True
+        With ``error_model="drift"`` and the fitted prior: all days at once (issue 13 step 10,
+        :mod:`~longprofile.rail._joint`): each sensor's error is correlated over the days (random-walk drift, the
+        shared reference day, thermal residual; :func:`~longprofile.rail._joint.day_noise_covariance`) and the
+        settlement grows by increments whose prior intensity is fitted per day (:func:`increment_rigidity`: the
+        work days). False gives the per-day posteriors of step 9 exactly. Records of fewer than 6 days use the
+        per-day model.
     """
 
     thermal: str = "linear"
@@ -692,6 +809,7 @@ class SettlementSettings:
     error_model: str = "drift"
     sensor_noise: bool = True
     spatial_prior: bool = True
+    joint_days: bool = True
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -842,11 +960,14 @@ def _max_settlement_stage(x, M, sig_days, rig, order, opt: SettlementSettings, f
     return tuple(out)
 
 
-def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: SettlementSettings):
-    """Through-time smoothing and rates, alarms, control comparison: (smoothed, dz_std, alarms, controls)."""
+def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: SettlementSettings, smoothed=None):
+    """Through-time smoothing and rates (or the given ``smoothed``: the all-days posterior), alarms, control
+    comparison: (smoothed, dz_std, alarms, controls)."""
     ids, x, sv = site.sensor_ids, site.x, site.survey
     dz_std = np.array(post["z_std"])
-    if opt.through_time:
+    if smoothed is not None:
+        smoothed = smoothed if opt.through_time else None
+    elif opt.through_time:
         smoothed = smooth_through_time(post["z_mean"], dz_std, process_std=opt.process_std,
                                        noise_variance_by_day=sig_days**2 if drift else None)
     else:
@@ -870,9 +991,104 @@ def _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt: Settle
                                  penalty_order=order, sigma_z=opt.sigma_z, sensor_factors=factors)
 
 
-def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed) -> dict:
+@dataclass(frozen=True, eq=False)
+class _JointFit:
+    """What the all-days model (:func:`_joint_stage`) gives the rest of the pipeline."""
+
+    noise: Any            # DayNoiseCovariance
+    prior: IncrementPrior
+    modes: DayModes
+    weights: np.ndarray | None
+    mode_slopes: np.ndarray  # (D-1, N) data of the modes
+    post: dict            # (D, N) z_mean, z_std, slope_mean, slope_std, noise_std
+    smoothed: TemporalSettlement
+    sigma: float
+    sigma_by_day: np.ndarray
+    factors: np.ndarray | None
+
+
+def _fill_missing_days(M, t):
+    """Slope changes with a sensor's missing days (not all of them) filled by linear interpolation over the days
+    (flat beyond its first and last): (filled (D, N), number of sensor-days filled)."""
+    M = np.array(M, float)
+    miss = np.isnan(M)
+    part = miss.any(axis=0) & ~miss.all(axis=0)
+    for j in np.nonzero(part)[0]:
+        ok = ~miss[:, j]
+        M[~ok, j] = np.interp(t[~ok], t[ok], M[ok, j])
+    return M, int(miss[:, part].sum())
+
+
+def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSettings, warnings: list):
+    """The all-days posterior (module :mod:`~longprofile.rail._joint`; docs/rail.md step 10), or None when it does
+    not apply (``joint_days=False``, a given rigidity, fewer than 5 day-to-day changes or usable sensors)."""
+    D = days.size
+    if not opt.joint_days or opt.rigidity is not None or D - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
+        return None
+    t = np.asarray((pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1), float)
+    M, n_filled = _fill_missing_days(M, t)
+    if n_filled:
+        warnings.append(f"{n_filled} sensor-day(s) without a daily angle were filled by linear interpolation over the "
+                        "days of their sensor (the all-days model needs every kept sensor on every day).")
+    noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    for _ in range(JOINT_FACTOR_REFITS if factors is not None else 0):
+        quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
+        factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    modes = jp.modes
+    post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
+    rate = np.full(M.shape, np.nan)
+    rate[1:] = np.diff(jp.z_mean, axis=0)
+    smoothed = TemporalSettlement(mean=jp.z_mean, std=jp.z_std, rate=rate, rate_std=jp.rate_std,
+                                  process_std=float("nan"))
+    sig_days = np.sqrt(np.diag(noise.cov))
+    sig_days = np.r_[sig_days[0], sig_days]
+    return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
+                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors)
+
+
+def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
+    """One fit of the all-days model with given sensor factors: (noise covariance, increment prior, segment weights,
+    JointPosterior)."""
+    noise = day_noise_covariance(x, M, day_offsets=t, temperature_change=_site_temperature_change(daily),
+                                 sensor_factors=factors, floor=0.5 * sig)
+    orders = PENALTY_ORDERS if opt.penalty_order is None else (opt.penalty_order,)
+    prior = increment_rigidity(x, M, noise_cov=noise.cov, sigma_z=opt.sigma_z, penalty_orders=orders,
+                               sensor_factors=factors)
+    modes = day_modes(noise.cov, prior.rigidity_by_day)
+    order = prior.penalty_order
+    weights = (segment_prior_weights(x, modes.to_modes @ M[1:], sigma=modes.noise, rigidity=modes.rigidity,
+                                     penalty_order=order, sigma_z=opt.sigma_z, sensor_factors=factors)
+               if opt.spatial_prior else None)
+    jp = joint_posterior(x, M, modes, penalty_order=order, sensor_factors=factors, sigma_z=opt.sigma_z,
+                         segment_weights=weights)
+    return noise, prior, weights, jp
+
+
+def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSettings):
+    """Monte Carlo mean, std and 90 % interval of the maximum settlement of each day (§4.3) under the all-days
+    posterior: draws of every mode (the engine's posterior sampler), mapped to the days; day 0 is 0."""
+    K, N = joint.mode_slopes.shape
+    out = np.full((4, K + 1), np.nan)
+    if opt.n_monte_carlo <= 0:
+        return tuple(out)
+    gen = np.random.default_rng(opt.rng)
+    S = int(opt.n_monte_carlo)
+    draws = np.empty((S, K, N))
+    for idx, s in _noise_groups(joint.modes.noise):
+        draws[:, idx] = sample_profiles(x, joint.mode_slopes[idx], S, sigma=_station_sigma(s, factors),
+                                        rigidity=joint.modes.rigidity, sigma_z=opt.sigma_z, rng=gen,
+                                        penalty_order=order, segment_weights=joint.weights)
+    z = np.einsum("dk,skn->sdn", joint.modes.from_modes, draws)
+    ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9)
+    out[:, 0] = 0.0
+    out[:, 1:] = ms.mean, ms.std, ms.lower, ms.upper
+    return tuple(out)
+
+
+def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
-    return dict(thermal=opt.thermal, error_model="drift" if drift else "white",
+    return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
@@ -881,7 +1097,8 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 survey_rigidity=opt.survey_rigidity, sigma_z=opt.sigma_z,
                 sigma_a=opt.sigma_a, reference_temp_c=opt.reference_temp_c,
                 affine_correction=opt.use_affine_correction,
-                through_time=opt.through_time, process_std=None if smoothed is None else smoothed.process_std,
+                through_time=opt.through_time,
+                process_std=None if smoothed is None or joint else smoothed.process_std,
                 settlement_threshold_m=opt.settlement_threshold_m,
                 rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
                 alarm_probability=opt.alarm_probability, n_monte_carlo=opt.n_monte_carlo)
@@ -953,6 +1170,11 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
         With ``rigidity=None``: the change prior's r varies along the track, r w_i on segment i, with w
         from an empirical-Bayes (EM) fit (:func:`segment_prior_weights`, ``SettlementResult.prior_weights``),
         so a local bowl is not shrunk by a prior fitted mostly on quiet track.
+    joint_days : bool, default True
+        With "drift" and ``rigidity=None``: all days in one posterior (issue 13 step 10, docs/rail.md): a
+        sensor's error correlated over the days (random-walk drift, shared reference day, thermal residual) and a
+        settlement that grows by increments whose prior is fitted per day (the work days), so a strong drifter's
+        accumulated bias is subtracted, not only down-weighted. False: the per-day posteriors (step 9) exactly.
 
     Returns
     -------
@@ -1006,16 +1228,25 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     initial, slopes = _slope_changes(site, daily, opt)
     health, M = _health_stage(x, ids, slopes, daily, opt, warnings)
     sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
-    prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
-                                                                               opt, warnings)
-    weights = _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt)
-    post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=opt.sigma_z, penalty_order=order,
-                               factors=factors, weights=weights)
+    joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings) if drift else None
+    if joint is None:
+        prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
+                                                                                   opt, warnings)
+        weights = _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt)
+        post = _posterior_by_level(x, M, sig_days, rigidity=rig, sigma_z=opt.sigma_z, penalty_order=order,
+                                   factors=factors, weights=weights)
+        mc_mean, mc_std, mc_lo, mc_hi = _max_settlement_stage(x, M, sig_days, rig, order, opt, factors, weights)
+    else:
+        prior_fit, order, rig, sig, sig_days = joint.prior.fit, joint.prior.penalty_order, joint.modes.rigidity, \
+            joint.sigma, joint.sigma_by_day
+        weights, post = joint.weights, joint.post
+        factors = joint.factors
+        mc_mean, mc_std, mc_lo, mc_hi = _joint_max_settlement(x, joint, order, factors, opt)
     integrated = _chain_integrations(x, M, health, initial)
-    mc_mean, mc_std, mc_lo, mc_hi = _max_settlement_stage(x, M, sig_days, rig, order, opt, factors, weights)
-    smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt)
+    smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt,
+                                                             smoothed=None if joint is None else joint.smoothed)
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
-                                     smoothed=smoothed)
+                                     smoothed=smoothed, joint=joint is not None)
     return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
                             dz_noise_std=post["noise_std"],
                             slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
@@ -1025,4 +1256,6 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                             controls=controls, warnings=tuple(warnings), settings=settings_used, sigma_by_day=sig_days,
                             sensor_noise_factor=np.ones(len(ids)) if factors is None else factors,
                             prior_weights=np.ones(len(ids) - 1) if weights is None else weights,
-                            max_settlement_lower=mc_lo, max_settlement_upper=mc_hi)
+                            max_settlement_lower=mc_lo, max_settlement_upper=mc_hi,
+                            increment_rigidity=None if joint is None else np.r_[np.nan, joint.prior.rigidity_by_day],
+                            noise_day_cov=None if joint is None else joint.noise.cov)

@@ -223,6 +223,14 @@ def _report_figures(result) -> dict:
     return figs
 
 
+def _through_time_phrase(st: dict) -> str:
+    """How the days are tied together, for the report's method paragraph."""
+    if st.get("joint_days"):
+        return ("all days in one posterior (sensor drift correlated over the days, settlement prior fitted per day: "
+                "docs/rail.md step 10)")
+    return f"day-to-day settlement std {1e3 * (st.get('process_std') or float('nan')):.3g} mm/day"
+
+
 def _sensor_table(result) -> pd.DataFrame:
     """``sensors.csv``: one row per sensor (health, noise factor, thermal fit, initial profile and angle)."""
     return pd.DataFrame({"sensor_id": result.sensor_ids, "x_m": result.x, "status": result.health.status,
@@ -284,7 +292,7 @@ def _method_context(result) -> dict:
                 sigma_source="estimated" if st.get("sigma_estimated") else "given", penalty_order=f"{order}",
                 rigidity=f"{st.get('rigidity', float('nan')):.2e}", rigidity_power=f"{2 * order - 2}",
                 rigidity_source="maximum likelihood" if st.get("rigidity_estimated") else "given",
-                process_std=f"{1e3 * (st.get('process_std') or float('nan')):.3g}",
+                through_time=_through_time_phrase(st),
                 alarm_probability=f"{st.get('alarm_probability')}")
 
 
