@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -15,6 +13,7 @@ from longprofile.rail._joint import day_modes, day_noise_covariance, joint_poste
 from longprofile.rail._rigidity import FIRST_SLOPE_PRIOR_STD, rigidity_cost_matrix
 from longprofile.rail._scenarios import simulate_scenario
 from longprofile.rail._settle import increment_rigidity
+from tests._fingerprint import assert_same_fingerprint, fingerprint
 
 SMALL = dict(n_sensors=(16, 18), n_days=(14, 16), sampling_minutes=60.0)
 
@@ -164,13 +163,68 @@ def test_the_joint_bands_cover_the_truth(drift_sites):
     assert 0.80 <= np.mean(np.abs(zr) <= 1.6448536) <= 0.98
 
 
-#: sha256 of the step-9 output (code of 91ba304, before step 10) on two small sites, ``n_monte_carlo=50``: dz, dz_std,
-#: dz_noise_std, slope_change, smoothed mean/std/rate_std, maximum settlement mean/lower/upper, factors, weights.
-STEP9_DIGESTS = {("drift", 7): "fb6fa366b5ed3b7f2673f48c679f2028f307bedb06d15e4aac101ad1264acbca", ("faults", 3): "a22d7b11c2a8a8b4d6dd8cc9cb216d90f22eabbd0c2d80c6b6f89552414268de"}
+#: Fingerprints (tests/_fingerprint.py: shape, NaN mask, weighted sums) of the step-9 output computed by the code of
+#: 91ba304 (before step 10) on two small sites, ``n_monte_carlo=50``: dz, dz_std, dz_noise_std, slope_change, smoothed
+#: mean/std/rate_std, maximum settlement mean/lower/upper, factors, weights. Equal to 1e-9 of each array's scale: a
+#: sha256 would fail on the last bits a compiling process (a fresh clone) moves.
+STEP9_FINGERPRINTS = {
+    ("drift", 7): {
+        "dz": ([15, 18], "eb142b0cae0baa72", [-0.5704823310922601, -0.4914616882311103, -0.5250572773243877],
+                   0.6565800903686924),
+        "dz_noise_std": ([15, 18], "eb142b0cae0baa72", [0.23720318905525842, 0.2372971837905788, 0.2382317595902606],
+                   0.2369788810948965),
+        "dz_std": ([15, 18], "eb142b0cae0baa72", [0.31642501533439016, 0.3172953065507552, 0.31791977729781035],
+                   0.31687459893909864),
+        "factors": ([18], "709e80c88487a241", [17.09648103458176, 17.406096527430837, 16.61787126256056],
+                   17.50577362288986),
+        "max_lower": ([15], "96a296d224f285c6", [0.07387494045270027, 0.06282872615175052, 0.07627413609219838],
+                   0.07579036583254978),
+        "max_mean": ([15], "96a296d224f285c6", [0.11920497465460037, 0.10023284597677615, 0.12569102847936767],
+                   0.1206318246783333),
+        "max_upper": ([15], "96a296d224f285c6", [0.17023173457548135, 0.14349216429199946, 0.1811132705015855],
+                   0.17102562804242094),
+        "rate_std": ([15, 18], "062054d304808e63", [0.13614803324647717, 0.1389443659699251, 0.13804575827794843],
+                   0.1385245012207798),
+        "slope_change": ([15, 18], "eb142b0cae0baa72", [0.000902699113613039, -0.0017242345173308301, -0.00479349852259448],
+                   0.09124131984383005),
+        "smoothed_mean": ([15, 18], "eb142b0cae0baa72", [-0.5906289524401711, -0.5147816720656543, -0.5468907091220135],
+                   0.6518148914390713),
+        "smoothed_std": ([15, 18], "eb142b0cae0baa72", [0.2914813163716242, 0.292532286159334, 0.2932227333614972],
+                   0.2920784059693718),
+        "weights": ([17], "709e80c88487a241", [22.253678001136613, 20.243893716151707, 21.898397955981146],
+                   22.141326885343265),
+    },
+    ("faults", 3): {
+        "dz": ([14, 18], "66687aadf862bd77", [0.020403331765675506, 0.008401349675299864, 0.015337905383640497],
+                   0.164837251939639),
+        "dz_noise_std": ([14, 18], "66687aadf862bd77", [0.0830510684829699, 0.08261012366017657, 0.08263915496495822],
+                   0.08274382791314724),
+        "dz_std": ([14, 18], "66687aadf862bd77", [0.15935836687219623, 0.16004482702905853, 0.16003659263284786],
+                   0.16015458968071966),
+        "factors": ([18], "709e80c88487a241", [19.286491794060513, 18.980941074438256, 17.811006229716316],
+                   19.18995429162601),
+        "max_lower": ([14], "96a296d224f285c6", [0.005243042471324338, 0.004549801228076432, 0.005531261570612021],
+                   0.006073645950801291),
+        "max_mean": ([14], "96a296d224f285c6", [0.0279892483399142, 0.02335460453317979, 0.03108908678692446],
+                   0.02821659892649705),
+        "max_upper": ([14], "96a296d224f285c6", [0.05833907240213893, 0.04957765845572864, 0.06492011279105532],
+                   0.05800236305000786),
+        "rate_std": ([14, 18], "627661c83a910f81", [0.04615337808317477, 0.04747543576659666, 0.047332368200725866],
+                   0.047564143530578744),
+        "slope_change": ([14, 18], "66687aadf862bd77", [-0.0027339302395365714, -0.00031545928504649805, -0.0025304324742304],
+                   0.029850089764107902),
+        "smoothed_mean": ([14, 18], "66687aadf862bd77", [0.010814293247509425, -0.0019706378136768368, 0.00586357788773992],
+                   0.15402254663755421),
+        "smoothed_std": ([14, 18], "66687aadf862bd77", [0.13893403147362696, 0.13958971946276882, 0.1393615230608587],
+                   0.139590115969205),
+        "weights": ([17], "709e80c88487a241", [47.6716558993882, 43.340821979348135, 43.04128980736515],
+                   45.5367442587047),
+    },
+}
 
 
-@pytest.mark.parametrize("family,seed", sorted(STEP9_DIGESTS))
-def test_joint_days_false_is_the_step9_estimate_bit_for_bit(family, seed):
+@pytest.mark.parametrize("family,seed", sorted(STEP9_FINGERPRINTS))
+def test_joint_days_false_is_the_step9_estimate(family, seed):
     sc = simulate_scenario(family, seed, **SMALL)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
     res = estimate_settlement(site, n_monte_carlo=50, joint_days=False)
@@ -178,10 +232,7 @@ def test_joint_days_false_is_the_step9_estimate_bit_for_bit(family, seed):
                 smoothed_mean=res.smoothed.mean, smoothed_std=res.smoothed.std, rate_std=res.smoothed.rate_std,
                 max_mean=res.max_settlement_mean, max_lower=res.max_settlement_lower,
                 max_upper=res.max_settlement_upper, factors=res.sensor_noise_factor, weights=res.prior_weights)
-    h = hashlib.sha256()
-    for k in sorted(arrs):
-        h.update(np.ascontiguousarray(arrs[k], dtype=float).tobytes())
-    assert h.hexdigest() == STEP9_DIGESTS[(family, seed)]
+    assert_same_fingerprint(fingerprint(arrs), STEP9_FINGERPRINTS[(family, seed)])
     assert res.increment_rigidity is None and res.noise_day_cov is None and not res.settings["joint_days"]
 
 
