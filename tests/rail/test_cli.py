@@ -50,6 +50,24 @@ def test_settle_writes_table_plot_and_report(site_dir, tmp_path):
     assert len(sensors) == table.sensor_id.nunique()
 
 
+def test_per_day_model_is_the_library_per_day_estimate(site_dir, tmp_path):
+    # --per-day-model = estimate_settlement(joint_days=False), the live service's model; the default differs from it
+    from longprofile.io import read_rail_site
+    from longprofile.rail import estimate_settlement
+
+    tables = [str(site_dir / f"{n}.csv") for n in ("sensors", "readings", "survey")]
+    base = ["rail", "settle", "--sensors", tables[0], "--readings", tables[1], "--survey", tables[2],
+            "--monte-carlo", "0"]
+    for flag, name in ((["--per-day-model"], "per_day.csv"), ([], "all_days.csv")):
+        res = runner.invoke(app, base + flag + ["-o", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    per_day, all_days = pd.read_csv(tmp_path / "per_day.csv"), pd.read_csv(tmp_path / "all_days.csv")
+    ref = estimate_settlement(read_rail_site(*tables), n_monte_carlo=0, joint_days=False).to_table()
+    pd.testing.assert_series_equal(per_day.dz_m, ref.dz_m.reset_index(drop=True), check_exact=False, rtol=1e-9,
+                                   atol=1e-12)
+    assert (per_day.dz_std_m - all_days.dz_std_m).abs().max() > 1e-6
+
+
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
     bad = pd.read_csv(site_dir / "readings.csv")
     bad.loc[0, "sensor_id"] = "ghost"

@@ -41,7 +41,8 @@ def control_table(dates=("2019-11-21", "2019-11-24"), drop_mm=(2.0, 4.0), seed=1
 def reference_comparison(controls):
     """What ``rail settle`` computes on the same tables (``validate_site`` + ``estimate_settlement``)."""
     syn, _ = synthetic()
-    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey, controls), n_monte_carlo=0)
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey, controls), n_monte_carlo=0,
+                              joint_days=False)  # the service runs the per-day model (SERVICE_JOINT_DAYS)
     return ref.controls.sort_values(["date", "x_m"]).reset_index(drop=True)
 
 

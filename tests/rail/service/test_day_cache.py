@@ -38,7 +38,8 @@ def _stored(db, run_id):
 
 
 def _reference(syn, rows, quiet=None):
-    return estimate_settlement(validate_site(syn.sensors, rows, syn.survey), n_monte_carlo=0, quiet_days=quiet)
+    return estimate_settlement(validate_site(syn.sensors, rows, syn.survey), n_monte_carlo=0, quiet_days=quiet,
+                               joint_days=False)  # the service runs the per-day model (SERVICE_JOINT_DAYS)
 
 
 #: Stated tolerance of the cached path against estimate_settlement on all readings: posterior means within this

@@ -31,7 +31,8 @@ def test_stored_results_are_those_of_estimate_settlement(site):
     _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
     out = recompute(db, "mitt")
     assert out["status"] == "ok", out["message"]
-    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0)
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0,
+                               joint_days=False)  # the service runs the per-day model (SERVICE_JOINT_DAYS)
     with db.read() as s:
         rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m,
                                              ResultRow.smoothed_dz_m, ResultRow.rate_m_per_day)

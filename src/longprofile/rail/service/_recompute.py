@@ -468,6 +468,13 @@ def _store_controls(s, run_id: int, controls: pd.DataFrame | None) -> int:
     return bulk_insert(s, ControlComparison.__table__, cols)
 
 
+#: The live recompute runs the per-day model (``estimate_settlement(..., joint_days=False)``, docs/rail.md step 9),
+#: not the all-days model that ``rail settle`` uses by default (step 10): the all-days fit (a maximum-likelihood
+#: prior per day and a Monte Carlo over all days) took 10.6 s per recompute of a year of 100 sensors, against
+#: 0.64 s and the service's 2 s target (benchmarks rail_service, 2026-12-06). docs/rail-service.md, "Not done".
+SERVICE_JOINT_DAYS = False
+
+
 def _settings_hash(site, sensors, survey, thresholds, settings, controls=None) -> str:
     what = {"settings": settings, "sensors": sensors.to_dict("list"),
             "survey": None if survey is None else survey.to_dict("list"), "thresholds": thresholds,
@@ -532,7 +539,8 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
             thermal=settings["thermal"], quiet_days=quiet,
             sigma=None if settings["sigma_deg"] is None else float(np.deg2rad(settings["sigma_deg"])),
             rigidity=settings["rigidity"], exclude_sensors=tuple(settings["exclude"]),
-            n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]))
+            n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]),
+            joint_days=SERVICE_JOINT_DAYS)
         if stats is not None:
             sitedata = _with_record_warnings(sitedata, stats)
             res = estimate_settlement_from_daily(sitedata, daily_angles_from_statistics(stats), **options)
