@@ -22,7 +22,7 @@ import numpy as np
 
 from .._jit import njit
 
-__all__ = ["moment_filter_kernel", "moving_mean_kernel"]
+__all__ = ["moment_filter_kernel", "moving_mean_square_kernel"]
 
 
 @njit(cache=True, nogil=True)
@@ -264,9 +264,9 @@ def _generic_kernel(x, window, degree, c, h0, gain, const, binom, npow, refresh,
 
 
 @njit(cache=True, nogil=True)
-def moving_mean_kernel(v, before, after, out, square=False):
-    """Mean of the finite values of each row of v (B, T) (of their squares with ``square``) over the window
-    [k - before, k + after), clipped at the ends.
+def moving_mean_square_kernel(v, before, after, out):
+    """Mean of the squares of the finite values of each row of v (B, T) over the window [k - before, k + after),
+    clipped at the ends.
 
     Written to out (B, T), NaN where the window holds no finite value. A running sum and count (O(1) per sample),
     recomputed exactly every 16 (``before + after``) samples so round-off cannot accumulate.
@@ -284,13 +284,13 @@ def moving_mean_kernel(v, before, after, out, square=False):
             new_hi = min(k + after, n_steps)
             new_lo = max(k - before, 0)
             while hi < new_hi:
-                x = row[hi] * row[hi] if square else row[hi]
+                x = row[hi] * row[hi]
                 if not np.isnan(x):
                     total += x
                     count += 1
                 hi += 1
             while lo < new_lo:
-                x = row[lo] * row[lo] if square else row[lo]
+                x = row[lo] * row[lo]
                 if not np.isnan(x):
                     total -= x
                     count -= 1
@@ -300,7 +300,7 @@ def moving_mean_kernel(v, before, after, out, square=False):
                 total = 0.0
                 count = 0
                 for j in range(lo, hi):
-                    x = row[j] * row[j] if square else row[j]
+                    x = row[j] * row[j]
                     if not np.isnan(x):
                         total += x
                         count += 1

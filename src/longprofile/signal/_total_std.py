@@ -53,18 +53,18 @@ def check_std(std) -> str:
     return std
 
 
-def _moving_mean(v: np.ndarray, width: int, centred: bool, *, square: bool = False) -> np.ndarray:
-    """Mean of the finite values of each row of v (B, T) (of their squares with ``square``) over a moving window of
-    ``width`` samples.
+def _moving_mean_square(v: np.ndarray, width: int, centred: bool) -> np.ndarray:
+    """Mean of the squares of the finite values of each row of v (B, T) over a moving window of ``width`` samples.
 
     Trailing (samples k - width + 1 .. k) or centred (k - width // 2 .. k + width - width // 2 - 1); shorter at the
-    ends; NaN where the window has no finite value (compiled: :func:`._kernels.moving_mean_kernel`).
+    ends; NaN where the window has no finite value (compiled: :func:`._kernels.moving_mean_square_kernel`, the
+    squares taken inside it: no (B, T) temporary).
     """
-    from ._kernels import moving_mean_kernel
+    from ._kernels import moving_mean_square_kernel
 
     before, after = (width // 2, width - width // 2) if centred else (width - 1, 1)
     out = np.empty(v.shape)
-    moving_mean_kernel(np.ascontiguousarray(v, dtype=float), before, after, out, square)
+    moving_mean_square_kernel(np.ascontiguousarray(v, dtype=float), before, after, out)
     return out
 
 
@@ -76,7 +76,7 @@ def bias_variance(delta: np.ndarray, noise_var: np.ndarray, memory: float, *, ce
     (docs/signal.md, Calibration).
     """
     width = max(int(np.ceil(_SPAN * memory)), 1)
-    excess = _moving_mean(delta, width, centred, square=True)  # squared in the kernel: no (B, T) temporary
+    excess = _moving_mean_square(delta, width, centred)
     excess -= np.asarray(noise_var, dtype=float)[:, None]
     np.fmax(excess, 0.0, out=excess)  # fmax: 0 where excess is NaN
     excess *= _BIAS_GAIN
