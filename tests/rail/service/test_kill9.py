@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import http.client
 import json
 import os
 import signal
@@ -71,8 +72,8 @@ def test_kill9_loses_no_acknowledged_reading_and_no_notification(site, db_url, t
         for b in my:
             try:
                 out = post(port, key, b)
-            except (OSError, urllib.error.URLError):
-                return
+            except (OSError, urllib.error.URLError, http.client.HTTPException):
+                return  # the kill can cut a response mid-body (IncompleteRead): not acknowledged
             with lock:
                 for row, o in zip(b, out["rows"]):
                     assert o["outcome"] in ("accepted", "duplicate")
