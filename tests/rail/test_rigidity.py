@@ -118,6 +118,23 @@ def test_rigidity_model_shapes_and_errors():
         rigidity_posterior(x, [0.0, 0.0, 0.0], sigma=-1.0)
 
 
+@settings(max_examples=40, deadline=None)
+@given(gaps=st.lists(st.floats(0.05, 40.0), min_size=1, max_size=12), log_r=st.floats(-19.0, -4.0),
+       order=st.sampled_from([2, 3]), weighted=st.booleans(), seed=st.integers(0, 2**16))
+def test_rigidity_model_covariances_are_psd_without_the_engine_check(gaps, log_r, order, weighted, seed):
+    # rigidity_model builds its model with check_psd=False (PSD by construction): the engine's own check must agree,
+    # and the cached q-free parts give the same model as a fresh build (a second station set in between)
+    x = np.concatenate([[0.0], np.cumsum(gaps)])
+    w = np.random.default_rng(seed).uniform(0.01, 50.0, x.size - 1) if weighted else None
+    m = rigidity_model(x, rigidity=10.0**log_r, penalty_order=order, segment_weights=w)
+    assert not m.check_psd
+    checked = m.replace(check_psd=True)  # raises ModelError if Q, R or P0 is not PSD
+    rigidity_model(x + 1.0, rigidity=1e-9, penalty_order=order)
+    again = rigidity_model(x, rigidity=10.0**log_r, penalty_order=order, segment_weights=w)
+    assert np.array_equal(again.process_cov, checked.process_cov)
+    assert np.array_equal(again.transition, checked.transition)
+
+
 def test_initial_profile_state_space_equals_dense_when_survey_at_sensors():
     rng = np.random.default_rng(4)
     x = _stations(rng, 20)

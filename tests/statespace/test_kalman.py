@@ -491,3 +491,15 @@ def test_model_validation_errors():
     with pytest.raises(ShapeError, match=r"observation \(H\) must have shape"):
         StateSpaceModel(np.eye(2), np.ones((1, 3)), np.eye(2), [[1.0]], [0.0, 0.0], np.eye(2))
     assert random_spd(np.random.default_rng(0), 2).shape == (2, 2)
+
+
+def test_check_psd_false_skips_only_the_eigenvalue_checks():
+    bad = dict(transition=[[1.0]], observation=[[1.0]], process_cov=[[-1.0]], obs_cov=[[1.0]], initial_mean=[0.0],
+               initial_cov=[[1.0]])
+    assert StateSpaceModel(**bad, check_psd=False).process_cov[0, 0] == -1.0  # the caller vouched for it
+    with pytest.raises(ModelError, match="positive semi-definite"):
+        StateSpaceModel(**bad)
+    with pytest.raises(ShapeError, match=r"observation \(H\) must have shape"):  # shapes are always checked
+        StateSpaceModel(np.eye(2), np.ones((1, 3)), np.eye(2), [[1.0]], [0.0, 0.0], np.eye(2), check_psd=False)
+    with pytest.raises(InputError, match="finite|NaN"):  # and finiteness
+        StateSpaceModel([[1.0]], [[1.0]], [[np.nan]], [[1.0]], [0.0], [[1.0]], check_psd=False)

@@ -26,6 +26,7 @@ for settlement bowls (docs/rail.md); the paper's order 2 stays the default of th
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import factorial
 
 import numpy as np
@@ -309,19 +310,31 @@ def _iwp_terms(x, q, penalty_order: int = 2):
 
     penalty_order 2: state (z, theta), the paper's cubic-spline prior (penalises f'');
     penalty_order 3: state (z, theta, kappa), the quintic-spline prior (penalises f''').
-    Component a is the (n-1-a)-fold integral of a Brownian motion of diffusion q.
+    Component a is the (n-1-a)-fold integral of a Brownian motion of diffusion q:
+    Q_i[a, b] = q h_i^(e+1) / ((e+1) (n-1-a)! (n-1-b)!), e = 2n - 2 - a - b.
     """
-    h = np.diff(x)
-    n = int(penalty_order)
+    F, hpow, denom = _iwp_parts(np.ascontiguousarray(x, dtype=np.float64).tobytes(), int(penalty_order))
+    return F, q * hpow / denom
+
+
+@lru_cache(maxsize=16)
+def _iwp_parts(x_bytes: bytes, n: int):
+    """The parts of :func:`_iwp_terms` that do not depend on q, read-only, cached per station set (a search over r
+    rebuilds the model of the same stations hundreds of times): F, h_i^(e+1) per entry, the denominators."""
+    h = np.diff(np.frombuffer(x_bytes, dtype=np.float64))
     F = np.zeros((h.size, n, n))
-    Q = np.empty((h.size, n, n))
+    hpow = np.empty((h.size, n, n))
+    denom = np.empty((n, n))
     for a in range(n):
         for b in range(a, n):
             F[:, a, b] = h ** (b - a) / factorial(b - a)
         for b in range(n):
             e = 2 * n - 2 - a - b
-            Q[:, a, b] = q * h ** (e + 1) / ((e + 1) * factorial(n - 1 - a) * factorial(n - 1 - b))
-    return F, Q
+            hpow[:, a, b] = h ** (e + 1)
+            denom[a, b] = (e + 1) * factorial(n - 1 - a) * factorial(n - 1 - b)
+    for arr in (F, hpow, denom):
+        arr.setflags(write=False)
+    return F, hpow, denom
 
 
 def _check_order(penalty_order) -> int:
@@ -394,7 +407,10 @@ def rigidity_model(x, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT
         R = np.zeros((x.size, 2, 2))
         R[:, 0, 0] = s**2
         R[:, 1, 1] = sz**2
-    return StateSpaceModel(transition=F, observation=H, process_cov=Q, obs_cov=R, initial_mean=m0, initial_cov=P0)
+    # Q_i (a positive multiple of the IWP Gram matrix, weights > 0), R and P0 (positive diagonals) are PSD by
+    # construction: skip the eigenvalue checks, which cost more than a likelihood evaluation in searches over r
+    return StateSpaceModel(transition=F, observation=H, process_cov=Q, obs_cov=R, initial_mean=m0, initial_cov=P0,
+                           check_psd=False)
 
 
 def _posterior_from_smoother(x, sm, batched):

@@ -1079,7 +1079,7 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
         draws[:, idx] = sample_profiles(x, joint.mode_slopes[idx], S, sigma=_station_sigma(s, factors),
                                         rigidity=joint.modes.rigidity, sigma_z=opt.sigma_z, rng=gen,
                                         penalty_order=order, segment_weights=joint.weights)
-    z = np.einsum("dk,skn->sdn", joint.modes.from_modes, draws)
+    z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
     ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9)
     out[:, 0] = 0.0
     out[:, 1:] = ms.mean, ms.std, ms.lower, ms.upper

@@ -620,7 +620,7 @@ def extended_rts_smoother(model: NonlinearStateSpaceModel, filtered: FilterResul
         lin = StateSpaceModel(transition=pick(Fj), observation=np.zeros((1, n)),
                               process_cov=Q if Q.ndim == 3 else np.broadcast_to(Q, (T - 1, n, n)),
                               obs_cov=np.ones((1, 1)), initial_mean=model.initial_mean,
-                              initial_cov=model.initial_cov, _checked_psd=False)
+                              initial_cov=model.initial_cov, check_psd=False)
         return rts_smoother(lin, fr)
 
     if batched:

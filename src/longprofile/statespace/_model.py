@@ -57,6 +57,13 @@ class StateSpaceModel:
         c, a known additive term in the transition.
     obs_offset : (m,) or (T, m) array_like, optional
         d, a known additive term in the observation.
+    check_psd : bool, default True
+        Check that Q, R and P0 are symmetric positive semi-definite (an eigenvalue
+        decomposition per matrix and step). Shapes and finiteness are always
+        checked. Pass False only for terms that are PSD by construction, e.g. a
+        model rebuilt hundreds of times in a likelihood search whose covariances
+        are positive multiples of fixed Gram matrices (like scipy.linalg's
+        ``check_finite=False``: a speed option for callers that know).
 
     Notes
     -----
@@ -82,7 +89,7 @@ class StateSpaceModel:
     input_observation: np.ndarray | None = None
     state_offset: np.ndarray | None = None
     obs_offset: np.ndarray | None = None
-    _checked_psd: bool = field(default=True, repr=False)
+    check_psd: bool = field(default=True, repr=False)
 
     def __post_init__(self):
         conv = {}
@@ -123,7 +130,7 @@ class StateSpaceModel:
             self._expect("state_offset (c)", self.state_offset, (n,))
         if self.obs_offset is not None:
             self._expect("obs_offset (d)", self.obs_offset, (m,))
-        if self._checked_psd:
+        if self.check_psd:
             require_symmetric_psd("process_cov (Q)", self.process_cov)
             require_symmetric_psd("obs_cov (R)", self.obs_cov)
             require_symmetric_psd("initial_cov (P0)", P0)

@@ -17,6 +17,15 @@ import numpy as np
 
 from .._jit import njit
 from ..errors import ModelError, ShapeError
+from ._linalg_kernels import (
+    cholesky_lower,
+    copy2,
+    gather_block,
+    inverse_diagonal,
+    joseph_update,
+    sandwich_sym,
+    solve_rows,
+)
 from ._model import StateSpaceModel
 from ._prepare import prepare_observations
 from ._results import FilterResult, SmootherResult
@@ -37,7 +46,11 @@ def _per_step(model: StateSpaceModel, name: str, length: int, base_shape: tuple)
 
 @njit(cache=True)
 def _filter_cov_pass(F, Q, H, R, P0, obs):
-    """Data-independent part of the filter: predicted/filtered covariances, gains, innovation precisions."""
+    """Data-independent part of the filter: predicted/filtered covariances, gains, innovation precisions.
+
+    Small fixed-size loops (the engine's ``_linalg_kernels``: no LAPACK call, no allocation per step): the
+    observed block of S = H P H' + R by Cholesky, its inverse by two triangular solves, the Joseph-form update.
+    The last output is the first step whose observed block of S is not positive definite (-1: none)."""
     T, m, n = H.shape
     Pp = np.empty((T, n, n))
     Pf = np.empty((T, n, n))
@@ -46,42 +59,75 @@ def _filter_cov_pass(F, Q, H, R, P0, obs):
     Sinv = np.zeros((T, m, m))
     logdet = np.zeros(T)
     P = P0.copy()
-    eye = np.eye(n)
+    PHt = np.empty((n, m))
+    Sk = np.empty((m, m))
+    L = np.empty((m, m))
+    Si = np.empty((m, m))
+    Ho = np.empty((m, n))
+    Ro = np.empty((m, m))
+    Ko = np.empty((n, m))
+    KR = np.empty((n, m))
+    A = np.empty((n, n))
+    AP = np.empty((n, n))
+    FP = np.empty((n, n))
+    dinv = np.empty(m)
+    work = np.empty(m)
+    idx = np.empty(m, dtype=np.int64)
     for k in range(T):
-        Pp[k] = P
-        Hk = H[k]
-        Sk = Hk @ P @ Hk.T + R[k]
-        S[k] = 0.5 * (Sk + Sk.T)
-        idx = np.nonzero(obs[k])[0]
-        if idx.size > 0:
-            Ho = np.ascontiguousarray(Hk[idx, :])
-            So = np.empty((idx.size, idx.size))
-            Ro = np.empty((idx.size, idx.size))
-            for a in range(idx.size):
-                for b in range(idx.size):
-                    So[a, b] = S[k, idx[a], idx[b]]
-                    Ro[a, b] = R[k, idx[a], idx[b]]
-            L = np.linalg.cholesky(So)
-            Si = np.linalg.inv(So)
-            Si = 0.5 * (Si + Si.T)
-            Ko = P @ Ho.T @ Si
-            A = eye - Ko @ Ho
-            P = A @ P @ A.T + Ko @ Ro @ Ko.T
-            P = 0.5 * (P + P.T)
+        copy2(P, Pp[k])
+        sandwich_sym(H[k], P, R[k], PHt, Sk)  # Sk = H P H' + (R + R')/2, PHt = P H'
+        copy2(Sk, S[k])
+        no = 0
+        for j in range(m):
+            if obs[k, j]:
+                idx[no] = j
+                no += 1
+        if no > 0:
+            gather_block(Sk, idx, idx, no, no, L)
+            if not cholesky_lower(L, no, 0.0):
+                return Pp, Pf, K, S, Sinv, logdet, k
+            inverse_diagonal(L, no, dinv)
+            for a in range(no):  # Si = (L L')^-1, row by row from the identity
+                for b in range(no):
+                    Si[a, b] = 1.0 if a == b else 0.0
+            solve_rows(L, dinv, no, Si, no, work)
             ld = 0.0
-            for a in range(idx.size):
+            for a in range(no):
                 ld += 2.0 * np.log(L[a, a])
+                for b in range(a + 1, no):
+                    s = 0.5 * (Si[a, b] + Si[b, a])
+                    Si[a, b] = s
+                    Si[b, a] = s
             logdet[k] = ld
-            for a in range(idx.size):
+            for i in range(n):  # Ko = P Ho' Si
+                for a in range(no):
+                    s = 0.0
+                    for b in range(no):
+                        s += PHt[i, idx[b]] * Si[b, a]
+                    Ko[i, a] = s
+            for a in range(no):
+                for j in range(n):
+                    Ho[a, j] = H[k, idx[a], j]
+            gather_block(R[k], idx, idx, no, no, Ro)
+            joseph_update(P, Ko, Ho, Ro, n, no, A, AP, KR)
+            for a in range(no):
                 for i in range(n):
                     K[k, i, idx[a]] = Ko[i, a]
-                for b in range(idx.size):
+                for b in range(no):
                     Sinv[k, idx[a], idx[b]] = Si[a, b]
-        Pf[k] = P
+        copy2(P, Pf[k])
         if k < T - 1:
-            P = F[k] @ P @ F[k].T + Q[k]
-            P = 0.5 * (P + P.T)
-    return Pp, Pf, K, S, Sinv, logdet
+            sandwich_sym(F[k], P, Q[k], FP, P)  # P <- F P F' + (Q + Q')/2
+    return Pp, Pf, K, S, Sinv, logdet, -1
+
+
+def _filter_covariances(F, Q, H, R, P0, obs):
+    """:func:`_filter_cov_pass`, raising :class:`ModelError` where an observed block of S is not positive
+    definite: (Pp, Pf, K, S, Sinv, logdet)."""
+    *out, bad = _filter_cov_pass(F, Q, H, R, P0, obs)
+    if bad >= 0:
+        raise _not_positive_definite()
+    return tuple(out)
 
 
 @njit(cache=True)
@@ -103,7 +149,7 @@ def _smoother_cov_pass(F, Pp, Pf):
 
 def _cov_pass(F, Q, H, R, P0, obs):
     """Data-independent part of filter and smoother: (Pp, Pf, K, S, Sinv, logdet, Ps, G, cc)."""
-    Pp, Pf, K, S, Sinv, logdet = _filter_cov_pass(F, Q, H, R, P0, obs)
+    Pp, Pf, K, S, Sinv, logdet = _filter_covariances(F, Q, H, R, P0, obs)
     return (Pp, Pf, K, S, Sinv, logdet) + _smoother_cov_pass(F, Pp, Pf)
 
 
@@ -308,7 +354,7 @@ def shared_covariance_log_likelihood(model: StateSpaceModel, y) -> float | np.nd
     """
     Yz, batched, obs, F, Q, c, H, R, d = _shared_terms(model, y, "shared_covariance_log_likelihood")
     try:
-        _, _, K, _, Sinv, logdet = _filter_cov_pass(F, Q, H, R, np.ascontiguousarray(model.initial_cov), obs)
+        _, _, K, _, Sinv, logdet = _filter_covariances(F, Q, H, R, np.ascontiguousarray(model.initial_cov), obs)
     except np.linalg.LinAlgError:
         raise _not_positive_definite() from None
     no_gains = np.zeros((0, K.shape[1], K.shape[1]))  # the smoother's gains are not used without ``store``
