@@ -135,6 +135,24 @@ def test_rigidity_model_covariances_are_psd_without_the_engine_check(gaps, log_r
     assert np.array_equal(again.transition, checked.transition)
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**16), log_r=st.floats(-16.0, -5.0), order=st.sampled_from([2, 3]),
+       days=st.integers(1, 4))
+def test_rigidity_log_likelihood_function_of_r_equals_the_rebuilt_model(seed, log_r, order, days):
+    from longprofile.rail._rigidity import rigidity_log_likelihood, rigidity_log_likelihood_function
+
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.uniform(2.0, 4.0, 15))
+    S = rng.normal(0, 1e-4, (days, x.size))
+    S[-1, 3] = np.nan  # two missing patterns when days > 1
+    r = 10.0**log_r
+    f = rigidity_log_likelihood_function(x, S, sigma=3e-5, penalty_order=order)
+    want = rigidity_log_likelihood(x, S, sigma=3e-5, rigidity=r, penalty_order=order)
+    np.testing.assert_allclose(f(r), want, rtol=1e-9, atol=1e-9)
+    g = rigidity_log_likelihood_function(x, S[0], sigma=3e-5, penalty_order=order)
+    assert g(r) == pytest.approx(float(np.atleast_1d(want)[0]), rel=1e-9, abs=1e-9)
+
+
 def test_initial_profile_state_space_equals_dense_when_survey_at_sensors():
     rng = np.random.default_rng(4)
     x = _stations(rng, 20)

@@ -7,10 +7,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import multivariate_normal
 
-from longprofile.errors import ModelError, ShapeError
+from longprofile.errors import InputError, ModelError, ShapeError
 from longprofile.statespace import (
     StateSpaceModel,
     log_likelihood,
+    process_scale_log_likelihood,
     shared_covariance_log_likelihood,
     shared_covariance_smoother,
 )
@@ -99,3 +100,28 @@ def test_rejects_mixed_missing_patterns_inputs_and_an_improper_model():
     flat = StateSpaceModel(np.eye(1), np.eye(1), np.zeros((1, 1)), np.zeros((1, 1)), [0.0], np.zeros((1, 1)))
     with pytest.raises(ModelError, match="not positive definite"):
         shared_covariance_log_likelihood(flat, np.ones((3, 1)))
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), T=st.integers(2, 8), n=st.integers(1, 3), m=st.integers(1, 2),
+       B=st.integers(1, 3), log_s=st.floats(-6.0, 6.0), p_missing=st.sampled_from([0.0, 0.4]))
+def test_process_scale_log_likelihood_is_the_density_of_the_scaled_model(seed, T, n, m, B, log_s, p_missing):
+    rng = np.random.default_rng(seed)
+    model = _random_model(rng, T, n, m)
+    y = rng.normal(size=(B, T, m)) * 2.0
+    y[:, rng.random((T, m)) < p_missing] = np.nan
+    s = float(np.exp(log_s))
+    scaled = model.replace(process_cov=s * model.process_cov)
+    loglik = process_scale_log_likelihood(model, y)
+    got = loglik(s)
+    np.testing.assert_allclose(got, [_dense_log_likelihood(scaled, y[b]) for b in range(B)], rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(got, shared_covariance_log_likelihood(scaled, y), rtol=1e-12, atol=1e-12)
+    assert isinstance(process_scale_log_likelihood(model, y[0])(s), float)
+
+
+def test_process_scale_log_likelihood_refuses_a_bad_scale():
+    rng = np.random.default_rng(7)
+    loglik = process_scale_log_likelihood(_random_model(rng, 4, 2, 1), rng.normal(size=(4, 1)))
+    for bad in (0.0, -1.0, np.nan, np.inf):
+        with pytest.raises(InputError, match="scale"):
+            loglik(bad)

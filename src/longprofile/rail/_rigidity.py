@@ -37,6 +37,7 @@ from ..statespace import (
     StateSpaceModel,
     posterior_sample,
     process_noise_moments,
+    process_scale_log_likelihood,
     shared_covariance_log_likelihood,
     shared_covariance_smoother,
     smoother_noise_covariance,
@@ -549,6 +550,34 @@ def rigidity_log_likelihood(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity
     for rows, _pat in _pattern_groups(np.isnan(M)):
         ll[rows] = shared_covariance_log_likelihood(model, Y[rows])
     return ll if m.ndim == 2 else float(ll[0])
+
+
+def rigidity_log_likelihood_function(x, slopes, *, sigma: float = DEFAULT_SIGMA, sigma_z: float = DEFAULT_SIGMA_Z,
+                                     z_ends=(0.0, 0.0), penalty_order: int = 2, segment_weights=None):
+    r""":func:`rigidity_log_likelihood` as a function of r alone: ``loglik(r)``, float or (D,) ndarray.
+
+    Q_i = q w_i Qbar(h_i) with q = r (x_N - x_1) / 2 is linear in r (Lemma 4.1 of paper 004, :func:`rigidity_model`),
+    so the model is built and checked once, at r = 1, and each evaluation scales its process covariance
+    (:func:`longprofile.statespace.process_scale_log_likelihood`): what the maximum-likelihood searches over r
+    (:func:`~longprofile.rail.fit_change_prior`, the per-day prior fits) evaluate tens of times per profile.
+    Equal to :func:`rigidity_log_likelihood` to round-off (r Q_1 against Q built at r).
+    """
+    x = _check_stations(x)
+    m = _as_profiles("slopes", slopes, x.size)
+    M = m if m.ndim == 2 else m[None]
+    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
+    model = rigidity_model(x, sigma=sigma, rigidity=1.0, sigma_z=sigma_z, z_start=z_ends[0],
+                           penalty_order=penalty_order, segment_weights=segment_weights)
+    Y = _slope_observations(M, z_ends[1])
+    parts = [(rows, process_scale_log_likelihood(model, Y[rows])) for rows, _pat in _pattern_groups(np.isnan(M))]
+
+    def loglik(r):
+        ll = np.empty(M.shape[0])
+        for rows, f in parts:
+            ll[rows] = f(r)
+        return ll if m.ndim == 2 else float(ll[0])
+
+    return loglik
 
 
 def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,

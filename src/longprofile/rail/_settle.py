@@ -36,7 +36,7 @@ from ._rigidity import (
     initial_profile_posterior,
     max_settlement_from_draws,
     max_settlement_interval,
-    rigidity_log_likelihood,
+    rigidity_log_likelihood_function,
     sample_profiles,
     segment_process_energy,
 )
@@ -407,13 +407,14 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
     groups = ([(np.arange(rows.shape[0]), float(sigma))] if np.ndim(sigma) == 0
               else _noise_groups(np.asarray(sigma, float)))
 
+    parts = [rigidity_log_likelihood_function(x, rows[idx], sigma=_station_sigma(s, factors), sigma_z=sigma_z,
+                                              penalty_order=penalty_order) for idx, s in groups]
+
     def nll(logr):
         if not -60 < logr < 5:
             return 1e300
-        return -float(sum(np.sum(rigidity_log_likelihood(x, rows[idx], sigma=_station_sigma(s, factors),
-                                                         rigidity=float(np.exp(logr)), sigma_z=sigma_z,
-                                                         penalty_order=penalty_order))
-                          for idx, s in groups))
+        r = float(np.exp(logr))
+        return -float(sum(np.sum(loglik(r)) for loglik in parts))
 
     grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
     vals = [nll(g) for g in grid]

@@ -11,6 +11,7 @@ rts_smoother           -- Rauch-Tung-Striebel smoother with lag-one cross-covari
 log_likelihood         -- prediction-error log-likelihood.
 shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
 shared_covariance_log_likelihood -- the same batch's per-series log-likelihoods, forward pass only.
+process_scale_log_likelihood -- those log-likelihoods as a function of a scale of Q (ML searches).
 smoother_noise_covariance -- covariance of the smoothed mean from the observation noise alone (fixed truth).
 process_noise_moments  -- E[w w^T | y] of the process noise from a smoother (the EM statistic of Q).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
@@ -81,7 +82,7 @@ _LAZY = {
     "FilterResult": "_results", "SmootherResult": "_results",
     "posterior_sample": "_sampling", "simulate": "_sampling",
     "shared_covariance_smoother": "_shared_cov", "smoother_noise_covariance": "_shared_cov",
-    "shared_covariance_log_likelihood": "_shared_cov",
+    "shared_covariance_log_likelihood": "_shared_cov", "process_scale_log_likelihood": "_shared_cov",
     "SteadyStateGain": "_steady", "steady_state_filter": "_steady", "steady_state_gain": "_steady",
     "steady_state_smoothed_cov": "_steady", "steady_state_smoother": "_steady",
 }
@@ -94,6 +95,7 @@ __all__ = [
     "posterior_sample",
     "shared_covariance_smoother",
     "shared_covariance_log_likelihood",
+    "process_scale_log_likelihood",
     "smoother_noise_covariance",
     "process_noise_moments",
     "simulate",

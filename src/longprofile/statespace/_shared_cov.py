@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import njit
+from .._validation import require_positive
 from ..errors import ModelError, ShapeError
 from ._linalg_kernels import (
     cholesky_lower,
@@ -30,7 +31,8 @@ from ._model import StateSpaceModel
 from ._prepare import prepare_observations
 from ._results import FilterResult, SmootherResult
 
-__all__ = ["shared_covariance_log_likelihood", "shared_covariance_smoother", "smoother_noise_covariance"]
+__all__ = ["process_scale_log_likelihood", "shared_covariance_log_likelihood", "shared_covariance_smoother",
+           "smoother_noise_covariance"]
 
 _LOG2PI = float(np.log(2.0 * np.pi))
 
@@ -361,6 +363,61 @@ def shared_covariance_log_likelihood(model: StateSpaceModel, y) -> float | np.nd
     ll = _mean_pass(Yz, F, c, H, d, np.ascontiguousarray(model.initial_mean), K, Sinv, logdet, no_gains, obs,
                     obs.sum(axis=1).astype(np.int64), False)[-1]
     return ll.sum(axis=-1) if batched else float(ll[0].sum())
+
+
+def process_scale_log_likelihood(model: StateSpaceModel, y):
+    r"""The log-likelihood of each series as a function of a scale s of the process covariance, Q -> s Q.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        As in :func:`shared_covariance_smoother` (its ``process_cov`` is the s = 1 term).
+    y : (T, m) or (B, T, m) array_like
+        As in :func:`shared_covariance_smoother` (one NaN pattern for the whole batch).
+
+    Returns
+    -------
+    callable
+        ``loglik(s)`` for a finite s > 0: float or (B,) ndarray, :func:`shared_covariance_log_likelihood` of
+        ``model.replace(process_cov=s * model.process_cov)`` (equal to round-off: s Q is formed in the kernel's
+        input, not rebuilt by the caller).
+
+    Raises
+    ------
+    ShapeError, ModelError
+        As :func:`shared_covariance_smoother` (when built; ``loglik`` raises ModelError where an innovation
+        covariance is not positive definite and InputError for an s that is not finite and > 0).
+
+    Notes
+    -----
+    What a maximum-likelihood search over one intensity evaluates tens of times per series (e.g. the rigidity of
+    paper 004's prior, q = r L / 2, Lemma 4.1: Q is linear in r): the model is checked and its per-step terms
+    prepared once, so an evaluation is the forward covariance pass and the mean recursion only.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from longprofile.statespace import (StateSpaceModel, process_scale_log_likelihood,
+    ...                                     shared_covariance_log_likelihood)
+    >>> m = StateSpaceModel([[1.0]], [[1.0]], [[0.1]], [[1.0]], [0.0], [[1.0]])
+    >>> y = np.array([[0.3], [0.1], [-0.2]])
+    >>> f = process_scale_log_likelihood(m, y)
+    >>> bool(np.isclose(f(2.0), shared_covariance_log_likelihood(m.replace(process_cov=[[0.2]]), y)))
+    True
+    """
+    Yz, batched, obs, F, Q, c, H, R, d = _shared_terms(model, y, "process_scale_log_likelihood")
+    P0 = np.ascontiguousarray(model.initial_cov)
+    x0 = np.ascontiguousarray(model.initial_mean)
+    n_obs_step = obs.sum(axis=1).astype(np.int64)
+    no_gains = np.zeros((0, model.n_states, model.n_states))
+
+    def loglik(s):
+        s = require_positive("process covariance scale s", s)
+        _, _, K, _, Sinv, logdet = _filter_covariances(F, s * Q, H, R, P0, obs)
+        ll = _mean_pass(Yz, F, c, H, d, x0, K, Sinv, logdet, no_gains, obs, n_obs_step, False)[-1]
+        return ll.sum(axis=-1) if batched else float(ll[0].sum())
+
+    return loglik
 
 
 @njit(cache=True)
