@@ -114,6 +114,11 @@ class SlopeUncertainty:
         (:func:`~longprofile.vehicle.calibrate_sensors`). The gyro offset's posterior std then replaces
         ``gyro_bias_std`` (the stated error left after a calibration done elsewhere); ``wheel_radius_rel_std`` stays
         (the front/rear difference is not corrected). 0 turns the calibration off.
+    radius_in_calibration : bool
+        True (default since 2026-12-06): the sensor calibration's prior of an axle's mean scale error is
+        hypot(``radius_rel_std``, ``wheel_scale_prior_std`` / sqrt(2)), since each wheel's scale error holds the
+        common rolling radius error too, which the calibration's yaw term r y_i carries; False:
+        ``wheel_scale_prior_std`` alone.
 
     Notes
     -----
@@ -142,6 +147,7 @@ class SlopeUncertainty:
     gyro_offset_prior_std: float = 5e-4
     wheel_scale_prior_std: float = 5e-3
     residual_overlap: bool = True
+    radius_in_calibration: bool = True
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
@@ -152,8 +158,9 @@ class SlopeUncertainty:
                 raise InputError(f"{k} must be a finite number >= 0; got {v!r}.")
         if not (isinstance(self.nis_floor, (int, float)) and 0.0 < self.nis_floor <= 1.0):
             raise InputError(f"nis_floor must be in (0, 1]; got {self.nis_floor!r}.")
-        if not isinstance(self.residual_overlap, bool):
-            raise InputError(f"residual_overlap must be True or False; got {self.residual_overlap!r}.")
+        for k in ("residual_overlap", "radius_in_calibration"):
+            if not isinstance(getattr(self, k), bool):
+                raise InputError(f"{k} must be True or False; got {getattr(self, k)!r}.")
 
     @classmethod
     def noise_only(cls) -> "SlopeUncertainty":
@@ -164,9 +171,10 @@ class SlopeUncertainty:
     @classmethod
     def until_2026_12_06(cls) -> "SlopeUncertainty":
         """The defaults before 2026-12-06 (issue 13, vehicle bands): ``radius_rel_std`` 0.005 and the filter's slope
-        variance added to the force fit's residual variance (``residual_overlap=False``); reproduces that estimator's
-        outputs."""
-        return cls(radius_rel_std=0.005, residual_overlap=False)
+        variance added to the force fit's residual variance (``residual_overlap=False``), the sensor calibration's
+        prior of an axle's mean scale ``wheel_scale_prior_std`` alone (``radius_in_calibration=False``); reproduces
+        that estimator's outputs."""
+        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False)
 
 
 @dataclass(frozen=True, eq=False)
@@ -473,7 +481,9 @@ def _calibrated(log, vehicle, unc, sensor_calibration):
         return log, None
     cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.gyro_offset_prior_std,
                             wheel_prior_std=unc.wheel_scale_prior_std, accel_offset_std=unc.accel_offset_std,
-                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6))
+                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6),
+                            axle_prior_std=math.hypot(unc.radius_rel_std, unc.wheel_scale_prior_std / math.sqrt(2))
+                            if unc.radius_in_calibration else None)
     return cal.corrected(log, front_rear=False), cal
 
 
