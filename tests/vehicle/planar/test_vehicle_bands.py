@@ -10,8 +10,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError
-from longprofile.vehicle import (SensorSpec, SlopeUncertainty, calibrate_sensors, default_vehicle, drive_scenario,
-                                 estimate_slope, simulate_drive)
+from longprofile.vehicle import (
+    SensorSpec,
+    SlopeUncertainty,
+    calibrate_sensors,
+    default_vehicle,
+    drive_scenario,
+    estimate_slope,
+    simulate_drive,
+)
 from tests._fingerprint import assert_same_fingerprint, fingerprint
 
 CAR = default_vehicle()

@@ -417,9 +417,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     terms of :class:`SlopeUncertainty` and the cascade's tracking lag. Force correction (beyond the paper):
     mass, tyre and constant force errors shift sin(theta) by beta F_res/(M g) + c for the whole drive; the
     accelerometer sees F_res/M without the grade, so :func:`force_scale_fit` estimates (beta, c) and
-    :func:`_force_corrected` removes them (std: their posterior, the accelerometer's own errors and the larger of
-    the filter's slope variance and the fit's block scatter). V_x's std adds |V_x| ``radius_rel_std`` (the common
-    rolling radius, not observable from the wheels: a scale error of eq. (18)'s R omega_i).
+    :func:`_force_corrected` removes them (std: their posterior and the accelerometer's errors; SlopeUncertainty).
     Sensor calibration (beyond the paper; ESC-style, van Zanten SAE 2000-01-1633): :func:`calibrate_sensors`.
     """
     vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
