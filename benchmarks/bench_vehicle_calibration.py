@@ -125,8 +125,9 @@ def _sensors(family, rng):
 def _stated_background(family, rng, car, sensors):
     """The true car and sensors drawn within the estimator's stated tolerances (``SlopeUncertainty``'s defaults),
     except the parameters the family itself sets beyond them: mass x N(1, 0.05), both axles' rolling radius
-    x N(1, 0.005) and each wheel's x N(1, 2e-4), tyre stiffnesses x N(1, 0.14), accelerometer offset N(0, 0.02)
-    m/s^2 and scale N(1, 0.02), gyro offset N(0, 5e-4) rad/s. Returns (car, sensors, wheel scale (4,), accel gain)."""
+    x N(1, radius_rel_std = 0.01; 0.005 before 2026-12-06) and each wheel's x N(1, 2e-4), tyre stiffnesses
+    x N(1, 0.14), accelerometer offset N(0, 0.02) m/s^2 and scale N(1, 0.02), gyro offset N(0, 5e-4) rad/s.
+    Returns (car, sensors, wheel scale (4,), accel gain)."""
     from longprofile.vehicle import SlopeUncertainty
 
     unc = SlopeUncertainty()

@@ -158,7 +158,8 @@ def test_the_estimate_is_the_old_estimator_on_the_corrected_log(biased_drives):
 
 def test_sensor_calibration_false_is_the_estimator_before_it():
     """Sums of the outputs of the estimator at 91ba304 (before the sensor calibration), same drive and machine
-    model: sensor_calibration=False reproduces them (the refactored force fit included)."""
+    model: sensor_calibration=False reproduces them (the refactored force fit included), with the stated
+    uncertainties of then (SlopeUncertainty.until_2026_12_06())."""
     sim = simulate_drive(drive_scenario("hill", duration=10.0), CAR, sensors=SensorSpec(yaw_rate_offset=2e-3), seed=4)
     before = {"cascade": (84.74312236784456, 40.711528032568864, 19.791357250309662, 11.650370440967599,
                           782.9485690816766, 9.794964421988347),
@@ -168,7 +169,8 @@ def test_sensor_calibration_false_is_the_estimator_before_it():
                                                11.650370440967599, 782.9485690816766, 9.794964421988347)}
     for key, sums in before.items():
         method, force_correction = key.split(",")[0], "no force" not in key
-        est = estimate_slope(sim.log, CAR, method=method, sensor_calibration=False, force_correction=force_correction)
+        est = estimate_slope(sim.log, CAR, method=method, sensor_calibration=False, force_correction=force_correction,
+                             uncertainty=SlopeUncertainty.until_2026_12_06())
         got = [float(np.sum(getattr(est, k))) for k in ("slope", "slope_std", "yaw_rate", "yaw_rate_std", "vx_std", "vy")]
         np.testing.assert_allclose(got, sums, rtol=1e-10, err_msg=key)
         assert est.sensor_calibration is None

@@ -72,7 +72,12 @@ class SlopeUncertainty:
         Relative std of the tyre forces (stiffness, adhesion, load transfer): 0.14 (tyre stiffness varies by
         +-20-30 % with wear, pressure and temperature).
     radius_rel_std : float
-        Relative std of the common rolling radius (wear, pressure, load): 0.005.
+        Relative std of the common rolling radius against the car file's ``wheels.radius`` (wear, pressure, load,
+        tyre make): 0.01 (since 2026-12-06; 0.005 before). Named assumption: the tread of a new tyre (8 mm) wears to
+        the legal 1.6 mm, 2.1 % of a 0.30 m radius; the car file's radius is mid-life and the tyre's state unknown
+        (uniform over +-1.05 %: std 0.6 %); pressure, load, speed growth and the make add about 0.5 % each way: about
+        0.8 %, rounded to 1 %. V_x is not observable at a better scale from the wheel speeds (``vx_std`` holds
+        |V_x| x this); state your car's if you know it (a radius measured by a GNSS run: 0.1-0.2 %).
     wheel_radius_rel_std : float
         Relative std of each wheel's radius against the others (after an ESC-style relative calibration): 2e-4.
     gyro_bias_std : float
@@ -97,12 +102,23 @@ class SlopeUncertainty:
     offset_prior_std : float
         Prior std of the force model's constant error, in sin(theta) (0.03; rolling resistance alone, which model
         (21) leaves out, is 0.01-0.015).
+    residual_overlap : bool
+        With the force correction: the filter's variance of sin(theta) (the joint EKF's grade, the cascade observer's
+        stationary value, both NIS-scaled) and the scatter of the force fit's 1 s blocks about its line
+        (``ForceScaleFit.residual_std``) both measure the noise of the model's force along the drive; True (default
+        since 2026-12-06) keeps the larger of the two, False adds them (counting that noise twice: the joint's grade
+        band covered 94.5-98.1 % on the calibration benchmark's stated-tolerance cars with False).
     gyro_offset_prior_std, wheel_scale_prior_std : float
         When :func:`estimate_slope` calibrates the sensors from the log (``sensor_calibration``): the prior stds of
         the gyro's offset, rad/s, and of each wheel speed's relative scale error before that calibration
         (:func:`~longprofile.vehicle.calibrate_sensors`). The gyro offset's posterior std then replaces
         ``gyro_bias_std`` (the stated error left after a calibration done elsewhere); ``wheel_radius_rel_std`` stays
         (the front/rear difference is not corrected). 0 turns the calibration off.
+    radius_in_calibration : bool
+        True (default since 2026-12-06): the sensor calibration's prior of an axle's mean scale error is
+        hypot(``radius_rel_std``, ``wheel_scale_prior_std`` / sqrt(2)), since each wheel's scale error holds the
+        common rolling radius error too, which the calibration's yaw term r y_i carries; False:
+        ``wheel_scale_prior_std`` alone.
 
     Notes
     -----
@@ -113,12 +129,13 @@ class SlopeUncertainty:
     error r scales the measured speed, hence dV/dt, so sin(theta) moves by -r dV/dt / g (and V_x by r V_x);
     independent wheel-radius errors w_i fake slips w_i - (w_rl + w_rr)/2 whose forces sum to
     C_x0 (w_fl + w_fr - w_rl - w_rr), std 2 C_x0 w, i.e. 2 C_x0 w/(M g) in sin(theta).
-    ``SlopeUncertainty.noise_only()`` gives the filters' stds alone (the estimator before issue 13).
+    ``SlopeUncertainty.noise_only()`` gives the filters' stds alone (the estimator before issue 13),
+    ``SlopeUncertainty.until_2026_12_06()`` the defaults before the radius std and the residual overlap changed.
     """
 
     mass_rel_std: float = 0.05
     force_rel_std: float = 0.14
-    radius_rel_std: float = 0.005
+    radius_rel_std: float = 0.01
     wheel_radius_rel_std: float = 2e-4
     gyro_bias_std: float = 5e-4
     nis_window: float = 1.0
@@ -129,6 +146,8 @@ class SlopeUncertainty:
     nis_floor: float = 0.1
     gyro_offset_prior_std: float = 5e-4
     wheel_scale_prior_std: float = 5e-3
+    residual_overlap: bool = True
+    radius_in_calibration: bool = True
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
@@ -139,12 +158,23 @@ class SlopeUncertainty:
                 raise InputError(f"{k} must be a finite number >= 0; got {v!r}.")
         if not (isinstance(self.nis_floor, (int, float)) and 0.0 < self.nis_floor <= 1.0):
             raise InputError(f"nis_floor must be in (0, 1]; got {self.nis_floor!r}.")
+        for k in ("residual_overlap", "radius_in_calibration"):
+            if not isinstance(getattr(self, k), bool):
+                raise InputError(f"{k} must be True or False; got {getattr(self, k)!r}.")
 
     @classmethod
     def noise_only(cls) -> "SlopeUncertainty":
         """No parameter terms and no NIS inflation: the filters' own stds."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, nis_floor=1.0, tracking_lag=False, accel_gain_std=0.0,
                    accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0)
+
+    @classmethod
+    def until_2026_12_06(cls) -> "SlopeUncertainty":
+        """The defaults before 2026-12-06 (issue 13, vehicle bands): ``radius_rel_std`` 0.005 and the filter's slope
+        variance added to the force fit's residual variance (``residual_overlap=False``), the sensor calibration's
+        prior of an axle's mean scale ``wheel_scale_prior_std`` alone (``radius_in_calibration=False``); reproduces
+        that estimator's outputs."""
+        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False)
 
 
 @dataclass(frozen=True, eq=False)
@@ -387,7 +417,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     terms of :class:`SlopeUncertainty` and the cascade's tracking lag. Force correction (beyond the paper):
     mass, tyre and constant force errors shift sin(theta) by beta F_res/(M g) + c for the whole drive; the
     accelerometer sees F_res/M without the grade, so :func:`force_scale_fit` estimates (beta, c) and
-    :func:`_force_corrected` removes them (std: their posterior and the accelerometer's own errors).
+    :func:`_force_corrected` removes them (std: their posterior and the accelerometer's errors; SlopeUncertainty).
     Sensor calibration (beyond the paper; ESC-style, van Zanten SAE 2000-01-1633): :func:`calibrate_sensors`.
     """
     vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
@@ -449,7 +479,9 @@ def _calibrated(log, vehicle, unc, sensor_calibration):
         return log, None
     cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.gyro_offset_prior_std,
                             wheel_prior_std=unc.wheel_scale_prior_std, accel_offset_std=unc.accel_offset_std,
-                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6))
+                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6),
+                            axle_prior_std=math.hypot(unc.radius_rel_std, unc.wheel_scale_prior_std / math.sqrt(2))
+                            if unc.radius_in_calibration else None)
     return cal.corrected(log, front_rear=False), cal
 
 
@@ -559,7 +591,8 @@ def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var
     relative force error (the cascade observer's response to its force input, observer gain ``gain``; the joint,
     ``gain`` None: F_res averaged / (M g)), and its
     variance is the posterior of (beta, c), the accelerometer's gain and offset errors and the fit's residual
-    variance (estimate_slope, Notes)."""
+    variance, which replaces the filter's variance where larger (``SlopeUncertainty.residual_overlap``; added to
+    it with False) (estimate_slope, Notes)."""
     force_var = unc.mass_rel_std ** 2 + unc.force_rel_std ** 2
     fit = None
     if force_correction and force_var > 0:
@@ -575,8 +608,13 @@ def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var
         shape = _observer_mean(res, dt, lag) / (vehicle.mass * GRAVITY)
     if corrected:
         slope = np.arcsin(np.clip(np.sin(slope) - fit.beta * shape - fit.offset, -1.0, 1.0))
-        s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * fit.cov[0, 1] * shape \
-            + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2 + np.nan_to_num(fit.residual_std) ** 2
+        resid_var = np.nan_to_num(fit.residual_std) ** 2
+        if unc.residual_overlap:  # the filter's variance and the blocks' scatter: the same force noise, keep the larger
+            s_var = np.maximum(s_var, resid_var) + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 \
+                + 2 * fit.cov[0, 1] * shape + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2
+        else:  # until 2026-12-06: added (same expression, same rounding)
+            s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * fit.cov[0, 1] * shape \
+                + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2 + resid_var
         force_var = 0.0
     s_var = s_var + _parameter_var(vehicle, unc, shape, force_var, mean[:, 0], slope, dt, lag, wheels=not corrected)
     return slope, s_var, fit

@@ -131,7 +131,8 @@ class SensorCalibration:
 
 def calibrate_sensors(log: DriveLog, vehicle: Vehicle | None = None, *, gyro_prior_std: float = 5e-4,
                       wheel_prior_std: float = 5e-3, lag_prior_std: float = 0.05, accel_offset_std: float = 0.02,
-                      slip_prior_std: float = 0.149, block: float = 1.0, skip: float = 1.0) -> SensorCalibration:
+                      slip_prior_std: float = 0.149, block: float = 1.0, skip: float = 1.0,
+                      axle_prior_std: float | None = None) -> SensorCalibration:
     r"""Posterior of the gyro offset and the wheels' relative scale errors from the log (module docstring).
 
     Parameters
@@ -155,6 +156,11 @@ def calibrate_sensors(log: DriveLog, vehicle: Vehicle | None = None, *, gyro_pri
         Prior std of the traction-slip model's relative error (mass and tyre stiffness: hypot(0.05, 0.14)).
     block, skip : float
         Block length and start-up left out, s (as :func:`~longprofile.vehicle.force_scale_fit`).
+    axle_prior_std : float, optional
+        Prior std of an axle's mean scale error (the e_rear, e_front regressors of the yaw part r y_i): the common
+        rolling radius error and the wheels' own spread, e.g. hypot(``SlopeUncertainty.radius_rel_std``,
+        ``wheel_prior_std`` / sqrt(2)) as :func:`~longprofile.vehicle.estimate_slope` passes it; default
+        ``wheel_prior_std`` (the calibration before 2026-12-06, which left the common radius out).
 
     Returns
     -------
@@ -183,8 +189,9 @@ def calibrate_sensors(log: DriveLog, vehicle: Vehicle | None = None, *, gyro_pri
     whole drive, one lag for all wheels, left and right wheels of a driven axle with equal traction slip
     (open differential, linear tyres), no rolling-radius change with load.
     """
+    axle_prior_std = wheel_prior_std if axle_prior_std is None else axle_prior_std
     vehicle = _calibration_settings(log, vehicle, (gyro_prior_std, wheel_prior_std, lag_prior_std,
-                                                   slip_prior_std, block), (accel_offset_std, skip))
+                                                   slip_prior_std, block, axle_prior_std), (accel_offset_std, skip))
     from scipy.ndimage import uniform_filter1d
 
     from ._speed_reference import _driven_radius, _wheel_kinematics
@@ -206,7 +213,7 @@ def calibrate_sensors(log: DriveLog, vehicle: Vehicle | None = None, *, gyro_pri
     start = min(int(round(skip / dt)), T)
     resid, counts = np.full(3, np.nan), [0, 0, 0]
     mean, cov = _left_right(kin, v, log.yaw_rate, rdot, base, slip, vehicle.tracks, n, start, resid, counts,
-                            (gyro_prior_std, math.sqrt(2) * wheel_prior_std, lag_prior_std, wheel_prior_std))
+                            (gyro_prior_std, math.sqrt(2) * wheel_prior_std, lag_prior_std, axle_prior_std))
     per_accel = accel_offset_std * (share / (2 * c_f) - (1 - share) / (2 * c_r))
     mean[3], cov[3, 3], resid[2], counts[2] = _front_rear(kin, v, slip, base, log, vehicle, n, start, wheel_prior_std,
                                                           slip_prior_std, per_accel)
@@ -292,6 +299,7 @@ def _calibration_settings(log, vehicle, positive, non_negative) -> Vehicle:
         raise InputError(f"vehicle must be a Vehicle; got {type(vehicle).__name__}.")
     ok = all(isinstance(x, (int, float)) and math.isfinite(x) for x in positive + non_negative)
     if not (ok and all(x > 0 for x in positive) and all(x >= 0 for x in non_negative)):
-        raise InputError("gyro_prior_std, wheel_prior_std, lag_prior_std, slip_prior_std and block must be finite and "
+        raise InputError("gyro_prior_std, wheel_prior_std, lag_prior_std, slip_prior_std, block and axle_prior_std "
+                         "must be finite and "
                          f"> 0, accel_offset_std and skip finite and >= 0; got {positive + non_negative!r}.")
     return vehicle
