@@ -49,6 +49,13 @@ def family_rows(cal, elapsed: float, quick: bool) -> list[BenchRow]:
                                  / max(cal.detected["reversed"][1], 1), "%",
                                  detail="SNR (max true |slope change| / last day's noise std) " + ", ".join(
                                      f"{lo:g}-{hi:g}: {h}/{t}" for lo, hi, h, t in cal.detection_by_snr("reversed"))))
+            snr = {(f[0], f[1]): f[4] for f in cal.faults}
+            miss = sorted((m for m in cal.missed if m[2] == "reversed"), key=lambda m: -m[4])
+            if miss:
+                rows.append(BenchRow(AREA, f"{cal.family}: missed reversals, largest settlement change", miss[0][4],
+                                     "band std", detail="; ".join(
+                                         f"seed {m[0]} {m[1]} SNR {snr.get((m[0], m[1]), np.nan):.2f}: {m[3]:.2f} mm = "
+                                         f"{m[4]:.2f} std" for m in miss)))
         n_faults = sum(t for _, t in cal.detected.values())
         harm = cal.harmful_misses(1.0)
         worst = max(cal.missed, key=lambda m: m[4]) if cal.missed else None
