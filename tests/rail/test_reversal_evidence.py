@@ -46,7 +46,9 @@ def test_log_bayes_factor_is_the_likelihood_of_the_flipped_data_minus_that_of_th
         Yf[:, i] *= -1.0
         llf = sum(rigidity_log_likelihood(x, Yf[k], sigma=noise[k] * f, rigidity=r, penalty_order=order)
                   for k in range(K))
-        assert ev.log_bayes_factor[i] == pytest.approx(llf - ll, rel=1e-6, abs=1e-6)
+        # the engine's covariance-form filter loses ~5 digits of the stds (docs/rail.md, "Numerical note": 2e-5
+        # relative), so the leverage-based identity and the two filter likelihoods agree to ~1e-5, not 1e-9
+        assert ev.log_bayes_factor[i] == pytest.approx(llf - ll, rel=5e-5, abs=1e-4)
     assert np.all(ev.information >= 0)
 
 
