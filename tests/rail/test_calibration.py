@@ -159,3 +159,15 @@ def test_family_calibration_lists_each_missed_fault_with_its_cost():
         assert seed in range(3) and kind in ("dead", "reversed", "frozen", "detached") and mm >= 0 and z >= 0
     assert cal.harmful_misses(0.0) == [m for m in cal.missed if m[4] > 0]
     assert len(cal.harmful_misses(1e9)) == 0
+
+
+def test_detection_by_snr_counts_each_fault_in_one_bin():
+    from longprofile.rail._calibration import FamilyCalibration
+
+    faults = ((1, "a", "reversed", True, 0.5), (1, "b", "dead", True, 0.0), (2, "c", "reversed", False, 1.99),
+              (3, "d", "reversed", True, 2.0), (4, "e", "reversed", False, 9.0))
+    cal = FamilyCalibration(family="faults", seeds=(1, 2, 3, 4), intervals={}, rms_mm_by_draw=(1.0,),
+                            detected={"reversed": (2, 4), "dead": (1, 1)}, false_alarms=(0, 10), faults=faults)
+    bins = cal.detection_by_snr("reversed")
+    assert [(h, t) for _, _, h, t in bins] == [(1, 2), (1, 1), (0, 0), (0, 1)]
+    assert sum(t for *_, t in bins) == cal.detected["reversed"][1]

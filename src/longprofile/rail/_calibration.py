@@ -83,6 +83,10 @@ class FamilyCalibration:
         Every faulty sensor not flagged, with what the miss costs: the largest change of the daily
         settlement (days >= 1, any station) when that sensor is excluded as well, in mm and in units of
         the band std (``dz_std``) of the result that kept it.
+    faults : tuple of (seed, sensor_id, kind, flagged, snr)
+        Every faulty sensor, whether it was flagged and the signal-to-noise ratio of its fault: the largest true
+        |slope change| at its station over the days divided by the estimator's noise std of the last day
+        (``sigma_by_day[-1]``) — how much a reversal can show (docs/rail.md, sensor health).
     """
 
     family: str
@@ -93,6 +97,16 @@ class FamilyCalibration:
     false_alarms: tuple
     options: dict = field(default_factory=dict)
     missed: tuple = ()
+    faults: tuple = ()
+
+    def detection_by_snr(self, kind: str, edges=(2.0, 4.0, 8.0)) -> list[tuple[float, float, int, int]]:
+        """(low, high, flagged, total) of the faults of ``kind`` by SNR bins (``faults``; edges inclusive below)."""
+        bounds = (0.0, *edges, np.inf)
+        out = []
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            sel = [f for f in self.faults if f[2] == kind and lo <= f[4] < hi]
+            out.append((lo, hi, sum(bool(f[3]) for f in sel), len(sel)))
+        return out
 
     def harmful_misses(self, z: float = 1.0) -> list:
         """The missed faults whose exclusion moves the settlement by more than ``z`` band std somewhere."""
@@ -185,7 +199,7 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
     seeds = tuple(int(s) for s in seeds)
     zs: dict = {}
     hits: dict = {}
-    rms, detected, fa, n_ok, missed = [], {}, 0, 0, []
+    rms, detected, fa, n_ok, missed, faults = [], {}, 0, 0, [], []
     for seed in seeds:
         sc = simulate_scenario(fam, seed)
         site = validate_site(sc.sensors, sc.readings, sc.survey)
@@ -197,7 +211,9 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
         err = res.dz[1:] - sc.truth.settlement[1:]
         rms.append(float(1e3 * np.sqrt(np.mean(err**2))))
         flagged = {sid for sid, _, _ in res.health.flagged()}
+        snr = np.max(np.abs(sc.truth.slope_change), axis=0) / float(res.sigma_by_day[-1])
         for sid, kind in sc.truth.faults.items():
+            faults.append((seed, sid, kind, sid in flagged, float(snr[res.sensor_ids.index(sid)])))
             h, t = detected.get(kind, (0, 0))
             detected[kind] = (h + (sid in flagged), t + 1)
             if sid not in flagged:
@@ -207,7 +223,7 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
         n_ok += len(healthy)
     return FamilyCalibration(family=fam.name, seeds=seeds, intervals={k: _interval_score(v, hits.get(k)) for k, v in zs.items()},
                              rms_mm_by_draw=tuple(rms), detected=detected, false_alarms=(fa, n_ok),
-                             options=dict(options), missed=tuple(missed))
+                             options=dict(options), missed=tuple(missed), faults=tuple(faults))
 
 
 def _cost_of_missing(site, res, exclude, options) -> tuple[float, float]:

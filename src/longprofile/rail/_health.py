@@ -10,7 +10,9 @@ dead        no readings, readings on fewer than half of the days, a stuck value 
             the raw readings below the sensors' 1e-4 deg resolution), or frozen: stuck within each of
             FROZEN_MIN_DAYS consecutive days (a channel that stopped updating mid-record)
 reversed    its angle changes follow minus what its neighbours predict (mounted backwards): the
-            reversal z of the daily changes, or the day-to-day log-likelihood ratio
+            reversal z of the daily changes, or the day-to-day log-likelihood ratio, or (with the
+            all-days noise model) the all-days Bayes factor of "reversed" against "healthy"
+            (:func:`all_days_reversal_evidence`, :func:`flag_reversed_all_days`)
 drifting    its leave-one-out residual grows linearly with time
 detached    its leave-one-out residual jumps once and stays (sensor came loose / moved): the
             day-to-day step statistic, or the pattern of an improbable sensor
@@ -21,14 +23,15 @@ improbable  residuals far beyond the noise level without one of the patterns abo
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.special import gammaincc
 
-from ._rigidity import rigidity_posterior
+from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior
 
-__all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals"]
+__all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence",
+           "all_days_reversal_evidence", "flag_reversed_all_days"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -59,6 +62,14 @@ STEP_Z = 8.0
 FROZEN_MIN_DAYS = 2
 #: Fewest readings in a day for its within-day spread to count.
 FROZEN_MIN_READINGS = 6
+#: All-days reversal test (:func:`flag_reversed_all_days`): a sensor kept by :func:`assess_sensors` is "reversed" when
+#: the log Bayes factor of "reversed" against "healthy" under the all-days model exceeds this ...
+REVERSED_ALL_DAYS_LBF = 6.0
+#: ... and its day-to-day reversal log-likelihood ratio (:data:`REVERSED_LLR`'s statistic) exceeds this (both point to
+#: a reversal). Calibration seeds (faults 300-399, drift and drift-fronts 300-339; docs/rail.md, "Sensor health,
+#: step 11"): reversed sensors the step-5 tests missed 13, found 8; healthy kept sensors flagged 2 of 2529 and 0 of 2213
+#: (the log Bayes factor alone at 6: 6 and 3; at 7: 2 and 0 with 6 found).
+REVERSED_ALL_DAYS_INC_LLR = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +96,9 @@ class SensorHealth:
         follows its neighbours, large and positive for a reversed one.
     step_z : (N,) ndarray or None
         Largest day-to-day leave-one-out residual change in robust std of the others (:data:`STEP_Z`).
+    reversal_evidence : ReversalEvidence or None
+        The all-days log Bayes factor of "reversed" against "healthy" of every sensor
+        (:func:`all_days_reversal_evidence`; None when the all-days model did not run).
     """
 
     sensor_ids: list
@@ -95,6 +109,7 @@ class SensorHealth:
     reversal_z: np.ndarray | None = None
     reversal_llr: np.ndarray | None = None
     step_z: np.ndarray | None = None
+    reversal_evidence: "ReversalEvidence | None" = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -319,3 +334,116 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
                           detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
                           reversal_z=rev, reversal_llr=llr, step_z=step)
     return health, float(sigma), float(rigidity)
+
+
+@dataclass(frozen=True, eq=False)
+class ReversalEvidence:
+    """Evidence that each sensor is mounted back to front, from all days at once (:func:`all_days_reversal_evidence`).
+
+    Attributes
+    ----------
+    log_bayes_factor : (N,) ndarray
+        log p(data | sensor i reversed) - log p(data | sensor i healthy), the other sensors as they are; NaN for
+        excluded sensors. Negative for a sensor that follows its neighbours.
+    information : (N,) ndarray
+        sum_k mu_ik^2 / v_ik: how much the neighbours predict of the sensor's changes (its squared signal-to-noise
+        ratio over all days). Under "healthy" the log Bayes factor has mean -2 information and variance
+        4 information; a sensor whose information is below ~2 cannot show a reversal.
+    """
+
+    log_bayes_factor: np.ndarray
+    information: np.ndarray
+
+
+def all_days_reversal_evidence(x, mode_slopes, mode_noise, *, rigidity: float, penalty_order: int = 2,
+                               sensor_factors=None, segment_weights=None,
+                               sigma_z: float = DEFAULT_SIGMA_Z) -> ReversalEvidence:
+    r"""Log Bayes factor of "sensor i is reversed" against "healthy" for every sensor, combining all days.
+
+    Beyond paper 004 (§6 flags improbable sensors; the prior of §4.2). A reversed sensor reads -theta_i where a
+    healthy one reads theta_i: the two hypotheses differ only by the sign of sensor i's data, so the Bayes factor is
+    p(-m_i | others) / p(m_i | others) under the all-days model (:mod:`~longprofile.rail._joint`: errors correlated
+    over the days with covariance f_i^2 R, settlement increments with a per-day prior). Its modes (generalised
+    eigenvectors of R and the prior's day covariance) are independent, so with y_ik = (V^T m_i)_k the data of mode
+    k, mu_ik and v_ik its leave-one-out predictive mean and variance from the other sensors (one smoother run per
+    mode: :func:`loo_residuals`' identity e = (y - mean)/(1 - h), v = s^2/(1 - h), s = sqrt(nu_k) f_i)
+
+        log BF_i = sum_k [log N(-y_ik; mu_ik, v_ik) - log N(y_ik; mu_ik, v_ik)] = -2 sum_k y_ik mu_ik / v_ik.
+
+    This is the exact evidence ratio of the two discrete alternatives under the model; the day-to-day test of
+    :func:`assess_sensors` approximates it with independent increments.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+        Stations, m.
+    mode_slopes : (K, N) ndarray
+        The modes' data ``DayModes.to_modes @ slopes[1:]`` (rad; NaN columns = excluded sensors).
+    mode_noise : (K,) ndarray
+        sqrt(nu_k) of each mode (``DayModes.noise``), rad.
+    rigidity : float
+        r of every mode's spatial prior (``DayModes.rigidity``).
+    penalty_order, segment_weights, sigma_z
+        As in :func:`~longprofile.rail.rigidity_posterior`.
+    sensor_factors : (N,) array_like, optional
+        f_i (default 1).
+
+    Returns
+    -------
+    ReversalEvidence
+    """
+    Y = np.asarray(mode_slopes, float)
+    K, N = Y.shape
+    f = np.ones(N) if sensor_factors is None else np.asarray(sensor_factors, float)
+    lbf = np.zeros(N)
+    info = np.zeros(N)
+    for k in range(K):
+        sig = float(mode_noise[k]) * f
+        post = rigidity_posterior(x, Y[k:k + 1], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
+                                  penalty_order=penalty_order, segment_weights=segment_weights)
+        lev = np.clip(post.slope_std[0] ** 2 / sig**2, 0.0, 1.0 - 1e-12)
+        e = (Y[k] - post.slope_mean[0]) / (1.0 - lev)
+        v = sig**2 / (1.0 - lev)
+        mu = Y[k] - e
+        lbf += -2.0 * Y[k] * mu / v
+        info += mu**2 / v
+    gone = np.isnan(Y).all(axis=0)
+    return ReversalEvidence(log_bayes_factor=np.where(gone, np.nan, lbf), information=np.where(gone, np.nan, info))
+
+
+def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence,
+                           max_flagged: int | None = None) -> tuple[SensorHealth, int | None]:
+    """Flag the kept sensor with the largest all-days evidence of a reversal, if any passes both thresholds.
+
+    A sensor still "ok" is flagged "reversed" when its log Bayes factor (:func:`all_days_reversal_evidence`) exceeds
+    :data:`REVERSED_ALL_DAYS_LBF` and its day-to-day reversal log-likelihood ratio (``health.reversal_llr``) exceeds
+    :data:`REVERSED_ALL_DAYS_INC_LLR`. One sensor at a time (the caller re-fits the noise model without it and asks
+    again), and none once ``max_flagged`` sensors (default a quarter; dead ones not counted, as in
+    :func:`assess_sensors`) are excluded or only 3 are left.
+
+    Returns
+    -------
+    health : SensorHealth
+        With ``reversal_evidence`` set, and the flagged sensor's status, detail and exclusion.
+    flagged : int or None
+        Index of the flagged sensor.
+    """
+    N = health.status.size
+    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
+    ok = ~np.asarray(health.excluded)
+    lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
+    inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
+    cand = ok & (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)
+    out = replace(health, reversal_evidence=evidence)
+    if not cand.any() or (~ok & (np.asarray(health.status) != "dead")).sum() >= max_flagged or ok.sum() <= 3:
+        return out, None
+    j = int(np.argmax(np.where(cand, lbf, -np.inf)))
+    status = np.array(health.status, dtype=object)
+    detail = np.array(health.detail, dtype=object)
+    status[j] = "reversed"
+    detail[j] = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
+                 f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day reversal "
+                 f"log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+    excluded = np.array(health.excluded, dtype=bool)
+    excluded[j] = True
+    return replace(out, status=np.array(status, dtype=str), detail=np.array(detail, dtype=str), excluded=excluded), j

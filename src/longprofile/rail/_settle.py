@@ -13,7 +13,8 @@ from scipy.optimize import minimize_scalar
 from .._validation import require_positive
 from ..errors import InputError
 from ._data import SiteData
-from ._health import FROZEN_MIN_READINGS, SensorHealth, assess_sensors
+from ._health import (FROZEN_MIN_READINGS, SensorHealth, all_days_reversal_evidence, assess_sensors,
+                      flag_reversed_all_days)
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
     DayModes,
@@ -1230,6 +1231,18 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     health, M = _health_stage(x, ids, slopes, daily, opt, warnings)
     sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
     joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings) if drift else None
+    while joint is not None:  # sensor health with the all-days model (docs/rail.md, "Sensor health, step 11")
+        evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
+                                              penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
+                                              segment_weights=joint.weights, sigma_z=opt.sigma_z)
+        health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0)
+        if j is None:
+            break
+        warnings.append(f"sensor {ids[j]} excluded ({health.status[j]}): {health.detail[j]}.")
+        M = M.copy()
+        M[:, j] = np.nan
+        sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
+        joint = _joint_stage(x, M, days, daily, sig, factors, opt, [])
     if joint is None:
         prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
                                                                                    opt, warnings)
