@@ -162,3 +162,24 @@ def test_short_waves_is_checked():
     y = np.zeros(4000)
     with pytest.raises(InputError, match="short_waves"):
         reconstruct_profile(y, MODEL, short_waves="maybe")
+
+
+def test_cli_short_waves(tmp_path, capsys):
+    import pandas as pd
+
+    from longprofile.cli.app import main
+
+    rec = tmp_path / "rec.csv"
+    assert main(["road", "simulate", "-o", str(rec), "--length", "600", "--seed", "4"]) == 0
+    std = {}
+    for option in ("record", "prior"):
+        out = tmp_path / f"{option}.csv"
+        assert main(["road", "reconstruct", str(rec), "-o", str(out), "--short-waves", option]) == 0
+        std[option] = pd.read_csv(out)["std_m"].to_numpy()
+    default = tmp_path / "default.csv"
+    assert main(["road", "reconstruct", str(rec), "-o", str(default)]) == 0
+    np.testing.assert_array_equal(pd.read_csv(default)["std_m"].to_numpy(), std["record"])
+    assert np.all(std["record"] < std["prior"])
+    capsys.readouterr()
+    assert main(["road", "reconstruct", str(rec), "-o", str(tmp_path / "x.csv"), "--short-waves", "white"]) == 2
+    assert "--short-waves must be one of" in capsys.readouterr().err.replace("\n", " ")
