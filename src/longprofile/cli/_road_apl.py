@@ -86,8 +86,8 @@ def reconstruct_command(
     short_waves: str = typer.Option(
         None, "--short-waves",
         help="Road spectrum std_m is computed under: record (the model's, scaled by what the record shows where the "
-             "trailer resolves the road and continued beyond; default for the smoother) or prior (the model's own at "
-             "every wavenumber: the std_m before 2026-12-06, and the fixed-lag's default). docs/road-apl.md."),
+             "trailer resolves the road and continued beyond; default) or prior (the model's own at every "
+             "wavenumber: the std_m before 2026-12-06). docs/road-apl.md."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the reconstruction to this PNG."),
     overwrite: bool = OVERWRITE,
 ):

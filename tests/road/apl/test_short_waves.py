@@ -129,7 +129,7 @@ def test_red_noise_keeps_the_models_spectrum():
 
 
 #: Fingerprints of the 600 m record below computed with the tree before the change (commit 74ff502; smoother and
-#: fixed-lag with their defaults then). ``raw``/``raw_std`` are left out: the smoother's undetrended estimate carries
+#: fixed-lag with their defaults then, which ``short_waves="prior"`` keeps). ``raw``/``raw_std`` are left out: the smoother's undetrended estimate carries
 #: the unobservable drift, whose round-off differs between a numba compile and a cache load (tests/_fingerprint.py).
 BEFORE = {
     "smoother": {
@@ -150,12 +150,14 @@ def test_short_waves_prior_gives_the_output_of_before():
     u = iso8608_profile(600.0, DX, "C", rng=rng).elevation[:, 0]
     y0 = apl_response(u, MODEL)
     y = y0 + rng.normal(0.0, 0.02 * y0.std(), y0.size)
-    for method, option in (("smoother", "prior"), ("fixed-lag", None), ("fixed-lag", "prior")):
+    for method, option in (("smoother", "prior"), ("fixed-lag", "prior")):
         rec = reconstruct_profile(y, MODEL, method=method, short_waves=option)
         got = fingerprint({"elevation": rec.profile.elevation, "std": rec.profile.std})
         assert_same_fingerprint(got, BEFORE[method])
     new = reconstruct_profile(y, MODEL)
     assert new.road_spectrum is not None and new.profile.std[0, 0] < 0.97 * 10.93 / 12001  # the default changed
+    new = reconstruct_profile(y, MODEL, method="fixed-lag")
+    assert new.road_spectrum is not None and new.profile.std[0, 0] != 12.85 / 12001
 
 
 def test_short_waves_is_checked():

@@ -64,6 +64,11 @@ RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
 FIXED_LAG_CORRELATION_LENGTH = 2.0
 #: Default lag of ``method="fixed-lag"``, in pendulum time constants (see :func:`default_fixed_lag`).
 FIXED_LAG_TIME_CONSTANTS = 4.0
+#: Impulse-response length of :func:`fixed_lag_error_std` with the record's road spectrum, samples: the default
+#: 2^15 cuts the response of the AR(1) fixed-lag (closed-loop radius ~0.9998: ~4 % of its amplitude left 16 384
+#: samples after the impulse), which matters where G H ~ 1 and the road is strong (long waves); 2^17 is converged
+#: (the std of a Wiener road within 2e-10 relative of 2^18's).
+FIXED_LAG_RECORD_FFT = 1 << 17
 #: When the fixed-lag's printed std is calibrated, in detrending wavelengths of lag (named assumption, measured on two
 #: configurations, docs/road-apl.md "The fixed-lag at 6 m/s"): at least FIXED_LAG_SHORT_LAGS; and where the trailer's
 #: gain at half the detrending wavelength is below FIXED_LAG_LONG_WAVE_GAIN of its peak, at least
@@ -826,9 +831,9 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         ``"record"``: the model's spectrum scaled by the ratio the record shows where the trailer resolves the road,
         continued beyond (:func:`estimate_road_spectrum_ratio`; the estimate is in ``Reconstruction.road_spectrum``).
         ``"prior"``: the model's own spectrum at every wavenumber (the printed std before 2026-12-06: for the
-        smoother about twice the error on roads without waves shorter than the APL resolves). Default None:
-        ``"record"`` for ``"smoother"`` (since 2026-12-06), ``"prior"`` for ``"fixed-lag"`` (its formula under the
-        record's road over-states the long-wave error; docs/road-apl.md, "Short waves from the record").
+        smoother about twice the error on roads without waves shorter than the APL resolves; the fixed-lag's also
+        with its impulse response cut at 2^15 samples, kept so that ``"prior"`` gives the output of before). Default
+        None: ``"record"`` (since 2026-12-06; docs/road-apl.md, "Short waves from the record").
 
     Returns
     -------
@@ -856,7 +861,7 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     if method not in RECONSTRUCTION_METHODS:
         raise InputError(f"method must be one of {RECONSTRUCTION_METHODS}; got {method!r}.")
     if short_waves is None:
-        short_waves = "record" if method == "smoother" else "prior"
+        short_waves = "record"
     if short_waves not in SHORT_WAVE_OPTIONS:
         raise InputError(f"short_waves must be one of {SHORT_WAVE_OPTIONS}; got {short_waves!r}.")
     if lag_m is not None and method != "fixed-lag":
@@ -1124,7 +1129,8 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
         std = np.broadcast_to(s, y.shape)
     elif run.method == "fixed-lag" and run.highpass_wavelength is not None:
         s = fixed_lag_error_std(run.instrument, q, r, lag_m, correlation_length=run.correlation_length, dx=run.dx,
-                                highpass_wavelength=run.highpass_wavelength, road_ratio=ratio)
+                                highpass_wavelength=run.highpass_wavelength, road_ratio=ratio,
+                                **({} if ratio is None else {"n_fft": FIXED_LAG_RECORD_FFT}))
         std = np.broadcast_to(s, y.shape)
     instrument_std = _instrument_std(run, q, r, stationary, elevation)
     if instrument_std is not None:

@@ -12,7 +12,7 @@ Here the road's spectrum relative to the model's, c(w) = S_road / S_model, is me
 record can show it, and continued beyond:
 
 1. The record's spectrum by Welch's method (Hann segments of :data:`SHORT_WAVE_SEGMENT` samples, half overlap,
-   segments with a missing sample left out). For a linear instrument with white noise, E[P_y] = |H|^2 S_road + r.
+   segments with a missing sample left out; the segment's three lowest bins are not used). For a linear instrument with white noise, E[P_y] = |H|^2 S_road + r.
 2. In fractional-octave bands (:data:`SHORT_WAVE_BANDS_PER_OCTAVE`), the moment estimate
    c_b = sum(P_y - r) / sum(|H|^2 S_model) (clipped at 0), kept where the model's signal-to-noise ratio
    s_b = mean(|H|^2 S_model) / r is at least :data:`SHORT_WAVE_MIN_SNR` (the resolved bands; there the relative
@@ -64,6 +64,10 @@ SHORT_WAVE_NOISE_FLOOR_RANGE = (0.95, 1.5)
 _NOISE_FLOOR_BINS = 16
 #: Welch periodogram bins per independent degree of freedom (Hann window, half overlap; an approximation).
 _WELCH_CORRELATION = 1.5
+#: The lowest Welch bin used (1 = the segment's fundamental; 4 = 0.02 cycles/m at 5 cm): below it c is held at the
+#: first band's value (the lowest bins are biased by the Hann window's leakage and the segment mean: at 6 m/s they
+#: gave c ~ 10^3 at 0.005 cycles/m on ISO roads, which have nothing below 0.011 cycles/m; tuned on seeds 1000-1001).
+_LOWEST_BIN = 4
 #: Floor of c in the log-slope fit.
 _RATIO_FLOOR = 1e-3
 #: ``reconstruct_profile(short_waves=...)``: "record" (the estimate here, default) or "prior" (the model's spectrum
@@ -175,11 +179,14 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
     H2 = np.abs(instrument.response_at(w / (2 * np.pi * instrument.dt))) ** 2
     Sm = np.asarray(model_spectrum(w), dtype=float)
     signal_m = H2 * Sm
+    low = np.arange(w.size) < _LOWEST_BIN - 1  # the lowest bins: biased by the Hann window and the segment mean
     edges = w[0] * 2.0 ** (np.arange(0, np.log2(np.pi / w[0]) * bands_per_octave + 2) / bands_per_octave)
     idx = np.searchsorted(edges, w, side="right") - 1
     cen, rat, snr, err = [], [], [], []
     for b in np.unique(idx):
-        m = idx == b
+        m = (idx == b) & ~low
+        if not m.any():
+            continue
         s = float(np.mean(signal_m[m]) / r)
         if s < min_snr or not np.isfinite(s):
             continue
