@@ -648,7 +648,10 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
     the *undetrended* estimate (``raw_std``), dominated by waves the detrending removes. Measured coverage of the
     90 % band (``benchmarks road_calibration``; a Wiener road: 88-91 %; ISO 8608 roads of classes A-E: 96-98 %,
     whose generator has no waves shorter than ~0.3 m that the model expects) is in docs/road-apl.md. Valid away
-    from the record's ends (a stationary estimate).
+    from the record's ends (a stationary estimate). With ``road_ratio`` (the road the record shows,
+    ``reconstruct_profile``'s default since 2026-12-06) pass ``n_fft`` >= 2^17: the AR(1) fixed-lag's response
+    decays slowly and 2^15 samples cut it, over-stating the long-wave error (docs/road-apl.md, "Short waves from the
+    record"); the default 2^15 is kept for the output of before.
 
     Parameters
     ----------
