@@ -83,16 +83,24 @@ def reconstruct_command(
              "relative 1-sigma of the gain, each in [0, 1) (a uniform tolerance of +-t is t/sqrt(3)); optional "
              "window=<m>, an averaging length of the squared sensitivity (default 0: per sample). Costs one more "
              "reconstruction per uncertain parameter. Default: none (std_m is the posterior std alone)."),
+    short_waves: str = typer.Option(
+        None, "--short-waves",
+        help="Road spectrum std_m is computed under: record (the model's, scaled by what the record shows where the "
+             "trailer resolves the road and continued beyond; default) or prior (the model's own at every "
+             "wavenumber: the std_m before 2026-12-06). docs/road-apl.md."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the reconstruction to this PNG."),
     overwrite: bool = OVERWRITE,
 ):
     """Reconstruct the road profile from an APL signal (smoother, Kalman filter, double filtering or fixed lag)."""
     import numpy as np
 
+    from ..errors import InputError
     from ..io import read_apl_signal, write_erd, write_table
-    from ..road.apl import InstrumentUncertainty, reconstruct_recording
+    from ..road.apl import SHORT_WAVE_OPTIONS, InstrumentUncertainty, reconstruct_recording
 
     uncertainty = None if instrument_uncertainty is None else InstrumentUncertainty.parse(instrument_uncertainty)
+    if short_waves is not None and short_waves not in SHORT_WAVE_OPTIONS:
+        raise InputError(f"--short-waves must be one of {', '.join(SHORT_WAVE_OPTIONS)}; got {short_waves!r}.")
     out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     signal = read_apl_signal(file, column=column)
@@ -101,7 +109,7 @@ def reconstruct_command(
         rec = reconstruct_recording(signal, speed=speed, dx=dx, model_file=model, source=str(file), method=method,
                                     q=q, r=r, input_model=input_model, correlation_length=correlation_length,
                                     highpass_wavelength=highpass, lag_m=lag,
-                                    instrument_uncertainty=uncertainty)
+                                    instrument_uncertainty=uncertainty, short_waves=short_waves)
         bar.advance(task)
     if Path(output).suffix.lower() == ".erd":
         write_erd(rec.to_profile(name=f"{method} reconstruction of {Path(file).name}"),

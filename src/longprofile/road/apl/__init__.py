@@ -67,6 +67,9 @@ _EXPORTS = {
         "TrailerPoles", "apl_filter", "apl_model", "apl_model_from_dict", "apl_model_from_polynomials",
         "apl_response", "frequency_response", "paper_identified_model", "passband",
     ),
+    "._short_waves": (
+        "SHORT_WAVE_OPTIONS", "RoadSpectrumRatio", "estimate_road_spectrum_ratio",
+    ),
     "._synthetic": (
         "SYNTHETIC_PROFILES", "APLRecording", "bump_profile", "crenel_profile", "simulate_apl_recording",
         "sine_arcs_profile", "speed_hump_profile", "white_noise_profile",
@@ -88,7 +91,8 @@ __all__ = [
     "default_fixed_lag", "FIXED_LAG_CORRELATION_LENGTH", "FIXED_LAG_TIME_CONSTANTS",
     "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES", "check_identification_structure",
     "reconstruct_recording", "InstrumentUncertainty", "INSTRUMENT_ERROR_WINDOW_M", "instrument_error_variance",
-    "instrument_parameters", "perturbed_instrument",
+    "instrument_parameters", "perturbed_instrument", "SHORT_WAVE_OPTIONS", "RoadSpectrumRatio",
+    "estimate_road_spectrum_ratio",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

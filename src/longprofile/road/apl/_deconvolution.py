@@ -29,6 +29,7 @@ from ._double_filter import double_filter
 from ._gap_uncertainty import gap_error_variance
 from ._instrument_uncertainty import InstrumentUncertainty, instrument_error_variance
 from ._model import APLModel, _check_profile_spacing
+from ._short_waves import SHORT_WAVE_OPTIONS, RoadSpectrumRatio, estimate_road_spectrum_ratio, record_error_std
 
 __all__ = [
     "instrument_state_space",
@@ -63,6 +64,11 @@ RECONSTRUCTION_METHODS = ("smoother", "filter", "double", "fixed-lag")
 FIXED_LAG_CORRELATION_LENGTH = 2.0
 #: Default lag of ``method="fixed-lag"``, in pendulum time constants (see :func:`default_fixed_lag`).
 FIXED_LAG_TIME_CONSTANTS = 4.0
+#: Impulse-response length of :func:`fixed_lag_error_std` with the record's road spectrum, samples: the default
+#: 2^15 cuts the response of the AR(1) fixed-lag (closed-loop radius ~0.9998: ~4 % of its amplitude left 16 384
+#: samples after the impulse), which matters where G H ~ 1 and the road is strong (long waves); 2^17 is converged
+#: (the std of a Wiener road within 2e-10 relative of 2^18's).
+FIXED_LAG_RECORD_FFT = 1 << 17
 #: When the fixed-lag's printed std is calibrated, in detrending wavelengths of lag (named assumption, measured on two
 #: configurations, docs/road-apl.md "The fixed-lag at 6 m/s"): at least FIXED_LAG_SHORT_LAGS; and where the trailer's
 #: gain at half the detrending wavelength is below FIXED_LAG_LONG_WAVE_GAIN of its peak, at least
@@ -571,7 +577,7 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
 def smoother_error_std(instrument: APLModel, q: float, r: float, *, band: tuple[float, float] | None = None,
                        input_model: str = "wiener", correlation_length: float | None = None,
                        dx: float | None = None, highpass_wavelength: float | None = None,
-                       n_points: int = 200_001) -> float:
+                       n_points: int = 200_001, road_ratio: RoadSpectrumRatio | None = None) -> float:
     r"""Stationary posterior std of the smoothed elevation error in a waveband (spectral formula).
 
     Parameters
@@ -580,6 +586,11 @@ def smoother_error_std(instrument: APLModel, q: float, r: float, *, band: tuple[
         Wavelength band (shortest, longest), m; the error is band-passed by a sharp (ideal) filter.
     highpass_wavelength : float, optional
         Alternatively, the error seen through :func:`detrend_profile`'s high-pass.
+    road_ratio : RoadSpectrumRatio, optional
+        The road's spectrum relative to the model's, estimated from the record
+        (:func:`estimate_road_spectrum_ratio`): the error of the same smoother under the road c(w) S_u(w) instead of
+        S_u, |G H - 1|^2 c S_u + |G|^2 r with G = conj(H) S_u / (|H|^2 S_u + r) (equal to the formula below for
+        c = 1). Default None: the model's own road, as before.
 
     Returns
     -------
@@ -599,8 +610,11 @@ def smoother_error_std(instrument: APLModel, q: float, r: float, *, band: tuple[
     w = np.linspace(0.0, np.pi, int(n_points))[1:]
     Hm = np.abs(instrument.response_at(w / (2 * np.pi * instrument.dt))) ** 2
     Su = q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2
-    Serr = Su * r / (r + Hm * Su)
     W = _error_weight(w, h, band, highpass_wavelength)
+    if road_ratio is not None:
+        H = instrument.response_at(w / (2 * np.pi * instrument.dt))
+        return record_error_std(np.conj(H) * Su / (Hm * Su + r), H, Su, r, W, w, road_ratio)[0]
+    Serr = Su * r / (r + Hm * Su)
     return float(np.sqrt(np.trapezoid(W * Serr, w) / np.pi))
 
 
@@ -620,7 +634,7 @@ def _error_weight(w, h, band, highpass_wavelength):
 def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, *,
                         correlation_length: float | None = None, dx: float | None = None,
                         highpass_wavelength: float | None = 100.0, band: tuple[float, float] | None = None,
-                        n_fft: int = 1 << 15) -> float:
+                        n_fft: int = 1 << 15, road_ratio: RoadSpectrumRatio | None = None) -> float:
     r"""Stationary std of the fixed-lag estimate's error, seen through the detrending (or a waveband), m.
 
     In steady state the fixed-lag smoother of ``reconstruct_profile(method="fixed-lag")`` is a linear filter
@@ -634,7 +648,10 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
     the *undetrended* estimate (``raw_std``), dominated by waves the detrending removes. Measured coverage of the
     90 % band (``benchmarks road_calibration``; a Wiener road: 88-91 %; ISO 8608 roads of classes A-E: 96-98 %,
     whose generator has no waves shorter than ~0.3 m that the model expects) is in docs/road-apl.md. Valid away
-    from the record's ends (a stationary estimate).
+    from the record's ends (a stationary estimate). With ``road_ratio`` (the road the record shows,
+    ``reconstruct_profile``'s default since 2026-12-06) pass ``n_fft`` >= 2^17: the AR(1) fixed-lag's response
+    decays slowly and 2^15 samples cut it, over-stating the long-wave error (docs/road-apl.md, "Short waves from the
+    record"); the default 2^15 is kept for the output of before.
 
     Parameters
     ----------
@@ -644,6 +661,9 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
         Of the AR(1) model the smoother ran with (default ``FIXED_LAG_CORRELATION_LENGTH``).
     n_fft : int
         Impulse-response length, samples (the frequency grid).
+    road_ratio : RoadSpectrumRatio, optional
+        The road's spectrum relative to the AR(1) model's, estimated from the record
+        (:func:`estimate_road_spectrum_ratio`): S_u is replaced by c(w) S_u in S_e. Default None: the model's road.
     """
     h = require_positive("dx", dx if dx is not None else instrument.dx)
     lag = int(round(require_positive("lag_m", lag_m, strict=False) / h))
@@ -659,8 +679,10 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
     G = np.exp(1j * w * j) * np.fft.rfft(g)[1:]  # u_hat_k = sum_m g[j - k + ...]: G(w) = sum_m g_m e^{jwm}
     H = instrument.response_at(w / (2 * np.pi * instrument.dt))
     Su = q / np.abs(1.0 - _input_dynamics("ar1", h, ell) * np.exp(-1j * w)) ** 2
-    Se = np.abs(G * H - 1.0) ** 2 * Su + np.abs(G) ** 2 * r
     W = _error_weight(w, h, band, highpass_wavelength)
+    if road_ratio is not None:
+        return record_error_std(G, H, Su, r, W, w, road_ratio)[0]
+    Se = np.abs(G * H - 1.0) ** 2 * Su + np.abs(G) ** 2 * r
     return float(np.sqrt(np.trapezoid(W * Se, w) / np.pi))
 
 
@@ -698,6 +720,9 @@ class Reconstruction:
     instrument_std : (T,) ndarray or None
         Its part of ``profile.std`` alone, m (``profile.std``^2 = posterior std^2 + instrument_std^2; None
         without an instrument uncertainty).
+    road_spectrum : RoadSpectrumRatio or None
+        The road's spectrum relative to the model's as estimated from the record, which ``profile.std`` was computed
+        under (``short_waves="record"``); None: the model's own spectrum.
     warnings : tuple of str
         What the caller should know about the printed std (e.g. :func:`fixed_lag_calibration_warning`).
     """
@@ -715,6 +740,7 @@ class Reconstruction:
     correlation_length: float | None = None
     instrument_uncertainty: InstrumentUncertainty | None = None
     instrument_std: np.ndarray | None = None
+    road_spectrum: RoadSpectrumRatio | None = None
     warnings: tuple[str, ...] = ()
 
     def to_frame(self):
@@ -753,7 +779,8 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
                         correlation_length: float | None = None, highpass_wavelength: float | None = 100.0,
                         min_length: float | None = None, stationary: bool | None = None,
                         lag_m: float | None = None,
-                        instrument_uncertainty: InstrumentUncertainty | str | None = None) -> Reconstruction:
+                        instrument_uncertainty: InstrumentUncertainty | str | None = None,
+                        short_waves: str | None = None) -> Reconstruction:
     """Reconstruct the road profile from an APL signal.
 
     Parameters
@@ -802,6 +829,14 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         ``window_m``) is added to the variance (:func:`instrument_error_variance`; assumptions: linearisation,
         independent parameters; docs/road-apl.md "Calibration" for the measured coverage). Default None:
         the std is the posterior std alone, as before.
+    short_waves : {"record", "prior"} or None
+        The road spectrum the printed std (``profile.std``, ``"smoother"`` and ``"fixed-lag"``) is computed under.
+        ``"record"``: the model's spectrum scaled by the ratio the record shows where the trailer resolves the road,
+        continued beyond (:func:`estimate_road_spectrum_ratio`; the estimate is in ``Reconstruction.road_spectrum``).
+        ``"prior"``: the model's own spectrum at every wavenumber (the printed std before 2026-12-06: for the
+        smoother about twice the error on roads without waves shorter than the APL resolves; the fixed-lag's also
+        with its impulse response cut at 2^15 samples, kept so that ``"prior"`` gives the output of before). Default
+        None: ``"record"`` (since 2026-12-06; docs/road-apl.md, "Short waves from the record").
 
     Returns
     -------
@@ -828,6 +863,10 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     """
     if method not in RECONSTRUCTION_METHODS:
         raise InputError(f"method must be one of {RECONSTRUCTION_METHODS}; got {method!r}.")
+    if short_waves is None:
+        short_waves = "record"
+    if short_waves not in SHORT_WAVE_OPTIONS:
+        raise InputError(f"short_waves must be one of {SHORT_WAVE_OPTIONS}; got {short_waves!r}.")
     if lag_m is not None and method != "fixed-lag":
         raise InputError(f"lag_m applies to method='fixed-lag' only; got method={method!r} with lag_m={lag_m}.")
     if input_model is None:
@@ -841,7 +880,8 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
     _check_record(y, dx, min_length, highpass_wavelength)
     run = _Run(instrument=instrument, method=method, y=y, dx=dx, distance=distance, name=name,
                input_model=input_model, correlation_length=correlation_length,
-               highpass_wavelength=highpass_wavelength, lag_m=lag_m, uncertainty=uncertainty)
+               highpass_wavelength=highpass_wavelength, lag_m=lag_m, uncertainty=uncertainty,
+               short_waves=short_waves)
     if method == "double":
         return _reconstruct_double(run)
     return _reconstruct_kalman(run, q, r, stationary)
@@ -865,6 +905,7 @@ class _Run:
     highpass_wavelength: float | None
     lag_m: float | None
     uncertainty: InstrumentUncertainty | None = None
+    short_waves: str = "prior"
 
 
 def _instrument_uncertainty_of(value, method: str, highpass_wavelength) -> InstrumentUncertainty | None:
@@ -1052,6 +1093,16 @@ def _gap_variance(run: _Run, q, r) -> np.ndarray | None:
     return gap_error_variance(missing, model, estimate, detrend, margin)
 
 
+def _road_spectrum(run: _Run, q, r) -> RoadSpectrumRatio | None:
+    """The road's spectrum relative to the reconstruction model's, from the record (``short_waves="record"``, for the
+    methods that print a std), or None (the model's own spectrum)."""
+    if run.short_waves != "record" or run.method not in ("smoother", "fixed-lag") or run.highpass_wavelength is None:
+        return None
+    phi = _input_dynamics(run.input_model, run.dx, run.correlation_length)
+    est = estimate_road_spectrum_ratio(run.y, run.instrument, r, lambda w: q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2)
+    return est if est is not None and est.white_noise else None
+
+
 def _std_warnings(run: _Run, lag_m) -> tuple[str, ...]:
     """The warnings of a Kalman reconstruction's printed std (:func:`fixed_lag_calibration_warning`)."""
     if run.method != "fixed-lag" or lag_m is None:
@@ -1073,14 +1124,16 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
     q, r, fit = _noise_variances(run, q, r, stationary)
     mean, cov, lag_m, elevation = _kalman_estimate(run, q, r, stationary)
     std = None
+    ratio = _road_spectrum(run, q, r)
     if run.method == "smoother" and run.highpass_wavelength is not None:
         s = smoother_error_std(run.instrument, q, r, input_model=run.input_model,
                                correlation_length=run.correlation_length, dx=run.dx,
-                               highpass_wavelength=run.highpass_wavelength)
+                               highpass_wavelength=run.highpass_wavelength, road_ratio=ratio)
         std = np.broadcast_to(s, y.shape)
     elif run.method == "fixed-lag" and run.highpass_wavelength is not None:
         s = fixed_lag_error_std(run.instrument, q, r, lag_m, correlation_length=run.correlation_length, dx=run.dx,
-                                highpass_wavelength=run.highpass_wavelength)
+                                highpass_wavelength=run.highpass_wavelength, road_ratio=ratio,
+                                **({} if ratio is None else {"n_fft": FIXED_LAG_RECORD_FFT}))
         std = np.broadcast_to(s, y.shape)
     instrument_std = _instrument_std(run, q, r, stationary, elevation)
     if instrument_std is not None:
@@ -1095,4 +1148,4 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
                           highpass_wavelength=run.highpass_wavelength, lag_m=lag_m,
                           correlation_length=run.correlation_length if run.input_model == "ar1" else None,
                           instrument_uncertainty=run.uncertainty, instrument_std=instrument_std,
-                          warnings=_std_warnings(run, lag_m))
+                          warnings=_std_warnings(run, lag_m), road_spectrum=ratio)
