@@ -13,8 +13,13 @@ from scipy.optimize import minimize_scalar
 from .._validation import require_positive
 from ..errors import InputError
 from ._data import SiteData
-from ._health import (FROZEN_MIN_READINGS, SensorHealth, all_days_reversal_evidence, assess_sensors,
-                      flag_reversed_all_days)
+from ._health import (
+    FROZEN_MIN_READINGS,
+    SensorHealth,
+    all_days_reversal_evidence,
+    assess_sensors,
+    flag_reversed_all_days,
+)
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
     DayModes,
