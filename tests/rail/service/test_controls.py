@@ -15,7 +15,7 @@ from longprofile.errors import InputError, LongprofileError
 from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail.service import _core
 from longprofile.rail.service._db import ControlComparison, Site
-from longprofile.rail.service._recompute import KEEP_RUNS, recompute
+from longprofile.rail.service._recompute import KEEP_RUNS, SERVICE_JOINT_DAYS, recompute
 from longprofile.rail.service._web import create_app
 
 from .conftest import synthetic
@@ -42,7 +42,7 @@ def reference_comparison(controls):
     """What ``rail settle`` computes on the same tables (``validate_site`` + ``estimate_settlement``)."""
     syn, _ = synthetic()
     ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey, controls), n_monte_carlo=0,
-                              joint_days=False)  # the service runs the per-day model (SERVICE_JOINT_DAYS)
+                              joint_days=SERVICE_JOINT_DAYS)  # the service's model
     return ref.controls.sort_values(["date", "x_m"]).reset_index(drop=True)
 
 

@@ -11,7 +11,7 @@ from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail.service import _core
 from longprofile.rail.service._alarms import acknowledge, list_alarms
 from longprofile.rail.service._db import Outbox, ResultRow, Run
-from longprofile.rail.service._recompute import recompute
+from longprofile.rail.service._recompute import SERVICE_JOINT_DAYS, recompute
 
 from .conftest import synthetic
 
@@ -32,7 +32,7 @@ def test_stored_results_are_those_of_estimate_settlement(site):
     out = recompute(db, "mitt")
     assert out["status"] == "ok", out["message"]
     ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0,
-                               joint_days=False)  # the service runs the per-day model (SERVICE_JOINT_DAYS)
+                               joint_days=SERVICE_JOINT_DAYS)  # the service's model
     with db.read() as s:
         rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m,
                                              ResultRow.smoothed_dz_m, ResultRow.rate_m_per_day)
