@@ -75,6 +75,21 @@ def _pass(commands, folder: Path, env) -> dict[str, float]:
     return times
 
 
+#: The machine's speed, for comparing runs of different days: a fresh interpreter running a 10^7-step Python loop
+#: (the commands' times move with it: 0.40 s on the fast hours of 2026-12-04, 0.85 s on 2026-12-06).
+_REFERENCE = "s = 0\nfor i in range(10_000_000):\n    s += i\n"
+
+
+def _reference_seconds(env) -> float:
+    """Best of three fresh-process runs of :data:`_REFERENCE` (interpreter start included)."""
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", _REFERENCE], env=env, check=True, timeout=120)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def run(quick: bool) -> list[BenchRow]:
     commands = _QUICK if quick else small_commands()
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
@@ -95,6 +110,10 @@ def run(quick: bool) -> list[BenchRow]:
                      detail=f"fresh process, {'cache as found, one run' if quick else 'warm cache, best of 2'}; "
                             f"load before {load:.2f}")
             for cmd, t in timed.items()]
+    if not quick:
+        rows.append(BenchRow(AREA, "machine reference: 10^7-step Python loop, fresh process", _reference_seconds(env),
+                             "s", detail="no target: the scale of this machine's times (0.40 s fast, 0.85 s slow "
+                                         "days seen)"))
     n_ok = sum(t <= TARGET_S for t in timed.values())
     rows.append(BenchRow(AREA, f"commands within {TARGET_S:g} s", n_ok / max(1, len(timed)), "fraction", target=1.0,
                          detail=f"{n_ok} of {len(timed)}; slowest {max(timed.values()):.2f} s; load after "
