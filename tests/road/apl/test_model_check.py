@@ -1,0 +1,72 @@
+"""The innovation diagnostic of a trailer model against a record (``_model_check.innovation_check``, issue 13).
+
+docs/road-apl.md, "An undeclared trailer mismatch: what the innovations can tell": the shape of the filter's
+normalised-innovation spectrum across the resolved wavenumbers rejects a trailer whose damper and pendulum
+frequencies differ from the model's and accepts the model's own trailer on an ISO road; it is a diagnostic (it also
+rejects a road that is not n^-2), not used by the printed std.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.road import iso8608_profile
+from longprofile.road.apl import TABLE1_CONFIGURATIONS, TrailerPoles, apl_model, apl_response, fit_noise_variances
+from longprofile.road.apl._deconvolution import apl_deconvolution_model
+from longprofile.road.apl._model_check import MODEL_CHECK_ALPHA, innovation_check
+from longprofile.statespace import kalman_filter
+
+DX, SPEED, LENGTH = 0.05, 20.0, 2000.0
+MODEL = apl_model(SPEED, DX)
+
+
+def _wiener(q):
+    return lambda w: q / np.abs(1.0 - np.exp(-1j * w)) ** 2
+
+
+def _check(instrument, seed):
+    """A 2 km class C record made by ``instrument`` with 2 % noise, checked against the nominal model (ML q, r)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(LENGTH / DX))
+    u = iso8608_profile(n * DX - DX / 2, DX, "C", rng=rng).elevation.reshape(-1)[:n]
+    y0 = apl_response(u, instrument)
+    y = y0 + rng.normal(0.0, 0.02 * np.sqrt(np.mean(y0 ** 2)), n)
+    fit = fit_noise_variances(y, MODEL, dx=DX)
+    f = kalman_filter(apl_deconvolution_model(MODEL, fit.q, fit.r, dx=DX), y)
+    return innovation_check(f.innovation, f.innovation_cov, MODEL, fit.r, _wiener(fit.q), DX)
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_own_model_not_rejected(seed):
+    c = _check(MODEL, seed)
+    assert not c.rejected and c.p_value > 0.05 and c.dof >= 5
+    assert abs(c.overall_nis - 1.0) < 0.02  # ML q and r: the overall NIS is 1 by construction
+    assert np.all(np.abs(np.log(c.band_nis)) < 0.2)
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_mismatched_trailer_rejected(seed):
+    p = TABLE1_CONFIGURATIONS[(SPEED, DX)]
+    true = apl_model(SPEED, DX, poles=TrailerPoles(p.pendulum_modulus, 1.2 * p.pendulum_frequency,
+                                                   p.damper_modulus, 0.8 * p.damper_frequency))
+    c = _check(true, seed)
+    assert c.rejected and c.p_value < MODEL_CHECK_ALPHA
+    assert abs(c.overall_nis - 1.0) < 0.02  # ... which is why the overall NIS cannot see it
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2 ** 31 - 1))
+def test_white_innovations_not_rejected(seed):
+    """Unit white Gaussian innovations: no rejection (the test is conservative; alpha = 1e-3)."""
+    rng = np.random.default_rng(seed)
+    e = rng.normal(0.0, 2e-3, 40_000)
+    c = innovation_check(e, np.full(e.size, 4e-6), MODEL, 1e-8, _wiener(2.5e-6), DX)
+    assert c.dof >= 5 and not c.rejected
+
+
+def test_too_short_gives_no_verdict():
+    c = innovation_check(np.ones(3000), np.ones(3000), MODEL, 1e-8, _wiener(2.5e-6), DX)
+    assert not c.rejected and c.p_value == 1.0 and c.dof == 0
