@@ -15,7 +15,9 @@ reversed    its angle changes follow minus what its neighbours predict (mounted 
             (:func:`all_days_reversal_evidence`, :func:`flag_reversed_all_days`)
 drifting    its leave-one-out residual grows linearly with time
 detached    its leave-one-out residual jumps once and stays (sensor came loose / moved): the
-            day-to-day step statistic, or the pattern of an improbable sensor
+            day-to-day step statistic, or the pattern of an improbable sensor, or (with the all-days noise
+            model) the all-days step log-likelihood ratio (:func:`all_days_step_evidence`,
+            :func:`flag_detached_all_days`)
 
 improbable  residuals far beyond the noise level without one of the patterns above
 """
@@ -30,7 +32,8 @@ from scipy.special import gammaincc
 
 from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior
 
-__all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence",
+__all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
+           "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
@@ -70,6 +73,14 @@ REVERSED_ALL_DAYS_LBF = 6.0
 #: step 11"): reversed sensors the step-5 tests missed 13, found 8; healthy kept sensors flagged 2 of 2529 and 0 of 2213
 #: (the log Bayes factor alone at 6: 6 and 3; at 7: 2 and 0 with 6 found).
 REVERSED_ALL_DAYS_INC_LLR = 10.0
+#: All-days step test (:func:`flag_detached_all_days`): a sensor kept by the tests above is "detached" when its all-days
+#: step log-likelihood ratio (:func:`all_days_step_evidence`, its own noise factor fitted under each hypothesis) exceeds
+#: this ...
+DETACHED_ALL_DAYS_LLR = 10.5
+#: ... and its day-to-day step statistic (:data:`STEP_Z`'s) exceeds this. Calibration seeds (faults 300-399, drift and
+#: drift-fronts 300-339; docs/rail.md, "Sensor health, step 12"): detached sensors the other tests missed 4, all 4
+#: above both (log LR 10.8-18.0, step z 6.1-8.0); largest healthy kept log LR 8.3, 10.3 and 9.0, none above both.
+DETACHED_ALL_DAYS_STEP_Z = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +110,9 @@ class SensorHealth:
     reversal_evidence : ReversalEvidence or None
         The all-days log Bayes factor of "reversed" against "healthy" of every sensor
         (:func:`all_days_reversal_evidence`; None when the all-days model did not run).
+    step_evidence : StepEvidence or None
+        The all-days step log-likelihood ratio of every sensor (:func:`all_days_step_evidence`; None when the
+        all-days model did not run or a reversal was flagged on the last pass).
     """
 
     sensor_ids: list
@@ -110,6 +124,7 @@ class SensorHealth:
     reversal_llr: np.ndarray | None = None
     step_z: np.ndarray | None = None
     reversal_evidence: "ReversalEvidence | None" = None
+    step_evidence: "StepEvidence | None" = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -393,22 +408,36 @@ def all_days_reversal_evidence(x, mode_slopes, mode_noise, *, rigidity: float, p
     ReversalEvidence
     """
     Y = np.asarray(mode_slopes, float)
-    K, N = Y.shape
+    N = Y.shape[1]
     f = np.ones(N) if sensor_factors is None else np.asarray(sensor_factors, float)
-    lbf = np.zeros(N)
-    info = np.zeros(N)
+    mus, preds, own = _mode_loo(x, Y, mode_noise, f, rigidity=rigidity, penalty_order=penalty_order,
+                                segment_weights=segment_weights, sigma_z=sigma_z)
+    v = preds + own * f**2
+    lbf = np.sum(-2.0 * Y * mus / v, axis=0)
+    info = np.sum(mus**2 / v, axis=0)
+    gone = np.isnan(Y).all(axis=0)
+    return ReversalEvidence(log_bayes_factor=np.where(gone, np.nan, lbf), information=np.where(gone, np.nan, info))
+
+
+def _mode_loo(x, Y, mode_noise, f, *, rigidity, penalty_order, segment_weights, sigma_z):
+    """Leave-one-out predictive mean mu_ik and variance p_ik of theta_ik (without sensor i's own noise) of every mode
+    k and sensor i, and nu_k, as (K, N), (K, N), (K, 1): one smoother run per mode (:func:`loo_residuals`' identity)."""
+    K, N = Y.shape
+    mus, preds = np.empty((K, N)), np.empty((K, N))
     for k in range(K):
         sig = float(mode_noise[k]) * f
         post = rigidity_posterior(x, Y[k:k + 1], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
                                   penalty_order=penalty_order, segment_weights=segment_weights)
         lev = np.clip(post.slope_std[0] ** 2 / sig**2, 0.0, 1.0 - 1e-12)
-        e = (Y[k] - post.slope_mean[0]) / (1.0 - lev)
-        v = sig**2 / (1.0 - lev)
-        mu = Y[k] - e
-        lbf += -2.0 * Y[k] * mu / v
-        info += mu**2 / v
-    gone = np.isnan(Y).all(axis=0)
-    return ReversalEvidence(log_bayes_factor=np.where(gone, np.nan, lbf), information=np.where(gone, np.nan, info))
+        mus[k] = Y[k] - (Y[k] - post.slope_mean[0]) / (1.0 - lev)
+        preds[k] = sig**2 / (1.0 - lev) - sig**2
+    return mus, preds, (np.asarray(mode_noise, float) ** 2)[:, None]
+
+
+#: Range of a sensor's own noise factor f searched by :func:`all_days_step_evidence` (the bounds of the all-days
+#: factors, f^2 in [1/16, 64]), on PROFILE_FACTOR_GRID log-spaced values.
+PROFILE_FACTOR_BOUNDS = (0.25, 8.0)
+PROFILE_FACTOR_GRID = 121
 
 
 def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence,
@@ -444,6 +473,122 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence,
     detail[j] = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
                  f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day reversal "
                  f"log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+    excluded = np.array(health.excluded, dtype=bool)
+    excluded[j] = True
+    return replace(out, status=np.array(status, dtype=str), detail=np.array(detail, dtype=str), excluded=excluded), j
+
+
+@dataclass(frozen=True, eq=False)
+class StepEvidence:
+    """Evidence that each sensor's readings jumped once and stayed (:func:`all_days_step_evidence`).
+
+    Attributes
+    ----------
+    log_likelihood_ratio : (N,) ndarray
+        max over the first day d of the step and its size of log p(data | step at d) - log p(data | healthy), sensor
+        i's own noise factor fitted under each hypothesis; NaN for excluded sensors.
+    day : (N,) ndarray of int
+        The maximising d (1..D-1; -1 for excluded sensors).
+    size : (N,) ndarray
+        The fitted step, rad.
+    factor_healthy, factor_step : (N,) ndarray
+        The maximising noise factor f under each hypothesis.
+    """
+
+    log_likelihood_ratio: np.ndarray
+    day: np.ndarray
+    size: np.ndarray
+    factor_healthy: np.ndarray
+    factor_step: np.ndarray
+
+
+def all_days_step_evidence(x, mode_slopes, mode_noise, to_modes, *, rigidity: float, penalty_order: int = 2,
+                           sensor_factors=None, segment_weights=None,
+                           sigma_z: float = DEFAULT_SIGMA_Z) -> StepEvidence:
+    r"""Generalised log-likelihood ratio of "sensor i's readings jumped by a on day d and stayed" against "healthy".
+
+    Beyond paper 004 (§6 flags improbable sensors; the all-days model of :mod:`~longprofile.rail._joint`). A detached
+    sensor reads theta_i + a 1[day >= d]. In the all-days modes (``to_modes`` = V^T) the step is u_d = V^T 1[>= d],
+    and with mu_ik, p_ik the leave-one-out predictive mean and variance of theta_ik from the other sensors
+    (:func:`all_days_reversal_evidence`), v_ik(f) = p_ik + nu_k f^2 and r_ik = y_ik - mu_ik,
+
+        log LR_i = max_{d, f_s} [L_i(f_s) + (sum_k u_dk r_ik / v_ik)^2 / (2 sum_k u_dk^2 / v_ik)] - max_{f_h} L_i(f_h),
+
+    L_i(f) = sum_k log N(r_ik; 0, v_ik(f)). Sensor i's own noise factor f is fitted under each hypothesis (on the
+    grid of :data:`PROFILE_FACTOR_BOUNDS`): a detached sensor's jump inflates the factor fitted from its residuals,
+    which hides the jump from a test at that factor.
+
+    Parameters
+    ----------
+    x, mode_slopes, mode_noise, rigidity, penalty_order, sensor_factors, segment_weights, sigma_z
+        As :func:`all_days_reversal_evidence` (``sensor_factors`` only sets the other sensors' noise).
+    to_modes : (K, K) ndarray
+        ``DayModes.to_modes``.
+
+    Returns
+    -------
+    StepEvidence
+    """
+    Y = np.asarray(mode_slopes, float)
+    K, N = Y.shape
+    f = np.ones(N) if sensor_factors is None else np.asarray(sensor_factors, float)
+    mus, preds, own = _mode_loo(x, Y, mode_noise, f, rigidity=rigidity, penalty_order=penalty_order,
+                                segment_weights=segment_weights, sigma_z=sigma_z)
+    g = np.geomspace(*PROFILE_FACTOR_BOUNDS, PROFILE_FACTOR_GRID)
+    U = np.asarray(to_modes, float) @ np.tril(np.ones((K, K)))  # column d - 1: V^T 1[day >= d]
+    r = Y - mus
+    var = np.maximum(preds, 0.0)[None] + own[None] * (g**2)[:, None, None]  # (G, K, N)
+    with np.errstate(invalid="ignore"):
+        L0 = -0.5 * np.sum(np.log(var) + r[None] ** 2 / var, axis=1)  # (G, N)
+        A = np.einsum("kd,gkn->gdn", U, r[None] / var)
+        B = np.einsum("kd,gkn->gdn", U**2, 1.0 / var)
+        L1 = L0[:, None, :] + 0.5 * A**2 / B  # (G, D-1, N)
+    L0, L1 = np.nan_to_num(L0, nan=-np.inf), np.nan_to_num(L1, nan=-np.inf)
+    flat = L1.reshape(-1, N)
+    best = np.argmax(flat, axis=0)
+    gi, di = np.unravel_index(best, L1.shape[:2])
+    cols = np.arange(N)
+    gone = np.isnan(Y).all(axis=0)
+    with np.errstate(invalid="ignore"):  # excluded sensors: -inf - -inf, 0 / 0
+        llr = np.where(gone, np.nan, flat[best, cols] - L0.max(axis=0))
+        size = np.where(gone, np.nan, A[gi, di, cols] / B[gi, di, cols])
+    return StepEvidence(log_likelihood_ratio=llr, day=np.where(gone, -1, di + 1), size=size,
+                        factor_healthy=np.where(gone, np.nan, g[np.argmax(L0, axis=0)]),
+                        factor_step=np.where(gone, np.nan, g[gi]))
+
+
+def flag_detached_all_days(health: SensorHealth, evidence: StepEvidence,
+                           max_flagged: int | None = None) -> tuple[SensorHealth, int | None]:
+    """Flag the kept sensor with the largest all-days step evidence, if any passes both thresholds.
+
+    A sensor still "ok" is flagged "detached" when its step log-likelihood ratio (:func:`all_days_step_evidence`)
+    exceeds :data:`DETACHED_ALL_DAYS_LLR` and its day-to-day step statistic (``health.step_z``) exceeds
+    :data:`DETACHED_ALL_DAYS_STEP_Z`. One sensor at a time and the same limits as :func:`flag_reversed_all_days`.
+
+    Returns
+    -------
+    health : SensorHealth
+        With ``step_evidence`` set, and the flagged sensor's status, detail and exclusion.
+    flagged : int or None
+        Index of the flagged sensor.
+    """
+    N = health.status.size
+    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
+    ok = ~np.asarray(health.excluded)
+    llr = np.nan_to_num(evidence.log_likelihood_ratio, nan=-np.inf)
+    step = np.nan_to_num(health.step_z, nan=-np.inf) if health.step_z is not None else np.full(N, -np.inf)
+    cand = ok & (llr > DETACHED_ALL_DAYS_LLR) & (step > DETACHED_ALL_DAYS_STEP_Z)
+    out = replace(health, step_evidence=evidence)
+    if not cand.any() or (~ok & (np.asarray(health.status) != "dead")).sum() >= max_flagged or ok.sum() <= 3:
+        return out, None
+    j = int(np.argmax(np.where(cand, llr, -np.inf)))
+    status = np.array(health.status, dtype=object)
+    detail = np.array(health.detail, dtype=object)
+    status[j] = "detached"
+    detail[j] = (f"all days: a step of {np.rad2deg(evidence.size[j]):.2g} deg from day {evidence.day[j]} on, "
+                 f"log-likelihood ratio against 'healthy' {llr[j]:.3g} (threshold {DETACHED_ALL_DAYS_LLR:g}; noise "
+                 f"factor {evidence.factor_healthy[j]:.2g} healthy, {evidence.factor_step[j]:.2g} with the step), "
+                 f"day-to-day step statistic {step[j]:.3g} (> {DETACHED_ALL_DAYS_STEP_Z:g})")
     excluded = np.array(health.excluded, dtype=bool)
     excluded[j] = True
     return replace(out, status=np.array(status, dtype=str), detail=np.array(detail, dtype=str), excluded=excluded), j

@@ -17,7 +17,9 @@ from ._health import (
     FROZEN_MIN_READINGS,
     SensorHealth,
     all_days_reversal_evidence,
+    all_days_step_evidence,
     assess_sensors,
+    flag_detached_all_days,
     flag_reversed_all_days,
 )
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
@@ -1241,6 +1243,12 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
                                               segment_weights=joint.weights, sigma_z=opt.sigma_z)
         health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0)
+        if j is None:  # a jump the day-to-day test missed ("Sensor health, step 12")
+            steps = all_days_step_evidence(x, joint.mode_slopes, joint.modes.noise, joint.modes.to_modes,
+                                           rigidity=joint.modes.rigidity, penalty_order=joint.prior.penalty_order,
+                                           sensor_factors=joint.factors, segment_weights=joint.weights,
+                                           sigma_z=opt.sigma_z)
+            health, j = flag_detached_all_days(health, steps, max_flagged=None if opt.check_health else 0)
         if j is None:
             break
         warnings.append(f"sensor {ids[j]} excluded ({health.status[j]}): {health.detail[j]}.")
