@@ -540,8 +540,8 @@ def all_days_step_evidence(x, mode_slopes, mode_noise, to_modes, *, rigidity: fl
     var = np.maximum(preds, 0.0)[None] + own[None] * (g**2)[:, None, None]  # (G, K, N)
     with np.errstate(invalid="ignore"):
         L0 = -0.5 * np.sum(np.log(var) + r[None] ** 2 / var, axis=1)  # (G, N)
-        A = np.einsum("kd,gkn->gdn", U, r[None] / var)
-        B = np.einsum("kd,gkn->gdn", U**2, 1.0 / var)
+        A = np.matmul(U.T, r[None] / var)  # (G, D-1, N): sum_k u_dk r_ik / v_ik (BLAS, one product per factor)
+        B = np.matmul((U**2).T, 1.0 / var)
         L1 = L0[:, None, :] + 0.5 * A**2 / B  # (G, D-1, N)
     L0, L1 = np.nan_to_num(L0, nan=-np.inf), np.nan_to_num(L1, nan=-np.inf)
     flat = L1.reshape(-1, N)
