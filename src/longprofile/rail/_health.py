@@ -457,25 +457,36 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence,
     flagged : int or None
         Index of the flagged sensor.
     """
+    lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
+    N = health.status.size
+    inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
+    return _flag_worst(
+        replace(health, reversal_evidence=evidence), lbf, (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR),
+        "reversed", lambda j: (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
+                               f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day "
+                               f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})"),
+        max_flagged)
+
+
+def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, max_flagged: int | None):
+    """Flag the kept sensor of largest ``score`` among those that ``passes`` (both thresholds of an all-days test):
+    ``status_name`` and ``detail(j)``, excluded; none once ``max_flagged`` sensors (default a quarter; dead ones not
+    counted) are excluded or only 3 are left. Returns (health, index or None)."""
     N = health.status.size
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
     ok = ~np.asarray(health.excluded)
-    lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
-    inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
-    cand = ok & (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)
-    out = replace(health, reversal_evidence=evidence)
+    cand = ok & passes
     if not cand.any() or (~ok & (np.asarray(health.status) != "dead")).sum() >= max_flagged or ok.sum() <= 3:
-        return out, None
-    j = int(np.argmax(np.where(cand, lbf, -np.inf)))
+        return health, None
+    j = int(np.argmax(np.where(cand, score, -np.inf)))
     status = np.array(health.status, dtype=object)
-    detail = np.array(health.detail, dtype=object)
-    status[j] = "reversed"
-    detail[j] = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
-                 f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day reversal "
-                 f"log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+    details = np.array(health.detail, dtype=object)
+    status[j] = status_name
+    details[j] = detail(j)
     excluded = np.array(health.excluded, dtype=bool)
     excluded[j] = True
-    return replace(out, status=np.array(status, dtype=str), detail=np.array(detail, dtype=str), excluded=excluded), j
+    return replace(health, status=np.array(status, dtype=str), detail=np.array(details, dtype=str),
+                   excluded=excluded), j
 
 
 @dataclass(frozen=True, eq=False)
@@ -572,23 +583,14 @@ def flag_detached_all_days(health: SensorHealth, evidence: StepEvidence,
     flagged : int or None
         Index of the flagged sensor.
     """
-    N = health.status.size
-    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
-    ok = ~np.asarray(health.excluded)
     llr = np.nan_to_num(evidence.log_likelihood_ratio, nan=-np.inf)
+    N = health.status.size
     step = np.nan_to_num(health.step_z, nan=-np.inf) if health.step_z is not None else np.full(N, -np.inf)
-    cand = ok & (llr > DETACHED_ALL_DAYS_LLR) & (step > DETACHED_ALL_DAYS_STEP_Z)
-    out = replace(health, step_evidence=evidence)
-    if not cand.any() or (~ok & (np.asarray(health.status) != "dead")).sum() >= max_flagged or ok.sum() <= 3:
-        return out, None
-    j = int(np.argmax(np.where(cand, llr, -np.inf)))
-    status = np.array(health.status, dtype=object)
-    detail = np.array(health.detail, dtype=object)
-    status[j] = "detached"
-    detail[j] = (f"all days: a step of {np.rad2deg(evidence.size[j]):.2g} deg from day {evidence.day[j]} on, "
-                 f"log-likelihood ratio against 'healthy' {llr[j]:.3g} (threshold {DETACHED_ALL_DAYS_LLR:g}; noise "
-                 f"factor {evidence.factor_healthy[j]:.2g} healthy, {evidence.factor_step[j]:.2g} with the step), "
-                 f"day-to-day step statistic {step[j]:.3g} (> {DETACHED_ALL_DAYS_STEP_Z:g})")
-    excluded = np.array(health.excluded, dtype=bool)
-    excluded[j] = True
-    return replace(out, status=np.array(status, dtype=str), detail=np.array(detail, dtype=str), excluded=excluded), j
+    return _flag_worst(
+        replace(health, step_evidence=evidence), llr, (llr > DETACHED_ALL_DAYS_LLR) & (step > DETACHED_ALL_DAYS_STEP_Z),
+        "detached", lambda j: (f"all days: a step of {np.rad2deg(evidence.size[j]):.2g} deg from day {evidence.day[j]} "
+                               f"on, log-likelihood ratio against 'healthy' {llr[j]:.3g} (threshold "
+                               f"{DETACHED_ALL_DAYS_LLR:g}; noise factor {evidence.factor_healthy[j]:.2g} healthy, "
+                               f"{evidence.factor_step[j]:.2g} with the step), day-to-day step statistic "
+                               f"{step[j]:.3g} (> {DETACHED_ALL_DAYS_STEP_Z:g})"),
+        max_flagged)
