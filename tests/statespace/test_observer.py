@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
@@ -98,6 +98,7 @@ def test_observer_errors():
 
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**31), n=st.integers(1, 4), discrete=st.booleans())
+@example(seed=3188, n=4, discrete=False)  # A - L C non-normal (kappa 4e7): its eigenvalues read 5e-4 off a right gain
 def test_single_output_gain_is_the_one_place_poles_finds(seed, n, discrete):
     """Oracle: scipy.signal.place_poles on the dual system. With one output the gain is unique, so the
     Ackermann path (which spares every observer command the scipy.signal import) must give it."""
