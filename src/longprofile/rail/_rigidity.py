@@ -539,17 +539,24 @@ def rigidity_log_likelihood(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity
     missing pattern share one forward covariance pass (:func:`longprofile.statespace.shared_covariance_log_likelihood`);
     no RTS pass, no posterior arrays: what a search over r evaluates a hundred times per recompute.
     """
+    batched, D, model, groups = _likelihood_inputs(x, slopes, z_ends, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z,
+                                                   penalty_order=penalty_order, segment_weights=segment_weights)
+    ll = np.empty(D)
+    for rows, Y in groups:
+        ll[rows] = shared_covariance_log_likelihood(model, Y)
+    return ll if batched else float(ll[0])
+
+
+def _likelihood_inputs(x, slopes, z_ends, **model_options):
+    """Checked inputs of the likelihood functions: (batched, D, :func:`rigidity_model`, [(rows, observations)] per
+    missing pattern)."""
     x = _check_stations(x)
     m = _as_profiles("slopes", slopes, x.size)
     M = m if m.ndim == 2 else m[None]
     z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
-    model = rigidity_model(x, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z, z_start=z_ends[0],
-                           penalty_order=penalty_order, segment_weights=segment_weights)
+    model = rigidity_model(x, z_start=z_ends[0], **model_options)
     Y = _slope_observations(M, z_ends[1])
-    ll = np.empty(M.shape[0])
-    for rows, _pat in _pattern_groups(np.isnan(M)):
-        ll[rows] = shared_covariance_log_likelihood(model, Y[rows])
-    return ll if m.ndim == 2 else float(ll[0])
+    return m.ndim == 2, M.shape[0], model, [(rows, Y[rows]) for rows, _pat in _pattern_groups(np.isnan(M))]
 
 
 def rigidity_log_likelihood_function(x, slopes, *, sigma: float = DEFAULT_SIGMA, sigma_z: float = DEFAULT_SIGMA_Z,
@@ -562,20 +569,15 @@ def rigidity_log_likelihood_function(x, slopes, *, sigma: float = DEFAULT_SIGMA,
     (:func:`~longprofile.rail.fit_change_prior`, the per-day prior fits) evaluate tens of times per profile.
     Equal to :func:`rigidity_log_likelihood` to round-off (r Q_1 against Q built at r).
     """
-    x = _check_stations(x)
-    m = _as_profiles("slopes", slopes, x.size)
-    M = m if m.ndim == 2 else m[None]
-    z_ends = as_float_array("z_ends", z_ends, ndim=1, allow_nan=False)
-    model = rigidity_model(x, sigma=sigma, rigidity=1.0, sigma_z=sigma_z, z_start=z_ends[0],
-                           penalty_order=penalty_order, segment_weights=segment_weights)
-    Y = _slope_observations(M, z_ends[1])
-    parts = [(rows, process_scale_log_likelihood(model, Y[rows])) for rows, _pat in _pattern_groups(np.isnan(M))]
+    batched, D, model, groups = _likelihood_inputs(x, slopes, z_ends, sigma=sigma, rigidity=1.0, sigma_z=sigma_z,
+                                                   penalty_order=penalty_order, segment_weights=segment_weights)
+    parts = [(rows, process_scale_log_likelihood(model, Y)) for rows, Y in groups]
 
     def loglik(r):
-        ll = np.empty(M.shape[0])
+        ll = np.empty(D)
         for rows, f in parts:
             ll[rows] = f(r)
-        return ll if m.ndim == 2 else float(ll[0])
+        return ll if batched else float(ll[0])
 
     return loglik
 
