@@ -63,6 +63,25 @@ def test_units_are_never_guessed(tmp_path):
         read_profile(h)
 
 
+def test_units_in_brackets_or_parentheses(tmp_path):
+    # "Distance (ft)" / "Elevation (in)": the form spreadsheets and profiler exports write; the same numbers as _m
+    f, g = tmp_path / "ft.csv", tmp_path / "m.csv"
+    f.write_text("Elevation (in),Distance (ft)\n1.0,0\n2.0,1\n0.5,2\n")
+    g.write_text("distance_m,elevation_m\n0,0.0254\n0.3048,0.0508\n0.6096,0.0127\n")
+    p, q = read_profile(f), read_profile(g)
+    assert p.tracks == ("Elevation",)
+    np.testing.assert_allclose(p.distance, q.distance, rtol=1e-15)
+    np.testing.assert_allclose(p.elevation, q.elevation, rtol=1e-15)
+    b = tmp_path / "b.csv"
+    b.write_text("x [m],left [mm]\n0,1\n1,2\n")
+    np.testing.assert_allclose(read_profile(b).elevation[:, 0], [1e-3, 2e-3])
+    # a parenthesised word that is not a unit is not read as one: the column then names no unit
+    h = tmp_path / "h.csv"
+    h.write_text("distance (m),elevation (left)\n0,1\n1,2\n")
+    with pytest.raises(UnitsError, match="does not give its elevation unit"):
+        read_profile(h)
+
+
 def test_malformed_csv_names_the_line(tmp_path):
     f = tmp_path / "p.csv"
     f.write_text("distance_m,left_mm\n0,1.5\n0.25,abc\n0.5,1.0\n")

@@ -99,8 +99,9 @@ def test_declared_units_are_converted_back_exactly(paper, col, unit, transform):
     ref, _ = read_drive_log(paper, CAR)
     g = transform(paper)
     via_header, _ = read_drive_log(g.rename(columns={col: f"{col} [{unit}]"}), CAR)
+    via_parentheses, _ = read_drive_log(g.rename(columns={col: f"{col} ({unit})"}), CAR)  # as spreadsheets write it
     via_mapping, _ = read_drive_log(g, CAR, units={col: unit})
-    for log in (via_header, via_mapping):
+    for log in (via_header, via_parentheses, via_mapping):
         np.testing.assert_allclose(log.to_frame()[col], ref.to_frame()[col], rtol=1e-12, atol=1e-12)
 
 

@@ -19,7 +19,9 @@ __all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "read
 RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
 
 _DISTANCE_NAMES = ("distance", "station", "chainage", "x")
-_SUFFIX = re.compile(r"^(?P<base>.+?)(?:_|\s*\[)(?P<unit>m|mm|cm|km|in|ft|mi)\]?$", re.IGNORECASE)
+#: ``name_unit``, ``name [unit]`` or ``name (unit)`` (the last as spreadsheets and ProVAL-style exports write it)
+_SUFFIX = re.compile(r"^(?P<base>.+?)(?:_(?P<u1>m|mm|cm|km|in|ft|mi)|\s*\[(?P<u2>m|mm|cm|km|in|ft|mi)\]"
+                     r"|\s*\((?P<u3>m|mm|cm|km|in|ft|mi)\))$", re.IGNORECASE)
 
 
 def _with_rows(df: pd.DataFrame, path: Path) -> pd.DataFrame:
@@ -33,7 +35,7 @@ def _with_rows(df: pd.DataFrame, path: Path) -> pd.DataFrame:
 def _split(column: str) -> tuple[str, str | None]:
     m = _SUFFIX.match(column.strip())
     if m:
-        return m.group("base"), m.group("unit").lower()
+        return m.group("base"), (m.group("u1") or m.group("u2") or m.group("u3")).lower()
     return column.strip(), None
 
 

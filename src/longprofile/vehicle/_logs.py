@@ -2,7 +2,7 @@
 
 A real car's log rarely arrives in the SI units and the axes of paper 001 (x forward, y left, z up, yaw
 rate positive counter-clockwise, road-wheel steering angle positive to the left). Units are never guessed:
-each column is SI unless a unit is declared, either in its header (``yaw_rate [deg/s]``, ``time[ms]``) or
+each column is SI unless a unit is declared, either in its header (``yaw_rate [deg/s]``, ``time[ms]``, ``yaw_rate (deg/s)``) or
 by a mapping (``units={"yaw_rate": "deg/s"}``, the CLI's ``--units yaw_rate=deg/s,time=ms``). The values are
 then converted, and the physics checks the result: the channels of a car are redundant, so a wrong unit or
 sign shows up as a ratio between two channels far from 1, and the error names the channel and the likely
@@ -71,7 +71,8 @@ _VERTICAL_QUANTITY = {"time": "time", "ax": "accel", "ay": "accel", "yaw_rate": 
                       **{f"dz21_{c}": "length" for c in _CORNERS}, **{f"body_accel_{c}": "accel" for c in _CORNERS},
                       **{f"wheel_accel_{c}": "accel" for c in _CORNERS}, **{f"current_{c}": "current" for c in _CORNERS}}
 
-_HEADER = re.compile(r"^\s*(?P<name>[^\[\]]*?)\s*\[(?P<unit>[^\[\]]+)\]\s*$")
+#: ``name [unit]`` or ``name (unit)``
+_HEADER = re.compile(r"^\s*(?P<name>[^\[\]()]*?)\s*(?:\[(?P<unit>[^\[\]]+)\]|\((?P<unit_p>[^()]+)\))\s*$")
 
 
 def _norm_unit(u: str) -> str:
@@ -93,13 +94,13 @@ def parse_units(text: str | None) -> dict:
 
 
 def split_unit_headers(frame):
-    """Strip ``name [unit]`` headers: returns (frame with plain names, {name: unit} declared in the header)."""
+    """Strip ``name [unit]`` and ``name (unit)`` headers: returns (frame with plain names, {name: unit} declared in the header)."""
     declared, rename = {}, {}
     for c in frame.columns:
         m = _HEADER.match(str(c))
         if m:
             rename[c] = m.group("name")
-            declared[m.group("name")] = m.group("unit")
+            declared[m.group("name")] = m.group("unit") or m.group("unit_p")
     return (frame.rename(columns=rename) if rename else frame), declared
 
 
