@@ -155,7 +155,8 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
         name = ("recompute after one new day, first run of a started process" if cold
                 else "recompute after one new day")
         rows.append(BenchRow(AREA, name, t_day, "s", target=None if quick or cold else 2.0, higher_is_better=False,
-                             detail=f"{size}; baseline {n_base} days; first full run {t_full:.1f} s; {parts}; "
+                             detail=f"{size}; {out.get('model')} model; baseline {n_base} days; first full run "
+                                    f"{t_full:.1f} s; {parts}; "
                                     f"recomputed from {out.get('recomputed_from_day')}, "
                                     f"{out.get('rebuilt_sensors')} sensor(s) rebuilt; "
                                     + ("day cache read from the database" if cold else

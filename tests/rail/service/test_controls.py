@@ -15,7 +15,7 @@ from longprofile.errors import InputError, LongprofileError
 from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail.service import _core
 from longprofile.rail.service._db import ControlComparison, Site
-from longprofile.rail.service._recompute import KEEP_RUNS, SERVICE_JOINT_DAYS, recompute
+from longprofile.rail.service._recompute import KEEP_RUNS, recompute, service_joint_days
 from longprofile.rail.service._web import create_app
 
 from .conftest import synthetic
@@ -38,11 +38,15 @@ def control_table(dates=("2019-11-21", "2019-11-24"), drop_mm=(2.0, 4.0), seed=1
     return pd.concat(rows, ignore_index=True)
 
 
+def _service_model(syn) -> bool:
+    return service_joint_days({}, syn.sensors.shape[0], pd.to_datetime(syn.readings["timestamp"]).dt.normalize().nunique())
+
+
 def reference_comparison(controls):
     """What ``rail settle`` computes on the same tables (``validate_site`` + ``estimate_settlement``)."""
     syn, _ = synthetic()
     ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey, controls), n_monte_carlo=0,
-                              joint_days=SERVICE_JOINT_DAYS)  # the service's model
+                              joint_days=_service_model(syn))  # the service's model
     return ref.controls.sort_values(["date", "x_m"]).reset_index(drop=True)
 
 

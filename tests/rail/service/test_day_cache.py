@@ -11,7 +11,7 @@ from sqlalchemy import func, select
 from longprofile.rail import day_statistics, estimate_settlement, validate_site
 from longprofile.rail.service import _core
 from longprofile.rail.service._db import DayStat, HealthRow, ResultRow
-from longprofile.rail.service._recompute import SERVICE_JOINT_DAYS, _active_sensors, _load_day_cache, recompute
+from longprofile.rail.service._recompute import _active_sensors, _load_day_cache, recompute, service_joint_days
 
 from .conftest import synthetic
 
@@ -38,8 +38,9 @@ def _stored(db, run_id):
 
 
 def _reference(syn, rows, quiet=None):
+    n_days = pd.to_datetime(rows["timestamp"]).dt.normalize().nunique()
     return estimate_settlement(validate_site(syn.sensors, rows, syn.survey), n_monte_carlo=0, quiet_days=quiet,
-                               joint_days=SERVICE_JOINT_DAYS)  # the service's model
+                               joint_days=service_joint_days({}, syn.sensors.shape[0], n_days))  # the service's model
 
 
 #: Stated tolerance of the cached path against estimate_settlement on all readings: posterior means within this

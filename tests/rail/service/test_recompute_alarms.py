@@ -7,11 +7,12 @@ import pandas as pd
 import pytest
 from sqlalchemy import select
 
+from longprofile.errors import InputError
 from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail.service import _core
 from longprofile.rail.service._alarms import acknowledge, list_alarms
 from longprofile.rail.service._db import Outbox, ResultRow, Run
-from longprofile.rail.service._recompute import SERVICE_JOINT_DAYS, recompute
+from longprofile.rail.service._recompute import ALL_DAYS_MAX_SENSOR_DAYS, recompute, service_joint_days
 
 from .conftest import synthetic
 
@@ -31,8 +32,14 @@ def test_stored_results_are_those_of_estimate_settlement(site):
     _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
     out = recompute(db, "mitt")
     assert out["status"] == "ok", out["message"]
+    n_days = pd.to_datetime(syn.readings["timestamp"]).dt.normalize().nunique()
+    joint = service_joint_days({}, syn.sensors.shape[0], n_days)  # "auto": a small site gets the all-days model
+    assert joint and syn.sensors.shape[0] * n_days <= ALL_DAYS_MAX_SENSOR_DAYS
     ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0,
-                               joint_days=SERVICE_JOINT_DAYS)  # the service's model
+                               joint_days=joint)  # the service's model, what `rail settle` runs by default
+    assert ref.settings["joint_days"]
+    with db.read() as s:
+        assert s.get(Run, out["run_id"]).model == "all-days"
     with db.read() as s:
         rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m,
                                              ResultRow.smoothed_dz_m, ResultRow.rate_m_per_day)
@@ -44,6 +51,30 @@ def test_stored_results_are_those_of_estimate_settlement(site):
     for c in ("dz_m", "dz_std_m", "smoothed_dz_m"):
         np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
     assert out["data_complete_to"] == r["timestamp"].max()
+
+
+def test_model_setting_chooses_the_settlement_model_and_the_run_records_it(site):
+    db, _, r = site
+    syn, _ = synthetic()
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    _core.update_site(db, "tester", "mitt", settings={"model": "per-day"})
+    out = recompute(db, "mitt")
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0, joint_days=False)
+    with db.read() as s:
+        assert s.get(Run, out["run_id"]).model == "per-day"
+        dz = dict(s.execute(select(ResultRow.sensor_id, ResultRow.dz_m).where(
+            ResultRow.run_id == out["run_id"], ResultRow.day == str(ref.days[-1])[:10])).all())
+    tab = ref.to_table()
+    last = tab[tab["date"] == tab["date"].max()]
+    np.testing.assert_allclose([dz[k] for k in last["sensor_id"]], last["dz_m"], rtol=1e-9, atol=1e-12)
+    with pytest.raises(InputError, match="model must be one of auto, all-days, per-day"):
+        _core.update_site(db, "tester", "mitt", settings={"model": "joint"})
+
+
+def test_auto_model_is_all_days_up_to_the_size_limit():
+    assert service_joint_days({}, 100, ALL_DAYS_MAX_SENSOR_DAYS // 100)
+    assert not service_joint_days({}, 100, ALL_DAYS_MAX_SENSOR_DAYS // 100 + 1)
+    assert service_joint_days({"model": "all-days"}, 100, 365) and not service_joint_days({"model": "per-day"}, 5, 10)
 
 
 def test_runs_are_versioned_and_skip_when_nothing_changed(site):

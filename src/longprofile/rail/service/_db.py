@@ -202,6 +202,8 @@ class Run(Base):
     status: Mapped[str] = mapped_column(String(16), default="running")
     message: Mapped[str] = mapped_column(Text, default="")
     warnings_json: Mapped[str] = mapped_column(Text, default="[]")
+    #: "all-days" or "per-day" (docs/rail-service.md, "Which settlement model"); NULL for runs before 2026-12-06
+    model: Mapped[str | None] = mapped_column(String(16), nullable=True)
 
 
 class ResultRow(Base):

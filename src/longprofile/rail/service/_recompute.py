@@ -52,10 +52,12 @@ from ._db import (
 )
 
 __all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "load_site_tables", "controls_table",
-           "DEFAULT_SETTINGS", "KEEP_RUNS"]
+           "DEFAULT_SETTINGS", "KEEP_RUNS", "MODELS", "ALL_DAYS_MAX_SENSOR_DAYS", "service_joint_days"]
 
 DEFAULT_SETTINGS = {"thermal": "linear", "n_monte_carlo": 0, "alarm_probability": 0.5, "sigma_deg": None,
-                    "rigidity": None, "exclude": []}
+                    "rigidity": None, "exclude": [], "model": "auto"}
+#: Settlement models of the ``model`` setting: "auto" (:func:`service_joint_days`), "all-days", "per-day".
+MODELS = ("auto", "all-days", "per-day")
 #: Result rows are kept for this many newest successful runs of a site (run records are kept for ever).
 KEEP_RUNS = 3
 
@@ -73,6 +75,8 @@ def check_settings(st: dict) -> dict:
     for k in ("sigma_deg", "rigidity"):
         if st.get(k) is not None and not (math.isfinite(float(st[k])) and float(st[k]) > 0):
             raise InputError(f"{k} must be > 0 or null.")
+    if "model" in st and st["model"] not in MODELS:
+        raise InputError(f"model must be one of {', '.join(MODELS)}; got {st['model']!r}.")
     if "exclude" in st and not (isinstance(st["exclude"], list) and all(isinstance(v, str) for v in st["exclude"])):
         raise InputError("exclude must be a list of sensor ids.")
     return dict(st)
@@ -468,11 +472,22 @@ def _store_controls(s, run_id: int, controls: pd.DataFrame | None) -> int:
     return bulk_insert(s, ControlComparison.__table__, cols)
 
 
-#: The live recompute runs the per-day model (``estimate_settlement(..., joint_days=False)``, docs/rail.md step 9),
-#: not the all-days model that ``rail settle`` uses by default (step 10): the all-days fit (a maximum-likelihood
-#: prior per day and a Monte Carlo over all days) took 10.6 s per recompute of a year of 100 sensors, against
-#: 0.64 s and the service's 2 s target (benchmarks rail_service, 2026-12-06). docs/rail-service.md, "Not done".
-SERVICE_JOINT_DAYS = False
+#: Largest site, kept sensors x days, that the "auto" model runs with the all-days model (docs/rail.md step 10, the
+#: default of ``rail settle``); larger sites run the per-day model (step 9), within the recompute's 2 s target.
+#: Measured 2026-12-06 (``estimate_settlement_from_daily``, hourly readings, idle machine): all-days 0.85 s for
+#: 100 sensors x 90 days, 1.50 s for 100 x 180, 4.14 s for 100 x 365; per-day 0.08 / 0.12 / 0.22 s
+#: (docs/rail-service.md, "Which settlement model").
+ALL_DAYS_MAX_SENSOR_DAYS = 10_000
+
+
+def service_joint_days(settings: dict, n_sensors: int, n_days: int) -> bool:
+    """Whether a recompute of ``n_sensors`` x ``n_days`` runs the all-days model (``joint_days`` of
+    :func:`~longprofile.rail.estimate_settlement`): the site's ``model`` setting, "auto" by size
+    (:data:`ALL_DAYS_MAX_SENSOR_DAYS`)."""
+    model = {**DEFAULT_SETTINGS, **settings}["model"]
+    if model == "auto":
+        return int(n_sensors) * int(n_days) <= ALL_DAYS_MAX_SENSOR_DAYS
+    return model == "all-days"
 
 
 def _settings_hash(site, sensors, survey, thresholds, settings, controls=None) -> str:
@@ -483,6 +498,12 @@ def _settings_hash(site, sensors, survey, thresholds, settings, controls=None) -
         what["controls"] = controls.to_dict("list")
     blob = json.dumps(what, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def _model_name(res) -> str | None:
+    """The settlement model a result was computed with (``SettlementResult.settings["joint_days"]``: False also when
+    the all-days model did not apply, e.g. fewer than 6 days)."""
+    return None if res is None else ("all-days" if res.settings.get("joint_days") else "per-day")
 
 
 def latest_run(s, site: Site, *, ok_only: bool = True) -> Run | None:
@@ -534,13 +555,14 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
     status, message, res = "ok", "", None
     try:
         sitedata = validate_site(sensors, readings, survey, controls)
-        quiet = _quiet_days(site, readings["timestamp"].dt.normalize().unique() if stats is None else stats.days)
+        days = readings["timestamp"].dt.normalize().unique() if stats is None else stats.days
+        quiet = _quiet_days(site, days)
         options = dict(
             thermal=settings["thermal"], quiet_days=quiet,
             sigma=None if settings["sigma_deg"] is None else float(np.deg2rad(settings["sigma_deg"])),
             rigidity=settings["rigidity"], exclude_sensors=tuple(settings["exclude"]),
             n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]),
-            joint_days=SERVICE_JOINT_DAYS)
+            joint_days=service_joint_days(settings, len(sensors), len(days)))
         if stats is not None:
             sitedata = _with_record_warnings(sitedata, stats)
             res = estimate_settlement_from_daily(sitedata, daily_angles_from_statistics(stats), **options)
@@ -557,7 +579,8 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         run = Run(site_id=site_id, started_ts=now_ts(), code_version=__version__, settings_hash=shash,
                   data_version=version, data_complete_to_ts=complete_to, changed_from_ts=dirty_from,
                   n_readings=n_readings, n_days=0 if res is None else int(res.days.size), status=status,
-                  message=message, warnings_json=json.dumps([] if res is None else list(res.warnings)))
+                  message=message, warnings_json=json.dumps([] if res is None else list(res.warnings)),
+                  model=_model_name(res))
         s.add(run)
         s.flush()
         memo = None
@@ -591,5 +614,6 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
             "seconds": time.perf_counter() - t0, "data_complete_to": _iso(complete_to),
             "timings": {"load": t_load, "estimate": t_estimate,
                         "store": time.perf_counter() - t0 - t_load - t_estimate},
+            "model": _model_name(res),
             "recomputed_from_day": None if first_day is None else _iso(first_day * _DAY_S)[:10],
             "rebuilt_sensors": None if rebuilt is None else len(rebuilt)}

@@ -299,7 +299,7 @@ class _App:
         return {"id": run.id, "code_version": run.code_version, "settings_hash": run.settings_hash,
                 "data_version": run.data_version, "data_complete_to": _iso(run.data_complete_to_ts),
                 "changed_from": _iso(run.changed_from_ts), "n_readings": run.n_readings, "n_days": run.n_days,
-                "finished": _iso(run.finished_ts)}
+                "finished": _iso(run.finished_ts), "model": run.model}
 
     def profile_bytes(self, st, run, d):
         alarms = list_alarms(self.db, st.name, open_only=True)
@@ -728,7 +728,7 @@ def _write_day_report(db: Database, name: str, day: str, folder: Path):
     from ...report import write_rail_report
     from .. import estimate_settlement, validate_site
     from ._alarms import thresholds_of
-    from ._recompute import DEFAULT_SETTINGS, controls_table, load_site_data
+    from ._recompute import DEFAULT_SETTINGS, controls_table, load_site_data, service_joint_days
 
     with db.read() as s:
         st = s.scalar(select(Site).where(Site.name == name))
@@ -738,7 +738,9 @@ def _write_day_report(db: Database, name: str, day: str, folder: Path):
         controls = controls_table(s, st, upto=day)
     end = pd.Timestamp(day) + pd.Timedelta(days=1)
     readings = readings[readings["timestamp"] < end]
+    n_days = readings["timestamp"].dt.normalize().nunique()
     res = estimate_settlement(validate_site(sensors, readings, survey, controls), thermal=settings["thermal"],
+                              joint_days=service_joint_days(settings, len(sensors), n_days),  # the live model
                               n_monte_carlo=max(int(settings["n_monte_carlo"]), 500),
                               settlement_threshold_m=thr.get("settlement", {}).get("alert"),
                               rate_threshold_m_per_day=thr.get("rate", {}).get("alert"),
