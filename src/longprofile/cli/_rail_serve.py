@@ -131,7 +131,14 @@ def site_update(name: str = typer.Argument(...), db: str = DB_OPT,
         k, sep, v = item.partition("=")
         if not sep:
             raise InputError(f"--set {item!r}: expected FIELD=VALUE.")
-        fields[k] = json.loads(v) if k == "settings" else (None if v == "" else v)
+        if k == "settings":
+            try:
+                fields[k] = json.loads(v)
+            except json.JSONDecodeError as exc:
+                raise InputError(f"--set settings: not a JSON object ({exc.msg} at character {exc.pos + 1}); e.g. "
+                                 """settings='{"model": "per-day"}'.""") from None
+        else:
+            fields[k] = None if v == "" else v
     _print(_service.update_site(_db(db), _actor(actor), name, **fields))
 
 

@@ -60,3 +60,10 @@ def test_errors_are_library_errors(cli, tmp_path):
     assert isinstance(res.exception, LongprofileError) and "unknown site" in str(res.exception)
     res = cli("serve")
     assert isinstance(res.exception, LongprofileError) and "--db" in str(res.exception)
+    assert cli("site", "create", "mitt", "--db", url).exit_code == 0
+    res = cli("site", "update", "mitt", "--db", url, "--set", "settings={model: per-day}")  # not JSON
+    assert isinstance(res.exception, LongprofileError) and "not a JSON object" in str(res.exception)
+    res = cli("site", "update", "mitt", "--db", url, "--set", 'settings={"model": "joint"}')
+    assert isinstance(res.exception, LongprofileError) and "model must be one of" in str(res.exception)
+    res = cli("site", "update", "mitt", "--db", url, "--set", 'settings={"model": "per-day"}')
+    assert res.exit_code == 0 and json.loads(res.stdout)["settings"] == {"model": "per-day"}
