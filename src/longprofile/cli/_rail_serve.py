@@ -270,17 +270,28 @@ def site_audit(name: str = typer.Argument(...), db: str = DB_OPT, limit: int = t
 def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="readings table."),
                 db: str = DB_OPT, angle_unit: str = typer.Option("deg", "--angle-unit")):
     """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
+    from ..errors import InputFormatError
     from ..io import read_table
+    from ..rail import READING_COLUMNS
     from ..rail import service as _service
 
     t = read_table(file)
-    if "timestamp" in t.columns:
-        t["timestamp"] = t["timestamp"].astype(str)
+    wrong = sorted(set(map(str, t.columns)) ^ set(READING_COLUMNS))
+    if wrong:  # the whole file would be rejected row by row: say it once, store nothing
+        raise InputFormatError(f"{file}: the columns are {list(map(str, t.columns))}; a readings table has exactly "
+                               f"{list(READING_COLUMNS)} (as for rail settle).")
+    t["timestamp"] = t["timestamp"].astype(str)
     res = _service.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit)
     _print({k: v for k, v in res.as_dict().items() if k != "rows"})
-    for r in res.rows:
-        if r["outcome"] == "rejected":
-            console.print(f"[yellow]row {r['row']} rejected:[/yellow] {r['reason']}", highlight=False)
+    rejected = [r for r in res.rows if r["outcome"] == "rejected"]
+    for r in rejected[:_SHOW_REJECTED]:
+        console.print(f"[yellow]row {r['row']} rejected:[/yellow] {r['reason']}", highlight=False)
+    if len(rejected) > _SHOW_REJECTED:
+        console.print(f"[yellow]... and {len(rejected) - _SHOW_REJECTED} more rejected rows[/yellow]", highlight=False)
+
+
+#: Rejected rows of ``rail site ingest`` printed one per line; the rest are counted.
+_SHOW_REJECTED = 10
 
 
 @site_app.command("recompute")

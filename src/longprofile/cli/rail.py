@@ -92,6 +92,10 @@ def settle_command(
                                  help="Estimate each day on its own (docs/rail.md step 9; the live service's model) "
                                       "instead of all days in one posterior (the default, step 10: sensor drift "
                                       "correlated over the days; 3.4x slower on a year of 100 sensors)."),
+    thresholds: Path = typer.Option(None, "--thresholds",
+                                    help="Graded thresholds table: quantity (settlement, rate, twist), level (alert, "
+                                         "action, alarm), value_mm (mm; mm/day for the rate), as the monitoring "
+                                         "service takes them. Without any threshold nothing is tested."),
     threshold_mm: float = typer.Option(None, "--settlement-threshold-mm", help="Alarm on |altitude change|, mm."),
     rate_mm: float = typer.Option(None, "--rate-threshold-mm-per-day", help="Alarm on |daily rate|, mm/day."),
     alarm_probability: float = typer.Option(0.5, "--alarm-probability", help="Report exceedance probabilities >= this."),
@@ -102,10 +106,11 @@ def settle_command(
     """Altitude change of the track, day by day, with 90 % bands, sensor health and alarms."""
     import numpy as np
 
-    from ..io import read_rail_site, write_table
+    from ..errors import InputError
+    from ..io import read_rail_site, read_rail_thresholds, write_table
     from ..rail import SettlementSettings, estimate_settlement
 
-    inputs = (sensors, readings, survey, controls)
+    inputs = (sensors, readings, survey, controls, thresholds)
     # check every output path before the computation, so a bad path fails at once and writes nothing
     out = check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, *inputs, overwrite=overwrite)
@@ -113,6 +118,10 @@ def settle_command(
         from ..report import REPORT_FILES
 
         check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"])
+    if thresholds is not None and (threshold_mm is not None or rate_mm is not None):
+        raise InputError("give either --thresholds FILE or --settlement-threshold-mm / --rate-threshold-mm-per-day, "
+                         "not both.")
+    graded = None if thresholds is None else read_rail_thresholds(thresholds)
     site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
     settings = SettlementSettings(
         thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
@@ -120,7 +129,7 @@ def settle_command(
         quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude),
         use_affine_correction=affine, joint_days=not per_day,
         settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
-        rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3,
+        rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3, thresholds=graded,
         alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
@@ -138,9 +147,10 @@ def settle_command(
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     worst = -res.dz[-1].min()
+    alarms = (f"{len(res.alarms)} alarm(s)" if res.settings.get("thresholds_set") else
+              "no alarm thresholds set (--thresholds FILE): nothing was tested against a limit")
     console.print(f"{len(res.sensor_ids)} sensors, {res.days.size} days; {int(res.health.excluded.sum())} sensor(s) "
-                  f"excluded; max settlement on the last day {1e3 * worst:.1f} mm; {len(res.alarms)} alarm(s) "
-                  f"-> {output}")
+                  f"excluded; max settlement on the last day {1e3 * worst:.1f} mm; {alarms} -> {output}")
 
 
 def _register_service() -> None:

@@ -46,6 +46,9 @@ Beyond the paper
 smooth_through_time         -- settlement smoothed across days per station, daily rates with bands;
                                TemporalSettlement is its result.
 settlement_alarms           -- threshold exceedances with station, date and probability.
+check_threshold             -- a plausible alarm threshold (THRESHOLD_RANGE_M: 0.01 mm to 1 m), else InputError.
+threshold_alarms            -- every level (alert, action, alarm) of settlement, rate and twist thresholds tested.
+check_thresholds            -- a validated {quantity: {level: value}} (THRESHOLD_QUANTITIES, THRESHOLD_LEVELS).
 fit_change_prior            -- maximum-likelihood prior (order and r) of the settlement profile;
                                ChangePriorFit is its result.
 segment_prior_weights       -- space-varying prior of the settlement profile (r w_i per segment, EM).
@@ -70,7 +73,9 @@ _EXPORTS = {
     "._settle": ("ChangePriorFit", "SettlementResult", "SettlementSettings", "affine_correction",
                  "estimate_settlement", "estimate_settlement_from_daily", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
-    "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time"),
+    "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time", "check_threshold",
+                   "THRESHOLD_RANGE_M"),
+    "._thresholds": ("THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms"),
     "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
                   "day_statistics", "first_order_response", "statistics_window"),
 }
@@ -83,7 +88,8 @@ __all__ = [
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
-    "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
+    "smooth_through_time", "TemporalSettlement", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
+    "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",

@@ -48,8 +48,9 @@ from ._rigidity import (
     sample_profiles,
     segment_process_energy,
 )
-from ._temporal import TemporalSettlement, settlement_alarms, smooth_through_time
+from ._temporal import TemporalSettlement, check_threshold, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
+from ._thresholds import check_thresholds, threshold_alarms
 
 __all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "estimate_settlement_from_daily",
            "fit_noise_and_rigidity", "fit_change_prior", "ChangePriorFit", "day_difference_sigma", "affine_correction",
@@ -105,7 +106,9 @@ class SettlementResult:
     change_prior : ChangePriorFit or None
         The maximum-likelihood fit of the change prior (None when ``rigidity`` was given).
     alarms : DataFrame
-        See :func:`~longprofile.rail.settlement_alarms`.
+        See :func:`~longprofile.rail.settlement_alarms` (with graded ``thresholds``:
+        :func:`~longprofile.rail.threshold_alarms`, a ``level`` column more). Empty both when nothing exceeds and
+        when no threshold was set: ``settings["thresholds_set"]`` tells them apart.
     controls : DataFrame or None
         Control points compared with the estimate: date, x_m, dz_control_m, dz_estimate_m, std_m, inside_90.
     warnings : tuple of str
@@ -773,6 +776,11 @@ class SettlementSettings:
         Alarm threshold on |altitude change|, m.
     rate_threshold_m_per_day : float or None, default None
         Alarm threshold on |daily rate|, m/day.
+    thresholds : mapping or None, default None
+        Graded thresholds ``{quantity: {level: value}}`` (settlement, rate, twist; alert, action, alarm; m or m/day:
+        :func:`~longprofile.rail.check_thresholds`), tested by :func:`~longprofile.rail.threshold_alarms` (the
+        alarms table then has a ``level`` column); not together with the two single thresholds above. With no
+        threshold at all nothing is tested: ``SettlementResult.alarms`` is empty and says nothing about limits.
     alarm_probability : float, default 0.5
         Report a station-day when its exceedance probability is at least this (0..1).
     n_monte_carlo : int, default 1000
@@ -812,6 +820,7 @@ class SettlementSettings:
     process_std: float | None = None
     settlement_threshold_m: float | None = None
     rate_threshold_m_per_day: float | None = None
+    thresholds: Any = None
     alarm_probability: float = 0.5
     n_monte_carlo: int = 1000
     rng: Any = 0
@@ -827,6 +836,15 @@ class SettlementSettings:
             raise InputError(f"error_model must be one of {ERROR_MODELS}; got {self.error_model!r}.")
         if self.penalty_order is not None and self.penalty_order not in PENALTY_ORDERS:
             raise InputError(f"penalty_order must be None, 2 or 3; got {self.penalty_order!r}.")
+        if self.settlement_threshold_m is not None:
+            check_threshold(self.settlement_threshold_m, "settlement")
+        if self.rate_threshold_m_per_day is not None:
+            check_threshold(self.rate_threshold_m_per_day, "rate")
+        if self.thresholds is not None:
+            if self.settlement_threshold_m is not None or self.rate_threshold_m_per_day is not None:
+                raise InputError("give either thresholds (by quantity and level) or settlement_threshold_m / "
+                                 "rate_threshold_m_per_day, not both.")
+            object.__setattr__(self, "thresholds", check_thresholds(self.thresholds))
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -983,11 +1001,14 @@ def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: Settle
         smoothed = None
     src_mean = smoothed.mean if smoothed is not None else post["z_mean"]
     src_std = smoothed.std if smoothed is not None else dz_std
-    alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=opt.settlement_threshold_m,
-                               rate=None if smoothed is None else smoothed.rate,
-                               rate_std=None if smoothed is None else smoothed.rate_std,
-                               rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
-                               min_probability=opt.alarm_probability)
+    rate = (None, None) if smoothed is None else (smoothed.rate, smoothed.rate_std)
+    if opt.thresholds is not None:
+        alarms = threshold_alarms(days, ids, x, src_mean, src_std, opt.thresholds, rate=rate[0], rate_std=rate[1],
+                                  min_probability=opt.alarm_probability)
+    else:
+        alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=opt.settlement_threshold_m,
+                                   rate=rate[0], rate_std=rate[1], rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
+                                   min_probability=opt.alarm_probability)
     controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
     return smoothed, dz_std, alarms, controls
 
@@ -1109,7 +1130,9 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 through_time=opt.through_time,
                 process_std=None if smoothed is None or joint else smoothed.process_std,
                 settlement_threshold_m=opt.settlement_threshold_m,
-                rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
+                rate_threshold_m_per_day=opt.rate_threshold_m_per_day, thresholds=opt.thresholds,
+                thresholds_set=bool(opt.thresholds) or opt.settlement_threshold_m is not None
+                or opt.rate_threshold_m_per_day is not None,
                 alarm_probability=opt.alarm_probability, n_monte_carlo=opt.n_monte_carlo)
 
 
@@ -1161,6 +1184,8 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
         Day-to-day settlement std of the through-time model, m/day (default: maximum likelihood).
     settlement_threshold_m, rate_threshold_m_per_day : float, optional
         Alarm thresholds on |altitude change| (m) and |daily rate| (m/day).
+    thresholds : mapping, optional
+        Graded thresholds ``{quantity: {level: value}}`` instead (:class:`SettlementSettings`).
     alarm_probability : float, default 0.5
         Report a station-day when the exceedance probability is at least this.
     n_monte_carlo : int, default 1000

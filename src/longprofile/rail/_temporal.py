@@ -25,7 +25,8 @@ from scipy.special import ndtr
 from ..errors import InputError
 from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
 
-__all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "PROCESS_STD_GRID"]
+__all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
+           "PROCESS_STD_GRID"]
 
 #: Candidate day-to-day settlement std q, m/day.
 PROCESS_STD_GRID = (2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
@@ -161,6 +162,29 @@ def _prob_abs_exceeds(mean, std, thr):
     return ndtr((-thr - mean) / std) + ndtr((mean - thr) / std)
 
 
+#: Plausible alarm thresholds on |altitude change| (m) and |daily rate| (m/day): a value outside is taken as a unit
+#: mistake (mm given as m or the reverse) and refused. Track thresholds are typically 2-50 mm and 1-5 mm/day.
+THRESHOLD_RANGE_M = (1e-5, 1.0)
+
+
+def check_threshold(value, kind: str = "settlement") -> float:
+    """``value`` as a float when it is a plausible threshold of ``kind`` ("settlement", "rate" or "twist"), m or
+    m/day; :class:`~longprofile.errors.InputError` otherwise (not finite, not > 0, outside
+    :data:`THRESHOLD_RANGE_M`)."""
+    unit = "m/day" if kind == "rate" else "m"
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"the {kind} threshold must be a number in {unit}; got {value!r}.") from None
+    if not v > 0 or not np.isfinite(v):
+        raise InputError(f"the {kind} threshold must be > 0 {unit}; got {value!r}.")
+    lo, hi = THRESHOLD_RANGE_M
+    if not lo <= v <= hi:
+        raise InputError(f"a {kind} threshold of {v:g} {unit} is not plausible ({lo * 1e3:g} mm to {hi:g} m): a unit "
+                         "mistake? (the library and the service API take m, the command line mm).")
+    return v
+
+
 def settlement_alarms(days, sensor_ids, x, mean, std, *, threshold_m=None, rate=None, rate_std=None,
                       rate_threshold_m_per_day=None, min_probability: float = 0.5) -> pd.DataFrame:
     """Alarms: station-days where |altitude change| or |daily rate| exceeds a threshold with enough probability.
@@ -192,15 +216,12 @@ def settlement_alarms(days, sensor_ids, x, mean, std, *, threshold_m=None, rate=
     rows = []
     checks = []
     if threshold_m is not None:
-        if not threshold_m > 0:
-            raise InputError(f"the settlement threshold must be > 0 m; got {threshold_m!r}.")
-        checks.append(("settlement", mean, std, float(threshold_m)))
+        checks.append(("settlement", mean, std, check_threshold(threshold_m, "settlement")))
     if rate_threshold_m_per_day is not None:
-        if not rate_threshold_m_per_day > 0:
-            raise InputError(f"the rate threshold must be > 0 m/day; got {rate_threshold_m_per_day!r}.")
+        thr = check_threshold(rate_threshold_m_per_day, "rate")
         if rate is None:
             raise InputError("a rate threshold needs the rate posterior (temporal smoothing).")
-        checks.append(("rate", rate, rate_std, float(rate_threshold_m_per_day)))
+        checks.append(("rate", rate, rate_std, thr))
     for kind, m, s, thr in checks:
         with np.errstate(invalid="ignore"):
             p = _prob_abs_exceeds(m, s, thr)

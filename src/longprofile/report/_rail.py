@@ -266,12 +266,13 @@ def _control_summary(controls) -> pd.DataFrame:
 
 
 def _alarm_summary(alarms: pd.DataFrame) -> pd.DataFrame:
-    """One row per station and kind (first and last day, worst value and threshold in mm or mm/day)."""
+    """One row per station, kind (and level) (first and last day, worst value and threshold in mm or mm/day)."""
     alarms = alarms.copy()
     if len(alarms):
         alarms["value"] = alarms["value"] * 1e3
         alarms["threshold"] = alarms["threshold"] * 1e3
-        alarms = (alarms.groupby(["sensor_id", "x_m", "kind"], sort=False)
+        keys = ["sensor_id", "x_m", "kind"] + (["level"] if "level" in alarms.columns else [])
+        alarms = (alarms.groupby(keys, sort=False)
                   .agg(first_date=("date", "min"), last_date=("date", "max"), days=("date", "size"),
                        threshold=("threshold", "first"), worst_value=("value", lambda v: v.iloc[np.argmax(np.abs(v))]),
                        max_probability=("probability", "max"))
@@ -279,6 +280,22 @@ def _alarm_summary(alarms: pd.DataFrame) -> pd.DataFrame:
         alarms = alarms.rename(columns={"worst_value": "worst value (mm or mm/day)",
                                         "threshold": "threshold (mm or mm/day)"})
     return alarms
+
+
+def _thresholds_html(settings: dict) -> str:
+    """The thresholds the alarms were tested against, or the statement that none was set."""
+    graded = dict(settings.get("thresholds") or {})
+    if settings.get("settlement_threshold_m") is not None:
+        graded.setdefault("settlement", {})["alert"] = settings["settlement_threshold_m"]
+    if settings.get("rate_threshold_m_per_day") is not None:
+        graded.setdefault("rate", {})["alert"] = settings["rate_threshold_m_per_day"]
+    if not graded:
+        return ('<p class="nothr"><b>No alarm thresholds were set: no station was tested against a limit.</b> An empty '
+                "list below is not a statement that the track is within tolerance; give thresholds with "
+                "<code>rail settle --thresholds FILE</code> (quantity, level, value_mm).</p>")
+    unit = {"rate": "mm/day"}
+    rows = [(q, lv, f"{1e3 * v:g} {unit.get(q, 'mm')}") for q, levels in graded.items() for lv, v in levels.items()]
+    return "<p>Thresholds tested: " + "; ".join(f"{q} {lv} {html.escape(v)}" for q, lv, v in rows) + ".</p>"
 
 
 def _method_context(result) -> dict:
@@ -302,6 +319,7 @@ def _page_context(result, title: str, health: pd.DataFrame, images: dict) -> dic
     return dict(title=html.escape(title), **_method_context(result),
                 warnings=[html.escape(w) for w in result.warnings],
                 flagged_table=_table_html(flagged), alarms_table=_table_html(_alarm_summary(result.alarms)),
+                thresholds=_thresholds_html(result.settings),
                 controls_table=("" if result.controls is None else _table_html(_control_summary(result.controls))),
                 max_table=_table_html(_max_settlement_table(result)),
                 imgs={name.removesuffix(".png"): b64 for name, b64 in images.items()})

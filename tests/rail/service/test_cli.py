@@ -67,3 +67,15 @@ def test_errors_are_library_errors(cli, tmp_path):
     assert isinstance(res.exception, LongprofileError) and "model must be one of" in str(res.exception)
     res = cli("site", "update", "mitt", "--db", url, "--set", 'settings={"model": "per-day"}')
     assert res.exit_code == 0 and json.loads(res.stdout)["settings"] == {"model": "per-day"}
+    # a profile given as readings: one line naming the columns, nothing stored (it printed one rejection per row)
+    prof = tmp_path / "profile.csv"
+    prof.write_text("distance_m,elevation_m\n" + "".join(f"{0.25 * i},0.001\n" for i in range(500)))
+    res = cli("site", "ingest", "mitt", "--file", str(prof), "--db", url)
+    assert isinstance(res.exception, LongprofileError) and "a readings table has exactly" in str(res.exception)
+    # thresholds: mm, plausibility checked (a unit mistake is refused)
+    for value in ("1e300", "0.000001"):
+        res = cli("site", "threshold", "mitt", "settlement", "alert", value, "--db", url)
+        assert isinstance(res.exception, LongprofileError) and "not plausible" in str(res.exception)
+    assert cli("site", "threshold", "mitt", "settlement", "alert", "12", "--db", url).exit_code == 0
+    res = cli("site", "survey", "mitt", "--file", str(prof), "--db", url)
+    assert isinstance(res.exception, LongprofileError) and "needs x_m and z_m; it has" in str(res.exception)

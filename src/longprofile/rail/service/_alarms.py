@@ -1,7 +1,7 @@
 """Alarm lifecycle (raise -> acknowledge -> clear, on transitions only) and the notification outbox.
 
-Levels are decided by :func:`longprofile.rail.settlement_alarms` — the function ``rail settle`` uses — on the
-latest day of a run: a level holds when the exceedance probability of its threshold is >= the site's
+Levels are decided by :func:`longprofile.rail.threshold_alarms` — the function ``rail settle --thresholds`` uses —
+on the latest day of a run: a level holds when the exceedance probability of its threshold is >= the site's
 ``alarm_probability`` (default 0.5) at some station (settlement, rate) or between two neighbouring sensors
 (twist: the difference of their altitude changes).
 
@@ -23,46 +23,33 @@ import numpy as np
 import pandas as pd
 from sqlalchemy import func, select, update
 
-from .. import settlement_alarms
-from ._db import LEVELS, Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
+from .. import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, threshold_alarms
+from ._db import Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
            "list_alarms"]
 
 
 def quantity_levels(res, thresholds: dict, *, probability: float = 0.5) -> dict:
-    """{quantity: (level or None, value, threshold, where)} on the last day of a SettlementResult."""
+    """{quantity: (level or None, value, threshold, where)} on the last day of a SettlementResult: the highest level
+    of :func:`longprofile.rail.threshold_alarms` (the function ``rail settle --thresholds`` calls) on that day, and
+    its station (or pair of sensors) of largest |value|; the through-time posterior when the result has one."""
     sm = res.smoothed
     mean = (sm.mean if sm is not None else res.dz)[-1:]
     std = (sm.std if sm is not None else res.dz_std)[-1:]
-    day = res.days[-1:]
-    ids, x = list(res.sensor_ids), np.asarray(res.x)
-    series = {"settlement": dict(ids=ids, x=x, mean=mean, std=std)}
-    pair_ids = [f"{a}|{b}" for a, b in zip(ids[:-1], ids[1:])]
-    # twist-like: difference of neighbouring changes; std as for independent errors (neighbours' errors are
-    # positively correlated, so this overstates the std: conservative on the mean, optimistic on the band)
-    series["twist"] = dict(ids=pair_ids, x=0.5 * (x[1:] + x[:-1]), mean=np.diff(mean, axis=1),
-                           std=np.sqrt(std[:, 1:] ** 2 + std[:, :-1] ** 2))
+    if sm is None:  # no rate posterior: rate thresholds are not tested
+        thresholds = {q: v for q, v in thresholds.items() if q != "rate"}
+    a = threshold_alarms(res.days[-1:], list(res.sensor_ids), np.asarray(res.x), mean, std, thresholds,
+                         rate=None if sm is None else sm.rate[-1:], rate_std=None if sm is None else sm.rate_std[-1:],
+                         min_probability=probability)
     out = {}
-    for q in ("settlement", "rate", "twist"):
-        levels = thresholds.get(q, {})
+    for q in THRESHOLD_QUANTITIES:
         found = (None, None, None, None)
-        for lv in LEVELS:
-            thr = levels.get(lv)
-            if thr is None:
-                continue
-            if q == "rate":
-                if sm is None:
-                    continue
-                a = settlement_alarms(day, ids, x, mean, std, rate=sm.rate[-1:], rate_std=sm.rate_std[-1:],
-                                      rate_threshold_m_per_day=thr, min_probability=probability)
-            else:
-                d = series[q]
-                a = settlement_alarms(day, d["ids"], d["x"], d["mean"], d["std"], threshold_m=thr,
-                                      min_probability=probability)
-            if len(a):
-                j = int(np.argmax(np.abs(a["value"].to_numpy())))
-                found = (lv, float(a["value"].iloc[j]), float(thr), str(a["sensor_id"].iloc[j]))
+        for lv in THRESHOLD_LEVELS:
+            hit = a[(a["kind"] == q) & (a["level"] == lv)]
+            if len(hit):
+                j = int(np.argmax(np.abs(hit["value"].to_numpy())))
+                found = (lv, float(hit["value"].iloc[j]), float(hit["threshold"].iloc[j]), str(hit["sensor_id"].iloc[j]))
         out[q] = found
     return out
 

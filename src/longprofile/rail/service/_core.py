@@ -22,7 +22,7 @@ from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
-from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, SiteData, angle_noise, validate_site
+from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, SiteData, angle_noise, check_threshold, validate_site
 from ._db import (
     LEVELS,
     QUANTITIES,
@@ -248,8 +248,9 @@ def put_survey(db: Database, actor: str, name: str, rows) -> dict:
     """Replace the initial survey (``x_m``, ``z_m`` rows)."""
     pts = []
     for i, r in enumerate(rows):
-        if not isinstance(r, dict):
-            raise InputError(f"survey row {i}: needs x_m and z_m.")
+        if not isinstance(r, dict) or "x_m" not in r or "z_m" not in r:
+            has = f"; it has {sorted(map(str, r))[:5]}" if isinstance(r, dict) else ""
+            raise InputError(f"survey row {i}: needs x_m and z_m{has}.")
         pts.append((_finite(r.get("x_m"), f"survey row {i}: x_m"), _finite(r.get("z_m"), f"survey row {i}: z_m")))
     if len(pts) < 2:
         raise InputError("a survey needs at least 2 points.")
@@ -406,6 +407,8 @@ def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str
     v = None if value is None else _finite(value, "threshold value")
     if v is not None and v <= 0:
         raise InputError(f"a threshold is on |value| and must be > 0; got {v}.")
+    if v is not None:
+        check_threshold(v, quantity)
     with db.write() as s:
         site = _site(s, name)
         cur = s.scalar(select(Threshold).where(Threshold.site_id == site.id, Threshold.quantity == quantity,

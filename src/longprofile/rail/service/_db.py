@@ -29,13 +29,14 @@ from sqlalchemy import (
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, sessionmaker
 
 from ...errors import InputError
+from .. import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES
 
 __all__ = ["Base", "Database", "now_ts", "LEVELS", "QUANTITIES", "ROLES"]
 
 #: Alarm levels, lowest first (index + 1 = severity).
-LEVELS = ("alert", "action", "alarm")
+LEVELS = THRESHOLD_LEVELS  # the library's (rail/_thresholds.py): rail settle --thresholds takes the same
 #: Quantities that carry three thresholds per site (m, m/day, m).
-QUANTITIES = ("settlement", "rate", "twist")
+QUANTITIES = THRESHOLD_QUANTITIES
 ROLES = ("viewer", "engineer", "admin")
 
 

@@ -742,8 +742,7 @@ def _write_day_report(db: Database, name: str, day: str, folder: Path):
     res = estimate_settlement(validate_site(sensors, readings, survey, controls), thermal=settings["thermal"],
                               joint_days=service_joint_days(settings, len(sensors), n_days),  # the live model
                               n_monte_carlo=max(int(settings["n_monte_carlo"]), 500),
-                              settlement_threshold_m=thr.get("settlement", {}).get("alert"),
-                              rate_threshold_m_per_day=thr.get("rate", {}).get("alert"),
+                              thresholds=thr or None,  # every level of every quantity, as the live alarms
                               alarm_probability=float(settings["alarm_probability"]))
     tmp = folder.with_name(folder.name + ".tmp")
     write_rail_report(res, tmp, title=f"Track settlement report: {name}, data to {day}")
