@@ -20,6 +20,7 @@ from longprofile.road.apl import (
     apl_response,
     detrend_profile,
     estimate_road_spectrum_ratio,
+    fixed_lag_error_std,
     reconstruct_profile,
     smoother_error_std,
 )
@@ -127,6 +128,73 @@ def test_red_noise_keeps_the_models_spectrum():
     prior = reconstruct_profile(y, MODEL, short_waves="prior", q=rec.q, r=rec.r)
     np.testing.assert_array_equal(rec.profile.std, prior.profile.std)
 
+
+
+def _fixed_lag_coverage(kind, seeds, option):
+    """Fixed-lag 90 % coverage of ``std_m`` on ISO class C (1500 m) with a drifting sensor (2 % white noise plus a
+    random walk, as benchmarks road_calibration's family, other seeds) or AR(1) noise (2 m, 4 %); and the
+    reconstructions."""
+    inside, recs = [], []
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        u = iso8608_profile(1500.0, DX, "C", rng=rng).elevation[:, 0]
+        y0 = apl_response(u, MODEL)
+        s = y0.std()
+        if kind == "drift":
+            y = y0 + rng.normal(0.0, 0.02 * s, u.size) + np.cumsum(rng.normal(0.0, 0.002 * s, u.size))
+        else:
+            phi = np.exp(-DX / 2.0)
+            y = y0 + signal.lfilter([1.0], [1.0, -phi], rng.normal(0.0, 0.04 * s * np.sqrt(1 - phi ** 2), u.size))
+        rec = reconstruct_profile(y, MODEL, method="fixed-lag", short_waves=option)
+        keep = slice(2000, u.size - 2000)
+        err = rec.profile.elevation[:, 0] - detrend_profile(u, DX)
+        inside.append(np.abs(err[keep]) <= 1.645 * rec.profile.std[keep, 0])
+        recs.append(rec)
+    return float(np.mean(np.concatenate(inside))), recs
+
+
+@pytest.mark.parametrize("kind", ["drift", "red"])
+def test_the_fixed_lags_band_when_its_own_fit_fails_the_noise_check(kind):
+    """A drifting sensor or red noise: the fixed-lag's AR(1) fit puts the long-wave power into r, the noise check
+    rejects it, and the std is the fixed-lag's error under the Wiener fit's noise (and, for the drift, whose noise is
+    white, the road the record shows with it). Before (the model's own spectrum, still ``short_waves="prior"``) the
+    band covered 99.5-100 % of these draws."""
+    coverage, recs = _fixed_lag_coverage(kind, (51, 52), "record")
+    assert 0.84 <= coverage <= 0.96, coverage
+    for rec in recs:
+        assert rec.std_noise_fit is not None and rec.std_noise_fit.converged
+        if kind == "drift":  # the Wiener fit's r is the noise's; the AR(1) fit's holds the drift
+            assert rec.std_noise_fit.r < 0.1 * rec.r
+        assert (rec.road_spectrum is not None) == (kind == "drift")
+    prior, _ = _fixed_lag_coverage(kind, (51,), "prior")
+    assert prior > 0.98, prior
+
+
+def test_the_fixed_lag_keeps_its_own_fit_when_the_noise_is_white():
+    rng = np.random.default_rng(61)
+    u = iso8608_profile(800.0, DX, "C", rng=rng).elevation[:, 0]
+    y0 = apl_response(u, MODEL)
+    rec = reconstruct_profile(y0 + rng.normal(0.0, 0.02 * y0.std(), u.size), MODEL, method="fixed-lag")
+    assert rec.std_noise_fit is None and rec.road_spectrum is not None and rec.road_spectrum.white_noise
+    expected = fixed_lag_error_std(MODEL, rec.q, rec.r, rec.lag_m, road_ratio=rec.road_spectrum, n_fft=1 << 17)
+    assert rec.profile.std[0, 0] == expected
+
+
+def test_fixed_lag_error_std_noise_and_road_options():
+    q, r, lag = 3e-6, 8e-8, 83.0
+    base = fixed_lag_error_std(MODEL, q, r, lag)
+    phi = np.exp(-DX / 2.0)
+    same = fixed_lag_error_std(MODEL, q, r, lag, noise_variance=r,
+                               road_spectrum=lambda w: q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2)
+    assert same == pytest.approx(base, rel=1e-12)
+    # the |G|^2 term grows with the noise, the road term with the road
+    assert fixed_lag_error_std(MODEL, q, r, lag, noise_variance=4 * r) > base
+    assert fixed_lag_error_std(MODEL, q, r, lag, road_spectrum=lambda w: 4 * q / np.abs(1.0 - phi * np.exp(-1j * w))
+                               ** 2) > base
+    est = estimate_road_spectrum_ratio(np.random.default_rng(0).normal(size=8192), MODEL, 1.0, _wiener(1.0))
+    assert est is not None
+    with pytest.raises(InputError, match="not both"):
+        fixed_lag_error_std(MODEL, q, r, lag, road_ratio=est, road_spectrum=_wiener(q))
 
 #: Fingerprints of the 600 m record below computed with the tree before the change (commit 74ff502; smoother and
 #: fixed-lag with their defaults then, which ``short_waves="prior"`` keeps). ``raw``/``raw_std`` are left out: the smoother's undetrended estimate carries

@@ -634,7 +634,8 @@ def _error_weight(w, h, band, highpass_wavelength):
 def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, *,
                         correlation_length: float | None = None, dx: float | None = None,
                         highpass_wavelength: float | None = 100.0, band: tuple[float, float] | None = None,
-                        n_fft: int = 1 << 15, road_ratio: RoadSpectrumRatio | None = None) -> float:
+                        n_fft: int = 1 << 15, road_ratio: RoadSpectrumRatio | None = None,
+                        noise_variance: float | None = None, road_spectrum=None) -> float:
     r"""Stationary std of the fixed-lag estimate's error, seen through the detrending (or a waveband), m.
 
     In steady state the fixed-lag smoother of ``reconstruct_profile(method="fixed-lag")`` is a linear filter
@@ -664,7 +665,20 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
     road_ratio : RoadSpectrumRatio, optional
         The road's spectrum relative to the AR(1) model's, estimated from the record
         (:func:`estimate_road_spectrum_ratio`): S_u is replaced by c(w) S_u in S_e. Default None: the model's road.
+    noise_variance : float, optional
+        The white-noise variance of the record in the |G|^2 term, m^2, when it is not the r the estimator was built
+        with (the fixed-lag's G is always that of (q, r)). Default None: r.
+    road_spectrum : callable, optional
+        w (rad/sample) -> the road's spectrum S_road(w), m^2, in place of the model's (e.g. paper 000's Wiener road,
+        eq. 7, q_W / |1 - e^{-jw}|^2); not with ``road_ratio``. Default None.
+
+    Notes
+    -----
+    ``reconstruct_profile`` passes ``noise_variance`` and ``road_spectrum`` when the record's noise check on the
+    fixed-lag's own AR(1) fit fails (docs/road-apl.md, "The fixed-lag's std when its own fit fails the noise check").
     """
+    if road_ratio is not None and road_spectrum is not None:
+        raise InputError("give road_ratio or road_spectrum, not both.")
     h = require_positive("dx", dx if dx is not None else instrument.dx)
     lag = int(round(require_positive("lag_m", lag_m, strict=False) / h))
     ell = FIXED_LAG_CORRELATION_LENGTH if correlation_length is None else correlation_length
@@ -680,9 +694,11 @@ def fixed_lag_error_std(instrument: APLModel, q: float, r: float, lag_m: float, 
     H = instrument.response_at(w / (2 * np.pi * instrument.dt))
     Su = q / np.abs(1.0 - _input_dynamics("ar1", h, ell) * np.exp(-1j * w)) ** 2
     W = _error_weight(w, h, band, highpass_wavelength)
+    noise = r if noise_variance is None else require_positive("noise_variance", noise_variance)
     if road_ratio is not None:
-        return record_error_std(G, H, Su, r, W, w, road_ratio)[0]
-    Se = np.abs(G * H - 1.0) ** 2 * Su + np.abs(G) ** 2 * r
+        return record_error_std(G, H, Su, noise, W, w, road_ratio)[0]
+    road = Su if road_spectrum is None else np.asarray(road_spectrum(w), dtype=float)
+    Se = np.abs(G * H - 1.0) ** 2 * road + np.abs(G) ** 2 * noise
     return float(np.sqrt(np.trapezoid(W * Se, w) / np.pi))
 
 
@@ -725,6 +741,10 @@ class Reconstruction:
         under (``short_waves="record"``); None: the model's own spectrum.
     warnings : tuple of str
         What the caller should know about the printed std (e.g. :func:`fixed_lag_calibration_warning`).
+    std_noise_fit : NoiseFit or None
+        ``"fixed-lag"`` with ``short_waves="record"`` only: when the record's noise check fails on the fixed-lag's own
+        AR(1) fit, the fit of paper 000's Wiener model (eq. 7) whose r (and, when that r passes the check, the road
+        the record shows) ``profile.std`` was computed under (:func:`_fixed_lag_record_std`); None otherwise.
     """
 
     profile: Profile
@@ -742,6 +762,7 @@ class Reconstruction:
     instrument_std: np.ndarray | None = None
     road_spectrum: RoadSpectrumRatio | None = None
     warnings: tuple[str, ...] = ()
+    std_noise_fit: NoiseFit | None = None
 
     def to_frame(self):
         """The ``road reconstruct`` table: ``distance_m, elevation_m, std_m, raw_m, raw_std_m`` (NaN where a std
@@ -836,7 +857,10 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         ``"prior"``: the model's own spectrum at every wavenumber (the printed std before 2026-12-06: for the
         smoother about twice the error on roads without waves shorter than the APL resolves; the fixed-lag's also
         with its impulse response cut at 2^15 samples, kept so that ``"prior"`` gives the output of before). Default
-        None: ``"record"`` (since 2026-12-06; docs/road-apl.md, "Short waves from the record").
+        None: ``"record"`` (since 2026-12-06; docs/road-apl.md, "Short waves from the record"). For ``"fixed-lag"``,
+        when the record's noise check rejects its AR(1) fit or the given r (a drifting sensor, red noise), the std is
+        computed under the noise of paper 000's Wiener model fitted to the record (``Reconstruction.std_noise_fit``;
+        docs/road-apl.md, "The fixed-lag's std when its own fit fails the noise check").
 
     Returns
     -------
@@ -1103,6 +1127,52 @@ def _road_spectrum(run: _Run, q, r) -> RoadSpectrumRatio | None:
     return est if est is not None and est.white_noise else None
 
 
+def _fixed_lag_record_std(run: _Run, q, r, lag_m, stationary: bool):
+    """The fixed-lag's printed std under ``short_waves="record"``: (std, road ratio or None, Wiener fit or None).
+
+    The fixed-lag's AR(1) 2 m road is a device that pins the trend the trailer cannot see (docs/road-apl.md); its ML
+    fit cannot put long-wave power (a drifting sensor, red noise) into that road and puts it into r instead, so its
+    r can be far above the record's noise (signal drift: the record's power where the road is invisible is 0.00-0.02
+    r). When the noise check rejects the fixed-lag's own fit, the record is described as the smoother describes it:
+    paper 000's Wiener road (eq. 7) fitted by ML, whose r the same check then judges. If it passes, the std is the
+    error of the same fixed-lag estimate (its G, from q and r) under that noise level r_W and the road the record shows
+    with it (:func:`estimate_road_spectrum_ratio` with r_W, relative to the AR(1) spectrum as on the default path);
+    if it fails too (noise not white), under the Wiener fit's road and noise, the smoother's own fallback. Without a
+    converged Wiener fit, the AR(1) model's own spectrum (at the converged impulse-response length).
+    """
+    phi = _input_dynamics(run.input_model, run.dx, run.correlation_length)
+
+    def ar1_spectrum(w):
+        return q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2
+
+    est = estimate_road_spectrum_ratio(run.y, run.instrument, r, ar1_spectrum)
+    kw = dict(correlation_length=run.correlation_length, dx=run.dx, highpass_wavelength=run.highpass_wavelength,
+              n_fft=FIXED_LAG_RECORD_FFT)
+    if est is None:  # no complete segment or no resolved band: the model's spectrum, as before
+        return fixed_lag_error_std(run.instrument, q, r, lag_m, **{**kw, "n_fft": 1 << 15}), None, None
+    if est.white_noise:
+        return fixed_lag_error_std(run.instrument, q, r, lag_m, road_ratio=est, **kw), est, None
+    try:
+        fit = fit_noise_variances(run.y, run.instrument, input_model="wiener", dx=run.dx, stationary=stationary)
+    except (ConvergenceError, NotDetectableError):
+        fit = None
+    if fit is None or not fit.converged:
+        return fixed_lag_error_std(run.instrument, q, r, lag_m, **kw), None, None
+    q_w, r_w = fit.q, fit.r
+
+    def wiener_spectrum(w):
+        return q_w / np.abs(1.0 - np.exp(-1j * w)) ** 2
+
+    check = estimate_road_spectrum_ratio(run.y, run.instrument, r_w, wiener_spectrum)
+    if check is not None and check.white_noise:
+        est_w = estimate_road_spectrum_ratio(run.y, run.instrument, r_w, ar1_spectrum)
+        if est_w is not None:
+            return fixed_lag_error_std(run.instrument, q, r, lag_m, road_ratio=est_w, noise_variance=r_w, **kw), \
+                est_w, fit
+    return fixed_lag_error_std(run.instrument, q, r, lag_m, road_spectrum=wiener_spectrum, noise_variance=r_w,
+                               **kw), None, fit
+
+
 def _std_warnings(run: _Run, lag_m) -> tuple[str, ...]:
     """The warnings of a Kalman reconstruction's printed std (:func:`fixed_lag_calibration_warning`)."""
     if run.method != "fixed-lag" or lag_m is None:
@@ -1124,13 +1194,20 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
     q, r, fit = _noise_variances(run, q, r, stationary)
     mean, cov, lag_m, elevation = _kalman_estimate(run, q, r, stationary)
     std = None
-    ratio = _road_spectrum(run, q, r)
+    std_fit = None
+    ratio = None
     if run.method == "smoother" and run.highpass_wavelength is not None:
+        ratio = _road_spectrum(run, q, r)
         s = smoother_error_std(run.instrument, q, r, input_model=run.input_model,
                                correlation_length=run.correlation_length, dx=run.dx,
                                highpass_wavelength=run.highpass_wavelength, road_ratio=ratio)
         std = np.broadcast_to(s, y.shape)
+    elif (run.method == "fixed-lag" and run.highpass_wavelength is not None and run.short_waves == "record"
+          and run.input_model == "ar1"):
+        s, ratio, std_fit = _fixed_lag_record_std(run, q, r, lag_m, stationary)
+        std = np.broadcast_to(s, y.shape)
     elif run.method == "fixed-lag" and run.highpass_wavelength is not None:
+        ratio = _road_spectrum(run, q, r)
         s = fixed_lag_error_std(run.instrument, q, r, lag_m, correlation_length=run.correlation_length, dx=run.dx,
                                 highpass_wavelength=run.highpass_wavelength, road_ratio=ratio,
                                 **({} if ratio is None else {"n_fft": FIXED_LAG_RECORD_FFT}))
@@ -1148,4 +1225,4 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
                           highpass_wavelength=run.highpass_wavelength, lag_m=lag_m,
                           correlation_length=run.correlation_length if run.input_model == "ar1" else None,
                           instrument_uncertainty=run.uncertainty, instrument_std=instrument_std,
-                          warnings=_std_warnings(run, lag_m), road_spectrum=ratio)
+                          warnings=_std_warnings(run, lag_m), road_spectrum=ratio, std_noise_fit=std_fit)
