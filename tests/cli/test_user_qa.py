@@ -196,6 +196,23 @@ def test_differentiate_refuses_a_dt_contradicting_the_time_column(signal_csv, tm
     assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.001", "-w", "10", "-o", out]) == 0
 
 
+def test_differentiate_takes_dt_from_a_uniform_time_column(signal_csv, tmp_path, capsys):
+    import pandas as pd
+
+    given, inferred = tmp_path / "given.csv", tmp_path / "inferred.csv"
+    assert main(["differentiate", str(signal_csv), "-c", "x", "--dt", "0.001", "-w", "10", "-o", str(given)]) == 0
+    assert main(["differentiate", str(signal_csv), "-c", "x", "-w", "10", "-o", str(inferred)]) == 0
+    assert inferred.read_bytes() == given.read_bytes()  # the decimal step 0.001, not its float median
+    frame = pd.read_csv(signal_csv)
+    jit = tmp_path / "jit.csv"
+    frame.assign(t=frame["t"] + np.random.default_rng(0).uniform(-5e-5, 5e-5, len(frame))).to_csv(jit, index=False)
+    assert main(["differentiate", str(jit), "-c", "x", "-w", "10", "-o", str(tmp_path / "j.csv")]) == 2
+    assert "is not uniformly sampled" in _err(capsys) and not (tmp_path / "j.csv").exists()
+    frame.drop(columns="t").to_csv(tmp_path / "no_t.csv", index=False)
+    assert main(["differentiate", str(tmp_path / "no_t.csv"), "-c", "x", "-w", "10", "-o", str(tmp_path / "n.csv")]) == 2
+    assert "no time column" in _err(capsys)
+
+
 def test_apl_figures_say_what_they_show():
     from longprofile.identify import fit_output_error
     from longprofile.report import plot_identification, plot_reconstructions, plot_recording

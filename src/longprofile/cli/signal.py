@@ -12,11 +12,12 @@ from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_pa
 _TIME_COLUMNS = {"t": 1.0, "time": 1.0, "t_s": 1.0, "time_s": 1.0, "t_ms": 1e-3, "time_ms": 1e-3}
 
 
-def _check_time_column(file: Path, frame, column: str, dt: float) -> None:
-    """Refuse a --dt that contradicts the file's own time column (a wrong dt scales the derivative silently)."""
+def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
+    """The sample interval, s: ``dt`` checked against the file's own time column (a wrong dt scales the derivative
+    silently), or, without ``dt``, the step of that column when it is uniform (within 0.1 % of its median)."""
     import numpy as np
 
-    from ..errors import UnitsError
+    from ..errors import InputFormatError, UnitsError
 
     for name in frame.columns:
         scale = _TIME_COLUMNS.get(str(name).strip().lower())
@@ -24,13 +25,28 @@ def _check_time_column(file: Path, frame, column: str, dt: float) -> None:
             continue
         t = _numeric(frame[name]) * scale
         step = np.diff(t[np.isfinite(t)])
-        if step.size == 0 or not np.all(step > 0):
-            return
+        increasing = step.size > 0 and bool(np.all(step > 0))
+        if dt is None:
+            if not increasing:
+                raise InputFormatError(f"{file}: column {name!r} does not increase from row to row, so it gives no "
+                                       "sample interval; sort the file by time or pass --dt SECONDS.")
+            median = float(np.median(step))
+            if np.max(np.abs(step - median)) > 1e-3 * median:
+                raise InputFormatError(f"{file}: column {name!r} is not uniformly sampled (steps {step.min():g} to "
+                                       f"{step.max():g} s); the estimators need a constant interval: resample the "
+                                       "signal, or pass --dt SECONDS if the jitter is the logger's, not the signal's.")
+            return float(f"{median:.12g}")  # the decimal step the file was written with (0.001, not 0.0010000000000000009)
+        if not increasing:
+            return dt
         median = float(np.median(step))
         if abs(median - dt) > 1e-3 * dt:
             raise UnitsError(f"{file}: column {name!r} steps by {median:g} s but --dt is {dt:g} s; the derivative "
                              f"would be off by a factor {median / dt:g}. Pass --dt {median:g}.")
-        return
+        return dt
+    if dt is None:
+        raise InputFormatError(f"{file}: no time column ({', '.join(_TIME_COLUMNS)}) to take the sample interval "
+                               "from; pass --dt SECONDS.")
+    return dt
 
 
 def _numeric(series):
@@ -43,7 +59,8 @@ def _numeric(series):
 def differentiate(
     file: Path = typer.Argument(..., help="Input table (.csv or .parquet) with one row per sample."),
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
-    dt: float = typer.Option(..., "--dt", help="Sample interval, s."),
+    dt: float | None = typer.Option(None, "--dt", help="Sample interval, s (default: the constant step of the "
+                                                          "file's time column t, time, t_s, time_s, t_ms or time_ms)."),
     output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
                                                             "derivative_std (one row per input row; see --std)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
@@ -79,7 +96,7 @@ def differentiate(
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     frame = read_table(file, required=[column], numeric=[column])
     x = frame[column].to_numpy(dtype=float)
-    _check_time_column(file, frame, column, dt)
+    dt = _sample_interval(file, frame, column, dt)
     with console.status(f"differentiating {x.size} samples ({method})..."):
         res = derivative(x, dt, method=method, order=order, **options)
     write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
