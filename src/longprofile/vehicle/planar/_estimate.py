@@ -95,9 +95,9 @@ class SlopeUncertainty:
     grade_nis_floor : float or None
         Smallest NIS factor (V_x innovation) applied to the joint EKF's grade variance, in (0, 1] (0.01 since
         2026-12-06; None: ``nis_floor``, as before). The joint's V_x measurement std (0.01 m/s, chosen to filter the
-        grade) is far above the wheel speeds' noise, so its windowed NIS is 0.015-0.2 (median per family on the
+        grade) is far above the wheel speeds' noise, so its windowed NIS is 0.02-0.06 (median per family on the
         calibration benchmark's tuning draws) and the former floor 0.1 held the grade variance at 0.1 x the filter's
-        at 60-99 % of the samples: a constant, not the innovations. With the force correction the band keeps the
+        at 60-99 % of the samples (median share per family): a constant, not the innovations. With the force correction the band keeps the
         larger of that variance and the force fit's block scatter (``residual_overlap``), which measures the force
         noise from the data and bounds the band from below, so the floor no longer has to. Chosen among
         {0.1, 0.03, 0.01} on the tuning draws (seeds 1000 and 2000, docs/vehicle-slope.md).
