@@ -89,7 +89,8 @@ class SlopeUncertainty:
         Smallest NIS factor applied to the variances of the yaw rate and of the joint EKF's grade, in (0, 1]
         (0.1): where their innovations (gyro, V_x) are smaller than the filter predicts -- a tuning that states
         more sensor noise than the sensor has -- those variances are scaled down by the windowed NIS, at most
-        10x (std 3.2x). 1 gives inflation only (the estimator before 2026-12-05). V_x, V_y and the cascade's
+        10x (std 3.2x). 1 gives inflation only (the estimator before 2026-12-05; with ``grade_nis_floor=None``
+        or 1 since 2026-12-06, else the joint grade still deflates). V_x, V_y and the cascade's
         slope are only inflated. Chosen among {0.25, 0.1, 0.03} on the calibration benchmark's tuning draws
         (seed 1000). Since 2026-12-06 (afternoon) the joint grade has its own floor, ``grade_nis_floor``.
     grade_nis_floor : float or None
