@@ -30,6 +30,11 @@ stated-tolerance rows are that claim's test.
 Each family also runs with ``estimate_slope(..., force_correction=False)`` (the paper's estimate with the stated
 mass and tyre terms, before the accelerometer force check) as the peer of the slope rows.
 
+Per stated-tolerance family one more row counts the drives whose estimate (cascade) carries a warning naming a sensor
+(``SlopeEstimate.warnings()``: the gyro offset or a wheel scale error found by the sensor calibration beyond 5x its
+stated std, or the force model and the accelerometer disagreeing beyond 30 % / 3 % of grade): on ``sensor bias``
+(offsets beyond the stated ones) the detection rate, on the other families the false-flag rate.
+
 Seeds: the rows use seed 0; any tuning of the estimator's uncertainty model was done with other seeds
 (``calibrate(..., seed=1000)``), so the rows are out-of-sample.
 
@@ -52,6 +57,11 @@ FAMILIES = ("own model", "mass error", "radius error", "tyre error", "friction e
             "steep grades", "lag, jitter")
 STATES = ("slope", "vx", "vy", "yaw_rate")
 STATED_DRAWS = 40
+#: SlopeEstimate.warnings() by the start of their text; the first three name a sensor (or the accelerometer)
+WARNING_KINDS = {"the gyro reads": "gyro", "wheel speed scale errors": "wheel scale",
+                 "the model's longitudinal force": "force vs accelerometer",
+                 "slope leaves the plausible": "slope > 10 %", "V_x measurement missing": "V_x missing"}
+SENSOR_WARNINGS = ("gyro", "wheel scale", "force vs accelerometer")
 
 
 def _ramps(x, rng, n, max_level, length):
@@ -148,14 +158,20 @@ def _stated_background(family, rng, car, sensors):
     return car.with_changes(**changes), sensors, wheel_scale, gain
 
 
+def _warning_kinds(est) -> set:
+    """The kinds (WARNING_KINDS values, else "other") of the warnings of an estimate."""
+    return {next((v for k, v in WARNING_KINDS.items() if w.startswith(k)), "other") for w in est.warnings()}
+
+
 def calibrate(family: str, draws: int, *, seed: int = 0, duration: float = 24.0, methods=("cascade", "joint"),
-              estimator_kwargs=None, background: str = "exact") -> dict:
+              estimator_kwargs=None, background: str = "exact", warned: list | None = None) -> dict:
     """Scores {(method, state): CoverageScore} of one family over ``draws`` random drives.
 
     ``background``: ``"exact"``, the parameters the family does not change are the estimator's own (its best case
     for them; the simulator's sensors have the fixed default offsets); ``"stated"``, they are drawn within the
     estimator's stated tolerances (:func:`_stated_background`, from a separate random stream: the same drives and
-    noises as ``"exact"``) -- the population of cars a printed band that includes those terms describes."""
+    noises as ``"exact"``) -- the population of cars a printed band that includes those terms describes.
+    ``warned``: a list to which the warning kinds (:func:`_warning_kinds`) of each drive's first method are appended."""
     from longprofile.vehicle import default_vehicle, estimate_slope, simulate_drive
 
     car = default_vehicle()
@@ -174,6 +190,8 @@ def calibrate(family: str, draws: int, *, seed: int = 0, duration: float = 24.0,
         keep = log.time >= SETTLE
         for m in methods:
             est = estimate_slope(log, car, method=m, **(estimator_kwargs or {}))
+            if warned is not None and m == methods[0]:
+                warned.append(_warning_kinds(est))
             for k in STATES:
                 err = getattr(est, k) - getattr(sim.truth, k)
                 scores[(m, k)].add(err[keep], np.broadcast_to(getattr(est, f"{k}_std"), err.shape)[keep])
@@ -200,9 +218,11 @@ def run(quick: bool) -> list[BenchRow]:
         rows += _score_rows(family, scores, draws, duration, elapsed, quick, "")
         if not quick:  # the same drives with the cars and sensors drawn within the stated tolerances
             t0 = time.perf_counter()
-            stated = calibrate(family, STATED_DRAWS, duration=duration, background="stated")
+            warned = []
+            stated = calibrate(family, STATED_DRAWS, duration=duration, background="stated", warned=warned)
             rows += _score_rows(family, stated, STATED_DRAWS, duration, time.perf_counter() - t0, quick,
                                 ", stated-tolerance cars")
+            rows.append(_warning_row(family, warned))
     return rows
 
 
@@ -221,3 +241,15 @@ def _score_rows(family, scores, draws, duration, elapsed, quick, label) -> list[
                                     f"{np.abs(pit - 10).max():.1f} %{deciles}; n = {sc.n}; {draws} draw(s) of "
                                     f"{duration:g} s, {elapsed:.1f} s"))
     return rows
+
+
+def _warning_row(family, warned) -> BenchRow:
+    """Share of the drives with a warning naming a sensor (SENSOR_WARNINGS); the detail counts every kind."""
+    n = len(warned)
+    hit = sum(bool(k & set(SENSOR_WARNINGS)) for k in warned)
+    kinds = sorted({k for ks in warned for k in ks})
+    counts = ", ".join(f"{k} {sum(k in ks for ks in warned)}" for k in kinds) or "none"
+    what = "detection rate (sensors beyond their stated offsets)" if family == "sensor bias" else \
+        "false-flag rate (sensors within their stated offsets)"
+    return BenchRow(AREA, f"{family}: drives with a sensor warning, stated-tolerance cars", 100 * hit / n, "%",
+                    detail=f"{what}; {hit} of {n} drives (cascade); warnings by kind (drives): {counts}")

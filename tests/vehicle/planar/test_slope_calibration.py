@@ -164,7 +164,7 @@ def test_yaw_rate_band_is_calibrated_when_the_tuning_overstates_the_gyro_noise()
 
 def test_joint_slope_band_narrows_but_still_covers_a_heavy_car(heavy_hill):
     sim, car = heavy_hill
-    a = estimate_slope(sim.log, car, method="joint", uncertainty=SlopeUncertainty(nis_floor=1.0))
+    a = estimate_slope(sim.log, car, method="joint", uncertainty=SlopeUncertainty(nis_floor=1.0, grade_nis_floor=None))
     b = estimate_slope(sim.log, car, method="joint")
     np.testing.assert_array_equal(a.slope, b.slope)  # the stds change, not the estimate
     assert np.all(b.slope_std <= a.slope_std) and np.median(b.slope_std) < 0.9 * np.median(a.slope_std)

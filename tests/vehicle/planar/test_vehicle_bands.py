@@ -148,4 +148,6 @@ def test_the_new_flags_are_checked():
             SlopeUncertainty(**{k: 1})
     old = SlopeUncertainty.until_2026_12_06()
     assert (old.radius_rel_std, old.residual_overlap, old.radius_in_calibration) == (0.005, False, False)
-    assert replace(old, radius_rel_std=0.01, residual_overlap=True, radius_in_calibration=True) == SlopeUncertainty()
+    # the three changes of the morning of 2026-12-06 (the joint grade's NIS floor followed: until_2026_12_06_pm)
+    assert replace(old, radius_rel_std=0.01, residual_overlap=True, radius_in_calibration=True) \
+        == SlopeUncertainty.until_2026_12_06_pm()

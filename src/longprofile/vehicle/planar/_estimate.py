@@ -89,9 +89,19 @@ class SlopeUncertainty:
         Smallest NIS factor applied to the variances of the yaw rate and of the joint EKF's grade, in (0, 1]
         (0.1): where their innovations (gyro, V_x) are smaller than the filter predicts -- a tuning that states
         more sensor noise than the sensor has -- those variances are scaled down by the windowed NIS, at most
-        10x (std 3.2x). 1 gives inflation only (the estimator before 2026-12-05). V_x, V_y and the cascade's
+        10x (std 3.2x). 1 gives inflation only (the estimator before 2026-12-05; with ``grade_nis_floor=None``
+        or 1 since 2026-12-06, else the joint grade still deflates). V_x, V_y and the cascade's
         slope are only inflated. Chosen among {0.25, 0.1, 0.03} on the calibration benchmark's tuning draws
-        (seed 1000).
+        (seed 1000). Since 2026-12-06 (afternoon) the joint grade has its own floor, ``grade_nis_floor``.
+    grade_nis_floor : float or None
+        Smallest NIS factor (V_x innovation) applied to the joint EKF's grade variance, in (0, 1] (0.01 since
+        2026-12-06; None: ``nis_floor``, as before). The joint's V_x measurement std (0.01 m/s, chosen to filter the
+        grade) is far above the wheel speeds' noise, so its windowed NIS is 0.02-0.06 (median per family on the
+        calibration benchmark's tuning draws) and the former floor 0.1 held the grade variance at 0.1 x the filter's
+        at 60-99 % of the samples (median share per family): a constant, not the innovations. With the force correction the band keeps the
+        larger of that variance and the force fit's block scatter (``residual_overlap``), which measures the force
+        noise from the data and bounds the band from below, so the floor no longer has to. Chosen among
+        {0.1, 0.03, 0.01} on the tuning draws (seeds 1000 and 2000, docs/vehicle-slope.md).
     tracking_lag : bool
         Add the cascade observer's lag to a changing grade, (-1/p1 - 1/p2) |d sin(theta)/dt|, to its slope std.
     accel_gain_std, accel_offset_std : float
@@ -130,7 +140,8 @@ class SlopeUncertainty:
     independent wheel-radius errors w_i fake slips w_i - (w_rl + w_rr)/2 whose forces sum to
     C_x0 (w_fl + w_fr - w_rl - w_rr), std 2 C_x0 w, i.e. 2 C_x0 w/(M g) in sin(theta).
     ``SlopeUncertainty.noise_only()`` gives the filters' stds alone (the estimator before issue 13),
-    ``SlopeUncertainty.until_2026_12_06()`` the defaults before the radius std and the residual overlap changed.
+    ``SlopeUncertainty.until_2026_12_06()`` the defaults before the radius std and the residual overlap changed,
+    ``SlopeUncertainty.until_2026_12_06_pm()`` those of that morning (before ``grade_nis_floor``).
     """
 
     mass_rel_std: float = 0.05
@@ -148,6 +159,7 @@ class SlopeUncertainty:
     wheel_scale_prior_std: float = 5e-3
     residual_overlap: bool = True
     radius_in_calibration: bool = True
+    grade_nis_floor: float | None = 0.01
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
@@ -158,6 +170,9 @@ class SlopeUncertainty:
                 raise InputError(f"{k} must be a finite number >= 0; got {v!r}.")
         if not (isinstance(self.nis_floor, (int, float)) and 0.0 < self.nis_floor <= 1.0):
             raise InputError(f"nis_floor must be in (0, 1]; got {self.nis_floor!r}.")
+        g = self.grade_nis_floor
+        if g is not None and not (isinstance(g, (int, float)) and not isinstance(g, bool) and 0.0 < g <= 1.0):
+            raise InputError(f"grade_nis_floor must be None or in (0, 1]; got {g!r}.")
         for k in ("residual_overlap", "radius_in_calibration"):
             if not isinstance(getattr(self, k), bool):
                 raise InputError(f"{k} must be True or False; got {getattr(self, k)!r}.")
@@ -166,7 +181,7 @@ class SlopeUncertainty:
     def noise_only(cls) -> "SlopeUncertainty":
         """No parameter terms and no NIS inflation: the filters' own stds."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, nis_floor=1.0, tracking_lag=False, accel_gain_std=0.0,
-                   accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0)
+                   accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0, grade_nis_floor=None)
 
     @classmethod
     def until_2026_12_06(cls) -> "SlopeUncertainty":
@@ -174,7 +189,19 @@ class SlopeUncertainty:
         variance added to the force fit's residual variance (``residual_overlap=False``), the sensor calibration's
         prior of an axle's mean scale ``wheel_scale_prior_std`` alone (``radius_in_calibration=False``); reproduces
         that estimator's outputs."""
-        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False)
+        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False, grade_nis_floor=None)
+
+    @classmethod
+    def until_2026_12_06_pm(cls) -> "SlopeUncertainty":
+        """The defaults of the morning of 2026-12-06 (issue 13, vehicle bands), before the joint grade got its own NIS
+        floor: the grade variance floored at ``nis_floor`` (0.1, ``grade_nis_floor=None``); reproduces that
+        estimator's outputs."""
+        return cls(grade_nis_floor=None)
+
+    @property
+    def grade_floor(self) -> float:
+        """The NIS floor applied to the joint EKF's grade variance: ``grade_nis_floor``, or ``nis_floor`` if None."""
+        return self.nis_floor if self.grade_nis_floor is None else float(self.grade_nis_floor)
 
 
 @dataclass(frozen=True, eq=False)
@@ -429,13 +456,15 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     var = np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0)
     std = np.sqrt(var)
     n_win = int(round(unc.nis_window / dt))
-    # (T, 2): V_x, r; scale may deflate (down to nis_floor), kappa only inflates
-    scale = nis_inflation(filtered.innovation, filtered.innovation_cov, n_win, floor=unc.nis_floor)
+    # (T, 2): V_x, r; scale may deflate (down to nis_floor; the joint grade down to grade_floor), kappa only inflates
+    raw = nis_inflation(filtered.innovation, filtered.innovation_cov, n_win, floor=min(unc.nis_floor, unc.grade_floor))
+    scale = np.maximum(raw, unc.nis_floor)
     kappa = np.maximum(scale, 1.0)
     gain = None
     if method != "cascade":
         slope = mean[:, 3].copy()
-        s_var = var[:, 3] * scale[:, 0] * (1.0 - np.sin(slope) ** 2)  # of sin(theta), to add the terms below
+        grade_scale = np.maximum(raw[:, 0], unc.grade_floor)
+        s_var = var[:, 3] * grade_scale * (1.0 - np.sin(slope) ** 2)  # of sin(theta), to add the terms below
         lag = 0.0
     else:
         missing = np.isnan(y[:, 0])
