@@ -7,7 +7,7 @@ _db         -- SQLAlchemy 2 models, ``Database(url)`` (SQLite WAL or PostgreSQL,
 _core       -- sites, sensors, survey, control surveys, thresholds, loggers (keys revoked, rotated), channels, users
                (audited) and ``ingest``.
 _recompute  -- ``recompute(db, site)``: stored readings -> ``estimate_settlement`` -> versioned run and results.
-_alarms     -- alarm levels (``settlement_alarms``), lifecycle, "no data", notification outbox and delivery.
+_alarms     -- alarm levels (``threshold_alarms``), lifecycle, "no data", notification outbox and delivery.
 _auth       -- password hashes, signed login cookies, CSRF tokens, roles.
 _web        -- ``create_app(db)``: the FastAPI application (API and server-rendered pages).
 _serve      -- ``serve`` (uvicorn), ``ServerThread``, the replay demo (``run_demo``).
