@@ -9,6 +9,8 @@ not model) is drawn for several seeds and estimated with the ``rail settle`` cal
 Run: ``python -m benchmarks rail_calibration`` (full: 100 draws per family, 100 faulty sites) or
 ``python -m benchmarks --quick rail_calibration`` (3 small sites, seconds). One family or other seeds alone:
 ``python -m benchmarks.bench_rail_calibration --family faults [--seeds 200-299] [--json out.json]`` (the same rows).
+``python -m benchmarks.bench_rail_calibration --reversal-oracle [--seeds 200-299] [--json out.json]``: the detection
+of reversed sensors a test knowing the true settlement would reach (:func:`reversal_oracle`, docs/rail.md).
 """
 
 from __future__ import annotations
@@ -103,6 +105,132 @@ def run(quick: bool, plan=None) -> list[BenchRow]:
     return rows
 
 
+#: Relative variance of the median of n unit-variance Student t(4) readings, times n (1 / (4 f(0)^2), f the density
+#: of t(4)/sqrt(2) at 0): the daily value of a sensor is the median of its day's readings (docs/rail.md, harness).
+T4_MEDIAN_VARIANCE = 0.8889
+
+
+def reversal_log_lr(a, S, m) -> tuple[float, float]:
+    """(log LR, I) of "reversed" against "healthy" for a sensor reading m = +-a + e, e ~ N(0, S), a known:
+    log N(m; -a, S) - log N(m; a, S) = -2 a' S^-1 m and I = a' S^-1 a (:func:`reversal_oracle_site`)."""
+    Sa = np.linalg.solve(S, a)
+    return float(-2.0 * Sa @ m), float(a @ Sa)
+
+
+def reversal_oracle_site(seed: int, family: str = "faults") -> list[dict]:
+    """The best test of "sensor i is reversed" knowing the scenario's truth, for every sensor of one site (TASK B).
+
+    For sensor i the daily angle changes m_i (days 1..D-1 against day 0, rad) are a_i + e_i when healthy and
+    -a_i - e_i when reversed (the scenario reflects the whole reading), a_i the true angle change
+    arctan(z0' + dz') - arctan(z0'), e_i the error. Knowing a_i and the error covariance S_i, the Neyman-Pearson
+    test is the likelihood ratio, log LR_i = log N(m_i; -a_i, S_i) - log N(m_i; a_i, S_i) = -2 a_i' S_i^-1 m_i,
+    with I_i = a_i' S_i^-1 a_i: N(-2 I, 4 I) when healthy, N(+2 I, 4 I) when reversed, so at a false-alarm rate
+    alpha it detects a reversal with probability Phi(2 sqrt(I_i) - z_(1-alpha)).
+
+    Two oracles (both know a_i, i.e. the settlement, exactly):
+
+    * ``I_ideal``: the thermal term removed exactly (the generator's coefficients and lags known), so e_i is the
+      sensor's random-walk drift (its true diffusion) and the day medians' reading noise (the true noise std,
+      t(4), on both the day and the reference day): S_i = r_i^2 min(k, l) + v (I + J). ``I_static`` adds what the
+      reference day's absolute angle tells when the mounting offset's prior N(0, 0.5 deg) and the initial slope
+      are known: a reversal reads offset - A0 instead of offset + A0, A0 = arctan(z0').
+    * ``z_tool``: the same test on the tool's own daily changes (its outlier removal and thermal correction,
+      ``estimate_settlement`` defaults), S_i as above plus a per-site white term fitted by maximum likelihood to
+      the healthy sensors' errors (the oracle knows them): the standardised statistic
+      z_i = (log LR_i + 2 I_i) / (2 sqrt(I_i)), N(0, 1) for a healthy sensor if S_i is right; a threshold at the
+      healthy sensors' empirical quantile gives the detection at that false-alarm rate.
+
+    Returns one dict per sensor: seed, sensor_id, kind ("healthy" or the fault), I_ideal, I_static, I_tool,
+    z_tool, flagged (by the tool), snr (as the harness's).
+    """
+    from longprofile.rail._data import validate_site
+    from longprofile.rail._scenarios import SCENARIO_FAMILIES, simulate_scenario
+    from longprofile.rail._settle import estimate_settlement
+
+    sc = simulate_scenario(SCENARIO_FAMILIES[family], seed)
+    tr = sc.truth
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    res = estimate_settlement(site, n_monte_carlo=0, through_time=False)
+    flagged = {sid for sid, _, _ in res.health.flagged()}
+    D, N = tr.slope_change.shape
+    k = np.arange(1, D, dtype=float)
+    a = (np.arctan(tr.initial_slope[None, :] + tr.slope_change) - np.arctan(tr.initial_slope)[None, :])[1:]  # (K, N)
+    m = np.deg2rad(res.daily.change_deg)[1:]
+    n_day = 1440.0 / tr.params["sampling_minutes"]
+    v = T4_MEDIAN_VARIANCE * np.deg2rad(tr.params["noise_deg"]) ** 2 / n_day
+    K = D - 1
+    base_cov = v * (np.eye(K) + np.ones((K, K)))
+    walk = np.minimum.outer(k, k)
+    r2 = np.deg2rad(tr.drift_deg_per_sqrt_day) ** 2
+    kinds = [tr.faults.get(sid, "healthy") for sid in res.sensor_ids]
+    snr = np.max(np.abs(tr.slope_change), axis=0) / float(res.sigma_by_day[-1])
+
+    # per-site extra white variance w of the tool's daily changes, ML over the healthy sensors' errors (truth known)
+    ok = [i for i in range(N) if kinds[i] == "healthy" and np.all(np.isfinite(m[:, i]))]
+    grid = np.r_[0.0, v * np.logspace(-1, 3, 41)]
+
+    def site_ll(w):
+        tot = 0.0
+        for i in ok:
+            S = r2[i] * walk + base_cov + w * np.eye(K)
+            e = m[:, i] - a[:, i]
+            _, logdet = np.linalg.slogdet(S)
+            tot -= 0.5 * (logdet + e @ np.linalg.solve(S, e))
+        return tot
+
+    w = grid[int(np.argmax([site_ll(g) for g in grid]))]
+    out = []
+    for i, sid in enumerate(res.sensor_ids):
+        ai = a[:, i]
+        S_ideal = r2[i] * walk + base_cov
+        I_ideal = reversal_log_lr(ai, S_ideal, ai)[1]
+        I_static = (np.arctan(tr.initial_slope[i]) / np.deg2rad(0.5)) ** 2
+        row = dict(seed=int(seed), sensor_id=sid, kind=kinds[i], I_ideal=I_ideal, I_static=float(I_static),
+                   I_tool=np.nan, z_tool=np.nan, flagged=sid in flagged, snr=float(snr[i]), white_var=float(w))
+        mi = m[:, i]
+        if np.all(np.isfinite(mi)):
+            llr, I_tool = reversal_log_lr(ai, S_ideal + w * np.eye(K), mi)
+            if I_tool > 0:
+                row.update(I_tool=I_tool, z_tool=(llr + 2.0 * I_tool) / (2.0 * np.sqrt(I_tool)))
+        out.append(row)
+    return out
+
+
+def reversal_oracle(seeds, family: str = "faults", alphas=(0.0046, 0.01)) -> tuple[list[BenchRow], list[dict]]:
+    """Rows of the oracle bound on reversal detection (:func:`reversal_oracle_site`) over ``seeds``."""
+    from scipy.special import ndtr, ndtri
+
+    recs = [r for seed in seeds for r in reversal_oracle_site(seed, family)]
+    rev = [r for r in recs if r["kind"] == "reversed"]
+    healthy = [r for r in recs if r["kind"] == "healthy"]
+    rows = []
+    for alpha in alphas:
+        zc = float(ndtri(1.0 - alpha))
+        for key, label in (("I_ideal", "thermal removed exactly"), ("I_static", "+ reference-day angle")):
+            I = np.array([r["I_ideal"] + (r["I_static"] if key == "I_static" else 0.0) for r in rev])
+            p = ndtr(2.0 * np.sqrt(I) - zc)
+            rows.append(BenchRow(AREA, f"{family}: oracle reversal detection at {100 * alpha:g} % false alarms, "
+                                       f"{label}", 100 * float(p.mean()), "%",
+                                 detail=f"expected over {len(rev)} reversed sensors (Phi(2 sqrt(I) - z)); below 99 %: "
+                                        f"{int(np.sum(p < 0.99))}, below 50 %: {int(np.sum(p < 0.5))}; "
+                                        f"I quantiles 5/25/50 %: "
+                                        + " / ".join(f"{q:.2f}" for q in np.quantile(I, [0.05, 0.25, 0.5]))))
+        zh = np.array([r["z_tool"] for r in healthy if np.isfinite(r["z_tool"])])
+        zr = np.array([r["z_tool"] for r in rev if np.isfinite(r["z_tool"])])
+        t = float(np.quantile(zh, 1.0 - alpha))
+        rows.append(BenchRow(AREA, f"{family}: oracle reversal detection at {100 * alpha:g} % false alarms, "
+                                   "the tool's daily changes", 100 * float(np.mean(zr > t)), "%",
+                             detail=f"{int(np.sum(zr > t))} of {zr.size} reversed; threshold z > {t:.2f} = the "
+                                    f"{100 * (1 - alpha):g} % quantile of {zh.size} healthy sensors' z "
+                                    f"(N(0, 1) would give {zc:.2f}; healthy z std {zh.std():.2f})"))
+    tool = sum(r["flagged"] for r in rev)
+    miss = [r for r in rev if not r["flagged"]]
+    rows.append(BenchRow(AREA, f"{family}: reversals the tool detects", 100 * tool / max(len(rev), 1), "%",
+                         detail=f"{tool} of {len(rev)}; the missed ones' oracle I (thermal removed exactly): "
+                                + ", ".join(f"seed {r['seed']} {r['sensor_id']} {r['I_ideal']:.2f}" for r in miss)))
+    return rows, recs
+
+
 def _seeds(text: str) -> range:
     """"200-299" (inclusive) or "200" -> range."""
     lo, _, hi = text.partition("-")
@@ -119,13 +247,26 @@ def main(argv=None) -> int:
 
     p = argparse.ArgumentParser(prog="python -m benchmarks.bench_rail_calibration",
                                 description="Rail calibration rows of some scenario families only.")
-    p.add_argument("--family", action="append", choices=sorted(SCENARIO_FAMILIES), required=True,
-                   help="scenario family (repeat for several)")
+    p.add_argument("--family", action="append", choices=sorted(SCENARIO_FAMILIES), default=None,
+                   help="scenario family (repeat for several; required unless --reversal-oracle)")
+    p.add_argument("--reversal-oracle", action="store_true",
+                   help="instead: the oracle bound on reversal detection on the faults family (default seeds "
+                        "200-299; reversal_oracle)")
     p.add_argument("--seeds", type=_seeds, default=None,
                    help="seeds, 'first-last' inclusive (default: the benchmark's, 100-199 or 200-299 for faults)")
     p.add_argument("--quick", action="store_true", help="small sites (as --quick of the benchmark)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
+    if args.reversal_oracle:
+        rows, recs = reversal_oracle(args.seeds if args.seeds is not None else range(200, 300))
+        for r in rows:
+            print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
+        if args.json:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps({"rows": [r.as_dict() for r in rows], "sensors": recs}, indent=2))
+        return 0
+    if not args.family:
+        p.error("--family is required (or --reversal-oracle)")
     default = dict(default_plan(False))
     plan = [(f, args.seeds if args.seeds is not None else default[f]) for f in args.family]
     rows = run(args.quick, plan)
