@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from benchmarks.bench_rail_calibration import reversal_log_lr, reversal_oracle_site
+from benchmarks.bench_rail_calibration import pooled_np_detection, reversal_log_lr, reversal_oracle_site
 from scipy.stats import multivariate_normal
 
 
@@ -34,3 +34,17 @@ def test_oracle_statistic_is_standard_normal_on_healthy_sensors_and_large_on_rev
     assert len(rev) == 4
     for r in rev:
         assert r["I_ideal"] > 10 and abs(r["z_tool"] - 2 * np.sqrt(r["I_tool"])) < 4
+
+
+def test_pooled_threshold_is_the_per_sensor_test_when_every_sensor_has_the_same_information():
+    from scipy.special import ndtr, ndtri
+
+    for info, alpha in ((2.0, 0.0046), (9.0, 0.01)):
+        lam, p = pooled_np_detection(np.full(50, info), np.full(3, info), alpha)
+        z = ndtri(1 - alpha)
+        assert np.isclose(lam, 2 * np.sqrt(info) * z - 2 * info, atol=1e-8)
+        assert np.allclose(p, ndtr(2 * np.sqrt(info) - z))
+    # healthy sensors that see nothing (I ~ 0) spend no false alarms: the threshold drops, the reversals gain
+    lam0, p0 = pooled_np_detection(np.full(50, 2.0), [2.0], 0.01)
+    lam1, p1 = pooled_np_detection(np.r_[np.full(25, 2.0), np.full(25, 1e-6)], [2.0], 0.01)
+    assert lam1 < lam0 and p1[0] > p0[0]
