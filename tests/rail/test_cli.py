@@ -68,6 +68,26 @@ def test_per_day_model_is_the_library_per_day_estimate(site_dir, tmp_path):
     assert (per_day.dz_std_m - all_days.dz_std_m).abs().max() > 1e-6
 
 
+def test_max_settlement_band_flag_selects_the_old_interval(site_dir, tmp_path, monkeypatch):
+    import longprofile.rail as rail
+
+    seen = []
+    real = rail.estimate_settlement
+
+    def spy(site, settings=None, **options):
+        seen.append(settings.max_settlement_interval)
+        return real(site, settings=settings, **options)
+
+    monkeypatch.setattr(rail, "estimate_settlement", spy)
+    tables = [str(site_dir / f"{n}.csv") for n in ("sensors", "readings", "survey")]
+    base = ["rail", "settle", "--sensors", tables[0], "--readings", tables[1], "--survey", tables[2],
+            "--monte-carlo", "20"]
+    for flag, name in ((["--max-settlement-band"], "band.csv"), ([], "draws.csv")):
+        res = runner.invoke(app, base + flag + ["-o", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    assert seen == ["band", "draws"]
+
+
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
     bad = pd.read_csv(site_dir / "readings.csv")
     bad.loc[0, "sensor_id"] = "ghost"

@@ -36,7 +36,7 @@ initial_profile_posterior   -- initial altitudes and angles from a survey on any
 initial_profile_posterior_dense -- §4.4 dense reference (survey at the sensors).
 sample_profiles             -- posterior draws of altitude profiles.
 max_settlement_monte_carlo  -- mean and std of the maximum settlement (§4.3).
-max_settlement_interval     -- the same with a 90 % interval from the simultaneous band (beyond §4.3);
+max_settlement_interval     -- the same with a band-shaped 90 % interval from the draws (beyond §4.3);
                                MaxSettlement is its result.
 affine_correction           -- the affine correction of §5.2 (with the paper's warning).
 assess_sensors, SensorHealth -- flag dead / reversed / drifting / detached / improbable sensors (§6).

@@ -38,6 +38,7 @@ from ._rigidity import (
     DEFAULT_RIGIDITY,
     DEFAULT_SIGMA_A,
     DEFAULT_SIGMA_Z,
+    MAX_SETTLEMENT_INTERVALS,
     PENALTY_ORDERS,
     Z90,
     ProfilePosterior,
@@ -92,9 +93,10 @@ class SettlementResult:
     max_settlement_mean, max_settlement_std : (D,) ndarray
         Monte Carlo mean and std of max_i(-dz_i), m (§4.3).
     max_settlement_lower, max_settlement_upper : (D,) ndarray or None
-        The 90 % interval of max_i(-dz_i), m, from the simultaneous 90 % band of the draws
-        (:func:`~longprofile.rail.max_settlement_interval`; not mean ∓ 1.645 std: the maximum is skewed and is 0
-        on days without change). NaN when the Monte Carlo is skipped.
+        The 90 % interval of max_i(-dz_i), m, band-shaped around the posterior mean and holding the maximum of
+        98 % of the draws (:func:`~longprofile.rail.max_settlement_interval`, ``interval="draws"``; with
+        ``max_settlement_interval="band"`` the simultaneous 90 % band's, as until 2026-12-06; not mean ∓ 1.645 std:
+        the maximum is skewed and is 0 on days without change). NaN when the Monte Carlo is skipped.
     health : SensorHealth
     daily : DailyAngles
     sigma : float
@@ -802,6 +804,11 @@ class SettlementSettings:
         settlement grows by increments whose prior intensity is fitted per day (:func:`increment_rigidity`: the
         work days). False gives the per-day posteriors of step 9 exactly. Records of fewer than 6 days use the
         per-day model.
+    max_settlement_interval : {"draws", "band"}, default "draws"
+        The maximum settlement's 90 % interval (:func:`~longprofile.rail.max_settlement_interval`): "draws", the
+        band-shaped interval holding the maximum of :data:`~longprofile.rail._rigidity.MAX_SETTLEMENT_PROBABILITY`
+        of the posterior draws (issue 13 step 13, docs/rail.md); "band", the simultaneous band's (conservative;
+        the default until 2026-12-06, :meth:`until_2026_12_06`).
     """
 
     thermal: str = "linear"
@@ -828,6 +835,14 @@ class SettlementSettings:
     sensor_noise: bool = True
     spatial_prior: bool = True
     joint_days: bool = True
+    max_settlement_interval: str = "draws"
+
+    @classmethod
+    def until_2026_12_06(cls, **options) -> "SettlementSettings":
+        """The defaults before the maximum-settlement interval changed on 2026-12-06 (issue 13 step 13): the
+        simultaneous band's interval (``max_settlement_interval="band"``); reproduces that estimator's outputs.
+        ``options`` as the constructor's."""
+        return cls(**{"max_settlement_interval": "band", **options})
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -845,6 +860,9 @@ class SettlementSettings:
                 raise InputError("give either thresholds (by quantity and level) or settlement_threshold_m / "
                                  "rate_threshold_m_per_day, not both.")
             object.__setattr__(self, "thresholds", check_thresholds(self.thresholds))
+        if self.max_settlement_interval not in MAX_SETTLEMENT_INTERVALS:
+            raise InputError(f"max_settlement_interval must be one of {MAX_SETTLEMENT_INTERVALS}; "
+                             f"got {self.max_settlement_interval!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -982,7 +1000,8 @@ def _max_settlement_stage(x, M, sig_days, rig, order, opt: SettlementSettings, f
         for idx, s in _noise_groups(sig_days):
             ms = max_settlement_interval(x, M[idx], int(opt.n_monte_carlo), sigma=_station_sigma(s, factors),
                                          rigidity=rig, sigma_z=opt.sigma_z, rng=gen, penalty_order=order,
-                                         segment_weights=weights, level=0.9)
+                                         segment_weights=weights, level=0.9,
+                                         interval=opt.max_settlement_interval)
             out[:, idx] = ms.mean, ms.std, ms.lower, ms.upper
     return tuple(out)
 
@@ -1110,7 +1129,8 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
                                         rigidity=joint.modes.rigidity, sigma_z=opt.sigma_z, rng=gen,
                                         penalty_order=order, segment_weights=joint.weights)
     z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
-    ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9)
+    ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9,
+                                   interval=opt.max_settlement_interval)
     out[:, 0] = 0.0
     out[:, 1:] = ms.mean, ms.std, ms.lower, ms.upper
     return tuple(out)
@@ -1119,6 +1139,7 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
+                max_settlement_interval=opt.max_settlement_interval,
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,

@@ -143,7 +143,8 @@ def _time_figure(result):
     ax3.plot(days, 1e3 * result.max_settlement_mean, "k-", lw=1, label="Monte Carlo mean")
     if result.max_settlement_lower is not None:
         ax3.fill_between(days, 1e3 * result.max_settlement_lower, 1e3 * result.max_settlement_upper, color="k",
-                         alpha=0.1, lw=0, label="90 % interval (simultaneous band)")
+                         alpha=0.1, lw=0, label="90 % interval (simultaneous band)"
+                         if result.settings.get("max_settlement_interval") == "band" else "90 % interval")
     ax3.set_ylabel("max settlement (mm)")
     ax3.set_title("maximum settlement over the track (§4.3, paper's posterior: includes the prior's uncertainty "
                   "between sensors)", fontsize=9)
@@ -252,7 +253,7 @@ def _max_settlement_table(result) -> pd.DataFrame:
     maxs = pd.DataFrame({"date": [_day_label(d) for d in result.days],
                          "max settlement mean (mm)": 1e3 * result.max_settlement_mean,
                          "std (mm)": 1e3 * result.max_settlement_std})
-    if result.max_settlement_lower is not None:  # the 90 % interval (simultaneous band; not mean -/+ 1.645 std)
+    if result.max_settlement_lower is not None:  # the 90 % interval (max_settlement_interval; not mean -/+ 1.645 std)
         maxs["90 % low (mm)"] = 1e3 * result.max_settlement_lower
         maxs["90 % high (mm)"] = 1e3 * result.max_settlement_upper
     return maxs
