@@ -19,8 +19,12 @@ def site_dir(tmp_path_factory):
 
 
 def test_simulate_writes_the_tables(site_dir):
-    for name in ("sensors", "readings", "survey", "controls", "truth"):
+    for name in ("sensors", "readings", "survey", "controls", "truth", "thresholds"):
         assert (site_dir / f"{name}.csv").exists()
+    from longprofile.io import read_rail_thresholds
+
+    assert read_rail_thresholds(site_dir / "thresholds.csv")["settlement"] == {"alert": 0.01, "action": 0.015,
+                                                                               "alarm": 0.02}
     assert (site_dir / "truth.png").stat().st_size > 1000
     assert set(pd.read_csv(site_dir / "readings.csv").columns) == {"timestamp", "sensor_id", "angle_deg",
                                                                      "temperature_c"}

@@ -21,10 +21,20 @@ rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, w
                        no_args_is_help=True)
 
 
+def _example_thresholds():
+    import pandas as pd
+
+    return pd.DataFrame({"quantity": ["settlement", "settlement", "settlement", "rate", "twist"],
+                         "level": ["alert", "action", "alarm", "alert", "alert"],
+                         "value_mm": [10.0, 15.0, 20.0, 3.0, 5.0]})
+
+
 @rail_app.command("simulate")
 def simulate_command(
     output: Path = typer.Option(..., "--output", "-o", help="Folder for sensors.csv, readings.csv, survey.csv, "
-                                                             "controls.csv (if any) and truth.csv."),
+                                                             "controls.csv (if any), truth.csv and thresholds.csv "
+                                                             "(example graded alarm limits for rail settle "
+                                                             "--thresholds)."),
     preset: str = typer.Option("mittersheim-like", "--preset", help="mittersheim-like or farebersviller-like."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     sampling_minutes: float = typer.Option(10.0, "--sampling-minutes", help="Interval between readings, min."),
@@ -51,6 +61,8 @@ def simulate_command(
     if site.controls is not None:
         written.append(write_table(site.controls, out / f"controls.{fmt}"))
     written.append(write_table(site.truth_table(), out / f"truth.{fmt}"))
+    # an example of graded limits (typical of track monitoring near works; not a standard): rail settle --thresholds
+    written.append(write_table(_example_thresholds(), out / f"thresholds.{fmt}"))
     if plot is not None:
         from ..report import draw, plot_true_settlement
 
