@@ -210,6 +210,18 @@ def site_threshold(name: str = typer.Argument(...),
                                None if value_mm is None else value_mm * 1e-3))
 
 
+@site_app.command("thresholds")
+def site_thresholds(name: str = typer.Argument(...),
+                    file: Path = typer.Option(..., "--file", help="thresholds table (quantity, level, value_mm), as "
+                                                                 "rail settle --thresholds reads."),
+                    db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Replace all thresholds of a site with a table (one transaction; levels may be raised or lowered together)."""
+    from ..io import read_rail_thresholds
+    from ..rail import service as _service
+
+    _print(_service.replace_thresholds(_db(db), _actor(actor), name, read_rail_thresholds(file)))
+
+
 @site_app.command("logger")
 def site_logger(name: str = typer.Argument(...), logger: str = typer.Argument(..., help="Logger name."),
                 db: str = DB_OPT, actor: str = ACTOR_OPT):

@@ -79,3 +79,25 @@ def test_errors_are_library_errors(cli, tmp_path):
     assert cli("site", "threshold", "mitt", "settlement", "alert", "12", "--db", url).exit_code == 0
     res = cli("site", "survey", "mitt", "--file", str(prof), "--db", url)
     assert isinstance(res.exception, LongprofileError) and "needs x_m and z_m; it has" in str(res.exception)
+
+
+def test_thresholds_file_replaces_all_levels_in_one_transaction(cli, tmp_path):
+    url = f"sqlite:///{tmp_path}/cli.db"
+    assert cli("site", "create", "mitt", "--db", url).exit_code == 0
+    first, second = tmp_path / "a.csv", tmp_path / "b.csv"
+    first.write_text("quantity,level,value_mm\nsettlement,alert,10\nsettlement,action,15\nsettlement,alarm,20\n"
+                     "rate,alert,3\n")
+    # raising alert above the old action and dropping action: one level at a time would break alert <= action
+    second.write_text("quantity,level,value_mm\nsettlement,alert,25\nsettlement,alarm,40\n")
+    assert cli("site", "thresholds", "mitt", "--file", str(first), "--db", url).exit_code == 0
+    res = cli("site", "threshold", "mitt", "settlement", "alert", "25", "--db", url)
+    assert isinstance(res.exception, LongprofileError) and "must grow" in str(res.exception)
+    assert cli("site", "thresholds", "mitt", "--file", str(second), "--db", url, "--actor", "eve").exit_code == 0
+    show = json.loads(cli("site", "show", "mitt", "--db", url).stdout)
+    assert show["thresholds"] == {"settlement.alert": 0.025, "settlement.alarm": 0.04}
+    audit = json.loads(cli("site", "audit", "mitt", "--db", url).stdout)
+    assert sum(a["actor"] == "eve" and a["entity"] == "threshold" for a in audit) == 4  # 2 changed, 2 removed
+    second.write_text("quantity,level,value_mm\nsettlement,alert,30\nsettlement,alarm,20\n")
+    res = cli("site", "thresholds", "mitt", "--file", str(second), "--db", url)
+    assert isinstance(res.exception, LongprofileError) and "must grow" in str(res.exception)
+    assert json.loads(cli("site", "show", "mitt", "--db", url).stdout)["thresholds"]["settlement.alert"] == 0.025

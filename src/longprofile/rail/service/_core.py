@@ -22,7 +22,15 @@ from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
-from .. import RADIAN_NOISE_THRESHOLD, READING_COLUMNS, SiteData, angle_noise, check_threshold, validate_site
+from .. import (
+    RADIAN_NOISE_THRESHOLD,
+    READING_COLUMNS,
+    SiteData,
+    angle_noise,
+    check_threshold,
+    check_thresholds,
+    validate_site,
+)
 from ._db import (
     LEVELS,
     QUANTITIES,
@@ -433,6 +441,38 @@ def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str
         if site.dirty_from_ts is None:
             site.dirty_from_ts = site.baseline_start_ts or 0
     return {"quantity": quantity, "level": level, "value": v}
+
+
+def replace_thresholds(db: Database, actor: str, name: str, thresholds: dict) -> dict:
+    """Replace all thresholds of a site in one transaction with ``{quantity: {level: value}}`` (m, m/day for the rate;
+    checked as a whole by :func:`longprofile.rail.check_thresholds`, so levels can be raised or lowered together):
+    the table ``rail settle --thresholds`` reads. Returns the new thresholds."""
+    new = check_thresholds(thresholds)
+    with db.write() as s:
+        site = _site(s, name)
+        cur = {(t.quantity, t.level): t for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
+        want = {(q, lv): v for q, levels in new.items() for lv, v in levels.items()}
+        changed = False
+        for key, t in cur.items():
+            if key not in want:
+                _audit(s, actor, site.id, "threshold", f"{key[0]}.{key[1]}", "set", t.value, None)
+                s.delete(t)
+                changed = True
+        for (q, lv), v in want.items():
+            t = cur.get((q, lv))
+            if t is not None and t.value == v:
+                continue
+            _audit(s, actor, site.id, "threshold", f"{q}.{lv}", "set", None if t is None else t.value, v)
+            if t is None:
+                s.add(Threshold(site_id=site.id, quantity=q, level=lv, value=v))
+            else:
+                t.value = v
+            changed = True
+        if changed:
+            site.data_version = (site.data_version or 0) + 1
+            if site.dirty_from_ts is None:
+                site.dirty_from_ts = site.baseline_start_ts or 0
+    return new
 
 
 def _key_hash(secret: str) -> str:
