@@ -17,7 +17,7 @@ _OUTPUT_HELP = ("Results folder: manifest.parquet + segments/ (Parquet dataset p
                 "results folder needs --resume or --overwrite.")
 _WORKERS_HELP = "Parallel workers for processes/threads (default: the CPUs available)."
 _SCHEDULER_HELP = ("processes (a local process pool, default), threads, serial, or tcp://HOST:PORT to use a running "
-                   "Dask scheduler (pip install longprofile[dask]; inputs and -o must be on a filesystem every "
+                   "Dask scheduler (pip install longprofile\\[dask]; inputs and -o must be on a filesystem every "
                    "worker sees).")
 _RESUME_HELP = "Continue an interrupted run: skip the files already done with the same content and options."
 _OVERWRITE_HELP = "Replace the results already in the folder (only the manifest and the dataset are removed)."
