@@ -74,8 +74,8 @@ def reconstruct_command(
                                     help="Road model: wiener (paper) or ar1 (§5.2). Default: wiener; ar1 (2 m) for fixed-lag."),
     correlation_length: float = typer.Option(None, "--correlation-length", help="AR(1) correlation length, m."),
     highpass: float = typer.Option(100.0, "--highpass-wavelength", help="Detrending cut-off wavelength, m."),
-    lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: 4 pendulum time constants, 83 m "
-                                                   "at 20 m/s)."),
+    lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: the longer of 4 pendulum time "
+                                                   "constants and the calibrated lag: 83 m at 20 m/s, 120 m at 6 m/s)."),
     instrument_uncertainty: str = typer.Option(
         None, "--instrument-uncertainty",
         help="Declared 1-sigma uncertainty of the trailer model, added to std_m (smoother and fixed-lag only), e.g. "

@@ -69,7 +69,7 @@ def slope(
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
     units: str | None = typer.Option(None, "--units", help="Units of the log's columns when not SI, e.g. "
                                      "'time=ms,yaw_rate=deg/s,wheel_speed_fl=km/h,accel_x=g' (or in the header: "
-                                     "'yaw_rate [deg/s]'); see docs/vehicle-slope.md."),
+                                     "'yaw_rate (deg/s)' or 'yaw_rate \\[deg/s]'); see docs/vehicle-slope.md."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
                                           "(linear interpolation; gaps are refused)."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "

@@ -42,7 +42,7 @@ def _vertical_params(path: Path | None):
     return None if path is None else load_vertical_params(path)
 
 
-_VEHICLE_HELP = ("Vehicle description (TOML): its [vertical] table (fields of VerticalVehicleParams, SI units); "
+_VEHICLE_HELP = ("Vehicle description (TOML): its \\[vertical] table (fields of VerticalVehicleParams, SI units); "
                  "the thesis car if omitted.")
 
 
@@ -104,7 +104,8 @@ def estimate(
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG); the truth is "
                                                           "overlaid when the log has true_* columns."),
     units: str | None = typer.Option(None, "--units", help="Units of columns that are not SI, e.g. "
-                                     "'time=ms,dz21_FL=mm,wheel_accel_FL=g' (or in the header: 'dz21_FL [mm]')."),
+                                     "'time=ms,dz21_FL=mm,wheel_accel_FL=g' (or in the header: 'dz21_FL (mm)' or "
+                                     "'dz21_FL \\[mm]')."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
                                           "(linear interpolation; gaps are refused)."),
     profile: Path | None = typer.Option(None, "--profile", help="Also write the road profile under each wheel "

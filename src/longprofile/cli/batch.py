@@ -17,7 +17,7 @@ _OUTPUT_HELP = ("Results folder: manifest.parquet + segments/ (Parquet dataset p
                 "results folder needs --resume or --overwrite.")
 _WORKERS_HELP = "Parallel workers for processes/threads (default: the CPUs available)."
 _SCHEDULER_HELP = ("processes (a local process pool, default), threads, serial, or tcp://HOST:PORT to use a running "
-                   "Dask scheduler (pip install longprofile[dask]; inputs and -o must be on a filesystem every "
+                   "Dask scheduler (pip install longprofile\\[dask]; inputs and -o must be on a filesystem every "
                    "worker sees).")
 _RESUME_HELP = "Continue an interrupted run: skip the files already done with the same content and options."
 _OVERWRITE_HELP = "Replace the results already in the folder (only the manifest and the dataset are removed)."
@@ -100,7 +100,8 @@ def reconstruct_command(
                                                             "reconstruct`)."),
     column: str = typer.Option("apl_m", "--column", help="Name of the signal column (m, or with its unit: apl_mm)."),
     highpass: float = typer.Option(100.0, "--highpass-wavelength", help="Detrending cut-off wavelength, m."),
-    lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: 4 pendulum time constants)."),
+    lag: float = typer.Option(None, "--lag", help="fixed-lag latency, m (default: the longer of 4 pendulum time "
+                                   "constants and the calibrated lag: 83 m at 20 m/s, 120 m at 6 m/s)."),
     segment: float = typer.Option(None, "--segment", help="IRI segment length of the reconstruction, report length "
                                   "unit (default 100 m, or 528 ft with --units us)."),
     units: str = typer.Option("si", "--units", help=_UNITS_HELP),

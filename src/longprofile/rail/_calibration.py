@@ -9,7 +9,8 @@ the tool prints is scored against the truth:
 * the through-time (smoothed) settlement band and the daily-rate band (``smoothed_std_m``,
   ``rate_std_m_per_day``), true rate = difference of the true settlement of consecutive days;
 * the maximum settlement max_i(-dz_i) against max_i(-s_i): coverage of the printed 90 % interval
-  (``max_settlement_lower``/``upper``, from the simultaneous band), PIT and RMS z of the Monte Carlo mean and
+  (``max_settlement_lower``/``upper``: by default the interval holding 98 % of the draws' maxima, docs/rail.md
+  step 13), PIT and RMS z of the Monte Carlo mean and
   std (§4.3).
 
 Scores: empirical coverage of the 90 % interval, the PIT histogram u = Phi(z) with
