@@ -17,7 +17,7 @@ def convert_command(
     units: str = typer.Option(None, "--units", help="Elevation unit written: m, mm, cm, in, ft (default: mm for "
                                                     "ERD, m for CSV/Parquet)."),
     input_units: str = typer.Option(None, "--elevation-unit", "--input-units",
-                                    help="Elevation unit of input columns that do not give one (m, mm, in, ft), as "
+                                    help="Elevation unit of input columns that do not give one (m, mm, cm, in, ft), as "
                                          "in `road iri`; never guessed."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks to keep (default: all), e.g. left,right."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the profile to this PNG."),

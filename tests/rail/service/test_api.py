@@ -198,6 +198,11 @@ def test_dashboard_pages_and_the_daily_report(app):
     assert client.get("/sites/mitt/report/1999-01-01").status_code == 404
     api = client.get("/api/v1/sites/mitt/settlement").json()
     assert api["day"] == last[:10] and len(api["rows"]) == 58 and api["run"]["data_complete_to"]
+    # the run's settlement model is shown; a site without thresholds says so instead of a bare "no alarm"
+    assert api["run"]["model"] == "all-days" and "all-days model" in page.text
+    assert 'id="no-thresholds"' in page.text  # this site has none (its alarms are sensor-health ones)
+    _core.replace_thresholds(db, "tester", "mitt", {"settlement": {"alert": 0.01}})
+    assert 'id="no-thresholds"' not in client.get("/sites/mitt").text
 
 
 def test_the_report_folder_of_the_app_is_removed_when_its_lifespan_ends(site, tmp_path, monkeypatch):

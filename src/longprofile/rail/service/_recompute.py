@@ -1,7 +1,9 @@
 """Recompute a site's settlement from its stored readings with ``longprofile.rail.estimate_settlement``.
 
 A run reads the site's data version (the watermark), validates the stored tables with ``validate_site`` and
-calls ``estimate_settlement`` — the functions ``rail settle`` calls — then stores the daily posterior (90 %
+calls ``estimate_settlement_from_daily`` on the cached per-day statistics (``estimate_settlement`` for the lagged
+thermal model) — the functions ``rail settle`` calls, with the settlement model of the site's ``model`` setting
+(:func:`service_joint_days`: the all-days model up to :data:`ALL_DAYS_MAX_SENSOR_DAYS`) — then stores the daily posterior (90 %
 bands), the through-time rates, the sensor health and the alarm transitions in one transaction. Each run
 records the code version, a hash of everything that shaped the result (settings, sensors, survey,
 thresholds, baseline), the data watermark, "data complete to T" and the earliest changed timestamp.

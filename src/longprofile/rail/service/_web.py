@@ -26,7 +26,7 @@ from ...errors import InputError, LongprofileError
 from . import _core as core
 from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
-from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site
+from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site, Threshold
 from ._recompute import latest_run, recompute, sensor_daily_statistics
 
 __all__ = ["create_app", "ServiceWorker"]
@@ -603,6 +603,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         alarms = list_alarms(db, st.name, limit=200)
         with db.read() as s:
             last_any = latest_run(s, st, ok_only=False)
+            has_thresholds = s.scalar(select(func.count()).select_from(Threshold).where(Threshold.site_id == st.id)) > 0
             health = [] if run is None else [
                 {"sensor_id": h.sensor_id, "status": h.status, "reason": h.reason,
                  "last": _iso(h.last_reading_ts)}
@@ -612,7 +613,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
             a["acked"] = _iso(a["ack_ts"])
         controls = core.get_controls(db, st.name)["comparison"]
         return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
-                          alarms=alarms, health=health, controls=controls,
+                          alarms=alarms, health=health, controls=controls, has_thresholds=has_thresholds,
                           can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
