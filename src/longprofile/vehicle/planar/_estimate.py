@@ -460,18 +460,8 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     raw = nis_inflation(filtered.innovation, filtered.innovation_cov, n_win, floor=min(unc.nis_floor, unc.grade_floor))
     scale = np.maximum(raw, unc.nis_floor)
     kappa = np.maximum(scale, 1.0)
-    gain = None
-    if method != "cascade":
-        slope = mean[:, 3].copy()
-        grade_scale = np.maximum(raw[:, 0], unc.grade_floor)
-        s_var = var[:, 3] * grade_scale * (1.0 - np.sin(slope) ** 2)  # of sin(theta), to add the terms below
-        lag = 0.0
-    else:
-        missing = np.isnan(y[:, 0])
-        speed = np.where(missing, mean[:, 0], y[:, 0])  # the EKF's V_x where the measurement is missing
-        speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
-        slope, s_var, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
-        lag = float(sum(-1.0 / p for p in poles)) if unc.tracking_lag else 0.0
+    slope, s_var, gain, lag = _uncorrected_slope(vehicle, unc, method, dt, mean, var, std, raw, y, ref, res, res_std,
+                                                 poles, n_win)
     slope, s_var, fit = _force_corrected(vehicle, unc, force_correction, log.accel_x, mean, slope, s_var, res,
                                          gain, dt, lag)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
@@ -484,6 +474,21 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
                          observer_gain=gain, speed_reference=ref, force_fit=fit, sensor_calibration=cal,
                          uncertainty=unc)
+
+
+def _uncorrected_slope(vehicle, unc, method, dt, mean, var, std, raw, y, ref, res, res_std, poles, n_win):
+    """(slope, variance of sin(slope), observer gain or None, tracking lag in s) before the force correction: the
+    joint EKF's grade (its variance scaled by the V_x NIS down to ``unc.grade_floor``) or the cascade's Luenberger
+    observer on eq. (21) driven by the measured V_x (the EKF's where the measurement is missing)."""
+    if method != "cascade":
+        slope = mean[:, 3].copy()
+        grade_scale = np.maximum(raw[:, 0], unc.grade_floor)
+        return slope, var[:, 3] * grade_scale * (1.0 - np.sin(slope) ** 2), None, 0.0  # of sin(theta)
+    missing = np.isnan(y[:, 0])
+    speed = np.where(missing, mean[:, 0], y[:, 0])
+    speed_std = float(np.median(np.where(missing, std[:, 0], ref.std)))
+    slope, s_var, gain = _cascade_slope(vehicle, dt, speed, speed_std, res, res_std, poles, n_win)
+    return slope, s_var, gain, float(sum(-1.0 / p for p in poles)) if unc.tracking_lag else 0.0
 
 
 def _filtered(log, vehicle, method, tuning, friction, initial_state, speed_measurement):
