@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 import scipy.stats
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
@@ -423,6 +423,14 @@ def test_true_model_beats_perturbed_on_long_data(size, seed, which):
     rng = np.random.default_rng(seed)
     T = 1500
     model = random_model(rng, n, m, T)
+    # Only draws where the perturbed term is identifiable from 1500 samples: the stationary signal-to-noise
+    # tr(H P H') / tr(R) (P: the state's stationary covariance). Measured (2026-12-06, 600 seeds each of sizes (1, 1)
+    # and (2, 1), perturbations as below): the truth lost on 25 of 1202 draws; Q x 4 and -F lost only at SNR <= 0.15
+    # (the state invisible in the noise; e.g. seed 113, (1, 1), Q: SNR 0.057), R x 4 only at SNR >= 48 (R invisible
+    # beside the signal); per draw 2.2 % (Q) and 3 % (F) at (1, 1). None lost at (3, 2), (4, 2) over 1000 seeds.
+    snr = np.trace(model.observation @ scipy.linalg.solve_discrete_lyapunov(model.transition, model.process_cov)
+                   @ model.observation.T) / np.trace(model.obs_cov)
+    assume(snr <= 20.0 if which == "R" else snr >= 0.3)
     _x, y = draw(model, T, rng)
     if which == "Q":
         wrong = model.replace(process_cov=4.0 * model.process_cov)
