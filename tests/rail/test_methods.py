@@ -211,7 +211,10 @@ def test_alarm_probabilities_are_gaussian_tail_probabilities():
     row = al[(al.date == "2020-01-02") & (al.sensor_id == "B")].iloc[0]
     assert row.probability == pytest.approx(norm.cdf((-0.01 + 0.012) / 0.002) + norm.sf((0.01 + 0.012) / 0.002))
     assert set(al.columns) == {"date", "sensor_id", "x_m", "kind", "value", "threshold", "probability"}
-    assert len(settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, threshold_m=1.0)) == 0
+    none = settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, threshold_m=1.0)
+    assert len(none) == 0
+    # nothing exceeds: the same columns with the dtypes of a non-empty result (were object: np.allclose raised)
+    assert none.dtypes.to_dict() == al.dtypes.to_dict()
     with pytest.raises(InputError, match="rate threshold needs"):
         settlement_alarms(days, ["A", "B"], np.zeros(2), mean, std, rate_threshold_m_per_day=0.001)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 import scipy.stats
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
@@ -350,6 +350,8 @@ def _series_cov(rng, model, B, T, tv):
 @PROPS
 @given(model_and_data(), st.integers(2, 4), st.booleans(), st.sampled_from(
     [("process_cov", "obs_cov", "initial_cov"), ("obs_cov",), ("process_cov", "initial_cov")]))
+@example((random_model(np.random.default_rng(0), 4, 2, 3), np.full((3, 2), np.nan)), 2, False,
+         ("process_cov", "obs_cov", "initial_cov"))  # every value missing (a stress run drew it: T=3, half missing)
 def test_per_series_covariances_equal_one_model_per_series(md, B, tv, names):
     """series_cov: each series of the batch is filtered and smoothed exactly as with its own model (bit for bit:
     the same compiled loop), whatever missing pattern each series has."""
@@ -373,7 +375,10 @@ def test_per_series_covariances_equal_one_model_per_series(md, B, tv, names):
                      (sb.mean[i], s.mean), (sb.cov[i], s.cov), (sb.cross_cov[i], s.cross_cov)):
             assert_array_equal(a, b)
         assert fb.log_likelihood[i] == f.log_likelihood == llb[i]
-    if "obs_cov" in per:  # the per-series covariances are used: the model's own R gives another likelihood
+    # the per-series covariances are used: the model's own R gives another likelihood -- when something is observed
+    # (with every value missing R never enters and both log-likelihoods are 0: about 1 draw in 64 with T=3, m=2 and
+    # half the values missing; its filter and smoother are still compared bit for bit above)
+    if "obs_cov" in per and np.isfinite(yb).any():
         assert not np.array_equal(kalman_filter(model, yb).log_likelihood, fb.log_likelihood)
 
 
@@ -418,6 +423,14 @@ def test_true_model_beats_perturbed_on_long_data(size, seed, which):
     rng = np.random.default_rng(seed)
     T = 1500
     model = random_model(rng, n, m, T)
+    # Only draws where the perturbed term is identifiable from 1500 samples: the stationary signal-to-noise
+    # tr(H P H') / tr(R) (P: the state's stationary covariance). Measured (2026-12-06, 600 seeds each of sizes (1, 1)
+    # and (2, 1), perturbations as below): the truth lost on 25 of 1202 draws; Q x 4 and -F lost only at SNR <= 0.15
+    # (the state invisible in the noise; e.g. seed 113, (1, 1), Q: SNR 0.057), R x 4 only at SNR >= 48 (R invisible
+    # beside the signal); per draw 2.2 % (Q) and 3 % (F) at (1, 1). None lost at (3, 2), (4, 2) over 1000 seeds.
+    snr = np.trace(model.observation @ scipy.linalg.solve_discrete_lyapunov(model.transition, model.process_cov)
+                   @ model.observation.T) / np.trace(model.obs_cov)
+    assume(snr <= 20.0 if which == "R" else snr >= 0.3)
     _x, y = draw(model, T, rng)
     if which == "Q":
         wrong = model.replace(process_cov=4.0 * model.process_cov)

@@ -230,4 +230,7 @@ def settlement_alarms(days, sensor_ids, x, mean, std, *, threshold_m=None, rate=
             rows.append((pd.Timestamp(days[d]).date().isoformat(), sensor_ids[j], float(x[j]), kind, float(m[d, j]),
                          thr, float(p[d, j])))
     df = pd.DataFrame(rows, columns=["date", "sensor_id", "x_m", "kind", "value", "threshold", "probability"])
+    if not rows:  # the dtypes of a non-empty result (an empty list gives object columns: no arithmetic on them)
+        df = df.astype({"date": str, "sensor_id": str, "x_m": float, "kind": str, "value": float, "threshold": float,
+                        "probability": float})
     return df.sort_values(["date", "x_m", "kind"], kind="stable").reset_index(drop=True)
