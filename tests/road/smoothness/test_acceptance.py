@@ -92,6 +92,10 @@ def test_zone_outside_profile_and_mri_needs_two_tracks():
         smoothness_acceptance(prof, spec_from_dict({"index": "mri"}))
     # the default index is "auto": the IRI for one track (MRI for two), resolved in the result
     assert smoothness_acceptance(prof, default_spec()).spec.index == "iri"
+    # a lot or window shorter than 10 samples is a unit mistake (1e-9 ft asked for a 7 TiB array of lots)
+    for spec in ({"index": "iri", "lot": {"length": 1e-9}}, {"index": "iri", "localized": {"window": 0.1}}):
+        with pytest.raises(InputError, match="shorter than 10 samples"):
+            smoothness_acceptance(prof, spec_from_dict(spec))
 
 
 def _cli():

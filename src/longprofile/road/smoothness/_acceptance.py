@@ -382,6 +382,11 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     x = profile.distance
     x0u, x1u = x[0] / scale, x[-1] / scale
     _check_zones(spec, x0u, x1u)
+    step = float(np.median(np.diff(x))) if x.size > 1 else 0.0
+    for what, value in (("lot length", spec.lot_length), ("localized window", spec.localized_window)):
+        if value * scale < 10.0 * step:  # e.g. 1e-9 ft: a trillion lots (a 7 TiB array), not a statement
+            raise InputError(f"the {what} {value:g} {lu} is shorter than 10 samples of the profile ({step / scale:.3g} "
+                             f"{lu} apart): a unit mistake in the spec?")
     n_lots = int(np.floor((x1u - x0u) / spec.lot_length + 1e-9))
     if n_lots < 1:
         raise InputError(f"the profile ({x1u - x0u:.2f} {lu}) is shorter than one lot ({spec.lot_length:g} {lu}).")
