@@ -299,3 +299,19 @@ def test_vehicle_vertical_bad_plot_suffix_fails_before_writing(tmp_path):
     assert main(["vehicle", "vertical", "simulate", "--duration", "1", "-o", str(out),
                  "--plot", str(tmp_path / "p.csv")]) == 2
     assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [["vehicle", "simulate", "--duration", "1e13"],  # 71 PiB: beyond any address space
+                                  ["vehicle", "simulate", "--duration", "1e16"],  # numpy: "Maximum allowed size"
+                                  ["road", "simulate", "--length", "1e14"]])
+def test_a_size_no_machine_holds_is_one_line_not_a_traceback(args, tmp_path, capsys):
+    out = tmp_path / "x.csv"
+    assert main(args + ["-o", str(out)]) == 2
+    err = _err(capsys)
+    assert "not enough memory for this request" in err and "Traceback" not in err and not out.exists()
+
+
+def test_vertical_simulation_refuses_an_implausible_speed(tmp_path, capsys):
+    out = tmp_path / "v.csv"
+    assert main(["vehicle", "vertical", "simulate", "--config", "3", "--speed", "120", "-o", str(out)]) == 2
+    assert "not a plausible road-vehicle speed" in _err(capsys) and not out.exists()

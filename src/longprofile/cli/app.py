@@ -131,6 +131,15 @@ def main(argv: list[str] | None = None) -> int:
         # the message is text, not rich markup: "[lot]" or "[units]" in a message must print as written
         console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True)
         return 2
+    except (MemoryError, ValueError) as exc:
+        # a size no machine holds (e.g. a simulator asked for 1e9 s or 1e12 m): numpy's MemoryError, or its
+        # ValueError "Maximum allowed size exceeded" beyond the address space; any other ValueError is a bug
+        if not isinstance(exc, MemoryError) and "Maximum allowed size exceeded" not in str(exc):
+            raise
+        console.print(f"[red]error:[/red] not enough memory for this request ({escape(str(exc))}); reduce its size "
+                      "(e.g. --length, --duration, --days, --sampling-minutes) or split the input.", highlight=False,
+                      soft_wrap=True)
+        return 2
     except typer.Exit as exc:
         return exc.exit_code
     except typer.Abort:

@@ -18,7 +18,7 @@ from scipy import signal
 from ..._validation import require_positive
 from ...errors import InputError
 from ._estimate import VerticalStateEstimate
-from ._simulate import VerticalSensors, VerticalSimulation
+from ._simulate import VerticalSensors, VerticalSimulation, vehicle_speed
 
 if TYPE_CHECKING:
     from ...road import IRIResult, Profile
@@ -98,7 +98,7 @@ def road_profile_from_suspension(sensors: VerticalSensors, estimate: VerticalSta
 
     if axle not in ("front", "rear"):
         raise InputError(f"axle must be 'front' or 'rear'; got {axle!r}.")
-    V = require_positive("speed", speed)
+    V = vehicle_speed(speed)
     fc = require_positive("highpass", highpass)
     dt = sensors.dt
     if sensors.time.shape != estimate.time.shape:
@@ -146,7 +146,7 @@ def wheel_profiles(sensors: VerticalSensors, estimate: VerticalStateEstimate, sp
     from ._params import VerticalVehicleParams
 
     p = params or VerticalVehicleParams()
-    V = require_positive("speed", speed)
+    V = vehicle_speed(speed)
     if smoothed:  # smooth once for both axles
         from ._estimate import smooth_vertical_states
 

@@ -26,6 +26,19 @@ from ...errors import InputError, ShapeError
 from ._model import CORNER_NAMES, CX, CY, mr_controlled_force, seven_dof_rhs, skyhook_current, vertical_params_arrays
 from ._params import SENSOR_CONFIGS, MRDamperParams, VerticalVehicleParams
 
+#: Largest plausible road-vehicle speed, m/s (360 km/h): above, a unit mistake (km/h given as m/s) or a typo is assumed.
+MAX_VEHICLE_SPEED = 100.0
+
+
+def vehicle_speed(speed) -> float:
+    """``speed`` (m/s) checked: finite, > 0 and at most :data:`MAX_VEHICLE_SPEED`."""
+    v = require_positive("speed", speed)
+    if v > MAX_VEHICLE_SPEED:
+        raise InputError(f"speed {v:g} m/s is not a plausible road-vehicle speed (at most {MAX_VEHICLE_SPEED:g} m/s = "
+                         f"{3.6 * MAX_VEHICLE_SPEED:g} km/h): km/h given as m/s?")
+    return v
+
+
 __all__ = [
     "VerticalSimulation",
     "VerticalSensors",
@@ -355,7 +368,7 @@ def wheel_road_inputs(profile, speed: float, dt: float, *, duration: float | Non
         If the profile is too short for the run or has missing samples.
     """
     p = params or VerticalVehicleParams()
-    V = require_positive("speed", speed)
+    V = vehicle_speed(speed)
     dt = require_positive("dt", dt)
     z = np.asarray(profile.elevation, dtype=float)
     if np.isnan(z).any():
@@ -449,7 +462,7 @@ def steering_sine_manoeuvre(dt: float = 1e-3, *, duration: float = 20.0, speed: 
 
     dt = require_positive("dt", dt)
     duration = require_positive("duration", duration)
-    V = require_positive("speed", speed)
+    V = vehicle_speed(speed)
     t = np.arange(int(np.floor(duration / dt + 1e-9)) + 1) * dt
     phase = 2 * np.pi * 0.5 * (f_end / duration) * t ** 2
     r_cmd = yaw_rate_amplitude * np.sin(phase)
@@ -661,7 +674,7 @@ def vertical_test_run(config: int, *, test: str = "road", road_class: str = "C",
         raise InputError(f"config must be 1, 2 or 3 (thesis sensor configurations); got {config!r}.")
     p = params or VerticalVehicleParams()
     duration = require_positive("duration", duration)
-    speed = require_positive("speed", speed)
+    speed = vehicle_speed(speed)
     if test == "sweep":
         sim = simulate_vertical(bench_sweep_road(dt, duration=duration), dt, params=p, mr_damper=mr_damper)
     else:
