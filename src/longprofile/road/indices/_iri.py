@@ -859,6 +859,9 @@ def _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval, wi
                              "consecutive segments of `interval`.")
         length = _report_length("interval", interval, lu)
         n = int(np.floor((x1 - first) / length + 1e-9))
+        if n > x.size + 1000:  # shorter than a sample spacing: every segment would be (nearly) empty
+            raise InputError(f"segment {length:g} {lu} gives {n} segments, more than the profile's {x.size} samples: "
+                             "a segment must hold several samples; use a longer segment (a unit mistake?).")
         bounds_u = first + length * np.arange(n + 1)
         starts_u, ends_u = bounds_u[:-1], bounds_u[1:]
         grid = {"interval": length}
