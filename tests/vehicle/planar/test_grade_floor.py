@@ -7,9 +7,7 @@ import pytest
 
 from longprofile.errors import InputError
 from longprofile.vehicle import (
-    SensorSpec,
     SlopeUncertainty,
-    default_vehicle,
     drive_scenario,
     estimate_slope,
     simulate_drive,
@@ -17,9 +15,7 @@ from longprofile.vehicle import (
 from longprofile.vehicle.planar._estimate import nis_inflation
 from tests._fingerprint import assert_same_fingerprint, fingerprint
 
-CAR = default_vehicle()
-Z90 = 1.6448536269514722
-KEYS = ("slope", "slope_std", "vx", "vx_std", "vy", "vy_std", "yaw_rate", "yaw_rate_std")
+from ._bands import CAR, Z90, hill_drive, slope_outputs
 
 #: fingerprint (tests/_fingerprint.py) of estimate_slope's outputs at b4ad596 (the morning of 2026-12-06, default
 #: SlopeUncertainty then), hill drive of 10 s, gyro offset 2e-3 rad/s, seed 4, both methods
@@ -61,20 +57,12 @@ MORNING = {
 
 @pytest.fixture(scope="module")
 def hill():
-    return simulate_drive(drive_scenario("hill", duration=10.0), CAR, sensors=SensorSpec(yaw_rate_offset=2e-3), seed=4)
-
-
-def _outputs(log, unc):
-    out = {}
-    for method in ("cascade", "joint"):
-        est = estimate_slope(log, CAR, method=method, uncertainty=unc)
-        out.update({f"{method}.{k}": getattr(est, k) for k in KEYS})
-    return out
+    return hill_drive()
 
 
 def test_until_2026_12_06_pm_reproduces_the_morning_and_the_new_default_moves_only_the_joint_grade_band(hill):
-    assert_same_fingerprint(fingerprint(_outputs(hill.log, SlopeUncertainty.until_2026_12_06_pm())), MORNING)
-    new = _outputs(hill.log, None)
+    assert_same_fingerprint(fingerprint(slope_outputs(hill.log, SlopeUncertainty.until_2026_12_06_pm())), MORNING)
+    new = slope_outputs(hill.log, None)
     moved = "joint.slope_std"
     assert_same_fingerprint(fingerprint({k: v for k, v in new.items() if k != moved}),
                             {k: v for k, v in MORNING.items() if k != moved})

@@ -11,19 +11,15 @@ from hypothesis import strategies as st
 
 from longprofile.errors import InputError
 from longprofile.vehicle import (
-    SensorSpec,
     SlopeUncertainty,
     calibrate_sensors,
-    default_vehicle,
     drive_scenario,
     estimate_slope,
     simulate_drive,
 )
 from tests._fingerprint import assert_same_fingerprint, fingerprint
 
-CAR = default_vehicle()
-Z90 = 1.6448536269514722
-KEYS = ("slope", "slope_std", "vx", "vx_std", "vy", "vy_std", "yaw_rate", "yaw_rate_std")
+from ._bands import CAR, Z90, hill_drive, slope_outputs
 
 #: fingerprint (tests/_fingerprint.py) of estimate_slope's outputs at 74ff502 (before this change, default
 #: SlopeUncertainty then), hill drive of 10 s, gyro offset 2e-3 rad/s, seed 4, both methods
@@ -64,14 +60,11 @@ BEFORE = {
 
 @pytest.fixture(scope="module")
 def hill():
-    return simulate_drive(drive_scenario("hill", duration=10.0), CAR, sensors=SensorSpec(yaw_rate_offset=2e-3), seed=4)
+    return hill_drive()
 
 
 def test_until_2026_12_06_reproduces_the_estimator_before(hill):
-    out = {}
-    for method in ("cascade", "joint"):
-        est = estimate_slope(hill.log, CAR, method=method, uncertainty=SlopeUncertainty.until_2026_12_06())
-        out.update({f"{method}.{k}": getattr(est, k) for k in KEYS})
+    out = slope_outputs(hill.log, SlopeUncertainty.until_2026_12_06())
     assert_same_fingerprint(fingerprint(out), BEFORE)
     new = estimate_slope(hill.log, CAR)  # and the new defaults do differ (V_x's radius term doubled)
     assert np.median(new.vx_std) > 1.5 * np.median(out["cascade.vx_std"])
