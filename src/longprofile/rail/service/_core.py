@@ -27,7 +27,6 @@ from .. import (
     READING_COLUMNS,
     SiteData,
     angle_noise,
-    check_threshold,
     check_thresholds,
     validate_site,
 )
@@ -407,39 +406,27 @@ def get_controls(db: Database, name: str) -> dict:
 
 
 def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str, value) -> dict:
-    """Set (value > 0) or remove (value None) one of the three levels of a quantity (m, m/day for rate)."""
+    """Set (value > 0) or remove (value None) one of the three levels of a quantity (m, m/day for rate): the site's
+    thresholds with that level changed, checked and stored as :func:`replace_thresholds` does."""
     if quantity not in QUANTITIES:
         raise InputError(f"quantity must be one of {list(QUANTITIES)}; got {quantity!r}.")
     if level not in LEVELS:
         raise InputError(f"level must be one of {list(LEVELS)}; got {level!r}.")
     v = None if value is None else _finite(value, "threshold value")
-    if v is not None and v <= 0:
-        raise InputError(f"a threshold is on |value| and must be > 0; got {v}.")
-    if v is not None:
-        check_threshold(v, quantity)
     with db.write() as s:
         site = _site(s, name)
-        cur = s.scalar(select(Threshold).where(Threshold.site_id == site.id, Threshold.quantity == quantity,
-                                               Threshold.level == level))
-        old = None if cur is None else cur.value
-        if old == v:
-            return {"quantity": quantity, "level": level, "value": v}
-        if cur is None:
-            s.add(Threshold(site_id=site.id, quantity=quantity, level=level, value=v))
-        elif v is None:
-            s.delete(cur)
+        table = _threshold_rows(s, site)
+        levels = {lv: t.value for (q, lv), t in table.items() if q == quantity}
+        if v is None:
+            levels.pop(level, None)
         else:
-            cur.value = v
-        s.flush()
-        levels = {t.level: t.value for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id,
-                                                                                 Threshold.quantity == quantity))}
-        vals = [levels[lv] for lv in LEVELS if lv in levels]
-        if vals != sorted(vals):
-            raise InputError(f"{quantity} thresholds must grow alert <= action <= alarm; they would be {levels}.")
-        _audit(s, actor, site.id, "threshold", f"{quantity}.{level}", "set", old, v)
-        site.data_version = (site.data_version or 0) + 1
-        if site.dirty_from_ts is None:
-            site.dirty_from_ts = site.baseline_start_ts or 0
+            levels[level] = v
+        others = {}
+        for (q, lv), t in table.items():
+            if q != quantity:
+                others.setdefault(q, {})[lv] = t.value
+        # only the changed quantity is checked: a level stored before a check existed does not block the others
+        _store_thresholds(s, actor, site, table, {**others, **check_thresholds({quantity: levels})})
     return {"quantity": quantity, "level": level, "value": v}
 
 
@@ -450,29 +437,39 @@ def replace_thresholds(db: Database, actor: str, name: str, thresholds: dict) ->
     new = check_thresholds(thresholds)
     with db.write() as s:
         site = _site(s, name)
-        cur = {(t.quantity, t.level): t for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
-        want = {(q, lv): v for q, levels in new.items() for lv, v in levels.items()}
-        changed = False
-        for key, t in cur.items():
-            if key not in want:
-                _audit(s, actor, site.id, "threshold", f"{key[0]}.{key[1]}", "set", t.value, None)
-                s.delete(t)
-                changed = True
-        for (q, lv), v in want.items():
-            t = cur.get((q, lv))
-            if t is not None and t.value == v:
-                continue
-            _audit(s, actor, site.id, "threshold", f"{q}.{lv}", "set", None if t is None else t.value, v)
-            if t is None:
-                s.add(Threshold(site_id=site.id, quantity=q, level=lv, value=v))
-            else:
-                t.value = v
-            changed = True
-        if changed:
-            site.data_version = (site.data_version or 0) + 1
-            if site.dirty_from_ts is None:
-                site.dirty_from_ts = site.baseline_start_ts or 0
+        _store_thresholds(s, actor, site, _threshold_rows(s, site), new)
     return new
+
+
+def _threshold_rows(s, site: Site) -> dict:
+    """{(quantity, level): Threshold row} of a site."""
+    return {(t.quantity, t.level): t for t in s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
+
+
+def _store_thresholds(s, actor: str, site: Site, cur: dict, new: dict) -> None:
+    """Make the site's rows ``cur`` equal the checked thresholds ``new``: one audit entry per changed level, and the
+    site marked for a recompute when anything changed."""
+    want = {(q, lv): v for q, levels in new.items() for lv, v in levels.items()}
+    changed = False
+    for key, t in cur.items():
+        if key not in want:
+            _audit(s, actor, site.id, "threshold", f"{key[0]}.{key[1]}", "set", t.value, None)
+            s.delete(t)
+            changed = True
+    for (q, lv), v in want.items():
+        t = cur.get((q, lv))
+        if t is not None and t.value == v:
+            continue
+        _audit(s, actor, site.id, "threshold", f"{q}.{lv}", "set", None if t is None else t.value, v)
+        if t is None:
+            s.add(Threshold(site_id=site.id, quantity=q, level=lv, value=v))
+        else:
+            t.value = v
+        changed = True
+    if changed:
+        site.data_version = (site.data_version or 0) + 1
+        if site.dirty_from_ts is None:
+            site.dirty_from_ts = site.baseline_start_ts or 0
 
 
 def _key_hash(secret: str) -> str:
