@@ -2,8 +2,9 @@
 
 Each case takes a valid input of a command, breaks it the way users' files are broken (the classes of issue 13:
 absurd values, a header only, unsorted / duplicate / descending keys, decimal commas in a comma-separated file, a
-truncated last row, millimetres under a metre column, time in ms, angles in radians or degrees where the other is
-expected, text in a number, an empty or binary file, a missing column) and runs the command in process. The
+spreadsheet export with semicolons and decimal commas, a truncated last row, millimetres under a metre column, time in
+ms, angles in radians or degrees where the other is expected, text in a number, an empty or binary file, a missing
+column) and runs the command in process. The
 outcome is classified:
 
 * ``clear``     -- exit code 2, exactly one ``error:`` line, no traceback, no output written, inputs unchanged;
@@ -209,6 +210,13 @@ def decimal_commas(path, cmd, rng):
     path.write_text("\n".join([head, *rows]) + "\n")
 
 
+def semicolon_export(path, cmd, rng):
+    """The table as a spreadsheet in a decimal-comma locale saves it: ';' between fields, ',' in every number."""
+    head, rows = _rows(path.read_text())
+    lines = [head.replace(",", ";"), *(r.replace(",", ";").replace(".", ",") for r in rows)]
+    path.write_text("\n".join(lines) + "\n")
+
+
 def truncated_last_row(path, cmd, rng):
     text = path.read_text().rstrip("\n")
     last = text.rsplit("\n", 1)[1]
@@ -283,6 +291,7 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "duplicate row": (duplicate_row, _general),
     "descending keys": (descending, lambda c: _general(c) and not c.name.startswith("rail settle (readings)")),
     "decimal commas": (decimal_commas, _general),
+    "semicolon export": (semicolon_export, _general),
     "truncated last row": (truncated_last_row, _general),
     "mm under a metre column": (millimetres_under_metres, lambda c: _table(c) and c.metre is not None),
     "time in ms": (time_in_milliseconds, lambda c: _table(c) and c.time is not None),

@@ -237,6 +237,33 @@ def test_semicolon_csv_from_a_european_spreadsheet_gets_a_hint(tmp_path, capsys)
     assert "separated by ';', not commas" in _err(capsys)
 
 
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_a_semicolon_or_tab_file_with_several_decimal_commas_per_row_gets_the_hint(tmp_path, capsys, sep):
+    # "0,05;-0,38;0,43" splits into 6 comma fields under a 1-field header: before, a pandas tokenizer error
+    path = tmp_path / "p.csv"
+    path.write_text("# exported\n" + sep.join(["distance_m", "elevation_m", "std_m"]) + "\n"
+                    + "".join(sep.join([f"{0.05 * i:g}", "-0,38", "0,43"]).replace(".", ",") + "\n"
+                              for i in range(20)))
+    assert main(["road", "iri", str(path)]) == 2
+    err = _err(capsys)
+    assert "not commas" in err and "tokeniz" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_an_upper_case_reconstruct_output_reads_as_its_lower_case_original(tmp_path, capsys):
+    # a spreadsheet that upper-cases the header: STD_M still belongs to ELEVATION_M, RAW_M is still no track
+    x = np.arange(4000) * 0.05
+    z = 1e-3 * np.sin(2 * np.pi * x / 7.0)
+    frame = pd.DataFrame({"distance_m": x, "elevation_m": z, "std_m": 1e-4, "raw_m": z, "raw_std_m": 2e-4})
+    frame.to_csv(tmp_path / "low.csv", index=False)
+    frame.rename(columns=str.upper).to_csv(tmp_path / "up.csv", index=False)
+    for name in ("low", "up"):
+        assert main(["road", "iri", str(tmp_path / f"{name}.csv"), "--segment", "100",
+                     "-o", str(tmp_path / f"iri_{name}.csv")]) == 0
+    low, up = (pd.read_csv(tmp_path / f"iri_{n}.csv", comment="#") for n in ("low", "up"))
+    assert low.shape == up.shape and low.shape[1] == 3  # one track, not two
+    np.testing.assert_array_equal(low.to_numpy(), up.to_numpy())
+
+
 def test_demo_into_a_file_is_one_line_error(tmp_path, capsys):
     (tmp_path / "out").write_text("not a folder")
     assert main(["demo", "-o", str(tmp_path / "out")]) == 2

@@ -78,17 +78,20 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
             std_columns["elevation"] = (c, unit)
         else:
             columns[base] = (c, unit)
+    # a track's std pairs with it whatever the case of the header (ELEVATION_M with STD_M, Left_mm with left_std_mm)
+    by_lower = {t.lower(): t for t in columns}
+    std_columns = {by_lower.get(t.lower(), t): v for t, v in std_columns.items()}
     orphans = [c for t, (c, _) in std_columns.items() if t not in columns]
     if orphans:
         raise InputFormatError(f"{path}: column {orphans[0]!r} is a standard deviation but the file has no column of "
                                f"its elevations ({list(df.columns)}); a standard deviation is never read as a track.")
-    if [c for c in df.columns if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS):
+    if _is_reconstruct_header(df.columns):
         # a `road reconstruct` output holds one profile: elevation_m with its std_m (raw_m is the undetrended
         # estimate, a diagnostic, not a track)
-        std_columns["elevation"] = ("std_m", "m")
         if tracks is None:
             tracks = ("elevation",)
     names = list(columns) if tracks is None else ([tracks] if isinstance(tracks, str) else list(tracks))
+    names = [t if t in columns else by_lower.get(str(t).lower(), t) for t in names]  # --track left finds Left_mm
     for t in names:
         if t not in columns:
             raise InputError(f"{path}: no track {t!r}; the file has {list(columns)}.")
@@ -151,7 +154,12 @@ def is_reconstruct_output(path) -> bool:
             return False
     except Exception:  # unreadable: the reader reports it properly
         return False
-    return [c for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
+    return _is_reconstruct_header(names)
+
+
+def _is_reconstruct_header(names) -> bool:
+    """The header is ``road reconstruct``'s column set (any letter case; ``__`` columns, e.g. pandas' index, aside)."""
+    return [str(c).lower() for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
 
 
 def read_apl_signal(path, *, column: str = "apl_m"):

@@ -34,13 +34,17 @@ def _read_csv(path: Path) -> pd.DataFrame:
     the header and after the last data line are ignored; a last row of empty cells (``,,``, or ``""`` in a
     one-column file) is a row of missing values and is kept.
     """
+    leading, header = None, ""
     with open(path, encoding="utf-8", errors="replace") as fh:
-        leading = 0
-        for line in fh:
-            if line.strip():
+        for i, line in enumerate(fh):
+            text = line.strip()
+            if text and leading is None:
+                leading = i  # blank lines before the first text line are skipped
+            if text and not text.startswith("#"):
+                header = text
                 break
-            leading += 1
-    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading)
+    _check_separator(path, header)
+    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0)
     _check_last_row(path, df.shape[1])
     trailing = _trailing_blank_lines(path)
     if trailing:
@@ -50,6 +54,17 @@ def _read_csv(path: Path) -> pd.DataFrame:
         if drop:
             return df.iloc[:len(df) - drop].reset_index(drop=True)
     return df
+
+
+def _check_separator(path: Path, header: str) -> None:
+    """Refuse a header separated by semicolons or tabs (no comma in it): a spreadsheet's export in a locale with
+    decimal commas, whose rows the comma parser would split at every decimal comma (or read as one column)."""
+    if "," in header:
+        return
+    for sep, name in ((";", "';'"), ("\t", "tab")):
+        if sep in header:
+            raise InputFormatError(f"{path}: the header {header!r} is separated by {name}, not commas; save the file "
+                                   "as comma-separated values with decimal points (e.g. 0.25, not 0,25).")
 
 
 def _tail(path: Path, size: int = 65536) -> tuple[int, bytes]:
@@ -133,10 +148,6 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         raise
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
-    if fmt == "csv" and df.shape[1] == 1 and any(sep in str(df.columns[0]) for sep in (";", "\t")):
-        sep = ";" if ";" in str(df.columns[0]) else "tab"
-        raise InputFormatError(f"{path}: the header {str(df.columns[0])!r} is separated by {sep!r}, not commas; save the "
-                               "file as comma-separated values with decimal points (e.g. 0.25, not 0,25).")
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise InputFormatError(f"{path}: missing column(s) {missing}; the file has {list(df.columns)}.")
