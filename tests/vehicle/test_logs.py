@@ -197,3 +197,32 @@ def test_vertical_log_in_mm_is_refused_unless_declared(vertical_frame):
 def test_vertical_log_at_100_hz_is_refused(vertical_frame):
     with pytest.raises(InputError, match=r"sample rate 100 Hz is below the 500 Hz"):
         read_vertical_log(vertical_frame.iloc[::10].reset_index(drop=True))
+
+
+_CASES = st.sampled_from([str.upper, str.lower, str.title, str.swapcase, str])
+
+
+@settings(max_examples=15, deadline=None)
+@given(data=st.data())
+def test_channel_names_are_read_in_any_letter_case(paper, vertical_frame, data):
+    # a spreadsheet that capitalises the header ('Time', 'ACCEL_X', 'dz21_fl', 'Yaw_Rate [deg/s]') reads as the
+    # original; before 2026-12-06 every such channel was "missing"
+    def recase(frame):
+        return frame.rename(columns={c: data.draw(_CASES)(c) for c in frame.columns})
+
+    ref, _ = read_drive_log(paper, CAR)
+    g = paper.assign(yaw_rate=np.degrees(paper["yaw_rate"])).rename(columns={"yaw_rate": "yaw_rate [deg/s]"})
+    log, _ = read_drive_log(recase(g), CAR)
+    np.testing.assert_allclose(log.to_frame().to_numpy(), ref.to_frame().to_numpy(), rtol=1e-12, atol=1e-15)
+    vref, config = read_vertical_log(vertical_frame)
+    vlog, vconfig = read_vertical_log(recase(vertical_frame))
+    assert vconfig == config
+    for name in ("time", "displacement", "ax", "ay", "yaw_rate", "body_accel", "wheel_accel"):
+        a, b = getattr(vref, name), getattr(vlog, name)
+        assert (a is None) == (b is None) and (a is None or np.array_equal(a, b)), name
+
+
+def test_two_columns_differing_only_in_case_are_not_merged(paper):
+    g = paper.assign(TIME=paper["time"]).rename(columns={"time": "Time"})
+    with pytest.raises(InputFormatError, match="missing channel"):
+        read_drive_log(g, CAR)

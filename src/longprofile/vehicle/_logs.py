@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,14 +94,24 @@ def parse_units(text: str | None) -> dict:
     return out
 
 
-def split_unit_headers(frame):
-    """Strip ``name [unit]`` and ``name (unit)`` headers: returns (frame with plain names, {name: unit} declared in the header)."""
+def split_unit_headers(frame, channels=()):
+    """Strip ``name [unit]`` and ``name (unit)`` headers: returns (frame with plain names, {name: unit} declared in the header).
+
+    A name that differs from one of ``channels`` only in letter case (``Time``, ``ACCEL_X``, ``dz21_fl``) is given
+    the channel's spelling, unless another column has the same name in another case (a spreadsheet's capitalised
+    header reads as the original; two candidates are left as they are and reported missing by the reader)."""
     declared, rename = {}, {}
-    for c in frame.columns:
-        m = _HEADER.match(str(c))
-        if m:
-            rename[c] = m.group("name")
-            declared[m.group("name")] = m.group("unit") or m.group("unit_p")
+    by_fold = {ch.casefold(): ch for ch in channels}
+    matches = {c: _HEADER.match(str(c)) for c in frame.columns}
+    names = {c: m.group("name") if m else str(c) for c, m in matches.items()}
+    folds = Counter(n.casefold() for n in names.values())
+    for c, name in names.items():
+        if name not in channels and folds[name.casefold()] == 1 and name.casefold() in by_fold:
+            name = by_fold[name.casefold()]  # the only column of that name in any case
+        if name != c:
+            rename[c] = name
+        if matches[c]:
+            declared[name] = matches[c].group("unit") or matches[c].group("unit_p")
     return (frame.rename(columns=rename) if rename else frame), declared
 
 
@@ -501,7 +512,7 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
     """
     from .planar import DriveLog
 
-    frame, declared = split_unit_headers(frame)
+    frame, declared = split_unit_headers(frame, _PLANAR_QUANTITY)
     declared.update(units or {})
     radii = dict(zip(("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"),
                      vehicle.wheel_radius_of_each.tolist()))
@@ -556,7 +567,7 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
 
     from .vertical import sensors_from_frame
 
-    frame, declared = split_unit_headers(frame)
+    frame, declared = split_unit_headers(frame, _VERTICAL_QUANTITY)
     declared.update(units or {})
     frame = convert_units(frame, declared, _VERTICAL_QUANTITY, source=source)
     if config is None:
