@@ -342,3 +342,19 @@ def test_vertical_simulation_refuses_an_implausible_speed(tmp_path, capsys):
     out = tmp_path / "v.csv"
     assert main(["vehicle", "vertical", "simulate", "--config", "3", "--speed", "120", "-o", str(out)]) == 2
     assert "not a plausible road-vehicle speed" in _err(capsys) and not out.exists()
+
+
+@pytest.mark.parametrize(("stamp", "hint"), [("18/11/2019 00:00", "day/month"), ("1574035200", "seconds since 1970")])
+def test_rail_dates_that_are_not_iso_are_one_line_naming_the_row_and_value(tmp_path, capsys, stamp, hint):
+    # before 2026-12-06: pandas' four-line "You might want to try: ..." advice about its own arguments
+    pd.DataFrame({"sensor_id": ["S1", "S2", "S3"], "x_m": [0.0, 3.0, 6.0]}).to_csv(tmp_path / "s.csv", index=False)
+    pd.DataFrame({"x_m": [0.0, 3.0, 6.0], "z_m": [210.0, 210.01, 210.02]}).to_csv(tmp_path / "v.csv", index=False)
+    rows = [("2019-11-17 00:00", s, 0.01, 5.0) for s in ("S1", "S2", "S3")] + [(stamp, "S1", 0.01, 5.0)]
+    pd.DataFrame(rows, columns=["timestamp", "sensor_id", "angle_deg", "temperature_c"]).to_csv(
+        tmp_path / "r.csv", index=False)
+    code = main(["rail", "settle", "--sensors", str(tmp_path / "s.csv"), "--readings", str(tmp_path / "r.csv"),
+                 "--survey", str(tmp_path / "v.csv"), "-o", str(tmp_path / "out.csv")])
+    err = _err(capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "row 3" in err and stamp in err and hint in err and "You might" not in err
+    assert not (tmp_path / "out.csv").exists()

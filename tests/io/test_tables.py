@@ -143,3 +143,20 @@ def test_a_reconstruct_output_is_read_as_its_one_profile_track(tmp_path):
     assert prof.tracks == ("elevation",)
     np.testing.assert_array_equal(prof.std[:, 0], 1e-3)
     assert read_profile(path, tracks="raw").tracks == ("raw",)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(cases=st.lists(st.sampled_from([str.upper, str.title, str.swapcase, str]), min_size=3, max_size=3))
+def test_required_columns_are_found_in_any_letter_case(tmp_path, cases):
+    names = ["sensor_id", "x_m", "angle_deg"]
+    f = tmp_path / "t.csv"
+    f.write_text(",".join(case(n) for case, n in zip(cases, names)) + "\nS1,0.5,0.01\n")
+    df = read_table(f, required=names, numeric=["x_m"])
+    assert list(df.columns) == names and df["x_m"].tolist() == [0.5]
+
+
+def test_two_case_variants_of_a_required_column_are_not_guessed(tmp_path):
+    f = tmp_path / "t.csv"
+    f.write_text("X_M,X_m\n1,2\n")
+    with pytest.raises(InputError, match=r"missing column\(s\) \['x_m'\]"):
+        read_table(f, required=["x_m"])

@@ -128,8 +128,9 @@ def main(argv: list[str] | None = None) -> int:
             # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
             code = app(args=argv, standalone_mode=False)
     except LongprofileError as exc:
-        # the message is text, not rich markup: "[lot]" or "[units]" in a message must print as written
-        console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True)
+        # the message is text, not rich markup: "[lot]" or "[units]" in a message must print as written; one line
+        # even when it quotes a library's multi-line message (pandas' parser hints)
+        console.print(f"[red]error:[/red] {escape(' '.join(str(exc).split()))}", highlight=False, soft_wrap=True)
         return 2
     except (MemoryError, ValueError) as exc:
         # a size no machine holds (e.g. a simulator asked for 1e9 s or 1e12 m): numpy's MemoryError, or its

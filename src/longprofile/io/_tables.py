@@ -126,7 +126,8 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         ``.csv`` (comma separated, header row; lines starting with ``#`` are comments; an empty line
         among the data is a row of missing values: an empty cell of a one-column table) or ``.parquet``.
     required : iterable of str
-        Columns that must be present.
+        Columns that must be present; a column that differs only in letter case (``SENSOR_ID``) is renamed to
+        the required spelling when it is the only one of that name.
     numeric : iterable of str
         Columns that must parse as numbers (empty cells become NaN).
 
@@ -148,6 +149,7 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         raise
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
+    df = _match_case(df, required)
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise InputFormatError(f"{path}: missing column(s) {missing}; the file has {list(df.columns)}.")
@@ -162,6 +164,20 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
             raise InputFormatError(f"{path}:{line}: column {col!r} has a non-numeric value {df[col].iloc[i]!r}.")
         df[col] = conv.astype(float)
     return df
+
+
+def _match_case(df: pd.DataFrame, required) -> pd.DataFrame:
+    """``df`` with each absent required column's only case variant renamed to it (``SENSOR_ID`` -> ``sensor_id``);
+    two variants of one name are left alone (reported missing)."""
+    folds: dict[str, list] = {}
+    for c in df.columns:
+        folds.setdefault(str(c).casefold(), []).append(c)
+    rename = {}
+    for name in required:
+        found = folds.get(name.casefold(), [])
+        if name not in df.columns and len(found) == 1:
+            rename[found[0]] = name
+    return df.rename(columns=rename) if rename else df
 
 
 def write_table(df: pd.DataFrame, path) -> Path:

@@ -96,12 +96,27 @@ def _numeric(df: pd.DataFrame, col: str, what: str, *, allow_nan: bool = False) 
     return conv.to_numpy(float)
 
 
-def _times(values, what: str, col: str) -> pd.Series:
+def _is_number(value) -> bool:
     try:
-        t = pd.to_datetime(pd.Series(values), format="ISO8601")
-    except (ValueError, TypeError) as exc:
-        raise InputFormatError(f"{what} table: column {col!r} must hold ISO 8601 dates/times "
-                               f"(e.g. 2019-11-18T08:10:00); {exc}") from None
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _times(values, what: str, col: str) -> pd.Series:
+    series = pd.Series(values)
+    try:
+        t = pd.to_datetime(series, format="ISO8601")
+    except (ValueError, TypeError):
+        parsed = pd.to_datetime(series, format="ISO8601", errors="coerce")
+        bad = np.nonzero((parsed.isna() & series.notna()).to_numpy())[0]
+        value = series.iloc[int(bad[0])] if bad.size else None
+        where, got = (f", row {int(bad[0])}", f"; got {str(value)!r}") if bad.size else ("", "")
+        hint = (" (is it day/month or month/day? write year-month-day)" if "/" in got else
+                " (a number: seconds since 1970, or days? write the dates)" if _is_number(value) else "")
+        raise InputFormatError(f"{what} table{where}: column {col!r} must hold ISO 8601 dates/times "
+                               f"(e.g. 2019-11-18T08:10:00){got}{hint}.") from None
     if t.isna().any():
         i = int(np.nonzero(t.isna().to_numpy())[0][0])
         raise InputFormatError(f"{what} table, row {i}: column {col!r} is empty.")
