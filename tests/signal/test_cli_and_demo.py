@@ -2,6 +2,7 @@
 
 import numpy as np
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from longprofile.cli.app import app, main
@@ -91,3 +92,19 @@ def test_differentiate_std_option_selects_what_derivative_std_covers(tmp_path, c
                  "-o", str(tmp_path / "bad.csv")]) == 2
     lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
     assert len(lines) == 1 and "std must be one of ('total', 'noise')" in lines[0]
+
+
+@pytest.mark.parametrize(("name", "scale"), [("t", 1.0), ("Time [ms]", 1e3), ("time (us)", 1e6), ("T_MS", 1e3),
+                                             ("time_s", 1.0), ("TIME", 1.0)])
+def test_the_sample_interval_comes_from_a_time_column_named_with_its_unit(tmp_path, name, scale):
+    # the derivative depends on dt: every spelling of the same time column gives the library's result at 1 ms
+    src = tmp_path / "signal.csv"
+    x = _write_signal(src)
+    frame = pd.read_csv(src)
+    frame.assign(t=frame["t"] * scale).rename(columns={"t": name}).to_csv(src, index=False)
+    out = tmp_path / "out.csv"
+    result = runner.invoke(app, ["differentiate", str(src), "--column", "x", "--method", "ml", "--degree", "2",
+                                 "--window", "45", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    lib = derivative(x, 0.001, method="ml", window=45, degree=2)
+    np.testing.assert_allclose(pd.read_csv(out)["derivative"], lib.derivative, rtol=1e-9, equal_nan=True)

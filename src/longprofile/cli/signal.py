@@ -2,14 +2,23 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import typer
 
 from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_plot
 
-#: Time columns whose step is checked against --dt, with their unit in seconds.
-_TIME_COLUMNS = {"t": 1.0, "time": 1.0, "t_s": 1.0, "time_s": 1.0, "t_ms": 1e-3, "time_ms": 1e-3}
+#: Time columns whose step is checked against --dt: t or time, in seconds unless a unit follows (t_ms, time [ms],
+#: Time (us)); any letter case.
+_TIME_NAME = re.compile(r"^(?:t|time)(?:_(?P<u1>s|ms|us)|\s*\[(?P<u2>s|ms|us)\]|\s*\((?P<u3>s|ms|us)\))?$", re.IGNORECASE)
+_TIME_UNITS = {None: 1.0, "s": 1.0, "ms": 1e-3, "us": 1e-6}
+
+
+def _time_scale(name) -> float | None:
+    """Seconds per unit of a time column's name, None when the name is not a time column."""
+    m = _TIME_NAME.match(str(name).strip())
+    return None if m is None else _TIME_UNITS[(m.group("u1") or m.group("u2") or m.group("u3") or "s").lower()]
 
 
 def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
@@ -20,7 +29,7 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
     from ..errors import InputFormatError, UnitsError
 
     for name in frame.columns:
-        scale = _TIME_COLUMNS.get(str(name).strip().lower())
+        scale = _time_scale(name)
         if scale is None or name == column:
             continue
         t = _numeric(frame[name]) * scale
@@ -44,8 +53,8 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
                              f"would be off by a factor {median / dt:g}. Pass --dt {median:g}.")
         return dt
     if dt is None:
-        raise InputFormatError(f"{file}: no time column ({', '.join(_TIME_COLUMNS)}) to take the sample interval "
-                               "from; pass --dt SECONDS.")
+        raise InputFormatError(f"{file}: no time column (t or time, in s unless named with its unit: t_ms, "
+                               "time [ms], time (us)) to take the sample interval from; pass --dt SECONDS.")
     return dt
 
 
@@ -60,7 +69,7 @@ def differentiate(
     file: Path = typer.Argument(..., help="Input table (.csv or .parquet) with one row per sample."),
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
     dt: float | None = typer.Option(None, "--dt", help="Sample interval, s (default: the constant step of the "
-                                                          "file's time column t, time, t_s, time_s, t_ms or time_ms)."),
+                                                          "file's time column: t or time, with a unit t_ms, time [ms])."),
     output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
                                                             "derivative_std (one row per input row; see --std)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
