@@ -86,3 +86,21 @@ def test_identify_writes_a_model_loadable_by_reconstruct(tmp_path):
     # a model identified for another spacing is refused
     assert main(["road", "reconstruct", str(rec), "--model", str(model), "--dx", "0.15", "-o",
                  str(tmp_path / "q.csv")]) == 2
+
+
+def test_an_apl_column_in_millimetres_is_found_and_converted(tmp_path):
+    # a recording exported as apl_mm (or "APL [mm]") used to be "missing column apl_m"
+    rec = tmp_path / "rec.csv"
+    assert _run(["road", "simulate", "-o", str(rec), "--length", "200", "--seed", "2"]).exit_code == 0
+    df = pd.read_csv(rec)
+    outs = {}
+    for name in ("apl_m", "apl_mm", "APL [mm]"):
+        src = tmp_path / f"{name.replace(' ', '_').replace('[', '').replace(']', '')}.csv"
+        scale = 1.0 if name == "apl_m" else 1000.0
+        df[["distance_m"]].assign(**{name: df["apl_m"] * scale}).to_csv(src, index=False)
+        out = tmp_path / f"out_{src.stem}.csv"
+        r = _run(["road", "reconstruct", str(src), "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        outs[name] = pd.read_csv(out, comment="#")
+    for name in ("apl_mm", "APL [mm]"):  # the same profile to the round-off of the mm conversion
+        np.testing.assert_allclose(outs[name]["elevation_m"], outs["apl_m"]["elevation_m"], rtol=0, atol=1e-8)

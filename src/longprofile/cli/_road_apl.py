@@ -67,7 +67,9 @@ def reconstruct_command(
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's distance_m)."),
     method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
-    column: str = typer.Option("apl_m", "--column", help="Name of the signal column, in metres."),
+    column: str = typer.Option("apl_m", "--column",
+                               help="Name of the signal column, in metres; a unit suffix converts it (apl_mm). A file "
+                                    "whose only apl column is apl_mm or 'APL [mm]' is read from that column."),
     q: float = typer.Option(None, "--q", help="Elevation-increment variance, m^2 (default: maximum likelihood)."),
     r: float = typer.Option(None, "--r", help="Noise variance, m^2 (default: maximum likelihood)."),
     input_model: str = typer.Option(None, "--input-model",

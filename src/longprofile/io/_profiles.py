@@ -142,19 +142,23 @@ def is_reconstruct_output(path) -> bool:
     Such a file holds one profile, ``elevation``; ``std_m`` and ``raw_m`` would otherwise be read as tracks.
     An unreadable file gives False (its reader reports the problem).
     """
+    return _is_reconstruct_header(_header_names(path))
+
+
+def _header_names(path) -> list:
+    """The column names of a CSV/Parquet table without reading its rows; [] when it cannot be read (its reader
+    reports the problem)."""
     suffix = Path(path).suffix.lower()
     try:
         if suffix in (".parquet", ".pq"):
             import pyarrow.parquet as pq
 
-            names = pq.read_schema(path).names
-        elif suffix in (".csv", ".txt"):
-            names = list(pd.read_csv(path, comment="#", nrows=0).columns)
-        else:
-            return False
-    except Exception:  # unreadable: the reader reports it properly
-        return False
-    return _is_reconstruct_header(names)
+            return list(pq.read_schema(path).names)
+        if suffix in (".csv", ".txt"):
+            return list(pd.read_csv(path, comment="#", nrows=0).columns)
+    except Exception:
+        pass
+    return []
 
 
 def _is_reconstruct_header(names) -> bool:
@@ -186,6 +190,7 @@ def read_apl_signal(path, *, column: str = "apl_m"):
         Missing columns, non-numeric cells (line named).
     """
     path = Path(path)
+    column = _signal_column(_header_names(path), column)
     table = read_table(path, required=["distance_m", column], numeric=["distance_m", column])
     _, unit = _split(column)
     values = table[column].to_numpy() * (1.0 if unit is None else unit_factor(unit))
@@ -196,6 +201,16 @@ def read_apl_signal(path, *, column: str = "apl_m"):
                          "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
                          "or convert it to metres.")
     return Profile(table["distance_m"].to_numpy(), values, name=path.stem)
+
+
+def _signal_column(names, column: str) -> str:
+    """``column``, or the file's only column of the same name with another unit (``apl_mm``, ``APL [mm]`` for
+    ``apl_m``)."""
+    if column in names:
+        return column
+    base = _split(column)[0].casefold()
+    same = [str(c) for c in names if _split(str(c))[0].casefold() == base and _split(str(c))[1] is not None]
+    return same[0] if len(same) == 1 else column
 
 
 def read_sampled_column(path, column: str, *, dx: float) -> np.ndarray:
