@@ -122,3 +122,40 @@ def test_angle_noise_decides_only_on_enough_differences():
     assert angle_noise(deg) > RADIAN_NOISE_THRESHOLD
     rad = deg.assign(angle_deg=np.deg2rad(deg["angle_deg"]))
     assert angle_noise(rad) < RADIAN_NOISE_THRESHOLD
+
+
+_DECLARED = {  # canonical column -> (header with another unit, values in that unit from the canonical ones)
+    "x_m": [("x_mm", lambda v: v * 1e3), ("X [ft]", lambda v: v / 0.3048)],
+    "angle_deg": [("angle_rad", np.deg2rad), ("Angle (mrad)", lambda v: 1e3 * np.deg2rad(v))],
+    "temperature_c": [("temperature_f", lambda v: v * 9 / 5 + 32), ("temperature [K]", lambda v: v + 273.15)],
+}
+
+
+@pytest.mark.parametrize(("col", "k"), [(c, k) for c in _DECLARED for k in range(2)])
+def test_a_column_declared_in_another_unit_is_converted(small, tmp_path, col, k):
+    # x_mm, angle_rad, temperature_f... were "missing column"; converted, the site is the canonical one
+    name, to_unit = _DECLARED[col][k]
+    tables = {"s": small.sensors.copy(), "r": small.readings.copy(), "v": small.survey}
+    key = "s" if col == "x_m" else "r"
+    tables[key] = tables[key].assign(**{name: to_unit(tables[key][col].to_numpy(float))}).drop(columns=[col])
+    for t, frame in tables.items():
+        frame.to_csv(tmp_path / f"{t}.csv", index=False)
+    small.sensors.to_csv(tmp_path / "s0.csv", index=False)
+    small.readings.to_csv(tmp_path / "r0.csv", index=False)
+    got = read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
+    ref = read_rail_site(tmp_path / "s0.csv", tmp_path / "r0.csv", tmp_path / "v.csv")
+    np.testing.assert_allclose(got.x, ref.x, rtol=1e-12)
+    for c in ("angle_deg", "temperature_c"):
+        np.testing.assert_allclose(got.readings[c], ref.readings[c], rtol=1e-12, atol=1e-12)
+
+
+def test_an_angle_unit_contradicting_the_header_is_refused(small, tmp_path):
+    r = small.readings.assign(angle_mrad=1e3 * np.deg2rad(small.readings["angle_deg"])).drop(columns=["angle_deg"])
+    small.sensors.to_csv(tmp_path / "s.csv", index=False)
+    r.to_csv(tmp_path / "r.csv", index=False)
+    small.survey.to_csv(tmp_path / "v.csv", index=False)
+    with pytest.raises(UnitsError, match="'angle_mrad' is in mrad but --angle-unit rad"):
+        read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv", angle_unit="rad")
+    r.assign(angle_rad=1.0).to_csv(tmp_path / "r.csv", index=False)
+    with pytest.raises(InputFormatError, match="give the angle once"):
+        read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
-from ..errors import InputError, InputFormatError
+import re
+
+import numpy as np
+
+from ..core import LENGTH_UNITS
+from ..errors import InputError, InputFormatError, UnitsError
 from ..rail import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, SiteData, check_thresholds, validate_site
-from ._tables import read_table
+from ._tables import check_columns, read_table
 
 __all__ = ["read_rail_site", "read_rail_thresholds"]
 
@@ -31,11 +36,66 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
     SiteData
     """
     cols = SiteData.TABLE_COLUMNS
-    s = read_table(sensors, required=cols["sensors"])
-    r = read_table(readings, required=cols["readings"])
-    sv = None if survey is None else read_table(survey, required=cols["survey"])
-    ct = None if controls is None else read_table(controls, required=cols["controls"])
+    s = _read_site_table(sensors, cols["sensors"])
+    r = read_table(readings)
+    if "angle_deg" not in r.columns and any(_declared(str(c), "angle") for c in r.columns):
+        r, angle_unit = _angle_in_degrees(r, readings, angle_unit)
+    r = _read_site_table(readings, cols["readings"], table=r)
+    sv = None if survey is None else _read_site_table(survey, cols["survey"])
+    ct = None if controls is None else _read_site_table(controls, cols["controls"])
     return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units)
+
+
+#: Units a site table may declare in a column name instead of the canonical one (x_mm for x_m, angle_rad or
+#: angle_mrad for angle_deg, temperature_f for temperature_c): quantity -> {unit: conversion to the canonical unit}.
+_CONVERSIONS = {
+    "length": {u: (lambda v, f=LENGTH_UNITS[u]: v * f) for u in LENGTH_UNITS},
+    "angle": {"deg": lambda v: v, "rad": np.rad2deg, "mrad": lambda v: np.rad2deg(v * 1e-3)},
+    "temperature": {"c": lambda v: v, "f": lambda v: (v - 32.0) * (5.0 / 9.0), "k": lambda v: v - 273.15},
+}
+_QUANTITY = {"x": "length", "z": "length", "angle": "angle", "temperature": "temperature"}
+_NAME = re.compile(r"^(?P<base>[a-z]+?)(?:_(?P<u1>\w+)|\s*\[(?P<u2>[^\]]+)\]|\s*\((?P<u3>[^)]+)\))$", re.IGNORECASE)
+
+
+def _declared(name: str, quantity: str) -> tuple[str, str] | None:
+    """(base, unit) of a column named ``base_unit``, ``base [unit]`` or ``base (unit)`` whose base has ``quantity``
+    and whose unit is one of it; None otherwise."""
+    m = _NAME.match(name.strip())
+    if m is None:
+        return None
+    base, unit = m.group("base").lower(), (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower()
+    return (base, unit) if _QUANTITY.get(base) == quantity and unit in _CONVERSIONS[quantity] else None
+
+
+def _read_site_table(path, required, table=None):
+    """A site table with each required column found under its canonical name: in any letter case, or declared
+    with another unit (x_mm, ``x [ft]``, temperature_f: converted; the angle by :func:`_angle_in_degrees`)."""
+    df = read_table(path) if table is None else table
+    for col in required:
+        base, _, unit = col.partition("_")
+        quantity = _QUANTITY.get(base)
+        if quantity in (None, "angle") or col in df.columns:
+            continue
+        found = [c for c in df.columns if (_declared(str(c), quantity) or ("",))[0] == base]
+        if len(found) == 1:
+            values = check_columns(df[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
+            converted = _CONVERSIONS[quantity][_declared(str(found[0]), quantity)[1]](values)
+            df = df.drop(columns=found).assign(**{col: converted / _CONVERSIONS[quantity][unit](1.0)})
+    return check_columns(df, path, required=required)
+
+
+def _angle_in_degrees(r, path, angle_unit: str):
+    """The readings with their declared angle column (angle_rad, angle_mrad, ``angle [rad]``) as angle_deg."""
+    found = [c for c in r.columns if _declared(str(c), "angle")]
+    if len(found) != 1:
+        raise InputFormatError(f"{path}: give the angle once, in one column (angle_deg, angle_rad or angle_mrad); "
+                               f"the file has {found}.")
+    unit = _declared(str(found[0]), "angle")[1]
+    if angle_unit != "deg" and angle_unit != unit:
+        raise UnitsError(f"{path}: column {found[0]!r} is in {unit} but --angle-unit {angle_unit} was given; remove "
+                         "the option or fix the header.")
+    values = check_columns(r[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
+    return r.drop(columns=found).assign(angle_deg=_CONVERSIONS["angle"][unit](values)), "deg"
 
 
 def read_rail_thresholds(path) -> dict:

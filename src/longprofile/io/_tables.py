@@ -11,7 +11,7 @@ import pandas as pd
 from ..errors import InputError, InputFormatError, OutputError
 from ._atomic import atomic_path
 
-__all__ = ["read_table", "write_table"]
+__all__ = ["read_table", "write_table", "check_columns"]
 
 #: Suffixes read: ``.txt`` is read as CSV (instrument exports), never written.
 _READ_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
@@ -149,6 +149,13 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         raise
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
+    return check_columns(df, path, required=required, numeric=numeric)
+
+
+def check_columns(df: pd.DataFrame, path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()):
+    """The checks of :func:`read_table` on a table already read from ``path`` (e.g. after a reader renamed a
+    column declared with another unit): required columns (any letter case), numeric columns as float."""
+    path = Path(path)
     df = _match_case(df, required)
     missing = [c for c in required if c not in df.columns]
     if missing:
@@ -160,7 +167,7 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         bad = conv.isna() & df[col].notna()
         if bad.any():
             i = int(bad.to_numpy().nonzero()[0][0])
-            line = f" line {i + 2}" if fmt == "csv" else f" row {i}"
+            line = f" line {i + 2}" if path.suffix.lower() in (".csv", ".txt") else f" row {i}"
             raise InputFormatError(f"{path}:{line}: column {col!r} has a non-numeric value {df[col].iloc[i]!r}.")
         df[col] = conv.astype(float)
     return df
