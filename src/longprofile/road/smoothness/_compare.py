@@ -342,7 +342,10 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
     if tracks is None:
         tracks = [t for t in reference.tracks if all(t in r.tracks for r in runs)]
         if not tracks:
-            raise InputError(f"no track of the reference {list(reference.tracks)} is in every run.")
+            lab, run = next((lab, r) for lab, r in zip(labels, runs) if not set(reference.tracks) & set(r.tracks))
+            raise InputError(f"no track of the reference {list(reference.tracks)} is in every run: {lab} has "
+                             f"{list(run.tracks)}; tracks are matched by name (rename the column, e.g. "
+                             f"{run.tracks[0]}_m -> {reference.tracks[0]}_m).")
     else:
         tracks = [tracks] if isinstance(tracks, str) else list(tracks)
     kw = {"filter": filter, "band": band, "max_offset": max_offset}
