@@ -169,3 +169,13 @@ def test_full_correlation_equals_scipy_signal_correlate(n_q, n_p, seed):
     q, p = rng.normal(size=n_q), rng.normal(size=n_p)
     want = correlate(q, p, mode="full", method="direct")
     np.testing.assert_allclose(_full_correlation(q, p), want, atol=1e-9 * max(1.0, np.abs(want).max()))
+
+
+def test_a_run_without_the_reference_track_is_named_with_the_fix():
+    x = np.arange(4000) * 0.05
+    z = 1e-3 * np.sin(2 * np.pi * x / 9.0)
+    ref = Profile(distance=x, elevation=z, tracks=("left",), name="ref")
+    good = Profile(distance=x, elevation=z, tracks=("left",), name="run1")
+    other = Profile(distance=x, elevation=z, tracks=("Elevation",), name="run2")
+    with pytest.raises(InputError, match=r"run2 has \['Elevation'\].*Elevation_m -> left_m"):
+        certify_profiler(ref, [good, other])
