@@ -27,7 +27,9 @@ on recordings with effects the reconstruction's model does not have, drawn at ra
 
 Per draw: 2 km at 5 cm, 20 m/s (but ``low speed``), ``reconstruct_profile`` with its defaults for ``smoother`` and ``fixed-lag``
 (the ``road reconstruct`` call); the first and last 100 m are left out. Coverage = share of samples whose truth is
-inside estimate +- 1.645 std (target 85-95 %); z = error / std, its RMS (target ~1). The truth of ``elevation_m``
+inside estimate +- 1.645 std (target 85-95 %); z = error / std, its RMS (target ~1); PIT = Phi(z), the share of
+samples in each tenth (10 % each when calibrated: a U shape says too narrow, a hump too wide, a slope biased).
+The truth of ``elevation_m``
 is the true profile through the same detrending (``detrend_profile``); the truth of ``raw_m`` is the true
 profile itself (its offset and longest waves are unobservable: a calibrated ``raw_std_m`` must say so).
 
@@ -174,7 +176,8 @@ def run(quick: bool) -> list[BenchRow]:
             rows.append(BenchRow(AREA, f"{family}: {key} 90 % coverage", 100 * sc.coverage, "%",
                                  target=None if quick else 85.0, target_max=None if quick else 95.0,
                                  detail=f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / "
-                                        f"max {byd.max():.0f} %; RMS z {sc.rms_z:.2f}; n = {sc.n}"))
+                                        f"max {byd.max():.0f} %; RMS z {sc.rms_z:.2f}; PIT deciles "
+                                        f"{' '.join(f'{100 * p:.0f}' for p in sc.pit_shares)} %; n = {sc.n}"))
         rows.append(BenchRow(AREA, f"{family}: detrended elevation RMS error, smoother / fixed-lag",
                              out["rms_mm"]["smoother"], "mm", higher_is_better=False,
                              detail=f"fixed-lag {out['rms_mm']['fixed-lag']:.3f} mm (median over draws); "
