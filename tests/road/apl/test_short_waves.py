@@ -115,6 +115,40 @@ def test_the_smoothers_band_covers_90_percent_on_a_road_without_short_waves():
     assert coverage["prior"] > 0.98, coverage
 
 
+def _noisy_pair(seed, noise=0.08, length=1500.0):
+    """The same long waves (ISO class C to 2.83 cycles/m, ISO 8608's generator range) and the same 8 % white noise,
+    without and with the n^-2 law continued from 2.83 to 10 cycles/m; (truth, record) of each."""
+    rng = np.random.default_rng(seed)
+    long = iso8608_profile(length, DX, "C", rng=rng).elevation[:, 0]
+    short = iso8608_profile(length, DX, "C", rng=rng, band=(2.83, 10.0)).elevation[:, 0]
+    n = min(long.size, short.size)
+    e = rng.normal(0.0, 1.0, n)
+    out = []
+    for u in (long[:n], long[:n] + short[:n]):
+        y0 = apl_response(u, MODEL)
+        out.append((u, y0 + noise * apl_response(long[:n], MODEL).std() * e))
+    return out
+
+
+def test_a_noisy_record_cannot_tell_a_road_that_stops_at_2_83_cycles_per_m_from_one_that_goes_on():
+    """docs/road-apl.md, "The noise-levels cell and the short-wave continuation" (2026-12-06): at 8 % noise the trailer
+    resolves the road only to about 2.4 cycles/m, so the two roads give the same printed std (to 2 %), and that std
+    is the right one for the road that goes on (the model's n^-2 law; seeds not those of benchmarks road_calibration).
+    A std cut below the continuation where the record stops resolving would fail the second assertion."""
+    stds, inside = [], []
+    for seed in (61, 62):
+        (u_iso, y_iso), (u_short, y_short) = _noisy_pair(seed)
+        rec_iso, rec_short = reconstruct_profile(y_iso, MODEL), reconstruct_profile(y_short, MODEL)
+        assert rec_iso.road_spectrum is not None and rec_iso.road_spectrum.frequency[-1] / (2 * np.pi * DX) < 2.83
+        stds.append((rec_iso.profile.std[0, 0], rec_short.profile.std[0, 0]))
+        keep = slice(2000, u_short.size - 2000)
+        err = rec_short.profile.elevation[:, 0] - detrend_profile(u_short, DX)
+        inside.append(np.abs(err[keep]) <= 1.645 * rec_short.profile.std[keep, 0])
+    ratio = np.array([a / b for a, b in stds])
+    assert np.all(np.abs(ratio - 1.0) < 0.02), stds
+    assert 0.85 <= float(np.mean(np.concatenate(inside))) <= 0.97
+
+
 def test_red_noise_keeps_the_models_spectrum():
     """AR(1) measurement noise (weaker at short waves than its white ML level): the noise check rejects the estimate
     and the printed std is the model's own."""
