@@ -290,3 +290,31 @@ def test_cli_short_waves(tmp_path, capsys):
     capsys.readouterr()
     assert main(["road", "reconstruct", str(rec), "-o", str(tmp_path / "x.csv"), "--short-waves", "white"]) == 2
     assert "--short-waves must be one of" in capsys.readouterr().err.replace("\n", " ")
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 100_000), true_slope=st.floats(-6.0, 1.0), scatter=st.floats(0.01, 0.5))
+def test_the_continued_slope_is_the_least_steep_decline_the_bands_support(seed, true_slope, scatter):
+    """_continuation against numpy's weighted polyfit (an independent least-squares oracle): the slope continued is
+    min(0, fitted slope + 2 standard errors) and the level is the line through the weighted centroid at the last band;
+    never rising, never steeper than the fitted slope (docs/road-apl.md, 2026-12-06)."""
+    from longprofile.road.apl._short_waves import _RATIO_FLOOR, SHORT_WAVE_SLOPE_SIGNIFICANCE, _continuation
+
+    rng = np.random.default_rng(seed)
+    cen = 0.3 * 2.0 ** (np.arange(12) / 6)
+    rat = np.exp(true_slope * np.log(cen / cen[0]) + rng.normal(0.0, scatter, cen.size))
+    err = rat * rng.uniform(0.05, 0.5, cen.size)
+    level, slope = _continuation(cen, rat, err, 0.5, SHORT_WAVE_SLOPE_SIGNIFICANCE)
+    last = cen >= cen[-1] / np.sqrt(2.0)
+    c = np.maximum(rat[last], _RATIO_FLOOR)
+    x, y, wts = np.log(cen[last]), np.log(c), (c / err[last]) ** 2
+    (b1, b0), cov = np.polyfit(x, y, 1, w=np.sqrt(wts), cov="unscaled")
+    bound = b1 + SHORT_WAVE_SLOPE_SIGNIFICANCE * np.sqrt(cov[0, 0])
+    xm = np.sum(wts * x) / np.sum(wts)
+    if bound < 0:
+        assert slope == pytest.approx(bound, rel=1e-9, abs=1e-12)
+        assert level == pytest.approx(np.exp(b0 + b1 * xm + bound * (x[-1] - xm)), rel=1e-9)
+    else:
+        assert slope == 0.0
+        assert level == pytest.approx(np.exp(np.sum(wts * y) / np.sum(wts)), rel=1e-9)
+    assert min(b1, 0.0) <= slope <= 0.0
