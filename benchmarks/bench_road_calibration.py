@@ -10,6 +10,9 @@ on recordings with effects the reconstruction's model does not have, drawn at ra
   5 cm sampling carries (megatexture-scale waves, which ISO 8608's generator range leaves out and the models
   assume);
 * ``noise levels``     -- white measurement noise of 0.5-10 % of the signal RMS;
+* ``short waves, noisy`` -- the ``short waves`` road with 5-10 % white noise: the trailer then resolves the road only
+  to about 2.1-2.4 cycles/m, as on the noisiest ``noise levels`` draws, and the record cannot tell this road from
+  those (docs/road-apl.md, "The noise-levels cell and the short-wave continuation", 2026-12-06);
 * ``coloured noise``   -- AR(1) measurement noise (correlation 0.5-5 m), 2-5 %; the model has white noise;
 * ``trailer mismatch`` -- the recording made by a trailer whose pendulum and damper frequencies are 0.8-1.2 x and
   gain 0.95-1.05 x the model's (speed, wear, calibration); scored twice on the same draws: without and with the
@@ -50,8 +53,8 @@ AREA = "road_calibration"
 #: The trailer-mismatch tolerance as the user declares it (uniform +-20 % frequencies, +-5 % gain -> 1-sigma).
 DECLARED_TOLERANCE = dict(frequency=0.20 / np.sqrt(3), gain=0.05 / np.sqrt(3))
 #: Scored families: (row label, recording family, declared instrument uncertainty or None).
-FAMILIES = [(f, f, None) for f in ("own model", "road classes", "short waves", "noise levels", "coloured noise",
-                                   "trailer mismatch")] + [
+FAMILIES = [(f, f, None) for f in ("own model", "road classes", "short waves", "noise levels", "short waves, noisy",
+                                   "coloured noise", "trailer mismatch")] + [
     ("trailer mismatch, declared tolerance", "trailer mismatch", DECLARED_TOLERANCE),
     ("signal drift", "signal drift", None), ("low speed", "low speed", None), ("gaps", "gaps", None),
     ("measured road", "measured road", None)]
@@ -80,7 +83,7 @@ def _truth(family, rng, n):
         z = np.interp(x, data[:, 0], data[:, 1])
         return z - z[0]
     cls = rng.choice(CLASSES) if family in ("road classes", "low speed") else "C"
-    band = (0.011, 0.5 / DX) if family == "short waves" else None
+    band = (0.011, 0.5 / DX) if family.startswith("short waves") else None
     return iso8608_profile(n * DX - DX / 2, DX, cls, rng=rng, band=band).elevation.reshape(-1)[:n]
 
 
@@ -103,7 +106,8 @@ def _recording(family, rng, nominal, length=LENGTH):
         gain = rng.uniform(0.95, 1.05)
     y0 = gain * apl_response(u, instrument)
     rms = float(np.sqrt(np.mean(y0 ** 2)))
-    frac = rng.uniform(0.005, 0.10) if family == "noise levels" else 0.02
+    frac = {"noise levels": (0.005, 0.10), "short waves, noisy": (0.05, 0.10)}.get(family)
+    frac = 0.02 if frac is None else rng.uniform(*frac)
     if family == "coloured noise":
         noise = _ar1(rng, u.size, rng.uniform(0.5, 5.0), rng.uniform(0.02, 0.05) * rms)
     else:

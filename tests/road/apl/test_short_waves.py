@@ -115,6 +115,40 @@ def test_the_smoothers_band_covers_90_percent_on_a_road_without_short_waves():
     assert coverage["prior"] > 0.98, coverage
 
 
+def _noisy_pair(seed, noise=0.08, length=1500.0):
+    """The same long waves (ISO class C to 2.83 cycles/m, ISO 8608's generator range) and the same 8 % white noise,
+    without and with the n^-2 law continued from 2.83 to 10 cycles/m; (truth, record) of each."""
+    rng = np.random.default_rng(seed)
+    long = iso8608_profile(length, DX, "C", rng=rng).elevation[:, 0]
+    short = iso8608_profile(length, DX, "C", rng=rng, band=(2.83, 10.0)).elevation[:, 0]
+    n = min(long.size, short.size)
+    e = rng.normal(0.0, 1.0, n)
+    out = []
+    for u in (long[:n], long[:n] + short[:n]):
+        y0 = apl_response(u, MODEL)
+        out.append((u, y0 + noise * apl_response(long[:n], MODEL).std() * e))
+    return out
+
+
+def test_a_noisy_record_cannot_tell_a_road_that_stops_at_2_83_cycles_per_m_from_one_that_goes_on():
+    """docs/road-apl.md, "The noise-levels cell and the short-wave continuation" (2026-12-06): at 8 % noise the trailer
+    resolves the road only to about 2.4 cycles/m, so the two roads give the same printed std (to 2 %), and that std
+    is the right one for the road that goes on (the model's n^-2 law; seeds not those of benchmarks road_calibration).
+    A std cut below the continuation where the record stops resolving would fail the second assertion."""
+    stds, inside = [], []
+    for seed in (61, 62):
+        (u_iso, y_iso), (u_short, y_short) = _noisy_pair(seed)
+        rec_iso, rec_short = reconstruct_profile(y_iso, MODEL), reconstruct_profile(y_short, MODEL)
+        assert rec_iso.road_spectrum is not None and rec_iso.road_spectrum.frequency[-1] / (2 * np.pi * DX) < 2.83
+        stds.append((rec_iso.profile.std[0, 0], rec_short.profile.std[0, 0]))
+        keep = slice(2000, u_short.size - 2000)
+        err = rec_short.profile.elevation[:, 0] - detrend_profile(u_short, DX)
+        inside.append(np.abs(err[keep]) <= 1.645 * rec_short.profile.std[keep, 0])
+    ratio = np.array([a / b for a, b in stds])
+    assert np.all(np.abs(ratio - 1.0) < 0.02), stds
+    assert 0.85 <= float(np.mean(np.concatenate(inside))) <= 0.97
+
+
 def test_red_noise_keeps_the_models_spectrum():
     """AR(1) measurement noise (weaker at short waves than its white ML level): the noise check rejects the estimate
     and the printed std is the model's own."""
@@ -256,3 +290,31 @@ def test_cli_short_waves(tmp_path, capsys):
     capsys.readouterr()
     assert main(["road", "reconstruct", str(rec), "-o", str(tmp_path / "x.csv"), "--short-waves", "white"]) == 2
     assert "--short-waves must be one of" in capsys.readouterr().err.replace("\n", " ")
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 100_000), true_slope=st.floats(-6.0, 1.0), scatter=st.floats(0.01, 0.5))
+def test_the_continued_slope_is_the_least_steep_decline_the_bands_support(seed, true_slope, scatter):
+    """_continuation against numpy's weighted polyfit (an independent least-squares oracle): the slope continued is
+    min(0, fitted slope + 2 standard errors) and the level is the line through the weighted centroid at the last band;
+    never rising, never steeper than the fitted slope (docs/road-apl.md, 2026-12-06)."""
+    from longprofile.road.apl._short_waves import _RATIO_FLOOR, SHORT_WAVE_SLOPE_SIGNIFICANCE, _continuation
+
+    rng = np.random.default_rng(seed)
+    cen = 0.3 * 2.0 ** (np.arange(12) / 6)
+    rat = np.exp(true_slope * np.log(cen / cen[0]) + rng.normal(0.0, scatter, cen.size))
+    err = rat * rng.uniform(0.05, 0.5, cen.size)
+    level, slope = _continuation(cen, rat, err, 0.5, SHORT_WAVE_SLOPE_SIGNIFICANCE)
+    last = cen >= cen[-1] / np.sqrt(2.0)
+    c = np.maximum(rat[last], _RATIO_FLOOR)
+    x, y, wts = np.log(cen[last]), np.log(c), (c / err[last]) ** 2
+    (b1, b0), cov = np.polyfit(x, y, 1, w=np.sqrt(wts), cov="unscaled")
+    bound = b1 + SHORT_WAVE_SLOPE_SIGNIFICANCE * np.sqrt(cov[0, 0])
+    xm = np.sum(wts * x) / np.sum(wts)
+    if bound < 0:
+        assert slope == pytest.approx(bound, rel=1e-9, abs=1e-12)
+        assert level == pytest.approx(np.exp(b0 + b1 * xm + bound * (x[-1] - xm)), rel=1e-9)
+    else:
+        assert slope == 0.0
+        assert level == pytest.approx(np.exp(np.sum(wts * y) / np.sum(wts)), rel=1e-9)
+    assert min(b1, 0.0) <= slope <= 0.0

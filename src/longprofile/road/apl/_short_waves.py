@@ -18,8 +18,10 @@ record can show it, and continued beyond:
    s_b = mean(|H|^2 S_model) / r is at least :data:`SHORT_WAVE_MIN_SNR` (the resolved bands; there the relative
    error of c_b is about (1 + s_b) / (s_b sqrt(dof))).
 3. Beyond the last resolved band the road is assumed to continue the log-log slope of c over the last resolved
-   octave, never rising (a road spectrum falls at least as fast as the model's n^-2 law at short waves; a rising
-   slope is taken as flat): c(w) = c_last (w / w_last)^min(slope, 0). Below the first resolved band, c = its value.
+   half octave, never rising (a road spectrum falls at least as fast as the model's n^-2 law at short waves; a
+   rising slope is taken as flat), and no steeper than the record supports: the fitted slope plus
+   :data:`SHORT_WAVE_SLOPE_SIGNIFICANCE` standard errors, c(w) = c_last (w / w_last)^min(slope + 2 se, 0) (since
+   2026-12-06; before, the fitted slope once it passed that test). Below the first resolved band, c = its value.
 
 The printed error variance of a linear estimate u_hat = G y under the estimated road (the plug-in, mismatched-filter
 form of paper 000's smoother error, the Wiener-filter error spectrum of an estimator built on another spectrum):
@@ -53,7 +55,8 @@ SHORT_WAVE_BANDS_PER_OCTAVE = 6
 SHORT_WAVE_MIN_SNR = 0.3
 #: The slope continued beyond the resolved bands is fitted over their last this-many octaves.
 SHORT_WAVE_SLOPE_OCTAVES = 0.5
-#: ... and continued only when it is negative by more than this many standard errors (else the model's slope).
+#: ... continued at this many standard errors above the fitted slope, when that is still negative (else the model's
+#: slope): the least steep decline the record supports.
 SHORT_WAVE_SLOPE_SIGNIFICANCE = 2.0
 #: The noise floor: wavenumbers where the model's |H|^2 S_model / r is below this.
 SHORT_WAVE_NOISE_FLOOR_SNR = 0.01
@@ -216,9 +219,13 @@ def _noise_floor_ratio(P, snr, r) -> float:
 
 def _continuation(cen, rat, err, octaves, significance) -> tuple[float, float]:
     """(c at the last resolved band, slope d log c / d log w beyond it) from a weighted least-squares line of log c_b
-    over the last ``octaves`` of resolved bands (weights 1 / var(log c_b) from the std of each c_b). The slope is
-    kept when it is negative by more than ``significance`` standard errors; otherwise the model's own slope is
-    continued (slope 0) at the weighted mean level of those bands."""
+    over the last ``octaves`` of resolved bands (weights 1 / var(log c_b) from the std of each c_b). The slope
+    continued is the least steep decline the record supports, the fitted slope plus ``significance`` standard errors
+    (the line through the bands' weighted centroid), when that is still negative; otherwise the model's own slope
+    (slope 0) at the weighted mean level of those bands. (Before 2026-12-06 the fitted slope itself was continued
+    once it passed the same test: a slope just past the test, e.g. a chance one on a road that goes on at the model's
+    n^-2 law, was extrapolated over the 2-3 octaves to the Nyquist wavenumber; docs/road-apl.md, "The noise-levels
+    cell and the short-wave continuation".)"""
     last = cen >= cen[-1] / 2.0 ** octaves
     c = np.maximum(rat[last], _RATIO_FLOOR)
     x, lc = np.log(cen[last]), np.log(c)
@@ -226,9 +233,9 @@ def _continuation(cen, rat, err, octaves, significance) -> tuple[float, float]:
     xm, ym = np.sum(wts * x) / np.sum(wts), np.sum(wts * lc) / np.sum(wts)
     sxx = np.sum(wts * (x - xm) ** 2)
     if last.sum() >= 2 and sxx > 0:
-        slope = float(np.sum(wts * (x - xm) * (lc - ym)) / sxx)
-        if slope + significance / np.sqrt(sxx) < 0:
-            return float(np.exp(ym + slope * (x[-1] - xm))), slope
+        bound = float(np.sum(wts * (x - xm) * (lc - ym)) / sxx + significance / np.sqrt(sxx))
+        if bound < 0:
+            return float(np.exp(ym + bound * (x[-1] - xm))), bound
     return float(np.exp(ym)), 0.0
 
 
