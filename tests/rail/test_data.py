@@ -154,7 +154,7 @@ def test_an_angle_unit_contradicting_the_header_is_refused(small, tmp_path):
     small.sensors.to_csv(tmp_path / "s.csv", index=False)
     r.to_csv(tmp_path / "r.csv", index=False)
     small.survey.to_csv(tmp_path / "v.csv", index=False)
-    with pytest.raises(UnitsError, match="'angle_mrad' is in mrad but --angle-unit rad"):
+    with pytest.raises(UnitsError, match="'angle_mrad' declares its unit \\(mrad\\); leave out --angle-unit rad"):
         read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv", angle_unit="rad")
     r.assign(angle_rad=1.0).to_csv(tmp_path / "r.csv", index=False)
     with pytest.raises(InputFormatError, match="give the angle once"):

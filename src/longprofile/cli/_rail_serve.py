@@ -42,10 +42,10 @@ def _actor(actor):
         return "cli"
 
 
-def _rows(path: Path, text=()):
-    from ..io import read_table
+def _rows(path: Path, kind: str, text=()):
+    from ..io import read_rail_table
 
-    t = read_table(path)
+    t = read_rail_table(path, kind)  # as rail settle reads it: any letter case, declared units converted
     for c in text:  # e.g. dates as written (a Parquet date column is a timestamp)
         if c in t.columns:
             t[c] = [v if v is None or isinstance(v, str) else str(v) for v in t[c]]
@@ -166,7 +166,7 @@ def site_sensors(name: str = typer.Argument(...), file: Path = typer.Option(...,
     """Add or update the sensors of a site from a table."""
     from ..rail import service as _service
 
-    _print(_service.put_sensors(_db(db), _actor(actor), name, _rows(file)))
+    _print(_service.put_sensors(_db(db), _actor(actor), name, _rows(file, "sensors")))
 
 
 @site_app.command("survey")
@@ -175,7 +175,7 @@ def site_survey(name: str = typer.Argument(...), file: Path = typer.Option(..., 
     """Replace the initial survey of a site."""
     from ..rail import service as _service
 
-    _print(_service.put_survey(_db(db), _actor(actor), name, _rows(file)))
+    _print(_service.put_survey(_db(db), _actor(actor), name, _rows(file, "survey")))
 
 
 @site_app.command("controls")
@@ -194,7 +194,7 @@ def site_controls(name: str = typer.Argument(...),
     if delete is not None:
         _print(_service.delete_controls(_db(db), _actor(actor), name, delete))
         return
-    _print(_service.put_controls(_db(db), _actor(actor), name, _rows(file, text=("date",))))
+    _print(_service.put_controls(_db(db), _actor(actor), name, _rows(file, "controls", text=("date",))))
 
 
 @site_app.command("threshold")
@@ -283,11 +283,11 @@ def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., 
                 db: str = DB_OPT, angle_unit: str = typer.Option("deg", "--angle-unit")):
     """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
     from ..errors import InputFormatError
-    from ..io import read_table
+    from ..io import read_rail_table
     from ..rail import READING_COLUMNS
     from ..rail import service as _service
 
-    t = read_table(file)
+    t = read_rail_table(file, "readings", angle_unit=angle_unit)  # as rail settle reads it
     wrong = sorted(set(map(str, t.columns)) ^ set(READING_COLUMNS))
     if wrong:  # the whole file would be rejected row by row: say it once, store nothing
         raise InputFormatError(f"{file}: the columns are {list(map(str, t.columns))}; a readings table has exactly "

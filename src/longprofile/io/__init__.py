@@ -13,6 +13,7 @@ write_report_table, read_report_table -- a result table with its metadata ('#' h
 atomic_path, atomic_write_bytes, save_figure -- write through a temporary file in the target's folder, then
                       os.replace it (an older file survives a failed write).
 read_rail_site -- read a rail inclinometer site (sensors, readings, survey, controls tables) and validate it.
+read_rail_table -- one rail site table with canonical columns (any letter case; declared units converted).
 read_rail_thresholds -- read graded alarm thresholds (quantity, level, value_mm) for rail settle.
 """
 
@@ -32,7 +33,7 @@ _EXPORTS = {
         "is_reconstruct_output", "read_apl_signal", "read_sampled_column",
     ),
     "._rail": (
-        "read_rail_site", "read_rail_thresholds",
+        "read_rail_site", "read_rail_table", "read_rail_thresholds",
     ),
     "._report_tables": (
         "read_report_table", "write_report_table",
@@ -45,6 +46,6 @@ _EXPORTS = {
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
            "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "is_reconstruct_output",
            "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site",
-           "read_rail_thresholds"]
+           "read_rail_table", "read_rail_thresholds"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -11,7 +11,7 @@ from ..errors import InputError, InputFormatError, UnitsError
 from ..rail import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, SiteData, check_thresholds, validate_site
 from ._tables import check_columns, read_table
 
-__all__ = ["read_rail_site", "read_rail_thresholds"]
+__all__ = ["read_rail_site", "read_rail_table", "read_rail_thresholds"]
 
 #: Columns of a thresholds table (``rail settle --thresholds``): one row per quantity and level, value in mm
 #: (mm/day for the rate), as ``rail site threshold`` takes them.
@@ -35,15 +35,36 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
     -------
     SiteData
     """
-    cols = SiteData.TABLE_COLUMNS
-    s = _read_site_table(sensors, cols["sensors"])
-    r = read_table(readings)
-    if "angle_deg" not in r.columns and any(_declared(str(c), "angle") for c in r.columns):
-        r, angle_unit = _angle_in_degrees(r, readings, angle_unit)
-    r = _read_site_table(readings, cols["readings"], table=r)
-    sv = None if survey is None else _read_site_table(survey, cols["survey"])
-    ct = None if controls is None else _read_site_table(controls, cols["controls"])
+    s = read_rail_table(sensors, "sensors")
+    r = read_rail_table(readings, "readings", angle_unit=angle_unit)
+    sv = None if survey is None else read_rail_table(survey, "survey")
+    ct = None if controls is None else read_rail_table(controls, "controls")
     return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units)
+
+
+def read_rail_table(path, kind: str, *, angle_unit: str = "deg"):
+    """One table of a rail site (``kind``: sensors, readings, survey or controls) with its columns under their
+    canonical names (:data:`longprofile.rail.SiteData.TABLE_COLUMNS`), as ``rail settle`` and ``rail site`` read it.
+
+    A column may be named in any letter case or declare another unit, converted here: ``x_mm``, ``x [ft]`` (any
+    length unit), ``angle_rad``, ``angle (mrad)``, ``temperature_f``, ``temperature [K]``. A declared angle unit
+    is the unit: ``angle_unit`` (the unit of a plain ``angle_deg`` column, see
+    :func:`longprofile.rail.validate_site`) must then be left at "deg".
+
+    Raises
+    ------
+    InputFormatError
+        Missing columns, non-numeric values in a converted column, two angle columns.
+    UnitsError
+        A declared angle unit together with ``angle_unit`` other than "deg".
+    """
+    if kind not in SiteData.TABLE_COLUMNS:
+        raise InputError(f"unknown rail table {kind!r}; use one of {sorted(SiteData.TABLE_COLUMNS)}.")
+    table = read_table(path)
+    if kind == "readings" and "angle_deg" not in table.columns and any(_declared(str(c), "angle")
+                                                                     for c in table.columns):
+        table = _angle_in_degrees(table, path, angle_unit)
+    return _canonical_columns(table, path, SiteData.TABLE_COLUMNS[kind])
 
 
 #: Units a site table may declare in a column name instead of the canonical one (x_mm for x_m, angle_rad or
@@ -67,10 +88,9 @@ def _declared(name: str, quantity: str) -> tuple[str, str] | None:
     return (base, unit) if _QUANTITY.get(base) == quantity and unit in _CONVERSIONS[quantity] else None
 
 
-def _read_site_table(path, required, table=None):
-    """A site table with each required column found under its canonical name: in any letter case, or declared
-    with another unit (x_mm, ``x [ft]``, temperature_f: converted; the angle by :func:`_angle_in_degrees`)."""
-    df = read_table(path) if table is None else table
+def _canonical_columns(df, path, required):
+    """``df`` with each required column found under its canonical name: in any letter case, or declared with another
+    unit (x_mm, ``x [ft]``, temperature_f: converted)."""
     for col in required:
         base, _, unit = col.partition("_")
         quantity = _QUANTITY.get(base)
@@ -91,11 +111,11 @@ def _angle_in_degrees(r, path, angle_unit: str):
         raise InputFormatError(f"{path}: give the angle once, in one column (angle_deg, angle_rad or angle_mrad); "
                                f"the file has {found}.")
     unit = _declared(str(found[0]), "angle")[1]
-    if angle_unit != "deg" and angle_unit != unit:
-        raise UnitsError(f"{path}: column {found[0]!r} is in {unit} but --angle-unit {angle_unit} was given; remove "
-                         "the option or fix the header.")
+    if angle_unit != "deg":
+        raise UnitsError(f"{path}: column {found[0]!r} declares its unit ({unit}); leave out --angle-unit "
+                         f"{angle_unit} (angle_unit=...), which is for a plain angle_deg column.")
     values = check_columns(r[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
-    return r.drop(columns=found).assign(angle_deg=_CONVERSIONS["angle"][unit](values)), "deg"
+    return r.drop(columns=found).assign(angle_deg=_CONVERSIONS["angle"][unit](values))
 
 
 def read_rail_thresholds(path) -> dict:

@@ -71,14 +71,14 @@ def test_errors_are_library_errors(cli, tmp_path):
     prof = tmp_path / "profile.csv"
     prof.write_text("distance_m,elevation_m\n" + "".join(f"{0.25 * i},0.001\n" for i in range(500)))
     res = cli("site", "ingest", "mitt", "--file", str(prof), "--db", url)
-    assert isinstance(res.exception, LongprofileError) and "a readings table has exactly" in str(res.exception)
+    assert isinstance(res.exception, LongprofileError) and "missing column(s)" in str(res.exception)
     # thresholds: mm, plausibility checked (a unit mistake is refused)
     for value in ("1e300", "0.000001"):
         res = cli("site", "threshold", "mitt", "settlement", "alert", value, "--db", url)
         assert isinstance(res.exception, LongprofileError) and "not plausible" in str(res.exception)
     assert cli("site", "threshold", "mitt", "settlement", "alert", "12", "--db", url).exit_code == 0
     res = cli("site", "survey", "mitt", "--file", str(prof), "--db", url)
-    assert isinstance(res.exception, LongprofileError) and "needs x_m and z_m; it has" in str(res.exception)
+    assert isinstance(res.exception, LongprofileError) and "missing column(s) ['x_m', 'z_m']" in str(res.exception)
 
 
 def test_thresholds_file_replaces_all_levels_in_one_transaction(cli, tmp_path):
@@ -101,3 +101,33 @@ def test_thresholds_file_replaces_all_levels_in_one_transaction(cli, tmp_path):
     res = cli("site", "thresholds", "mitt", "--file", str(second), "--db", url)
     assert isinstance(res.exception, LongprofileError) and "must grow" in str(res.exception)
     assert json.loads(cli("site", "show", "mitt", "--db", url).stdout)["thresholds"]["settlement.alert"] == 0.025
+
+
+def test_site_tables_are_read_as_rail_settle_reads_them(cli, tmp_path):
+    # declared units and letter case, as `rail settle` (io.read_rail_table): before 2026-12-06 `rail site` refused
+    # them ("needs sensor_id and x_m", "a readings table has exactly ...") while `rail settle` read them
+    import numpy as np
+
+    syn, r = synthetic()
+    canon, other = f"sqlite:///{tmp_path}/a.db", f"sqlite:///{tmp_path}/b.db"
+    syn.sensors.to_csv(tmp_path / "s.csv", index=False)
+    syn.survey.to_csv(tmp_path / "v.csv", index=False)
+    r.to_csv(tmp_path / "r.csv", index=False)
+    syn.sensors.assign(x_mm=1e3 * syn.sensors["x_m"]).drop(columns=["x_m"]).rename(columns=str.upper).to_csv(
+        tmp_path / "s2.csv", index=False)
+    syn.survey.rename(columns={"x_m": "x [ft]", "z_m": "Z_M"}).assign(**{"x [ft]": syn.survey["x_m"] / 0.3048}).to_csv(
+        tmp_path / "v2.csv", index=False)
+    r.assign(angle_rad=np.deg2rad(r["angle_deg"])).drop(columns=["angle_deg"]).to_csv(tmp_path / "r2.csv", index=False)
+    shows = []
+    for url, (s, v, rr) in ((canon, ("s", "v", "r")), (other, ("s2", "v2", "r2"))):
+        assert cli("site", "create", "mitt", "--db", url, "--clock", "data").exit_code == 0
+        for cmd, name in (("sensors", s), ("survey", v), ("ingest", rr)):
+            out = cli("site", cmd, "mitt", "--file", str(tmp_path / f"{name}.csv"), "--db", url)
+            assert out.exit_code == 0, (cmd, out.output, out.exception)
+            if cmd == "ingest":
+                assert json.loads(out.stdout)["accepted"] == len(r)
+        assert json.loads(cli("site", "recompute", "mitt", "--db", url).stdout)["status"] == "ok"
+        shows.append(json.loads(cli("site", "show", "mitt", "--db", url).stdout))
+    a, b = ([(s["sensor_id"], s["x_m"]) for s in show["sensors"]] for show in shows)
+    assert [i for i, _ in a] == [i for i, _ in b]
+    np.testing.assert_allclose([x for _, x in a], [x for _, x in b], rtol=1e-12)
