@@ -60,8 +60,9 @@ STATED_DRAWS = 40
 #: SlopeEstimate.warnings() by the start of their text; the first three name a sensor (or the accelerometer)
 WARNING_KINDS = {"the gyro reads": "gyro", "wheel speed scale errors": "wheel scale",
                  "the model's longitudinal force": "force vs accelerometer",
-                 "slope leaves the plausible": "slope > 10 %", "V_x measurement missing": "V_x missing"}
-SENSOR_WARNINGS = ("gyro", "wheel scale", "force vs accelerometer")
+                 "slope leaves the plausible": "slope > 10 %", "V_x measurement missing": "V_x missing",
+                 "sensors unverified": "unverified"}
+SENSOR_WARNINGS = ("gyro", "wheel scale", "force vs accelerometer", "unverified")
 
 
 def _ramps(x, rng, n, max_level, length):
