@@ -15,7 +15,7 @@ from longprofile.vehicle import SensorSpec, SlopeUncertainty, drive_scenario, es
 from longprofile.vehicle.planar._estimate import GRAVITY, _offset_share
 from tests._fingerprint import assert_same_fingerprint, fingerprint
 
-from ._bands import CAR, KEYS, Z90
+from ._bands import CAR, Z90, slope_outputs
 
 #: fingerprint (tests/_fingerprint.py) of estimate_slope's outputs at a19d641 (the afternoon of 2026-12-06, default
 #: SlopeUncertainty then) on the beyond_spec drive: hill drive of 10 s, gyro offset 2e-3 rad/s, accelerometer offset
@@ -64,14 +64,6 @@ def _drive(seconds, gyro, accel, wheels, seed):
     return sim, replace(sim.log, wheel_speeds=sim.log.wheel_speeds * wheels)
 
 
-def _outputs(log, unc):
-    out = {}
-    for method in ("cascade", "joint"):
-        est = estimate_slope(log, CAR, method=method, uncertainty=unc)
-        out.update({f"{method}.{k}": getattr(est, k) for k in KEYS})
-    return out
-
-
 @pytest.fixture(scope="module")
 def beyond_spec():
     return _drive(10.0, 2e-3, 0.2, WHEELS, 4)
@@ -84,8 +76,8 @@ def long_beyond_spec():
 
 def test_until_2026_12_06_evening_reproduces_the_afternoon_and_the_default_moves_the_flagged_drive(beyond_spec):
     _, log = beyond_spec
-    assert_same_fingerprint(fingerprint(_outputs(log, SlopeUncertainty.until_2026_12_06_evening())), AFTERNOON)
-    new = fingerprint(_outputs(log, None))
+    assert_same_fingerprint(fingerprint(slope_outputs(log, SlopeUncertainty.until_2026_12_06_evening())), AFTERNOON)
+    new = fingerprint(slope_outputs(log, None))
     with pytest.raises(AssertionError):
         assert_same_fingerprint({"cascade.slope": new["cascade.slope"]}, {"cascade.slope": AFTERNOON["cascade.slope"]})
     est = estimate_slope(log, CAR)
@@ -100,8 +92,8 @@ def test_until_2026_12_06_evening_reproduces_the_afternoon_and_the_default_moves
 def test_in_spec_sensors_keep_the_estimator_bit_for_bit():
     """The simulator's in-spec sensors: nothing is flagged, every output equals the afternoon's estimator exactly."""
     sim = simulate_drive(drive_scenario("hill", duration=12.0), CAR, seed=5)
-    old = _outputs(sim.log, SlopeUncertainty.until_2026_12_06_evening())
-    new = _outputs(sim.log, None)
+    old = slope_outputs(sim.log, SlopeUncertainty.until_2026_12_06_evening())
+    new = slope_outputs(sim.log, None)
     for k in old:
         np.testing.assert_array_equal(new[k], old[k], err_msg=k)
     est = estimate_slope(sim.log, CAR)
