@@ -114,7 +114,8 @@ def test_grade_nis_floor_is_checked_and_defaults():
     assert SlopeUncertainty(grade_nis_floor=None).grade_floor == SlopeUncertainty().nis_floor
     assert SlopeUncertainty.noise_only().grade_floor == 1.0
     assert SlopeUncertainty.until_2026_12_06().grade_floor == 0.1
-    assert SlopeUncertainty.until_2026_12_06_pm() == SlopeUncertainty(grade_nis_floor=None)
+    assert SlopeUncertainty.until_2026_12_06_pm() == SlopeUncertainty(grade_nis_floor=None, unverified_accel_offset_std=None,
+                                                                    unverified_gyro_offset_std=None)
     for bad in (0.0, -0.1, 1.5, float("nan"), True, "0.1"):
         with pytest.raises(InputError, match="grade_nis_floor"):
             SlopeUncertainty(grade_nis_floor=bad)

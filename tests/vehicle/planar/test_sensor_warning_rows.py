@@ -34,7 +34,7 @@ def test_warning_kinds_and_the_row_count_drives_with_a_sensor_warning():
     assert row.value == 50.0 and "detection rate" in row.detail and "2 of 4" in row.detail
     assert "gyro 1" in row.detail and "slope > 10 % 1" in row.detail
     assert "false-flag rate" in _warning_row("own model", warned).detail
-    assert set(SENSOR_WARNINGS) == {"gyro", "wheel scale", "force vs accelerometer"}
+    assert set(SENSOR_WARNINGS) == {"gyro", "wheel scale", "force vs accelerometer", "unverified"}
 
 
 @pytest.fixture(scope="module")

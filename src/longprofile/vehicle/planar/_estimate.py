@@ -129,6 +129,19 @@ class SlopeUncertainty:
         hypot(``radius_rel_std``, ``wheel_scale_prior_std`` / sqrt(2)), since each wheel's scale error holds the
         common rolling radius error too, which the calibration's yaw term r y_i carries; False:
         ``wheel_scale_prior_std`` alone.
+    unverified_accel_offset_std, unverified_gyro_offset_std : float or None
+        When the sensor calibration finds the gyro or a wheel beyond its stated std (the condition of the sensor
+        warnings: beyond ``SENSOR_ERROR_WARN`` x the stated std and 3 posterior stds), the log shows a sensor set
+        that was not calibrated, and the stated offsets of the accelerometer and the gyro (which assume a
+        calibration done elsewhere) are not trusted either (named assumption, 2026-12-06 evening). Then the
+        accelerometer's offset, m/s^2, has this std (0.3: about 30 mg, the order of a MEMS accelerometer's zero-g
+        offset tolerance, and in sin(theta) the same as ``offset_prior_std``, so that one drive cannot tell the
+        force model's constant from the accelerometer's offset and the slope takes the posterior of the former:
+        a share w = s_c^2 / (s_c^2 + s_a^2) of the fitted constant, variance s_c^2 s_a^2 / (s_c^2 + s_a^2)), and the
+        gyro is calibrated again with this prior std of its offset, rad/s (1e-3). None: the stated values
+        always (the estimator before). Chosen among {0.1, 0.2, 0.3} m/s^2 and {1e-3, 2e-3, 5e-3} rad/s on the
+        calibration benchmark's tuning draws (seeds 1000 and 2000; docs/vehicle-slope.md, "Sensors beyond their
+        stated offsets").
 
     Notes
     -----
@@ -141,7 +154,8 @@ class SlopeUncertainty:
     C_x0 (w_fl + w_fr - w_rl - w_rr), std 2 C_x0 w, i.e. 2 C_x0 w/(M g) in sin(theta).
     ``SlopeUncertainty.noise_only()`` gives the filters' stds alone (the estimator before issue 13),
     ``SlopeUncertainty.until_2026_12_06()`` the defaults before the radius std and the residual overlap changed,
-    ``SlopeUncertainty.until_2026_12_06_pm()`` those of that morning (before ``grade_nis_floor``).
+    ``SlopeUncertainty.until_2026_12_06_pm()`` those of that morning (before ``grade_nis_floor``),
+    ``SlopeUncertainty.until_2026_12_06_evening()`` those of that afternoon (before the unverified sensors).
     """
 
     mass_rel_std: float = 0.05
@@ -160,6 +174,8 @@ class SlopeUncertainty:
     residual_overlap: bool = True
     radius_in_calibration: bool = True
     grade_nis_floor: float | None = 0.01
+    unverified_accel_offset_std: float | None = 0.3
+    unverified_gyro_offset_std: float | None = 1e-3
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
@@ -173,6 +189,11 @@ class SlopeUncertainty:
         g = self.grade_nis_floor
         if g is not None and not (isinstance(g, (int, float)) and not isinstance(g, bool) and 0.0 < g <= 1.0):
             raise InputError(f"grade_nis_floor must be None or in (0, 1]; got {g!r}.")
+        for k in ("unverified_accel_offset_std", "unverified_gyro_offset_std"):
+            v = getattr(self, k)
+            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                      and v > 0):
+                raise InputError(f"{k} must be None or a finite number > 0; got {v!r}.")
         for k in ("residual_overlap", "radius_in_calibration"):
             if not isinstance(getattr(self, k), bool):
                 raise InputError(f"{k} must be True or False; got {getattr(self, k)!r}.")
@@ -181,7 +202,8 @@ class SlopeUncertainty:
     def noise_only(cls) -> "SlopeUncertainty":
         """No parameter terms and no NIS inflation: the filters' own stds."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, nis_floor=1.0, tracking_lag=False, accel_gain_std=0.0,
-                   accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0, grade_nis_floor=None)
+                   accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0, grade_nis_floor=None,
+                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
 
     @classmethod
     def until_2026_12_06(cls) -> "SlopeUncertainty":
@@ -189,14 +211,22 @@ class SlopeUncertainty:
         variance added to the force fit's residual variance (``residual_overlap=False``), the sensor calibration's
         prior of an axle's mean scale ``wheel_scale_prior_std`` alone (``radius_in_calibration=False``); reproduces
         that estimator's outputs."""
-        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False, grade_nis_floor=None)
+        return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False, grade_nis_floor=None,
+                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
 
     @classmethod
     def until_2026_12_06_pm(cls) -> "SlopeUncertainty":
         """The defaults of the morning of 2026-12-06 (issue 13, vehicle bands), before the joint grade got its own NIS
         floor: the grade variance floored at ``nis_floor`` (0.1, ``grade_nis_floor=None``); reproduces that
         estimator's outputs."""
-        return cls(grade_nis_floor=None)
+        return cls(grade_nis_floor=None, unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+
+    @classmethod
+    def until_2026_12_06_evening(cls) -> "SlopeUncertainty":
+        """The defaults of the afternoon of 2026-12-06 (issue 13, vehicle bands), before sensors found beyond their
+        stated offsets made the accelerometer's and the gyro's offsets unverified (``unverified_accel_offset_std``,
+        ``unverified_gyro_offset_std`` None); reproduces that estimator's outputs."""
+        return cls(unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
 
     @property
     def grade_floor(self) -> float:
@@ -267,6 +297,7 @@ class SlopeEstimate:
     force_fit: ForceScaleFit | None = None
     sensor_calibration: SensorCalibration | None = None
     uncertainty: SlopeUncertainty | None = None
+    sensors_unverified: bool = False
 
     def to_frame(self):
         """The estimate as a table (columns documented in docs/vehicle-slope.md)."""
@@ -332,7 +363,24 @@ class SlopeEstimate:
                        "the vehicle mass and tyre stiffness, the accelerometer's offset and sign (accel_x forward), "
                        "or run with force_correction=False (CLI --no-force-correction) for the paper's estimate.")
         out += _sensor_warnings(self.sensor_calibration, self.uncertainty)
+        if self.sensors_unverified:
+            unc = self.uncertainty
+            gyro = "" if unc.unverified_gyro_offset_std is None else \
+                f" and the gyro was calibrated with a prior of {unc.unverified_gyro_offset_std:g} rad/s"
+            out.append(f"sensors unverified: the gyro or a wheel was beyond its stated offset, so the accelerometer's "
+                       f"offset is taken as unknown to {unc.unverified_accel_offset_std:g} m/s^2 in the slope band "
+                       f"(not the stated {unc.accel_offset_std:g}){gyro}: the slope interval is wide; calibrate the "
+                       "IMU's offsets (standstill) and the wheels, or state them (SlopeUncertainty).")
         return out
+
+
+def _beyond_spec(cal, unc) -> tuple:
+    """(gyro, wheels (4,)): whether the gyro offset and each wheel's scale error found in the log are beyond
+    SENSOR_ERROR_WARN x their stated stds and 3 posterior stds."""
+    b, b_std = cal.gyro_offset, cal.gyro_offset_std
+    gyro = abs(b) > max(SENSOR_ERROR_WARN * unc.gyro_bias_std, 3 * b_std)
+    far = np.abs(cal.wheel_scale) > np.maximum(SENSOR_ERROR_WARN * unc.wheel_radius_rel_std, 3 * cal.wheel_scale_std)
+    return bool(gyro), far
 
 
 def _sensor_warnings(cal, unc) -> list:
@@ -340,15 +388,14 @@ def _sensor_warnings(cal, unc) -> list:
     if cal is None or unc is None:
         return []
     out = []
-    b, b_std = cal.gyro_offset, cal.gyro_offset_std
-    if abs(b) > max(SENSOR_ERROR_WARN * unc.gyro_bias_std, 3 * b_std):
-        out.append(f"the gyro reads {b:+.2e} rad/s (+- {b_std:.1e}) off the wheel speeds' yaw rate, more than "
-                   f"{SENSOR_ERROR_WARN:g} x the stated offset std {unc.gyro_bias_std:g} rad/s: it was subtracted, but "
-                   "check the gyro's zero (standstill calibration) and mounting.")
-    e, e_std = cal.wheel_scale, cal.wheel_scale_std
-    far = np.abs(e) > np.maximum(SENSOR_ERROR_WARN * unc.wheel_radius_rel_std, 3 * e_std)
+    gyro, far = _beyond_spec(cal, unc)
+    if gyro:
+        out.append(f"the gyro reads {cal.gyro_offset:+.2e} rad/s (+- {cal.gyro_offset_std:.1e}) off the wheel speeds' "
+                   f"yaw rate, more than {SENSOR_ERROR_WARN:g} x the stated offset std {unc.gyro_bias_std:g} rad/s: it "
+                   "was subtracted, but check the gyro's zero (standstill calibration) and mounting.")
     if far.any():
-        names = ", ".join(f"{w} {100 * x:+.2f} %" for w, x, f in zip(("FL", "FR", "RL", "RR"), e, far) if f)
+        names = ", ".join(f"{w} {100 * x:+.2f} %" for w, x, f in zip(("FL", "FR", "RL", "RR"), cal.wheel_scale, far)
+                          if f)
         out.append(f"wheel speed scale errors beyond {SENSOR_ERROR_WARN:g} x the stated {unc.wheel_radius_rel_std:g} "
                    f"(relative to the rear axle): {names}; left/right differences were corrected, but check the "
                    "tyres (pressure, wear, a spare wheel) and wheels.radius.")
@@ -448,7 +495,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     Sensor calibration (beyond the paper; ESC-style, van Zanten SAE 2000-01-1633): :func:`calibrate_sensors`.
     """
     vehicle, tuning, unc = _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty)
-    log, cal = _calibrated(log, vehicle, unc, sensor_calibration)
+    log, cal, unverified = _calibrated(log, vehicle, unc, sensor_calibration)
     dt = log.dt
     u, ref, y, filtered = _filtered(log, vehicle, method, tuning, friction, initial_state, speed_measurement)
     mean, cov = filtered.mean, filtered.cov
@@ -463,7 +510,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
     slope, s_var, gain, lag = _uncorrected_slope(vehicle, unc, method, dt, mean, var, std, raw, y, ref, res, res_std,
                                                  poles, n_win)
     slope, s_var, fit = _force_corrected(vehicle, unc, force_correction, log.accel_x, mean, slope, s_var, res,
-                                         gain, dt, lag)
+                                         gain, dt, lag, unverified)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
     gyro_std = unc.gyro_bias_std if cal is None else cal.gyro_offset_std
     std = np.sqrt(np.column_stack([var[:, 0] * kappa[:, 0] + (unc.radius_rel_std * mean[:, 0]) ** 2,
@@ -473,7 +520,7 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
                          resisting_force=res, resisting_force_std=res_std, method=method, filtered=filtered,
                          observer_gain=gain, speed_reference=ref, force_fit=fit, sensor_calibration=cal,
-                         uncertainty=unc)
+                         uncertainty=unc, sensors_unverified=unverified)
 
 
 def _uncorrected_slope(vehicle, unc, method, dt, mean, var, std, raw, y, ref, res, res_std, poles, n_win):
@@ -506,17 +553,23 @@ def _filtered(log, vehicle, method, tuning, friction, initial_state, speed_measu
 
 
 def _calibrated(log, vehicle, unc, sensor_calibration):
-    """(log, calibration): the log with the gyro offset and the wheels' left/right scale differences found in it
-    corrected (:func:`calibrate_sensors`, its front/rear part left out), or the log as it is and None (calibration
-    off, or no calibration prior)."""
+    """(log, calibration, unverified): the log with the gyro offset and the wheels' left/right scale differences found
+    in it corrected (:func:`calibrate_sensors`, its front/rear part left out), or the log as it is and None
+    (calibration off, or no calibration prior). ``unverified``: the calibration with the stated priors found the
+    gyro or a wheel beyond its stated std (:func:`_beyond_spec`) and ``SlopeUncertainty.unverified_accel_offset_std``
+    is set; the gyro is then calibrated again with ``unverified_gyro_offset_std`` (if set) as its prior."""
     if not (sensor_calibration and unc.gyro_offset_prior_std > 0 and unc.wheel_scale_prior_std > 0):
-        return log, None
-    cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.gyro_offset_prior_std,
-                            wheel_prior_std=unc.wheel_scale_prior_std, accel_offset_std=unc.accel_offset_std,
-                            slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6),
-                            axle_prior_std=math.hypot(unc.radius_rel_std, unc.wheel_scale_prior_std / math.sqrt(2))
-                            if unc.radius_in_calibration else None)
-    return cal.corrected(log, front_rear=False), cal
+        return log, None, False
+    kw = dict(wheel_prior_std=unc.wheel_scale_prior_std, accel_offset_std=unc.accel_offset_std,
+              slip_prior_std=max(math.hypot(unc.mass_rel_std, unc.force_rel_std), 1e-6),
+              axle_prior_std=math.hypot(unc.radius_rel_std, unc.wheel_scale_prior_std / math.sqrt(2))
+              if unc.radius_in_calibration else None)
+    cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.gyro_offset_prior_std, **kw)
+    gyro, wheels = _beyond_spec(cal, unc)
+    unverified = unc.unverified_accel_offset_std is not None and (gyro or bool(wheels.any()))
+    if unverified and unc.unverified_gyro_offset_std is not None:
+        cal = calibrate_sensors(log, vehicle, gyro_prior_std=unc.unverified_gyro_offset_std, **kw)
+    return cal.corrected(log, front_rear=False), cal, unverified
 
 
 def _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty):
@@ -616,7 +669,7 @@ def nis_inflation(innovation, innovation_cov, window: int, *, floor: float = 1.0
     return np.maximum(out, floor)
 
 
-def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, gain, dt, lag):
+def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, gain, dt, lag, unverified):
     """(slope, variance of sin(theta), fit) with the force-model correction and the parameter terms.
 
     ``fit`` is :func:`force_scale_fit` of the drive (None without ``force_correction`` or without a stated mass
@@ -626,7 +679,9 @@ def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var
     ``gain`` None: F_res averaged / (M g)), and its
     variance is the posterior of (beta, c), the accelerometer's gain and offset errors and the fit's residual
     variance, which replaces the filter's variance where larger (``SlopeUncertainty.residual_overlap``; added to
-    it with False) (estimate_slope, Notes)."""
+    it with False) (estimate_slope, Notes). ``unverified``: the accelerometer's offset is as uncertain as the force
+    model's constant may be (``SlopeUncertainty.unverified_accel_offset_std``), so only the posterior share w of the
+    fitted constant is the force model's (:func:`_offset_share`)."""
     force_var = unc.mass_rel_std ** 2 + unc.force_rel_std ** 2
     fit = None
     if force_correction and force_var > 0:
@@ -641,17 +696,30 @@ def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var
     else:
         shape = _observer_mean(res, dt, lag) / (vehicle.mass * GRAVITY)
     if corrected:
-        slope = np.arcsin(np.clip(np.sin(slope) - fit.beta * shape - fit.offset, -1.0, 1.0))
+        w, offset_var = _offset_share(unc, unverified)
+        slope = np.arcsin(np.clip(np.sin(slope) - fit.beta * shape - w * fit.offset, -1.0, 1.0))
         resid_var = np.nan_to_num(fit.residual_std) ** 2
         if unc.residual_overlap:  # the filter's variance and the blocks' scatter: the same force noise, keep the larger
             s_var = np.maximum(s_var, resid_var) + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 \
-                + 2 * fit.cov[0, 1] * shape + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2
+                + 2 * (w * fit.cov[0, 1]) * shape + (w * w) * fit.cov[1, 1] + offset_var
         else:  # until 2026-12-06: added (same expression, same rounding)
-            s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * fit.cov[0, 1] * shape \
-                + fit.cov[1, 1] + (unc.accel_offset_std / GRAVITY) ** 2 + resid_var
+            s_var = s_var + (fit.cov[0, 0] + unc.accel_gain_std ** 2) * shape ** 2 + 2 * (w * fit.cov[0, 1]) * shape \
+                + (w * w) * fit.cov[1, 1] + offset_var + resid_var
         force_var = 0.0
     s_var = s_var + _parameter_var(vehicle, unc, shape, force_var, mean[:, 0], slope, dt, lag, wheels=not corrected)
     return slope, s_var, fit
+
+
+def _offset_share(unc, unverified) -> tuple:
+    """(w, variance in sin(theta)): the share of the force fit's constant c = c_force - b_a/g taken as the force
+    model's, and the variance of the accelerometer's part left in the slope. Calibrated sensors: (1, (s_a/g)^2),
+    the stated offset s_a (``accel_offset_std``); unverified (``unverified_accel_offset_std``): with the prior
+    stds s_c of c_force (``offset_prior_std``) and s_u of b_a/g, the posterior of c_force given c,
+    w = s_c^2 / (s_c^2 + s_u^2) and s_c^2 s_u^2 / (s_c^2 + s_u^2)."""
+    if not unverified:
+        return 1.0, (unc.accel_offset_std / GRAVITY) ** 2
+    s_c2, s_u2 = unc.offset_prior_std ** 2, (unc.unverified_accel_offset_std / GRAVITY) ** 2
+    return s_c2 / (s_c2 + s_u2), s_c2 * s_u2 / (s_c2 + s_u2)
 
 
 def _observer_mean(x, dt, lag):
