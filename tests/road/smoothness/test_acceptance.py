@@ -5,7 +5,7 @@ exclusions and histogram against hand calculation on a profile of two halves wit
 import numpy as np
 import pytest
 
-from longprofile.errors import InputError
+from longprofile.errors import InputError, UnitsError
 from longprofile.road import Profile, iri_report, iso8608_profile
 from longprofile.road.smoothness._acceptance import (
     default_spec,
@@ -81,6 +81,24 @@ def test_spec_errors(tmp_path):
     ev.write_text("start_m,end_m\n10,20\n")
     f.write_text('[exclusions]\nevents = "events.csv"\n')
     assert read_spec(f).exclusions == ((10.0, 20.0),)
+
+
+@pytest.mark.parametrize(("units", "section", "value", "hint"), [
+    ("si", {"localized": {"threshold": 160.0}}, 160.0, 'units = "us"'),  # a US spec without units = "us"
+    ("si", {"pay": {"schedule": [[45.0, 1.05], [60.0, 1.0]]}}, 45.0, 'units = "us"'),
+    ("us", {"grinding": {"threshold": 2.5}}, 2.5, 'units = "si"'),  # m/km typed into a US spec
+])
+def test_iri_limits_in_the_other_unit_system_are_refused(units, section, value, hint):
+    # before 2026-12-06 the US limits read as m/km paid every lot the top factor, silently
+    with pytest.raises(UnitsError, match=rf"{value:g} .* outside any paved road's range .*{hint}"):
+        spec_from_dict({"units": units, **section})
+    us = {"localized": {"threshold": 160.0}, "pay": {"schedule": [[45.0, 1.05], [60.0, 1.0]]}}
+    assert spec_from_dict({"units": "us", **us}).localized_threshold == 160.0  # the same values, declared
+
+
+def test_a_pay_factor_given_as_a_percentage_is_refused():
+    with pytest.raises(InputError, match="pay factor 105 .* percentage"):
+        spec_from_dict({"pay": {"schedule": [[1.0, 105.0], [2.0, 100.0]]}})
 
 
 def test_zone_outside_profile_and_mri_needs_two_tracks():

@@ -199,7 +199,35 @@ def validate_spec(spec: AcceptanceSpec) -> AcceptanceSpec:
         raise InputError("pay schedule rows must be [upper IRI limit, pay factor].")
     if limits != sorted(limits) or len(set(limits)) != len(limits):
         raise InputError(f"pay schedule limits must increase strictly; got {limits}.")
+    _check_iri_values(spec)
+    for limit, factor in spec.pay_schedule:
+        if not 0.0 <= factor <= PAY_FACTOR_MAX:
+            raise InputError(f"pay factor {factor:g} (limit {limit:g}) is outside 0-{PAY_FACTOR_MAX:g}: a factor "
+                             "multiplies the lot's price (1.05 for a 5 % bonus); is it a percentage?")
     return spec
+
+
+#: Plausible range of an IRI/MRI threshold or pay limit, m/km: from below the smoothest new pavement (~0.5 m/km)
+#: to twice a rough unpaved road (~20 m/km). Outside it the value is in the other unit system (160 in/mi typed in
+#: an SI spec is 160 m/km) or a typo; ASSUMPTION: no specification sets a limit outside it.
+IRI_LIMIT_RANGE = (0.2, 40.0)
+#: Largest pay factor accepted (a bonus of 100 %); 105 (a percentage) is refused.
+PAY_FACTOR_MAX = 2.0
+
+
+def _check_iri_values(spec: AcceptanceSpec) -> None:
+    """Refuse IRI thresholds and pay limits outside :data:`IRI_LIMIT_RANGE` once converted to m/km."""
+    per = REPORT_UNITS[spec.units]["iri_per_m_per_km"]
+    values = [("localized threshold", spec.localized_threshold), ("grinding threshold", spec.grind_threshold)]
+    values += [("pay schedule limit", limit) for limit, _ in spec.pay_schedule]
+    lo, hi = IRI_LIMIT_RANGE
+    for what, value in values:
+        if value is not None and not lo <= value / per <= hi:
+            other = "us" if spec.units == "si" else "si"
+            shown = f"{value:g} {spec.iri_unit}" + ("" if per == 1.0 else f" = {value / per:.4g} m/km")
+            raise UnitsError(f"{what} {shown} is outside any paved "
+                             f"road's range ({lo:g}-{hi:g} m/km); is it in {REPORT_UNITS[other]['iri_unit']}? "
+                             f"set units = \"{other}\" in the spec, or fix the value.")
 
 
 def read_spec(path) -> AcceptanceSpec:
