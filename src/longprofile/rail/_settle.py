@@ -12,6 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
+from ..statespace import minimize_scalar_bounded_batch
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
@@ -46,6 +47,7 @@ from ._rigidity import (
     max_settlement_from_draws,
     max_settlement_interval,
     rigidity_log_likelihood_function,
+    rigidity_log_likelihood_rows,
     sample_profiles,
     segment_process_energy,
 )
@@ -438,6 +440,30 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
     return float(np.exp(best)), -float(fun)
 
 
+def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) -> np.ndarray:
+    """Maximum marginal likelihood of r for each profile of ``rows`` alone (noise std ``sigmas[d]``, times f_i): the
+    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d, bit for bit, with every profile's grid in one
+    engine call and the Brent searches in lockstep (one engine call per round,
+    :func:`longprofile.statespace.minimize_scalar_bounded_batch`)."""
+    loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
+                                          sensor_factors=factors)
+
+    def nll(index, logr):
+        out = np.full(index.size, 1e300)
+        ok = np.array([-60 < v < 5 for v in logr], dtype=bool)
+        if ok.any():  # r as _fit_rigidity's nll forms it, one scalar at a time
+            out[ok] = -loglik(index[ok], np.array([float(np.exp(v)) for v in logr[ok]]))
+        return out
+
+    grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
+    D, G = rows.shape[0], grid.size
+    vals = nll(np.repeat(np.arange(D), G), np.tile(grid, D)).reshape(D, G)
+    k = np.argmin(vals, axis=1)
+    res = minimize_scalar_bounded_batch(nll, grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, G - 1)], xatol=1e-3)
+    best = np.where(res.fun <= vals[np.arange(D), k], res.x, grid[k])
+    return np.array([float(np.exp(b)) for b in best])
+
+
 def _changed_rows(slopes, sigma=None):
     keep = np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0
     rows = slopes[keep]
@@ -614,8 +640,7 @@ def increment_rigidity(x, slopes, *, noise_cov, sigma_z: float = DEFAULT_SIGMA_Z
     fit = fit_change_prior(x, dM, sigma=s_inc, sigma_z=sigma_z, penalty_orders=penalty_orders,
                            sensor_factors=sensor_factors)
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
-    rd = np.array([_fit_rigidity(x, dM[d:d + 1], float(s_inc[d]), sigma_z, fit.penalty_order, f)[0]
-                   for d in range(K)])
+    rd = _fit_rigidity_each(x, dM, s_inc, sigma_z, fit.penalty_order, f)
     return IncrementPrior(penalty_order=fit.penalty_order, rigidity_by_day=np.maximum(rd, floor * float(rd.max())),
                           fit=fit)
 

@@ -1,0 +1,247 @@
+"""Kalman filter + RTS smoother of many groups of series in one compiled call, each group its own noise levels.
+
+:mod:`._shared_cov` runs one covariance pass for a batch of series sharing one model. Some problems have many such
+batches that differ only in the scale of the process covariance and in the observation covariance: the rail
+all-days model (paper 004's rigidity prior, one group per day mode or per noise level, docs/rail.md step 10) runs
+hundreds of them per estimate, and a search over a per-day prior intensity evaluates one log-likelihood per day and
+candidate. Here every group g has Q -> s_g Q and its own R_g; the covariance pass of each group is the same
+compiled code as :func:`~longprofile.statespace.shared_covariance_smoother`'s (Joseph-form filter, RTS smoother),
+run for all groups in one compiled loop, so each group costs its O(T n^3) pass and nothing else (no Python call,
+no model validation per group). Results equal the shared-covariance functions run group by group, bit for bit
+(tested).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._jit import njit
+from .._validation import as_float_array
+from ..errors import InputError, ShapeError
+from ._model import StateSpaceModel
+from ._shared_cov import (
+    _filter_cov_pass,
+    _mean_pass,
+    _noise_cov_pass,
+    _not_positive_definite,
+    _shared_terms,
+    _smoother_cov_pass,
+)
+
+__all__ = ["GroupedSmootherResult", "grouped_covariance_smoother", "grouped_log_likelihood"]
+
+
+@dataclass(frozen=True, eq=False)
+class GroupedSmootherResult:
+    """Output of :func:`grouped_covariance_smoother`. B series, G groups, T steps, n states.
+
+    Attributes
+    ----------
+    mean : (B, T, n) ndarray
+        Smoothed means of every series.
+    cov : (G, T, n, n) ndarray
+        Smoothed covariances, shared by the series of a group (``cov[group[b]]`` is series b's).
+    cross_cov : (G, T-1, n, n) ndarray
+        Lag-one smoothed cross-covariances Cov(x_t, x_{t+1} | y) of each group.
+    log_likelihood : (B,) ndarray
+        log p(y_b) of every series (prediction-error decomposition, summed over the steps as
+        :func:`~longprofile.statespace.shared_covariance_smoother` sums them).
+    group : (B,) ndarray of int
+        The group of each series.
+    noise_cov : (G, T, n, n) ndarray or None
+        With ``noise_cov`` given: :func:`~longprofile.statespace.smoother_noise_covariance` of each group.
+    """
+
+    mean: np.ndarray
+    cov: np.ndarray
+    cross_cov: np.ndarray
+    log_likelihood: np.ndarray
+    group: np.ndarray
+    noise_cov: np.ndarray | None
+
+
+@njit(cache=True)
+def _grouped_pass(Yz, F, c, H, d, x0, Q, scale, R, P0, obs, order, start, store, Rn):  # pragma: no cover - compiled
+    """Every group's covariance pass (Q scaled, its own R) and its series' means through the shared gains.
+
+    ``order[start[g]:start[g+1]]`` are the series of group g; ``obs[g]`` its observed pattern. Returns the smoothed
+    means (B, T, n), per-group smoothed and cross covariances, the per-step log-likelihood terms (B, T), the
+    per-group noise covariances (when ``Rn`` has G rows) and the first group whose innovation covariance is not
+    positive definite (-1: none)."""
+    B, T, m = Yz.shape
+    n = x0.shape[0]
+    G = scale.shape[0]
+    Gs = G if store else 0
+    mean = np.empty((B if store else 0, T, n))
+    cov = np.empty((Gs, T, n, n))
+    cross = np.empty((Gs, max(T - 1, 0), n, n))
+    noise = np.empty((Rn.shape[0], T, n, n))
+    ll = np.zeros((B, T))
+    Qg = np.empty_like(Q)
+    no_gains = np.zeros((0, n, n))
+    for g in range(G):
+        for k in range(Q.shape[0]):
+            for a in range(n):
+                for b in range(n):
+                    Qg[k, a, b] = scale[g] * Q[k, a, b]
+        Pp, Pf, K, S, Sinv, logdet, bad = _filter_cov_pass(F, Qg, H, R[g], P0, obs[g])
+        if bad >= 0:
+            return mean, cov, cross, ll, noise, g
+        rows = order[start[g]:start[g + 1]]
+        n_obs_step = np.zeros(T, dtype=np.int64)
+        for k in range(T):
+            for j in range(m):
+                if obs[g, k, j]:
+                    n_obs_step[k] += 1
+        if store:
+            Ps, Gk, cc = _smoother_cov_pass(F, Pp, Pf)
+            cov[g] = Ps
+            cross[g] = cc[: max(T - 1, 0)]
+            ms = _mean_pass(Yz[rows], F, c, H, d, x0, K, Sinv, logdet, Gk, obs[g], n_obs_step, True)
+            for i in range(rows.size):
+                mean[rows[i]] = ms[2][i]
+                ll[rows[i]] = ms[4][i]
+            if Rn.shape[0] > 0:
+                noise[g] = _noise_cov_pass(F, H, K, Gk, Rn[g])
+        else:
+            lg = _mean_pass(Yz[rows], F, c, H, d, x0, K, Sinv, logdet, no_gains, obs[g], n_obs_step, False)[-1]
+            for i in range(rows.size):
+                ll[rows[i]] = lg[i]
+    return mean, cov, cross, ll, noise, -1
+
+
+def _group_terms(model: StateSpaceModel, y, group, process_scale, obs_cov, name: str):
+    """Checked inputs of the grouped functions: (Yz, F, c, H, d, Q, scale (G,), R (G, T, m, m), obs (G, T, m),
+    order, start, group (B,))."""
+    if model.n_inputs:
+        raise ShapeError(f"{name} does not take known inputs (the model has B or D).")
+    arr = as_float_array("y", y, ndim=3)
+    B, T, m = arr.shape
+    if m != model.n_obs:
+        raise ShapeError(f"y must be (B, T, {model.n_obs}); got shape {arr.shape}.")
+    grp = np.asarray(group)
+    if grp.shape != (B,) or not np.issubdtype(grp.dtype, np.integer) or (B and grp.min() < 0):
+        raise InputError(f"group must be ({B},) non-negative integers; got shape {grp.shape}, dtype {grp.dtype}.")
+    G = int(grp.max()) + 1 if B else 0
+    for name_, arr_ in (("process_scale", process_scale), ("obs_cov", obs_cov)):
+        if arr_ is not None and np.shape(arr_)[:1] != (np.shape(arr_)[0],):
+            raise ShapeError(f"{name_} must have one entry per group.")
+        if arr_ is not None:
+            G = max(G, int(np.shape(arr_)[0]))
+    # the model's own terms (and its per-step checks) through the shared-covariance preparation, one series
+    _, _, _, F, Q, c, H, R0, d = _shared_terms(model, np.where(np.isnan(arr[:1]), 0.0, arr[:1]) if B else
+                                               np.zeros((1, T, m)), name)
+    scale = np.ones(G) if process_scale is None else as_float_array("process_scale", process_scale, ndim=1,
+                                                                      allow_nan=False)
+    if scale.shape != (G,) or not np.all(scale > 0):
+        raise InputError(f"process_scale must be ({G},) values > 0; got shape {scale.shape}.")
+    if obs_cov is None:
+        R = np.ascontiguousarray(np.broadcast_to(R0, (G, T, m, m)))
+    else:
+        Rg = as_float_array("obs_cov", obs_cov, ndim=(3, 4), allow_nan=False)
+        if Rg.shape not in ((G, m, m), (G, T, m, m)):
+            raise ShapeError(f"obs_cov must be ({G}, {m}, {m}) or ({G}, {T}, {m}, {m}); got {Rg.shape}.")
+        R = np.ascontiguousarray(np.broadcast_to(Rg[:, None] if Rg.ndim == 3 else Rg, (G, T, m, m)))
+    nan = np.isnan(arr)
+    order = np.argsort(grp, kind="stable").astype(np.int64)
+    start = np.searchsorted(grp[order], np.arange(G + 1)).astype(np.int64)
+    obs = np.ones((G, T, m), dtype=bool)
+    for g in range(G):
+        rows = order[start[g]:start[g + 1]]
+        if rows.size:
+            if (nan[rows] != nan[rows[0]]).any():
+                raise ShapeError(f"the series of group {g} must have NaN at the same places (they share covariances).")
+            obs[g] = ~nan[rows[0]]
+    return (np.where(nan, 0.0, arr), F, c, H, d, Q, scale, R, obs, order, start, grp.astype(np.int64))
+
+
+def _run(model, terms, store, noise_cov=None):
+    Yz, F, c, H, d, Q, scale, R, obs, order, start, grp = terms
+    G, T, m = obs.shape
+    Rn = np.zeros((0, T, m, m))
+    if noise_cov is not None:
+        Rn = as_float_array("noise_cov", noise_cov, ndim=(3, 4), allow_nan=False)
+        if Rn.shape not in ((G, m, m), (G, T, m, m)):
+            raise ShapeError(f"noise_cov must be ({G}, {m}, {m}) or ({G}, {T}, {m}, {m}); got {Rn.shape}.")
+        Rn = np.ascontiguousarray(np.broadcast_to(Rn[:, None] if Rn.ndim == 3 else Rn, (G, T, m, m)))
+    try:
+        out = _grouped_pass(Yz, F, c, H, d, np.ascontiguousarray(model.initial_mean), Q, scale, R,
+                            np.ascontiguousarray(model.initial_cov), obs, order, start, store, Rn)
+    except np.linalg.LinAlgError:
+        raise _not_positive_definite() from None
+    if out[-1] >= 0:
+        raise _not_positive_definite()
+    return out
+
+
+def grouped_covariance_smoother(model: StateSpaceModel, y, group, *, process_scale=None, obs_cov=None,
+                                noise_cov=None) -> GroupedSmootherResult:
+    r"""Kalman filter and RTS smoother of groups of series, group g with Q -> s_g Q and its own R_g.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Linear-Gaussian model without known inputs (offsets allowed); its ``process_cov`` is the s = 1 term and its
+        ``obs_cov`` the default of every group.
+    y : (B, T, m) array_like
+        Observations; NaN = missing. The series of one group share one NaN pattern; groups may differ.
+    group : (B,) array_like of int
+        Group of each series, 0..G-1 (G: the largest group + 1, or the length of ``process_scale`` / ``obs_cov``).
+    process_scale : (G,) array_like, optional
+        s_g > 0 (default 1): Q_t -> s_g Q_t in group g (formed in the kernel, as
+        :func:`~longprofile.statespace.process_scale_log_likelihood` does).
+    obs_cov : (G, m, m) or (G, T, m, m) array_like, optional
+        R of each group (constant or per step); default the model's.
+    noise_cov : (G, m, m) or (G, T, m, m) array_like, optional
+        Covariance of the noise actually driving each group's estimate: also return
+        :func:`~longprofile.statespace.smoother_noise_covariance` of each group.
+
+    Returns
+    -------
+    GroupedSmootherResult
+
+    Raises
+    ------
+    ShapeError
+        Known inputs, wrong shapes, or a group whose series differ in their NaN pattern.
+    ModelError
+        If an innovation covariance is not positive definite on the observed components.
+
+    Notes
+    -----
+    Group by group the same Joseph-form filter and RTS smoother covariance recursions as
+    :func:`~longprofile.statespace.shared_covariance_smoother` (one pass per group, O(T n^3)) and the same mean
+    recursions through its gains (O(T n m) per series), all groups in one compiled loop: each group's results equal
+    ``shared_covariance_smoother(model.replace(process_cov=s_g Q, obs_cov=R_g), y[group == g])`` bit for bit.
+    """
+    terms = _group_terms(model, y, group, process_scale, obs_cov, "grouped_covariance_smoother")
+    mean, cov, cross, ll, noise, _ = _run(model, terms, True, noise_cov)
+    return GroupedSmootherResult(mean=mean, cov=cov, cross_cov=cross, log_likelihood=ll.sum(axis=-1),
+                                 group=terms[-1], noise_cov=None if noise_cov is None else noise)
+
+
+def grouped_log_likelihood(model: StateSpaceModel, y, group, *, process_scale=None, obs_cov=None) -> np.ndarray:
+    r"""Log-likelihood of every series of :func:`grouped_covariance_smoother`'s groups, forward pass only.
+
+    Parameters
+    ----------
+    model, y, group, process_scale, obs_cov
+        As in :func:`grouped_covariance_smoother`.
+
+    Returns
+    -------
+    (B,) ndarray
+        log p(y_b) under its group's model: equal, bit for bit, to
+        ``process_scale_log_likelihood(model.replace(obs_cov=R_g), y[group == g])(s_g)`` group by group.
+
+    Notes
+    -----
+    What a search of one scalar per series (e.g. the prior intensity of each day, paper 004's rigidity, docs/rail.md
+    step 10) evaluates: every series its own candidate in one compiled call, instead of one call per series and
+    candidate.
+    """
+    terms = _group_terms(model, y, group, process_scale, obs_cov, "grouped_log_likelihood")
+    return _run(model, terms, False)[3].sum(axis=-1)
+
