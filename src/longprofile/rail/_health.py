@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import gammaincc
 
-from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior
+from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior, rigidity_posterior_levels
 
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
@@ -423,14 +423,12 @@ def _mode_loo(x, Y, mode_noise, f, *, rigidity, penalty_order, segment_weights, 
     """Leave-one-out predictive mean mu_ik and variance p_ik of theta_ik (without sensor i's own noise) of every mode
     k and sensor i, and nu_k, as (K, N), (K, N), (K, 1): one smoother run per mode (:func:`loo_residuals`' identity)."""
     K, N = Y.shape
-    mus, preds = np.empty((K, N)), np.empty((K, N))
-    for k in range(K):
-        sig = float(mode_noise[k]) * f
-        post = rigidity_posterior(x, Y[k:k + 1], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                  penalty_order=penalty_order, segment_weights=segment_weights)
-        lev = np.clip(post.slope_std[0] ** 2 / sig**2, 0.0, 1.0 - 1e-12)
-        mus[k] = Y[k] - (Y[k] - post.slope_mean[0]) / (1.0 - lev)
-        preds[k] = sig**2 / (1.0 - lev) - sig**2
+    _, post = rigidity_posterior_levels(x, Y, np.arange(K), levels=mode_noise, rigidity=rigidity, sigma_z=sigma_z,
+                                        penalty_order=penalty_order, sensor_factors=f, segment_weights=segment_weights)
+    sig = np.asarray(mode_noise, float)[:, None] * f[None, :]
+    lev = np.clip(np.sqrt(post.cov[:, :, 1, 1]) ** 2 / sig**2, 0.0, 1.0 - 1e-12)
+    mus = Y - (Y - post.mean[..., 1]) / (1.0 - lev)
+    preds = sig**2 / (1.0 - lev) - sig**2
     return mus, preds, (np.asarray(mode_noise, float) ** 2)[:, None]
 
 

@@ -36,7 +36,6 @@ from ..errors import InputError, ShapeError
 from ..statespace import (
     GroupedSmootherResult,
     StateSpaceModel,
-    SmootherResult,
     grouped_covariance_smoother,
     grouped_log_likelihood,
     posterior_sample,
@@ -665,9 +664,11 @@ def rigidity_posterior_levels(x, slopes, group, *, levels, rigidity: float, sigm
                            segment_weights=segment_weights)
     R = _level_obs_cov(levels, sensor_factors, sigma_z, x.size)
     noise = None
-    if noise_std:
+    if noise_std:  # as measurement_std forms it
         noise = np.zeros(R.shape[:1] + (x.size, 2, 2))
-        noise[:, :, 0, 0] = R[..., 0, 0] if R.ndim == 4 else R[:, None, 0, 0]
+        lv = np.asarray(levels, float)[:, None]
+        noise[:, :, 0, 0] = (np.broadcast_to(lv, (lv.size, x.size)) if sensor_factors is None
+                             else lv * np.asarray(sensor_factors, float)[None, :]) ** 2
     res = grouped_covariance_smoother(model, _slope_observations(M, 0.0), group, obs_cov=R, noise_cov=noise)
     return model, res
 
@@ -681,8 +682,7 @@ def segment_process_energy_levels(x, slopes, group, *, levels, rigidity: float, 
                                            segment_weights=segment_weights)
     x = np.asarray(x, float)
     _, Qbar = _iwp_terms(x, rigidity * (x[-1] - x[0]) / 2.0, _check_order(penalty_order))
-    sm = SmootherResult(mean=res.mean, cov=res.cov[res.group], cross_cov=res.cross_cov[res.group], filtered=None)
-    return np.einsum("iab,diba->di", np.linalg.inv(Qbar), process_noise_moments(model, sm))
+    return np.einsum("iab,diba->di", np.linalg.inv(Qbar), process_noise_moments(model, res))
 
 
 def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,

@@ -27,6 +27,7 @@ from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrat
 from ._joint import (
     DayModes,
     _neighbour_residuals,
+    _engine_groups,
     _neighbour_weights,
     _noise_groups,
     _posterior_by_level,
@@ -49,7 +50,7 @@ from ._rigidity import (
     rigidity_log_likelihood_function,
     rigidity_log_likelihood_rows,
     sample_profiles,
-    segment_process_energy,
+    segment_process_energy_levels,
 )
 from ._temporal import TemporalSettlement, check_threshold, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
@@ -703,13 +704,14 @@ def segment_prior_weights(x, slopes, *, sigma, rigidity: float, penalty_order: i
         rows, sig = _changed_rows(M, sigma if np.ndim(sigma) else float(sigma))
     except InputError:
         return w
-    groups = ([(np.arange(rows.shape[0]), float(sig))] if np.ndim(sig) == 0 else _noise_groups(np.asarray(sig)))
+    levels = ([(np.arange(rows.shape[0]), float(sig))] if np.ndim(sig) == 0 else _noise_groups(np.asarray(sig)))
+    group, lv = _engine_groups(levels, rows)
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
     kernel = np.full(2 * half_width + 1, 1.0 / (2 * half_width + 1))
     for _ in range(int(n_iter)):
-        energy = sum(segment_process_energy(x, rows[idx], sigma=_station_sigma(s, f), rigidity=rigidity,
-                                            sigma_z=sigma_z, penalty_order=penalty_order,
-                                            segment_weights=w).sum(axis=0) for idx, s in groups)
+        e = segment_process_energy_levels(x, rows, group, levels=lv, rigidity=rigidity, sigma_z=sigma_z,
+                                          penalty_order=penalty_order, sensor_factors=f, segment_weights=w)
+        energy = sum(e[idx].sum(axis=0) for idx, _ in levels)
         wn = energy / (penalty_order * rows.shape[0])
         if half_width > 0:
             wn = np.convolve(np.pad(wn, half_width, mode="edge"), kernel, mode="valid")

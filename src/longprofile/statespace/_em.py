@@ -24,9 +24,10 @@ def process_noise_moments(model: StateSpaceModel, smoothed: SmootherResult) -> n
     ----------
     model : StateSpaceModel
         The model the smoother ran on (no known inputs; constant or time-varying F, c).
-    smoothed : SmootherResult
+    smoothed : SmootherResult or GroupedSmootherResult
         From :func:`rts_smoother` or :func:`shared_covariance_smoother`: ``mean`` (T, n) or (B, T, n);
-        ``cov`` (T, n, n) shared or (B, T, n, n); ``cross_cov`` (T-1, n, n) or (B, T-1, n, n).
+        ``cov`` (T, n, n) shared or (B, T, n, n); ``cross_cov`` (T-1, n, n) or (B, T-1, n, n). From
+        :func:`grouped_covariance_smoother`: the covariance terms once per group, then each series its group's.
 
     Returns
     -------
@@ -37,6 +38,7 @@ def process_noise_moments(model: StateSpaceModel, smoothed: SmootherResult) -> n
         raise ShapeError("process_noise_moments does not take known inputs (the model has B or D).")
     if smoothed.cov is None or smoothed.cross_cov is None:
         raise ShapeError("process_noise_moments needs the smoothed covariances and lag-one cross-covariances.")
+    group = getattr(smoothed, "group", None)  # GroupedSmootherResult: covariances per group
     m = np.asarray(smoothed.mean, float)
     P = np.asarray(smoothed.cov, float)
     C = np.asarray(smoothed.cross_cov, float)
@@ -48,4 +50,4 @@ def process_noise_moments(model: StateSpaceModel, smoothed: SmootherResult) -> n
     d = m[..., 1:, :] - np.einsum("tab,...tb->...ta", F, m[..., :-1, :]) - c
     FC = np.einsum("tab,...tbc->...tac", F, C)
     S = P[..., 1:, :, :] - FC - np.swapaxes(FC, -1, -2) + np.einsum("tab,...tbc,tdc->...tad", F, P[..., :-1, :, :], F)
-    return d[..., :, None] * d[..., None, :] + S
+    return d[..., :, None] * d[..., None, :] + (S if group is None else S[group])

@@ -148,12 +148,14 @@ def _group_terms(model: StateSpaceModel, y, group, process_scale, obs_cov, name:
     order = np.argsort(grp, kind="stable").astype(np.int64)
     start = np.searchsorted(grp[order], np.arange(G + 1)).astype(np.int64)
     obs = np.ones((G, T, m), dtype=bool)
-    for g in range(G):
-        rows = order[start[g]:start[g + 1]]
-        if rows.size:
-            if (nan[rows] != nan[rows[0]]).any():
-                raise ShapeError(f"the series of group {g} must have NaN at the same places (they share covariances).")
-            obs[g] = ~nan[rows[0]]
+    if B:
+        first = order[start[grp[order]]]  # the first series of each series' group
+        bad = (nan[order] != nan[first]).any(axis=(1, 2))
+        if bad.any():
+            raise ShapeError(f"the series of group {int(grp[order][bad][0])} must have NaN at the same places (they "
+                             "share covariances).")
+        used = start[:-1] < start[1:]
+        obs[used] = ~nan[order[start[:-1][used]]]
     return (np.where(nan, 0.0, arr), F, c, H, d, Q, scale, R, obs, order, start, grp.astype(np.int64))
 
 
