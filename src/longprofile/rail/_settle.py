@@ -32,6 +32,7 @@ from ._joint import (
     _noise_groups,
     _posterior_by_level,
     _station_sigma,
+    day_differences,
     day_modes,
     day_noise_covariance,
     joint_posterior,
@@ -451,9 +452,9 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
 
     def nll(index, logr):
         out = np.full(index.size, 1e300)
-        ok = np.array([-60 < v < 5 for v in logr], dtype=bool)
-        if ok.any():  # r as _fit_rigidity's nll forms it, one scalar at a time
-            out[ok] = -loglik(index[ok], np.array([float(np.exp(v)) for v in logr[ok]]))
+        ok = (-60 < logr) & (logr < 5)
+        if ok.any():  # np.exp of the array: the scalar's values, bit for bit (tested)
+            out[ok] = -loglik(index[ok], np.exp(logr[ok]))
         return out
 
     grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
@@ -461,8 +462,7 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
     vals = nll(np.repeat(np.arange(D), G), np.tile(grid, D)).reshape(D, G)
     k = np.argmin(vals, axis=1)
     res = minimize_scalar_bounded_batch(nll, grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, G - 1)], xatol=1e-3)
-    best = np.where(res.fun <= vals[np.arange(D), k], res.x, grid[k])
-    return np.array([float(np.exp(b)) for b in best])
+    return np.exp(np.where(res.fun <= vals[np.arange(D), k], res.x, grid[k]))
 
 
 def _changed_rows(slopes, sigma=None):
@@ -635,9 +635,8 @@ def increment_rigidity(x, slopes, *, noise_cov, sigma_z: float = DEFAULT_SIGMA_Z
     R = np.asarray(noise_cov, float)
     if R.shape != (K, K):
         raise InputError(f"noise_cov must be ({K}, {K}) for {K + 1} days; got shape {R.shape}.")
-    Delta = np.eye(K) - np.eye(K, k=-1)
     dM = np.diff(M, axis=0)
-    s_inc = np.sqrt(np.diag(Delta @ R @ Delta.T))
+    s_inc = np.sqrt(np.diag(day_differences(R)))
     fit = fit_change_prior(x, dM, sigma=s_inc, sigma_z=sigma_z, penalty_orders=penalty_orders,
                            sensor_factors=sensor_factors)
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
