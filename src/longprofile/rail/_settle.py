@@ -448,7 +448,7 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
     engine call and the Brent searches in lockstep (one engine call per round,
     :func:`longprofile.statespace.minimize_scalar_bounded_batch`)."""
     loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
-                                          sensor_factors=factors)
+                                          sensor_factors=factors, univariate=True)
 
     def nll(index, logr):
         out = np.full(index.size, 1e300)
