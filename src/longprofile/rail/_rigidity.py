@@ -39,6 +39,7 @@ from ..statespace import (
     grouped_covariance_smoother,
     grouped_log_likelihood,
     posterior_sample,
+    process_noise_energy,
     process_noise_moments,
     process_scale_log_likelihood,
     shared_covariance_log_likelihood,
@@ -685,7 +686,7 @@ def segment_process_energy_levels(x, slopes, group, *, levels, rigidity: float, 
                                            segment_weights=segment_weights)
     x = np.asarray(x, float)
     _, Qbar = _iwp_terms(x, rigidity * (x[-1] - x[0]) / 2.0, _check_order(penalty_order))
-    return np.einsum("iab,diba->di", np.linalg.inv(Qbar), process_noise_moments(model, res))
+    return process_noise_energy(model, res, np.linalg.inv(Qbar))
 
 
 def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,

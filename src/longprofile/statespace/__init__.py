@@ -16,6 +16,7 @@ grouped_covariance_smoother -- many such batches in one compiled call, group g w
 grouped_log_likelihood -- their per-series log-likelihoods, forward pass only (one candidate per series).
 smoother_noise_covariance -- covariance of the smoothed mean from the observation noise alone (fixed truth).
 process_noise_moments  -- E[w w^T | y] of the process noise from a smoother (the EM statistic of Q).
+process_noise_energy   -- E[w^T W w | y] per series and step, one compiled pass (the EM statistic of a scale of Q).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
@@ -79,7 +80,7 @@ _LAZY = {
     "long_record_log_likelihood": "_long_record", "long_record_smoother": "_long_record",
     "MLEResult": "_mle", "fit_mle": "_mle",
     "BoundedSearchResult": "_search", "minimize_scalar_bounded_batch": "_search",
-    "process_noise_moments": "_em",
+    "process_noise_moments": "_em", "process_noise_energy": "_em",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
     "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate", "linear_recursion_columns": "_propagate",
@@ -107,6 +108,7 @@ __all__ = [
     "GroupedSmootherResult",
     "smoother_noise_covariance",
     "process_noise_moments",
+    "process_noise_energy",
     "simulate",
     "FilterResult",
     "SmootherResult",
