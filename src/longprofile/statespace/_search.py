@@ -4,9 +4,10 @@ A maximum-likelihood fit of one scalar per series (e.g. the prior intensity of e
 docs/rail.md step 10) runs hundreds of bounded Brent searches of a few dozen evaluations each. Run one after the
 other, each evaluation is a separate call into the engine, and the calls' fixed cost dwarfs the compiled work. Here
 every search is scipy's bounded Brent method (``scipy.optimize.minimize_scalar(method="bounded")``: golden section
-with parabolic steps, Brent 1973 ch. 5, Forsythe, Malcolm & Moler 1977 ``fmin``), written as a generator that yields
-the point it needs next; all searches advance together and each round's points are evaluated in one call of a
-vectorised objective. Every search takes exactly the steps scipy's takes on the same values (tested bit for bit).
+with parabolic steps, Brent 1973 ch. 5, Forsythe, Malcolm & Moler 1977 ``fmin``), its scalar statements written
+element-wise over the searches still running (the same IEEE operations, so the same values); all searches advance
+together and each round's points are evaluated in one call of a vectorised objective. Every search takes exactly the
+steps scipy's takes on the same values (tested bit for bit).
 """
 
 from __future__ import annotations
@@ -41,79 +42,62 @@ class BoundedSearchResult:
     status: np.ndarray
 
 
-def _bounded_brent(x1, x2, xatol, maxfun):
-    """scipy's ``_minimize_scalar_bounded`` (scipy 1.17) as a generator: yields x, receives f(x); returns
-    (xf, fx, num, flag). The statements and their order are scipy's, so the floating-point results are too."""
-    sqrt_eps = sqrt(2.2e-16)
-    golden_mean = 0.5 * (3.0 - sqrt(5.0))
-    a, b = x1, x2
-    fulc = a + golden_mean * (b - a)
-    nfc, xf = fulc, fulc
-    rat = e = 0.0
-    x = xf
-    fx = yield x
-    num = 1
-    fu = np.inf
-    ffulc = fnfc = fx
-    xm = 0.5 * (a + b)
-    tol1 = sqrt_eps * np.abs(xf) + xatol / 3.0
-    tol2 = 2.0 * tol1
-    flag = 0
-    while np.abs(xf - xm) > (tol2 - 0.5 * (b - a)):
-        golden = 1
-        if np.abs(e) > tol1:  # parabolic fit
-            golden = 0
-            r = (xf - nfc) * (fx - ffulc)
-            q = (xf - fulc) * (fx - fnfc)
-            p = (xf - fulc) * q - (xf - nfc) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = np.abs(q)
-            r = e
-            e = rat
-            if (np.abs(p) < np.abs(0.5 * q * r)) and (p > q * (a - xf)) and (p < q * (b - xf)):
-                rat = (p + 0.0) / q
-                x = xf + rat
-                if ((x - a) < tol2) or ((b - x) < tol2):
-                    si = np.sign(xm - xf) + ((xm - xf) == 0)
-                    rat = tol1 * si
-            else:
-                golden = 1
-        if golden:  # golden-section step
-            e = (a - xf) if xf >= xm else (b - xf)
-            rat = golden_mean * e
-        si = np.sign(rat) + (rat == 0)
-        x = xf + si * np.maximum(np.abs(rat), tol1)
-        fu = yield x
-        num += 1
-        if fu <= fx:
-            if x >= xf:
-                a = xf
-            else:
-                b = xf
-            fulc, ffulc = nfc, fnfc
-            nfc, fnfc = xf, fx
-            xf, fx = x, fu
-        else:
-            if x < xf:
-                a = x
-            else:
-                b = x
-            if (fu <= fnfc) or (nfc == xf):
-                fulc, ffulc = nfc, fnfc
-                nfc, fnfc = x, fu
-            elif (fu <= ffulc) or (fulc == xf) or (fulc == nfc):
-                fulc, ffulc = x, fu
-        xm = 0.5 * (a + b)
-        tol1 = sqrt_eps * np.abs(xf) + xatol / 3.0
-        tol2 = 2.0 * tol1
-        if num >= maxfun:
-            flag = 1
-            break
-    if np.isnan(xf) or np.isnan(fx) or np.isnan(fu):
-        flag = 2
-    return xf, fx, num, flag
+_SQRT_EPS = sqrt(2.2e-16)
+_GOLDEN = 0.5 * (3.0 - sqrt(5.0))
+
+
+def _step_points(st, i, xatol):
+    """The next point of the searches ``i`` (scipy's parabolic-or-golden step, element-wise; updates rat, e)."""
+    a, b, xf, nfc, fulc = st["a"][i], st["b"][i], st["xf"][i], st["nfc"][i], st["fulc"][i]
+    fx, fnfc, ffulc, xm = st["fx"][i], st["fnfc"][i], st["ffulc"][i], st["xm"][i]
+    tol1, tol2, e, rat = st["tol1"][i], st["tol2"][i], st["e"][i].copy(), st["rat"][i].copy()
+    golden = np.ones(i.size, dtype=bool)
+    par = np.abs(e) > tol1
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r = (xf - nfc) * (fx - ffulc)
+        q = (xf - fulc) * (fx - fnfc)
+        p = (xf - fulc) * q - (xf - nfc) * r
+        q = 2.0 * (q - r)
+        p = np.where(q > 0.0, -p, p)
+        q = np.abs(q)
+        r = e.copy()
+        e = np.where(par, rat, e)
+        ok = par & (np.abs(p) < np.abs(0.5 * q * r)) & (p > q * (a - xf)) & (p < q * (b - xf))
+        rat = np.where(ok, (p + 0.0) / q, rat)
+    x = xf + rat
+    near = ok & (((x - a) < tol2) | ((b - x) < tol2))
+    rat = np.where(near, tol1 * (np.sign(xm - xf) + ((xm - xf) == 0)), rat)
+    golden &= ~ok
+    e = np.where(golden, np.where(xf >= xm, a - xf, b - xf), e)
+    rat = np.where(golden, _GOLDEN * e, rat)
+    st["e"][i], st["rat"][i] = e, rat
+    return xf + (np.sign(rat) + (rat == 0)) * np.maximum(np.abs(rat), tol1)
+
+
+def _take(st, i, x, fu, xatol):
+    """scipy's bookkeeping after f(x) = fu for the searches ``i``, element-wise."""
+    a, b, xf, fx = st["a"][i], st["b"][i], st["xf"][i], st["fx"][i]
+    nfc, fnfc, fulc, ffulc = st["nfc"][i], st["fnfc"][i], st["fulc"][i], st["ffulc"][i]
+    better = fu <= fx
+    worse = ~better
+    c1 = worse & ((fu <= fnfc) | (nfc == xf))
+    c2 = worse & ~c1 & ((fu <= ffulc) | (fulc == xf) | (fulc == nfc))
+    st["a"][i] = np.where(better, np.where(x >= xf, xf, a), np.where(x < xf, x, a))
+    st["b"][i] = np.where(better, np.where(x >= xf, b, xf), np.where(x < xf, b, x))
+    st["fulc"][i] = np.where(better | c1, nfc, np.where(c2, x, fulc))
+    st["ffulc"][i] = np.where(better | c1, fnfc, np.where(c2, fu, ffulc))
+    st["nfc"][i] = np.where(better, xf, np.where(c1, x, nfc))
+    st["fnfc"][i] = np.where(better, fx, np.where(c1, fu, fnfc))
+    st["xf"][i] = np.where(better, x, xf)
+    st["fx"][i] = np.where(better, fu, fx)
+    st["fu"][i] = fu
+    _tolerances(st, i, xatol)
+
+
+def _tolerances(st, i, xatol):
+    st["xm"][i] = 0.5 * (st["a"][i] + st["b"][i])
+    st["tol1"][i] = _SQRT_EPS * np.abs(st["xf"][i]) + xatol / 3.0
+    st["tol2"][i] = 2.0 * st["tol1"][i]
 
 
 def minimize_scalar_bounded_batch(fun, lower, upper, *, xatol: float = 1e-5, maxiter: int = 500) -> BoundedSearchResult:
@@ -148,19 +132,23 @@ def minimize_scalar_bounded_batch(fun, lower, upper, *, xatol: float = 1e-5, max
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))) or np.any(lo > hi):
         raise InputError("the bounds must be finite with lower <= upper.")
     B = lo.size
-    out = np.empty((4, B))
-    gens = [_bounded_brent(lo[b], hi[b], xatol, maxiter) for b in range(B)]
-    active = list(range(B))
-    points = [gen.send(None) for gen in gens]
-    while active:
-        idx = np.array(active, dtype=np.int64)
-        vals = np.asarray(fun(idx, np.array([points[b] for b in active], dtype=float)), dtype=float)
-        still = []
-        for b, v in zip(active, vals):
-            try:
-                points[b] = gens[b].send(v)
-                still.append(b)
-            except StopIteration as stop:
-                out[:, b] = stop.value
-        active = still
-    return BoundedSearchResult(x=out[0], fun=out[1], nfev=out[2].astype(np.int64), status=out[3].astype(np.int64))
+    fulc = lo + _GOLDEN * (hi - lo)
+    st = {"a": lo.copy(), "b": hi.copy(), "fulc": fulc, "nfc": fulc.copy(), "xf": fulc.copy(), "rat": np.zeros(B),
+          "e": np.zeros(B), "fu": np.full(B, np.inf), "xm": np.empty(B), "tol1": np.empty(B), "tol2": np.empty(B)}
+    everyone = np.arange(B)
+    fx = np.asarray(fun(everyone, fulc.copy()), dtype=float) if B else np.empty(0)
+    st.update(fx=fx.copy(), ffulc=fx.copy(), fnfc=fx.copy())
+    _tolerances(st, everyone, xatol)
+    num = np.ones(B, dtype=np.int64)
+    flag = np.zeros(B, dtype=np.int64)
+    active = np.abs(st["xf"] - st["xm"]) > (st["tol2"] - 0.5 * (st["b"] - st["a"]))
+    while active.any():
+        i = np.nonzero(active)[0]
+        x = _step_points(st, i, xatol)
+        _take(st, i, x, np.asarray(fun(i, x), dtype=float), xatol)
+        num[i] += 1
+        done = num[i] >= maxiter
+        flag[i[done]] = 1
+        active[i] = ~done & (np.abs(st["xf"][i] - st["xm"][i]) > (st["tol2"][i] - 0.5 * (st["b"][i] - st["a"][i])))
+    flag[np.isnan(st["xf"]) | np.isnan(st["fx"]) | np.isnan(st["fu"])] = 2
+    return BoundedSearchResult(x=st["xf"], fun=st["fx"], nfev=num, status=flag)
