@@ -444,9 +444,10 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
 
 def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) -> np.ndarray:
     """Maximum marginal likelihood of r for each profile of ``rows`` alone (noise std ``sigmas[d]``, times f_i): the
-    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d, bit for bit, with every profile's grid in one
-    engine call and the Brent searches in lockstep (one engine call per round,
-    :func:`longprofile.statespace.minimize_scalar_bounded_batch`)."""
+    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d (the same grid and scipy's Brent steps), with
+    every profile's grid in one engine call and the searches in lockstep (one engine call per round,
+    :func:`longprofile.statespace.minimize_scalar_bounded_batch`), the likelihood by the univariate treatment
+    (equal to round-off: r within the search's tolerance, 1e-3 in log r, where the likelihood is flat)."""
     loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
                                           sensor_factors=factors, univariate=True)
 
