@@ -26,8 +26,8 @@ from ._health import (
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
     DayModes,
-    _neighbour_residuals,
     _engine_groups,
+    _neighbour_residuals,
     _neighbour_weights,
     _noise_groups,
     _posterior_by_level,
