@@ -658,8 +658,8 @@ def rigidity_posterior_levels(x, slopes, group, *, levels, rigidity: float, sigm
     One engine call (:func:`longprofile.statespace.grouped_covariance_smoother`) for what
     :func:`rigidity_posterior` gives group by group with ``sigma=levels[g] f``: each group's covariance pass, and
     its profiles' means through it, equal to round-off. With ``noise_std`` the result's ``noise_cov`` is each group's
-    covariance from the slope noise alone (:func:`measurement_std`). Returns the model of the first level (its F, Q
-    and P0 are every group's) and the grouped result.
+    covariance from the slope noise alone (:func:`measurement_std`). Returns the model (its F, Q and P0 are every
+    group's; its R is replaced by each group's) and the grouped result.
     """
     x = _check_stations(x)
     M = _as_profiles("slopes", slopes, x.size)

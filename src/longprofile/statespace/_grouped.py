@@ -315,10 +315,8 @@ def _group_terms(model: StateSpaceModel, y, group, process_scale, obs_cov, name:
     if grp.shape != (B,) or not np.issubdtype(grp.dtype, np.integer) or (B and grp.min() < 0):
         raise InputError(f"group must be ({B},) non-negative integers; got shape {grp.shape}, dtype {grp.dtype}.")
     G = int(grp.max()) + 1 if B else 0
-    for name_, arr_ in (("process_scale", process_scale), ("obs_cov", obs_cov)):
-        if arr_ is not None and np.shape(arr_)[:1] != (np.shape(arr_)[0],):
-            raise ShapeError(f"{name_} must have one entry per group.")
-        if arr_ is not None:
+    for arr_ in (process_scale, obs_cov):  # their leading axis is the group; checked below
+        if arr_ is not None and np.ndim(arr_) > 0:
             G = max(G, int(np.shape(arr_)[0]))
     # the model's own terms (and its per-step checks) through the shared-covariance preparation, one series
     _, _, _, F, Q, c, H, R0, d = _shared_terms(model, np.where(np.isnan(arr[:1]), 0.0, arr[:1]) if B else
