@@ -55,7 +55,7 @@ def test_settle_writes_table_plot_and_report(site_dir, tmp_path):
 
 
 def test_per_day_model_is_the_library_per_day_estimate(site_dir, tmp_path):
-    # --per-day-model = estimate_settlement(joint_days=False), the live service's model above 10 000 sensor-days; the
+    # --per-day-model = estimate_settlement(joint_days=False), the live service's model above 40 000 sensor-days; the
     # default differs from it
     from longprofile.io import read_rail_site
     from longprofile.rail import estimate_settlement

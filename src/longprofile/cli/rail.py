@@ -102,9 +102,8 @@ def settle_command(
     affine: bool = typer.Option(False, "--affine-correction", help="Apply the §5.2 affine correction (not robust)."),
     per_day: bool = typer.Option(False, "--per-day-model",
                                  help="Estimate each day on its own (docs/rail.md step 9; the live service's model "
-                                      "above 10 000 sensor-days) instead of all days in one posterior (the default, "
-                                      "step 10: sensor drift correlated over the days; 6.5 s against 3.7-4.3 s on a "
-                                      "year of 100 sensors)."),
+                                      "above 40 000 sensor-days) instead of all days in one posterior (the default, "
+                                      "step 10: sensor drift correlated over the days)."),
     thresholds: Path = typer.Option(None, "--thresholds",
                                     help="Graded thresholds table: quantity (settlement, rate, twist), level (alert, "
                                          "action, alarm), value_mm (mm; mm/day for the rate), as the monitoring "

@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import gammaincc
 
-from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior
+from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior, rigidity_posterior_levels
 
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
@@ -423,14 +423,12 @@ def _mode_loo(x, Y, mode_noise, f, *, rigidity, penalty_order, segment_weights, 
     """Leave-one-out predictive mean mu_ik and variance p_ik of theta_ik (without sensor i's own noise) of every mode
     k and sensor i, and nu_k, as (K, N), (K, N), (K, 1): one smoother run per mode (:func:`loo_residuals`' identity)."""
     K, N = Y.shape
-    mus, preds = np.empty((K, N)), np.empty((K, N))
-    for k in range(K):
-        sig = float(mode_noise[k]) * f
-        post = rigidity_posterior(x, Y[k:k + 1], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                  penalty_order=penalty_order, segment_weights=segment_weights)
-        lev = np.clip(post.slope_std[0] ** 2 / sig**2, 0.0, 1.0 - 1e-12)
-        mus[k] = Y[k] - (Y[k] - post.slope_mean[0]) / (1.0 - lev)
-        preds[k] = sig**2 / (1.0 - lev) - sig**2
+    _, post = rigidity_posterior_levels(x, Y, np.arange(K), levels=mode_noise, rigidity=rigidity, sigma_z=sigma_z,
+                                        penalty_order=penalty_order, sensor_factors=f, segment_weights=segment_weights)
+    sig = np.asarray(mode_noise, float)[:, None] * f[None, :]
+    lev = np.clip(np.sqrt(post.cov[:, :, 1, 1]) ** 2 / sig**2, 0.0, 1.0 - 1e-12)
+    mus = Y - (Y - post.mean[..., 1]) / (1.0 - lev)
+    preds = sig**2 / (1.0 - lev) - sig**2
     return mus, preds, (np.asarray(mode_noise, float) ** 2)[:, None]
 
 
@@ -547,25 +545,57 @@ def all_days_step_evidence(x, mode_slopes, mode_noise, to_modes, *, rigidity: fl
                                 segment_weights=segment_weights, sigma_z=sigma_z)
     g = np.geomspace(*PROFILE_FACTOR_BOUNDS, PROFILE_FACTOR_GRID)
     U = np.asarray(to_modes, float) @ np.tril(np.ones((K, K)))  # column d - 1: V^T 1[day >= d]
-    r = Y - mus
-    var = np.maximum(preds, 0.0)[None] + own[None] * (g**2)[:, None, None]  # (G, K, N)
-    with np.errstate(invalid="ignore"):
-        L0 = -0.5 * np.sum(np.log(var) + r[None] ** 2 / var, axis=1)  # (G, N)
-        A = np.matmul(U.T, r[None] / var)  # (G, D-1, N): sum_k u_dk r_ik / v_ik (BLAS, one product per factor)
-        B = np.matmul((U**2).T, 1.0 / var)
-        L1 = L0[:, None, :] + 0.5 * A**2 / B  # (G, D-1, N)
-    L0, L1 = np.nan_to_num(L0, nan=-np.inf), np.nan_to_num(L1, nan=-np.inf)
-    flat = L1.reshape(-1, N)
-    best = np.argmax(flat, axis=0)
-    gi, di = np.unravel_index(best, L1.shape[:2])
-    cols = np.arange(N)
+    best = _step_maxima(U, Y - mus, np.maximum(preds, 0.0), own, g)
     gone = np.isnan(Y).all(axis=0)
     with np.errstate(invalid="ignore"):  # excluded sensors: -inf - -inf, 0 / 0
-        llr = np.where(gone, np.nan, flat[best, cols] - L0.max(axis=0))
-        size = np.where(gone, np.nan, A[gi, di, cols] / B[gi, di, cols])
-    return StepEvidence(log_likelihood_ratio=llr, day=np.where(gone, -1, di + 1), size=size,
-                        factor_healthy=np.where(gone, np.nan, g[np.argmax(L0, axis=0)]),
-                        factor_step=np.where(gone, np.nan, g[gi]))
+        llr = np.where(gone, np.nan, best["L1"] - best["L0"])
+        size = np.where(gone, np.nan, best["A"] / best["B"])
+    return StepEvidence(log_likelihood_ratio=llr, day=np.where(gone, -1, best["d"] + 1), size=size,
+                        factor_healthy=np.where(gone, np.nan, g[best["g0"]]),
+                        factor_step=np.where(gone, np.nan, g[best["g1"]]))
+
+
+#: Factor values of :func:`all_days_step_evidence` evaluated together (a few MB of (G, K, N) arrays per block).
+_STEP_FACTOR_BLOCK = 8
+
+
+def _step_maxima(U, r, preds, own, g) -> dict:
+    """max over (f, d) of L_i(f) + (u_d' r_i / v)^2 / (2 u_d'^2 / v) and max over f of L_i(f)
+    (:func:`all_days_step_evidence`), with the first maximising indices and the step's sums A, B there, over blocks of factor values (the same values
+    and ties as over all of them at once: each block's products are the same BLAS calls, a later block wins only
+    when strictly larger)."""
+    N = r.shape[1]
+    cols = np.arange(N)
+    best = {"L1": np.full(N, -np.inf), "L0": np.full(N, -np.inf), "d": np.zeros(N, int), "g1": np.zeros(N, int),
+            "g0": np.zeros(N, int), "A": np.full(N, np.nan), "B": np.full(N, np.nan)}
+    U2T = (U**2).T
+    for lo in range(0, g.size, _STEP_FACTOR_BLOCK):
+        gb = g[lo:lo + _STEP_FACTOR_BLOCK]
+        var = preds[None] + own[None] * (gb**2)[:, None, None]  # (G, K, N)
+        with np.errstate(invalid="ignore"):
+            L0 = -0.5 * np.sum(np.log(var) + r[None] ** 2 / var, axis=1)  # (G, N)
+            A = np.matmul(U.T, r[None] / var)  # (G, D-1, N): sum_k u_dk r_ik / v_ik (BLAS, one product per factor)
+            B = np.matmul(U2T, 1.0 / var)
+            L1 = L0[:, None, :] + 0.5 * A**2 / B  # (G, D-1, N)
+        L0, L1 = np.nan_to_num(L0, nan=-np.inf), np.nan_to_num(L1, nan=-np.inf)
+        flat = L1.reshape(-1, N)
+        k1 = np.argmax(flat, axis=0)
+        v1 = flat[k1, cols]
+        gi, di = np.unravel_index(k1, L1.shape[:2])
+        up = v1 > best["L1"]
+        if lo == 0:
+            up[:] = True
+        best["L1"] = np.where(up, v1, best["L1"])
+        best["d"] = np.where(up, di, best["d"])
+        best["g1"] = np.where(up, lo + gi, best["g1"])
+        best["A"] = np.where(up, A[gi, di, cols], best["A"])
+        best["B"] = np.where(up, B[gi, di, cols], best["B"])
+        k0 = np.argmax(L0, axis=0)
+        v0 = L0[k0, cols]
+        up0 = (v0 > best["L0"]) | (lo == 0)
+        best["L0"] = np.where(up0, v0, best["L0"])
+        best["g0"] = np.where(up0, lo + k0, best["g0"])
+    return best
 
 
 def flag_detached_all_days(health: SensorHealth, evidence: StepEvidence,

@@ -38,7 +38,7 @@ from scipy.linalg import eigh
 from scipy.optimize import nnls
 
 from ..errors import InputError
-from ._rigidity import DEFAULT_SIGMA_Z, measurement_std, rigidity_posterior
+from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior_levels
 
 __all__ = ["DayNoiseCovariance", "DayModes", "JointPosterior", "day_noise_covariance", "day_modes", "joint_posterior",
            "NOISE_BASIS"]
@@ -62,6 +62,26 @@ def _noise_groups(sig_d, step: float = _SIGMA_LEVEL_STEP):
             for idx in (np.nonzero(key == k)[0] for k in np.unique(key))]
 
 
+def _engine_groups(levels, M):
+    """The engine's groups (:func:`~longprofile.rail._rigidity.rigidity_posterior_levels`) of noise-level groups
+    ``levels`` [(rows, level)]: (the group of each row of M, the level of each group), a level group split by its
+    rows' missing pattern (an engine group shares one)."""
+    nan = np.isnan(M)
+    if (nan == nan[:1]).all():  # the usual case: one missing pattern, one engine group per level
+        group = np.empty(M.shape[0], dtype=np.int64)
+        for g, (idx, _) in enumerate(levels):
+            group[idx] = g
+        return group, np.array([s for _, s in levels], float)
+    group = np.empty(M.shape[0], dtype=np.int64)
+    values: list = []
+    for idx, s in levels:
+        _, first, inverse = np.unique(np.packbits(np.isnan(M[idx]), axis=1), axis=0, return_index=True,
+                                      return_inverse=True)
+        group[idx] = len(values) + np.argsort(np.argsort(first))[inverse.ravel()]
+        values += [s] * first.size
+    return group, np.array(values, float)
+
+
 def _station_sigma(s: float, factors):
     """The noise std of each station on a day of level ``s``: s, or s f_i with per-sensor factors."""
     return s if factors is None else s * factors
@@ -69,18 +89,16 @@ def _station_sigma(s: float, factors):
 
 def _posterior_by_level(x, M, sig_d, *, rigidity, sigma_z, penalty_order, factors=None, weights=None,
                         step: float = _SIGMA_LEVEL_STEP):
-    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day (times f_i)."""
+    """Daily posterior means/stds (z and slope) and noise-only stds with one noise std per day (times f_i): the days
+    of one noise level (:func:`_noise_groups`) share one covariance pass, all levels in one engine call."""
+    group, lv = _engine_groups(_noise_groups(sig_d, step), M)
+    _, res = rigidity_posterior_levels(x, M, group, levels=lv, rigidity=rigidity, sigma_z=sigma_z,
+                                       penalty_order=penalty_order, sensor_factors=factors, segment_weights=weights,
+                                       noise_std=True)
     D, N = M.shape
-    out = {k: np.empty((D, N)) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
-    for idx, s in _noise_groups(sig_d, step):
-        sig = _station_sigma(s, factors)
-        post = rigidity_posterior(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                  penalty_order=penalty_order, segment_weights=weights)
-        for k in ("z_mean", "z_std", "slope_mean", "slope_std"):
-            out[k][idx] = getattr(post, k)
-        out["noise_std"][idx] = measurement_std(x, M[idx], sigma=sig, rigidity=rigidity, sigma_z=sigma_z,
-                                                penalty_order=penalty_order, segment_weights=weights)
-    return out
+    cov = res.cov[group]
+    return {"z_mean": res.mean[..., 0], "slope_mean": res.mean[..., 1], "z_std": np.sqrt(cov[..., 0, 0]),
+            "slope_std": np.sqrt(cov[..., 1, 1]), "noise_std": np.sqrt(np.maximum(res.noise_cov[group, :, 0, 0], 0.0))}
 
 
 def _neighbour_residuals(x, slopes):
@@ -97,6 +115,18 @@ def _neighbour_weights(x):
     hl, hr = x[1:-1] - x[:-2], x[2:] - x[1:-1]
     wl, wr = hr / (hl + hr), hl / (hl + hr)
     return wl, wr, 1.0 + wl**2 + wr**2
+
+
+def day_differences(cov) -> np.ndarray:
+    """Delta C Delta^T for the day-difference operator Delta (Delta m)_d = m_d - m_{d-1}, m_0 = 0 (the covariance of
+    the day-to-day increments), in O(K^2) by two differences; equal bit for bit to the dense product (each entry has
+    two non-zero terms, added in one rounding either way)."""
+    C = np.array(cov, float)
+    X = C.copy()
+    X[1:] -= C[:-1]
+    Y = X.copy()
+    Y[:, 1:] -= X[:, :-1]
+    return Y
 
 
 @dataclass(frozen=True)
@@ -177,9 +207,8 @@ def day_noise_covariance(x, slopes, *, day_offsets=None, temperature_change=None
     t = np.arange(D, dtype=float) if day_offsets is None else np.asarray(day_offsets, float)
     dT = np.zeros(D) if temperature_change is None else np.nan_to_num(np.asarray(temperature_change, float))
     B = _basis(t[1:], dT[1:])
-    Delta = np.eye(D - 1) - np.eye(D - 1, k=-1)
     w = np.sqrt(n).ravel()
-    coef, _ = nnls(np.column_stack([(Delta @ b @ Delta.T).ravel() * w for b in B]), C.ravel() * w)
+    coef, _ = nnls(np.column_stack([day_differences(b).ravel() * w for b in B]), C.ravel() * w)
     R = sum(c * b for c, b in zip(coef, B))
     R = R + np.diag(np.maximum(max(floor, 1e-12) ** 2 - np.diag(R), 0.0))
     return DayNoiseCovariance(cov=R, coefficients={k: float(c) for k, c in zip(NOISE_BASIS, coef)})

@@ -34,8 +34,12 @@ import numpy as np
 from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
 from ..statespace import (
+    GroupedSmootherResult,
     StateSpaceModel,
+    grouped_covariance_smoother,
+    grouped_log_likelihood,
     posterior_sample,
+    process_noise_energy,
     process_noise_moments,
     process_scale_log_likelihood,
     shared_covariance_log_likelihood,
@@ -61,6 +65,9 @@ __all__ = [
     "MAX_SETTLEMENT_PROBABILITY",
     "measurement_std",
     "segment_process_energy",
+    "segment_process_energy_levels",
+    "rigidity_log_likelihood_rows",
+    "rigidity_posterior_levels",
     "Z90",
 ]
 
@@ -593,6 +600,93 @@ def rigidity_log_likelihood_function(x, slopes, *, sigma: float = DEFAULT_SIGMA,
         return ll if batched else float(ll[0])
 
     return loglik
+
+
+def _level_obs_cov(levels, sensor_factors, sigma_z: float, N: int) -> np.ndarray:
+    """R of :func:`rigidity_model` for each noise level s_g (station noise s_g, or s_g f_i with per-sensor factors):
+    (G, 2, 2) or (G, N, 2, 2), the same floating-point operations as the model's own R."""
+    sz = require_positive("sigma_z", sigma_z)
+    lv = as_float_array("noise levels", levels, ndim=1, allow_nan=False)
+    if not np.all(lv > 0):
+        raise InputError("the noise levels must be > 0.")
+    if sensor_factors is None:
+        R = np.zeros((lv.size, 2, 2))
+        R[:, 0, 0] = [float(v) ** 2 for v in lv]
+    else:
+        R = np.zeros((lv.size, N, 2, 2))
+        R[:, :, 0, 0] = (lv[:, None] * np.asarray(sensor_factors, float)[None, :]) ** 2
+    R[..., 1, 1] = sz**2
+    return R
+
+
+def rigidity_log_likelihood_rows(x, slopes, *, levels, sigma_z: float = DEFAULT_SIGMA_Z, penalty_order: int = 2,
+                                 sensor_factors=None, segment_weights=None, univariate: bool = False):
+    r"""Log-likelihood of each profile at its own rigidity and noise level, as ``loglik(index, r)``.
+
+    Profile d (row d of ``slopes``) has the slope noise std ``levels[d]`` (times f_i per station with
+    ``sensor_factors``); ``loglik(index, r)`` returns log p(m_{index[j]} | r_j) for every j in one engine call
+    (:func:`longprofile.statespace.grouped_log_likelihood`, each candidate its own group, Q linear in r as in
+    :func:`rigidity_log_likelihood_function`). Equal bit for bit to
+    ``rigidity_log_likelihood_function(x, slopes[d:d+1], sigma=levels[d] f)(r)`` (tested): what the per-day
+    prior fits (:func:`~longprofile.rail.increment_rigidity`) evaluate for every day and candidate r together.
+    ``univariate``: the engine's univariate treatment of the (diagonal) slope and anchor noises, about five times
+    faster, equal to round-off.
+    """
+    x = _check_stations(x)
+    M = _as_profiles("slopes", slopes, x.size)
+    M = M if M.ndim == 2 else M[None]
+    model = rigidity_model(x, sigma=1.0, rigidity=1.0, sigma_z=sigma_z, penalty_order=penalty_order,
+                           segment_weights=segment_weights)
+    R = _level_obs_cov(levels, sensor_factors, sigma_z, x.size)
+    if R.shape[0] != M.shape[0]:
+        raise ShapeError(f"levels must have one value per profile ({M.shape[0]},); got {R.shape[0]}.")
+    Y = _slope_observations(M, 0.0)
+
+    def loglik(index, r):
+        index = np.asarray(index, dtype=np.int64)
+        return grouped_log_likelihood(model, Y[index], np.arange(index.size), process_scale=r, obs_cov=R[index],
+                                      univariate=univariate)
+
+    return loglik
+
+
+def rigidity_posterior_levels(x, slopes, group, *, levels, rigidity: float, sigma_z: float = DEFAULT_SIGMA_Z,
+                              penalty_order: int = 2, sensor_factors=None, segment_weights=None,
+                              noise_std: bool = False) -> tuple[StateSpaceModel, GroupedSmootherResult]:
+    r"""The rigidity posterior of profiles in groups, group g with the slope noise std ``levels[g]`` (times f_i).
+
+    One engine call (:func:`longprofile.statespace.grouped_covariance_smoother`) for what
+    :func:`rigidity_posterior` gives group by group with ``sigma=levels[g] f``: each group's covariance pass, and
+    its profiles' means through it, equal to round-off. With ``noise_std`` the result's ``noise_cov`` is each group's
+    covariance from the slope noise alone (:func:`measurement_std`). Returns the model (its F, Q and P0 are every
+    group's; its R is replaced by each group's) and the grouped result.
+    """
+    x = _check_stations(x)
+    M = _as_profiles("slopes", slopes, x.size)
+    M = M if M.ndim == 2 else M[None]
+    model = rigidity_model(x, sigma=1.0, rigidity=rigidity, sigma_z=sigma_z, penalty_order=penalty_order,
+                           segment_weights=segment_weights)
+    R = _level_obs_cov(levels, sensor_factors, sigma_z, x.size)
+    noise = None
+    if noise_std:  # as measurement_std forms it
+        noise = np.zeros(R.shape[:1] + (x.size, 2, 2))
+        lv = np.asarray(levels, float)[:, None]
+        noise[:, :, 0, 0] = (np.broadcast_to(lv, (lv.size, x.size)) if sensor_factors is None
+                             else lv * np.asarray(sensor_factors, float)[None, :]) ** 2
+    res = grouped_covariance_smoother(model, _slope_observations(M, 0.0), group, obs_cov=R, noise_cov=noise)
+    return model, res
+
+
+def segment_process_energy_levels(x, slopes, group, *, levels, rigidity: float, sigma_z: float = DEFAULT_SIGMA_Z,
+                                  penalty_order: int = 2, sensor_factors=None, segment_weights=None) -> np.ndarray:
+    r""":func:`segment_process_energy` of profiles in groups of one noise level each (``levels[g]`` times f_i), in one
+    engine call: (D, N-1), row d the expected cost of profile d under its group's posterior."""
+    model, res = rigidity_posterior_levels(x, slopes, group, levels=levels, rigidity=rigidity, sigma_z=sigma_z,
+                                           penalty_order=penalty_order, sensor_factors=sensor_factors,
+                                           segment_weights=segment_weights)
+    x = np.asarray(x, float)
+    _, Qbar = _iwp_terms(x, rigidity * (x[-1] - x[0]) / 2.0, _check_order(penalty_order))
+    return process_noise_energy(model, res, np.linalg.inv(Qbar))
 
 
 def segment_process_energy(x, slopes, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,

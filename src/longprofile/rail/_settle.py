@@ -12,6 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
+from ..statespace import minimize_scalar_bounded_batch
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
@@ -25,11 +26,13 @@ from ._health import (
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
     DayModes,
+    _engine_groups,
     _neighbour_residuals,
     _neighbour_weights,
     _noise_groups,
     _posterior_by_level,
     _station_sigma,
+    day_differences,
     day_modes,
     day_noise_covariance,
     joint_posterior,
@@ -46,8 +49,9 @@ from ._rigidity import (
     max_settlement_from_draws,
     max_settlement_interval,
     rigidity_log_likelihood_function,
+    rigidity_log_likelihood_rows,
     sample_profiles,
-    segment_process_energy,
+    segment_process_energy_levels,
 )
 from ._temporal import TemporalSettlement, check_threshold, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
@@ -438,6 +442,30 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
     return float(np.exp(best)), -float(fun)
 
 
+def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) -> np.ndarray:
+    """Maximum marginal likelihood of r for each profile of ``rows`` alone (noise std ``sigmas[d]``, times f_i): the
+    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d (the same grid and scipy's Brent steps), with
+    every profile's grid in one engine call and the searches in lockstep (one engine call per round,
+    :func:`longprofile.statespace.minimize_scalar_bounded_batch`), the likelihood by the univariate treatment
+    (equal to round-off: r within the search's tolerance, 1e-3 in log r, where the likelihood is flat)."""
+    loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
+                                          sensor_factors=factors, univariate=True)
+
+    def nll(index, logr):
+        out = np.full(index.size, 1e300)
+        ok = (-60 < logr) & (logr < 5)
+        if ok.any():  # np.exp of the array: the scalar's values, bit for bit (tested)
+            out[ok] = -loglik(index[ok], np.exp(logr[ok]))
+        return out
+
+    grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
+    D, G = rows.shape[0], grid.size
+    vals = nll(np.repeat(np.arange(D), G), np.tile(grid, D)).reshape(D, G)
+    k = np.argmin(vals, axis=1)
+    res = minimize_scalar_bounded_batch(nll, grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, G - 1)], xatol=1e-3)
+    return np.exp(np.where(res.fun <= vals[np.arange(D), k], res.x, grid[k]))
+
+
 def _changed_rows(slopes, sigma=None):
     keep = np.nanmax(np.abs(np.nan_to_num(slopes)), axis=1) > 0
     rows = slopes[keep]
@@ -608,14 +636,12 @@ def increment_rigidity(x, slopes, *, noise_cov, sigma_z: float = DEFAULT_SIGMA_Z
     R = np.asarray(noise_cov, float)
     if R.shape != (K, K):
         raise InputError(f"noise_cov must be ({K}, {K}) for {K + 1} days; got shape {R.shape}.")
-    Delta = np.eye(K) - np.eye(K, k=-1)
     dM = np.diff(M, axis=0)
-    s_inc = np.sqrt(np.diag(Delta @ R @ Delta.T))
+    s_inc = np.sqrt(np.diag(day_differences(R)))
     fit = fit_change_prior(x, dM, sigma=s_inc, sigma_z=sigma_z, penalty_orders=penalty_orders,
                            sensor_factors=sensor_factors)
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
-    rd = np.array([_fit_rigidity(x, dM[d:d + 1], float(s_inc[d]), sigma_z, fit.penalty_order, f)[0]
-                   for d in range(K)])
+    rd = _fit_rigidity_each(x, dM, s_inc, sigma_z, fit.penalty_order, f)
     return IncrementPrior(penalty_order=fit.penalty_order, rigidity_by_day=np.maximum(rd, floor * float(rd.max())),
                           fit=fit)
 
@@ -678,13 +704,14 @@ def segment_prior_weights(x, slopes, *, sigma, rigidity: float, penalty_order: i
         rows, sig = _changed_rows(M, sigma if np.ndim(sigma) else float(sigma))
     except InputError:
         return w
-    groups = ([(np.arange(rows.shape[0]), float(sig))] if np.ndim(sig) == 0 else _noise_groups(np.asarray(sig)))
+    levels = ([(np.arange(rows.shape[0]), float(sig))] if np.ndim(sig) == 0 else _noise_groups(np.asarray(sig)))
+    group, lv = _engine_groups(levels, rows)
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
     kernel = np.full(2 * half_width + 1, 1.0 / (2 * half_width + 1))
     for _ in range(int(n_iter)):
-        energy = sum(segment_process_energy(x, rows[idx], sigma=_station_sigma(s, f), rigidity=rigidity,
-                                            sigma_z=sigma_z, penalty_order=penalty_order,
-                                            segment_weights=w).sum(axis=0) for idx, s in groups)
+        e = segment_process_energy_levels(x, rows, group, levels=lv, rigidity=rigidity, sigma_z=sigma_z,
+                                          penalty_order=penalty_order, sensor_factors=f, segment_weights=w)
+        energy = sum(e[idx].sum(axis=0) for idx, _ in levels)
         wn = energy / (penalty_order * rows.shape[0])
         if half_width > 0:
             wn = np.convolve(np.pad(wn, half_width, mode="edge"), kernel, mode="valid")

@@ -12,8 +12,11 @@ log_likelihood         -- prediction-error log-likelihood.
 shared_covariance_smoother -- filter + RTS smoother of a batch sharing one model and NaN pattern (covariances once).
 shared_covariance_log_likelihood -- the same batch's per-series log-likelihoods, forward pass only.
 process_scale_log_likelihood -- those log-likelihoods as a function of a scale of Q (ML searches).
+grouped_covariance_smoother -- many such batches in one compiled call, group g with Q -> s_g Q and its own R_g.
+grouped_log_likelihood -- their per-series log-likelihoods, forward pass only (one candidate per series).
 smoother_noise_covariance -- covariance of the smoothed mean from the observation noise alone (fixed truth).
 process_noise_moments  -- E[w w^T | y] of the process noise from a smoother (the EM statistic of Q).
+process_noise_energy   -- E[w^T W w | y] per series and step, one compiled pass (the EM statistic of a scale of Q).
 posterior_sample       -- forward-filter backward-sample draws of the state trajectory; simulate -- draw (x, y) from a model.
 
 Stationary (constant-gain) inference
@@ -45,6 +48,7 @@ luenberger_observer    -- run a Luenberger observer over data (exact ZOH for con
 Estimation
 ----------
 fit_mle                -- maximum-likelihood parameters of build(theta) -> model, Hessian standard errors; MLEResult.
+minimize_scalar_bounded_batch -- many bounded Brent searches (scipy's) in lockstep, one batched call per round.
 
 Deterministic propagation
 -------------------------
@@ -75,7 +79,8 @@ _LAZY = {
     "chunked_kalman_filter": "_long_record", "long_record_filter": "_long_record",
     "long_record_log_likelihood": "_long_record", "long_record_smoother": "_long_record",
     "MLEResult": "_mle", "fit_mle": "_mle",
-    "process_noise_moments": "_em",
+    "BoundedSearchResult": "_search", "minimize_scalar_bounded_batch": "_search",
+    "process_noise_moments": "_em", "process_noise_energy": "_em",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
     "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate", "linear_recursion_columns": "_propagate",
@@ -83,6 +88,8 @@ _LAZY = {
     "posterior_sample": "_sampling", "simulate": "_sampling",
     "shared_covariance_smoother": "_shared_cov", "smoother_noise_covariance": "_shared_cov",
     "shared_covariance_log_likelihood": "_shared_cov", "process_scale_log_likelihood": "_shared_cov",
+    "GroupedSmootherResult": "_grouped", "grouped_covariance_smoother": "_grouped",
+    "grouped_log_likelihood": "_grouped",
     "SteadyStateGain": "_steady", "steady_state_filter": "_steady", "steady_state_gain": "_steady",
     "steady_state_smoothed_cov": "_steady", "steady_state_smoother": "_steady",
 }
@@ -96,8 +103,12 @@ __all__ = [
     "shared_covariance_smoother",
     "shared_covariance_log_likelihood",
     "process_scale_log_likelihood",
+    "grouped_covariance_smoother",
+    "grouped_log_likelihood",
+    "GroupedSmootherResult",
     "smoother_noise_covariance",
     "process_noise_moments",
+    "process_noise_energy",
     "simulate",
     "FilterResult",
     "SmootherResult",
@@ -123,6 +134,8 @@ __all__ = [
     "luenberger_observer",
     "fit_mle",
     "MLEResult",
+    "minimize_scalar_bounded_batch",
+    "BoundedSearchResult",
     "linear_recursion",
     "linear_recursion_columns",
     "LinearRecursionResult",

@@ -72,6 +72,7 @@ def test_model_setting_chooses_the_settlement_model_and_the_run_records_it(site)
 
 
 def test_auto_model_is_all_days_up_to_the_size_limit():
+    assert service_joint_days({}, 100, 366)  # a year-long 100-sensor site: the all-days model within 2 s (2026-12-06)
     assert service_joint_days({}, 100, ALL_DAYS_MAX_SENSOR_DAYS // 100)
     assert not service_joint_days({}, 100, ALL_DAYS_MAX_SENSOR_DAYS // 100 + 1)
     assert service_joint_days({"model": "all-days"}, 100, 365) and not service_joint_days({"model": "per-day"}, 5, 10)

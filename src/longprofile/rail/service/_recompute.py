@@ -476,10 +476,12 @@ def _store_controls(s, run_id: int, controls: pd.DataFrame | None) -> int:
 
 #: Largest site, kept sensors x days, that the "auto" model runs with the all-days model (docs/rail.md step 10, the
 #: default of ``rail settle``); larger sites run the per-day model (step 9), within the recompute's 2 s target.
-#: Measured 2026-12-06 (``estimate_settlement_from_daily``, hourly readings, idle machine): all-days 0.85 s for
-#: 100 sensors x 90 days, 1.50 s for 100 x 180, 4.14 s for 100 x 365; per-day 0.08 / 0.12 / 0.22 s
-#: (docs/rail-service.md, "Which settlement model").
-ALL_DAYS_MAX_SENSOR_DAYS = 10_000
+#: 40 000: a year of 100 sensors (leap years too) with a margin. Measured 2026-12-06 after the batched all-days
+#: estimate (docs/rail-service.md, "All days within the 2 s recompute"; ``estimate_settlement_from_daily``, hourly
+#: readings, CPU time): 0.79-0.87 s for 100 sensors x 365 days, 1.2 s for 100 x 500, 2.4 s for 100 x 730; the
+#: benchmark's recompute of 100 x 365 after one new day 1.18 s at load 5.5 on 2 cores (8.18 s before; the limit
+#: was 10 000 sensor-days).
+ALL_DAYS_MAX_SENSOR_DAYS = 40_000
 
 
 def service_joint_days(settings: dict, n_sensors: int, n_days: int) -> bool:
