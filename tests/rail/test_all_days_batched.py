@@ -41,10 +41,10 @@ def test_per_day_fits_in_lockstep_are_each_days_own_fit(order, factors):
     f = rng.uniform(0.5, 2.0, x.size) if factors else None
     got = _fit_rigidity_each(x, M, s, 1e-5, order, f)
     want = np.array([_fit_rigidity(x, M[d:d + 1], float(s[d]), 1e-5, order, f)[0] for d in range(M.shape[0])])
-    # the likelihood by the univariate treatment (equal to round-off), the same grid and Brent search: the same r
-    # within the search's tolerance (1e-3 in log r; where the likelihood is flat to round-off its last steps can
-    # differ), and as likely
-    assert np.max(np.abs(np.log(got / want))) <= 1e-3
+    # the same grid; the bracket refined by scipy's element-wise minimiser instead of one bounded Brent search per
+    # day: each within the searches' tolerance (1e-3 in log r) of the optimum, so within 2e-3 of each other, and
+    # as likely
+    assert np.max(np.abs(np.log(got / want))) <= 2e-3
     for d in range(M.shape[0]):
         loglik = rigidity_log_likelihood_function(x, M[d], sigma=s[d] * (1.0 if f is None else f),
                                                   penalty_order=order)

@@ -1,19 +1,16 @@
-"""statespace.grouped_covariance_smoother / grouped_log_likelihood / process_noise_energy /
-minimize_scalar_bounded_batch: oracles are the dense Gaussian density (scipy), the shared-covariance functions run
-group by group, the EM moments, and scipy's own bounded Brent search."""
+"""statespace.grouped_covariance_smoother / grouped_log_likelihood / process_noise_energy: oracles are the dense
+Gaussian density (scipy), the shared-covariance functions run group by group, and the EM moments."""
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.optimize import minimize_scalar
 
 from longprofile.errors import InputError, ShapeError
 from longprofile.statespace import (
     StateSpaceModel,
     grouped_covariance_smoother,
     grouped_log_likelihood,
-    minimize_scalar_bounded_batch,
     process_noise_energy,
     process_noise_moments,
     process_scale_log_likelihood,
@@ -117,36 +114,3 @@ def test_process_noise_energy_is_the_contracted_moments(seed, T, n, n_groups):
     sm = shared_covariance_smoother(model, y[group == 0])  # shared covariances, batched means
     want = np.einsum("tij,btji->bt", W, process_noise_moments(model, sm))
     np.testing.assert_allclose(process_noise_energy(model, sm, W), want, rtol=1e-10, atol=1e-12)
-
-
-@settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), B=st.integers(1, 6), xatol=st.sampled_from([1e-5, 1e-3, 1e-1]))
-def test_lockstep_searches_take_scipys_steps_bit_for_bit(seed, B, xatol):
-    rng = np.random.default_rng(seed)
-    c = rng.uniform(-3, 3, B)
-    a = rng.uniform(0.1, 5, B)
-    k = rng.integers(0, 3, B)
-    lo = rng.uniform(-4, 0, B)
-    hi = lo + rng.uniform(0, 6, B)
-
-    def f(b, t):  # quadratic, quartic or a flat-bottomed shape: parabolic and golden steps both taken
-        return [a[b] * (t - c[b]) ** 2, a[b] * (t - c[b]) ** 4 + np.sin(3 * t), abs(t - c[b]) ** 1.5][k[b]]
-
-    calls = []
-
-    def batch(index, t):
-        calls.append(index.size)
-        return np.array([f(b, v) for b, v in zip(index, t)])
-
-    res = minimize_scalar_bounded_batch(batch, lo, hi, xatol=xatol)
-    for b in range(B):
-        ref = minimize_scalar(lambda t: f(b, t), bounds=(lo[b], hi[b]), method="bounded", options={"xatol": xatol})
-        assert res.x[b] == ref.x and res.fun[b] == ref.fun and res.nfev[b] == ref.nfev and res.status[b] == ref.status
-    assert len(calls) == res.nfev.max()  # one batched call per round
-
-
-def test_lockstep_search_bounds_are_checked():
-    with pytest.raises(InputError):
-        minimize_scalar_bounded_batch(lambda i, t: t, [1.0], [0.0])
-    with pytest.raises(InputError):
-        minimize_scalar_bounded_batch(lambda i, t: t, [0.0, 1.0], [1.0])

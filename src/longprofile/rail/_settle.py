@@ -12,7 +12,6 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
-from ..statespace import minimize_scalar_bounded_batch
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
@@ -444,10 +443,14 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
 
 def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) -> np.ndarray:
     """Maximum marginal likelihood of r for each profile of ``rows`` alone (noise std ``sigmas[d]``, times f_i): the
-    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d (the same grid and scipy's Brent steps), with
-    every profile's grid in one engine call and the searches in lockstep (one engine call per round,
-    :func:`longprofile.statespace.minimize_scalar_bounded_batch`), the likelihood by the univariate treatment
-    (equal to round-off: r within the search's tolerance, 1e-3 in log r, where the likelihood is flat)."""
+    r of ``_fit_rigidity(x, rows[d:d+1], sigmas[d], ...)`` for every d to the search's tolerance (1e-3 in log r): the
+    same grid, every profile's grid in one engine call, then the grid's bracket around each minimum refined by
+    scipy's element-wise minimiser (:func:`scipy.optimize.elementwise.find_minimum`, Chandrupatla's bracketing
+    method: all days advance together, one engine call per iteration) instead of one bounded Brent search per day;
+    a minimum at an end of the grid is bracketed between it and its neighbour (as ``_fit_rigidity``'s bounded
+    search; :func:`scipy.optimize.elementwise.bracket_minimum`), or stays at the end when the likelihood is monotone
+    there. The likelihood by the univariate treatment (equal to round-off).
+    """
     loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
                                           sensor_factors=factors, univariate=True)
 
@@ -462,8 +465,30 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
     D, G = rows.shape[0], grid.size
     vals = nll(np.repeat(np.arange(D), G), np.tile(grid, D)).reshape(D, G)
     k = np.argmin(vals, axis=1)
-    res = minimize_scalar_bounded_batch(nll, grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, G - 1)], xatol=1e-3)
-    return np.exp(np.where(res.fun <= vals[np.arange(D), k], res.x, grid[k]))
+    best, fun = grid[k].copy(), vals[np.arange(D), k]
+    f = lambda logr, index: nll(index.astype(np.intp), logr)  # noqa: E731  (scipy's element-wise signature)
+    # brackets (left, middle, right) around each minimum: the grid's own where the minimum is inside it; at an end of
+    # the grid, within the half-interval to its neighbour (as _fit_rigidity's bounded search), found by scipy
+    left, mid, right = grid[np.maximum(k - 1, 0)], grid[k], grid[np.minimum(k + 1, G - 1)]
+    edge = np.flatnonzero((k == 0) | (k == G - 1))
+    if edge.size:
+        from scipy.optimize.elementwise import bracket_minimum
+
+        lo, hi = np.minimum(left[edge], right[edge]), np.maximum(left[edge], right[edge])
+        w = hi - lo
+        br = bracket_minimum(f, lo + 0.5 * w, xl0=lo + 0.25 * w, xr0=lo + 0.75 * w, xmin=lo, xmax=hi, args=(edge,))
+        for arr, b in zip((left, mid, right), br.bracket):
+            arr[edge] = np.where(br.status == 0, b, arr[edge])  # else (-1): the grid's end is the minimiser
+        mid[edge[br.status != 0]] = np.nan
+    todo = np.flatnonzero(np.isfinite(mid) & (left < mid) & (mid < right))
+    if todo.size:
+        from scipy.optimize.elementwise import find_minimum
+
+        res = find_minimum(f, (left[todo], mid[todo], right[todo]), args=(todo,),
+                           tolerances={"xatol": 1e-3, "xrtol": 0.0})
+        better = res.f_x <= fun[todo]
+        best[todo[better]] = res.x[better]
+    return np.exp(best)
 
 
 def _changed_rows(slopes, sigma=None):

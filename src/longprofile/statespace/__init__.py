@@ -48,7 +48,6 @@ luenberger_observer    -- run a Luenberger observer over data (exact ZOH for con
 Estimation
 ----------
 fit_mle                -- maximum-likelihood parameters of build(theta) -> model, Hessian standard errors; MLEResult.
-minimize_scalar_bounded_batch -- many bounded Brent searches (scipy's) in lockstep, one batched call per round.
 
 Deterministic propagation
 -------------------------
@@ -79,7 +78,6 @@ _LAZY = {
     "chunked_kalman_filter": "_long_record", "long_record_filter": "_long_record",
     "long_record_log_likelihood": "_long_record", "long_record_smoother": "_long_record",
     "MLEResult": "_mle", "fit_mle": "_mle",
-    "BoundedSearchResult": "_search", "minimize_scalar_bounded_batch": "_search",
     "process_noise_moments": "_em", "process_noise_energy": "_em",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
@@ -134,8 +132,6 @@ __all__ = [
     "luenberger_observer",
     "fit_mle",
     "MLEResult",
-    "minimize_scalar_bounded_batch",
-    "BoundedSearchResult",
     "linear_recursion",
     "linear_recursion_columns",
     "LinearRecursionResult",
