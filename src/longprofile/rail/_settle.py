@@ -21,6 +21,7 @@ from ._health import (
     assess_sensors,
     flag_detached_all_days,
     flag_reversed_all_days,
+    shape_candidates,
 )
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
@@ -49,6 +50,7 @@ from ._rigidity import (
     sample_profiles,
     segment_process_energy,
 )
+from ._shapes import shape_reversal_evidence
 from ._temporal import TemporalSettlement, check_threshold, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
 from ._thresholds import check_thresholds, threshold_alarms
@@ -1288,7 +1290,10 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
                                               segment_weights=joint.weights, sigma_z=opt.sigma_z)
-        health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0)
+        cand = shape_candidates(health, evidence)  # localised shapes ("Sensor health, step 14")
+        shape = shape_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, sensor_factors=joint.factors,
+                                        sensors=cand) if cand.any() else None
+        health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0, shape=shape)
         if j is None:  # a jump the day-to-day test missed ("Sensor health, step 12")
             steps = all_days_step_evidence(x, joint.mode_slopes, joint.modes.noise, joint.modes.to_modes,
                                            rigidity=joint.modes.rigidity, penalty_order=joint.prior.penalty_order,
