@@ -11,20 +11,22 @@ also has a uniform slope change (a tilt of the whole span).
 
 Model of the all-days modes (module :mod:`~longprofile.rail._joint`: the modes k are independent, sensor i of mode k
 has noise std sqrt(nu_k) f_i): y_ik = a_k g(x_i) + b_k + e_ik, g one shape's slope profile of the dictionary, a_k, b_k
-free per mode (weighted least squares, weights w_i = 1/f_i^2). For sensor j the shape is chosen by the *other*
-sensors: g*_j maximises their profile likelihood sum_k [-(n-1)/2 log s_k^2 - Q_k^(-j) / (2 s_k^2)], Q_k^(-j) their
-weighted residual sum of squares and s_k^2 = max(Q_k^(-j) / (n - 1), nu_k) (the noise of a mode is at least the
-all-days model's; a shape that fits the settlement badly inflates it). With that shape, sensor j's leave-one-out
-prediction has mean mu_jk and variance v_jk = S_k^2 / (w_j (1 - h_jj)), S_k^2 = max(Q_k^(-j) / (n - 3), nu_k), and, as in
-:func:`~longprofile.rail._health.all_days_reversal_evidence`,
+free per mode (weighted least squares, weights w_i = 1/f_i^2). For sensor j the shapes are weighed by the *other*
+sensors: shape g gets the weight exp L_j(g), their profile likelihood sum_k [-(n-1)/2 log s_k^2 - Q_k^(-j) / (2 s_k^2)],
+Q_k^(-j) their weighted residual sum of squares and s_k^2 = max(Q_k^(-j) / (n - 1), nu_k) (the noise of a mode is at
+least the all-days model's; a shape that fits the settlement badly inflates it). Each shape predicts sensor j's mode
+data with mean mu_jk(g) and variance v_jk(g) = S_k^2 / (w_j (1 - h_jj)) + (SHAPE_REL_ERR mu_jk)^2,
+S_k^2 = max(Q_k^(-j) / (n - 3), nu_k) (the others' noise through the fit, and the shape's own error), and
 
-    log BF_j = sum_k [log N(-y_jk; mu_jk, v_jk) - log N(y_jk; mu_jk, v_jk)] = -2 sum_k y_jk mu_jk / v_jk,
+    log BF_j = log sum_g e^{L_j(g)} prod_k N(-y_jk; mu_jk, v_jk) - log sum_g e^{L_j(g)} prod_k N(y_jk; mu_jk, v_jk),
 
-information I_j = sum_k mu_jk^2 / v_jk (under "healthy" log BF ~ N(-2 I, 4 I)). Sensor j's own data choose nothing: a
-sensor next to the centre of a dip, whose sign only says on which side of it it sits, gets a small prediction and no
-evidence either way. All sensors and shapes from one weighted least-squares fit per shape (deletion identities:
-r^(-j) = r_j / (1 - h_jj), Q^(-j) = Q - w_j r_j^2 / (1 - h_jj)). Only dense algebra over the stations; no recursion
-(the modes come from the engine's all-days fit).
+the Bayes factor of the two discrete alternatives under the dictionary's mixture (a flat prior over the shapes, each
+at its best amplitudes: the evidence is shared among the shapes that fit the others about as well, so one shape's
+extrapolation does not decide). Sensor j's own data weigh no shape: a sensor next to the centre of a dip, whose sign only
+says on which side of it it sits, gets a spread prediction and little evidence either way. ``information`` is
+sum_k mu_jk^2 / v_jk of the best-weighted shape. All sensors and shapes from one weighted least-squares fit per shape
+(deletion identities: the leave-one-out residual r_j / (1 - h_jj), Q^(-j) = Q - w_j r_j^2 / (1 - h_jj)). Only dense
+algebra over the stations; no recursion (the modes come from the engine's all-days fit).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import logsumexp
 
 __all__ = ["DICTIONARY_FAMILIES", "ShapeEvidence", "localized_slope_shapes", "shape_reversal_evidence"]
 
@@ -43,6 +46,9 @@ SHAPE_WIDTHS_M = (1.5, 30.0)
 SHAPE_N_WIDTHS = 10
 #: Step of the centres over the span, m.
 SHAPE_CENTRE_STEP_M = 0.5
+#: Relative error of a shape's prediction (no dictionary shape is the settlement's): the predictive variance of a
+#: sensor's mode data gets (SHAPE_REL_ERR mu)^2, as the day-to-day test's PRED_REL_ERR (:mod:`~longprofile.rail._health`).
+SHAPE_REL_ERR = 0.15
 #: Shapes fitted per chunk (memory: chunk x K x N doubles).
 _CHUNK = 1024
 
@@ -91,12 +97,12 @@ class ShapeEvidence:
     Attributes
     ----------
     log_bayes_factor : (N,) ndarray
-        log BF_j of "sensor j reversed" against "healthy" with the shape the other sensors choose (module docstring);
-        NaN for excluded sensors and sensors not asked for.
+        log BF_j of "sensor j reversed" against "healthy" under the dictionary's mixture weighed by the other sensors
+        (module docstring); NaN for excluded sensors and sensors not asked for.
     information : (N,) ndarray
-        I_j = sum_k mu_jk^2 / v_jk.
+        I_j = sum_k mu_jk^2 / v_jk of the shape that fits the other sensors best.
     family : (N,) ndarray of int
-        The dictionary family (:data:`DICTIONARY_FAMILIES`) of the chosen shape (-1 where NaN or unknown).
+        The dictionary family (:data:`DICTIONARY_FAMILIES`) of that shape (-1 where NaN or unknown).
     """
 
     log_bayes_factor: np.ndarray
@@ -141,16 +147,18 @@ def shape_reversal_evidence(x, mode_slopes, mode_noise, sensor_factors=None, sha
     want = np.ones(N, bool) if sensors is None else np.asarray(sensors, bool)
     cand = np.nonzero(want[ok])[0]
     floor = np.asarray(mode_noise, float) ** 2
-    best = np.full(cand.size, -np.inf)
-    lbf, info, arg = np.full(cand.size, np.nan), np.full(cand.size, np.nan), np.full(cand.size, -1)
+    acc = np.full((3, cand.size), -np.inf)  # log-sum-exp over the shapes of the data as read, flipped; best weight
+    info, arg = np.full(cand.size, np.nan), np.full(cand.size, -1)
     cols = np.arange(cand.size)
     for s0 in range(0, g.shape[0], _CHUNK):
-        L, b, i = _chunk_loo(g[s0:s0 + _CHUNK], y, w, cand, floor)
+        L, lp, lm, i = _chunk_loo(g[s0:s0 + _CHUNK], y, w, cand, floor)
+        acc[0] = np.logaddexp(acc[0], logsumexp(L + lp, axis=0))
+        acc[1] = np.logaddexp(acc[1], logsumexp(L + lm, axis=0))
         top = np.argmax(L, axis=0)
-        better = L[top, cols] > best
-        best = np.where(better, L[top, cols], best)
-        lbf, info = np.where(better, b[top, cols], lbf), np.where(better, i[top, cols], info)
-        arg = np.where(better, s0 + top, arg)
+        better = L[top, cols] > acc[2]
+        acc[2] = np.where(better, L[top, cols], acc[2])
+        info, arg = np.where(better, i[top, cols], info), np.where(better, s0 + top, arg)
+    lbf = acc[1] - acc[0]
     out = np.full((3, N), np.nan)
     idx = np.nonzero(ok)[0][cand]
     out[0, idx], out[1, idx] = lbf, info
@@ -162,8 +170,8 @@ def shape_reversal_evidence(x, mode_slopes, mode_noise, sensor_factors=None, sha
 
 def _chunk_loo(g, y, w, cand, floor):
     """For a chunk of shapes g (S, n) on data y (K, n), weights w (n,), and each sensor j of ``cand``: the other
-    sensors' profile log-likelihood (S, c), and sensor j's log BF and information with their fit (S, c) (module
-    docstring; deletion identities from the fit of all the sensors)."""
+    sensors' profile log-likelihood L (S, c), the log predictive density of sensor j's data as read and with its sign
+    flipped, and the information (S, c each) (module docstring; deletion identities from the fit of all the sensors)."""
     n = y.shape[1]
     a11, a12, a22 = (g**2) @ w, g @ w, float(w.sum())
     det = a11 * a22 - a12**2
@@ -178,6 +186,9 @@ def _chunk_loo(g, y, w, cand, floor):
     fl = np.maximum(floor, 1e-300)[None, :, None]
     var = np.maximum(Qm / (n - 1), fl)
     L = np.sum(-0.5 * (n - 1) * np.log(var) - 0.5 * Qm / var, axis=1)  # (S, c)
-    v = np.maximum(Qm / max(n - 3, 1), fl) / (wc * (1.0 - lev))[:, None, :]  # predictive variance of y_jk
     mu = yc[None] - e
-    return L, np.sum(-2.0 * yc[None] * mu / v, axis=1), np.sum(mu**2 / v, axis=1)
+    # predictive variance of y_jk: the others' noise through the fit, and the shape's own error on the prediction
+    v = np.maximum(Qm / max(n - 3, 1), fl) / (wc * (1.0 - lev))[:, None, :] + (SHAPE_REL_ERR * mu) ** 2
+    base = -0.5 * np.sum(np.log(2.0 * np.pi * v) + (yc**2)[None] / v + mu**2 / v, axis=1)
+    cross = np.sum(yc[None] * mu / v, axis=1)
+    return L, base + cross, base - cross, np.sum(mu**2 / v, axis=1)
