@@ -1,4 +1,4 @@
-"""Localised-shape GLR of a reversed sensor (issue 13, sensor health step 14) and the non-Gaussian scenario shapes."""
+"""Localised-shape evidence of a reversed sensor (issue 13, sensor health step 14), non-Gaussian scenario shapes."""
 
 from __future__ import annotations
 
@@ -6,16 +6,18 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.special import logsumexp
+from scipy.stats import norm
 
 from longprofile.rail._health import (
-    REVERSED_SHAPE_GLR,
+    REVERSED_SHAPE_EVIDENCE,
     ReversalEvidence,
     SensorHealth,
     flag_reversed_all_days,
     shape_candidates,
 )
 from longprofile.rail._scenarios import BOWL_SHAPES, SHAPE_FAMILIES, _bowl_shape, simulate_scenario
-from longprofile.rail._shapes import ShapeEvidence, localized_slope_shapes, shape_reversal_glr
+from longprofile.rail._shapes import SHAPE_REL_ERR, ShapeEvidence, localized_slope_shapes, shape_reversal_evidence
 
 
 def _site(seed, N, K, bowl=True):
@@ -30,85 +32,107 @@ def _site(seed, N, K, bowl=True):
     return x, Y, noise, rng.uniform(0.5, 2.0, N), u
 
 
-def _brute_glr(Y, g, w, j, floor):
-    """max over shapes of the profile log-likelihood with sensor j flipped minus as read: refit per shape (lstsq)."""
-    def best(Yd):
-        out = -np.inf
-        for gs in g:
-            G = np.column_stack([gs, np.ones(gs.size)]) * np.sqrt(w)[:, None]
-            tot = 0.0
-            for k in range(Yd.shape[0]):
-                yk = Yd[k] * np.sqrt(w)
-                res = yk - G @ np.linalg.lstsq(G, yk, rcond=None)[0]
-                Q = float(res @ res)
-                var = max(Q / yk.size, floor[k])
-                tot += -0.5 * yk.size * np.log(var) - 0.5 * Q / var
-            out = max(out, tot)
-        return out
-    Yf = Y.copy()
-    Yf[:, j] *= -1.0
-    return best(Yf) - best(Y)
+def _brute_evidence(Y, g, w, j, nu):
+    """Sensor j's log BF and information by refitting every shape to the other sensors (weighted lstsq): each shape
+    weighed by the others' profile likelihood, sensor j's predictive density as read and flipped under each."""
+    n = Y.shape[1]
+    others = np.arange(n) != j
+    Ls, lp, lm, infos = [], [], [], []
+    for gs in g:
+        G = np.column_stack([gs, np.ones(n)])
+        sw = np.sqrt(w[others])
+        A = G[others] * sw[:, None]
+        L, a, b, info = 0.0, 0.0, 0.0, 0.0
+        for k in range(Y.shape[0]):
+            coef, *_ = np.linalg.lstsq(A, Y[k, others] * sw, rcond=None)
+            res = Y[k, others] * sw - A @ coef
+            Q = float(res @ res)
+            var = max(Q / (n - 1), nu[k] ** 2)
+            L += -0.5 * (n - 1) * np.log(var) - 0.5 * Q / var
+            mu = G[j] @ coef
+            h = w[j] * G[j] @ np.linalg.solve(A.T @ A, G[j])  # the new point's leverage against the others' fit
+            v = max(Q / (n - 3), nu[k] ** 2) / w[j] * (1.0 + h) + (SHAPE_REL_ERR * mu) ** 2
+            a += norm.logpdf(Y[k, j], mu, np.sqrt(v))
+            b += norm.logpdf(-Y[k, j], mu, np.sqrt(v))
+            info += mu**2 / v
+        Ls.append(L), lp.append(a), lm.append(b), infos.append(info)
+    Ls = np.array(Ls)
+    return logsumexp(Ls + lm) - logsumexp(Ls + lp), infos[int(np.argmax(Ls))]
 
 
 @settings(max_examples=12, deadline=None)
-@given(seed=st.integers(0, 2**31), N=st.integers(6, 12), K=st.integers(1, 3), floored=st.booleans())
-def test_glr_equals_refitting_every_shape_with_the_sensor_flipped(seed, N, K, floored):
-    """The rank-one update of the residual sum of squares against a refit of every shape by least squares."""
+@given(seed=st.integers(0, 2**31), N=st.integers(7, 12), K=st.integers(1, 3))
+def test_evidence_equals_refitting_every_shape_to_the_other_sensors(seed, N, K):
+    """The deletion identities from one fit per shape against a refit of every shape without the sensor (lstsq) and
+    scipy's normal densities."""
     x, Y, noise, f, _ = _site(seed, N, K)
     g = localized_slope_shapes(x)[0][::97][:40]
-    ev = shape_reversal_glr(x, Y, noise if floored else None, sensor_factors=f, shapes=g)
-    floor = noise**2 if floored else np.zeros(K)
+    ev = shape_reversal_evidence(x, Y, noise, sensor_factors=f, shapes=g)
     for j in (0, N // 2, N - 1):
-        assert ev.log_glr[j] == pytest.approx(_brute_glr(Y, g, 1.0 / f**2, j, floor), rel=1e-7, abs=1e-6)
+        lbf, info = _brute_evidence(Y, g, 1.0 / f**2, j, noise)
+        assert ev.log_bayes_factor[j] == pytest.approx(lbf, rel=1e-6, abs=1e-7)
+        assert ev.information[j] == pytest.approx(info, rel=1e-6, abs=1e-9)
 
 
 @settings(max_examples=10, deadline=None)
-@given(seed=st.integers(0, 2**31), scale=st.floats(0.1, 10.0))
-def test_glr_is_unchanged_by_the_sign_and_the_unit_of_the_data(seed, scale):
+@given(seed=st.integers(0, 2**31), scale=st.floats(0.1, 10.0), i=st.integers(0, 11))
+def test_evidence_is_antisymmetric_in_the_sensor_and_unchanged_by_the_unit(seed, scale, i):
+    """Flipping sensor i's data flips the sign of its log BF (its own data choose no shape); the unit of the data
+    (with the noise) changes nothing."""
     x, Y, noise, f, _ = _site(seed, 12, 2)
-    a = shape_reversal_glr(x, Y, noise, sensor_factors=f).log_glr
-    b = shape_reversal_glr(x, -scale * Y, scale * noise, sensor_factors=f).log_glr
-    assert np.allclose(a, b, rtol=1e-6, atol=1e-6)
+    a = shape_reversal_evidence(x, Y, noise, sensor_factors=f)
+    Yf = Y.copy()
+    Yf[:, i] *= -1.0
+    b = shape_reversal_evidence(x, Yf, noise, sensor_factors=f)
+    assert b.log_bayes_factor[i] == pytest.approx(-a.log_bayes_factor[i], rel=1e-9, abs=1e-9)
+    assert b.information[i] == pytest.approx(a.information[i], rel=1e-9)
+    c = shape_reversal_evidence(x, scale * Y, scale * noise, sensor_factors=f)
+    assert np.allclose(c.log_bayes_factor, a.log_bayes_factor, rtol=1e-6, atol=1e-6)
 
 
-def test_a_reversed_flank_sensor_of_a_non_dictionary_dip_stands_out_and_healthy_ones_do_not():
-    """A raised-cosine dip (not a dictionary family): the reversed sensor on its flank has the largest GLR of the site and
-    passes the threshold; without it the healthy sensors' GLR stay below; excluded sensors and sensors not asked for
-    are NaN."""
-    hits, top, healthy = 0, 0, []
+def test_a_reversed_flank_sensor_of_a_non_dictionary_dip_stands_out_and_healthy_ones_rarely_do():
+    """A raised-cosine dip (not a dictionary family) at a flank signal-to-noise ratio of ~100: the reversed sensor on
+    its flank has the largest evidence of the site and passes the threshold. As read, a healthy sensor passes it only
+    next to the dip's centre (whose sign says on which side of the misfitting shapes' centre it sits) or its edges
+    (where the dip ends abruptly): <= 2 % of them, none on a flank; in the tool the all-days gates
+    (:func:`shape_candidates`) stand between these and a flag. Excluded sensors and sensors not asked for are NaN."""
+    hits, top, healthy, flank = 0, 0, [], []
     for seed in range(20):
         x, Y, noise, f, u = _site(seed, 30, 6)
         Y[:, 3] = np.nan
         want = np.ones(30, bool)
         want[5] = False
-        ev = shape_reversal_glr(x, Y, noise, sensor_factors=f, sensors=want)
-        assert np.isnan(ev.log_glr[3]) and np.isnan(ev.log_glr[5]) and ev.family[3] == -1
-        healthy.extend(ev.log_glr)
+        ev = shape_reversal_evidence(x, Y, noise, sensor_factors=f, sensors=want)
+        assert np.isnan(ev.log_bayes_factor[3]) and np.isnan(ev.log_bayes_factor[5]) and ev.family[3] == -1
+        healthy.extend(ev.log_bayes_factor[want & np.isfinite(ev.log_bayes_factor)])
+        flank.extend(ev.log_bayes_factor[(np.abs(u) > 0.25) & (np.abs(u) < 0.9) & want])
         j = int(np.argmin(np.abs(np.abs(u) - 0.5)))  # on a flank
         Y[:, j] *= -1.0
-        glr = shape_reversal_glr(x, Y, noise, sensor_factors=f).log_glr
-        hits += glr[j] > REVERSED_SHAPE_GLR
-        top += int(np.nanargmax(glr)) == j
+        lbf = shape_reversal_evidence(x, Y, noise, sensor_factors=f).log_bayes_factor
+        hits += lbf[j] > REVERSED_SHAPE_EVIDENCE
+        top += int(np.nanargmax(lbf)) == j
     assert hits >= 18 and top >= 18
-    assert np.nanmax(healthy) < REVERSED_SHAPE_GLR
+    assert np.mean(np.array(healthy) > REVERSED_SHAPE_EVIDENCE) <= 0.02
+    assert np.nanmax(flank) < REVERSED_SHAPE_EVIDENCE
 
 
 def test_without_settlement_no_sensor_shows_a_reversal():
-    glr = np.concatenate([shape_reversal_glr(*_site(s, 25, 5, bowl=False)[:3]).log_glr for s in range(10)])
-    assert np.nanmax(glr) < REVERSED_SHAPE_GLR
+    lbf = np.concatenate([shape_reversal_evidence(*_site(s, 25, 5, bowl=False)[:3]).log_bayes_factor
+                          for s in range(10)])
+    assert np.nanmax(lbf) < REVERSED_SHAPE_EVIDENCE
 
 
 def test_the_shape_test_flags_only_candidates_above_its_threshold():
     N = 6
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(["ok"] * N), detail=np.array([""] * N),
-                          excluded=np.zeros(N, bool), loo_score=np.ones(N), reversal_llr=np.array([5.0] * N))
-    lbf = np.array([-20.0, 1.0, 1.0, 1.0, -1.0, 1.0])
+                          excluded=np.zeros(N, bool), loo_score=np.ones(N), reversal_llr=np.array([6.0] * N))
+    lbf = np.array([-20.0, 1.0, 1.0, 1.0, -1.5, 1.0])
     ev = ReversalEvidence(log_bayes_factor=lbf, information=np.ones(N))
     cand = shape_candidates(health, ev)
-    glr = np.array([50.0, 2.0, REVERSED_SHAPE_GLR + 3.0, np.nan, 50.0, REVERSED_SHAPE_GLR + 1.0])
-    out, j = flag_reversed_all_days(health, ev, shape=ShapeEvidence(log_glr=glr, family=np.zeros(N, int),
-                                                                     healthy_family=0))
-    assert j == 2 and out.status[2] == "reversed" and "localised-shape GLR" in out.detail[2]
+    glr = np.array([50.0, 2.0, REVERSED_SHAPE_EVIDENCE + 3.0, np.nan, 50.0, REVERSED_SHAPE_EVIDENCE + 1.0])
+    shape = ShapeEvidence(log_bayes_factor=glr, information=np.ones(N), family=np.zeros(N, int))
+    out, j = flag_reversed_all_days(health, ev, shape=shape)
+    assert j == 2 and out.status[2] == "reversed" and "localised settlement shape" in out.detail[2]
     assert out.shape_evidence is not None
     assert cand[1] and not cand[0] and not cand[4]
     none, k = flag_reversed_all_days(health, ev)  # without shape evidence: the step-11 rule only (none passes)
@@ -121,8 +145,11 @@ def test_scenario_shapes_have_their_exact_derivative(kind):
     x = np.linspace(0.0, 90.0, 9001)
     shape, dshape = _bowl_shape(kind, x, 45.0, 8.0, np.random.default_rng(3))
     num = np.gradient(shape, x)
-    smooth = np.ones(x.size, bool) if kind != "ramp" else np.abs(np.diff(dshape, prepend=dshape[0])) == 0
-    assert np.allclose(dshape[smooth][2:-2], num[smooth][2:-2], atol=2e-4)
+    # away from the ramp's kinks (central differences straddle them); elsewhere within the differences' own error
+    kink = np.convolve((np.abs(np.diff(dshape, prepend=dshape[0])) > 1e-3).astype(float), np.ones(5), "same") > 0
+    keep = ~kink if kind == "ramp" else np.ones(x.size, bool)
+    keep[:2] = keep[-2:] = False
+    assert np.allclose(dshape[keep], num[keep], atol=2e-3 * max(np.abs(dshape).max(), 1e-9))
     assert np.min(shape) == pytest.approx(0.0 if kind == "none" else -1.0, abs=2e-3)
 
 

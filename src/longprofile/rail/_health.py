@@ -92,8 +92,8 @@ REVERSED_SHAPE_EVIDENCE = 6.0
 REVERSED_SHAPE_GATE_LBF = -1.0
 #: ... and its day-to-day reversal log-likelihood ratio exceeds this (:func:`shape_candidates`). Calibration seeds
 #: (docs/rail.md, "Sensor health, step 14"; the statistics of the kept sensors at the last health pass): faults 300-449,
-#: 7 reversed sensors kept, 2 gained; healthy kept sensors flagged 0 of 3814, drift and drift-fronts 300-319 0 of
-#: 1140, the six non-Gaussian shape families 300-319 4 of 2937.
+#: 7 reversed sensors kept, 1 gained; healthy kept sensors flagged 0 of 3814; drift and drift-fronts 300-319 0 of 1140;
+#: the six non-Gaussian shape families (faults-*) 300-319 0 of 2911.
 REVERSED_SHAPE_GATE_INC_LLR = 5.0
 
 
