@@ -87,13 +87,14 @@ DETACHED_ALL_DAYS_STEP_Z = 5.0
 #: Shape test (:func:`flag_reversed_all_days` with a :class:`~longprofile.rail._shapes.ShapeEvidence`): a kept sensor is
 #: also "reversed" when its log Bayes factor of a reversal, predicted by the localised shapes fitted to the other
 #: sensors (:func:`~longprofile.rail._shapes.shape_reversal_evidence`), exceeds this ...
-REVERSED_SHAPE_EVIDENCE = 6.0
+REVERSED_SHAPE_EVIDENCE = 8.0
 #: ... its all-days log Bayes factor (:data:`REVERSED_ALL_DAYS_LBF`'s statistic) exceeds this (not against) ...
 REVERSED_SHAPE_GATE_LBF = -1.0
 #: ... and its day-to-day reversal log-likelihood ratio exceeds this (:func:`shape_candidates`). Calibration seeds
-#: (docs/rail.md, "Sensor health, step 14"; the statistics of the kept sensors at the last health pass): faults 300-449,
-#: 7 reversed sensors kept, 1 gained; healthy kept sensors flagged 0 of 3814; drift and drift-fronts 300-319 0 of 1140;
-#: the six non-Gaussian shape families (faults-*) 300-319 0 of 2911.
+#: (docs/rail.md, "Sensor health, step 14"; the statistics of the kept sensors at the last health pass): faults 300-449
+#: (7 reversed sensors kept, 1 gained), drift, drift-fronts and faults-tilt 300-319, the other non-Gaussian shape families
+#: (faults-*) 300-359, faults-asymmetric 300-379: the lowest threshold flagging none of their 13 219 healthy kept sensors
+#: (at 6: 3).
 REVERSED_SHAPE_GATE_INC_LLR = 5.0
 
 
