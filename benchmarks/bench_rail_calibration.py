@@ -89,8 +89,9 @@ def default_plan(quick: bool) -> list[tuple[str, range]]:
     return plan
 
 
-def run(quick: bool, plan=None) -> list[BenchRow]:
-    """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default."""
+def run(quick: bool, plan=None, **options) -> list[BenchRow]:
+    """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default;
+    ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
     from longprofile.rail._calibration import calibrate_family
     from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES
 
@@ -102,7 +103,7 @@ def run(quick: bool, plan=None) -> list[BenchRow]:
             from dataclasses import replace
             fam = replace(fam, n_sensors=(12, 16), n_days=(10, 12), sampling_minutes=60.0)
         t0 = time.perf_counter()
-        cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200)
+        cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200, **options)
         rows.extend(family_rows(cal, time.perf_counter() - t0, quick))
     return rows
 
@@ -345,6 +346,8 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=_seeds, default=None,
                    help="seeds, 'first-last' inclusive (default: the benchmark's, 100-199 or 200-299 for faults)")
     p.add_argument("--quick", action="store_true", help="small sites (as --quick of the benchmark)")
+    p.add_argument("--shape-evidence", action="store_true",
+                   help="estimate with shape_evidence=True (the localised-shape reversal test, docs/rail.md step 14)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -359,7 +362,7 @@ def main(argv=None) -> int:
         p.error("--family is required (or --reversal-oracle)")
     default = dict(default_plan(False))
     plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
-    rows = run(args.quick, plan)
+    rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from scipy.special import logsumexp
 from scipy.stats import norm
 
+from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail._health import (
     REVERSED_SHAPE_EVIDENCE,
     ReversalEvidence,
@@ -162,3 +163,19 @@ def test_the_gaussian_families_are_unchanged_and_the_shape_families_differ():
     assert set(SHAPE_FAMILIES) == {f"faults-{k}" for k in BOWL_SHAPES[1:]}
     assert not np.allclose(a.truth.settlement, b.truth.settlement)
     assert np.array_equal(a.truth.x, b.truth.x)
+
+
+def test_estimate_settlement_flags_a_reversal_by_its_shape_evidence_only_when_asked():
+    """Calibration site faults 321 (docs/rail.md step 14): its reversed sensor I016 passes the shape test and no
+    other; without ``shape_evidence`` it is kept, as before, and nothing of the shape test is computed."""
+    sc = simulate_scenario("faults", 321)
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    off = estimate_settlement(site, n_monte_carlo=0)
+    on = estimate_settlement(site, n_monte_carlo=0, shape_evidence=True)
+    j = off.sensor_ids.index("I016")
+    assert sc.truth.faults["I016"] == "reversed"
+    assert off.health.status[j] == "ok" and off.health.shape_evidence is None and not off.settings["shape_evidence"]
+    assert on.health.status[j] == "reversed" and "localised settlement shape" in on.health.detail[j]
+    assert on.settings["shape_evidence"]
+    newly = (np.asarray(on.health.status) != np.asarray(off.health.status))
+    assert list(np.nonzero(newly)[0]) == [j]
