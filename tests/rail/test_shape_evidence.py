@@ -179,3 +179,15 @@ def test_estimate_settlement_flags_a_reversal_by_its_shape_evidence_only_when_as
     assert on.settings["shape_evidence"]
     newly = (np.asarray(on.health.status) != np.asarray(off.health.status))
     assert list(np.nonzero(newly)[0]) == [j]
+
+
+def test_a_shape_flat_over_the_stations_is_left_out_not_a_nan():
+    """A dictionary row constant over the kept stations duplicates the fitted tilt (singular normal equations): it
+    is dropped; the evidence equals that of the dictionary without it."""
+    x, Y, noise, f, _ = _site(4, 10, 2)
+    g = localized_slope_shapes(x)[0][::211][:20]
+    both = np.vstack([g, np.ones(10)])
+    a = shape_reversal_evidence(x, Y, noise, sensor_factors=f, shapes=g)
+    b = shape_reversal_evidence(x, Y, noise, sensor_factors=f, shapes=both)
+    assert np.all(np.isfinite(b.log_bayes_factor))
+    assert np.allclose(a.log_bayes_factor, b.log_bayes_factor, rtol=1e-12, atol=1e-12)

@@ -175,6 +175,8 @@ def _chunk_loo(g, y, w, cand, floor):
     n = y.shape[1]
     a11, a12, a22 = (g**2) @ w, g @ w, float(w.sum())
     det = a11 * a22 - a12**2
+    flat = det <= 1e-9 * a11 * a22  # a shape (nearly) constant over the kept stations: a tilt, already fitted
+    det = np.where(flat, 1.0, det)
     u1, u2 = (g * w) @ y.T, y @ w  # (S, K), (K,)
     Q = (y**2) @ w - (a22 * u1**2 - 2.0 * a12[:, None] * u1 * u2 + a11[:, None] * u2**2) / det[:, None]  # (S, K)
     b1 = (a22 * u1 - a12[:, None] * u2[None]) / det[:, None]
@@ -191,4 +193,6 @@ def _chunk_loo(g, y, w, cand, floor):
     v = np.maximum(Qm / max(n - 3, 1), fl) / (wc * (1.0 - lev))[:, None, :] + (SHAPE_REL_ERR * mu) ** 2
     base = -0.5 * np.sum(np.log(2.0 * np.pi * v) + (yc**2)[None] / v + mu**2 / v, axis=1)
     cross = np.sum(yc[None] * mu / v, axis=1)
-    return L, base + cross, base - cross, np.sum(mu**2 / v, axis=1)
+    drop = flat[:, None] | ~np.isfinite(L) | ~np.isfinite(base) | ~np.isfinite(cross)
+    return (np.where(drop, -np.inf, L), np.where(drop, 0.0, base + cross), np.where(drop, 0.0, base - cross),
+            np.where(drop, 0.0, np.sum(mu**2 / v, axis=1)))
