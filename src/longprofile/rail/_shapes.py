@@ -1,13 +1,14 @@
-"""Localised settlement shapes and the shape GLR of a reversed sensor (issue 13; docs/rail.md, "Sensor health, step 14").
+"""Localised settlement shapes and the evidence of a reversed sensor (issue 13; docs/rail.md, "Sensor health, step 14").
 
 Beyond paper 004. The all-days reversal evidence (:func:`~longprofile.rail._health.all_days_reversal_evidence`)
 predicts a sensor's slope changes from its neighbours through the smooth, nonparametric change prior of §4.2: a
 sensor on the flank of a narrow bowl is predicted poorly from neighbours 2-6 m away, so a reversal there shows little.
-Settlement from nearby works is localised: a dip of some centre and width, whose depth grows over the days. A small
-dictionary of such shapes, fitted to *all* the sensors at once (both flanks of the dip pin its centre and width),
-predicts the flank much better — without assuming any one shape: the dictionary holds several families (a Gaussian,
-a Cauchy dip, a Gaussian of different widths on each side, a flat-bottomed dip with smooth edges), and every fit
-also has a uniform slope change (a tilt of the whole span).
+Settlement from nearby works is localised: a dip of some centre and width, whose depth grows over the days. A
+dictionary of such shapes, fitted to the other sensors all along the track (both flanks of the dip pin its centre and
+width), predicts the flank much better — without assuming any one shape: the dictionary holds several families (a
+Gaussian, a Cauchy dip, a Gaussian of different widths on each side, a flat-bottomed dip with smooth edges), and
+every fit also has a uniform slope change (a tilt of the whole span). Used by ``estimate_settlement`` with
+``SettlementSettings(shape_evidence=True)`` (off by default; docs/rail.md step 14 says why).
 
 Model of the all-days modes (module :mod:`~longprofile.rail._joint`: the modes k are independent, sensor i of mode k
 has noise std sqrt(nu_k) f_i): y_ik = a_k g(x_i) + b_k + e_ik, g one shape's slope profile of the dictionary, a_k, b_k
