@@ -815,8 +815,8 @@ class SettlementSettings:
         With the all-days model and ``check_health``: also flag a sensor "reversed" on the evidence of a dictionary
         of localised settlement shapes fitted to the other sensors (issue 13 step 14, docs/rail.md;
         :func:`~longprofile.rail._shapes.shape_reversal_evidence`, :data:`~longprofile.rail._health.REVERSED_SHAPE_EVIDENCE`).
-        Off by default: on the benchmark it found 94 instead of 92 of 100 reversed sensors but flagged 2 more
-        healthy sensors of 1020 on asymmetric bowls (0.98 -> 1.18 %).
+        Off by default: on the benchmark it found 94 instead of 92 of 100 reversed sensors (faults seeds 200-299;
+        95 -> 95 on 100-199) but flagged 2 more healthy sensors of 1020 on asymmetric bowls (0.98 -> 1.18 %).
     """
 
     thermal: str = "linear"
