@@ -8,7 +8,9 @@ not model) is drawn for several seeds and estimated with the ``rail settle`` cal
 
 Run: ``python -m benchmarks rail_calibration`` (full: 100 draws per family, 100 faulty sites) or
 ``python -m benchmarks --quick rail_calibration`` (3 small sites, seconds). One family or other seeds alone:
-``python -m benchmarks.bench_rail_calibration --family faults [--seeds 200-299] [--json out.json]`` (the same rows).
+``python -m benchmarks.bench_rail_calibration --family faults [--seeds 200-299] [--json out.json]`` (the same rows);
+``--family faults-asymmetric`` etc. (``longprofile.rail._scenarios.SHAPE_FAMILIES``: the ``faults`` family with a settlement
+that is not a Gaussian bowl, seeds 100-139 by default; not in the full run) for the health tests' robustness.
 ``python -m benchmarks.bench_rail_calibration --reversal-oracle [--seeds 200-299] [--json out.json]``: the detection
 of reversed sensors a test knowing the true settlement would reach (:func:`reversal_oracle`, docs/rail.md).
 """
@@ -87,20 +89,21 @@ def default_plan(quick: bool) -> list[tuple[str, range]]:
     return plan
 
 
-def run(quick: bool, plan=None) -> list[BenchRow]:
-    """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default."""
+def run(quick: bool, plan=None, **options) -> list[BenchRow]:
+    """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default;
+    ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
     from longprofile.rail._calibration import calibrate_family
-    from longprofile.rail._scenarios import SCENARIO_FAMILIES
+    from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES
 
     rows = []
     plan = default_plan(quick) if plan is None else plan
     for name, seeds in plan:
-        fam = SCENARIO_FAMILIES[name]
+        fam = {**SCENARIO_FAMILIES, **SHAPE_FAMILIES}[name]
         if quick:
             from dataclasses import replace
             fam = replace(fam, n_sensors=(12, 16), n_days=(10, 12), sampling_minutes=60.0)
         t0 = time.perf_counter()
-        cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200)
+        cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200, **options)
         rows.extend(family_rows(cal, time.perf_counter() - t0, quick))
     return rows
 
@@ -330,18 +333,21 @@ def main(argv=None) -> int:
     import json
     from pathlib import Path
 
-    from longprofile.rail._scenarios import SCENARIO_FAMILIES
+    from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES
 
     p = argparse.ArgumentParser(prog="python -m benchmarks.bench_rail_calibration",
                                 description="Rail calibration rows of some scenario families only.")
-    p.add_argument("--family", action="append", choices=sorted(SCENARIO_FAMILIES), default=None,
-                   help="scenario family (repeat for several; required unless --reversal-oracle)")
+    p.add_argument("--family", action="append", choices=sorted({**SCENARIO_FAMILIES, **SHAPE_FAMILIES}), default=None,
+                   help="scenario family (repeat for several; required unless --reversal-oracle); the faults-* shape "
+                        "families (settlement not a Gaussian bowl) default to seeds 100-139")
     p.add_argument("--reversal-oracle", action="store_true",
                    help="instead: the oracle bound on reversal detection on the faults family (default seeds "
                         "200-299; reversal_oracle)")
     p.add_argument("--seeds", type=_seeds, default=None,
                    help="seeds, 'first-last' inclusive (default: the benchmark's, 100-199 or 200-299 for faults)")
     p.add_argument("--quick", action="store_true", help="small sites (as --quick of the benchmark)")
+    p.add_argument("--shape-evidence", action="store_true",
+                   help="estimate with shape_evidence=True (the localised-shape reversal test, docs/rail.md step 14)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -355,8 +361,8 @@ def main(argv=None) -> int:
     if not args.family:
         p.error("--family is required (or --reversal-oracle)")
     default = dict(default_plan(False))
-    plan = [(f, args.seeds if args.seeds is not None else default[f]) for f in args.family]
-    rows = run(args.quick, plan)
+    plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
+    rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

@@ -28,7 +28,7 @@ from scipy.special import ndtr
 
 from ._data import validate_site
 from ._rigidity import Z90
-from ._scenarios import SCENARIO_FAMILIES, ScenarioFamily, simulate_scenario
+from ._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES, ScenarioFamily, simulate_scenario
 from ._settle import estimate_settlement
 
 __all__ = ["IntervalScore", "FamilyCalibration", "score_intervals", "interval_hits", "calibrate_family", "PIT_BINS"]
@@ -196,7 +196,7 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
     -------
     FamilyCalibration
     """
-    fam = SCENARIO_FAMILIES[family] if isinstance(family, str) else family
+    fam = {**SCENARIO_FAMILIES, **SHAPE_FAMILIES}[family] if isinstance(family, str) else family
     seeds = tuple(int(s) for s in seeds)
     zs: dict = {}
     hits: dict = {}

@@ -12,7 +12,9 @@ dead        no readings, readings on fewer than half of the days, a stuck value 
 reversed    its angle changes follow minus what its neighbours predict (mounted backwards): the
             reversal z of the daily changes, or the day-to-day log-likelihood ratio, or (with the
             all-days noise model) the all-days Bayes factor of "reversed" against "healthy"
-            (:func:`all_days_reversal_evidence`, :func:`flag_reversed_all_days`)
+            (:func:`all_days_reversal_evidence`, :func:`flag_reversed_all_days`), or the Bayes factor of a
+            reversal with the sensor predicted by a dictionary of localised settlement shapes fitted to the other
+            sensors (:func:`~longprofile.rail._shapes.shape_reversal_evidence`), the all-days statistics not against
 drifting    its leave-one-out residual grows linearly with time
 detached    its leave-one-out residual jumps once and stays (sensor came loose / moved): the
             day-to-day step statistic, or the pattern of an improbable sensor, or (with the all-days noise
@@ -31,10 +33,11 @@ import numpy as np
 from scipy.special import gammaincc
 
 from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior, rigidity_posterior_levels
+from ._shapes import ShapeEvidence
 
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
-           "all_days_reversal_evidence", "flag_reversed_all_days"]
+           "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -81,6 +84,18 @@ DETACHED_ALL_DAYS_LLR = 10.5
 #: drift-fronts 300-339; docs/rail.md, "Sensor health, step 12"): detached sensors the other tests missed 4, all 4
 #: above both (log LR 10.8-18.0, step z 6.1-8.0); largest healthy kept log LR 8.3, 10.3 and 9.0, none above both.
 DETACHED_ALL_DAYS_STEP_Z = 5.0
+#: Shape test (:func:`flag_reversed_all_days` with a :class:`~longprofile.rail._shapes.ShapeEvidence`): a kept sensor is
+#: also "reversed" when its log Bayes factor of a reversal, predicted by the localised shapes fitted to the other
+#: sensors (:func:`~longprofile.rail._shapes.shape_reversal_evidence`), exceeds this ...
+REVERSED_SHAPE_EVIDENCE = 8.0
+#: ... its all-days log Bayes factor (:data:`REVERSED_ALL_DAYS_LBF`'s statistic) exceeds this (not against) ...
+REVERSED_SHAPE_GATE_LBF = -1.0
+#: ... and its day-to-day reversal log-likelihood ratio exceeds this (:func:`shape_candidates`). Calibration seeds
+#: (docs/rail.md, "Sensor health, step 14"; the statistics of the kept sensors at the last health pass): faults 300-449
+#: (7 reversed sensors kept, 1 gained), drift, drift-fronts and faults-tilt 300-319, the other non-Gaussian shape families
+#: (faults-*) 300-359, faults-asymmetric 300-379: the lowest threshold flagging none of their 13 219 healthy kept sensors
+#: (at 6: 3).
+REVERSED_SHAPE_GATE_INC_LLR = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +128,9 @@ class SensorHealth:
     step_evidence : StepEvidence or None
         The all-days step log-likelihood ratio of every sensor (:func:`all_days_step_evidence`; None when the
         all-days model did not run or a reversal was flagged on the last pass).
+    shape_evidence : ShapeEvidence or None
+        The localised-shape evidence of a reversal of the sensors :func:`shape_candidates` chose on the last pass (NaN
+        for the others; None when none was or the all-days model did not run).
     """
 
     sensor_ids: list
@@ -125,6 +143,7 @@ class SensorHealth:
     step_z: np.ndarray | None = None
     reversal_evidence: "ReversalEvidence | None" = None
     step_evidence: "StepEvidence | None" = None
+    shape_evidence: "ShapeEvidence | None" = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -438,32 +457,55 @@ PROFILE_FACTOR_BOUNDS = (0.25, 8.0)
 PROFILE_FACTOR_GRID = 121
 
 
-def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence,
-                           max_flagged: int | None = None) -> tuple[SensorHealth, int | None]:
-    """Flag the kept sensor with the largest all-days evidence of a reversal, if any passes both thresholds.
+def shape_candidates(health: SensorHealth, evidence: ReversalEvidence) -> np.ndarray:
+    """(N,) bool: the kept sensors whose all-days log Bayes factor exceeds :data:`REVERSED_SHAPE_GATE_LBF` and whose
+    day-to-day reversal log-likelihood ratio exceeds :data:`REVERSED_SHAPE_GATE_INC_LLR`: the only ones the shape test
+    can flag (the caller computes their shape GLR only)."""
+    N = health.status.size
+    lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
+    inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
+    return ~np.asarray(health.excluded, bool) & (lbf > REVERSED_SHAPE_GATE_LBF) & (inc > REVERSED_SHAPE_GATE_INC_LLR)
+
+
+def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max_flagged: int | None = None,
+                           shape: ShapeEvidence | None = None) -> tuple[SensorHealth, int | None]:
+    """Flag the kept sensor with the largest all-days evidence of a reversal, if any passes either test.
 
     A sensor still "ok" is flagged "reversed" when its log Bayes factor (:func:`all_days_reversal_evidence`) exceeds
     :data:`REVERSED_ALL_DAYS_LBF` and its day-to-day reversal log-likelihood ratio (``health.reversal_llr``) exceeds
-    :data:`REVERSED_ALL_DAYS_INC_LLR`. One sensor at a time (the caller re-fits the noise model without it and asks
-    again), and none once ``max_flagged`` sensors (default a quarter; dead ones not counted, as in
-    :func:`assess_sensors`) are excluded or only 3 are left.
+    :data:`REVERSED_ALL_DAYS_INC_LLR`; or, with ``shape``, when its localised-shape log Bayes factor
+    (:func:`~longprofile.rail._shapes.shape_reversal_evidence`) exceeds :data:`REVERSED_SHAPE_EVIDENCE` and it is one
+    of the :func:`shape_candidates` (both all-days statistics above their lower gates). The worst by the sum of the
+    two log Bayes factors.
+    One sensor at a time (the caller re-fits the noise model without it and asks again), and none once
+    ``max_flagged`` sensors (default a quarter; dead ones not counted, as in :func:`assess_sensors`) are excluded or
+    only 3 are left.
 
     Returns
     -------
     health : SensorHealth
-        With ``reversal_evidence`` set, and the flagged sensor's status, detail and exclusion.
+        With ``reversal_evidence`` (and ``shape_evidence``) set, and the flagged sensor's status, detail and exclusion.
     flagged : int or None
         Index of the flagged sensor.
     """
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     N = health.status.size
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
-    return _flag_worst(
-        replace(health, reversal_evidence=evidence), lbf, (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR),
-        "reversed", lambda j: (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
-                               f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day "
-                               f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})"),
-        max_flagged)
+    glr = np.full(N, np.nan) if shape is None else np.asarray(shape.log_bayes_factor, float)
+    by_shape = shape_candidates(health, evidence) & (np.nan_to_num(glr, nan=-np.inf) > REVERSED_SHAPE_EVIDENCE)
+    passes = ((lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)) | by_shape
+
+    def detail(j):
+        text = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
+                f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day "
+                f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+        if np.isfinite(glr[j]):
+            text += (f"; with a localised settlement shape fitted to the other sensors, log Bayes factor {glr[j]:.3g} "
+                     f"(threshold {REVERSED_SHAPE_EVIDENCE:g}; information {shape.information[j]:.3g})")
+        return text
+
+    return _flag_worst(replace(health, reversal_evidence=evidence, shape_evidence=shape),
+                       lbf + np.nan_to_num(glr, nan=0.0), passes, "reversed", detail, max_flagged)
 
 
 def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, max_flagged: int | None):

@@ -31,9 +31,12 @@ import pandas as pd
 from ..errors import InputError
 
 __all__ = ["ScenarioFamily", "Scenario", "ScenarioTruth", "simulate_scenario", "SCENARIO_FAMILIES",
-           "FAULT_KINDS"]
+           "FAULT_KINDS", "BOWL_SHAPES", "SHAPE_FAMILIES"]
 
 FAULT_KINDS = ("reversed", "frozen", "detached", "dead")
+#: Settlement shapes of :attr:`ScenarioFamily.bowl_shape` (:func:`_bowl_shape`): the Gaussian bowl of every family of
+#: :data:`SCENARIO_FAMILIES`, and shapes that are not a Gaussian bowl (robustness of the health tests, docs/rail.md).
+BOWL_SHAPES = ("gaussian", "asymmetric", "two-bowls", "ramp", "tilt", "joint-step", "none")
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,7 @@ class ScenarioFamily:
     survey_step_m: tuple = (3.0, 10.0)
     survey_noise_m: float = 2e-3
     noise_free: bool = False
+    bowl_shape: str = "gaussian"
 
 
 SCENARIO_FAMILIES = {
@@ -77,6 +81,10 @@ SCENARIO_FAMILIES = {
                                    drift_deg_per_sqrt_day_log=(1e-3, 1e-2)),
     "faults": ScenarioFamily("faults", drift_deg_per_sqrt_day_log=(1e-3, 3e-3), faults=FAULT_KINDS),
 }
+#: The ``faults`` family with a settlement that is not a Gaussian bowl (:data:`BOWL_SHAPES`; docs/rail.md, "Sensor
+#: health, step 14"): what the health tests flag when the settlement has another shape.
+SHAPE_FAMILIES = {f"faults-{kind}": replace(SCENARIO_FAMILIES["faults"], name=f"faults-{kind}", bowl_shape=kind)
+                  for kind in BOWL_SHAPES[1:]}
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,9 +174,10 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
         thermal bias or fault) and the survey is exact.
     """
     if isinstance(family, str):
-        if family not in SCENARIO_FAMILIES:
-            raise InputError(f"unknown scenario family {family!r}; choose one of {sorted(SCENARIO_FAMILIES)}.")
-        family = SCENARIO_FAMILIES[family]
+        known = {**SCENARIO_FAMILIES, **SHAPE_FAMILIES}
+        if family not in known:
+            raise InputError(f"unknown scenario family {family!r}; choose one of {sorted(known)}.")
+        family = known[family]
     if overrides:
         family = replace(family, **overrides)
     f = family
@@ -187,9 +196,7 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
     t_day = t_min / 1440.0
     bowl = _scenario_bowl(f, rng, L, D)
     depth_at, depth, width, center, work = bowl["depth_at"], bowl["depth"], bowl["width"], bowl["center"], bowl["work"]
-    u = (x - center) / width
-    shape = -np.exp(-0.5 * u**2)  # unit bowl, -1 at the centre
-    dshape = -u / width * shape  # its derivative, 1/m
+    shape, dshape = _bowl_shape(f.bowl_shape, x, center, width, np.random.default_rng([int(seed), 7]))
     noon = np.arange(D) + 0.5
     settlement = depth_at(noon)[:, None] * shape[None, :]
     slope_change = depth_at(noon)[:, None] * dshape[None, :]
@@ -237,6 +244,7 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                           drift_deg_per_sqrt_day=drift_rate, faults=faults,
                           work_days=np.isin(np.arange(D), work),
                           params=dict(depth_m=depth, width_m=width, center_m=center, first_work_day=int(work[0]),
+                                      bowl_shape=f.bowl_shape,
                                       creep_fraction=bowl["creep"], daily_swing_c=swing, noise_deg=noise,
                                       n_sensors=N, n_days=D, sampling_minutes=dt_min))
     return Scenario(sensors=pd.DataFrame({"sensor_id": ids, "x_m": x}), readings=readings, survey=survey,
@@ -266,6 +274,47 @@ def _scenario_bowl(f, rng, L, D) -> dict:
         return out
 
     return dict(depth_at=depth_at, depth=depth, width=width, center=center, work=work, creep=creep)
+
+
+def _bowl_shape(kind: str, x, center: float, width: float, rng):
+    """Unit settlement shape at the stations and its exact derivative (1/m): (shape, dshape), shape -1 at the deepest
+    point ("tilt": -1 at the far end; "none": 0). "gaussian" draws nothing from ``rng`` (the families' sites
+    unchanged); the others draw their extra parameters from it: "asymmetric" one side 0.3-0.7 x as wide; "two-bowls" a
+    second Gaussian of 0.4-1 x the depth and 0.5-1 x the width anywhere on the span; "ramp" a flat bottom of
+    half-length 0.2-0.5 width between two linear ramps of 0.3-0.8 width; "tilt" a linear tilt over the whole span;
+    "joint-step" one side lowered through a tanh transition of half-length 0.3-1.5 m at the centre."""
+    x = np.asarray(x, float)
+    u = (x - center) / width
+    if kind == "gaussian":
+        shape = -np.exp(-0.5 * u**2)
+        return shape, -u / width * shape
+    if kind == "asymmetric":
+        w = np.where((x < center) == (rng.random() < 0.5), width, width * rng.uniform(0.3, 0.7))
+        shape = -np.exp(-0.5 * ((x - center) / w) ** 2)
+        return shape, -(x - center) / w**2 * shape
+    if kind == "two-bowls":
+        w2, a2 = width * rng.uniform(0.5, 1.0), rng.uniform(0.4, 1.0)
+        c2 = rng.uniform(min(3.4 * w2, x[-1] / 2), max(x[-1] - 3.4 * w2, x[-1] / 2))
+        g1, g2 = np.exp(-0.5 * u**2), a2 * np.exp(-0.5 * ((x - c2) / w2) ** 2)
+        grid = np.linspace(x[0], x[-1], 2001)
+        peak = np.max(np.exp(-0.5 * ((grid - center) / width) ** 2) + a2 * np.exp(-0.5 * ((grid - c2) / w2) ** 2))
+        return -(g1 + g2) / peak, (u / width * g1 + (x - c2) / w2**2 * g2) / peak
+    if kind == "ramp":
+        h, ramp = width * rng.uniform(0.2, 0.5), width * rng.uniform(0.3, 0.8)
+        d = np.abs(x - center) - h
+        shape = -np.clip(1.0 - d / ramp, 0.0, 1.0)
+        inside = (d > 0) & (d < ramp)
+        return shape, np.where(inside, np.sign(x - center) / ramp, 0.0)
+    if kind == "tilt":
+        span = x[-1] - x[0]
+        return -(x - x[0]) / span, np.full(x.size, -1.0 / span)
+    if kind == "joint-step":
+        half = rng.uniform(0.3, 1.5)
+        v = (x - center) / half
+        return -0.5 * (1.0 + np.tanh(v)), -0.5 / half / np.cosh(v) ** 2
+    if kind == "none":
+        return np.zeros(x.size), np.zeros(x.size)
+    raise InputError(f"unknown bowl shape {kind!r}; choose one of {BOWL_SHAPES}.")
 
 
 def _scenario_geometry(rng):
