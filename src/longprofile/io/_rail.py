@@ -91,8 +91,8 @@ def _declared(name: str, quantity: str) -> tuple[str, str] | None:
 def _canonical_columns(df, path, required):
     """``df`` with each required column found under its canonical name: in any letter case, or declared with another
     unit (x_mm, ``x [ft]``, temperature_f: converted)."""
-    for col in required:
-        base, _, unit = col.partition("_")
+    for col in required:  # the canonical units (m, deg, °C) are the conversions' targets
+        base = col.partition("_")[0]
         quantity = _QUANTITY.get(base)
         if quantity in (None, "angle") or col in df.columns:
             continue
@@ -100,7 +100,7 @@ def _canonical_columns(df, path, required):
         if len(found) == 1:
             values = check_columns(df[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
             converted = _CONVERSIONS[quantity][_declared(str(found[0]), quantity)[1]](values)
-            df = df.drop(columns=found).assign(**{col: converted / _CONVERSIONS[quantity][unit](1.0)})
+            df = df.drop(columns=found).assign(**{col: converted})
     return check_columns(df, path, required=required)
 
 
