@@ -131,6 +131,9 @@ class SensorHealth:
     shape_evidence : ShapeEvidence or None
         The localised-shape evidence of a reversal of the sensors :func:`shape_candidates` chose on the last pass (NaN
         for the others; None when none was or the all-days model did not run).
+    anchor_std : float or None
+        The end-anchor std (m) of the last pass's leave-one-out prediction (``sigma_z``, or its maximum-likelihood
+        value with ``fit_anchor``; docs/rail.md, "Sensor health on settlements that are not a bowl").
     """
 
     sensor_ids: list
@@ -144,6 +147,7 @@ class SensorHealth:
     reversal_evidence: "ReversalEvidence | None" = None
     step_evidence: "StepEvidence | None" = None
     shape_evidence: "ShapeEvidence | None" = None
+    anchor_std: float | None = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -266,7 +270,7 @@ def _classify(m, pred, z):
 
 
 def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, exclude=(), max_flagged=None,
-                   fit=None, raw_day_spread_deg=None) -> tuple[SensorHealth, float, float]:
+                   fit=None, raw_day_spread_deg=None, fit_anchor=None) -> tuple[SensorHealth, float, float]:
     """Flag dead, frozen and improbable sensors, iteratively (worst first), re-fitting the noise after each exclusion.
 
     Parameters
@@ -286,11 +290,15 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     max_flagged : int, optional
         Stop after this many LOO exclusions (default: a quarter of the sensors).
     fit : callable, optional
-        ``fit(slopes_masked, sigma, rigidity) -> (sigma, rigidity)`` re-estimates the noise after each exclusion.
+        ``fit(slopes_masked, sigma, rigidity, sigma_z) -> (sigma, rigidity)`` re-estimates the noise after each
+        exclusion.
     raw_day_spread_deg : (D, N) ndarray, optional
         Robust within-day spread of the raw readings (``DailyAngles.raw_day_spread_deg``), NaN on days with
         too few readings (fewer than :data:`FROZEN_MIN_READINGS`): frozen-sensor test, a sensor is "dead"
         when it spreads less than :data:`DEAD_SPREAD_DEG` within each of :data:`FROZEN_MIN_DAYS` consecutive days.
+    fit_anchor : callable, optional
+        ``fit_anchor(slopes_masked) -> sigma_z`` re-estimates the end-anchor std of the prediction from the kept
+        sensors before each pass (:func:`~longprofile.rail._settle.fit_end_anchor`); None: ``sigma_z`` throughout.
 
     Returns
     -------
@@ -325,8 +333,10 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     while True:
         bad = status != "ok"
         M = np.where(bad[None, :], np.nan, slopes)
+        if fit_anchor is not None:
+            sigma_z = fit_anchor(M)
         if fit is not None:
-            sigma, rigidity = fit(M, sigma, rigidity)
+            sigma, rigidity = fit(M, sigma, rigidity, sigma_z)
         z, pred = loo_residuals(x, M, sigma=sigma, rigidity=rigidity, sigma_z=sigma_z)
         k = np.isfinite(z).sum(axis=0)
         score = np.where(k > 0, np.nansum(z**2, axis=0) / np.maximum(k, 1), np.nan)
@@ -366,7 +376,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
             detail[j] = f"{why}; {base} (> {IMPROBABLE_SCORE:g} and p < {IMPROBABLE_P:g}/N)"
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(status, dtype=str),
                           detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
-                          reversal_z=rev, reversal_llr=llr, step_z=step)
+                          reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z))
     return health, float(sigma), float(rigidity)
 
 
