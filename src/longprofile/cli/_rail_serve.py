@@ -280,7 +280,9 @@ def site_audit(name: str = typer.Argument(...), db: str = DB_OPT, limit: int = t
 
 @site_app.command("ingest")
 def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="readings table."),
-                db: str = DB_OPT, angle_unit: str = typer.Option("deg", "--angle-unit")):
+                db: str = DB_OPT, angle_unit: str = typer.Option(
+                    "deg", "--angle-unit", help="Unit of a plain angle_deg column: deg or rad (a header such as "
+                                                "angle_rad declares its own; leave this out then).")):
     """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
     from ..errors import InputFormatError
     from ..io import read_rail_table

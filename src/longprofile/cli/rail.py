@@ -92,7 +92,9 @@ def settle_command(
              "maximum likelihood, which gives calibrated 90 % bands (docs/rail.md)."),
     sigma_z: float = typer.Option(1e-5, "--sigma-z", help="Std of the fixed-end anchors, m."),
     sigma_a: float = typer.Option(2e-3, "--sigma-a", help="Survey noise, m."),
-    angle_unit: str = typer.Option("deg", "--angle-unit", help="Unit of angle_deg as given: deg or rad."),
+    angle_unit: str = typer.Option("deg", "--angle-unit", help="Unit of a plain angle_deg column as given: deg or rad (a header that "
+                                                              "declares its unit, angle_rad or 'angle (mrad)', is "
+                                                              "converted; leave this out then)."),
     check_units: bool = typer.Option(True, "--check-units/--no-check-units",
                                      help="Refuse angles that look like radians."),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
