@@ -456,7 +456,8 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
     loglik = rigidity_log_likelihood_rows(x, rows, levels=sigmas, sigma_z=sigma_z, penalty_order=penalty_order,
                                           sensor_factors=factors, univariate=True)
 
-    def nll(index, logr):
+    def nll(logr, index):  # scipy's element-wise signature (its args arrive as floats)
+        index = index.astype(np.intp)
         out = np.full(index.size, 1e300)
         ok = (-60 < logr) & (logr < 5)
         if ok.any():  # np.exp of the array: the scalar's values, bit for bit (tested)
@@ -465,10 +466,9 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
 
     grid = np.log(10.0) * _LOG10_RIGIDITY_GRID[penalty_order]
     D, G = rows.shape[0], grid.size
-    vals = nll(np.repeat(np.arange(D), G), np.tile(grid, D)).reshape(D, G)
+    vals = nll(np.tile(grid, D), np.repeat(np.arange(D), G)).reshape(D, G)
     k = np.argmin(vals, axis=1)
     best, fun = grid[k].copy(), vals[np.arange(D), k]
-    f = lambda logr, index: nll(index.astype(np.intp), logr)  # noqa: E731  (scipy's element-wise signature)
     # brackets (left, middle, right) around each minimum: the grid's own where the minimum is inside it; at an end of
     # the grid, within the half-interval to its neighbour (as _fit_rigidity's bounded search), found by scipy
     left, mid, right = grid[np.maximum(k - 1, 0)], grid[k], grid[np.minimum(k + 1, G - 1)]
@@ -478,7 +478,7 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
 
         lo, hi = np.minimum(left[edge], right[edge]), np.maximum(left[edge], right[edge])
         w = hi - lo
-        br = bracket_minimum(f, lo + 0.5 * w, xl0=lo + 0.25 * w, xr0=lo + 0.75 * w, xmin=lo, xmax=hi, args=(edge,))
+        br = bracket_minimum(nll, lo + 0.5 * w, xl0=lo + 0.25 * w, xr0=lo + 0.75 * w, xmin=lo, xmax=hi, args=(edge,))
         for arr, b in zip((left, mid, right), br.bracket):
             arr[edge] = np.where(br.status == 0, b, arr[edge])  # else (-1): the grid's end is the minimiser
         mid[edge[br.status != 0]] = np.nan
@@ -486,7 +486,7 @@ def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) ->
     if todo.size:
         from scipy.optimize.elementwise import find_minimum
 
-        res = find_minimum(f, (left[todo], mid[todo], right[todo]), args=(todo,),
+        res = find_minimum(nll, (left[todo], mid[todo], right[todo]), args=(todo,),
                            tolerances={"xatol": 1e-3, "xrtol": 0.0})
         better = res.f_x <= fun[todo]
         best[todo[better]] = res.x[better]
