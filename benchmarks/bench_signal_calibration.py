@@ -34,7 +34,7 @@ std that was the only one before issue 13).
 Seeds: the rows use seed 0; the constants of ``std="total"`` were chosen on ``calibrate(..., seed=1000)``, so the
 rows are out-of-sample.
 
-Run: ``python -m benchmarks signal_calibration`` (full: 24 draws per family) or ``--quick`` (2 draws of two
+Run: ``python -m benchmarks signal_calibration`` (full: 96 draws per family; 24 until 2026-12-06 session 27) or ``--quick`` (2 draws of two
 families, seconds).
 """
 
@@ -189,7 +189,7 @@ def calibrate(family: str, draws: int, *, seed: int = 0, methods=METHODS, stds=N
 
 
 def run(quick: bool) -> list[BenchRow]:
-    families, draws = FAMILIES, 24
+    families, draws = FAMILIES, 96
     if quick:  # a smoke run: two draws of two families
         families, draws = ("smooth", "triangle"), 2
     rows = []
