@@ -11,11 +11,13 @@ from scipy.stats import norm
 
 from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail._health import (
+    REVERSED_ALL_DAYS_INC_LLR,
     REVERSED_ALL_DAYS_LBF,
     REVERSED_SHAPE_EVIDENCE,
     REVERSED_SHAPE_GATE_INC_LLR,
     REVERSED_SHAPE_GATE_LBF,
     REVERSED_SUM_GATE_INC_LLR,
+    REVERSED_SUM_INC_WEIGHT,
     REVERSED_SUM_LBF,
     ReversalEvidence,
     SensorHealth,
@@ -199,29 +201,32 @@ def test_a_shape_flat_over_the_stations_is_left_out_not_a_nan():
 
 
 def test_the_sum_rule_flags_on_the_sum_of_the_two_log_bayes_factors_above_its_gates():
-    """Step 15: with ``shape_rule="sum"`` a kept sensor is flagged when its all-days plus shape log Bayes factors exceed
-    REVERSED_SUM_LBF, its all-days one exceeds REVERSED_SHAPE_GATE_LBF and its day-to-day ratio REVERSED_SUM_GATE_INC_LLR;
+    """Step 15: with ``shape_rule="sum"`` a kept sensor is flagged when its all-days plus shape log Bayes factors plus
+    REVERSED_SUM_INC_WEIGHT x its day-to-day ratio exceed REVERSED_SUM_LBF, its all-days one exceeds
+    REVERSED_SHAPE_GATE_LBF and its day-to-day ratio REVERSED_SUM_GATE_INC_LLR;
     here every sensor passes step 14's gates too, and step 14's rule (the shape log Bayes factor alone above
     REVERSED_SHAPE_EVIDENCE) and step 11's flag none of them."""
     N = 6
-    hi = max(REVERSED_SUM_GATE_INC_LLR, REVERSED_SHAPE_GATE_INC_LLR) + 1.0  # below step 11's gate of 10
+    hi = REVERSED_ALL_DAYS_INC_LLR - 1.0  # above both shape rules' gates, below step 11's
+    assert hi > max(REVERSED_SUM_GATE_INC_LLR, REVERSED_SHAPE_GATE_INC_LLR)
     inc = np.array([hi] * 5 + [REVERSED_SUM_GATE_INC_LLR - 0.5])
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(["ok"] * N), detail=np.array([""] * N),
                           excluded=np.zeros(N, bool), loo_score=np.ones(N), reversal_llr=inc)
-    a = REVERSED_ALL_DAYS_LBF - 0.1  # all-days evidence just under step 11's threshold
-    lbf = np.array([REVERSED_SHAPE_GATE_LBF - 0.5, a, a, a, a - 1.0, a])
+    a = REVERSED_ALL_DAYS_LBF - 0.1 + REVERSED_SUM_INC_WEIGHT * hi  # all-days evidence (+ the ratio's share) ...
+    lim = REVERSED_ALL_DAYS_LBF - 0.1  # ... just under step 11's threshold
+    lbf = np.array([REVERSED_SHAPE_GATE_LBF - 0.5, lim, lim, lim, lim - 1.0, lim])
     ev = ReversalEvidence(log_bayes_factor=lbf, information=np.ones(N))
     # 0: sum far above but all-days evidence below its gate; 1: sum just below; 2: sum above (flagged first);
     # 3: no shape evidence; 4: sum above, less (flagged second); 5: sum above but day-to-day ratio below the gate
     glr = np.array([40.0, REVERSED_SUM_LBF - a - 0.1, REVERSED_SUM_LBF - a + 1.5, np.nan,
-                    REVERSED_SUM_LBF - (a - 1.0) + 0.2, REVERSED_SUM_LBF - a + 1.0])
-    assert np.all(np.nan_to_num(glr, nan=0.0)[1:] < REVERSED_SHAPE_EVIDENCE)
+                    REVERSED_SUM_LBF - (a - 1.0) + 0.2, REVERSED_SUM_LBF - a + 5.0])
+    assert np.all(np.nan_to_num(glr, nan=0.0)[1:5] < REVERSED_SHAPE_EVIDENCE)  # (5: step 14's gate stops it)
     assert inc[0] > REVERSED_SHAPE_GATE_INC_LLR and lbf[1] > REVERSED_SHAPE_GATE_LBF
     shape = ShapeEvidence(log_bayes_factor=glr, information=np.ones(N), family=np.zeros(N, int))
     cand = shape_candidates(health, ev, "sum")
     assert list(np.nonzero(cand)[0]) == [1, 2, 3, 4]
     out, j = flag_reversed_all_days(health, ev, shape=shape, shape_rule="sum", max_flagged=N)
-    assert j == 2 and out.status[2] == "reversed" and "sum with the all-days one" in out.detail[2]
+    assert j == 2 and out.status[2] == "reversed" and "score with the all-days one" in out.detail[2]
     out2, k = flag_reversed_all_days(out, ev, shape=shape, shape_rule="sum", max_flagged=N)
     assert k == 4
     assert flag_reversed_all_days(out2, ev, shape=shape, shape_rule="sum", max_flagged=N)[1] is None
@@ -232,7 +237,7 @@ def test_the_sum_rule_flags_on_the_sum_of_the_two_log_bayes_factors_above_its_ga
 
 def test_the_sum_rule_finds_a_reversal_that_both_step_11_and_step_14_keep():
     """Calibration site faults 650 (docs/rail.md step 15): its reversed sensor I012 (all-days log BF 11.8 but day-to-day
-    ratio 3.2 < 10; shape log BF 15.1 but day-to-day ratio < 5) is kept by the default and by step 14's rule, and
+    ratio 3.2 < 10; shape log BF 15.1 but day-to-day ratio < 5; score 28.5) is kept by the default and by step 14's rule, and
     flagged by the sum rule, with no other sensor's status changed."""
     sc = simulate_scenario("faults", 650)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
@@ -242,7 +247,7 @@ def test_the_sum_rule_finds_a_reversal_that_both_step_11_and_step_14_keep():
     j = off.sensor_ids.index("I012")
     assert sc.truth.faults["I012"] == "reversed"
     assert off.health.status[j] == "ok" and step14.health.status[j] == "ok"
-    assert on.health.status[j] == "reversed" and "sum with the all-days one" in on.health.detail[j]
+    assert on.health.status[j] == "reversed" and "score with the all-days one" in on.health.detail[j]
     assert on.settings["shape_rule"] == "sum"
     newly = np.asarray(on.health.status) != np.asarray(off.health.status)
     assert list(np.nonzero(newly)[0]) == [j]

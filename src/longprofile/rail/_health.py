@@ -97,17 +97,21 @@ REVERSED_SHAPE_GATE_LBF = -1.0
 #: (at 6: 3).
 REVERSED_SHAPE_GATE_INC_LLR = 5.0
 #: Rules of the shape test (``SettlementSettings.shape_rule``): "threshold", the shape log Bayes factor alone against
-#: :data:`REVERSED_SHAPE_EVIDENCE` (step 14); "sum", the sum of the all-days and the shape log Bayes factors against
+#: :data:`REVERSED_SHAPE_EVIDENCE` (step 14); "sum", one score of the three reversal statistics, the all-days and the
+#: shape log Bayes factors plus :data:`REVERSED_SUM_INC_WEIGHT` times the day-to-day ratio, against
 #: :data:`REVERSED_SUM_LBF` (step 15).
 SHAPE_RULES = ("threshold", "sum")
-#: Sum rule (step 15): a kept sensor is also "reversed" when its all-days log Bayes factor plus its shape log Bayes
-#: factor exceeds this, its all-days log Bayes factor exceeds :data:`REVERSED_SHAPE_GATE_LBF` ...
-REVERSED_SUM_LBF = 12.0
-#: ... and its day-to-day reversal log-likelihood ratio exceeds this. Calibration seeds (docs/rail.md, "Sensor health,
-#: step 15"; the statistics of the kept sensors at the last health pass): faults 300-699, drift, drift-fronts,
-#: lag-swings, sparse-drift and the shape families (faults-*) 300-319 to 300-379, 22 400 healthy and 64 reversed kept
-#: sensors: 10 reversed and 1 healthy above both (step 14's rule: 8 and the same 1; at 11: 12 and 4).
+#: Sum rule (step 15): a kept sensor is also "reversed" when its score lbf + shape lbf + REVERSED_SUM_INC_WEIGHT * inc
+#: exceeds this, its all-days log Bayes factor exceeds :data:`REVERSED_SHAPE_GATE_LBF` ...
+REVERSED_SUM_LBF = 16.0
+#: ... and its day-to-day reversal log-likelihood ratio exceeds this ...
 REVERSED_SUM_GATE_INC_LLR = 2.0
+#: ... with this weight of the day-to-day ratio in the score. Calibration seeds (docs/rail.md, "Sensor health, step
+#: 15"; the statistics of the kept sensors at the last health pass): faults 300-699, drift, drift-fronts, lag-swings,
+#: sparse-drift and the shape families (faults-*) 300-319 to 300-379, 22 466 healthy and 44 reversed kept sensors
+#: (besides faults-tilt's): weight 0 / 0.1 / 0.25 / 0.5 found 10 / 12 / 14 / 14 reversed at the threshold flagging
+#: 1 healthy sensor (step 14's rule: 8 and the same sensor).
+REVERSED_SUM_INC_WEIGHT = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -503,11 +507,12 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     :data:`REVERSED_ALL_DAYS_INC_LLR`; or, with ``shape``, when its localised-shape log Bayes factor
     (:func:`~longprofile.rail._shapes.shape_reversal_evidence`) exceeds :data:`REVERSED_SHAPE_EVIDENCE` and it is one
     of the :func:`shape_candidates` (both all-days statistics above their lower gates). With ``shape_rule="sum"``
-    (docs/rail.md, "Sensor health, step 15") the shape test is instead: the sum of the all-days and the shape log
-    Bayes factors exceeds :data:`REVERSED_SUM_LBF`, and it is one of the ``shape_candidates(..., rule="sum")``. The
-    two log Bayes factors weigh the same data under two predictions of the sensor (the smooth all-days prior of
-    paper 004 §4.2 and the localised shapes); their sum is not a likelihood ratio but a score, whose healthy tail
-    was measured on calibration seeds. The worst by the sum of the two log Bayes factors.
+    (docs/rail.md, "Sensor health, step 15") the shape test is instead one score of the three statistics, all-days log
+    BF + shape log BF + :data:`REVERSED_SUM_INC_WEIGHT` x day-to-day ratio, above :data:`REVERSED_SUM_LBF`, for the
+    ``shape_candidates(..., rule="sum")``. The three weigh the same data under three predictions of the sensor (the
+    smooth all-days prior of paper 004 §4.2, the localised shapes, independent day-to-day changes): the score is not a
+    likelihood ratio, and its threshold was set on the healthy sensors' tail on calibration seeds. The worst by the
+    sum of the two log Bayes factors.
     One sensor at a time (the caller re-fits the noise model without it and asks again), and none once
     ``max_flagged`` sensors (default a quarter; dead ones not counted, as in :func:`assess_sensors`) are excluded or
     only 3 are left.
@@ -524,7 +529,8 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
     glr = np.full(N, np.nan) if shape is None else np.asarray(shape.log_bayes_factor, float)
     g = np.nan_to_num(glr, nan=-np.inf)
-    shape_score, shape_thr = (g, REVERSED_SHAPE_EVIDENCE) if shape_rule == "threshold" else (lbf + g, REVERSED_SUM_LBF)
+    shape_score, shape_thr = ((g, REVERSED_SHAPE_EVIDENCE) if shape_rule == "threshold" else
+                              (lbf + g + REVERSED_SUM_INC_WEIGHT * inc, REVERSED_SUM_LBF))
     by_shape = shape_candidates(health, evidence, shape_rule) & (shape_score > shape_thr)
     passes = ((lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)) | by_shape
 
@@ -534,7 +540,8 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
                 f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
         if np.isfinite(glr[j]):
             rule = (f"threshold {REVERSED_SHAPE_EVIDENCE:g}" if shape_rule == "threshold" else
-                    f"sum with the all-days one {lbf[j] + glr[j]:.3g}, threshold {REVERSED_SUM_LBF:g}")
+                    f"score with the all-days one and the day-to-day ratio "
+                    f"{lbf[j] + glr[j] + REVERSED_SUM_INC_WEIGHT * inc[j]:.3g}, threshold {REVERSED_SUM_LBF:g}")
             text += (f"; with a localised settlement shape fitted to the other sensors, log Bayes factor {glr[j]:.3g} "
                      f"({rule}; information {shape.information[j]:.3g})")
         return text
