@@ -236,9 +236,10 @@ def test_the_sum_rule_flags_on_the_sum_of_the_two_log_bayes_factors_above_its_ga
 
 
 def test_the_sum_rule_finds_a_reversal_that_both_step_11_and_step_14_keep():
-    """Calibration site faults 650 (docs/rail.md step 15): its reversed sensor I012 (all-days log BF 11.8 but day-to-day
-    ratio 3.2 < 10; shape log BF 15.1 but day-to-day ratio < 5; score 28.5) is kept by the default and by step 14's rule, and
-    flagged by the sum rule, with no other sensor's status changed."""
+    """Calibration site faults 650 (docs/rail.md step 15): its reversed sensor I012 of modest SNR (1.9, the harness's:
+    largest true slope change / last day's noise std; all-days log BF 11.8 but day-to-day ratio 3.2 < 10; shape log BF
+    15.1 but ratio < 5; score 28.5) is kept by the default and by step 14's rule, and flagged by the sum rule, with no
+    other sensor's status changed."""
     sc = simulate_scenario("faults", 650)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
     off = estimate_settlement(site, n_monte_carlo=0)

@@ -108,9 +108,10 @@ REVERSED_SUM_LBF = 16.0
 REVERSED_SUM_GATE_INC_LLR = 2.0
 #: ... with this weight of the day-to-day ratio in the score. Calibration seeds (docs/rail.md, "Sensor health, step
 #: 15"; the statistics of the kept sensors at the last health pass): faults 300-699, drift, drift-fronts, lag-swings,
-#: sparse-drift and the shape families (faults-*) 300-319 to 300-379, 22 466 healthy and 44 reversed kept sensors
-#: (besides faults-tilt's): weight 0 / 0.1 / 0.25 / 0.5 found 10 / 12 / 14 / 14 reversed at the threshold flagging
-#: 1 healthy sensor (step 14's rule: 8 and the same sensor).
+#: sparse-drift and the shape families (faults-*) 300-319 to 300-379, 21 484 healthy and 64 reversed kept sensors (20
+#: on faults-tilt, found by no rule): weight 0 / 0.1 / 0.25 / 0.5 found 10 / 12 / 15 / 15 reversed at the lowest
+#: threshold flagging 1 healthy sensor, 7 / 7 / 7 / 12 flagging none; 0.5 and 16: 14 and 1 (step 14's rule: 8 and the
+#: same sensor).
 REVERSED_SUM_INC_WEIGHT = 0.5
 
 
@@ -541,7 +542,8 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
         if np.isfinite(glr[j]):
             rule = (f"threshold {REVERSED_SHAPE_EVIDENCE:g}" if shape_rule == "threshold" else
                     f"score with the all-days one and the day-to-day ratio "
-                    f"{lbf[j] + glr[j] + REVERSED_SUM_INC_WEIGHT * inc[j]:.3g}, threshold {REVERSED_SUM_LBF:g}")
+                    f"{lbf[j] + glr[j] + REVERSED_SUM_INC_WEIGHT * inc[j]:.3g}, threshold {REVERSED_SUM_LBF:g}, with the "
+                    f"all-days one > {REVERSED_SHAPE_GATE_LBF:g} and the ratio > {REVERSED_SUM_GATE_INC_LLR:g}")
             text += (f"; with a localised settlement shape fitted to the other sensors, log Bayes factor {glr[j]:.3g} "
                      f"({rule}; information {shape.information[j]:.3g})")
         return text
