@@ -11,7 +11,14 @@ from scipy.stats import norm
 
 from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail._health import (
+    REVERSED_ALL_DAYS_INC_LLR,
+    REVERSED_ALL_DAYS_LBF,
     REVERSED_SHAPE_EVIDENCE,
+    REVERSED_SHAPE_GATE_INC_LLR,
+    REVERSED_SHAPE_GATE_LBF,
+    REVERSED_SUM_GATE_INC_LLR,
+    REVERSED_SUM_INC_WEIGHT,
+    REVERSED_SUM_LBF,
     ReversalEvidence,
     SensorHealth,
     flag_reversed_all_days,
@@ -191,3 +198,65 @@ def test_a_shape_flat_over_the_stations_is_left_out_not_a_nan():
     b = shape_reversal_evidence(x, Y, noise, sensor_factors=f, shapes=both)
     assert np.all(np.isfinite(b.log_bayes_factor))
     assert np.allclose(a.log_bayes_factor, b.log_bayes_factor, rtol=1e-12, atol=1e-12)
+
+
+def test_the_sum_rule_flags_on_the_sum_of_the_two_log_bayes_factors_above_its_gates():
+    """Step 15: with ``shape_rule="sum"`` a kept sensor is flagged when its all-days plus shape log Bayes factors plus
+    REVERSED_SUM_INC_WEIGHT x its day-to-day ratio exceed REVERSED_SUM_LBF, its all-days one exceeds
+    REVERSED_SHAPE_GATE_LBF and its day-to-day ratio REVERSED_SUM_GATE_INC_LLR;
+    here every sensor passes step 14's gates too, and step 14's rule (the shape log Bayes factor alone above
+    REVERSED_SHAPE_EVIDENCE) and step 11's flag none of them."""
+    N = 6
+    hi = REVERSED_ALL_DAYS_INC_LLR - 1.0  # above both shape rules' gates, below step 11's
+    assert hi > max(REVERSED_SUM_GATE_INC_LLR, REVERSED_SHAPE_GATE_INC_LLR)
+    inc = np.array([hi] * 5 + [REVERSED_SUM_GATE_INC_LLR - 0.5])
+    health = SensorHealth(sensor_ids=list(range(N)), status=np.array(["ok"] * N), detail=np.array([""] * N),
+                          excluded=np.zeros(N, bool), loo_score=np.ones(N), reversal_llr=inc)
+    a = REVERSED_ALL_DAYS_LBF - 0.1 + REVERSED_SUM_INC_WEIGHT * hi  # all-days evidence (+ the ratio's share) ...
+    lim = REVERSED_ALL_DAYS_LBF - 0.1  # ... just under step 11's threshold
+    lbf = np.array([REVERSED_SHAPE_GATE_LBF - 0.5, lim, lim, lim, lim - 1.0, lim])
+    ev = ReversalEvidence(log_bayes_factor=lbf, information=np.ones(N))
+    # 0: sum far above but all-days evidence below its gate; 1: sum just below; 2: sum above (flagged first);
+    # 3: no shape evidence; 4: sum above, less (flagged second); 5: sum above but day-to-day ratio below the gate
+    glr = np.array([40.0, REVERSED_SUM_LBF - a - 0.1, REVERSED_SUM_LBF - a + 1.5, np.nan,
+                    REVERSED_SUM_LBF - (a - 1.0) + 0.2, REVERSED_SUM_LBF - a + 5.0])
+    assert np.all(np.nan_to_num(glr, nan=0.0)[1:5] < REVERSED_SHAPE_EVIDENCE)  # (5: step 14's gate stops it)
+    assert inc[0] > REVERSED_SHAPE_GATE_INC_LLR and lbf[1] > REVERSED_SHAPE_GATE_LBF
+    shape = ShapeEvidence(log_bayes_factor=glr, information=np.ones(N), family=np.zeros(N, int))
+    cand = shape_candidates(health, ev, "sum")
+    assert list(np.nonzero(cand)[0]) == [1, 2, 3, 4]
+    out, j = flag_reversed_all_days(health, ev, shape=shape, shape_rule="sum", max_flagged=N)
+    assert j == 2 and out.status[2] == "reversed" and "score with the all-days one" in out.detail[2]
+    out2, k = flag_reversed_all_days(out, ev, shape=shape, shape_rule="sum", max_flagged=N)
+    assert k == 4
+    assert flag_reversed_all_days(out2, ev, shape=shape, shape_rule="sum", max_flagged=N)[1] is None
+    assert flag_reversed_all_days(health, ev, shape=shape, max_flagged=N)[1] is None  # step 14's rule and step 11's
+    with pytest.raises(ValueError):
+        shape_candidates(health, ev, "max")
+
+
+def test_the_sum_rule_finds_a_reversal_that_both_step_11_and_step_14_keep():
+    """Calibration site faults 650 (docs/rail.md step 15): its reversed sensor I012 of modest SNR (1.9, the harness's:
+    largest true slope change / last day's noise std; all-days log BF 11.8 but day-to-day ratio 3.2 < 10; shape log BF
+    15.1 but ratio < 5; score 28.5) is kept by the default and by step 14's rule, and flagged by the sum rule, with no
+    other sensor's status changed."""
+    sc = simulate_scenario("faults", 650)
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    off = estimate_settlement(site, n_monte_carlo=0)
+    step14 = estimate_settlement(site, n_monte_carlo=0, shape_evidence=True)
+    on = estimate_settlement(site, n_monte_carlo=0, shape_evidence=True, shape_rule="sum")
+    j = off.sensor_ids.index("I012")
+    assert sc.truth.faults["I012"] == "reversed"
+    assert off.health.status[j] == "ok" and step14.health.status[j] == "ok"
+    assert on.health.status[j] == "reversed" and "score with the all-days one" in on.health.detail[j]
+    assert on.settings["shape_rule"] == "sum"
+    newly = np.asarray(on.health.status) != np.asarray(off.health.status)
+    assert list(np.nonzero(newly)[0]) == [j]
+
+
+def test_an_unknown_shape_rule_is_refused():
+    from longprofile.errors import InputError
+    from longprofile.rail import SettlementSettings
+
+    with pytest.raises(InputError):
+        SettlementSettings(shape_rule="max")

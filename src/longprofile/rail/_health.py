@@ -37,7 +37,7 @@ from ._shapes import ShapeEvidence
 
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
-           "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates"]
+           "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -96,6 +96,23 @@ REVERSED_SHAPE_GATE_LBF = -1.0
 #: (faults-*) 300-359, faults-asymmetric 300-379: the lowest threshold flagging none of their 13 219 healthy kept sensors
 #: (at 6: 3).
 REVERSED_SHAPE_GATE_INC_LLR = 5.0
+#: Rules of the shape test (``SettlementSettings.shape_rule``): "threshold", the shape log Bayes factor alone against
+#: :data:`REVERSED_SHAPE_EVIDENCE` (step 14); "sum", one score of the three reversal statistics, the all-days and the
+#: shape log Bayes factors plus :data:`REVERSED_SUM_INC_WEIGHT` times the day-to-day ratio, against
+#: :data:`REVERSED_SUM_LBF` (step 15).
+SHAPE_RULES = ("threshold", "sum")
+#: Sum rule (step 15): a kept sensor is also "reversed" when its score lbf + shape lbf + REVERSED_SUM_INC_WEIGHT * inc
+#: exceeds this, its all-days log Bayes factor exceeds :data:`REVERSED_SHAPE_GATE_LBF` ...
+REVERSED_SUM_LBF = 16.0
+#: ... and its day-to-day reversal log-likelihood ratio exceeds this ...
+REVERSED_SUM_GATE_INC_LLR = 2.0
+#: ... with this weight of the day-to-day ratio in the score. Calibration seeds (docs/rail.md, "Sensor health, step
+#: 15"; the statistics of the kept sensors at the last health pass): faults 300-699, drift, drift-fronts, lag-swings,
+#: sparse-drift and the shape families (faults-*) 300-319 to 300-379, 21 484 healthy and 64 reversed kept sensors (20
+#: on faults-tilt, found by no rule): weight 0 / 0.1 / 0.25 / 0.5 found 10 / 12 / 15 / 15 reversed at the lowest
+#: threshold flagging 1 healthy sensor, 7 / 7 / 7 / 12 flagging none; 0.5 and 16: 14 and 1 (step 14's rule: 8 and the
+#: same sensor).
+REVERSED_SUM_INC_WEIGHT = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -467,26 +484,36 @@ PROFILE_FACTOR_BOUNDS = (0.25, 8.0)
 PROFILE_FACTOR_GRID = 121
 
 
-def shape_candidates(health: SensorHealth, evidence: ReversalEvidence) -> np.ndarray:
+def shape_candidates(health: SensorHealth, evidence: ReversalEvidence, rule: str = "threshold") -> np.ndarray:
     """(N,) bool: the kept sensors whose all-days log Bayes factor exceeds :data:`REVERSED_SHAPE_GATE_LBF` and whose
-    day-to-day reversal log-likelihood ratio exceeds :data:`REVERSED_SHAPE_GATE_INC_LLR`: the only ones the shape test
-    can flag (the caller computes their shape GLR only)."""
+    day-to-day reversal log-likelihood ratio exceeds :data:`REVERSED_SHAPE_GATE_INC_LLR` (``rule`` "threshold") or
+    :data:`REVERSED_SUM_GATE_INC_LLR` ("sum"): the only ones the shape test can flag (the caller computes their shape
+    evidence only)."""
+    if rule not in SHAPE_RULES:
+        raise ValueError(f"rule must be one of {SHAPE_RULES}; got {rule!r}")
     N = health.status.size
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
-    return ~np.asarray(health.excluded, bool) & (lbf > REVERSED_SHAPE_GATE_LBF) & (inc > REVERSED_SHAPE_GATE_INC_LLR)
+    gate = REVERSED_SHAPE_GATE_INC_LLR if rule == "threshold" else REVERSED_SUM_GATE_INC_LLR
+    return ~np.asarray(health.excluded, bool) & (lbf > REVERSED_SHAPE_GATE_LBF) & (inc > gate)
 
 
 def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max_flagged: int | None = None,
-                           shape: ShapeEvidence | None = None) -> tuple[SensorHealth, int | None]:
+                           shape: ShapeEvidence | None = None,
+                           shape_rule: str = "threshold") -> tuple[SensorHealth, int | None]:
     """Flag the kept sensor with the largest all-days evidence of a reversal, if any passes either test.
 
     A sensor still "ok" is flagged "reversed" when its log Bayes factor (:func:`all_days_reversal_evidence`) exceeds
     :data:`REVERSED_ALL_DAYS_LBF` and its day-to-day reversal log-likelihood ratio (``health.reversal_llr``) exceeds
     :data:`REVERSED_ALL_DAYS_INC_LLR`; or, with ``shape``, when its localised-shape log Bayes factor
     (:func:`~longprofile.rail._shapes.shape_reversal_evidence`) exceeds :data:`REVERSED_SHAPE_EVIDENCE` and it is one
-    of the :func:`shape_candidates` (both all-days statistics above their lower gates). The worst by the sum of the
-    two log Bayes factors.
+    of the :func:`shape_candidates` (both all-days statistics above their lower gates). With ``shape_rule="sum"``
+    (docs/rail.md, "Sensor health, step 15") the shape test is instead one score of the three statistics, all-days log
+    BF + shape log BF + :data:`REVERSED_SUM_INC_WEIGHT` x day-to-day ratio, above :data:`REVERSED_SUM_LBF`, for the
+    ``shape_candidates(..., rule="sum")``. The three weigh the same data under three predictions of the sensor (the
+    smooth all-days prior of paper 004 §4.2, the localised shapes, independent day-to-day changes): the score is not a
+    likelihood ratio, and its threshold was set on the healthy sensors' tail on calibration seeds. The worst by the
+    sum of the two log Bayes factors.
     One sensor at a time (the caller re-fits the noise model without it and asks again), and none once
     ``max_flagged`` sensors (default a quarter; dead ones not counted, as in :func:`assess_sensors`) are excluded or
     only 3 are left.
@@ -502,7 +529,10 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     N = health.status.size
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
     glr = np.full(N, np.nan) if shape is None else np.asarray(shape.log_bayes_factor, float)
-    by_shape = shape_candidates(health, evidence) & (np.nan_to_num(glr, nan=-np.inf) > REVERSED_SHAPE_EVIDENCE)
+    g = np.nan_to_num(glr, nan=-np.inf)
+    shape_score, shape_thr = ((g, REVERSED_SHAPE_EVIDENCE) if shape_rule == "threshold" else
+                              (lbf + g + REVERSED_SUM_INC_WEIGHT * inc, REVERSED_SUM_LBF))
+    by_shape = shape_candidates(health, evidence, shape_rule) & (shape_score > shape_thr)
     passes = ((lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)) | by_shape
 
     def detail(j):
@@ -510,8 +540,12 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
                 f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day "
                 f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
         if np.isfinite(glr[j]):
+            rule = (f"threshold {REVERSED_SHAPE_EVIDENCE:g}" if shape_rule == "threshold" else
+                    f"score with the all-days one and the day-to-day ratio "
+                    f"{lbf[j] + glr[j] + REVERSED_SUM_INC_WEIGHT * inc[j]:.3g}, threshold {REVERSED_SUM_LBF:g}, with the "
+                    f"all-days one > {REVERSED_SHAPE_GATE_LBF:g} and the ratio > {REVERSED_SUM_GATE_INC_LLR:g}")
             text += (f"; with a localised settlement shape fitted to the other sensors, log Bayes factor {glr[j]:.3g} "
-                     f"(threshold {REVERSED_SHAPE_EVIDENCE:g}; information {shape.information[j]:.3g})")
+                     f"({rule}; information {shape.information[j]:.3g})")
         return text
 
     return _flag_worst(replace(health, reversal_evidence=evidence, shape_evidence=shape),

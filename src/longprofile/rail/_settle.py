@@ -15,6 +15,7 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
+    SHAPE_RULES,
     SensorHealth,
     all_days_reversal_evidence,
     all_days_step_evidence,
@@ -942,6 +943,13 @@ class SettlementSettings:
         :func:`~longprofile.rail._shapes.shape_reversal_evidence`, :data:`~longprofile.rail._health.REVERSED_SHAPE_EVIDENCE`).
         Off by default: on the benchmark it found 94 instead of 92 of 100 reversed sensors (faults seeds 200-299;
         95 -> 95 on 100-199) but flagged 2 more healthy sensors of 1020 on asymmetric bowls (0.98 -> 1.18 %).
+    shape_rule : {"threshold", "sum"}, default "threshold"
+        With ``shape_evidence``: how the shape evidence flags a sensor (:data:`~longprofile.rail._health.SHAPE_RULES`):
+        "threshold", its shape log Bayes factor alone above a threshold (step 14); "sum", the sum of its all-days and
+        shape log Bayes factors plus half its day-to-day ratio above one threshold (issue 13 step 15, docs/rail.md;
+        :data:`~longprofile.rail._health.REVERSED_SUM_LBF`). Not the default: on the benchmark it found 94 of 100
+        reversed sensors (faults seeds 200-299, as "threshold"; 96 instead of 95 on 100-199) with one healthy sensor
+        fewer flagged, but 14 instead of 12 of 1020 on asymmetric bowls.
     health_end_anchor : {"fixed", "fit"}, default "fixed"
         End anchors of the health tests' prediction of a sensor from its neighbours: "fixed", ``sigma_z``; "fit", the
         anchor std of largest marginal likelihood from ``sigma_z`` up, re-chosen on the kept sensors before each
@@ -977,6 +985,7 @@ class SettlementSettings:
     joint_days: bool = True
     max_settlement_interval: str = "draws"
     shape_evidence: bool = False
+    shape_rule: str = "threshold"
     health_end_anchor: str = "fixed"
 
     @classmethod
@@ -1005,6 +1014,8 @@ class SettlementSettings:
         if self.max_settlement_interval not in MAX_SETTLEMENT_INTERVALS:
             raise InputError(f"max_settlement_interval must be one of {MAX_SETTLEMENT_INTERVALS}; "
                              f"got {self.max_settlement_interval!r}.")
+        if self.shape_rule not in SHAPE_RULES:
+            raise InputError(f"shape_rule must be one of {SHAPE_RULES}; got {self.shape_rule!r}.")
         if self.health_end_anchor not in HEALTH_END_ANCHORS:
             raise InputError(f"health_end_anchor must be one of {HEALTH_END_ANCHORS}; got {self.health_end_anchor!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
@@ -1292,6 +1303,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
     """The options used, as reported in :attr:`SettlementResult.settings`."""
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
+                shape_rule=opt.shape_rule,
                 health_end_anchor=opt.health_end_anchor,
                 health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
@@ -1442,10 +1454,11 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
                                               segment_weights=joint.weights, sigma_z=health_sz)
-        cand = shape_candidates(health, evidence) & opt.shape_evidence  # localised shapes ("Sensor health, step 14")
+        cand = shape_candidates(health, evidence, opt.shape_rule) & opt.shape_evidence  # localised shapes ("Sensor health, step 14")
         shape = shape_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, sensor_factors=joint.factors,
                                         sensors=cand) if cand.any() else None
-        health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0, shape=shape)
+        health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0, shape=shape,
+                                           shape_rule=opt.shape_rule)
         if j is None:  # a jump the day-to-day test missed ("Sensor health, step 12")
             steps = all_days_step_evidence(x, joint.mode_slopes, joint.modes.noise, joint.modes.to_modes,
                                            rigidity=joint.modes.rigidity, penalty_order=joint.prior.penalty_order,
