@@ -544,16 +544,17 @@ HEALTH_END_ANCHORS = ("fixed", "fit")
 
 
 def _running_median3(slopes):
-    """Median of each kept sensor's slope change and its kept neighbours' on either side (the ends: of the two), per
-    day: a single faulty sensor does not move it, a settlement shared by neighbouring sensors does."""
+    """Median of each kept sensor's slope change and its kept neighbours' on either side, per day (an end sensor: with
+    its two inner neighbours): a single faulty sensor does not move it, a settlement shared by neighbouring sensors
+    does. (Until session 27 an end sensor took the median of two, i.e. the mean with its neighbour, so a jump of the
+    sensor next to an end moved the end's value by half: found by the property test of ``fit_end_anchor``.)"""
     out = np.full_like(slopes, np.nan)
     kept = np.flatnonzero(np.isfinite(slopes).any(axis=0))
     if kept.size < 3:
         return slopes.copy()
     S = slopes[:, kept]
-    P = np.concatenate([S[:, :1], S, S[:, -1:]], axis=1)
-    W = np.stack([P[:, :-2], P[:, 1:-1], P[:, 2:]])
-    W[0, :, 0], W[2, :, -1] = np.nan, np.nan
+    lo = np.clip(np.arange(kept.size) - 1, 0, kept.size - 3)  # first of each sensor's three
+    W = np.stack([S[:, lo], S[:, lo + 1], S[:, lo + 2]])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         med = np.nanmedian(W, axis=0)
