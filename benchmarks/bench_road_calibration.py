@@ -36,7 +36,7 @@ The truth of ``elevation_m``
 is the true profile through the same detrending (``detrend_profile``); the truth of ``raw_m`` is the true
 profile itself (its offset and longest waves are unobservable: a calibrated ``raw_std_m`` must say so).
 
-Run: ``python -m benchmarks road_calibration`` (full: 8 draws per family) or ``--quick`` (one 600 m draw of two
+Run: ``python -m benchmarks road_calibration`` (full: 32 draws per family; 8 until 2026-12-06 session 27) or ``--quick`` (one 600 m draw of two
 families, the trailer mismatch with and without the declared tolerance).
 """
 
@@ -165,7 +165,7 @@ def run(quick: bool) -> list[BenchRow]:
         families, length = [f for f in FAMILIES if f[1] in ("own model", "trailer mismatch")], 600.0
     if not SOREL.exists():
         families = [f for f in families if f[1] != "measured road"]
-    draws = 1 if quick else 8
+    draws = 1 if quick else 32
     rows = []
     for family, recording, uncertainty in families:
         t0 = time.perf_counter()
