@@ -538,8 +538,9 @@ def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFA
 
 #: Decades above ``sigma_z`` over which :func:`fit_end_anchor` searches the end anchor of the health tests' prediction.
 HEALTH_ANCHOR_DECADES = 5
-#: ``SettlementSettings.health_end_anchor``: "fixed" (``sigma_z``, the default) or "fit" (:func:`fit_end_anchor`).
-HEALTH_END_ANCHORS = ("fixed", "fit")
+#: ``SettlementSettings.health_end_anchor``: "fixed" (``sigma_z``, the default), "fit" (:func:`fit_end_anchor`, the
+#: per-day likelihood) or "all-days" (:func:`fit_end_anchor_all_days`, the all-days likelihood).
+HEALTH_END_ANCHORS = ("fixed", "fit", "all-days")
 
 
 def _running_median3(slopes):
@@ -607,6 +608,119 @@ def fit_end_anchor(x, slopes, *, sigma=None, sigma_z: float = DEFAULT_SIGMA_Z, d
     grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
     ll = np.array([_fit_rigidity(x, rows, s, sz, 2)[1] for sz in grid])
     return float(grid[int(np.argmax(ll))]), ll
+
+
+#: Log-likelihood gain over the anchor at ``sigma_z`` that :func:`fit_end_anchor_all_days` needs to loosen it: half the
+#: 99.9 % quantile of chi-square with 1 degree of freedom (a likelihood-ratio test of one parameter at 0.1 %). The 1 %
+#: level (3.32) was also measured on calibration seeds: one more healthy sensor flagged on ``faults`` (docs/rail.md).
+ANCHOR_MIN_GAIN = 5.414
+
+#: Decades of the common scale of the increment rigidities r_d over which :func:`fit_end_anchor_all_days` profiles
+#: the all-days likelihood (either side of the fit at ``sigma_z``), and the grid's steps per decade.
+ANCHOR_SCALE_DECADES, ANCHOR_SCALE_STEPS = 3, 4
+
+
+def _all_days_anchor_model(x, slopes, *, day_offsets, temperature_change, sigma, sigma_z):
+    """The all-days model (docs/rail.md step 10) of ``slopes`` fitted with the anchor ``sigma_z`` and the paper's
+    prior (order 2, as the health tests): (mode data (K, N), DayModes, sensor factors)."""
+    M = np.asarray(slopes, float)
+    t = np.arange(M.shape[0], dtype=float) if day_offsets is None else np.asarray(day_offsets, float)
+    M, _ = _fill_missing_days(M, t)
+    factors = sensor_noise_factors(x, M)
+    noise = day_noise_covariance(x, M, day_offsets=t, temperature_change=temperature_change, sensor_factors=factors,
+                                 floor=0.5 * sigma)
+    prior = increment_rigidity(x, M, noise_cov=noise.cov, sigma_z=sigma_z, penalty_orders=(2,),
+                               sensor_factors=factors)
+    modes = day_modes(noise.cov, prior.rigidity_by_day)
+    return modes.to_modes @ M[1:], modes, factors
+
+
+def all_days_anchor_log_likelihood(x, mode_slopes, modes: DayModes, *, sigma_z: float, sensor_factors=None,
+                                   penalty_order: int = 2) -> tuple[float, float]:
+    r"""All-days marginal log-likelihood of the slope changes at the end-anchor std ``sigma_z``, the common scale c of
+    the increment rigidities (r_d -> c r_d) profiled out: (log-likelihood, c).
+
+    The modes of :func:`~longprofile.rail._joint.day_modes` are independent (step 10), so the log-likelihood of all
+    days and stations is the sum over modes of the rigidity model's (paper 004 §4.2, Lemma 4.1; the engine's
+    :func:`longprofile.statespace.grouped_log_likelihood`, one candidate per mode and scale) plus
+    N log|det V|, which neither ``sigma_z`` nor c changes (V, the modes, depend on the ratios r_d / r only).
+    The anchor's pseudo-observation in mode k has std ``sigma_z``: over the days the end-to-end change has the
+    settlement increments' covariance sigma_z^2 S, so the noise's own end-to-end displacement (reference-day error,
+    drift: R) is not evidence against the anchor, as it is in the per-day likelihood (:func:`fit_end_anchor`).
+    """
+    Y = np.asarray(mode_slopes, float)
+    K = Y.shape[0]
+    loglik = rigidity_log_likelihood_rows(x, Y, levels=modes.noise, sigma_z=sigma_z, penalty_order=penalty_order,
+                                          sensor_factors=sensor_factors, univariate=True)
+    r = float(modes.rigidity)
+
+    def total(logc):
+        logc = np.atleast_1d(np.asarray(logc, float))
+        ll = loglik(np.tile(np.arange(K), logc.size), np.repeat(r * np.exp(logc), K))
+        return ll.reshape(logc.size, K).sum(axis=1)
+
+    step = np.log(10.0) / ANCHOR_SCALE_STEPS
+    grid = step * np.arange(-ANCHOR_SCALE_DECADES * ANCHOR_SCALE_STEPS, ANCHOR_SCALE_DECADES * ANCHOR_SCALE_STEPS + 1)
+    vals = total(grid)
+    k = int(np.argmax(vals))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(lambda v: -float(total(v)[0]), bounds=(lo, hi), method="bounded", options={"xatol": 1e-2})
+    best, ll = (float(res.x), -float(res.fun)) if -res.fun >= vals[k] else (float(grid[k]), float(vals[k]))
+    return ll, float(np.exp(best))
+
+
+def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=None, sigma=None,
+                            sigma_z: float = DEFAULT_SIGMA_Z, decades: int = HEALTH_ANCHOR_DECADES,
+                            median: bool = False, min_gain: float = ANCHOR_MIN_GAIN):
+    """Maximum-likelihood std of the end anchors by the all-days likelihood (docs/rail.md, "The end anchor by the
+    all-days likelihood"), for the health tests' prediction.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+    day_offsets, temperature_change : (D,) array_like, optional
+        As in :func:`~longprofile.rail._joint.day_noise_covariance`.
+    sigma : float, optional
+        Day-to-day noise std (None: :func:`day_difference_sigma`); half of it floors each day's std.
+    sigma_z : float
+        The anchor std of the settings, m: the smallest value searched.
+    decades : int
+        Values searched: ``sigma_z * 10**k``, k = 0, ..., ``decades``.
+    median : bool, default False
+        Fit the 3-point running median of the slope changes along the track, as :func:`fit_end_anchor` does. Off: the
+        median of three has another noise than the all-days model's R (fitted to the sensors' own departures) and
+        loosened the anchor on bowl sites (calibration seeds, docs/rail.md); the margin ``min_gain`` and the re-fit
+        on the kept sensors before each health pass stand in for it against a single faulty sensor.
+    min_gain : float, default ANCHOR_MIN_GAIN
+        The anchor is loosened only when its best value's log-likelihood exceeds the anchor at ``sigma_z``'s by more
+        (a likelihood-ratio test of one parameter at 0.1 %).
+
+    Returns
+    -------
+    sigma_z_hat : float
+        The value of largest all-days likelihood if it beats ``sigma_z`` by more than ``min_gain``, else ``sigma_z``.
+    loglik : (decades + 1,) ndarray
+        The all-days profile log-likelihood at each value searched (:func:`all_days_anchor_log_likelihood`).
+
+    Notes
+    -----
+    The all-days model of step 10 (noise covariance over the days R, increment rigidities r_d, paper's prior order 2)
+    is fitted once at ``sigma_z``; each candidate anchor is then scored with the modes fixed and the common scale of
+    the r_d profiled. Unlike :func:`fit_end_anchor`'s per-day likelihood it knows that a sensor's reference-day
+    error and drift are shared by all its days.
+    """
+    M = np.asarray(slopes, float)
+    s = float(sigma) if sigma is not None else day_difference_sigma(M)
+    if median:
+        M = _running_median3(M)
+    Y, modes, f = _all_days_anchor_model(x, M, day_offsets=day_offsets, temperature_change=temperature_change,
+                                         sigma=s, sigma_z=sigma_z)
+    grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
+    ll = np.array([all_days_anchor_log_likelihood(x, Y, modes, sigma_z=sz, sensor_factors=f)[0] for sz in grid])
+    k = int(np.argmax(ll))
+    return (float(grid[k]) if ll[k] - ll[0] > min_gain else float(sigma_z)), ll
 
 
 @dataclass(frozen=True)
@@ -942,13 +1056,16 @@ class SettlementSettings:
         :func:`~longprofile.rail._shapes.shape_reversal_evidence`, :data:`~longprofile.rail._health.REVERSED_SHAPE_EVIDENCE`).
         Off by default: on the benchmark it found 94 instead of 92 of 100 reversed sensors (faults seeds 200-299;
         95 -> 95 on 100-199) but flagged 2 more healthy sensors of 1020 on asymmetric bowls (0.98 -> 1.18 %).
-    health_end_anchor : {"fixed", "fit"}, default "fixed"
+    health_end_anchor : {"fixed", "fit", "all-days"}, default "fixed"
         End anchors of the health tests' prediction of a sensor from its neighbours: "fixed", ``sigma_z``; "fit", the
         anchor std of largest marginal likelihood from ``sigma_z`` up, re-chosen on the kept sensors before each
         pass (:func:`fit_end_anchor`): a tilt of the whole span is then a rigid rotation, not an anomaly of some
         sensors. Off by default: on calibration seeds it flagged 1 instead of 68 of 494 healthy sensors on tilted
         sites but 10 instead of 7 of 1453 on the Gaussian-bowl ``faults`` sites (docs/rail.md, "Sensor health on
-        settlements that are not a bowl"). The settlement itself keeps ``sigma_z`` either way.
+        settlements that are not a bowl"). "all-days": the anchor chosen by the all-days likelihood of step 10
+        (:func:`fit_end_anchor_all_days`; errors correlated over the days), loosened only past a 0.1 % likelihood-
+        ratio test (docs/rail.md, "The end anchor by the all-days likelihood"). The settlement itself keeps
+        ``sigma_z`` either way.
     """
 
     thermal: str = "linear"
@@ -1051,6 +1168,23 @@ def _slope_changes(site: SiteData, daily: DailyAngles, opt: SettlementSettings):
     return initial, slopes
 
 
+def _anchor_fitter(x, daily: DailyAngles, opt: SettlementSettings):
+    """``fit_anchor(slopes_masked) -> sigma_z`` of the health tests (``opt.health_end_anchor``), None when fixed."""
+    if opt.health_end_anchor == "fit":
+        return lambda M: fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0]
+    if opt.health_end_anchor == "all-days":
+        t = np.asarray((pd.DatetimeIndex(daily.days) - pd.Timestamp(daily.days[0])) / pd.Timedelta(days=1), float)
+        dT = _site_temperature_change(daily)
+
+        def fit(M):
+            if M.shape[0] - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
+                return opt.sigma_z  # too short for the all-days model (as _joint_stage)
+            return fit_end_anchor_all_days(x, M, day_offsets=t, temperature_change=dT, sigma=opt.sigma,
+                                           sigma_z=opt.sigma_z)[0]
+        return fit
+    return None
+
+
 def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, warnings: list):
     """Sensor health (§6) and the slope changes of the kept sensors (NaN elsewhere, affine-corrected if asked)."""
     excl_idx = [ids.index(s) for s in opt.exclude_sensors]
@@ -1059,8 +1193,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
     # their prediction lets both ends move when the data say so (a tilt of the whole span, fit_end_anchor)
     # of the kept sensors, before each pass (a detached sensor's jump also moves the ends)
-    fit_anchor = ((lambda M: fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0])
-                  if opt.health_end_anchor == "fit" else None)
+    fit_anchor = _anchor_fitter(x, daily, opt)
     fit = (lambda M, s, r, sz: fit_noise_and_rigidity(x, M, sigma=opt.sigma, rigidity=None, sigma_z=sz))
     sz = opt.sigma_z
     s0, r0 = fit(slopes, None, None, sz)
@@ -1457,8 +1590,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         warnings.append(f"sensor {ids[j]} excluded ({health.status[j]}): {health.detail[j]}.")
         M = M.copy()
         M[:, j] = np.nan
-        if opt.health_end_anchor == "fit":
-            health_sz = fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0]
+        if opt.health_end_anchor != "fixed":
+            health_sz = _anchor_fitter(x, daily, opt)(M)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
         joint = _joint_stage(x, M, days, daily, sig, factors, opt, [])
     if joint is None:
