@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.linalg import cho_factor, cho_solve
 
+from longprofile.errors import InputError
 from longprofile.rail import SettlementSettings, estimate_settlement, validate_site
 from longprofile.rail._joint import day_modes
 from longprofile.rail._rigidity import DEFAULT_SIGMA_Z, FIRST_SLOPE_PRIOR_STD, rigidity_cost_matrix
@@ -140,3 +141,33 @@ def test_tilted_site_fewer_healthy_flagged_with_all_days_anchor(seed):
     assert n_false(ad) == 0
     found = {sid for sid, _, _ in fixed.health.flagged()} & set(sc.truth.faults)
     assert found <= {sid for sid, _, _ in ad.health.flagged()}
+
+
+def _coverage(sc, res):
+    err = np.abs(res.dz[1:] - sc.truth.settlement[1:])
+    return float(np.mean(err <= 1.6449 * res.dz_std[1:]))
+
+
+def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
+    """settlement_end_anchor="all-days": a tilted calibration site's bands cover more of the truth; a bowl site whose
+    ends do not move keeps sigma_z and the same settlement bit for bit."""
+    sc = simulate_scenario(SHAPE_FAMILIES["faults-tilt"], 300)
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    fixed = estimate_settlement(site, n_monte_carlo=0, health_end_anchor="all-days")
+    free = estimate_settlement(site, n_monte_carlo=0, health_end_anchor="all-days", settlement_end_anchor="all-days")
+    assert fixed.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
+    assert free.settings["settlement_sigma_z"] >= 1e-3
+    assert _coverage(sc, free) > _coverage(sc, fixed) + 0.2
+    sc = simulate_scenario("faults", 301)
+    site = validate_site(sc.sensors, sc.readings, sc.survey)
+    fixed = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days")
+    free = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days", settlement_end_anchor="all-days")
+    assert free.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
+    for k in ("dz", "dz_std", "max_settlement_upper"):
+        assert np.array_equal(getattr(fixed, k), getattr(free, k))
+
+
+def test_settlement_end_anchor_setting():
+    assert SettlementSettings().settlement_end_anchor == "fixed"
+    with pytest.raises(InputError):
+        SettlementSettings(settlement_end_anchor="fit")

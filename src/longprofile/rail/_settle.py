@@ -541,6 +541,9 @@ HEALTH_ANCHOR_DECADES = 5
 #: ``SettlementSettings.health_end_anchor``: "fixed" (``sigma_z``, the default), "fit" (:func:`fit_end_anchor`, the
 #: per-day likelihood) or "all-days" (:func:`fit_end_anchor_all_days`, the all-days likelihood).
 HEALTH_END_ANCHORS = ("fixed", "fit", "all-days")
+#: ``SettlementSettings.settlement_end_anchor``: "fixed" (``sigma_z``, the default) or "all-days"
+#: (:func:`_settlement_anchor`).
+SETTLEMENT_END_ANCHORS = ("fixed", "all-days")
 
 
 def _running_median3(slopes):
@@ -636,7 +639,7 @@ def _all_days_anchor_model(x, slopes, *, day_offsets, temperature_change, sigma,
 
 
 def all_days_anchor_log_likelihood(x, mode_slopes, modes: DayModes, *, sigma_z: float, sensor_factors=None,
-                                   penalty_order: int = 2) -> tuple[float, float]:
+                                   penalty_order: int = 2, segment_weights=None) -> tuple[float, float]:
     r"""All-days marginal log-likelihood of the slope changes at the end-anchor std ``sigma_z``, the common scale c of
     the increment rigidities (r_d -> c r_d) profiled out: (log-likelihood, c).
 
@@ -651,7 +654,8 @@ def all_days_anchor_log_likelihood(x, mode_slopes, modes: DayModes, *, sigma_z: 
     Y = np.asarray(mode_slopes, float)
     K = Y.shape[0]
     loglik = rigidity_log_likelihood_rows(x, Y, levels=modes.noise, sigma_z=sigma_z, penalty_order=penalty_order,
-                                          sensor_factors=sensor_factors, univariate=True)
+                                          sensor_factors=sensor_factors, segment_weights=segment_weights,
+                                          univariate=True)
     r = float(modes.rigidity)
 
     def total(logc):
@@ -1065,7 +1069,13 @@ class SettlementSettings:
         settlements that are not a bowl"). "all-days": the anchor chosen by the all-days likelihood of step 10
         (:func:`fit_end_anchor_all_days`; errors correlated over the days), loosened only past a 0.1 % likelihood-
         ratio test (docs/rail.md, "The end anchor by the all-days likelihood"). The settlement itself keeps
-        ``sigma_z`` either way.
+        ``sigma_z`` either way (see ``settlement_end_anchor``).
+    settlement_end_anchor : {"fixed", "all-days"}, default "fixed"
+        End anchors of the settlement itself under the all-days model: "fixed", ``sigma_z`` (assumption 1: the span
+        covers the works); "all-days", loosened when the all-days likelihood says the ends move
+        (:func:`_settlement_anchor`, the test of ``health_end_anchor="all-days"``), e.g. a tilt of the whole span.
+        The slopes fix only the end-to-end change, not which end moved: a loosened anchor splits it between the two
+        ends and widens the bands by about the anchor std (docs/rail.md, "The end anchor by the all-days likelihood").
     """
 
     thermal: str = "linear"
@@ -1095,6 +1105,7 @@ class SettlementSettings:
     max_settlement_interval: str = "draws"
     shape_evidence: bool = False
     health_end_anchor: str = "fixed"
+    settlement_end_anchor: str = "fixed"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1124,6 +1135,9 @@ class SettlementSettings:
                              f"got {self.max_settlement_interval!r}.")
         if self.health_end_anchor not in HEALTH_END_ANCHORS:
             raise InputError(f"health_end_anchor must be one of {HEALTH_END_ANCHORS}; got {self.health_end_anchor!r}.")
+        if self.settlement_end_anchor not in SETTLEMENT_END_ANCHORS:
+            raise InputError(f"settlement_end_anchor must be one of {SETTLEMENT_END_ANCHORS}; "
+                             f"got {self.settlement_end_anchor!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1338,6 +1352,7 @@ class _JointFit:
     sigma: float
     sigma_by_day: np.ndarray
     factors: np.ndarray | None
+    sigma_z: float = DEFAULT_SIGMA_Z  # the settlement's end-anchor std (settlement_end_anchor)
 
 
 def _fill_missing_days(M, t):
@@ -1368,6 +1383,9 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
         quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
         factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
         noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    sz = _settlement_anchor(x, jp, prior.penalty_order, factors, weights, opt)
+    if sz != opt.sigma_z:
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, replace(opt, sigma_z=sz))
     modes = jp.modes
     post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
     rate = np.full(M.shape, np.nan)
@@ -1377,7 +1395,22 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     sig_days = np.sqrt(np.diag(noise.cov))
     sig_days = np.r_[sig_days[0], sig_days]
     return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
-                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors)
+                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors,
+                     sigma_z=sz)
+
+
+def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings) -> float:
+    """The settlement's end-anchor std: ``opt.sigma_z``, or with ``settlement_end_anchor="all-days"`` the value of
+    largest all-days likelihood (:func:`all_days_anchor_log_likelihood`, modes and weights of the fit at
+    ``sigma_z``) if it beats ``sigma_z`` by more than :data:`ANCHOR_MIN_GAIN`, over ``sigma_z * 10**k``,
+    k = 0..:data:`HEALTH_ANCHOR_DECADES`."""
+    if opt.settlement_end_anchor == "fixed":
+        return opt.sigma_z
+    grid = float(opt.sigma_z) * 10.0 ** np.arange(HEALTH_ANCHOR_DECADES + 1)
+    ll = np.array([all_days_anchor_log_likelihood(x, jp.mode_slopes, jp.modes, sigma_z=v, sensor_factors=factors,
+                                                  penalty_order=order, segment_weights=weights)[0] for v in grid])
+    k = int(np.argmax(ll))
+    return float(grid[k]) if ll[k] - ll[0] > ANCHOR_MIN_GAIN else float(opt.sigma_z)
 
 
 def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
@@ -1410,7 +1443,7 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
     draws = np.empty((S, K, N))
     for idx, s in _noise_groups(joint.modes.noise):
         draws[:, idx] = sample_profiles(x, joint.mode_slopes[idx], S, sigma=_station_sigma(s, factors),
-                                        rigidity=joint.modes.rigidity, sigma_z=opt.sigma_z, rng=gen,
+                                        rigidity=joint.modes.rigidity, sigma_z=joint.sigma_z, rng=gen,
                                         penalty_order=order, segment_weights=joint.weights)
     z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
     ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9,
@@ -1421,12 +1454,14 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False,
-                     health_sigma_z=None) -> dict:
+                     health_sigma_z=None, settlement_sigma_z=None) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 health_end_anchor=opt.health_end_anchor,
                 health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
+                settlement_end_anchor=opt.settlement_end_anchor,
+                settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
@@ -1612,7 +1647,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                                                              smoothed=None if joint is None else joint.smoothed)
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
-                                     health_sigma_z=health_sz)
+                                     health_sigma_z=health_sz,
+                                     settlement_sigma_z=None if joint is None else joint.sigma_z)
     return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
                             dz_noise_std=post["noise_std"],
                             slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
