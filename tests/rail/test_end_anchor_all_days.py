@@ -134,8 +134,9 @@ def test_tilted_site_fewer_healthy_flagged_with_all_days_anchor(seed):
     def n_false(res):
         return len({sid for sid, _, _ in res.health.flagged()} & healthy)
 
-    fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False)
-    ad = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="all-days")
+    fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="fixed")
+    ad = estimate_settlement(site, n_monte_carlo=0, through_time=False)  # the default since 2026-12-06
+    assert SettlementSettings().health_end_anchor == "all-days"
     assert ad.health.anchor_std >= 1e-3 and ad.settings["health_end_anchor"] == "all-days"
     assert n_false(fixed) >= 3
     assert n_false(ad) == 0
