@@ -348,10 +348,12 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="small sites (as --quick of the benchmark)")
     p.add_argument("--shape-evidence", action="store_true",
                    help="estimate with shape_evidence=True (the localised-shape reversal test, docs/rail.md step 14)")
-    p.add_argument("--health-end-anchor", choices=("fixed", "fit", "all-days"), default="fixed",
-                   help="end anchors of the health tests' prediction (SettlementSettings.health_end_anchor)")
-    p.add_argument("--settlement-end-anchor", choices=("fixed", "all-days"), default="fixed",
-                   help="end anchors of the settlement itself (SettlementSettings.settlement_end_anchor)")
+    p.add_argument("--health-end-anchor", choices=("fixed", "fit", "all-days"), default=None,
+                   help="end anchors of the health tests' prediction (SettlementSettings.health_end_anchor; default: "
+                        "the estimator's)")
+    p.add_argument("--settlement-end-anchor", choices=("fixed", "all-days"), default=None,
+                   help="end anchors of the settlement itself (SettlementSettings.settlement_end_anchor; default: the "
+                        "estimator's)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -367,9 +369,8 @@ def main(argv=None) -> int:
     default = dict(default_plan(False))
     plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
     rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}),
-               **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor != "fixed" else {}),
-               **({"settlement_end_anchor": args.settlement_end_anchor}
-                  if args.settlement_end_anchor != "fixed" else {}))
+               **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
+               **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:
