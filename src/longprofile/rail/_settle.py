@@ -701,9 +701,10 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
         The anchor is loosened only when its best value's log-likelihood exceeds the anchor at ``sigma_z``'s by more
         (a likelihood-ratio test of one parameter at 0.1 %).
     leave_one_out : bool, default True
-        ... and also without any one of the kept sensors (:func:`_loo_anchor_gain`): a single reversed or detached
-        sensor does not loosen the anchor (it did on the paper's simulator, a healthy neighbour of the reversed sensor
-        was then flagged; docs/rail.md).
+        ... and also without any one of the kept sensors (:func:`_loo_anchor_gain`, the model of all sensors) and
+        with the whole model fitted again without the most influential one: a single reversed or detached sensor
+        does not loosen the anchor (it did on the paper's simulator, a healthy neighbour of the reversed sensor was
+        then flagged; docs/rail.md).
 
     Returns
     -------
@@ -731,16 +732,40 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
     k = int(np.argmax(ll))
     if ll[k] - ll[0] <= min_gain:
         return float(sigma_z), ll
-    if leave_one_out and _loo_anchor_gain(x, Y, modes, f, (grid[0], fits[0][1]), (grid[k], fits[k][1])) <= min_gain:
-        return float(sigma_z), ll
+    if leave_one_out:
+        gain, j = _loo_anchor_gain(x, Y, modes, f, (grid[0], fits[0][1]), (grid[k], fits[k][1]))
+        if gain <= min_gain:
+            return float(sigma_z), ll
+        # a faulty sensor also shapes the model (its neighbours' factors, R, r_d): fitted again without the most
+        # influential sensor and without the one departing most from its neighbours' running median
+        for jj in {j, _largest_departure(slopes)}:
+            Mj = np.array(slopes, float)
+            Mj[:, jj] = np.nan
+            if fit_end_anchor_all_days(x, Mj, day_offsets=day_offsets, temperature_change=temperature_change,
+                                       sigma=s, sigma_z=sigma_z, decades=decades, median=median, min_gain=min_gain,
+                                       leave_one_out=False)[0] == sigma_z:
+                return float(sigma_z), ll
     return float(grid[k]), ll
 
 
-def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose) -> float:
+def _largest_departure(slopes) -> int:
+    """The kept sensor whose slope changes depart most from their 3-point running median along the track (mean over
+    the days of the departure squared, each day in robust std of that day's departures)."""
+    M = np.asarray(slopes, float)
+    r = M - _running_median3(M)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        scale = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
+        score = np.nanmean((r / np.where(scale > 0, scale, np.inf)) ** 2, axis=0)
+    return int(np.nanargmax(np.where(np.isfinite(score), score, -np.inf)))
+
+
+def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose) -> tuple[float, int]:
     """The smallest over the kept sensors j of the all-days log-likelihood gain of the anchor ``loose`` = (sigma_z, c)
     over ``fixed`` without sensor j (its column of the mode data missing; modes and the scales c of the fit with all
-    sensors): a tilt is in every sensor, a reversed or detached sensor's own departure is gone without it. One engine
-    call per anchor (:func:`~longprofile.rail._rigidity.rigidity_log_likelihood_rows`, each sensor's K modes)."""
+    sensors), and that j: a tilt is in every sensor, a reversed or detached sensor's own departure is gone without
+    it. One engine call per anchor (:func:`~longprofile.rail._rigidity.rigidity_log_likelihood_rows`, each sensor's
+    K modes)."""
     kept = np.flatnonzero(np.isfinite(Y).all(axis=0))
     K, N = Y.shape
     J = kept.size
@@ -753,7 +778,8 @@ def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose) -> float:
         loglik = rigidity_log_likelihood_rows(x, Ys, levels=levels, sigma_z=sz, penalty_order=2,
                                               sensor_factors=factors, univariate=True)
         out.append(loglik(np.arange(J * K), np.full(J * K, modes.rigidity * c)).reshape(J, K).sum(axis=1))
-    return float(np.min(out[1] - out[0]))
+    gain = out[1] - out[0]
+    return float(np.min(gain)), int(kept[int(np.argmin(gain))])
 
 
 @dataclass(frozen=True)
