@@ -1125,7 +1125,7 @@ class SettlementSettings:
         settlements that are not a bowl"). "all-days" (the default): the anchor chosen by the all-days likelihood of
         step 10 (:func:`fit_end_anchor_all_days`; errors correlated over the days), loosened only past a 0.1 %
         likelihood-ratio test, re-chosen before each pass as "fit" (docs/rail.md, "The end anchor by the all-days
-        likelihood": on the benchmark's tilted sites 23 instead of 145 of 1020 healthy sensors flagged, none more on
+        likelihood": on the benchmark's tilted sites 24 instead of 145 of 1020 healthy sensors flagged, none more on
         the Gaussian-bowl families). The settlement itself keeps ``sigma_z`` either way (see
         ``settlement_end_anchor``).
     settlement_end_anchor : {"fixed", "all-days"}, default "fixed"
