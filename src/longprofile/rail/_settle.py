@@ -1429,9 +1429,11 @@ def _fill_missing_days(M, t):
     return M, int(miss[:, part].sum())
 
 
-def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSettings, warnings: list):
+def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSettings, warnings: list,
+                 health_sz: float | None = None):
     """The all-days posterior (module :mod:`~longprofile.rail._joint`; docs/rail.md step 10), or None when it does
-    not apply (``joint_days=False``, a given rigidity, fewer than 5 day-to-day changes or usable sensors)."""
+    not apply (``joint_days=False``, a given rigidity, fewer than 5 day-to-day changes or usable sensors).
+    ``health_sz``: the health tests' end anchor on the same sensors (:func:`_settlement_anchor`)."""
     D = days.size
     if not opt.joint_days or opt.rigidity is not None or D - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
         return None
@@ -1445,7 +1447,7 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
         quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
         factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
         noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
-    sz = _settlement_anchor(x, jp, prior.penalty_order, factors, weights, opt)
+    sz = _settlement_anchor(x, jp, prior.penalty_order, factors, weights, opt, health_sz)
     if sz != opt.sigma_z:
         noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, replace(opt, sigma_z=sz))
     modes = jp.modes
@@ -1461,12 +1463,16 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
                      sigma_z=sz)
 
 
-def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings) -> float:
+def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, health_sz=None) -> float:
     """The settlement's end-anchor std: ``opt.sigma_z``, or with ``settlement_end_anchor="all-days"`` the value of
     largest all-days likelihood (:func:`all_days_anchor_log_likelihood`, modes and weights of the fit at
     ``sigma_z``) if it beats ``sigma_z`` by more than :data:`ANCHOR_MIN_GAIN`, over ``sigma_z * 10**k``,
-    k = 0..:data:`HEALTH_ANCHOR_DECADES`."""
+    k = 0..:data:`HEALTH_ANCHOR_DECADES` — and, when the health tests' anchor was chosen by a likelihood
+    (``health_sz`` given, ``health_end_anchor`` not "fixed"), only if that one was loosened too (its checks against a
+    single faulty sensor, :func:`fit_end_anchor_all_days`)."""
     if opt.settlement_end_anchor == "fixed":
+        return opt.sigma_z
+    if opt.health_end_anchor != "fixed" and health_sz is not None and health_sz <= opt.sigma_z:
         return opt.sigma_z
     grid = float(opt.sigma_z) * 10.0 ** np.arange(HEALTH_ANCHOR_DECADES + 1)
     ll = np.array([all_days_anchor_log_likelihood(x, jp.mode_slopes, jp.modes, sigma_z=v, sensor_factors=factors,
@@ -1667,7 +1673,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     initial, slopes = _slope_changes(site, daily, opt)
     health, M, health_sz = _health_stage(x, ids, slopes, daily, opt, warnings)
     sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
-    joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings) if drift else None
+    joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings, health_sz) if drift else None
     while joint is not None:  # sensor health with the all-days model (docs/rail.md, "Sensor health, step 11")
         evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
@@ -1690,7 +1696,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         if opt.health_end_anchor != "fixed":
             health_sz = _anchor_fitter(x, daily, opt)(M)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
-        joint = _joint_stage(x, M, days, daily, sig, factors, opt, [])
+        joint = _joint_stage(x, M, days, daily, sig, factors, opt, [], health_sz)
     if joint is None:
         prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
                                                                                    opt, warnings)
