@@ -350,8 +350,12 @@ def main(argv=None) -> int:
                    help="estimate with shape_evidence=True (the localised-shape reversal test, docs/rail.md step 14)")
     p.add_argument("--shape-rule", choices=("threshold", "sum"), default="threshold",
                    help="with --shape-evidence: SettlementSettings.shape_rule (docs/rail.md step 15)")
-    p.add_argument("--health-end-anchor", choices=("fixed", "fit"), default="fixed",
-                   help="end anchors of the health tests' prediction (SettlementSettings.health_end_anchor)")
+    p.add_argument("--health-end-anchor", choices=("fixed", "fit", "all-days"), default=None,
+                   help="end anchors of the health tests' prediction (SettlementSettings.health_end_anchor; default: "
+                        "the estimator's)")
+    p.add_argument("--settlement-end-anchor", choices=("fixed", "all-days"), default=None,
+                   help="end anchors of the settlement itself (SettlementSettings.settlement_end_anchor; default: the "
+                        "estimator's)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -368,7 +372,8 @@ def main(argv=None) -> int:
     plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
     rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}),
                **({"shape_rule": "sum"} if args.shape_rule == "sum" else {}),
-               **({"health_end_anchor": "fit"} if args.health_end_anchor == "fit" else {}))
+               **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
+               **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

@@ -69,7 +69,8 @@ def test_running_median3_ignores_one_sensor_and_keeps_a_shared_change():
 
 
 def test_health_end_anchor_setting():
-    assert SettlementSettings().health_end_anchor == "fixed"
+    assert SettlementSettings().health_end_anchor == "all-days"  # since 2026-12-06 (docs/rail.md)
+    assert SettlementSettings.until_2026_12_06().health_end_anchor == "fixed"
     with pytest.raises(InputError):
         SettlementSettings(health_end_anchor="free")
 
@@ -83,7 +84,7 @@ def test_tilted_site_fewer_healthy_flagged_with_fitted_anchor(seed):
     def n_false(res):
         return len({sid for sid, _, _ in res.health.flagged()} & healthy)
 
-    fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False)
+    fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="fixed")
     fit = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="fit")
     assert fixed.health.anchor_std == DEFAULT_SIGMA_Z and fixed.settings["health_sigma_z"] == DEFAULT_SIGMA_Z
     assert fit.health.anchor_std >= 1e-3 and fit.settings["health_end_anchor"] == "fit"

@@ -539,8 +539,12 @@ def fit_noise_and_rigidity(x, slopes, *, sigma=None, rigidity=None, sigma_z=DEFA
 
 #: Decades above ``sigma_z`` over which :func:`fit_end_anchor` searches the end anchor of the health tests' prediction.
 HEALTH_ANCHOR_DECADES = 5
-#: ``SettlementSettings.health_end_anchor``: "fixed" (``sigma_z``, the default) or "fit" (:func:`fit_end_anchor`).
-HEALTH_END_ANCHORS = ("fixed", "fit")
+#: ``SettlementSettings.health_end_anchor``: "fixed" (``sigma_z``, the default), "fit" (:func:`fit_end_anchor`, the
+#: per-day likelihood) or "all-days" (:func:`fit_end_anchor_all_days`, the all-days likelihood).
+HEALTH_END_ANCHORS = ("fixed", "fit", "all-days")
+#: ``SettlementSettings.settlement_end_anchor``: "fixed" (``sigma_z``, the default) or "all-days"
+#: (:func:`_settlement_anchor`).
+SETTLEMENT_END_ANCHORS = ("fixed", "all-days")
 
 
 def _running_median3(slopes):
@@ -609,6 +613,175 @@ def fit_end_anchor(x, slopes, *, sigma=None, sigma_z: float = DEFAULT_SIGMA_Z, d
     grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
     ll = np.array([_fit_rigidity(x, rows, s, sz, 2)[1] for sz in grid])
     return float(grid[int(np.argmax(ll))]), ll
+
+
+#: Log-likelihood gain over the anchor at ``sigma_z`` that :func:`fit_end_anchor_all_days` needs to loosen it: half the
+#: 99.9 % quantile of chi-square with 1 degree of freedom (a likelihood-ratio test of one parameter at 0.1 %). The 1 %
+#: level (3.32) was also measured on calibration seeds: one more healthy sensor flagged on ``faults`` (docs/rail.md).
+ANCHOR_MIN_GAIN = 5.414
+
+#: Decades of the common scale of the increment rigidities r_d over which :func:`fit_end_anchor_all_days` profiles
+#: the all-days likelihood (either side of the fit at ``sigma_z``), and the grid's steps per decade.
+ANCHOR_SCALE_DECADES, ANCHOR_SCALE_STEPS = 3, 4
+
+
+def _all_days_anchor_model(x, slopes, *, day_offsets, temperature_change, sigma, sigma_z):
+    """The all-days model (docs/rail.md step 10) of ``slopes`` fitted with the anchor ``sigma_z`` and the paper's
+    prior (order 2, as the health tests): (mode data (K, N), DayModes, sensor factors)."""
+    M = np.asarray(slopes, float)
+    t = np.arange(M.shape[0], dtype=float) if day_offsets is None else np.asarray(day_offsets, float)
+    M, _ = _fill_missing_days(M, t)
+    factors = sensor_noise_factors(x, M)
+    noise = day_noise_covariance(x, M, day_offsets=t, temperature_change=temperature_change, sensor_factors=factors,
+                                 floor=0.5 * sigma)
+    prior = increment_rigidity(x, M, noise_cov=noise.cov, sigma_z=sigma_z, penalty_orders=(2,),
+                               sensor_factors=factors)
+    modes = day_modes(noise.cov, prior.rigidity_by_day)
+    return modes.to_modes @ M[1:], modes, factors
+
+
+def all_days_anchor_log_likelihood(x, mode_slopes, modes: DayModes, *, sigma_z: float, sensor_factors=None,
+                                   penalty_order: int = 2, segment_weights=None) -> tuple[float, float]:
+    r"""All-days marginal log-likelihood of the slope changes at the end-anchor std ``sigma_z``, the common scale c of
+    the increment rigidities (r_d -> c r_d) profiled out: (log-likelihood, c).
+
+    The modes of :func:`~longprofile.rail._joint.day_modes` are independent (step 10), so the log-likelihood of all
+    days and stations is the sum over modes of the rigidity model's (paper 004 §4.2, Lemma 4.1; the engine's
+    :func:`longprofile.statespace.grouped_log_likelihood`, one candidate per mode and scale) plus
+    N log|det V|, which neither ``sigma_z`` nor c changes (V, the modes, depend on the ratios r_d / r only).
+    The anchor's pseudo-observation in mode k has std ``sigma_z``: over the days the end-to-end change has the
+    settlement increments' covariance sigma_z^2 S, so the noise's own end-to-end displacement (reference-day error,
+    drift: R) is not evidence against the anchor, as it is in the per-day likelihood (:func:`fit_end_anchor`).
+    """
+    Y = np.asarray(mode_slopes, float)
+    K = Y.shape[0]
+    loglik = rigidity_log_likelihood_rows(x, Y, levels=modes.noise, sigma_z=sigma_z, penalty_order=penalty_order,
+                                          sensor_factors=sensor_factors, segment_weights=segment_weights,
+                                          univariate=True)
+    r = float(modes.rigidity)
+
+    def total(logc):
+        logc = np.atleast_1d(np.asarray(logc, float))
+        ll = loglik(np.tile(np.arange(K), logc.size), np.repeat(r * np.exp(logc), K))
+        return ll.reshape(logc.size, K).sum(axis=1)
+
+    step = np.log(10.0) / ANCHOR_SCALE_STEPS
+    grid = step * np.arange(-ANCHOR_SCALE_DECADES * ANCHOR_SCALE_STEPS, ANCHOR_SCALE_DECADES * ANCHOR_SCALE_STEPS + 1)
+    vals = total(grid)
+    k = int(np.argmax(vals))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(lambda v: -float(total(v)[0]), bounds=(lo, hi), method="bounded", options={"xatol": 1e-2})
+    best, ll = (float(res.x), -float(res.fun)) if -res.fun >= vals[k] else (float(grid[k]), float(vals[k]))
+    return ll, float(np.exp(best))
+
+
+def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=None, sigma=None,
+                            sigma_z: float = DEFAULT_SIGMA_Z, decades: int = HEALTH_ANCHOR_DECADES,
+                            median: bool = False, min_gain: float = ANCHOR_MIN_GAIN, leave_one_out: bool = True):
+    """Maximum-likelihood std of the end anchors by the all-days likelihood (docs/rail.md, "The end anchor by the
+    all-days likelihood"), for the health tests' prediction.
+
+    Parameters
+    ----------
+    x : (N,) ndarray
+    slopes : (D, N) ndarray
+        Daily slope changes, rad (NaN = missing or excluded); row 0 is the reference day.
+    day_offsets, temperature_change : (D,) array_like, optional
+        As in :func:`~longprofile.rail._joint.day_noise_covariance`.
+    sigma : float, optional
+        Day-to-day noise std (None: :func:`day_difference_sigma`); half of it floors each day's std.
+    sigma_z : float
+        The anchor std of the settings, m: the smallest value searched.
+    decades : int
+        Values searched: ``sigma_z * 10**k``, k = 0, ..., ``decades``.
+    median : bool, default False
+        Fit the 3-point running median of the slope changes along the track, as :func:`fit_end_anchor` does. Off: the
+        median of three has another noise than the all-days model's R (fitted to the sensors' own departures) and
+        loosened the anchor on bowl sites (calibration seeds, docs/rail.md); the margin ``min_gain`` and the re-fit
+        on the kept sensors before each health pass stand in for it against a single faulty sensor.
+    min_gain : float, default ANCHOR_MIN_GAIN
+        The anchor is loosened only when its best value's log-likelihood exceeds the anchor at ``sigma_z``'s by more
+        (a likelihood-ratio test of one parameter at 0.1 %).
+    leave_one_out : bool, default True
+        ... and also without any one of the kept sensors (:func:`_loo_anchor_gain`, the model of all sensors) and
+        with the whole model fitted again without the most influential one: a single reversed or detached sensor
+        does not loosen the anchor (it did on the paper's simulator, a healthy neighbour of the reversed sensor was
+        then flagged; docs/rail.md).
+
+    Returns
+    -------
+    sigma_z_hat : float
+        The value of largest all-days likelihood if it beats ``sigma_z`` by more than ``min_gain``, else ``sigma_z``.
+    loglik : (decades + 1,) ndarray
+        The all-days profile log-likelihood at each value searched (:func:`all_days_anchor_log_likelihood`).
+
+    Notes
+    -----
+    The all-days model of step 10 (noise covariance over the days R, increment rigidities r_d, paper's prior order 2)
+    is fitted once at ``sigma_z``; each candidate anchor is then scored with the modes fixed and the common scale of
+    the r_d profiled. Unlike :func:`fit_end_anchor`'s per-day likelihood it knows that a sensor's reference-day
+    error and drift are shared by all its days.
+    """
+    M = np.asarray(slopes, float)
+    s = float(sigma) if sigma is not None else day_difference_sigma(M)
+    if median:
+        M = _running_median3(M)
+    Y, modes, f = _all_days_anchor_model(x, M, day_offsets=day_offsets, temperature_change=temperature_change,
+                                         sigma=s, sigma_z=sigma_z)
+    grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
+    fits = [all_days_anchor_log_likelihood(x, Y, modes, sigma_z=sz, sensor_factors=f) for sz in grid]
+    ll = np.array([v for v, _ in fits])
+    k = int(np.argmax(ll))
+    if ll[k] - ll[0] <= min_gain:
+        return float(sigma_z), ll
+    if leave_one_out:
+        gain, j = _loo_anchor_gain(x, Y, modes, f, (grid[0], fits[0][1]), (grid[k], fits[k][1]))
+        if gain <= min_gain:
+            return float(sigma_z), ll
+        # a faulty sensor also shapes the model (its neighbours' factors, R, r_d): fitted again without the most
+        # influential sensor and without the one departing most from its neighbours' running median
+        for jj in {j, _largest_departure(slopes)}:
+            Mj = np.array(slopes, float)
+            Mj[:, jj] = np.nan
+            if fit_end_anchor_all_days(x, Mj, day_offsets=day_offsets, temperature_change=temperature_change,
+                                       sigma=s, sigma_z=sigma_z, decades=decades, median=median, min_gain=min_gain,
+                                       leave_one_out=False)[0] == sigma_z:
+                return float(sigma_z), ll
+    return float(grid[k]), ll
+
+
+def _largest_departure(slopes) -> int:
+    """The kept sensor whose slope changes depart most from their 3-point running median along the track (mean over
+    the days of the departure squared, each day in robust std of that day's departures)."""
+    M = np.asarray(slopes, float)
+    r = M - _running_median3(M)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        scale = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
+        score = np.nanmean((r / np.where(scale > 0, scale, np.inf)) ** 2, axis=0)
+    return int(np.nanargmax(np.where(np.isfinite(score), score, -np.inf)))
+
+
+def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose) -> tuple[float, int]:
+    """The smallest over the kept sensors j of the all-days log-likelihood gain of the anchor ``loose`` = (sigma_z, c)
+    over ``fixed`` without sensor j (its column of the mode data missing; modes and the scales c of the fit with all
+    sensors), and that j: a tilt is in every sensor, a reversed or detached sensor's own departure is gone without
+    it. One engine call per anchor (:func:`~longprofile.rail._rigidity.rigidity_log_likelihood_rows`, each sensor's
+    K modes)."""
+    kept = np.flatnonzero(np.isfinite(Y).all(axis=0))
+    K, N = Y.shape
+    J = kept.size
+    Ys = np.repeat(Y[None], J, axis=0)
+    Ys[np.arange(J), :, kept] = np.nan
+    Ys = Ys.reshape(J * K, N)
+    levels = np.tile(modes.noise, J)
+    out = []
+    for sz, c in (fixed, loose):
+        loglik = rigidity_log_likelihood_rows(x, Ys, levels=levels, sigma_z=sz, penalty_order=2,
+                                              sensor_factors=factors, univariate=True)
+        out.append(loglik(np.arange(J * K), np.full(J * K, modes.rigidity * c)).reshape(J, K).sum(axis=1))
+    gain = out[1] - out[0]
+    return float(np.min(gain)), int(kept[int(np.argmin(gain))])
 
 
 @dataclass(frozen=True)
@@ -951,13 +1124,27 @@ class SettlementSettings:
         :data:`~longprofile.rail._health.REVERSED_SUM_LBF`). Not the default: on the benchmark it found 94 of 100
         reversed sensors (faults seeds 200-299, as "threshold"; 96 instead of 95 on 100-199) with one healthy sensor
         fewer flagged, but 14 instead of 12 of 1020 on asymmetric bowls.
-    health_end_anchor : {"fixed", "fit"}, default "fixed"
-        End anchors of the health tests' prediction of a sensor from its neighbours: "fixed", ``sigma_z``; "fit", the
+    health_end_anchor : {"fixed", "fit", "all-days"}, default "all-days"
+        End anchors of the health tests' prediction of a sensor from its neighbours: "fixed", ``sigma_z`` (the default
+        until 2026-12-06, :meth:`until_2026_12_06`); "fit", the
         anchor std of largest marginal likelihood from ``sigma_z`` up, re-chosen on the kept sensors before each
         pass (:func:`fit_end_anchor`): a tilt of the whole span is then a rigid rotation, not an anomaly of some
         sensors. Off by default: on calibration seeds it flagged 1 instead of 68 of 494 healthy sensors on tilted
         sites but 10 instead of 7 of 1453 on the Gaussian-bowl ``faults`` sites (docs/rail.md, "Sensor health on
-        settlements that are not a bowl"). The settlement itself keeps ``sigma_z`` either way.
+        settlements that are not a bowl"). "all-days" (the default): the anchor chosen by the all-days likelihood of
+        step 10 (:func:`fit_end_anchor_all_days`; errors correlated over the days), loosened only past a 0.1 %
+        likelihood-ratio test, re-chosen before each pass as "fit" (docs/rail.md, "The end anchor by the all-days
+        likelihood": on the benchmark's tilted sites 24 instead of 145 of 1020 healthy sensors flagged, none more on
+        the Gaussian-bowl families). The settlement itself keeps ``sigma_z`` either way (see
+        ``settlement_end_anchor``).
+    settlement_end_anchor : {"fixed", "all-days"}, default "fixed"
+        End anchors of the settlement itself under the all-days model: "fixed", ``sigma_z`` (assumption 1: the span
+        covers the works); "all-days", loosened when the all-days likelihood says the ends move
+        (:func:`_settlement_anchor`: the 0.1 % test of ``health_end_anchor="all-days"`` on the settlement's own
+        modes, and the health tests' anchor loosened too), e.g. a tilt of the whole span: on the benchmark's tilted
+        sites daily / rate coverage 49.75 / 74.63 % -> 74.56 / 87.78 %, not calibrated.
+        The slopes fix only the end-to-end change, not which end moved: a loosened anchor splits it between the two
+        ends and widens the bands by about the anchor std (docs/rail.md, "The end anchor by the all-days likelihood").
     """
 
     thermal: str = "linear"
@@ -987,14 +1174,16 @@ class SettlementSettings:
     max_settlement_interval: str = "draws"
     shape_evidence: bool = False
     shape_rule: str = "threshold"
-    health_end_anchor: str = "fixed"
+    health_end_anchor: str = "all-days"
+    settlement_end_anchor: str = "fixed"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
         """The defaults before the maximum-settlement interval changed on 2026-12-06 (issue 13 step 13): the
-        simultaneous band's interval (``max_settlement_interval="band"``); reproduces that estimator's outputs.
-        ``options`` as the constructor's."""
-        return cls(**{"max_settlement_interval": "band", **options})
+        simultaneous band's interval (``max_settlement_interval="band"``) and the health tests' fixed end anchors
+        (``health_end_anchor="fixed"``, the default until the all-days anchor of the same day); reproduces that
+        estimator's outputs. ``options`` as the constructor's."""
+        return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", **options})
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -1019,6 +1208,9 @@ class SettlementSettings:
             raise InputError(f"shape_rule must be one of {SHAPE_RULES}; got {self.shape_rule!r}.")
         if self.health_end_anchor not in HEALTH_END_ANCHORS:
             raise InputError(f"health_end_anchor must be one of {HEALTH_END_ANCHORS}; got {self.health_end_anchor!r}.")
+        if self.settlement_end_anchor not in SETTLEMENT_END_ANCHORS:
+            raise InputError(f"settlement_end_anchor must be one of {SETTLEMENT_END_ANCHORS}; "
+                             f"got {self.settlement_end_anchor!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1063,6 +1255,26 @@ def _slope_changes(site: SiteData, daily: DailyAngles, opt: SettlementSettings):
     return initial, slopes
 
 
+def _anchor_fitter(x, daily: DailyAngles, opt: SettlementSettings):
+    """``fit_anchor(slopes_masked) -> sigma_z`` of the health tests (``opt.health_end_anchor``), None when fixed."""
+    if opt.health_end_anchor == "fit":
+        return lambda M: fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0]
+    if opt.health_end_anchor == "all-days":
+        t = np.asarray((pd.DatetimeIndex(daily.days) - pd.Timestamp(daily.days[0])) / pd.Timedelta(days=1), float)
+        dT = _site_temperature_change(daily)
+
+        def fit(M):
+            if M.shape[0] - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
+                return opt.sigma_z  # too short for the all-days model (as _joint_stage)
+            try:
+                return fit_end_anchor_all_days(x, M, day_offsets=t, temperature_change=dT, sigma=opt.sigma,
+                                               sigma_z=opt.sigma_z)[0]
+            except InputError:  # no change on any day, too few noisy days: nothing to loosen the anchor for
+                return opt.sigma_z
+        return fit
+    return None
+
+
 def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, warnings: list):
     """Sensor health (§6) and the slope changes of the kept sensors (NaN elsewhere, affine-corrected if asked)."""
     excl_idx = [ids.index(s) for s in opt.exclude_sensors]
@@ -1071,8 +1283,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     # settlement then uses its own change prior (``rigidity``/``penalty_order`` or the maximum-likelihood fit).
     # their prediction lets both ends move when the data say so (a tilt of the whole span, fit_end_anchor)
     # of the kept sensors, before each pass (a detached sensor's jump also moves the ends)
-    fit_anchor = ((lambda M: fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0])
-                  if opt.health_end_anchor == "fit" else None)
+    fit_anchor = _anchor_fitter(x, daily, opt)
     fit = (lambda M, s, r, sz: fit_noise_and_rigidity(x, M, sigma=opt.sigma, rigidity=None, sigma_z=sz))
     sz = opt.sigma_z
     s0, r0 = fit(slopes, None, None, sz)
@@ -1217,6 +1428,7 @@ class _JointFit:
     sigma: float
     sigma_by_day: np.ndarray
     factors: np.ndarray | None
+    sigma_z: float = DEFAULT_SIGMA_Z  # the settlement's end-anchor std (settlement_end_anchor)
 
 
 def _fill_missing_days(M, t):
@@ -1231,9 +1443,11 @@ def _fill_missing_days(M, t):
     return M, int(miss[:, part].sum())
 
 
-def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSettings, warnings: list):
+def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSettings, warnings: list,
+                 health_sz: float | None = None):
     """The all-days posterior (module :mod:`~longprofile.rail._joint`; docs/rail.md step 10), or None when it does
-    not apply (``joint_days=False``, a given rigidity, fewer than 5 day-to-day changes or usable sensors)."""
+    not apply (``joint_days=False``, a given rigidity, fewer than 5 day-to-day changes or usable sensors).
+    ``health_sz``: the health tests' end anchor on the same sensors (:func:`_settlement_anchor`)."""
     D = days.size
     if not opt.joint_days or opt.rigidity is not None or D - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
         return None
@@ -1247,6 +1461,9 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
         quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
         factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
         noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+    sz = _settlement_anchor(x, jp, prior.penalty_order, factors, weights, opt, health_sz)
+    if sz != opt.sigma_z:
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, replace(opt, sigma_z=sz))
     modes = jp.modes
     post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
     rate = np.full(M.shape, np.nan)
@@ -1256,7 +1473,26 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     sig_days = np.sqrt(np.diag(noise.cov))
     sig_days = np.r_[sig_days[0], sig_days]
     return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
-                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors)
+                     smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors,
+                     sigma_z=sz)
+
+
+def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, health_sz=None) -> float:
+    """The settlement's end-anchor std: ``opt.sigma_z``, or with ``settlement_end_anchor="all-days"`` the value of
+    largest all-days likelihood (:func:`all_days_anchor_log_likelihood`, modes and weights of the fit at
+    ``sigma_z``) if it beats ``sigma_z`` by more than :data:`ANCHOR_MIN_GAIN`, over ``sigma_z * 10**k``,
+    k = 0..:data:`HEALTH_ANCHOR_DECADES` — and, when the health tests' anchor was chosen by a likelihood
+    (``health_sz`` given, ``health_end_anchor`` not "fixed"), only if that one was loosened too (its checks against a
+    single faulty sensor, :func:`fit_end_anchor_all_days`)."""
+    if opt.settlement_end_anchor == "fixed":
+        return opt.sigma_z
+    if opt.health_end_anchor != "fixed" and health_sz is not None and health_sz <= opt.sigma_z:
+        return opt.sigma_z
+    grid = float(opt.sigma_z) * 10.0 ** np.arange(HEALTH_ANCHOR_DECADES + 1)
+    ll = np.array([all_days_anchor_log_likelihood(x, jp.mode_slopes, jp.modes, sigma_z=v, sensor_factors=factors,
+                                                  penalty_order=order, segment_weights=weights)[0] for v in grid])
+    k = int(np.argmax(ll))
+    return float(grid[k]) if ll[k] - ll[0] > ANCHOR_MIN_GAIN else float(opt.sigma_z)
 
 
 def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
@@ -1289,7 +1525,7 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
     draws = np.empty((S, K, N))
     for idx, s in _noise_groups(joint.modes.noise):
         draws[:, idx] = sample_profiles(x, joint.mode_slopes[idx], S, sigma=_station_sigma(s, factors),
-                                        rigidity=joint.modes.rigidity, sigma_z=opt.sigma_z, rng=gen,
+                                        rigidity=joint.modes.rigidity, sigma_z=joint.sigma_z, rng=gen,
                                         penalty_order=order, segment_weights=joint.weights)
     z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
     ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9,
@@ -1300,13 +1536,15 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False,
-                     health_sigma_z=None) -> dict:
+                     health_sigma_z=None, settlement_sigma_z=None) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 shape_rule=opt.shape_rule,
                 health_end_anchor=opt.health_end_anchor,
                 health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
+                settlement_end_anchor=opt.settlement_end_anchor,
+                settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
@@ -1450,7 +1688,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     initial, slopes = _slope_changes(site, daily, opt)
     health, M, health_sz = _health_stage(x, ids, slopes, daily, opt, warnings)
     sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
-    joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings) if drift else None
+    joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings, health_sz) if drift else None
     while joint is not None:  # sensor health with the all-days model (docs/rail.md, "Sensor health, step 11")
         evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
@@ -1471,10 +1709,10 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         warnings.append(f"sensor {ids[j]} excluded ({health.status[j]}): {health.detail[j]}.")
         M = M.copy()
         M[:, j] = np.nan
-        if opt.health_end_anchor == "fit":
-            health_sz = fit_end_anchor(x, M, sigma=opt.sigma, sigma_z=opt.sigma_z)[0]
+        if opt.health_end_anchor != "fixed":
+            health_sz = _anchor_fitter(x, daily, opt)(M)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
-        joint = _joint_stage(x, M, days, daily, sig, factors, opt, [])
+        joint = _joint_stage(x, M, days, daily, sig, factors, opt, [], health_sz)
     if joint is None:
         prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
                                                                                    opt, warnings)
@@ -1493,7 +1731,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                                                              smoothed=None if joint is None else joint.smoothed)
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
-                                     health_sigma_z=health_sz)
+                                     health_sigma_z=health_sz,
+                                     settlement_sigma_z=None if joint is None else joint.sigma_z)
     return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
                             dz_noise_std=post["noise_std"],
                             slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
