@@ -14,8 +14,6 @@ multiply-add, which would change the last bits.
 
 from __future__ import annotations
 
-import numpy as np
-
 from .._jit import njit
 
 __all__ = ["sos_cascade"]
