@@ -40,7 +40,8 @@ __all__ = ["filter_design", "DESIGN_FUNCTIONS", "design_cache_dir"]
 DESIGN_FUNCTIONS = ("butter", "cheby1", "cheby2", "ellip", "bessel", "iirfilter", "bilinear", "bilinear_zpk",
                     "tf2sos", "zpk2sos", "zpk2tf", "tf2zpk", "sos2zpk", "sos2tf", "lp2hp_zpk", "lp2lp_zpk")
 _FORMAT = 1
-_MEMORY: dict[str, object] = {}
+_MEMORY: dict[str, object] = {}  # this process's designs by key (read or computed once)
+_MEMORY_SIZE = 1024
 _ENVIRONMENT: str | None = None
 
 
@@ -231,5 +232,7 @@ def filter_design(name: str, *args, **kwargs):
             return result
         if path is not None:
             _write(path, key, result)
+    if len(_MEMORY) >= _MEMORY_SIZE:  # a loop over many distinct designs (perturbed instruments) stays bounded
+        _MEMORY.clear()
     _MEMORY[key] = _copy(result)
     return result
