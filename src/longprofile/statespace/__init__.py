@@ -54,6 +54,13 @@ Deterministic propagation
 linear_recursion       -- x[k+1] = A_k x[k] + B_k u[k], constant or per-step matrices (compiled; IRI golden car).
 linear_recursion_columns -- K independent columns of one constant recursion in one compiled call.
 
+Second-order-section filters (scipy.signal's sosfilt / sosfiltfilt bit for bit, without importing scipy.signal)
+-------------------------------------------------------------------------------------------------------------
+sos_filter             -- causal cascade of second-order sections along axis 0 (optional initial / final state).
+sos_filtfilt           -- zero-phase forward-backward filtering with odd extension (scipy's padtype="odd").
+sos_filter_zi          -- initial state of sos_filter in the steady state of a unit step (scipy's sosfilt_zi).
+filter_design          -- a scipy.signal filter design (butter, bilinear, zpk2sos, ...) cached on disk.
+
 Results
 -------
 FilterResult           -- filtered/predicted moments, innovations, log-likelihood.
@@ -81,6 +88,8 @@ _LAZY = {
     "process_noise_moments": "_em", "process_noise_energy": "_em",
     "StateSpaceModel": "_model",
     "ObserverResult": "_observer", "luenberger_gain": "_observer", "luenberger_observer": "_observer",
+    "filter_design": "_design_cache",
+    "sos_filter": "_sos", "sos_filtfilt": "_sos", "sos_filter_zi": "_sos",
     "LinearRecursionResult": "_propagate", "linear_recursion": "_propagate", "linear_recursion_columns": "_propagate",
     "FilterResult": "_results", "SmootherResult": "_results",
     "posterior_sample": "_sampling", "simulate": "_sampling",
@@ -135,6 +144,10 @@ __all__ = [
     "linear_recursion",
     "linear_recursion_columns",
     "LinearRecursionResult",
+    "sos_filter",
+    "sos_filtfilt",
+    "sos_filter_zi",
+    "filter_design",
 ]
 
 

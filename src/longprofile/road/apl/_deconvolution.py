@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import linalg, optimize, signal
+from scipy import linalg, optimize
 
 from ..._validation import as_float_array, require_positive
 from ...core import Profile
@@ -18,12 +18,14 @@ from ...errors import ConvergenceError, InputError, ModelError, NotDetectableErr
 from ...statespace import (
     StateSpaceModel,
     chunked_kalman_filter,
+    filter_design,
     fixed_lag_smoother,
     kalman_filter,
     long_record_log_likelihood,
     long_record_smoother,
     rts_smoother,
     shared_covariance_smoother,
+    sos_filtfilt,
 )
 from ._double_filter import double_filter
 from ._gap_uncertainty import gap_error_variance
@@ -432,9 +434,9 @@ def detrend_profile(elevation, dx: float, *, highpass_wavelength: float | None =
         fc = 1.0 / lam
         if fc >= 0.5 / dx:
             raise InputError(f"highpass_wavelength {lam} m is shorter than 2 dx = {2 * dx} m.")
-        sos = signal.butter(2, fc, btype="highpass", fs=1.0 / dx, output="sos")
+        sos = filter_design("butter", 2, fc, btype="highpass", fs=1.0 / dx, output="sos")
         padlen = min(n - 1, int(3 * lam / dx))
-        out = signal.sosfiltfilt(sos, out, axis=0, padtype="odd", padlen=padlen)
+        out = sos_filtfilt(sos, out, padlen=padlen)
     return np.moveaxis(out, 0, axis)
 
 

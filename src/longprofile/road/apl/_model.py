@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from ..._validation import as_float_array, require_positive
 from ...core import Profile
 from ...errors import InputError, ModelError, ShapeError, UnitsError
+from ...statespace import filter_design, sos_filter
 
 __all__ = [
     "APLModel",
@@ -133,8 +133,9 @@ class APLModel:
 
     @property
     def sos(self) -> np.ndarray:
-        """(n_sections, 6) second-order sections of H without the pure delay (scipy layout)."""
-        return signal.zpk2sos(self.zeros, self.poles, self.gain, pairing="nearest")
+        """(n_sections, 6) second-order sections of H without the pure delay (scipy layout): ``scipy.signal.zpk2sos``
+        with ``pairing="nearest"``, through the engine's design cache (no scipy.signal import once cached)."""
+        return filter_design("zpk2sos", self.zeros, self.poles, self.gain, pairing="nearest")
 
     @property
     def numerator(self) -> np.ndarray:
@@ -502,10 +503,10 @@ def apl_filter(model: APLModel, x, *, axis: int = 0, initial: str = "steady") ->
         raise ShapeError("x has no samples.")
     if initial == "steady":
         x0 = arr[:1]
-        out = signal.sosfilt(model.sos, arr - x0, axis=0) + model.dc_gain * x0
+        out = sos_filter(model.sos, arr - x0) + model.dc_gain * x0
     elif initial == "rest":
         x0 = np.zeros_like(arr[:1])
-        out = signal.sosfilt(model.sos, arr, axis=0)
+        out = sos_filter(model.sos, arr)
     else:
         raise InputError(f"initial must be 'steady' or 'rest'; got {initial!r}.")
     if model.delay:

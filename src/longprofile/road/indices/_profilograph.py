@@ -174,12 +174,12 @@ def profilograph_index(trace: ProfilographTrace, *, segment_length: float = 0.1 
     if not np.allclose(np.diff(s), dx, rtol=1e-6, atol=0):
         raise InputError("profilograph_index needs a regularly sampled trace; resample the profile first.")
     if lowpass is not None:
-        from scipy.signal import butter, sosfiltfilt
+        from ...statespace import filter_design, sos_filtfilt
 
         cut = require_positive("lowpass (m)", lowpass)
         if cut > 2 * dx:
-            sos = butter(3, 1.0 / cut, btype="lowpass", fs=1.0 / dx, output="sos")
-            y = sosfiltfilt(sos, y, axis=0)
+            sos = filter_design("butter", 3, 1.0 / cut, btype="lowpass", fs=1.0 / dx, output="sos")
+            y = sos_filtfilt(sos, y)
     n = int(np.floor((s[-1] - s[0]) / seg + 1e-9))
     if n < 1:
         raise InputError(f"the trace ({s[-1] - s[0]:.2f} m) is shorter than one segment ({seg:g} m).")

@@ -16,7 +16,7 @@ import pandas as pd
 from ..._validation import require_positive
 from ...core import Profile
 from ...errors import InputError
-from ...statespace import linear_recursion
+from ...statespace import filter_design, linear_recursion, sos_filtfilt
 from ..indices._iri import golden_car_matrices, iri
 
 __all__ = ["R56_THRESHOLDS", "CertificationResult", "ProfileComparison", "certify_profiler", "compare_profiles",
@@ -140,8 +140,9 @@ def filter_for_comparison(profile: Profile, track: str, *, filter: str = "iri",
     filter : {"iri", "bandpass", "none"}
         ``"iri"``: the IRI filter -- the golden-car output ``zs' - zu'`` (m/m, unrectified) after the 250 mm
         moving average when ``round(0.25 / dx) >= 2`` (ASTM E1926 / WTP-46), as in Karamihas' method for the
-        IRI. ``"bandpass"``: elevation filtered by a zero-phase 2nd-order Butterworth band-pass (scipy
-        ``sosfiltfilt``) keeping wavelengths ``band = (shortest, longest)`` m, for indices other than the IRI.
+        IRI. ``"bandpass"``: elevation filtered by a zero-phase 2nd-order Butterworth band-pass (the engine's
+        ``sos_filtfilt``, scipy's ``sosfiltfilt`` bit for bit) keeping wavelengths ``band = (shortest, longest)``
+        m, for indices other than the IRI.
         ``"none"``: elevation minus its mean.
     band : (float, float), optional
         Wavelength band for ``"bandpass"``, m.
@@ -169,16 +170,14 @@ def filter_for_comparison(profile: Profile, track: str, *, filter: str = "iri",
                                output_matrix=_C_RATE)
         return res.outputs[:, 0]
     if key == "bandpass":
-        from scipy.signal import butter, sosfiltfilt
-
         if band is None or len(band) != 2:
             raise InputError("filter='bandpass' needs band=(shortest, longest) wavelengths in m.")
         short, long_ = sorted(require_positive("band wavelength (m)", b) for b in band)
         nyquist_wl = 2 * dx
         if short <= nyquist_wl:
             raise InputError(f"the shortest wavelength {short:g} m must exceed twice the step ({nyquist_wl:g} m).")
-        sos = butter(2, [1.0 / long_, 1.0 / short], btype="bandpass", fs=1.0 / dx, output="sos")
-        return sosfiltfilt(sos, z - z.mean())
+        sos = filter_design("butter", 2, [1.0 / long_, 1.0 / short], btype="bandpass", fs=1.0 / dx, output="sos")
+        return sos_filtfilt(sos, z - z.mean())  # z is one track (1-D): scipy's sosfiltfilt, bit for bit
     if key == "none":
         return z - z.mean()
     raise InputError(f"unknown filter {filter!r}; use 'iri', 'bandpass' or 'none'.")

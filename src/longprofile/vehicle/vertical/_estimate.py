@@ -14,11 +14,11 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import signal
 
 from ..._jit import njit
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, ShapeError
+from ...statespace import filter_design, sos_filter
 from ._model import (
     CORNER_NAMES,
     MR_MAP_VELOCITIES,
@@ -59,8 +59,8 @@ def yaw_acceleration(yaw_rate, dt: float, *, cutoff: float = 5.0) -> np.ndarray:
     d = np.empty_like(r)
     d[1:] = np.diff(r) / dt
     d[0] = 0.0 if r.shape[0] < 2 else d[1]
-    sos = signal.butter(2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt, output="sos")
-    return signal.sosfilt(sos, d, axis=0)
+    sos = filter_design("butter", 2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt, output="sos")
+    return sos_filter(sos, d)
 
 
 # ------------------------------------------------------------------------------------------------ MR actuator
@@ -101,8 +101,8 @@ def damper_velocity_from_displacement(displacement, dt: float, *, cutoff: float 
     dt = require_positive("dt", dt)
     v = np.zeros_like(d)
     v[1:] = np.diff(d, axis=0) / dt
-    return signal.sosfilt(signal.butter(2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt,
-                                        output="sos"), v, axis=0)
+    return sos_filter(filter_design("butter", 2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt,
+                                    output="sos"), v)
 
 
 def mr_actuator_force(current, damper_velocity, mr: MRDamperParams | None = None) -> np.ndarray:
@@ -337,13 +337,15 @@ def _actuator_forces(u, damper_velocity):
 
 
 def _sos(order, cutoff, btype, dt):
-    return signal.butter(order, cutoff, btype=btype, fs=1.0 / dt, output="sos")
+    """Butterworth sections (scipy.signal.butter, through the engine's design cache)."""
+    return filter_design("butter", order, cutoff, btype=btype, fs=1.0 / dt, output="sos")
 
 
 def _second_order_lowpass(f0, zeta, dt):
+    """Sections of w0^2 / (s^2 + 2 zeta w0 s + w0^2) by the bilinear transform (scipy's, through the design cache)."""
     w0 = 2 * np.pi * f0
-    b, a = signal.bilinear([w0 ** 2], [1.0, 2 * zeta * w0, w0 ** 2], fs=1.0 / dt)
-    return signal.tf2sos(b, a)
+    b, a = filter_design("bilinear", [w0 ** 2], [1.0, 2 * zeta * w0, w0 ** 2], fs=1.0 / dt)
+    return filter_design("tf2sos", b, a)
 
 
 def _integrate(a, dt):
@@ -417,8 +419,8 @@ def _blended_relative_velocity(suspension_deflection, suspension_velocity, dt, c
     """
     d = np.zeros_like(suspension_deflection)
     d[1:] = np.diff(suspension_deflection, axis=0) / dt
-    return (signal.sosfilt(_sos(1, crossover, "low", dt), d, axis=0)
-            + signal.sosfilt(_sos(1, crossover, "high", dt), suspension_velocity, axis=0))
+    return (sos_filter(_sos(1, crossover, "low", dt), d)
+            + sos_filter(_sos(1, crossover, "high", dt), suspension_velocity))
 
 
 def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspension_velocity, u, *,
@@ -457,21 +459,21 @@ def absolute_velocities(sensors: VerticalSensors, suspension_deflection, suspens
         cv = _comfort_model(np.ascontiguousarray(suspension_deflection, dtype=float), np.ascontiguousarray(vel),
                             hdz, hdzd, act, corner, coupling, scalars, dt, leak)
         road_dzd = vel - hdzd
-        body = signal.sosfilt(_sos(1, 0.2, "high", dt), hv + cv, axis=0)
-        body = signal.sosfilt(_second_order_lowpass(3.0, 0.4, dt), body, axis=0)
-        wheel = signal.sosfilt(_sos(1, 0.3, "high", dt), hw + cv - road_dzd, axis=0)
-        wheel = signal.sosfilt(_sos(1, 100.0, "low", dt), wheel, axis=0)
+        body = sos_filter(_sos(1, 0.2, "high", dt), hv + cv)
+        body = sos_filter(_second_order_lowpass(3.0, 0.4, dt), body)
+        wheel = sos_filter(_sos(1, 0.3, "high", dt), hw + cv - road_dzd)
+        wheel = sos_filter(_sos(1, 100.0, "low", dt), wheel)
     elif config == 2:
         a = sensors.body_accel - comp
-        a = signal.sosfilt(_sos(1, 0.3, "high", dt), a, axis=0)
-        body = signal.sosfilt(_sos(1, 0.1, "high", dt), _integrate(a, dt), axis=0)
-        wheel = signal.sosfilt(_sos(1, 0.5, "high", dt), body - suspension_velocity, axis=0)
-        wheel = signal.sosfilt(_sos(1, 100.0, "low", dt), wheel, axis=0)
+        a = sos_filter(_sos(1, 0.3, "high", dt), a)
+        body = sos_filter(_sos(1, 0.1, "high", dt), _integrate(a, dt))
+        wheel = sos_filter(_sos(1, 0.5, "high", dt), body - suspension_velocity)
+        wheel = sos_filter(_sos(1, 100.0, "low", dt), wheel)
     else:
         a = sensors.wheel_accel - comp
-        a = signal.sosfilt(_sos(1, 0.1, "high", dt), a, axis=0)
-        wheel = signal.sosfilt(_sos(1, 0.1, "high", dt), _integrate(a, dt), axis=0)
-        body = signal.sosfilt(_sos(1, 7.0, "low", dt), wheel + suspension_velocity, axis=0)
+        a = sos_filter(_sos(1, 0.1, "high", dt), a)
+        wheel = sos_filter(_sos(1, 0.1, "high", dt), _integrate(a, dt))
+        body = sos_filter(_sos(1, 7.0, "low", dt), wheel + suspension_velocity)
     return body, wheel
 
 

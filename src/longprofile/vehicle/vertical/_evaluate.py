@@ -13,10 +13,10 @@ import dataclasses
 
 import numpy as np
 import pandas as pd
-from scipy import signal
 
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, ShapeError
+from ...statespace import filter_design, sos_filtfilt
 from ._estimate import MR_MAP_FORCE_ERROR, VerticalStateEstimate, estimate_vertical_states, nominal_mr_map
 from ._model import MR_MAP_VELOCITIES
 from ._params import MRDamperParams, VerticalVehicleParams
@@ -91,7 +91,8 @@ CARS = ("ideal", "magneride")
 
 
 def _zero_phase(x, order, cutoff, btype, dt):
-    return signal.sosfiltfilt(signal.butter(order, cutoff, btype=btype, fs=1.0 / dt, output="sos"), x, axis=0)
+    """Zero-phase Butterworth filtering along time (scipy.signal.sosfiltfilt's default odd pad, bit for bit)."""
+    return sos_filtfilt(filter_design("butter", order, cutoff, btype=btype, fs=1.0 / dt, output="sos"), x)
 
 
 def thesis_references(sim: VerticalSimulation, *, displacement, body_accel, wheel_accel,
@@ -148,8 +149,8 @@ def thesis_references(sim: VerticalSimulation, *, displacement, body_accel, whee
 def _reference(sim: VerticalSimulation, name: str):
     val = getattr(sim, name)
     if name in ("body_velocity", "wheel_velocity"):
-        sos = signal.butter(1, 0.2, btype="high", fs=1.0 / sim.dt, output="sos")
-        val = signal.sosfiltfilt(sos, val, axis=0)
+        sos = filter_design("butter", 1, 0.2, btype="high", fs=1.0 / sim.dt, output="sos")
+        val = sos_filtfilt(sos, val)
     return val
 
 

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import signal
 
 from ..._validation import require_positive
 from ...errors import InputError
+from ...statespace import filter_design, sos_filtfilt
 from ._estimate import VerticalStateEstimate
 from ._simulate import VerticalSensors, VerticalSimulation, vehicle_speed
 
@@ -44,7 +44,7 @@ def _highpass(sos, x, fc, dt):
     """
     n = x.shape[0]
     padlen = min(n - 1, int(round(3.0 / (fc * dt))))
-    return signal.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=padlen)
+    return sos_filtfilt(sos, x, padlen=padlen)
 
 
 def _detrend(x, dt, order):
@@ -103,7 +103,7 @@ def road_profile_from_suspension(sensors: VerticalSensors, estimate: VerticalSta
     dt = sensors.dt
     if sensors.time.shape != estimate.time.shape:
         raise InputError("sensors and estimate must cover the same samples; run the estimate on these sensors.")
-    sos = signal.butter(2, fc, btype="high", fs=1.0 / dt, output="sos")
+    sos = filter_design("butter", 2, fc, btype="high", fs=1.0 / dt, output="sos")
     cols = [0, 1] if axle == "front" else [2, 3]
     if sensors.config == 3:
         # integrate twice, remove the unknown initial height and velocity (and a constant accelerometer bias:

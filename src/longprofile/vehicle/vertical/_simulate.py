@@ -458,7 +458,7 @@ def steering_sine_manoeuvre(dt: float = 1e-3, *, duration: float = 20.0, speed: 
     -------
     ax, ay, yaw_accel : (T,) ndarrays (m/s^2, m/s^2, rad/s^2)
     """
-    from scipy import signal
+    from ...statespace import filter_design, sos_filter
 
     dt = require_positive("dt", dt)
     duration = require_positive("duration", duration)
@@ -467,9 +467,9 @@ def steering_sine_manoeuvre(dt: float = 1e-3, *, duration: float = 20.0, speed: 
     phase = 2 * np.pi * 0.5 * (f_end / duration) * t ** 2
     r_cmd = yaw_rate_amplitude * np.sin(phase)
     wn = 2 * np.pi * require_positive("yaw_bandwidth", yaw_bandwidth)
-    sos = signal.butter(2, wn, btype="low", analog=True, output="zpk")
-    zpk = signal.bilinear_zpk(*sos, fs=1 / dt)
-    r = signal.sosfilt(signal.zpk2sos(*zpk), r_cmd, axis=0)
+    zpk = filter_design("butter", 2, wn, btype="low", analog=True, output="zpk")
+    zpk = filter_design("bilinear_zpk", *zpk, fs=1 / dt)
+    r = sos_filter(filter_design("zpk2sos", *zpk), r_cmd)
     psidd = np.gradient(r, dt)
     return np.zeros_like(t), V * r, psidd
 
