@@ -70,8 +70,11 @@ def test_all_days_anchor_likelihood_is_the_dense_gaussian_density(seed, n, k, sz
     dense = _dense_all_days_loglik(x, M, R, S, modes.rigidity * c, f, sz)
     # anchors of 1 mm and more: at 10 um the 1 rad^2 first-slope prior meets the anchor and the two computations
     # differ by up to ~2e-3 relative (docs/rail.md, "Numerical note"); a missing term would be of order
-    # log(sigma_z) per mode
-    assert ll + jac == pytest.approx(dense, abs=1e-5 * max(1.0, abs(dense)))
+    # log(sigma_z) per mode (2-7). Even at 1 mm both float64 computations carry round-off of the ill-conditioned
+    # covariance (1 rad^2 prior against 1e-10 rad^2 noise): against the density in exact rational arithmetic
+    # (session 27, seeds 3 and 30 of 150 examples, the worst two) the engine's was off by 0.0155 and 0.0005, the
+    # dense Cholesky by 0.033 and 0.0087; hence an absolute tolerance of 0.05
+    assert ll + jac == pytest.approx(dense, abs=0.05)
     for other in (0.5 * c, 2.0 * c):  # the profile: no other scale does better
         assert _dense_all_days_loglik(x, M, R, S, modes.rigidity * other, f, sz) <= dense + 1e-6 * abs(dense)
 
