@@ -8,9 +8,7 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError
-from longprofile.rail import SettlementSettings, estimate_settlement, validate_site
-from longprofile.rail._rigidity import DEFAULT_SIGMA_Z
-from longprofile.rail._scenarios import SHAPE_FAMILIES, simulate_scenario
+from longprofile.rail import SettlementSettings
 from longprofile.rail._settle import HEALTH_ANCHOR_DECADES, _running_median3, fit_end_anchor
 
 
@@ -73,23 +71,3 @@ def test_health_end_anchor_setting():
     assert SettlementSettings.until_2026_12_06().health_end_anchor == "fixed"
     with pytest.raises(InputError):
         SettlementSettings(health_end_anchor="free")
-
-
-@pytest.mark.parametrize("seed", [300, 304])  # calibration seeds
-def test_tilted_site_fewer_healthy_flagged_with_fitted_anchor(seed):
-    sc = simulate_scenario(SHAPE_FAMILIES["faults-tilt"], seed)
-    site = validate_site(sc.sensors, sc.readings, sc.survey)
-    healthy = set(site.sensor_ids) - set(sc.truth.faults)
-
-    def n_false(res):
-        return len({sid for sid, _, _ in res.health.flagged()} & healthy)
-
-    fixed = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="fixed")
-    fit = estimate_settlement(site, n_monte_carlo=0, through_time=False, health_end_anchor="fit")
-    assert fixed.health.anchor_std == DEFAULT_SIGMA_Z and fixed.settings["health_sigma_z"] == DEFAULT_SIGMA_Z
-    assert fit.health.anchor_std >= 1e-3 and fit.settings["health_end_anchor"] == "fit"
-    assert n_false(fixed) >= 3  # the tilt's false alarms (diagnosis, docs/rail.md)
-    assert n_false(fit) == 0
-    # every fault the anchored tests found is still found
-    found = {sid for sid, _, _ in fixed.health.flagged()} & set(sc.truth.faults)
-    assert found <= {sid for sid, _, _ in fit.health.flagged()}
