@@ -728,8 +728,7 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
         M = _running_median3(M)
     Y, modes, f = _all_days_anchor_model(x, M, day_offsets=day_offsets, temperature_change=temperature_change,
                                          sigma=s, sigma_z=sigma_z)
-    grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
-    fits = [all_days_anchor_log_likelihood(x, Y, modes, sigma_z=sz, sensor_factors=f) for sz in grid]
+    grid, fits = _anchor_profile(x, Y, modes, sigma_z, decades, sensor_factors=f)
     ll = np.array([v for v, _ in fits])
     k = int(np.argmax(ll))
     if ll[k] - ll[0] <= min_gain:
@@ -748,6 +747,13 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
                                        leave_one_out=False)[0] == sigma_z:
                 return float(sigma_z), ll
     return float(grid[k]), ll
+
+
+def _anchor_profile(x, mode_slopes, modes: DayModes, sigma_z: float, decades: int, **options):
+    """The anchors ``sigma_z * 10**k``, k = 0..``decades``, and the all-days profile log-likelihood with its scale c at
+    each (:func:`all_days_anchor_log_likelihood`; ``options`` passed on): ((decades + 1,) grid, [(loglik, c), ...])."""
+    grid = float(sigma_z) * 10.0 ** np.arange(int(decades) + 1)
+    return grid, [all_days_anchor_log_likelihood(x, mode_slopes, modes, sigma_z=v, **options) for v in grid]
 
 
 def _largest_departure(slopes) -> int:
@@ -1488,9 +1494,9 @@ def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, 
         return opt.sigma_z
     if opt.health_end_anchor != "fixed" and health_sz is not None and health_sz <= opt.sigma_z:
         return opt.sigma_z
-    grid = float(opt.sigma_z) * 10.0 ** np.arange(HEALTH_ANCHOR_DECADES + 1)
-    ll = np.array([all_days_anchor_log_likelihood(x, jp.mode_slopes, jp.modes, sigma_z=v, sensor_factors=factors,
-                                                  penalty_order=order, segment_weights=weights)[0] for v in grid])
+    grid, fits = _anchor_profile(x, jp.mode_slopes, jp.modes, opt.sigma_z, HEALTH_ANCHOR_DECADES,
+                                 sensor_factors=factors, penalty_order=order, segment_weights=weights)
+    ll = np.array([v for v, _ in fits])
     k = int(np.argmax(ll))
     return float(grid[k]) if ll[k] - ll[0] > ANCHOR_MIN_GAIN else float(opt.sigma_z)
 

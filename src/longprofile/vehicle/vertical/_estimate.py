@@ -59,8 +59,7 @@ def yaw_acceleration(yaw_rate, dt: float, *, cutoff: float = 5.0) -> np.ndarray:
     d = np.empty_like(r)
     d[1:] = np.diff(r) / dt
     d[0] = 0.0 if r.shape[0] < 2 else d[1]
-    sos = filter_design("butter", 2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt, output="sos")
-    return sos_filter(sos, d)
+    return sos_filter(_sos(2, require_positive("cutoff", cutoff), "low", dt), d)
 
 
 # ------------------------------------------------------------------------------------------------ MR actuator
@@ -101,8 +100,7 @@ def damper_velocity_from_displacement(displacement, dt: float, *, cutoff: float 
     dt = require_positive("dt", dt)
     v = np.zeros_like(d)
     v[1:] = np.diff(d, axis=0) / dt
-    return sos_filter(filter_design("butter", 2, require_positive("cutoff", cutoff), btype="low", fs=1 / dt,
-                                    output="sos"), v)
+    return sos_filter(_sos(2, require_positive("cutoff", cutoff), "low", dt), v)
 
 
 def mr_actuator_force(current, damper_velocity, mr: MRDamperParams | None = None) -> np.ndarray:
