@@ -168,14 +168,14 @@ def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
     ends do not move keeps sigma_z and the same settlement bit for bit."""
     sc = simulate_scenario(SHAPE_FAMILIES["faults-tilt"], 300)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
-    fixed = estimate_settlement(site, n_monte_carlo=0, health_end_anchor="all-days")
+    fixed = estimate_settlement(site, n_monte_carlo=0, health_end_anchor="all-days", settlement_end_anchor="fixed")
     free = estimate_settlement(site, n_monte_carlo=0, health_end_anchor="all-days", settlement_end_anchor="all-days")
     assert fixed.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
     assert free.settings["settlement_sigma_z"] >= 1e-3
     assert _coverage(sc, free) > _coverage(sc, fixed) + 0.2
     sc = simulate_scenario("faults", 301)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
-    fixed = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days")
+    fixed = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days", settlement_end_anchor="fixed")
     free = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days", settlement_end_anchor="all-days")
     assert free.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
     for k in ("dz", "dz_std", "max_settlement_upper"):
@@ -183,7 +183,8 @@ def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
 
 
 def test_settlement_end_anchor_setting():
-    assert SettlementSettings().settlement_end_anchor == "fixed"
+    assert SettlementSettings().settlement_end_anchor == "all-days"
+    assert SettlementSettings.until_2026_12_06().settlement_end_anchor == "fixed"
     with pytest.raises(InputError):
         SettlementSettings(settlement_end_anchor="fit")
 
