@@ -356,6 +356,9 @@ def main(argv=None) -> int:
     p.add_argument("--settlement-end-anchor", choices=("fixed", "all-days"), default=None,
                    help="end anchors of the settlement itself (SettlementSettings.settlement_end_anchor; default: the "
                         "estimator's)")
+    p.add_argument("--reversal-z-rule", choices=("alone", "gated"), default=None,
+                   help="how the reversal z of the day-to-day health tests flags a sensor "
+                        "(SettlementSettings.reversal_z_rule, docs/rail.md step 16; default: the estimator's)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -373,7 +376,8 @@ def main(argv=None) -> int:
     rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}),
                **({"shape_rule": "sum"} if args.shape_rule == "sum" else {}),
                **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
-               **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}))
+               **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}),
+               **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

@@ -10,7 +10,8 @@ dead        no readings, readings on fewer than half of the days, a stuck value 
             the raw readings below the sensors' 1e-4 deg resolution), or frozen: stuck within each of
             FROZEN_MIN_DAYS consecutive days (a channel that stopped updating mid-record)
 reversed    its angle changes follow minus what its neighbours predict (mounted backwards): the
-            reversal z of the daily changes, or the day-to-day log-likelihood ratio, or (with the
+            reversal z of the daily changes when the day-to-day log-likelihood ratio or the all-days Bayes factor
+            agrees (step 16: the z treats the days as independent), or the day-to-day log-likelihood ratio, or (with the
             all-days noise model) the all-days Bayes factor of "reversed" against "healthy"
             (:func:`all_days_reversal_evidence`, :func:`flag_reversed_all_days`), or the Bayes factor of a
             reversal with the sensor predicted by a dictionary of localised settlement shapes fitted to the other
@@ -37,7 +38,8 @@ from ._shapes import ShapeEvidence
 
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
-           "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES"]
+           "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
+           "REVERSAL_Z_RULES"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -53,6 +55,26 @@ IMPROBABLE_SCORE = 14.0  # was 9; 14 on calibration seeds (faults 300-399, other
 #: sum (m + mu)^2 < 0.25 sum (m - mu)^2 (minus the prediction explains the changes). Set from
 #: the healthy sensors of the "faults" scenario family (docs/rail.md, "Calibration on independent scenarios").
 REVERSED_Z = 8.0
+#: Gate of the reversal z (step 16, ``reversal_z_rule="gated"``): z_rev above :data:`REVERSED_Z` flags a sensor only
+#: when its day-to-day reversal log-likelihood ratio (:data:`REVERSED_LLR`'s statistic) also exceeds this. z_rev treats
+#: the days as independent, but a sensor's changes since day 0 share the reference day's error and accumulate its
+#: random-walk drift, so their errors are strongly correlated over the days and Var(sum_d mu_d e_d) is many times
+#: sum_d mu_d^2 v_d: on the no-settlement sites (faults-none, calibration seeds 300-339) the healthy sensors' z_rev has
+#: a robust std of 2.9 instead of 1 and 32 of 1033 have |z_rev| > 8. The day-to-day changes remove the shared error and
+#: whiten the random walk, so their ratio is the test that respects the dependence; the z test now only adds its power
+#: where the increments point to a reversal too (odds above e^5 ~ 150), or, with the all-days model, where the all-days
+#: log Bayes factor (the z's exact form with the errors correlated over days) exceeds :data:`REVERSED_ALL_DAYS_LBF`
+#: (:func:`flag_reversed_all_days`). Calibration seeds (docs/rail.md, "Sensor health,
+#: step 16"; faults 300-399 and the other ten families 300-339, 12 284 healthy sensors): of the grid {0, 5, 10, 15}
+#: the largest gate that loses none of the 257 reversals found with the z alone; healthy flagged 131 -> 117 / 107 / 102
+#: / 100 (10 and 15 lose faults-asymmetric seed 301's reversal, ratio 7.5). Checked after on faults-asymmetric and
+#: faults-tilt 340-399: 46 -> 37 of 3176, none of the 65 reversals lost. The value of
+#: :data:`REVERSED_SHAPE_GATE_INC_LLR`.
+REVERSED_Z_GATE_LLR = 5.0
+#: ``reversal_z_rule`` of :func:`assess_sensors` (``SettlementSettings.reversal_z_rule``): "gated" (the default,
+#: step 16: z_rev counts only above :data:`REVERSED_Z_GATE_LLR`'s day-to-day ratio) or "alone" (z_rev on its own, the
+#: rule until 2026-12-06).
+REVERSAL_Z_RULES = ("alone", "gated")
 #: Day-to-day reversal log-likelihood ratio (:func:`_increment_tests`) above which a sensor is "reversed".
 REVERSED_LLR = 25.0  # calibration seeds (faults 300-399): reversed 87/100, healthy flagged 10/2541 (15: 86, 11)
 #: Relative error of the leave-one-out prediction of a day-to-day change (its shape error on a bowl the
@@ -287,7 +309,8 @@ def _classify(m, pred, z):
 
 
 def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, exclude=(), max_flagged=None,
-                   fit=None, raw_day_spread_deg=None, fit_anchor=None) -> tuple[SensorHealth, float, float]:
+                   fit=None, raw_day_spread_deg=None, fit_anchor=None,
+                   reversal_z_rule: str = "gated") -> tuple[SensorHealth, float, float]:
     """Flag dead, frozen and improbable sensors, iteratively (worst first), re-fitting the noise after each exclusion.
 
     Parameters
@@ -316,6 +339,11 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     fit_anchor : callable, optional
         ``fit_anchor(slopes_masked) -> sigma_z`` re-estimates the end-anchor std of the prediction from the kept
         sensors before each pass (:func:`~longprofile.rail._settle.fit_end_anchor`); None: ``sigma_z`` throughout.
+    reversal_z_rule : {"gated", "alone"}, default "gated"
+        :data:`REVERSAL_Z_RULES`: "gated", the reversal z (:data:`REVERSED_Z`) flags a sensor only when its day-to-day
+        reversal log-likelihood ratio exceeds :data:`REVERSED_Z_GATE_LLR` (docs/rail.md, "Sensor health, step 16"; the
+        all-days stage may flag it later, :func:`flag_reversed_all_days`); "alone", on its own (the rule until
+        2026-12-06).
 
     Returns
     -------
@@ -323,6 +351,8 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     sigma, rigidity : float
         Final values (re-fitted if ``fit`` was given).
     """
+    if reversal_z_rule not in REVERSAL_Z_RULES:
+        raise ValueError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}")
     D, N = slopes.shape
     status = np.array(["ok"] * N, dtype=object)
     detail = np.array([""] * N, dtype=object)
@@ -347,6 +377,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     llr = np.full(N, np.nan)
     step = np.full(N, np.nan)
     n_flag = 0
+    gate_text = f" with the ratio > {REVERSED_Z_GATE_LLR:g}" if reversal_z_rule == "gated" else ""
     while True:
         bad = status != "ok"
         M = np.where(bad[None, :], np.nan, slopes)
@@ -368,8 +399,10 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         llr, step, step_day = _increment_tests(M, pred, bad)
         # exceedance of each test over its threshold; the worst sensor (largest ratio) goes first
         r_imp = np.where((pval < IMPROBABLE_P / N) & (score > IMPROBABLE_SCORE), score / IMPROBABLE_SCORE, 0.0)
-        r_rev = np.nan_to_num(np.maximum(np.nan_to_num(rev, nan=-np.inf) / REVERSED_Z,
-                                         np.nan_to_num(llr, nan=-np.inf) / REVERSED_LLR), neginf=0.0)
+        llr_, rev_ = np.nan_to_num(llr, nan=-np.inf), np.nan_to_num(rev, nan=-np.inf)
+        if reversal_z_rule == "gated":  # step 16: z_rev only where the day-to-day changes point to a reversal too
+            rev_ = np.where(llr_ > REVERSED_Z_GATE_LLR, rev_, -np.inf)
+        r_rev = np.nan_to_num(np.maximum(rev_ / REVERSED_Z, llr_ / REVERSED_LLR), neginf=0.0)
         r_step = np.nan_to_num(step, nan=0.0) / STEP_Z
         ratio = np.where(bad, 0.0, np.maximum.reduce([r_imp, r_rev, r_step]))
         if not (ratio > 1.0).any() or n_flag >= max_flagged or (~bad).sum() <= 3:
@@ -382,7 +415,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
             detail[j] = (f"angle changes follow {np.nansum(M[:, j] * pred[:, j]) / np.nansum(pred[:, j] ** 2):+.2f} x the "
                          f"neighbours' prediction (expected +1): day-to-day reversal log-likelihood ratio "
                          f"{llr[j]:.3g} (threshold {REVERSED_LLR:g}), reversal z {np.nan_to_num(rev[j]):.3g} "
-                         f"(threshold {REVERSED_Z:g}); {base}")
+                         f"(threshold {REVERSED_Z:g}{gate_text}); {base}")
         elif r_step[j] >= r_imp[j]:
             status[j] = "detached"
             detail[j] = (f"its leave-one-out residual jumps on day {step_day[j]}: {step[j]:.3g} robust std of its "
@@ -499,8 +532,8 @@ def shape_candidates(health: SensorHealth, evidence: ReversalEvidence, rule: str
 
 
 def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max_flagged: int | None = None,
-                           shape: ShapeEvidence | None = None,
-                           shape_rule: str = "threshold") -> tuple[SensorHealth, int | None]:
+                           shape: ShapeEvidence | None = None, shape_rule: str = "threshold",
+                           reversal_z_rule: str = "gated") -> tuple[SensorHealth, int | None]:
     """Flag the kept sensor with the largest all-days evidence of a reversal, if any passes either test.
 
     A sensor still "ok" is flagged "reversed" when its log Bayes factor (:func:`all_days_reversal_evidence`) exceeds
@@ -512,8 +545,13 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     BF + shape log BF + :data:`REVERSED_SUM_INC_WEIGHT` x day-to-day ratio, above :data:`REVERSED_SUM_LBF`, for the
     ``shape_candidates(..., rule="sum")``. The three weigh the same data under three predictions of the sensor (the
     smooth all-days prior of paper 004 §4.2, the localised shapes, independent day-to-day changes): the score is not a
-    likelihood ratio, and its threshold was set on the healthy sensors' tail on calibration seeds. The worst by the
-    sum of the two log Bayes factors.
+    likelihood ratio, and its threshold was set on the healthy sensors' tail on calibration seeds. With
+    ``reversal_z_rule="gated"`` (step 16) a kept sensor whose reversal z (``health.reversal_z``) exceeds
+    :data:`REVERSED_Z` (the gate of :func:`assess_sensors` stopped it there) is also "reversed" when its all-days log
+    Bayes factor exceeds :data:`REVERSED_ALL_DAYS_LBF`: that Bayes factor is the same projection of the sensor's
+    changes on the neighbours' prediction with the errors' correlation over the days accounted for (the all-days form
+    of the z).
+    The worst by the sum of the two log Bayes factors.
     One sensor at a time (the caller re-fits the noise model without it and asks again), and none once
     ``max_flagged`` sensors (default a quarter; dead ones not counted, as in :func:`assess_sensors`) are excluded or
     only 3 are left.
@@ -525,6 +563,8 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     flagged : int or None
         Index of the flagged sensor.
     """
+    if reversal_z_rule not in REVERSAL_Z_RULES:
+        raise ValueError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}")
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     N = health.status.size
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
@@ -533,12 +573,17 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     shape_score, shape_thr = ((g, REVERSED_SHAPE_EVIDENCE) if shape_rule == "threshold" else
                               (lbf + g + REVERSED_SUM_INC_WEIGHT * inc, REVERSED_SUM_LBF))
     by_shape = shape_candidates(health, evidence, shape_rule) & (shape_score > shape_thr)
-    passes = ((lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)) | by_shape
+    z = np.nan_to_num(health.reversal_z, nan=-np.inf) if health.reversal_z is not None else np.full(N, -np.inf)
+    by_inc = (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)
+    by_z = (lbf > REVERSED_ALL_DAYS_LBF) & (z > REVERSED_Z) & (reversal_z_rule == "gated")  # step 16
+    passes = by_inc | by_z | by_shape
 
     def detail(j):
+        why = (f"reversal z {z[j]:.3g} (> {REVERSED_Z:g}; day-to-day reversal log-likelihood ratio {inc[j]:.3g})"
+               if by_z[j] and not by_inc[j] else
+               f"day-to-day reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
         text = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
-                f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), day-to-day "
-                f"reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+                f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), {why}")
         if np.isfinite(glr[j]):
             rule = (f"threshold {REVERSED_SHAPE_EVIDENCE:g}" if shape_rule == "threshold" else
                     f"score with the all-days one and the day-to-day ratio "

@@ -15,6 +15,7 @@ from ..errors import InputError
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
+    REVERSAL_Z_RULES,
     SHAPE_RULES,
     SensorHealth,
     all_days_reversal_evidence,
@@ -1143,6 +1144,13 @@ class SettlementSettings:
         likelihood": on the benchmark's tilted sites 24 instead of 145 of 1020 healthy sensors flagged, none more on
         the Gaussian-bowl families). The settlement itself keeps ``sigma_z`` either way (see
         ``settlement_end_anchor``).
+    reversal_z_rule : {"gated", "alone"}, default "gated"
+        How the reversal z of the day-to-day health tests flags a sensor
+        (:data:`~longprofile.rail._health.REVERSAL_Z_RULES`): "gated", only when the sensor's day-to-day reversal log-likelihood ratio also exceeds
+        :data:`~longprofile.rail._health.REVERSED_Z_GATE_LLR` or, with the all-days model, its all-days log Bayes
+        factor exceeds :data:`~longprofile.rail._health.REVERSED_ALL_DAYS_LBF` (issue 13 step 16, docs/rail.md: the z
+        treats the days as independent, which a drifting sensor's changes since day 0 are not); "alone", on its own
+        (the default until 2026-12-06, :meth:`until_2026_12_06`).
     settlement_end_anchor : {"fixed", "all-days"}, default "all-days"
         End anchors of the settlement itself under the all-days model: "fixed", ``sigma_z`` (assumption 1: the span
         covers the works; the default until 2026-12-06 session 28, :meth:`until_2026_12_06`); "all-days" (the
@@ -1183,16 +1191,19 @@ class SettlementSettings:
     shape_evidence: bool = False
     shape_rule: str = "threshold"
     health_end_anchor: str = "all-days"
+    reversal_z_rule: str = "gated"
     settlement_end_anchor: str = "all-days"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
         """The defaults before the maximum-settlement interval changed on 2026-12-06 (issue 13 step 13): the
-        simultaneous band's interval (``max_settlement_interval="band"``) and the fixed end anchors of the health tests
+        simultaneous band's interval (``max_settlement_interval="band"``), the fixed end anchors of the health tests
         and of the settlement (``health_end_anchor="fixed"``, ``settlement_end_anchor="fixed"``, the defaults until
-        the all-days anchors of the same day, sessions 27 and 28); reproduces that estimator's outputs. ``options`` as
-        the constructor's."""
+        the all-days anchors of the same day, sessions 27 and 28) and the reversal z on its own
+        (``reversal_z_rule="alone"``, the default until step 16 of the same day); reproduces that estimator's outputs.
+        ``options`` as the constructor's."""
         return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", "settlement_end_anchor": "fixed",
+                      "reversal_z_rule": "alone",
                       **options})
 
     def __post_init__(self):
@@ -1218,6 +1229,8 @@ class SettlementSettings:
             raise InputError(f"shape_rule must be one of {SHAPE_RULES}; got {self.shape_rule!r}.")
         if self.health_end_anchor not in HEALTH_END_ANCHORS:
             raise InputError(f"health_end_anchor must be one of {HEALTH_END_ANCHORS}; got {self.health_end_anchor!r}.")
+        if self.reversal_z_rule not in REVERSAL_Z_RULES:
+            raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {self.reversal_z_rule!r}.")
         if self.settlement_end_anchor not in SETTLEMENT_END_ANCHORS:
             raise InputError(f"settlement_end_anchor must be one of {SETTLEMENT_END_ANCHORS}; "
                              f"got {self.settlement_end_anchor!r}.")
@@ -1301,7 +1314,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sz,
                                       raw_spread_deg=daily.raw_std_deg, raw_day_spread_deg=day_spread,
                                       exclude=excl_idx, max_flagged=None if opt.check_health else 0, fit=fit,
-                                      fit_anchor=fit_anchor)
+                                      fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule)
     sz = health.anchor_std
     health = replace(health, sensor_ids=list(ids))
     for sid, st, why in health.flagged():
@@ -1551,7 +1564,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 shape_rule=opt.shape_rule,
-                health_end_anchor=opt.health_end_anchor,
+                health_end_anchor=opt.health_end_anchor, reversal_z_rule=opt.reversal_z_rule,
                 health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
                 settlement_end_anchor=opt.settlement_end_anchor,
                 settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
@@ -1707,7 +1720,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         shape = shape_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, sensor_factors=joint.factors,
                                         sensors=cand) if cand.any() else None
         health, j = flag_reversed_all_days(health, evidence, max_flagged=None if opt.check_health else 0, shape=shape,
-                                           shape_rule=opt.shape_rule)
+                                           shape_rule=opt.shape_rule, reversal_z_rule=opt.reversal_z_rule)
         if j is None:  # a jump the day-to-day test missed ("Sensor health, step 12")
             steps = all_days_step_evidence(x, joint.mode_slopes, joint.modes.noise, joint.modes.to_modes,
                                            rigidity=joint.modes.rigidity, penalty_order=joint.prior.penalty_order,
