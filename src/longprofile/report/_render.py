@@ -6,6 +6,11 @@ helper imports matplotlib and draws a small figure (font cache, Agg) while the c
 draws the figures the report submits while the command writes its tables. The figures are the same PNG bytes as
 drawn in the command's own process (the same functions, the same matplotlib).
 
+A report of several figures (``road report``, ``rail settle --report``: ``second=True``) gets a second helper,
+forked by the first once it is warm (matplotlib and the preload imported, before any figure exists: nothing large
+to copy on write); the two share the report's figures (:func:`spread`). On a machine whose second core adds only
+part of a core's throughput (2026-12-06: two vCPUs, 1.2x one) it gains 0.06-0.09 s on those commands.
+
 The helper is started only when the machine is not oversubscribed (1-minute load average below the core count,
 :func:`_spare_core`): it costs more CPU in total than drawing inline, which a busy machine pays in wall time. The
 CLI asks for it only where it was measured to help (``longprofile.cli.app._HELPER_COMMANDS``).
@@ -44,25 +49,22 @@ class InlineRenderer:
 
 
 def _warm(preload=(), second: bool = False) -> None:
-    """Helper-process start: import matplotlib and draw a small figure with what the reports' figures first use
-    (text, a legend, a band, log axes with mathtext tick labels, a date axis: fonts, Agg, the mathtext parser, the
-    date converter), then import the ``preload`` modules (those the submitted figures' arguments will need to be
-    unpickled). ``second``: then fork a second helper from this warm one (:func:`spread`)."""
+    """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg), then import the
+    ``preload`` modules (those the submitted figures' arguments will need to be unpickled). ``second``: then fork a
+    second helper from this warm one (:func:`spread`).
+
+    Not warmed here (measured 2026-12-06, session 28): log axes with mathtext tick labels, a legend, a band and a
+    date axis (the first use of each in the reports' figures): `road report` was 0.07 s slower with them, its
+    figures arriving before the longer warm-up ended."""
     import importlib
     import io
 
-    import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(2, 1), dpi=20)
+    fig = Figure(figsize=(1, 1), dpi=20)
     FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(1, 2)
-    ax1.set_title("warm")
-    ax1.loglog([1.0, 10.0, 100.0], [1e-6, 1e-4, 1e-2], label="log")
-    ax1.fill_between([1.0, 10.0], [1e-6, 1e-5], [1e-4, 1e-3], lw=0)
-    ax1.legend()
-    ax2.plot(np.array(["2026-01-01", "2026-01-03"], dtype="datetime64[D]"), [0.0, 1.0])
+    fig.add_subplot().set_title("warm")
     fig.savefig(io.BytesIO(), format="png")
     for entry in preload:  # "module" or "module:name,name" (names fetched: a lazy package loads their submodules)
         module, _, names = entry.partition(":")
@@ -81,7 +83,6 @@ _SECOND = None
 def _start_second() -> None:
     global _SECOND
     from concurrent.futures import ProcessPoolExecutor
-
     from multiprocessing.util import Finalize
 
     try:
