@@ -127,10 +127,21 @@ def test_the_helper_runs_by_default_only_where_it_was_measured_to_help(monkeypat
     assert _figure_helper(["road", "convert", "p.erd", "p.parquet", "--plot", "p.png"]) == (True, ())
     on, preload = _figure_helper(["vehicle", "vertical", "estimate", "v.csv", "-o", "s.csv", "--plot", "s.png"])
     assert on and any(p.startswith("longprofile.vehicle.vertical") for p in preload)
-    assert _figure_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"]) == (False, ())
+    on, preload = _figure_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"])
+    assert on and "longprofile.vehicle:SlopeEstimate" in preload
+    assert _figure_helper(["vehicle", "drive", "log.csv", "--plot", "s.png"]) == (False, ())
     assert _figure_helper(["road", "convert", "p.erd", "p.parquet"]) == (False, ())  # draws nothing
     monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
-    assert _figure_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"]) == (True, ())
+    assert _figure_helper(["vehicle", "drive", "log.csv", "--plot", "s.png"]) == (True, ())
+
+
+def test_only_the_multi_figure_reports_get_a_second_helper():
+    from longprofile.cli.app import _second_helper
+
+    assert _second_helper(["road", "report", "p.csv", "-o", "r/"])
+    assert _second_helper(["rail", "settle", "--sensors", "s.csv", "--report", "r/"])
+    assert not _second_helper(["road", "reconstruct", "rec.csv", "-o", "p.csv", "--plot", "p.png"])
+    assert not _second_helper(["vehicle", "slope", "log.csv", "-o", "s.csv", "--plot", "s.png"])
 
 
 def test_every_preload_of_the_helper_resolves():
@@ -163,3 +174,88 @@ def test_the_helper_imports_its_preload_before_the_first_figure():
     finally:
         renderer.close()
     assert "mailbox" not in sys.modules  # imported in the helper only
+
+
+def _name_pid(name, suffix):
+    import time
+
+    time.sleep(0.05)  # long enough for the second helper to take its share
+    if name == "boom":
+        raise ValueError("boom")
+    return name + suffix, os.getpid()
+
+
+def _spread_names(names, suffix):
+    from longprofile.report._render import spread
+
+    return spread(_name_pid, names, suffix)
+
+
+def _kill_second():
+    from longprofile.report import _render
+
+    for pid in [p.pid for p in _render._SECOND._processes.values()]:
+        os.kill(pid, 9)
+    return True
+
+
+def test_spread_in_the_calling_process_keeps_the_order():
+    from longprofile.report._render import spread
+
+    out = spread(_name_pid, ["c", "a", "b"], "!")
+    assert list(out) == ["c", "a", "b"] and [v[0] for v in out.values()] == ["c!", "a!", "b!"]
+    assert {v[1] for v in out.values()} == {os.getpid()}
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_two_helpers_share_a_job_keep_its_order_and_stop_with_the_renderer():
+    import time
+
+    names = ["a", "b", "c", "d", "e", "f"]
+    renderer = BackgroundRenderer(second=True)
+    try:
+        out = renderer.submit(_spread_names, names, "?").result()
+        assert list(out) == names and [v[0] for v in out.values()] == [n + "?" for n in names]
+        pids = {v[1] for v in out.values()}
+        assert len(pids) == 2 and os.getpid() not in pids  # drawn by the helper and by its second helper
+        for failing in (["x", "boom"], ["boom", "x"]):  # raised in the second helper, then in the first
+            with pytest.raises(ValueError, match="boom"):
+                renderer.submit(_spread_names, failing, "").result()
+    finally:
+        t0 = time.perf_counter()
+        renderer.close()  # the helper stops its second helper on exit (no hang)
+        assert time.perf_counter() - t0 < 10
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_a_dead_second_helper_leaves_its_share_to_the_first():
+    renderer = BackgroundRenderer(second=True)
+    try:
+        assert renderer.submit(_kill_second).result()
+        out = renderer.submit(_spread_names, ["a", "b", "c"], "").result()
+        assert [v[0] for v in out.values()] == ["a", "b", "c"]
+        assert len({v[1] for v in out.values()}) == 1
+    finally:
+        renderer.close()
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_a_report_drawn_by_two_helpers_is_byte_identical_to_the_inline_report(tmp_path):
+    from longprofile.report import write_road_report
+    from longprofile.road import Profile, analyse_roughness
+
+    x = np.arange(0, 600, 0.05)
+    z = 3e-3 * np.sin(2 * np.pi * x / 31) + 1e-3 * np.sin(2 * np.pi * x / 3.7)
+    analysis = analyse_roughness(Profile(distance=x, elevation=z[:, None], tracks=("left",)), segment_length=100.0)
+    inline = write_road_report(analysis, tmp_path / "inline")
+    from longprofile.report import use_renderer
+
+    renderer = BackgroundRenderer(second=True)
+    try:
+        with use_renderer(renderer):
+            back = write_road_report(analysis, tmp_path / "back")
+    finally:
+        renderer.close()
+    assert [p.name for p in inline] == [p.name for p in back]
+    for a, b in zip(inline, back):
+        assert a.read_bytes() == b.read_bytes(), a.name

@@ -97,7 +97,14 @@ _HELPER_COMMANDS = {
     ("rail", "settle"): ("pandas", "longprofile.rail:SettlementResult"),
     ("vehicle", "vertical", "estimate"): ("pandas", "longprofile.vehicle.vertical:VerticalStateEstimate,CORNER_NAMES"),
     ("vehicle", "vertical", "tables"): ("pandas",),
+    ("vehicle", "slope"): ("pandas", "longprofile.vehicle:SlopeEstimate"),
 }
+
+
+#: Commands whose reports draw several figures after their results exist: their helper forks a second helper
+#: once warm, and the two draw the figures in parallel (report/_render.py, ``spread``; measured 2026-12-06,
+#: session 28, docs/architecture.md "Start-up").
+_TWO_HELPER_COMMANDS = (("road", "report"), ("rail", "settle"))
 
 
 def _figure_helper(args) -> tuple[bool, tuple[str, ...]]:
@@ -112,6 +119,12 @@ def _figure_helper(args) -> tuple[bool, tuple[str, ...]]:
     return os.environ.get("LONGPROFILE_FIGURES", "").lower() == "helper", ()
 
 
+def _second_helper(args) -> bool:
+    """Whether the figure helper forks a second one (:data:`_TWO_HELPER_COMMANDS`)."""
+    words = tuple(str(a) for a in args if not str(a).startswith("-"))
+    return any(words[:len(c)] == c for c in _TWO_HELPER_COMMANDS)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console-script entry point: run the app, turn library errors into one red line and exit code 2.
 
@@ -123,8 +136,10 @@ def main(argv: list[str] | None = None) -> int:
     # a command that draws figures (of _HELPER_COMMANDS) gets a helper process now, before its imports: matplotlib
     # loads and the figures are drawn there while this process reads and computes (report/_render.py)
     try:
-        background, preload = _figure_helper(sys.argv[1:] if argv is None else argv)
-        with figure_renderer(background=background, preload=preload) as renderer, use_renderer(renderer):
+        args = sys.argv[1:] if argv is None else argv
+        background, preload = _figure_helper(args)
+        with (figure_renderer(background=background, preload=preload, second=_second_helper(args)) as renderer,
+              use_renderer(renderer)):
             # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
             code = app(args=argv, standalone_mode=False)
     except LongprofileError as exc:

@@ -154,15 +154,18 @@ def settle_command(
         task = bar.add_task("settlement", total=1)
         res = estimate_settlement(site, settings=settings)
         bar.advance(task)
-    write_table(res.to_table(), out)
-    if plot is not None:
-        from ..report import draw, plot_settlement
+    plotted = None
+    if plot is not None:  # queued first: the figure helper, when one runs, draws it while the tables are written
+        from ..report import current_renderer, plot_settlement
 
-        draw(plot_settlement, res, png)
+        plotted = current_renderer().submit(plot_settlement, res, png)
+    write_table(res.to_table(), out)
     if report is not None:
         from ..report import write_rail_report
 
         write_rail_report(res, report, inputs=inputs, overwrite=overwrite)
+    if plotted is not None:
+        plotted.result()
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     worst = -res.dz[-1].min()

@@ -125,10 +125,18 @@ def write_pngs(pngs: dict, out: Path) -> tuple[list[Path], dict[str, str]]:
     return paths, images
 
 
-def figure_pngs(builder, /, *args, savefig: dict | None = None, **kwargs) -> dict[str, bytes]:
-    """``{file name: PNG bytes}`` of the figures ``builder(*args, **kwargs)`` returns (``{file name: Figure}``): the
-    unit of work a report sends to its figure renderer (:func:`longprofile.report.current_renderer`)."""
-    return {fname: png_bytes(fig, **(savefig or {})) for fname, fig in builder(*args, **kwargs).items()}
+def _figure_png(fname, builders, args, kwargs, savefig) -> bytes:
+    return png_bytes(builders[fname](*args, **kwargs), **savefig)
+
+
+def figure_pngs(builders: dict, /, *args, savefig: dict | None = None, **kwargs) -> dict[str, bytes]:
+    """``{file name: PNG bytes}`` of ``builders`` (``{file name: function}``, each ``function(*args, **kwargs)``
+    returning a Figure), in their order: the unit of work a report sends to its figure renderer
+    (:func:`longprofile.report.current_renderer`). In a figure helper with a second helper the two draw them in
+    parallel (:func:`longprofile.report._render.spread`), else one after the other."""
+    from ._render import spread
+
+    return spread(_figure_png, builders, builders, args, kwargs, savefig or {})
 
 
 def img_tag(images: dict[str, str], fname: str, alt: str) -> str:

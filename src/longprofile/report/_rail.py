@@ -216,11 +216,11 @@ def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
 
 
 def _report_figures(result) -> dict:
-    """The report's figures by PNG file name (matplotlib Figure objects)."""
-    figs = {"profiles_by_week.png": _weekly_figure(result), "through_time.png": _time_figure(result),
-            "settlement_map.png": _map_figure(result), "initial_profile.png": _initial_figure(result)}
+    """The report's figures by PNG file name: the function drawing each (``function(result)`` -> Figure)."""
+    figs = {"profiles_by_week.png": _weekly_figure, "through_time.png": _time_figure,
+            "settlement_map.png": _map_figure, "initial_profile.png": _initial_figure}
     if result.controls is not None:
-        figs["controls.png"] = _controls_figure(result)
+        figs["controls.png"] = _controls_figure
     return figs
 
 
@@ -354,7 +354,7 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     out = report_folder(outdir, inputs, writes=REPORT_FILES["rail"], overwrite=overwrite, what="report",
                         hint=f"the report needs a folder, e.g. {Path(outdir).with_suffix('')}_report/.")
     # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
-    figures = current_renderer().submit(figure_pngs, _report_figures, result, savefig={"dpi": 110})
+    figures = current_renderer().submit(figure_pngs, _report_figures(result), result, savefig={"dpi": 110})
     health = _sensor_table(result)
     written = [write_csv(result.to_table(), out / "settlement.csv"), write_csv(result.alarms, out / "alarms.csv"),
                write_csv(health, out / "sensors.csv")]

@@ -291,14 +291,34 @@ def road_report_figures(analysis, *, reference=None, reference_label: str = "ref
                         limits=IRI_CONDITION_LIMITS) -> dict:
     """The figures of the road report, by PNG file name: ``profile.png``, ``iri.png``,
     ``localized_roughness.png`` and, when computed, ``psd.png`` (matplotlib Figure objects)."""
-    figs = {"profile.png": _profile_figure(analysis, None if reference is None else reference.profile,
-                                           reference_label)}
+    return {fname: build(analysis, reference, reference_label, limits)
+            for fname, build in _report_figures(analysis).items()}
+
+
+def _report_profile(analysis, reference, reference_label, limits):
+    return _profile_figure(analysis, None if reference is None else reference.profile, reference_label)
+
+
+def _report_iri(analysis, reference, reference_label, limits):
     fig = _figure()
     _iri_axes(fig.add_subplot(), analysis.iri, limits, None if reference is None else reference.iri, reference_label)
-    figs["iri.png"] = fig
-    figs["localized_roughness.png"] = _localized_figure(analysis.localized)
+    return fig
+
+
+def _report_localized(analysis, reference, reference_label, limits):
+    return _localized_figure(analysis.localized)
+
+
+def _report_psd(analysis, reference, reference_label, limits):
+    return _psd_figure(analysis)
+
+
+def _report_figures(analysis) -> dict:
+    """:func:`road_report_figures`' figures by PNG file name: the function drawing each (``function(analysis,
+    reference, reference_label, limits)`` -> Figure)."""
+    figs = {"profile.png": _report_profile, "iri.png": _report_iri, "localized_roughness.png": _report_localized}
     if analysis.psd is not None:
-        figs["psd.png"] = _psd_figure(analysis)
+        figs["psd.png"] = _report_psd
     return figs
 
 
@@ -401,8 +421,8 @@ def write_road_report(analysis, outdir, *, reference=None, reference_label: str 
     res, p, loc = analysis.iri, analysis.profile, analysis.localized
     name = title or f"Road roughness report — {analysis.profile.name or 'profile'}"
     # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
-    figures = current_renderer().submit(figure_pngs, road_report_figures, analysis, reference=reference,
-                                        reference_label=reference_label, limits=limits)
+    figures = current_renderer().submit(figure_pngs, _report_figures(analysis), analysis, reference, reference_label,
+                                        limits)
     tables = road_report_tables(analysis, reference=reference, reference_label=reference_label)
     for fname, df in tables.items():
         written.append(write_csv(df, out / fname))

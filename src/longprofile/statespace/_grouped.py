@@ -29,6 +29,7 @@ from ._shared_cov import (
     _mean_pass,
     _not_positive_definite,
     _shared_terms,
+    read_only,
 )
 
 __all__ = ["GroupedSmootherResult", "grouped_covariance_smoother", "grouped_log_likelihood"]
@@ -357,8 +358,10 @@ def _run(model, terms, store, noise_cov=None):
             raise ShapeError(f"noise_cov must be ({G}, {m}, {m}) or ({G}, {T}, {m}, {m}); got {Rn.shape}.")
         Rn = np.ascontiguousarray(np.broadcast_to(Rn[:, None] if Rn.ndim == 3 else Rn, (G, T, m, m)))
     try:
-        out = _grouped_pass(Yz, F, c, H, d, np.ascontiguousarray(model.initial_mean), Q, scale, R,
-                            np.ascontiguousarray(model.initial_cov), obs, order, start, store, Rn)
+        x0, P0 = np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov)
+        Yz, F, c, H, d, x0, Q, scale, R, P0, obs, order, start, Rn = read_only(Yz, F, c, H, d, x0, Q, scale, R, P0, obs,
+                                                                               order, start, Rn)
+        out = _grouped_pass(Yz, F, c, H, d, x0, Q, scale, R, P0, obs, order, start, store, Rn)
     except np.linalg.LinAlgError:
         raise _not_positive_definite() from None
     if out[-1] >= 0:

@@ -123,10 +123,27 @@ def _filter_cov_pass(F, Q, H, R, P0, obs):
     return Pp, Pf, K, S, Sinv, logdet, -1
 
 
+def read_only(*arrays):
+    """Read-only views of ``arrays`` (no copy), for a compiled kernel's inputs.
+
+    numba compiles one overload per argument type, and an array's type includes whether it is writeable: an input
+    that is sometimes a fresh array and sometimes a read-only one (a cached term, or ``np.ascontiguousarray`` of a
+    broadcast that needed no copy) would load a second overload from the disk cache (~15 ms each at start-up);
+    passed read-only every time, it always takes the same one. The kernels never write their inputs (numba
+    refuses to compile a write to a read-only array)."""
+    out = []
+    for a in arrays:
+        if a.flags.writeable:
+            a = a.view()
+            a.flags.writeable = False
+        out.append(a)
+    return out
+
+
 def _filter_covariances(F, Q, H, R, P0, obs):
     """:func:`_filter_cov_pass`, raising :class:`ModelError` where an observed block of S is not positive
     definite: (Pp, Pf, K, S, Sinv, logdet)."""
-    *out, bad = _filter_cov_pass(F, Q, H, R, P0, obs)
+    *out, bad = _filter_cov_pass(*read_only(F, Q, H, R, P0, obs))
     if bad >= 0:
         raise _not_positive_definite()
     return tuple(out)
