@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, Callable, Iterable, Iterator
 
+from .._interrupt import quiet_interrupt
 from .._memory import tune_process_memory
 from ..errors import DependencyError, InputError, LongprofileError
 
@@ -96,6 +97,7 @@ def _warm(func) -> None:
             pass
 
 
+@quiet_interrupt
 def _init_process_worker(func=None) -> None:
     """Process-pool initializer: BLAS threads pinned to 1 (already so since exec, see _PinnedSpawnProcess), the
     allocator tuned for repeated large arrays (:mod:`longprofile._memory`), then the task warmed once."""

@@ -29,6 +29,8 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
 
+from .._interrupt import quiet_interrupt
+
 __all__ = ["InlineRenderer", "BackgroundRenderer", "figure_renderer", "current_renderer", "use_renderer",
            "save_plot", "draw", "spread"]
 
@@ -48,6 +50,7 @@ class InlineRenderer:
         return fut
 
 
+@quiet_interrupt
 def _warm(preload=(), second: bool = False) -> None:
     """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg), then import the
     ``preload`` modules (those the submitted figures' arguments will need to be unpickled). ``second``: then fork a
