@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.special import gammaincc
 
+from ..errors import InputError
 from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior, rigidity_posterior_levels
 from ._shapes import ShapeEvidence
 
@@ -352,7 +353,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         Final values (re-fitted if ``fit`` was given).
     """
     if reversal_z_rule not in REVERSAL_Z_RULES:
-        raise ValueError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}")
+        raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}.")
     D, N = slopes.shape
     status = np.array(["ok"] * N, dtype=object)
     detail = np.array([""] * N, dtype=object)
@@ -523,7 +524,7 @@ def shape_candidates(health: SensorHealth, evidence: ReversalEvidence, rule: str
     :data:`REVERSED_SUM_GATE_INC_LLR` ("sum"): the only ones the shape test can flag (the caller computes their shape
     evidence only)."""
     if rule not in SHAPE_RULES:
-        raise ValueError(f"rule must be one of {SHAPE_RULES}; got {rule!r}")
+        raise InputError(f"rule must be one of {SHAPE_RULES}; got {rule!r}.")
     N = health.status.size
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
@@ -564,7 +565,7 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
         Index of the flagged sensor.
     """
     if reversal_z_rule not in REVERSAL_Z_RULES:
-        raise ValueError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}")
+        raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}.")
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     N = health.status.size
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
