@@ -179,7 +179,7 @@ def test_the_helper_imports_its_preload_before_the_first_figure():
 def _name_pid(name, suffix):
     import time
 
-    time.sleep(0.05)  # long enough for the second helper to take its share
+    time.sleep(0.2)  # long enough for the second helper to take its share, even on a loaded machine
     if name == "boom":
         raise ValueError("boom")
     return name + suffix, os.getpid()
