@@ -29,6 +29,9 @@ _SCRIPT = textwrap.dedent("""
         raise SystemExit("the worker never started")
 
     if __name__ == "__main__":
+        # as in a terminal: SIGINT raises KeyboardInterrupt (a test runner's worker may have it ignored, which the
+        # processes it starts would inherit)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         quiet, path = sys.argv[1] == "quiet", sys.argv[2]
         init = quiet_init if quiet else slow_init
         pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context({ctx!r}), initializer=init,
