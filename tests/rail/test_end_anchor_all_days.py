@@ -173,6 +173,10 @@ def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
     assert fixed.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
     assert free.settings["settlement_sigma_z"] >= 1e-3
     assert _coverage(sc, free) > _coverage(sc, fixed) + 0.2
+    # the user is told (the loosened std in mm), only where the anchors were loosened
+    assert [w for w in free.warnings if w.startswith("the span's ends appear to move")]
+    assert f"to {free.settings['settlement_sigma_z'] * 1e3:.3g} mm std" in " ".join(free.warnings)
+    assert not [w for w in fixed.warnings if "ends appear to move" in w]
     sc = simulate_scenario("faults", 301)
     site = validate_site(sc.sensors, sc.readings, sc.survey)
     fixed = estimate_settlement(site, n_monte_carlo=20, health_end_anchor="all-days", settlement_end_anchor="fixed")
@@ -180,6 +184,7 @@ def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
     assert free.settings["settlement_sigma_z"] == DEFAULT_SIGMA_Z
     for k in ("dz", "dz_std", "max_settlement_upper"):
         assert np.array_equal(getattr(fixed, k), getattr(free, k))
+    assert not [w for w in free.warnings if "ends appear to move" in w]
 
 
 def test_settlement_end_anchor_setting():

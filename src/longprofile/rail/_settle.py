@@ -1500,6 +1500,13 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
                      sigma_z=sz)
 
 
+#: The warning of a site whose end anchors the all-days likelihood loosened (``settlement_end_anchor="all-days"``).
+_ENDS_LOOSENED = ("the span's ends appear to move: the all-days likelihood loosened the settlement's end anchors from "
+                  "{fixed:.3g} to {loose:.3g} mm std. The bands include that movement, but the angles fix only the "
+                  "end-to-end change, not which end moved; the instrumented span should reach beyond the works on both "
+                  "sides (docs/rail.md, assumption 1).")
+
+
 def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, health_sz=None) -> float:
     """The settlement's end-anchor std: ``opt.sigma_z``, or with ``settlement_end_anchor="all-days"`` the value of
     largest all-days likelihood (:func:`all_days_anchor_log_likelihood`, modes and weights of the fit at
@@ -1749,6 +1756,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         weights, post = joint.weights, joint.post
         factors = joint.factors
         mc_mean, mc_std, mc_lo, mc_hi = _joint_max_settlement(x, joint, order, factors, opt)
+    if joint is not None and joint.sigma_z > opt.sigma_z:
+        warnings.append(_ENDS_LOOSENED.format(fixed=opt.sigma_z * 1e3, loose=joint.sigma_z * 1e3))
     integrated = _chain_integrations(x, M, health, initial)
     smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt,
                                                              smoothed=None if joint is None else joint.smoothed)
