@@ -359,6 +359,10 @@ def main(argv=None) -> int:
     p.add_argument("--reversal-z-rule", choices=("alone", "gated"), default=None,
                    help="how the reversal z of the day-to-day health tests flags a sensor "
                         "(SettlementSettings.reversal_z_rule, docs/rail.md step 16; default: the estimator's)")
+    p.add_argument("--end-ambiguity", choices=("off", "mixture"), default=None,
+                   help="the settlement's bands when only excluded or single sensors say the ends moved "
+                        "(SettlementSettings.end_ambiguity, docs/rail.md \"The settlement's ends when one sensor "
+                        "carries the evidence\"; default: the estimator's)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -377,7 +381,8 @@ def main(argv=None) -> int:
                **({"shape_rule": "sum"} if args.shape_rule == "sum" else {}),
                **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
                **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}),
-               **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}))
+               **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}),
+               **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

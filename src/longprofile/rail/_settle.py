@@ -546,6 +546,19 @@ HEALTH_END_ANCHORS = ("fixed", "fit", "all-days")
 #: ``SettlementSettings.settlement_end_anchor``: "fixed" (``sigma_z``, the default until 2026-12-06 session 28) or
 #: "all-days" (:func:`_settlement_anchor`, the default since).
 SETTLEMENT_END_ANCHORS = ("fixed", "all-days")
+#: ``SettlementSettings.end_ambiguity``: "off" (the settlement's anchor as chosen, the default until 2026-12-06
+#: session 28) or "mixture" (:func:`_end_mixture`: when the all-days likelihood of all sensors loosens the ends but the
+#: guarded test does not, the bands carry both hypotheses; docs/rail.md, "The settlement's ends when one sensor carries
+#: the evidence").
+END_AMBIGUITIES = ("off", "mixture")
+#: Weight of the hypothesis "the ends moved" in :func:`_end_mixture`: the data cannot tell it from "a faulty sensor
+#: faked it" (that is why the guard refused), so both get one half (docs/rail.md).
+END_MIXTURE_WEIGHT = 0.5
+#: Log-likelihood gain over the fixed anchor that the all-days likelihood of all sensors needs for :func:`_end_mixture`
+#: to keep the hypothesis "the ends moved": half the 99 % quantile of chi-square with 1 degree of freedom (a 1 %
+#: likelihood-ratio test, without the guard's leave-one-out checks). Chosen on calibration seeds 300-339 over the
+#: guard's 0.1 % (:data:`ANCHOR_MIN_GAIN`), which left 5 of 40 joint-step sites with a fixed far end (docs/rail.md).
+END_MIXTURE_MIN_GAIN = 3.317
 
 
 def _running_median3(slopes):
@@ -1161,6 +1174,19 @@ class SettlementSettings:
         to 0.2 points (docs/rail.md, "The settlement's end anchor by default").
         The slopes fix only the end-to-end change, not which end moved: a loosened anchor splits it between the two
         ends and widens the bands by about the anchor std (docs/rail.md, "The end anchor by the all-days likelihood").
+    end_ambiguity : {"off", "mixture"}, default "off"
+        With ``settlement_end_anchor="all-days"`` and the all-days model: what the bands say when the all-days
+        likelihood of *all* sensors (those the health tests excluded included, a sensor flagged reversed
+        sign-corrected; no leave-one-out guard) says the span's ends moved. "off": the bands of the anchor as chosen
+        (:func:`_settlement_anchor`; the only behaviour until 2026-12-06 session 28, :meth:`until_2026_12_06`).
+        "mixture": :func:`_end_mixture`, the bands of an even, sign-symmetric mixture of that estimate and of the
+        profile of all sensors but the dead ones with one end fixed (near or far), for a step of the track that only
+        an excluded sensor saw (a rail joint) or a tilt whose loosened anchor splits the end-to-end change: on the
+        benchmark daily / rate / maximum-settlement coverage of faults-joint-step 64.68 / 77.99 / 39.71 % ->
+        85.55 / 90.60 / 80.76 %, faults-tilt 76.76 / 88.23 / 71.60 % -> 89.82 / 94.35 / 85.39 %. Opt-in: it also
+        widens the bands of Gaussian-bowl sites whose detached sensor looks like such a step (``faults`` daily
+        87.32 -> 91.06 %, faults-none 85.47 -> 96.47 %; docs/rail.md, "The settlement's ends when one sensor carries
+        the evidence").
     """
 
     thermal: str = "linear"
@@ -1193,6 +1219,7 @@ class SettlementSettings:
     health_end_anchor: str = "all-days"
     reversal_z_rule: str = "gated"
     settlement_end_anchor: str = "all-days"
+    end_ambiguity: str = "off"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1203,7 +1230,7 @@ class SettlementSettings:
         (``reversal_z_rule="alone"``, the default until step 16 of the same day); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", "settlement_end_anchor": "fixed",
-                      "reversal_z_rule": "alone",
+                      "reversal_z_rule": "alone", "end_ambiguity": "off",
                       **options})
 
     def __post_init__(self):
@@ -1234,6 +1261,8 @@ class SettlementSettings:
         if self.settlement_end_anchor not in SETTLEMENT_END_ANCHORS:
             raise InputError(f"settlement_end_anchor must be one of {SETTLEMENT_END_ANCHORS}; "
                              f"got {self.settlement_end_anchor!r}.")
+        if self.end_ambiguity not in END_AMBIGUITIES:
+            raise InputError(f"end_ambiguity must be one of {END_AMBIGUITIES}; got {self.end_ambiguity!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1452,6 +1481,9 @@ class _JointFit:
     sigma_by_day: np.ndarray
     factors: np.ndarray | None
     sigma_z: float = DEFAULT_SIGMA_Z  # the settlement's end-anchor std (settlement_end_anchor)
+    end_shift: np.ndarray | None = None  # (2, D, N) the second hypothesis' means minus the first's (_end_mixture)
+    end_weight: float = 0.0  # the second hypothesis' weight (_end_mixture)
+    end_sigma_z: float | None = None  # its end-anchor std
 
 
 def _fill_missing_days(M, t):
@@ -1525,6 +1557,85 @@ def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, 
     return float(grid[k]) if ll[k] - ll[0] > ANCHOR_MIN_GAIN else float(opt.sigma_z)
 
 
+def _restored_slopes(slopes, health: SensorHealth, user_excluded) -> np.ndarray:
+    """The slope changes of every sensor but the user's exclusions and those flagged "dead" (no reading, or frozen: their
+    record says nothing of the track after they stopped, and the all-days model would fill it as "no change"), those
+    flagged "reversed" with their sign corrected (under the fixed ends a reversal explains them; as read they would
+    fake an end movement)."""
+    M = np.array(slopes, float)
+    M[:, list(user_excluded)] = np.nan
+    M[:, np.asarray(health.status) == "dead"] = np.nan
+    rev = np.asarray(health.status) == "reversed"
+    M[:, rev] = -M[:, rev]
+    return M
+
+
+def _end_mixture(x, slopes, days, daily: DailyAngles, health: SensorHealth, joint: _JointFit,
+                 opt: SettlementSettings, warnings: list) -> _JointFit:
+    r"""The all-days estimate ``joint`` with bands that carry the doubt on its fixed ends (``end_ambiguity="mixture"``,
+    docs/rail.md, "The settlement's ends when one sensor carries the evidence"), or ``joint`` itself.
+
+    The settlement's ends stay fixed (paper 004 §4.2's prior anchors both ends at 0; assumption 1 of docs/rail.md: the
+    span covers the works) unless the all-days likelihood loosens
+    them on the kept sensors with a margin that survives leaving out any one sensor (:func:`fit_end_anchor_all_days`,
+    :func:`_settlement_anchor`). A step of the track at one sensor (a rail joint) moves one end and only that sensor
+    sees it — which is also what a reversed or detached sensor looks like, so the guard (or the health tests, which
+    exclude the sensor) keeps the ends fixed and the bands at the far end shrink to the anchor's std; and where the
+    ends are loosened, the anchor's std splits the end-to-end change between the two ends and is chosen on a grid of
+    decades (a tilt: 1 mm where the far end fell 10-20 mm). Here, if the all-days likelihood of all sensors
+    (:func:`_restored_slopes`, no leave-one-out) loosens the ends past :data:`END_MIXTURE_MIN_GAIN`, the hypothesis
+    H1 "they moved, one of them only" is kept beside H0, the estimate as it is (mean m_0, variance v_0; ends fixed or
+    loosened). Under H1 the profile is the all-days estimate of those sensors with free ends (anchor std
+    ``sigma_z * 10**HEALTH_ANCHOR_DECADES``; the restored sensors healthy, so starting from the kept sensors' median
+    noise factor), m_1, levelled so that one end did not move — the near end (m_1 - m_1(x_0))
+    or the far end (m_1 - m_1(x_N)), which the slopes cannot tell (docs/rail.md, the named limit of the all-days
+    anchor) — and read either way (a faulty sensor read the other way gives m_0 - delta). With weight
+    w = :data:`END_MIXTURE_WEIGHT` on H1, delta_n and delta_f the two levelled profiles minus m_0, and H0's variance
+    for every component, the mixture has mean m_0 and variance
+
+    .. math:: v_0 + \tfrac{w}{2} (\delta_n^2 + \delta_f^2)
+
+    (daily settlement; the daily rate with the day differences of the deltas); the maximum-settlement draws shift a
+    share w of H0's draws by one of +/- delta_n, +/- delta_f (:func:`_joint_max_settlement`). Nothing changes (the same
+    object) when the settlement's anchor is "fixed" or all sensors together do not loosen the ends.
+    """
+    if opt.end_ambiguity == "off" or opt.settlement_end_anchor == "fixed" or joint is None:
+        return joint
+    user = [list(health.sensor_ids).index(s) for s in opt.exclude_sensors]
+    M1 = _restored_slopes(slopes, health, user)
+    t = np.asarray((pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1), float)
+    try:
+        sz1 = fit_end_anchor_all_days(x, M1, day_offsets=t, temperature_change=_site_temperature_change(daily),
+                                      sigma=opt.sigma, sigma_z=opt.sigma_z, min_gain=END_MIXTURE_MIN_GAIN,
+                                      leave_one_out=False)[0]
+    except InputError:
+        return joint
+    if sz1 <= opt.sigma_z:
+        return joint
+    opt1 = replace(opt, sigma_z=opt.sigma_z * 10.0**HEALTH_ANCHOR_DECADES, settlement_end_anchor="fixed")
+    sig, _, _, factors = _noise_stage(daily, x, M1, days, opt1)
+    back = np.asarray(health.excluded) & np.isfinite(M1).any(axis=0)  # healthy under H1: a kept sensor's noise
+    if factors is not None and back.any() and (~back & np.isfinite(M1).any(axis=0)).any():
+        factors = np.where(back, np.median(factors[~back & np.isfinite(M1).any(axis=0)]), factors)
+    h1 = _joint_stage(x, M1, days, daily, sig, factors, opt1, [])
+    if h1 is None:
+        return joint
+    m1, m0 = h1.post["z_mean"], joint.post["z_mean"]
+    shift = np.stack([m1 - m1[:, :1] - m0, m1 - m1[:, -1:] - m0])  # (2, D, N): near end, far end fixed
+    w = END_MIXTURE_WEIGHT
+    z_std = np.sqrt(joint.post["z_std"] ** 2 + 0.5 * w * (shift**2).sum(axis=0))
+    rshift = np.diff(shift, axis=1, prepend=np.nan)
+    rate_std = np.sqrt(joint.smoothed.rate_std ** 2 + 0.5 * w * (rshift**2).sum(axis=0))
+    out = [sid for sid, st, _ in health.flagged() if sid not in opt.exclude_sensors and st != "dead"]
+    warnings.append(f"the all-days likelihood of all sensors{' (' + ', '.join(out) + ' included)' if out else ''} "
+                    f"says the span's ends moved (anchor std {sz1:g} m), the guarded test on the kept sensors does "
+                    "not: the bands carry both (end_ambiguity='mixture'), up to "
+                    f"{1e3 * float(np.nanmax(np.abs(shift))):.1f} mm apart.")
+    return replace(joint, post={**joint.post, "z_std": z_std},
+                   smoothed=replace(joint.smoothed, std=z_std, rate_std=rate_std),
+                   end_shift=shift, end_weight=w, end_sigma_z=float(sz1))
+
+
 def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
     """One fit of the all-days model with given sensor factors: (noise covariance, increment prior, segment weights,
     JointPosterior)."""
@@ -1558,6 +1669,10 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
                                         rigidity=joint.modes.rigidity, sigma_z=joint.sigma_z, rng=gen,
                                         penalty_order=order, segment_weights=joint.weights)
     z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
+    if joint.end_shift is not None:  # the mixture of _end_mixture: a share w of the draws shifted by +/- delta
+        pick = np.flatnonzero(gen.random(S) < joint.end_weight)
+        end, sign = gen.integers(0, 2, pick.size), gen.choice([-1.0, 1.0], pick.size)
+        z[pick] += sign[:, None, None] * joint.end_shift[end][:, 1:]
     ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9,
                                    interval=opt.max_settlement_interval)
     out[:, 0] = 0.0
@@ -1566,7 +1681,7 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False,
-                     health_sigma_z=None, settlement_sigma_z=None) -> dict:
+                     health_sigma_z=None, settlement_sigma_z=None, end_mixture=(0.0, None)) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
     return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
@@ -1575,6 +1690,8 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
                 settlement_end_anchor=opt.settlement_end_anchor,
                 settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
+                end_ambiguity=opt.end_ambiguity, end_mixture_weight=float(end_mixture[0]),
+                end_mixture_sigma_z=end_mixture[1],
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
@@ -1743,6 +1860,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
             health_sz = _anchor_fitter(x, daily, opt)(M)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
         joint = _joint_stage(x, M, days, daily, sig, factors, opt, [], health_sz)
+    joint = _end_mixture(x, slopes, days, daily, health, joint, opt, warnings) if joint is not None else None
     if joint is None:
         prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
                                                                                    opt, warnings)
@@ -1764,7 +1882,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
                                      health_sigma_z=health_sz,
-                                     settlement_sigma_z=None if joint is None else joint.sigma_z)
+                                     settlement_sigma_z=None if joint is None else joint.sigma_z,
+                                     end_mixture=(0.0, None) if joint is None else (joint.end_weight, joint.end_sigma_z))
     return SettlementResult(days=days, sensor_ids=list(ids), x=x, dz=post["z_mean"], dz_std=dz_std,
                             dz_noise_std=post["noise_std"],
                             slope_change=post["slope_mean"], slope_change_std=post["slope_std"], smoothed=smoothed,
