@@ -85,6 +85,12 @@ SCENARIO_FAMILIES = {
 #: health, step 14"): what the health tests flag when the settlement has another shape.
 SHAPE_FAMILIES = {f"faults-{kind}": replace(SCENARIO_FAMILIES["faults"], name=f"faults-{kind}", bowl_shape=kind)
                   for kind in BOWL_SHAPES[1:]}
+#: ``transition``: the joint step without sensor faults (one side of the span settling through a 0.6-3 m transition,
+#: e.g. an embankment against a bridge abutment or a culvert, seen by healthy sensors). In ``faults-joint-step`` the
+#: reversed and frozen sensors are placed where the track tilts most, i.e. on the step's one or two witnesses
+#: (docs/rail.md, "The settlement's ends when one sensor carries the evidence"); here the witnesses are healthy.
+SHAPE_FAMILIES["transition"] = replace(SCENARIO_FAMILIES["faults"], name="transition", bowl_shape="joint-step",
+                                       faults=())
 
 
 @dataclass(frozen=True, eq=False)
