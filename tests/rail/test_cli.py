@@ -93,6 +93,30 @@ def test_max_settlement_band_flag_selects_the_old_interval(site_dir, tmp_path, m
     assert seen == ["band", "draws"]
 
 
+def test_end_ambiguity_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch, capsys):
+    import longprofile.rail as rail
+
+    seen = []
+    real = rail.estimate_settlement
+
+    def spy(site, settings=None, **options):
+        seen.append(settings.end_ambiguity)
+        return real(site, settings=settings, **options)
+
+    monkeypatch.setattr(rail, "estimate_settlement", spy)
+    tables = [str(site_dir / f"{n}.csv") for n in ("sensors", "readings", "survey")]
+    base = ["rail", "settle", "--sensors", tables[0], "--readings", tables[1], "--survey", tables[2],
+            "--monte-carlo", "0"]
+    for flag, name in ((["--end-ambiguity", "mixture"], "mix.csv"), ([], "off.csv")):
+        res = runner.invoke(app, base + flag + ["-o", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    assert seen == ["mixture", "off"]
+    code = main(base + ["--end-ambiguity", "both", "-o", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and "end_ambiguity must be one of" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x.csv").exists()
+
+
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
     bad = pd.read_csv(site_dir / "readings.csv")
     bad.loc[0, "sensor_id"] = "ghost"

@@ -118,6 +118,12 @@ def settle_command(
                                   help="Max settlement's 90 % interval from the simultaneous band (conservative; the "
                                        "default until 2026-12-06) instead of the one holding 98 % of the draws' "
                                        "maxima (docs/rail.md step 13)."),
+    end_ambiguity: str = typer.Option("off", "--end-ambiguity",
+                                      help="off or mixture. Where the evidence that the span's ends moved rests on "
+                                           "sensors the health tests excluded (a step at a joint or a transition seen "
+                                           "by one or two sensors): off keeps the bands of the fixed ends; mixture "
+                                           "widens them to carry both readings (also on bowls with a detached sensor, "
+                                           "hence opt-in; docs/rail.md)."),
     seed: int = typer.Option(0, "--seed", help="Random seed of the Monte Carlo."),
     overwrite: bool = OVERWRITE,
 ):
@@ -149,7 +155,7 @@ def settle_command(
         settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
         rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3, thresholds=graded,
         alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed,
-        max_settlement_interval="band" if max_band else "draws")
+        max_settlement_interval="band" if max_band else "draws", end_ambiguity=end_ambiguity)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
         res = estimate_settlement(site, settings=settings)
