@@ -124,3 +124,29 @@ def test_batch_reconstruct_command(tmp_path, capsys):
     assert res.task == "reconstruct" and len(res.segments) == int(span // 50.0)  # complete 50 m segments
     assert "iri_elevation_m_per_km" in res.segments.columns
     assert len(res.profile("a")) == rec.distance.size
+
+
+def test_ctrl_c_is_one_line_exit_130_and_resume_finishes(surveys, tmp_path, capsys, monkeypatch):
+    """Ctrl-C during the batch (KeyboardInterrupt in the command): one line naming how far it got and --resume, exit
+    130; the same command with --resume then completes the network."""
+    import longprofile.batch as batch
+
+    real = batch.run_batch
+
+    def interrupted(task, paths, output, **kw):
+        def on_result(row):
+            kw["on_result"](row)
+            raise KeyboardInterrupt  # after the first file
+
+        return real(task, paths[:2], output, **{**kw, "on_result": on_result})
+
+    monkeypatch.setattr(batch, "run_batch", interrupted)
+    out = tmp_path / "res"
+    args = ["batch", "iri", str(surveys / "surveys" / "**" / "lane*"), "-o", str(out), "--scheduler", "serial"]
+    assert main(args) == 130
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and "batch iri" not in ln]
+    assert err == [f"interrupted after 1 of 2 files: the results so far are in {out}; the same command with --resume "
+                   "continues."]
+    monkeypatch.setattr(batch, "run_batch", real)
+    assert main(args + ["--resume"]) == 0
+    assert "2 ok, 0 failed, 1 skipped of 3 file(s)" in capsys.readouterr().err

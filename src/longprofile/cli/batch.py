@@ -35,11 +35,24 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
 
     def start(n):
         bar.start()
-        state["task"] = bar.add_task(f"batch {task.name} ({scheduler})", total=n)
+        state.update(task=bar.add_task(f"batch {task.name} ({scheduler})", total=n), total=n, done=0)
+
+    def result(row):
+        bar.advance(state["task"])
+        state["done"] += 1
 
     try:
         summary = run_batch(task, paths, output, executor=scheduler, workers=workers, resume=resume,
-                            overwrite=overwrite, on_start=start, on_result=lambda row: bar.advance(state["task"]))
+                            overwrite=overwrite, on_start=start, on_result=result)
+    except KeyboardInterrupt:  # Ctrl-C: the manifest holds the files done (run_batch writes it on the way out)
+        bar.stop()
+        if "total" in state:
+            console.print(f"[yellow]interrupted after {state['done']} of {state['total']} files:[/yellow] the results "
+                          f"so far are in {output}; the same command with --resume continues.", highlight=False,
+                          soft_wrap=True)
+        else:
+            console.print("[yellow]interrupted[/yellow] before the first file.", highlight=False, soft_wrap=True)
+        raise typer.Exit(130) from None
     finally:
         bar.stop()
     if summary.ok:
