@@ -197,6 +197,7 @@ def test_settlement_end_anchor_setting():
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), j=st.integers(0, 30), jump=st.floats(3e-4, 1e-3),
        kind=st.sampled_from(["detached", "reversed"]))
+@example(seed=186, j=18, jump=1e-3, kind="reversed")  # a flank sensor; found by this test (session 28, _largest_departure)
 def test_a_single_faulty_sensor_does_not_free_the_all_days_anchor(seed, j, jump, kind):
     # anywhere along the span, the flanks and the end sensors included (the per-day fit_end_anchor's running median
     # needs them set aside); without the leave-one-out check it frees the ends: the last assertion

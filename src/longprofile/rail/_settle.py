@@ -772,12 +772,18 @@ def _anchor_profile(x, mode_slopes, modes: DayModes, sigma_z: float, decades: in
 
 def _largest_departure(slopes) -> int:
     """The kept sensor whose slope changes depart most from their 3-point running median along the track (mean over
-    the days of the departure squared, each day in robust std of that day's departures)."""
+    the days of the departure squared, each day in robust std of that day's nonzero departures).
+
+    Nonzero: a sensor whose value lies between its two neighbours' *is* their median, so its departure is exactly 0;
+    on a day of smooth settlement most sensors do (a bowl's flanks are monotone), and the median of all departures
+    was then 0 — until 2026-12-06 (session 28) such days were left out, and a reversed sensor on a flank, which departs
+    only on the settlement days, was not the largest (found by the property test of
+    :func:`fit_end_anchor_all_days`: seed 186, sensor 18)."""
     M = np.asarray(slopes, float)
     r = M - _running_median3(M)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        scale = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
+        scale = 1.4826 * np.nanmedian(np.abs(np.where(r != 0, r, np.nan)), axis=1, keepdims=True)
         score = np.nanmean((r / np.where(scale > 0, scale, np.inf)) ** 2, axis=0)
     return int(np.nanargmax(np.where(np.isfinite(score), score, -np.inf)))
 
