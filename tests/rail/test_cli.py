@@ -73,43 +73,37 @@ def test_per_day_model_is_the_library_per_day_estimate(site_dir, tmp_path):
     assert (per_day.dz_std_m - all_days.dz_std_m).abs().max() > 1e-6
 
 
-def test_max_settlement_band_flag_selects_the_old_interval(site_dir, tmp_path, monkeypatch):
+def _settings_seen(monkeypatch, site_dir, tmp_path, attr, runs, monte_carlo="0"):
+    """Run ``rail settle`` once per (extra flags, output name) of ``runs``, each must succeed; the value of the
+    ``SettlementSettings`` attribute ``attr`` each run handed to the library, and the base arguments."""
     import longprofile.rail as rail
 
     seen = []
     real = rail.estimate_settlement
 
     def spy(site, settings=None, **options):
-        seen.append(settings.max_settlement_interval)
+        seen.append(getattr(settings, attr))
         return real(site, settings=settings, **options)
 
     monkeypatch.setattr(rail, "estimate_settlement", spy)
     tables = [str(site_dir / f"{n}.csv") for n in ("sensors", "readings", "survey")]
     base = ["rail", "settle", "--sensors", tables[0], "--readings", tables[1], "--survey", tables[2],
-            "--monte-carlo", "20"]
-    for flag, name in ((["--max-settlement-band"], "band.csv"), ([], "draws.csv")):
+            "--monte-carlo", monte_carlo]
+    for flag, name in runs:
         res = runner.invoke(app, base + flag + ["-o", str(tmp_path / name)])
         assert res.exit_code == 0, res.output
+    return seen, base
+
+
+def test_max_settlement_band_flag_selects_the_old_interval(site_dir, tmp_path, monkeypatch):
+    seen, _ = _settings_seen(monkeypatch, site_dir, tmp_path, "max_settlement_interval",
+                             [(["--max-settlement-band"], "band.csv"), ([], "draws.csv")], monte_carlo="20")
     assert seen == ["band", "draws"]
 
 
 def test_end_ambiguity_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch, capsys):
-    import longprofile.rail as rail
-
-    seen = []
-    real = rail.estimate_settlement
-
-    def spy(site, settings=None, **options):
-        seen.append(settings.end_ambiguity)
-        return real(site, settings=settings, **options)
-
-    monkeypatch.setattr(rail, "estimate_settlement", spy)
-    tables = [str(site_dir / f"{n}.csv") for n in ("sensors", "readings", "survey")]
-    base = ["rail", "settle", "--sensors", tables[0], "--readings", tables[1], "--survey", tables[2],
-            "--monte-carlo", "0"]
-    for flag, name in ((["--end-ambiguity", "mixture"], "mix.csv"), ([], "off.csv")):
-        res = runner.invoke(app, base + flag + ["-o", str(tmp_path / name)])
-        assert res.exit_code == 0, res.output
+    seen, base = _settings_seen(monkeypatch, site_dir, tmp_path, "end_ambiguity",
+                                [(["--end-ambiguity", "mixture"], "mix.csv"), ([], "off.csv")])
     assert seen == ["mixture", "off"]
     code = main(base + ["--end-ambiguity", "both", "-o", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
