@@ -17,6 +17,7 @@ from ._health import (
     FROZEN_MIN_READINGS,
     REVERSAL_Z_RULES,
     SHAPE_RULES,
+    WITNESS_RULES,
     SensorHealth,
     all_days_reversal_evidence,
     all_days_step_evidence,
@@ -1187,6 +1188,13 @@ class SettlementSettings:
         widens the bands of Gaussian-bowl sites whose detached sensor looks like such a step (``faults`` daily
         87.32 -> 91.06 %, faults-none 85.47 -> 96.47 %; docs/rail.md, "The settlement's ends when one sensor carries
         the evidence").
+    witness_rule : {"off", "steps"}, default "off"
+        "steps": a sensor whose departure from its neighbours' prediction grows in two separate same-sign steps
+        (:func:`~longprofile.rail._health.step_witness_z` above :data:`~longprofile.rail._health.WITNESS_STEP_Z`), never
+        steps back as far and does not point to a reversal is kept as the witness of a localised movement (a step at a
+        joint or a transition that its neighbours cannot show) instead of being flagged "detached"/"drifting" by the
+        step and leave-one-out score tests; the reversal tests still apply (docs/rail.md, "Sensor health on a
+        transition: the step's witnesses"). "off" (the default, and :meth:`until_2026_12_06`): every test as before.
     """
 
     thermal: str = "linear"
@@ -1220,6 +1228,7 @@ class SettlementSettings:
     reversal_z_rule: str = "gated"
     settlement_end_anchor: str = "all-days"
     end_ambiguity: str = "off"
+    witness_rule: str = "off"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1230,7 +1239,7 @@ class SettlementSettings:
         (``reversal_z_rule="alone"``, the default until step 16 of the same day); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", "settlement_end_anchor": "fixed",
-                      "reversal_z_rule": "alone", "end_ambiguity": "off",
+                      "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
                       **options})
 
     def __post_init__(self):
@@ -1263,6 +1272,8 @@ class SettlementSettings:
                              f"got {self.settlement_end_anchor!r}.")
         if self.end_ambiguity not in END_AMBIGUITIES:
             raise InputError(f"end_ambiguity must be one of {END_AMBIGUITIES}; got {self.end_ambiguity!r}.")
+        if self.witness_rule not in WITNESS_RULES:
+            raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {self.witness_rule!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1343,11 +1354,16 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sz,
                                       raw_spread_deg=daily.raw_std_deg, raw_day_spread_deg=day_spread,
                                       exclude=excl_idx, max_flagged=None if opt.check_health else 0, fit=fit,
-                                      fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule)
+                                      fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule,
+                                      witness_rule=opt.witness_rule)
     sz = health.anchor_std
     health = replace(health, sensor_ids=list(ids))
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+    for j in np.flatnonzero(health.witness if health.witness is not None else []):
+        warnings.append(f"sensor {ids[j]} kept although its departure from its neighbours is beyond the step test: it "
+                        "grew in separate steps of one sign, as a witness of a localised movement of the track would "
+                        "(witness_rule='steps').")
     if health.excluded[0] or health.excluded[-1]:
         warnings.append("an end sensor is excluded: the end anchor still holds at its station, but the angle there "
                         "is only known through the rigidity prior.")
@@ -1691,7 +1707,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 settlement_end_anchor=opt.settlement_end_anchor,
                 settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
                 end_ambiguity=opt.end_ambiguity, end_mixture_weight=float(end_mixture[0]),
-                end_mixture_sigma_z=end_mixture[1],
+                end_mixture_sigma_z=end_mixture[1], witness_rule=opt.witness_rule,
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
