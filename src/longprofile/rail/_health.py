@@ -416,21 +416,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     if witness_rule not in WITNESS_RULES:
         raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {witness_rule!r}.")
     D, N = slopes.shape
-    status = np.array(["ok"] * N, dtype=object)
-    detail = np.array([""] * N, dtype=object)
-    have = np.isfinite(slopes).sum(axis=0)
-    for j in range(N):
-        if have[j] == 0:
-            status[j], detail[j] = "dead", "no readings"
-        elif have[j] < 0.5 * D:
-            status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
-        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
-            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
-        elif raw_day_spread_deg is not None:
-            d0, run = _frozen_run(raw_day_spread_deg[:, j])
-            if run >= FROZEN_MIN_DAYS:
-                status[j], detail[j] = "dead", (f"frozen: its raw readings spread less than the 1e-4 deg resolution within "
-                                                f"each of {run} consecutive days from day {d0} on (>= {FROZEN_MIN_DAYS})")
+    status, detail = _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg)
     for j in exclude:
         status[j], detail[j] = "improbable", "excluded by the user"
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
@@ -495,6 +481,29 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
                           reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z),
                           witness=None if witness is None else witness & (status == "ok"))
     return health, float(sigma), float(rigidity)
+
+
+def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
+    """(status, detail) object arrays of :func:`assess_sensors` before its tests: "dead" for a sensor without readings,
+    with readings on fewer than half the days, stuck (raw spread under the resolution) or frozen (:func:`_frozen_run`);
+    "ok" otherwise."""
+    D, N = slopes.shape
+    status = np.array(["ok"] * N, dtype=object)
+    detail = np.array([""] * N, dtype=object)
+    have = np.isfinite(slopes).sum(axis=0)
+    for j in range(N):
+        if have[j] == 0:
+            status[j], detail[j] = "dead", "no readings"
+        elif have[j] < 0.5 * D:
+            status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
+        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
+            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
+        elif raw_day_spread_deg is not None:
+            d0, run = _frozen_run(raw_day_spread_deg[:, j])
+            if run >= FROZEN_MIN_DAYS:
+                status[j], detail[j] = "dead", (f"frozen: its raw readings spread less than the 1e-4 deg resolution within "
+                                                f"each of {run} consecutive days from day {d0} on (>= {FROZEN_MIN_DAYS})")
+    return status, detail
 
 
 def _witnesses(M, pred, bad, looks_reversed) -> np.ndarray:
