@@ -363,7 +363,7 @@ def main(argv=None) -> int:
                    help="the settlement's bands when only excluded or single sensors say the ends moved "
                         "(SettlementSettings.end_ambiguity, docs/rail.md \"The settlement's ends when one sensor "
                         "carries the evidence\"; default: the estimator's)")
-    p.add_argument("--witness-rule", choices=("off", "steps"), default=None,
+    p.add_argument("--witness-rule", choices=("off", "steps", "steps-ends"), default=None,
                    help="keep a sensor whose departure grew in separate same-sign steps as the witness of a localised "
                         "movement (SettlementSettings.witness_rule, docs/rail.md \"Sensor health on a transition: the "
                         "step's witnesses\"; default: the estimator's)")

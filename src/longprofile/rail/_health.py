@@ -82,7 +82,9 @@ REVERSAL_Z_RULES = ("alone", "gated")
 #: :data:`WITNESS_STEP_Z`), never steps back by as much, and whose changes minus the prediction does not explain (the
 #: reversal z's condition) is kept as the witness of a localised movement of the track: the detachment-step,
 #: LOO-score and all-days step tests do not flag it (the reversal tests still do).
-WITNESS_RULES = ("off", "steps")
+#: "steps-ends": as "steps", and the end anchor's leave-one-out checks (:func:`~longprofile.rail._settle.
+#: fit_end_anchor_all_days`) do not leave a witness out, so that one witness may carry the evidence that the ends moved.
+WITNESS_RULES = ("off", "steps", "steps-ends")
 #: Threshold of the second step (:func:`step_witness_z`): :data:`STEP_Z`, i.e. a second jump that alone would flag a
 #: detachment. Calibration seeds (transition 300-339, faults 300-399, faults-joint-step and faults-none 300-339, first
 #: health pass; docs/rail.md): 25 of the 40 flagged witnesses above it; 2 of the 96 flagged detached sensors of
@@ -399,8 +401,9 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         reversal log-likelihood ratio exceeds :data:`REVERSED_Z_GATE_LLR` (docs/rail.md, "Sensor health, step 16"; the
         all-days stage may flag it later, :func:`flag_reversed_all_days`); "alone", on its own (the rule until
         2026-12-06).
-    witness_rule : {"off", "steps"}, default "off"
-        :data:`WITNESS_RULES`: with "steps" a sensor whose departure grows in two separate same-sign steps
+    witness_rule : {"off", "steps", "steps-ends"}, default "off"
+        :data:`WITNESS_RULES`: with "steps" (or "steps-ends", the same here) a sensor whose departure grows in two
+        separate same-sign steps
         (:func:`step_witness_z` above :data:`WITNESS_STEP_Z`, no step back as large) and whose changes minus the
         prediction does not explain is not flagged by the detachment-step and LOO-score tests
         (``SensorHealth.witness``); docs/rail.md, "Sensor health on a transition: the step's witnesses".
@@ -453,7 +456,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
             rev_ = np.where(llr_ > REVERSED_Z_GATE_LLR, rev_, -np.inf)
         r_rev = np.nan_to_num(np.maximum(rev_ / REVERSED_Z, llr_ / REVERSED_LLR), neginf=0.0)
         r_step = np.nan_to_num(step, nan=0.0) / STEP_Z
-        if witness_rule == "steps":  # a witness of a localised movement: only the reversal tests may flag it
+        if witness_rule != "off":  # a witness of a localised movement: only the reversal tests may flag it
             witness = _witnesses(M, pred, bad, looks_reversed)
             r_imp, r_step = np.where(witness, 0.0, r_imp), np.where(witness, 0.0, r_step)
         ratio = np.where(bad, 0.0, np.maximum.reduce([r_imp, r_rev, r_step]))
@@ -512,8 +515,8 @@ def _witnesses(M, pred, bad, looks_reversed) -> np.ndarray:
     (``looks_reversed``, the reversal z's condition: a reversed sensor's departure is -2 x its prediction, several
     same-sign steps on the work nights too)."""
     second, back = step_witness_z(M, pred, bad)
-    return (~bad & (np.nan_to_num(second, nan=-np.inf) > WITNESS_STEP_Z) & (np.nan_to_num(back, nan=np.inf) < WITNESS_STEP_Z)
-            & ~np.asarray(looks_reversed, bool))
+    return (~bad & (np.nan_to_num(second, nan=-np.inf) > WITNESS_STEP_Z)
+            & (np.nan_to_num(back, nan=np.inf) < WITNESS_STEP_Z) & ~np.asarray(looks_reversed, bool))
 
 
 @dataclass(frozen=True, eq=False)
