@@ -107,3 +107,18 @@ def test_off_is_the_old_estimator_and_steps_changes_nothing_without_a_witness():
     for k in ("dz", "dz_std", "max_settlement_mean", "max_settlement_lower", "max_settlement_upper"):
         assert np.array_equal(getattr(off, k), getattr(on, k), equal_nan=True)
     assert np.array_equal(off.health.status, on.health.status)
+
+
+def test_steps_ends_lets_a_witness_carry_the_evidence_that_the_ends_moved():
+    """Calibration site transition 305: with "steps" the kept witness I018 is the one sensor that says the far half
+    fell, and the anchor's leave-one-out check refuses to loosen the ends (settlement anchor 10 um); with
+    "steps-ends" the check does not leave a witness out, the anchors loosen and the far end's band is less wrong."""
+    sc, site = _site("transition", 305)
+    steps = estimate_settlement(site, n_monte_carlo=0, witness_rule="steps")
+    ends = estimate_settlement(site, n_monte_carlo=0, witness_rule="steps-ends")
+    assert steps.settings["settlement_sigma_z"] <= 1e-5 < ends.settings["settlement_sigma_z"]
+    assert ends.settings["health_sigma_z"] > 1e-5
+    assert np.array_equal(steps.health.status, ends.health.status)
+    z_steps = abs(steps.dz[-1, -1] - sc.truth.settlement[-1, -1]) / steps.dz_std[-1, -1]
+    z_ends = abs(ends.dz[-1, -1] - sc.truth.settlement[-1, -1]) / ends.dz_std[-1, -1]
+    assert z_ends < 0.1 * z_steps

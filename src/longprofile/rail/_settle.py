@@ -788,7 +788,7 @@ def _largest_departure(slopes, skip=None) -> int:
         scale = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
         score = np.nanmean((r / np.where(scale > 0, scale, np.inf)) ** 2, axis=0)
     score = np.where(np.isfinite(score) & (True if skip is None else ~np.asarray(skip, bool)), score, -np.inf)
-    return int(np.argmax(score)) if np.isfinite(score).any() else -1
+    return int(np.argmax(score)) if skip is None or np.isfinite(score).any() else -1
 
 
 def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose, skip=None) -> tuple[float, int]:
