@@ -363,6 +363,10 @@ def main(argv=None) -> int:
                    help="the settlement's bands when only excluded or single sensors say the ends moved "
                         "(SettlementSettings.end_ambiguity, docs/rail.md \"The settlement's ends when one sensor "
                         "carries the evidence\"; default: the estimator's)")
+    p.add_argument("--witness-rule", choices=("off", "steps", "steps-ends"), default=None,
+                   help="keep a sensor whose departure grew in separate same-sign steps as the witness of a localised "
+                        "movement (SettlementSettings.witness_rule, docs/rail.md \"Sensor health on a transition: the "
+                        "step's witnesses\"; default: the estimator's)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -382,7 +386,8 @@ def main(argv=None) -> int:
                **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
                **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}),
                **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}),
-               **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}))
+               **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}),
+               **({"witness_rule": args.witness_rule} if args.witness_rule else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

@@ -40,7 +40,7 @@ from ._shapes import ShapeEvidence
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
-           "REVERSAL_Z_RULES"]
+           "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -76,6 +76,21 @@ REVERSED_Z_GATE_LLR = 5.0
 #: step 16: z_rev counts only above :data:`REVERSED_Z_GATE_LLR`'s day-to-day ratio) or "alone" (z_rev on its own, the
 #: rule until 2026-12-06).
 REVERSAL_Z_RULES = ("alone", "gated")
+#: ``witness_rule`` of :func:`assess_sensors` (``SettlementSettings.witness_rule``; docs/rail.md, "Sensor health on a
+#: transition: the step's witnesses"): "off" (every test as before) or "steps": a sensor whose departure from its
+#: neighbours' prediction grows in two separate steps of the same sign (:func:`step_witness_z` above
+#: :data:`WITNESS_STEP_Z`), never steps back by as much, and whose changes minus the prediction does not explain (the
+#: reversal z's condition) is kept as the witness of a localised movement of the track: the detachment-step,
+#: LOO-score and all-days step tests do not flag it (the reversal tests still do).
+#: "steps-ends": as "steps", and the end anchor's leave-one-out checks (:func:`~longprofile.rail._settle.
+#: fit_end_anchor_all_days`) do not leave a witness out, so that one witness may carry the evidence that the ends moved.
+WITNESS_RULES = ("off", "steps", "steps-ends")
+#: Threshold of the second step (:func:`step_witness_z`): :data:`STEP_Z`, i.e. a second jump that alone would flag a
+#: detachment. Calibration seeds (transition 300-339, faults 300-399, faults-joint-step and faults-none 300-339, first
+#: health pass; docs/rail.md): 25 of the 40 flagged witnesses above it; 2 of the 96 flagged detached sensors of
+#: faults (narrow-bowl sensors that also witness the bowl: several same-sign steps on the work nights plus the jump),
+#: 2 of 38 on faults-joint-step, 0 of 39 on faults-none; no healthy sensor of drift or faults-none above it.
+WITNESS_STEP_Z = 8.0
 #: Day-to-day reversal log-likelihood ratio (:func:`_increment_tests`) above which a sensor is "reversed".
 REVERSED_LLR = 25.0  # calibration seeds (faults 300-399): reversed 87/100, healthy flagged 10/2541 (15: 86, 11)
 #: Relative error of the leave-one-out prediction of a day-to-day change (its shape error on a bowl the
@@ -174,6 +189,9 @@ class SensorHealth:
     anchor_std : float or None
         The end-anchor std (m) of the last pass's leave-one-out prediction (``sigma_z``, or its maximum-likelihood
         value with ``fit_anchor``; docs/rail.md, "Sensor health on settlements that are not a bowl").
+    witness : (N,) bool ndarray or None
+        With ``witness_rule="steps"``: the kept sensors whose departure from their neighbours grew in separate
+        same-sign steps (:func:`step_witness_z`), which the step tests therefore did not flag; None otherwise.
     """
 
     sensor_ids: list
@@ -188,6 +206,7 @@ class SensorHealth:
     step_evidence: "StepEvidence | None" = None
     shape_evidence: "ShapeEvidence | None" = None
     anchor_std: float | None = None
+    witness: np.ndarray | None = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -282,6 +301,43 @@ def _increment_tests(M, pred, bad):
     return llr, step, step_day
 
 
+def step_witness_z(M, pred, bad) -> tuple[np.ndarray, np.ndarray]:
+    """Second step and largest step back of each sensor's departure from its neighbours' prediction, in the units of
+    the step statistic (:func:`_increment_tests`): (second, back), (N,) arrays, NaN for sensors with fewer than 5
+    day-to-day changes.
+
+    Beyond paper 004 (§6 flags improbable sensors). With c_d = dm_d - dmu_d the day-to-day departures and i the day of
+    the largest |c_d| (the step statistic's jump, sign S), each day's departure is standardised as the step statistic
+    does, z_d = S c_d / sqrt(s^2 + (STEP_PRED_REL_ERR dmu_d)^2), s the robust std of the other days (floored at half the
+    site's). ``second`` = max z_d and ``back`` = max -z_d over the days at least two days from i (a jump during a day
+    shows in that day's median or the next's, so the neighbouring day is not a second step). A detached sensor jumps
+    once: its other days are noise, both small. A sensor that sees the track settle on several work nights (the only
+    witness of a step at a joint or a transition, which its neighbours' smooth prediction cannot show) has a second
+    step of the same sign (``second`` large) and none back.
+    """
+    dm, dmu = np.diff(M, axis=0), np.diff(pred, axis=0)
+    c = dm - dmu
+    ok = np.isfinite(c)
+    N = M.shape[1]
+    kept = c[:, ~bad]
+    site = 1.4826 * np.nanmedian(np.abs(kept)) if np.isfinite(kept).any() else np.nan
+    second, back = np.full(N, np.nan), np.full(N, np.nan)
+    use = (ok.sum(axis=0) >= 5) & np.isfinite(site)
+    if not use.any():
+        return second, back
+    cu, bu = c[:, use], dmu[:, use]
+    cols = np.arange(cu.shape[1])
+    i = np.argmax(np.where(np.isfinite(cu), np.abs(cu), -np.inf), axis=0)
+    rest = cu.copy()
+    rest[i, cols] = np.nan
+    s2 = np.maximum(_robust_scale(rest), 0.5 * site) ** 2
+    z = np.sign(cu[i, cols]) * cu / np.sqrt(s2 + (STEP_PRED_REL_ERR * bu) ** 2)
+    far = (np.abs(np.arange(cu.shape[0])[:, None] - i[None, :]) >= 2) & np.isfinite(z)
+    second[use] = np.max(np.where(far, z, -np.inf), axis=0)
+    back[use] = np.max(np.where(far, -z, -np.inf), axis=0)
+    return second, back
+
+
 def _classify(m, pred, z):
     """Pattern of a flagged sensor from its measurements m, LOO predictions and standardised residuals (over days)."""
     ok = np.isfinite(m) & np.isfinite(pred)
@@ -311,7 +367,7 @@ def _classify(m, pred, z):
 
 def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, exclude=(), max_flagged=None,
                    fit=None, raw_day_spread_deg=None, fit_anchor=None,
-                   reversal_z_rule: str = "gated") -> tuple[SensorHealth, float, float]:
+                   reversal_z_rule: str = "gated", witness_rule: str = "off") -> tuple[SensorHealth, float, float]:
     """Flag dead, frozen and improbable sensors, iteratively (worst first), re-fitting the noise after each exclusion.
 
     Parameters
@@ -345,6 +401,12 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         reversal log-likelihood ratio exceeds :data:`REVERSED_Z_GATE_LLR` (docs/rail.md, "Sensor health, step 16"; the
         all-days stage may flag it later, :func:`flag_reversed_all_days`); "alone", on its own (the rule until
         2026-12-06).
+    witness_rule : {"off", "steps", "steps-ends"}, default "off"
+        :data:`WITNESS_RULES`: with "steps" (or "steps-ends", the same here) a sensor whose departure grows in two
+        separate same-sign steps
+        (:func:`step_witness_z` above :data:`WITNESS_STEP_Z`, no step back as large) and whose changes minus the
+        prediction does not explain is not flagged by the detachment-step and LOO-score tests
+        (``SensorHealth.witness``); docs/rail.md, "Sensor health on a transition: the step's witnesses".
 
     Returns
     -------
@@ -354,22 +416,10 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     """
     if reversal_z_rule not in REVERSAL_Z_RULES:
         raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}.")
+    if witness_rule not in WITNESS_RULES:
+        raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {witness_rule!r}.")
     D, N = slopes.shape
-    status = np.array(["ok"] * N, dtype=object)
-    detail = np.array([""] * N, dtype=object)
-    have = np.isfinite(slopes).sum(axis=0)
-    for j in range(N):
-        if have[j] == 0:
-            status[j], detail[j] = "dead", "no readings"
-        elif have[j] < 0.5 * D:
-            status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
-        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
-            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
-        elif raw_day_spread_deg is not None:
-            d0, run = _frozen_run(raw_day_spread_deg[:, j])
-            if run >= FROZEN_MIN_DAYS:
-                status[j], detail[j] = "dead", (f"frozen: its raw readings spread less than the 1e-4 deg resolution within "
-                                                f"each of {run} consecutive days from day {d0} on (>= {FROZEN_MIN_DAYS})")
+    status, detail = _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg)
     for j in exclude:
         status[j], detail[j] = "improbable", "excluded by the user"
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
@@ -377,6 +427,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     rev = np.full(N, np.nan)
     llr = np.full(N, np.nan)
     step = np.full(N, np.nan)
+    witness = None
     n_flag = 0
     gate_text = f" with the ratio > {REVERSED_Z_GATE_LLR:g}" if reversal_z_rule == "gated" else ""
     while True:
@@ -405,6 +456,9 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
             rev_ = np.where(llr_ > REVERSED_Z_GATE_LLR, rev_, -np.inf)
         r_rev = np.nan_to_num(np.maximum(rev_ / REVERSED_Z, llr_ / REVERSED_LLR), neginf=0.0)
         r_step = np.nan_to_num(step, nan=0.0) / STEP_Z
+        if witness_rule != "off":  # a witness of a localised movement: only the reversal tests may flag it
+            witness = _witnesses(M, pred, bad, looks_reversed)
+            r_imp, r_step = np.where(witness, 0.0, r_imp), np.where(witness, 0.0, r_step)
         ratio = np.where(bad, 0.0, np.maximum.reduce([r_imp, r_rev, r_step]))
         if not (ratio > 1.0).any() or n_flag >= max_flagged or (~bad).sum() <= 3:
             break
@@ -427,8 +481,42 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
             detail[j] = f"{why}; {base} (> {IMPROBABLE_SCORE:g} and p < {IMPROBABLE_P:g}/N)"
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(status, dtype=str),
                           detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
-                          reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z))
+                          reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z),
+                          witness=None if witness is None else witness & (status == "ok"))
     return health, float(sigma), float(rigidity)
+
+
+def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
+    """(status, detail) object arrays of :func:`assess_sensors` before its tests: "dead" for a sensor without readings,
+    with readings on fewer than half the days, stuck (raw spread under the resolution) or frozen (:func:`_frozen_run`);
+    "ok" otherwise."""
+    D, N = slopes.shape
+    status = np.array(["ok"] * N, dtype=object)
+    detail = np.array([""] * N, dtype=object)
+    have = np.isfinite(slopes).sum(axis=0)
+    for j in range(N):
+        if have[j] == 0:
+            status[j], detail[j] = "dead", "no readings"
+        elif have[j] < 0.5 * D:
+            status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
+        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
+            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
+        elif raw_day_spread_deg is not None:
+            d0, run = _frozen_run(raw_day_spread_deg[:, j])
+            if run >= FROZEN_MIN_DAYS:
+                status[j], detail[j] = "dead", (f"frozen: its raw readings spread less than the 1e-4 deg resolution within "
+                                                f"each of {run} consecutive days from day {d0} on (>= {FROZEN_MIN_DAYS})")
+    return status, detail
+
+
+def _witnesses(M, pred, bad, looks_reversed) -> np.ndarray:
+    """(N,) bool: the kept sensors of ``witness_rule="steps"`` (:func:`assess_sensors`): a second same-sign step above
+    :data:`WITNESS_STEP_Z`, no step back as large, and minus the prediction does not explain the changes
+    (``looks_reversed``, the reversal z's condition: a reversed sensor's departure is -2 x its prediction, several
+    same-sign steps on the work nights too)."""
+    second, back = step_witness_z(M, pred, bad)
+    return (~bad & (np.nan_to_num(second, nan=-np.inf) > WITNESS_STEP_Z)
+            & (np.nan_to_num(back, nan=np.inf) < WITNESS_STEP_Z) & ~np.asarray(looks_reversed, bool))
 
 
 @dataclass(frozen=True, eq=False)
@@ -736,7 +824,9 @@ def flag_detached_all_days(health: SensorHealth, evidence: StepEvidence,
 
     A sensor still "ok" is flagged "detached" when its step log-likelihood ratio (:func:`all_days_step_evidence`)
     exceeds :data:`DETACHED_ALL_DAYS_LLR` and its day-to-day step statistic (``health.step_z``) exceeds
-    :data:`DETACHED_ALL_DAYS_STEP_Z`. One sensor at a time and the same limits as :func:`flag_reversed_all_days`.
+    :data:`DETACHED_ALL_DAYS_STEP_Z`, unless it is one of ``health.witness`` (``witness_rule="steps"`` of
+    :func:`assess_sensors`: its departure grew in separate same-sign steps). One sensor at a time and the same limits
+    as :func:`flag_reversed_all_days`.
 
     Returns
     -------
@@ -748,8 +838,10 @@ def flag_detached_all_days(health: SensorHealth, evidence: StepEvidence,
     llr = np.nan_to_num(evidence.log_likelihood_ratio, nan=-np.inf)
     N = health.status.size
     step = np.nan_to_num(health.step_z, nan=-np.inf) if health.step_z is not None else np.full(N, -np.inf)
+    witness = np.zeros(N, bool) if health.witness is None else np.asarray(health.witness, bool)
     return _flag_worst(
-        replace(health, step_evidence=evidence), llr, (llr > DETACHED_ALL_DAYS_LLR) & (step > DETACHED_ALL_DAYS_STEP_Z),
+        replace(health, step_evidence=evidence), llr,
+        (llr > DETACHED_ALL_DAYS_LLR) & (step > DETACHED_ALL_DAYS_STEP_Z) & ~witness,
         "detached", lambda j: (f"all days: a step of {np.rad2deg(evidence.size[j]):.2g} deg from day {evidence.day[j]} "
                                f"on, log-likelihood ratio against 'healthy' {llr[j]:.3g} (threshold "
                                f"{DETACHED_ALL_DAYS_LLR:g}; noise factor {evidence.factor_healthy[j]:.2g} healthy, "

@@ -17,6 +17,7 @@ from ._health import (
     FROZEN_MIN_READINGS,
     REVERSAL_Z_RULES,
     SHAPE_RULES,
+    WITNESS_RULES,
     SensorHealth,
     all_days_reversal_evidence,
     all_days_step_evidence,
@@ -691,7 +692,8 @@ def all_days_anchor_log_likelihood(x, mode_slopes, modes: DayModes, *, sigma_z: 
 
 def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=None, sigma=None,
                             sigma_z: float = DEFAULT_SIGMA_Z, decades: int = HEALTH_ANCHOR_DECADES,
-                            median: bool = False, min_gain: float = ANCHOR_MIN_GAIN, leave_one_out: bool = True):
+                            median: bool = False, min_gain: float = ANCHOR_MIN_GAIN, leave_one_out: bool = True,
+                            witnesses=None):
     """Maximum-likelihood std of the end anchors by the all-days likelihood (docs/rail.md, "The end anchor by the
     all-days likelihood"), for the health tests' prediction.
 
@@ -721,6 +723,10 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
         with the whole model fitted again without the most influential one: a single reversed or detached sensor
         does not loosen the anchor (it did on the paper's simulator, a healthy neighbour of the reversed sensor was
         then flagged; docs/rail.md).
+    witnesses : (N,) bool array_like, optional
+        Sensors the health tests kept as witnesses of a localised movement (``SensorHealth.witness``,
+        ``witness_rule="steps-ends"``): the leave-one-out checks do not leave them out, i.e. one of them may carry the
+        evidence that the ends moved (docs/rail.md, "Sensor health on a transition: the step's witnesses").
 
     Returns
     -------
@@ -748,12 +754,13 @@ def fit_end_anchor_all_days(x, slopes, *, day_offsets=None, temperature_change=N
     if ll[k] - ll[0] <= min_gain:
         return float(sigma_z), ll
     if leave_one_out:
-        gain, j = _loo_anchor_gain(x, Y, modes, f, (grid[0], fits[0][1]), (grid[k], fits[k][1]))
+        skip = np.zeros(M.shape[1], bool) if witnesses is None else np.asarray(witnesses, bool)
+        gain, j = _loo_anchor_gain(x, Y, modes, f, (grid[0], fits[0][1]), (grid[k], fits[k][1]), skip=skip)
         if gain <= min_gain:
             return float(sigma_z), ll
         # a faulty sensor also shapes the model (its neighbours' factors, R, r_d): fitted again without the most
         # influential sensor and without the one departing most from its neighbours' running median
-        for jj in {j, _largest_departure(slopes)}:
+        for jj in {j, _largest_departure(slopes, skip=skip)} - {-1}:
             Mj = np.array(slopes, float)
             Mj[:, jj] = np.nan
             if fit_end_anchor_all_days(x, Mj, day_offsets=day_offsets, temperature_change=temperature_change,
@@ -770,9 +777,10 @@ def _anchor_profile(x, mode_slopes, modes: DayModes, sigma_z: float, decades: in
     return grid, [all_days_anchor_log_likelihood(x, mode_slopes, modes, sigma_z=v, **options) for v in grid]
 
 
-def _largest_departure(slopes) -> int:
+def _largest_departure(slopes, skip=None) -> int:
     """The kept sensor whose slope changes depart most from their 3-point running median along the track (mean over
-    the days of the departure squared, each day in robust std of that day's nonzero departures).
+    the days of the departure squared, each day in robust std of that day's nonzero departures); not one of ``skip``
+    ((N,) bool; -1 when no sensor is left).
 
     Nonzero: a sensor whose value lies between its two neighbours' *is* their median, so its departure is exactly 0;
     on a day of smooth settlement most sensors do (a bowl's flanks are monotone), and the median of all departures
@@ -785,16 +793,20 @@ def _largest_departure(slopes) -> int:
         warnings.simplefilter("ignore", RuntimeWarning)
         scale = 1.4826 * np.nanmedian(np.abs(np.where(r != 0, r, np.nan)), axis=1, keepdims=True)
         score = np.nanmean((r / np.where(scale > 0, scale, np.inf)) ** 2, axis=0)
-    return int(np.nanargmax(np.where(np.isfinite(score), score, -np.inf)))
+    score = np.where(np.isfinite(score) & (True if skip is None else ~np.asarray(skip, bool)), score, -np.inf)
+    return int(np.argmax(score)) if skip is None or np.isfinite(score).any() else -1
 
 
-def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose) -> tuple[float, int]:
+def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose, skip=None) -> tuple[float, int]:
     """The smallest over the kept sensors j of the all-days log-likelihood gain of the anchor ``loose`` = (sigma_z, c)
     over ``fixed`` without sensor j (its column of the mode data missing; modes and the scales c of the fit with all
     sensors), and that j: a tilt is in every sensor, a reversed or detached sensor's own departure is gone without
     it. One engine call per anchor (:func:`~longprofile.rail._rigidity.rigidity_log_likelihood_rows`, each sensor's
-    K modes)."""
-    kept = np.flatnonzero(np.isfinite(Y).all(axis=0))
+    K modes). Sensors of ``skip`` ((N,) bool, the health tests' witnesses) are not left out; (inf, -1) when none is
+    left to leave out."""
+    kept = np.flatnonzero(np.isfinite(Y).all(axis=0) & (True if skip is None else ~np.asarray(skip, bool)))
+    if kept.size == 0:
+        return float("inf"), -1
     K, N = Y.shape
     J = kept.size
     Ys = np.repeat(Y[None], J, axis=0)
@@ -1193,6 +1205,19 @@ class SettlementSettings:
         widens the bands of Gaussian-bowl sites whose detached sensor looks like such a step (``faults`` daily
         87.32 -> 91.06 %, faults-none 85.47 -> 96.47 %; docs/rail.md, "The settlement's ends when one sensor carries
         the evidence").
+    witness_rule : {"off", "steps", "steps-ends"}, default "off"
+        "steps": a sensor whose departure from its neighbours' prediction grows in two separate same-sign steps
+        (:func:`~longprofile.rail._health.step_witness_z` above :data:`~longprofile.rail._health.WITNESS_STEP_Z`), never
+        steps back as far and does not point to a reversal is kept as the witness of a localised movement (a step at a
+        joint or a transition that its neighbours cannot show) instead of being flagged "detached"/"drifting" by the
+        step and leave-one-out score tests; the reversal tests still apply (docs/rail.md, "Sensor health on a
+        transition: the step's witnesses"). "steps-ends": as "steps", and a witness may carry alone the all-days
+        evidence that the span's ends moved (the leave-one-out checks of :func:`fit_end_anchor_all_days` do not leave
+        it out; with ``health_end_anchor="all-days"``). "off" (the default, and :meth:`until_2026_12_06`): every test
+        as before. Opt-in: on the benchmark's transition sites healthy sensors flagged 51 -> 19 of 1180, but a reversed
+        sensor on a transition has a witness's record (faults-joint-step reversed found 35 -> 17 of 40; faults-ramp
+        40 -> 27), and the transition's far half stays outside its band (daily coverage 64.44 -> 63.90 % with
+        "steps", 65.19 % with "steps-ends").
     """
 
     thermal: str = "linear"
@@ -1226,6 +1251,7 @@ class SettlementSettings:
     reversal_z_rule: str = "gated"
     settlement_end_anchor: str = "all-days"
     end_ambiguity: str = "off"
+    witness_rule: str = "off"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1236,7 +1262,7 @@ class SettlementSettings:
         (``reversal_z_rule="alone"``, the default until step 16 of the same day); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", "settlement_end_anchor": "fixed",
-                      "reversal_z_rule": "alone", "end_ambiguity": "off",
+                      "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
                       **options})
 
     def __post_init__(self):
@@ -1269,6 +1295,8 @@ class SettlementSettings:
                              f"got {self.settlement_end_anchor!r}.")
         if self.end_ambiguity not in END_AMBIGUITIES:
             raise InputError(f"end_ambiguity must be one of {END_AMBIGUITIES}; got {self.end_ambiguity!r}.")
+        if self.witness_rule not in WITNESS_RULES:
+            raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {self.witness_rule!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1321,16 +1349,24 @@ def _anchor_fitter(x, daily: DailyAngles, opt: SettlementSettings):
         t = np.asarray((pd.DatetimeIndex(daily.days) - pd.Timestamp(daily.days[0])) / pd.Timedelta(days=1), float)
         dT = _site_temperature_change(daily)
 
-        def fit(M):
+        def fit(M, witnesses=None):
             if M.shape[0] - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
                 return opt.sigma_z  # too short for the all-days model (as _joint_stage)
             try:
                 return fit_end_anchor_all_days(x, M, day_offsets=t, temperature_change=dT, sigma=opt.sigma,
-                                               sigma_z=opt.sigma_z)[0]
+                                               sigma_z=opt.sigma_z, witnesses=witnesses)[0]
             except InputError:  # no change on any day, too few noisy days: nothing to loosen the anchor for
                 return opt.sigma_z
         return fit
     return None
+
+
+def _anchor_witnesses(health: SensorHealth, opt: SettlementSettings):
+    """The kept witnesses (``health.witness``) with ``witness_rule="steps-ends"`` when there are any, else None."""
+    if opt.witness_rule != "steps-ends" or health.witness is None:
+        return None
+    w = np.asarray(health.witness, bool) & ~np.asarray(health.excluded, bool)
+    return w if w.any() else None
 
 
 def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, warnings: list):
@@ -1349,11 +1385,20 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     health, sig, rig = assess_sensors(x, slopes, sigma=s0, rigidity=r0, sigma_z=sz,
                                       raw_spread_deg=daily.raw_std_deg, raw_day_spread_deg=day_spread,
                                       exclude=excl_idx, max_flagged=None if opt.check_health else 0, fit=fit,
-                                      fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule)
-    sz = health.anchor_std
+                                      fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule,
+                                      witness_rule=opt.witness_rule)
     health = replace(health, sensor_ids=list(ids))
+    if _anchor_witnesses(health, opt) is not None and opt.health_end_anchor == "all-days":
+        # "steps-ends": a witness may carry the evidence that the ends moved (the anchor's leave-one-out checks)
+        health = replace(health, anchor_std=fit_anchor(np.where(health.excluded[None, :], np.nan, slopes),
+                                                       _anchor_witnesses(health, opt)))
+    sz = health.anchor_std
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+    for j in np.flatnonzero(health.witness if health.witness is not None else []):
+        warnings.append(f"sensor {ids[j]} kept although its departure from its neighbours is beyond the step test: it "
+                        "grew in separate steps of one sign, as a witness of a localised movement of the track would "
+                        "(witness_rule='steps').")
     if health.excluded[0] or health.excluded[-1]:
         warnings.append("an end sensor is excluded: the end anchor still holds at its station, but the angle there "
                         "is only known through the rigidity prior.")
@@ -1697,7 +1742,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 settlement_end_anchor=opt.settlement_end_anchor,
                 settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
                 end_ambiguity=opt.end_ambiguity, end_mixture_weight=float(end_mixture[0]),
-                end_mixture_sigma_z=end_mixture[1],
+                end_mixture_sigma_z=end_mixture[1], witness_rule=opt.witness_rule,
                 spatial_prior=bool(opt.spatial_prior and opt.rigidity is None),
                 sensor_noise=bool(drift and opt.sensor_noise), sigma_rad=sig,
                 sigma_deg=float(np.rad2deg(sig)), rigidity=rig,
@@ -1863,7 +1908,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         M = M.copy()
         M[:, j] = np.nan
         if opt.health_end_anchor != "fixed":
-            health_sz = _anchor_fitter(x, daily, opt)(M)
+            w = _anchor_witnesses(health, opt)
+            health_sz = _anchor_fitter(x, daily, opt)(M) if w is None else _anchor_fitter(x, daily, opt)(M, w)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
         joint = _joint_stage(x, M, days, daily, sig, factors, opt, [], health_sz)
     joint = _end_mixture(x, slopes, days, daily, health, joint, opt, warnings) if joint is not None else None
