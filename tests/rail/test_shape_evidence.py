@@ -167,7 +167,9 @@ def test_the_gaussian_families_are_unchanged_and_the_shape_families_differ():
     u = (a.truth.x - a.truth.params["center_m"]) / a.truth.params["width_m"]
     ratio = a.truth.settlement[-1] / -np.exp(-0.5 * u**2)
     assert np.allclose(ratio, ratio[0])
-    assert set(SHAPE_FAMILIES) == {f"faults-{k}" for k in BOWL_SHAPES[1:]} | {"transition"}  # bfffe26
+    assert set(SHAPE_FAMILIES) == ({f"faults-{k}" for k in BOWL_SHAPES[1:]} | {"transition"}
+                                   | {f"{k}-healthy" for k in ("asymmetric", "two-bowls", "ramp", "tilt")})
+    assert all(SHAPE_FAMILIES[f"{k}-healthy"].faults == () for k in ("asymmetric", "two-bowls", "ramp", "tilt"))
     assert SHAPE_FAMILIES["transition"].bowl_shape == "joint-step" and SHAPE_FAMILIES["transition"].faults == ()
     assert not np.allclose(a.truth.settlement, b.truth.settlement)
     assert np.array_equal(a.truth.x, b.truth.x)

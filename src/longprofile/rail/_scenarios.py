@@ -91,6 +91,11 @@ SHAPE_FAMILIES = {f"faults-{kind}": replace(SCENARIO_FAMILIES["faults"], name=f"
 #: (docs/rail.md, "The settlement's ends when one sensor carries the evidence"); here the witnesses are healthy.
 SHAPE_FAMILIES["transition"] = replace(SCENARIO_FAMILIES["faults"], name="transition", bowl_shape="joint-step",
                                        faults=())
+#: The other shapes with healthy sensors too (``<shape>-healthy``): what the estimator does on the shape itself, apart
+#: from the information the ``faults-*`` families remove by placing the reversed and frozen sensors on the shape's
+#: steepest part (a ramp's or a narrow flank's one or two witnesses; docs/calibration.md).
+SHAPE_FAMILIES.update({f"{kind}-healthy": replace(SCENARIO_FAMILIES["faults"], name=f"{kind}-healthy", bowl_shape=kind,
+                                                  faults=()) for kind in ("asymmetric", "two-bowls", "ramp", "tilt")})
 
 
 @dataclass(frozen=True, eq=False)
