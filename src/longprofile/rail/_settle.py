@@ -1388,10 +1388,10 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
                                       fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule,
                                       witness_rule=opt.witness_rule)
     health = replace(health, sensor_ids=list(ids))
-    if _anchor_witnesses(health, opt) is not None and opt.health_end_anchor == "all-days":
+    witnesses = _anchor_witnesses(health, opt)
+    if witnesses is not None and opt.health_end_anchor == "all-days":
         # "steps-ends": a witness may carry the evidence that the ends moved (the anchor's leave-one-out checks)
-        health = replace(health, anchor_std=fit_anchor(np.where(health.excluded[None, :], np.nan, slopes),
-                                                       _anchor_witnesses(health, opt)))
+        health = replace(health, anchor_std=fit_anchor(np.where(health.excluded[None, :], np.nan, slopes), witnesses))
     sz = health.anchor_std
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")
