@@ -9,7 +9,6 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import cho_factor, cho_solve
 
-from longprofile.errors import InputError
 from longprofile.rail import SettlementSettings, estimate_settlement, validate_site
 from longprofile.rail._joint import day_modes
 from longprofile.rail._rigidity import DEFAULT_SIGMA_Z, FIRST_SLOPE_PRIOR_STD, rigidity_cost_matrix
@@ -185,13 +184,6 @@ def test_settlement_anchor_loosened_on_a_tilt_kept_on_a_bowl():
     for k in ("dz", "dz_std", "max_settlement_upper"):
         assert np.array_equal(getattr(fixed, k), getattr(free, k))
     assert not [w for w in free.warnings if "ends appear to move" in w]
-
-
-def test_settlement_end_anchor_setting():
-    assert SettlementSettings().settlement_end_anchor == "all-days"
-    assert SettlementSettings.until_2026_12_06().settlement_end_anchor == "fixed"
-    with pytest.raises(InputError):
-        SettlementSettings(settlement_end_anchor="fit")
 
 
 @settings(max_examples=10, deadline=None)

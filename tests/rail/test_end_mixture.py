@@ -8,7 +8,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from longprofile.errors import InputError
 from longprofile.rail import SettlementSettings, estimate_settlement, validate_site
 from longprofile.rail._health import SensorHealth
 from longprofile.rail._scenarios import SHAPE_FAMILIES, simulate_scenario
@@ -24,14 +23,6 @@ def _site(family, seed):
 
 def _z(sc, res):
     return (res.dz[1:] - sc.truth.settlement[1:]) / res.dz_std[1:]
-
-
-def test_end_ambiguity_setting():
-    assert SettlementSettings().end_ambiguity == "off"
-    assert SettlementSettings.until_2026_12_06().end_ambiguity == "off"
-    assert SettlementSettings(end_ambiguity="mixture").end_ambiguity == "mixture"
-    with pytest.raises(InputError):
-        SettlementSettings(end_ambiguity="on")
 
 
 def test_a_step_seen_by_one_excluded_sensor_is_covered_by_the_mixture():

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError
-from longprofile.rail import SettlementSettings, estimate_settlement, validate_site
+from longprofile.rail import estimate_settlement, validate_site
 from longprofile.rail._health import STEP_Z, WITNESS_STEP_Z, _increment_tests, assess_sensors, step_witness_z
 from longprofile.rail._scenarios import SHAPE_FAMILIES, simulate_scenario
 
@@ -25,12 +25,8 @@ def _still(D=25, N=12, seed=0, noise=2e-6):
     return rng.normal(0, noise, (D, N)), np.zeros((D, N))
 
 
-def test_witness_rule_setting():
-    assert SettlementSettings().witness_rule == "off"
-    assert SettlementSettings.until_2026_12_06().witness_rule == "off"
-    assert SettlementSettings(witness_rule="steps").witness_rule == "steps"
-    with pytest.raises(InputError):
-        SettlementSettings(witness_rule="on")
+def test_assess_sensors_refuses_an_unknown_witness_rule():
+    # the settings' own checks: tests/rail/test_settings_options.py
     M, pred = _still()
     with pytest.raises(InputError):
         assess_sensors(np.arange(12.0), M, sigma=2e-6, rigidity=1e-9, sigma_z=1e-5, witness_rule="yes")
