@@ -13,11 +13,14 @@ Run: ``python -m benchmarks rail_calibration`` (full: 100 draws per family, 100 
 that is not a Gaussian bowl, seeds 100-139 by default; not in the full run) for the health tests' robustness.
 ``python -m benchmarks.bench_rail_calibration --reversal-oracle [--seeds 200-299] [--json out.json]``: the detection
 of reversed sensors a test knowing the true settlement would reach (:func:`reversal_oracle`, docs/rail.md).
+``--controls K``: every site also gets K control surveys (``ScenarioFamily.control_surveys``), and a row counts the
+sites whose controls the estimate says disagree (``SettlementResult.control_check``; docs/rail.md, "Control surveys").
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -71,7 +74,21 @@ def family_rows(cal, elapsed: float, quick: bool) -> list[BenchRow]:
     rows.append(BenchRow(AREA, f"{cal.family}: healthy sensors flagged", 100 * cal.false_alarm_rate, "%",
                          target=None if quick else 1.0, higher_is_better=False,
                          detail=f"{cal.false_alarms[0]} of {cal.false_alarms[1]}"))
+    if cal.control_checks:
+        rows.append(control_row(cal))
     return rows
+
+
+def control_row(cal) -> BenchRow:
+    """Sites whose control surveys the estimate says disagree (``SettlementResult.control_check``), split by the site's
+    own daily coverage: below 80 % (bands the check should call wrong) or not."""
+    c = np.array([(d, cov) for _, d, cov in cal.control_checks], float)
+    bad = c[:, 1] < 0.8
+    return BenchRow(AREA, f"{cal.family}: control surveys disagree", 100 * c[:, 0].mean(), "% of sites",
+                    detail=f"{int(c[:, 0].sum())} of {len(c)} sites; daily coverage < 80 %: "
+                           f"{int(c[bad, 0].sum())} of {int(bad.sum())}; >= 80 %: {int(c[~bad, 0].sum())} of "
+                           f"{int((~bad).sum())}; flagged: seeds "
+                           + (" ".join(str(s) for s, d, _ in cal.control_checks if d) or "none"))
 
 
 def default_plan(quick: bool) -> list[tuple[str, range]]:
@@ -89,9 +106,10 @@ def default_plan(quick: bool) -> list[tuple[str, range]]:
     return plan
 
 
-def run(quick: bool, plan=None, **options) -> list[BenchRow]:
+def run(quick: bool, plan=None, control_surveys: int = 0, **options) -> list[BenchRow]:
     """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default;
-    ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
+    ``control_surveys``: that many control surveys per site (``ScenarioFamily.control_surveys``; 0: the families as
+    they are); ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
     from longprofile.rail._calibration import calibrate_family
     from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES
 
@@ -100,8 +118,9 @@ def run(quick: bool, plan=None, **options) -> list[BenchRow]:
     for name, seeds in plan:
         fam = {**SCENARIO_FAMILIES, **SHAPE_FAMILIES}[name]
         if quick:
-            from dataclasses import replace
             fam = replace(fam, n_sensors=(12, 16), n_days=(10, 12), sampling_minutes=60.0)
+        if control_surveys:
+            fam = replace(fam, control_surveys=int(control_surveys))
         t0 = time.perf_counter()
         cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200, **options)
         rows.extend(family_rows(cal, time.perf_counter() - t0, quick))
@@ -367,6 +386,10 @@ def main(argv=None) -> int:
                    help="keep a sensor whose departure grew in separate same-sign steps as the witness of a localised "
                         "movement (SettlementSettings.witness_rule, docs/rail.md \"Sensor health on a transition: the "
                         "step's witnesses\"; default: the estimator's)")
+    p.add_argument("--controls", type=int, default=0, metavar="K",
+                   help="K control surveys per site (levellings of the survey points on K days of the last two "
+                        "thirds, 2 mm noise; ScenarioFamily.control_surveys): adds the row of sites whose controls the "
+                        "estimate says disagree (SettlementResult.control_check)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -381,7 +404,8 @@ def main(argv=None) -> int:
         p.error("--family is required (or --reversal-oracle)")
     default = dict(default_plan(False))
     plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
-    rows = run(args.quick, plan, **({"shape_evidence": True} if args.shape_evidence else {}),
+    rows = run(args.quick, plan, control_surveys=args.controls,
+               **({"shape_evidence": True} if args.shape_evidence else {}),
                **({"shape_rule": "sum"} if args.shape_rule == "sum" else {}),
                **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
                **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}),

@@ -14,7 +14,7 @@ EXPECTED = {
     "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
     "check_threshold", "THRESHOLD_RANGE_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds",
-    "threshold_alarms",
+    "threshold_alarms", "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
 }
 
 

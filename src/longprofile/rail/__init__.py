@@ -46,6 +46,9 @@ Beyond the paper
 smooth_through_time         -- settlement smoothed across days per station, daily rates with bands;
                                TemporalSettlement is its result.
 settlement_alarms           -- threshold exceedances with station, date and probability.
+compare_controls            -- control surveys against the estimate (standardised differences);
+check_controls              -- do they agree? chi-squared test at CONTROL_CHECK_P, ControlCheck (a warning when
+                               they do not).
 check_threshold             -- a plausible alarm threshold (THRESHOLD_RANGE_M: 0.01 mm to 1 m), else InputError.
 threshold_alarms            -- every level (alert, action, alarm) of settlement, rate and twist thresholds tested.
 check_thresholds            -- a validated {quantity: {level: value}} (THRESHOLD_QUANTITIES, THRESHOLD_LEVELS).
@@ -63,6 +66,7 @@ from .._lazy import lazy_namespace
 #: Lazy namespace (PEP 562): ``import longprofile.rail`` loads no submodule until a name is used, so
 #: ``rail settle`` does not import the synthetic sites (scipy.signal) and nothing here imports matplotlib.
 _EXPORTS = {
+    "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
     "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
@@ -93,6 +97,7 @@ __all__ = [
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
+    "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -88,6 +88,10 @@ class FamilyCalibration:
         Every faulty sensor, whether it was flagged and the signal-to-noise ratio of its fault: the largest true
         |slope change| at its station over the days divided by the estimator's noise std of the last day
         (``sigma_by_day[-1]``) — how much a reversal can show (docs/rail.md, sensor health).
+    control_checks : tuple of (seed, disagree, daily_coverage)
+        For a family with control surveys (``ScenarioFamily.control_surveys``): whether the estimate's
+        :attr:`~longprofile.rail.SettlementResult.control_check` said the surveys disagree, and the site's own
+        coverage of the daily 90 % band (what the check should catch: a site whose bands are wrong).
     """
 
     family: str
@@ -99,6 +103,7 @@ class FamilyCalibration:
     options: dict = field(default_factory=dict)
     missed: tuple = ()
     faults: tuple = ()
+    control_checks: tuple = ()
 
     def detection_by_snr(self, kind: str, edges=(2.0, 4.0, 8.0)) -> list[tuple[float, float, int, int]]:
         """(low, high, flagged, total) of the faults of ``kind`` by SNR bins (``faults``; edges inclusive below)."""
@@ -200,13 +205,16 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
     seeds = tuple(int(s) for s in seeds)
     zs: dict = {}
     hits: dict = {}
-    rms, detected, fa, n_ok, missed, faults = [], {}, 0, 0, [], []
+    rms, detected, fa, n_ok, missed, faults, checks = [], {}, 0, 0, [], [], []
     for seed in seeds:
         sc = simulate_scenario(fam, seed)
-        site = validate_site(sc.sensors, sc.readings, sc.survey)
+        site = validate_site(sc.sensors, sc.readings, sc.survey, sc.controls)
         res = estimate_settlement(site, **options)
         for k, z in score_intervals(sc, res).items():
             zs.setdefault(k, []).append(z)
+        if res.control_check is not None:
+            daily = (res.dz[1:] - sc.truth.settlement[1:]) / res.dz_std[1:]
+            checks.append((seed, bool(res.control_check.disagree), float(np.mean(np.abs(daily) <= Z90))))
         for k, h in interval_hits(sc, res).items():
             hits.setdefault(k, []).append(h)
         err = res.dz[1:] - sc.truth.settlement[1:]
@@ -224,7 +232,8 @@ def calibrate_family(family: ScenarioFamily | str, seeds, **options) -> FamilyCa
         n_ok += len(healthy)
     return FamilyCalibration(family=fam.name, seeds=seeds, intervals={k: _interval_score(v, hits.get(k)) for k, v in zs.items()},
                              rms_mm_by_draw=tuple(rms), detected=detected, false_alarms=(fa, n_ok),
-                             options=dict(options), missed=tuple(missed), faults=tuple(faults))
+                             options=dict(options), missed=tuple(missed), faults=tuple(faults),
+                             control_checks=tuple(checks))
 
 
 def _cost_of_missing(site, res, exclude, options) -> tuple[float, float]:

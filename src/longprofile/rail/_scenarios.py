@@ -43,7 +43,9 @@ BOWL_SHAPES = ("gaussian", "asymmetric", "two-bowls", "ramp", "tilt", "joint-ste
 class ScenarioFamily:
     """Parameter ranges of one family member; every draw samples its site inside them.
 
-    Ranges are (low, high); ``*_log`` ranges are sampled log-uniformly.
+    Ranges are (low, high); ``*_log`` ranges are sampled log-uniformly. ``control_surveys``: that many control
+    surveys (the initial survey's points levelled again on distinct days of the last two thirds, with
+    ``survey_noise_m``; :attr:`Scenario.controls`); 0, the default, none.
     """
 
     name: str
@@ -70,6 +72,7 @@ class ScenarioFamily:
     survey_noise_m: float = 2e-3
     noise_free: bool = False
     bowl_shape: str = "gaussian"
+    control_surveys: int = 0
 
 
 SCENARIO_FAMILIES = {
@@ -138,7 +141,8 @@ class ScenarioTruth:
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
-    """Tables of a scenario (the columns ``rail settle`` reads) and its truth."""
+    """Tables of a scenario (the columns ``rail settle`` reads) and its truth; ``controls`` (date, x_m, z_m) only with
+    ``ScenarioFamily.control_surveys``."""
 
     sensors: pd.DataFrame
     readings: pd.DataFrame
@@ -146,6 +150,7 @@ class Scenario:
     truth: ScenarioTruth
     family: str
     seed: int
+    controls: pd.DataFrame | None = None
 
 
 def _loguniform(rng, lo_hi, size=None):
@@ -258,8 +263,29 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                                       bowl_shape=f.bowl_shape,
                                       creep_fraction=bowl["creep"], daily_swing_c=swing, noise_deg=noise,
                                       n_sensors=N, n_days=D, sampling_minutes=dt_min))
+    controls = None
+    if f.control_surveys > 0:
+        controls = _scenario_controls(f, seed, days, sx, z0, depth_at, center, width)
     return Scenario(sensors=pd.DataFrame({"sensor_id": ids, "x_m": x}), readings=readings, survey=survey,
-                    truth=truth, family=f.name, seed=int(seed))
+                    truth=truth, family=f.name, seed=int(seed), controls=controls)
+
+
+def _scenario_controls(f, seed, days, sx, z0, depth_at, center, width) -> pd.DataFrame:
+    """Control surveys (date, x_m, z_m): ``f.control_surveys`` levellings of the initial survey's points on distinct
+    days drawn from the last two thirds, each point with the survey's noise. Drawn from their own stream
+    (``default_rng([seed, 11])``), so that a family's sites are the same with and without them."""
+    rng = np.random.default_rng([int(seed), 11])
+    D = len(days)
+    pool = np.arange(max(1, D // 3), D)
+    chosen = np.sort(rng.choice(pool, size=min(int(f.control_surveys), pool.size), replace=False))
+    shape, _ = _bowl_shape(f.bowl_shape, sx, center, width, np.random.default_rng([int(seed), 7]))
+    rows = []
+    for d in chosen:
+        z = z0(sx) + depth_at(np.array([d + 0.5]))[0] * shape
+        if not f.noise_free:
+            z = np.round(z + rng.normal(0, f.survey_noise_m, sx.size), 4)
+        rows.append(pd.DataFrame({"date": days[d].strftime("%Y-%m-%d"), "x_m": np.round(sx, 3), "z_m": z}))
+    return pd.concat(rows, ignore_index=True)
 
 
 def _scenario_bowl(f, rng, L, D) -> dict:

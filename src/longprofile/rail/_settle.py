@@ -12,6 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
+from ._controls import ControlCheck, check_controls, compare_controls
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
@@ -120,7 +121,8 @@ class SettlementResult:
         :func:`~longprofile.rail.threshold_alarms`, a ``level`` column more). Empty both when nothing exceeds and
         when no threshold was set: ``settings["thresholds_set"]`` tells them apart.
     controls : DataFrame or None
-        Control points compared with the estimate: date, x_m, dz_control_m, dz_estimate_m, std_m, inside_90.
+        Control points compared with the estimate: date, x_m, dz_control_m, dz_estimate_m, std_m, z, inside_90
+        (:func:`~longprofile.rail.compare_controls`).
     warnings : tuple of str
         Everything the user must know (input fixes, excluded sensors, affine correction...).
     settings : dict
@@ -141,6 +143,9 @@ class SettlementResult:
     noise_day_cov : (D-1, D-1) ndarray or None
         With the all-days model: the day covariance R of the slope-change error of a sensor of factor 1 over days
         1..D-1, rad^2 (:func:`~longprofile.rail._joint.day_noise_covariance`); sensor i's is f_i^2 R.
+    control_check : ControlCheck or None
+        Whether the control surveys agree with the estimate (:func:`~longprofile.rail.check_controls`; a warning
+        when they do not); None without control points.
     """
 
     days: np.ndarray
@@ -173,6 +178,7 @@ class SettlementResult:
     max_settlement_upper: np.ndarray | None = None
     increment_rigidity: np.ndarray | None = None
     noise_day_cov: np.ndarray | None = None
+    control_check: ControlCheck | None = None
 
     def to_table(self) -> pd.DataFrame:
         """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
@@ -1052,31 +1058,6 @@ def affine_correction(x, slopes, usable):
     return slopes - (slopes[:, [a]] + (slopes[:, [b]] - slopes[:, [a]]) * w[None, :])
 
 
-def _compare_controls(site: SiteData, days, x, dz, dz_std, initial_survey):
-    ct = site.controls
-    if ct is None or len(ct) == 0:
-        return None
-    sx, sz = initial_survey
-    rows = []
-    dayidx = {pd.Timestamp(d): i for i, d in enumerate(pd.DatetimeIndex(days))}
-    for (date, g) in ct.groupby("date"):
-        d = dayidx.get(pd.Timestamp(date))
-        inside = (g["x_m"] >= x[0]) & (g["x_m"] <= x[-1]) & (g["x_m"] >= sx[0]) & (g["x_m"] <= sx[-1])
-        g = g[inside]
-        if d is None or len(g) == 0:
-            continue
-        cx = g["x_m"].to_numpy()
-        ctrl = g["z_m"].to_numpy() - np.interp(cx, sx, sz)
-        est = np.interp(cx, x, dz[d])
-        sd = np.interp(cx, x, dz_std[d])
-        for a, b, c, s in zip(cx, ctrl, est, sd):
-            rows.append((pd.Timestamp(date).date().isoformat(), float(a), float(b), float(c), float(s),
-                         bool(abs(b - c) <= Z90 * np.hypot(s, np.sqrt(2) * DEFAULT_SIGMA_A))))
-    if not rows:
-        return None
-    return pd.DataFrame(rows, columns=["date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "inside_90"])
-
-
 @dataclass(frozen=True)
 class SettlementSettings:
     """Options of :func:`estimate_settlement`, with their defaults, validated once (``__post_init__``).
@@ -1505,7 +1486,8 @@ def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: Settle
         alarms = settlement_alarms(days, ids, x, src_mean, src_std, threshold_m=opt.settlement_threshold_m,
                                    rate=rate[0], rate_std=rate[1], rate_threshold_m_per_day=opt.rate_threshold_m_per_day,
                                    min_probability=opt.alarm_probability)
-    controls = _compare_controls(site, days, x, src_mean, src_std, (sv["x_m"].to_numpy(), sv["z_m"].to_numpy()))
+    controls = compare_controls(site.controls, days, x, src_mean, src_std, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(),
+                                sigma_a=opt.sigma_a)
     return smoothed, dz_std, alarms, controls
 
 
@@ -1931,6 +1913,9 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     integrated = _chain_integrations(x, M, health, initial)
     smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt,
                                                              smoothed=None if joint is None else joint.smoothed)
+    control_check = check_controls(controls)
+    if control_check is not None and control_check.disagree:
+        warnings.append(control_check.message())
     settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
                                      health_sigma_z=health_sz,
@@ -1947,4 +1932,4 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                             prior_weights=np.ones(len(ids) - 1) if weights is None else weights,
                             max_settlement_lower=mc_lo, max_settlement_upper=mc_hi,
                             increment_rigidity=None if joint is None else np.r_[np.nan, joint.prior.rigidity_by_day],
-                            noise_day_cov=None if joint is None else joint.noise.cov)
+                            noise_day_cov=None if joint is None else joint.noise.cov, control_check=control_check)

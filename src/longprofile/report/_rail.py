@@ -314,6 +314,17 @@ def _method_context(result) -> dict:
                 alarm_probability=f"{st.get('alarm_probability')}")
 
 
+def _control_check_phrase(check) -> str:
+    """One sentence on whether the control surveys agree with the estimate (escaped; empty without controls)."""
+    if check is None:
+        return ""
+    verdict = ("<b>they disagree</b>: the estimate's assumptions do not hold here (see the warnings)" if check.disagree
+               else "they agree with the estimate and its bands")
+    return (f"Chi-squared test of the standardised differences (estimate band and survey noise): "
+            f"{check.chi2:.3g} on {check.n_points} points, p = {check.p_value:.2g}; {check.n_outside} of "
+            f"{check.n_points} points outside the 90 % band; {verdict} (docs/rail.md, \"Control surveys\").")
+
+
 def _page_context(result, title: str, health: pd.DataFrame, images: dict) -> dict:
     """Everything ``templates/rail_report.html`` shows: escaped text, HTML tables, base64 PNGs by figure name."""
     flagged = health[health["status"] != "ok"][["sensor_id", "x_m", "status", "detail"]]
@@ -322,6 +333,7 @@ def _page_context(result, title: str, health: pd.DataFrame, images: dict) -> dic
                 flagged_table=_table_html(flagged), alarms_table=_table_html(_alarm_summary(result.alarms)),
                 thresholds=_thresholds_html(result.settings),
                 controls_table=("" if result.controls is None else _table_html(_control_summary(result.controls))),
+                controls_check=_control_check_phrase(result.control_check),
                 max_table=_table_html(_max_settlement_table(result)),
                 imgs={name.removesuffix(".png"): b64 for name, b64 in images.items()})
 

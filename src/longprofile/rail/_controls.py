@@ -1,0 +1,154 @@
+"""Control surveys against the estimate: the comparison table and a test of whether they agree (issue 13).
+
+Paper 004 checks its estimates against topographic surveys of the track (Mittersheim, Farebersviller). The settlement
+the tool prints rests on assumptions the angles cannot check by themselves: the span's ends do not move, and a
+movement seen by one or two sensors is not a faulty sensor (docs/rail.md, "Assumptions"). A levelling of the track
+during the works measures the altitude change directly, so it can. :func:`compare_controls` sets each control point
+against the estimate (the control's change is its altitude minus the initial survey's at that station), and
+:func:`check_controls` asks whether the differences are as small as the bands and the survey noise say.
+
+The test: under the estimate's model the standardised differences z = (control - estimate) / sqrt(s^2 + 2 sigma_a^2)
+(s the estimate's posterior std at the point, linearly interpolated between sensors; sigma_a the survey noise, once
+for the control and once for the initial survey) are N(0, 1), and sum z^2 is chi-squared with one degree of freedom
+per point. The estimate's errors are correlated along the track, the survey noises are not; with the survey noise
+the larger term (2 sigma_a^2 = (2.8 mm)^2 at the default 2 mm, against a band std of 0.3-1 mm on the benchmark's
+sites) the chi-squared law held: at ``CONTROL_CHECK_P`` = 1e-3 no site of 120 draws of six families whose
+settlement is a bowl between stable ends was flagged (calibration seeds 300-319; docs/rail.md, "Control surveys").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from ._rigidity import DEFAULT_SIGMA_A, Z90
+
+__all__ = ["ControlCheck", "compare_controls", "check_controls", "CONTROL_CHECK_P"]
+
+#: The control surveys disagree with the estimate when the chi-squared test of their standardised differences has a
+#: p-value below this (module docstring).
+CONTROL_CHECK_P = 1e-3
+
+_COLUMNS = ["date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "z", "inside_90"]
+
+
+@dataclass(frozen=True)
+class ControlCheck:
+    """Do the control surveys agree with the estimate? (:func:`check_controls`).
+
+    Attributes
+    ----------
+    n_points : int
+        Control points compared (inside the sensors' span and the initial survey's).
+    n_outside : int
+        Points whose control lies outside the estimate's 90 % band widened by the survey noise.
+    chi2 : float
+        sum z^2 of the standardised differences.
+    p_value : float
+        P(chi-squared with ``n_points`` degrees of freedom > ``chi2``).
+    disagree : bool
+        ``p_value`` below ``CONTROL_CHECK_P``.
+    worst : tuple
+        (date, x_m, control minus estimate in m, z) of the point of largest |z|.
+    """
+
+    n_points: int
+    n_outside: int
+    chi2: float
+    p_value: float
+    disagree: bool
+    worst: tuple
+
+    def message(self) -> str:
+        """The warning printed when the surveys disagree (empty when they agree)."""
+        if not self.disagree:
+            return ""
+        date, x, diff, z = self.worst
+        return (f"the control surveys disagree with the estimate: {self.n_outside} of {self.n_points} control points "
+                f"outside the 90 % band (about {max(1, round(0.1 * self.n_points))} expected), chi-squared "
+                f"{self.chi2:.3g} on {self.n_points} points (p = {self.p_value:.1e}); the largest difference is "
+                f"{1e3 * diff:+.1f} mm at x = {x:g} m on {date} ({z:+.1f} std). The estimate's assumptions do not "
+                "hold here: a span end that moved, or a step seen by one or two sensors and excluded as a fault "
+                "(docs/rail.md, \"Control surveys\"); trust the controls, look at the report's control figure, and "
+                "extend the instrumented span beyond the works or try --end-ambiguity mixture.")
+
+
+def compare_controls(controls: pd.DataFrame | None, days, x, dz, dz_std, survey_x, survey_z, *,
+                     sigma_a: float = DEFAULT_SIGMA_A) -> pd.DataFrame | None:
+    """Each control point against the estimate: the table of :attr:`SettlementResult.controls`.
+
+    Parameters
+    ----------
+    controls : DataFrame or None
+        date, x_m, z_m (a validated site's ``controls``).
+    days : (D,) datetime64 array
+    x : (N,) ndarray
+        Sensor stations, m.
+    dz, dz_std : (D, N) ndarray
+        The estimate's altitude change and its posterior std, m.
+    survey_x, survey_z : ndarray
+        The initial survey, m.
+    sigma_a : float
+        Survey noise std, m (``SettlementSettings.sigma_a``; the control's and the initial survey's).
+
+    Returns
+    -------
+    DataFrame or None
+        date, x_m, dz_control_m (the control's altitude minus the initial survey's, interpolated), dz_estimate_m and
+        std_m (the estimate and its std, linearly interpolated between sensors), z (the standardised difference,
+        module docstring) and inside_90 (|z| <= 1.645); None without a control point inside both spans on an
+        estimated day.
+    """
+    if controls is None or len(controls) == 0:
+        return None
+    if not np.isfinite(sigma_a) or sigma_a <= 0:
+        raise InputError(f"sigma_a must be a positive number of metres; got {sigma_a!r}.")
+    sx, sz = np.asarray(survey_x, float), np.asarray(survey_z, float)
+    dayidx = {pd.Timestamp(d): i for i, d in enumerate(pd.DatetimeIndex(days))}
+    frames = []
+    for date, g in controls.groupby("date"):
+        d = dayidx.get(pd.Timestamp(date))
+        g = g[(g["x_m"] >= max(x[0], sx[0])) & (g["x_m"] <= min(x[-1], sx[-1]))]
+        if d is None or len(g) == 0:
+            continue
+        cx = g["x_m"].to_numpy(float)
+        ctrl = g["z_m"].to_numpy(float) - np.interp(cx, sx, sz)
+        est, sd = np.interp(cx, x, dz[d]), np.interp(cx, x, dz_std[d])
+        z = (ctrl - est) / np.hypot(sd, np.sqrt(2.0) * sigma_a)
+        frames.append(pd.DataFrame({"date": pd.Timestamp(date).date().isoformat(), "x_m": cx, "dz_control_m": ctrl,
+                                    "dz_estimate_m": est, "std_m": sd, "z": z, "inside_90": np.abs(z) <= Z90}))
+    return pd.concat(frames, ignore_index=True)[_COLUMNS] if frames else None
+
+
+def check_controls(table: pd.DataFrame | None, *, p: float = CONTROL_CHECK_P) -> ControlCheck | None:
+    """The chi-squared test of :func:`compare_controls`' standardised differences (module docstring).
+
+    Parameters
+    ----------
+    table : DataFrame or None
+        :func:`compare_controls`' table.
+    p : float
+        The test's level: the surveys disagree when the p-value is below it.
+
+    Returns
+    -------
+    ControlCheck or None
+        None without a table.
+    """
+    from scipy.stats import chi2 as chi2_law
+
+    if table is None or len(table) == 0:
+        return None
+    if not 0 < p < 1:
+        raise InputError(f"p must be in (0, 1); got {p!r}.")
+    z = table["z"].to_numpy(float)
+    stat = float(np.sum(z**2))
+    pv = float(chi2_law.sf(stat, z.size))
+    k = int(np.argmax(np.abs(z)))
+    row = table.iloc[k]
+    worst = (str(row["date"]), float(row["x_m"]), float(row["dz_control_m"] - row["dz_estimate_m"]), float(z[k]))
+    return ControlCheck(n_points=int(z.size), n_outside=int((~table["inside_90"].to_numpy(bool)).sum()), chi2=stat,
+                        p_value=pv, disagree=pv < p, worst=worst)
