@@ -390,6 +390,8 @@ def main(argv=None) -> int:
                    help="K control surveys per site (levellings of the survey points on K days of the last two "
                         "thirds, 2 mm noise; ScenarioFamily.control_surveys): adds the row of sites whose controls the "
                         "estimate says disagree (SettlementResult.control_check)")
+    p.add_argument("--thermal", choices=("auto", "linear", "lagged", "none"), default=None,
+                   help="thermal model (SettlementSettings.thermal; default: the estimator's, auto)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -411,7 +413,8 @@ def main(argv=None) -> int:
                **({"settlement_end_anchor": args.settlement_end_anchor} if args.settlement_end_anchor else {}),
                **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}),
                **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}),
-               **({"witness_rule": args.witness_rule} if args.witness_rule else {}))
+               **({"witness_rule": args.witness_rule} if args.witness_rule else {}),
+               **({"thermal": args.thermal} if args.thermal else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

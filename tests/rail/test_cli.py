@@ -146,3 +146,20 @@ def test_controls_that_contradict_the_estimate_are_named(site_dir, tmp_path):
     assert len(lines) == 1 and lines[0].startswith("warning: the control surveys disagree with the estimate")
     assert f"on {controls.date.max()}" in res.output.replace("\n", " ")
     assert (tmp_path / "b.csv").exists()
+
+
+def test_the_thermal_model_is_chosen_from_the_readings(site_dir, tmp_path):
+    """farebersviller-like (thermal lags of 2-6 h): without --thermal the lagged model is chosen and a note says so;
+    --thermal linear keeps the paper's model and prints no note."""
+    base = ["rail", "settle", "--sensors", str(site_dir / "sensors.csv"), "--readings", str(site_dir / "readings.csv"),
+            "--survey", str(site_dir / "survey.csv"), "--monte-carlo", "0"]
+    res = runner.invoke(app, base + ["-o", str(tmp_path / "auto.csv")])
+    assert res.exit_code == 0, res.output
+    assert "note: thermal model lagged, chosen from the readings" in res.output.replace("\n", " ")
+    res = runner.invoke(app, base + ["--thermal", "linear", "-o", str(tmp_path / "linear.csv")])
+    assert res.exit_code == 0, res.output
+    assert "note: thermal model" not in res.output
+    truth = pd.read_csv(site_dir / "truth.csv")
+    err = {name: pd.read_csv(tmp_path / f"{name}.csv").merge(truth, on=["date", "sensor_id"])
+           .eval("dz_m - dz_true_m").pow(2).mean() ** 0.5 for name in ("auto", "linear")}
+    assert err["auto"] < 0.5 * err["linear"]

@@ -15,6 +15,7 @@ EXPECTED = {
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
     "check_threshold", "THRESHOLD_RANGE_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds",
     "threshold_alarms", "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
+    "lag_variance_ratio", "LAG_AUTO_RATIO",
 }
 
 

@@ -84,7 +84,9 @@ def settle_command(
     plot: Path = typer.Option(None, "--plot", help="Also draw settlement profiles with bands to this PNG."),
     report: Path = typer.Option(None, "--report", help="Also write an HTML report (profiles, bands, controls, "
                                                         "alarms, flagged sensors) into this folder."),
-    thermal: str = typer.Option("linear", "--thermal", help="linear (paper §3), lagged (first-order lag) or none."),
+    thermal: str = typer.Option("auto", "--thermal",
+                                help="auto (the lagged model where the readings show a thermal lag, else linear), "
+                                     "linear (paper §3), lagged (first-order lag) or none."),
     sigma_deg: float = typer.Option(None, "--sigma-deg", help="Std of daily angle changes, deg (default: estimated)."),
     rigidity: Optional[float] = typer.Option(
         None, "--rigidity",
@@ -174,6 +176,10 @@ def settle_command(
         plotted.result()
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
+    if res.settings.get("thermal_requested") == "auto" and res.settings.get("thermal") == "lagged":
+        console.print(f"note: thermal model lagged, chosen from the readings (a thermal lag leaves "
+                      f"{res.settings['lag_variance_ratio']:.2f} of the no-lag residual variance, median over sensors; "
+                      "--thermal linear gives the paper's model)", highlight=False, soft_wrap=True)
     worst = -res.dz[-1].min()
     alarms = (f"{len(res.alarms)} alarm(s)" if res.settings.get("thresholds_set") else
               "no alarm thresholds set (--thresholds FILE): nothing was tested against a limit")

@@ -25,6 +25,8 @@ DAY_FIELDS                  -- the per-day fields of DayStatistics, in storage o
 MEDIAN_LINES                -- readings per day kept next to the median, for exact medians at a new coefficient.
 NOISE_STD_TOLERANCE         -- relative drift of a sensor's noise std up to which cached outlier sets are kept.
 first_order_response        -- first-order thermal lag of a temperature series.
+lag_variance_ratio          -- how much a thermal lag explains of each sensor's within-day residual: thermal="auto"
+                               takes the lagged model below LAG_AUTO_RATIO (beyond the paper).
 rigidity_cost_matrix        -- the cost matrix C of Lemma 4.1 (§4.2).
 rigidity_posterior_dense    -- the paper's dense posterior (reference, O(N^3)).
 rigidity_model              -- the same prior as a state-space model (integrated Wiener process);
@@ -81,7 +83,7 @@ _EXPORTS = {
                    "THRESHOLD_RANGE_M"),
     "._thresholds": ("THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms"),
     "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
-                  "day_statistics", "first_order_response", "statistics_window"),
+                  "day_statistics", "first_order_response", "statistics_window", "lag_variance_ratio", "LAG_AUTO_RATIO"),
 }
 
 
@@ -97,7 +99,7 @@ __all__ = [
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
-    "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
+    "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P", "lag_variance_ratio", "LAG_AUTO_RATIO",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

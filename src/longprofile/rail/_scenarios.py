@@ -83,6 +83,9 @@ SCENARIO_FAMILIES = {
     "sparse-drift": ScenarioFamily("sparse-drift", n_sensors=(12, 18), spacing_m=(4.0, 6.0),
                                    drift_deg_per_sqrt_day_log=(1e-3, 1e-2)),
     "faults": ScenarioFamily("faults", drift_deg_per_sqrt_day_log=(1e-3, 3e-3), faults=FAULT_KINDS),
+    # rails heated by the sun: daily swings of 15-30 degC and sensor lags of 1-6 h (hysteresis loops of paper 004 §5.1,
+    # the farebersviller-like preset's), where the linear thermal model leaves a loop in every day's readings
+    "sun-lag": ScenarioFamily("sun-lag", daily_swing_c=(15.0, 30.0), thermal_lag_minutes_log=(60.0, 360.0)),
 }
 #: The ``faults`` family with a settlement that is not a Gaussian bowl (:data:`BOWL_SHAPES`; docs/rail.md, "Sensor
 #: health, step 14"): what the health tests flag when the settlement has another shape.

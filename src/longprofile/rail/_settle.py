@@ -1067,8 +1067,10 @@ class SettlementSettings:
 
     Attributes
     ----------
-    thermal : {"linear", "lagged", "none"}, default "linear"
-        Temperature de-biasing of the daily angles: the paper's §3 ("linear") or the first-order lag model.
+    thermal : {"auto", "linear", "lagged", "none"}, default "auto"
+        Temperature de-biasing of the daily angles: the paper's §3 ("linear"), the first-order lag model, or the
+        lagged model where the data show a lag and the linear one elsewhere ("auto"; docs/rail.md, "The thermal
+        model chosen by the data").
     sigma : float or None, default None
         Std of the daily slope changes, rad (None: estimated from the day-to-day differences).
     rigidity : float or None, default None
@@ -1201,7 +1203,7 @@ class SettlementSettings:
         "steps", 65.19 % with "steps-ends").
     """
 
-    thermal: str = "linear"
+    thermal: str = "auto"
     sigma: float | None = None
     rigidity: float | None = None
     penalty_order: int | None = None
@@ -1240,9 +1242,11 @@ class SettlementSettings:
         simultaneous band's interval (``max_settlement_interval="band"``), the fixed end anchors of the health tests
         and of the settlement (``health_end_anchor="fixed"``, ``settlement_end_anchor="fixed"``, the defaults until
         the all-days anchors of the same day, sessions 27 and 28) and the reversal z on its own
-        (``reversal_z_rule="alone"``, the default until step 16 of the same day); reproduces that estimator's outputs.
+        (``reversal_z_rule="alone"``, the default until step 16 of the same day) and the paper's linear thermal model
+        (``thermal="linear"``, the default until session 29 of the same day); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
-        return cls(**{"max_settlement_interval": "band", "health_end_anchor": "fixed", "settlement_end_anchor": "fixed",
+        return cls(**{"thermal": "linear", "max_settlement_interval": "band", "health_end_anchor": "fixed",
+                      "settlement_end_anchor": "fixed",
                       "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
                       **options})
 
@@ -1714,9 +1718,11 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False,
-                     health_sigma_z=None, settlement_sigma_z=None, end_mixture=(0.0, None)) -> dict:
+                     health_sigma_z=None, settlement_sigma_z=None, end_mixture=(0.0, None), daily=None) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
-    return dict(thermal=opt.thermal, error_model="drift" if drift else "white", joint_days=bool(joint),
+    return dict(thermal=opt.thermal if daily is None else daily.thermal, thermal_requested=opt.thermal,
+                lag_variance_ratio=None if daily is None else daily.lag_variance_ratio,
+                error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 shape_rule=opt.shape_rule,
                 health_end_anchor=opt.health_end_anchor, reversal_z_rule=opt.reversal_z_rule,
@@ -1754,8 +1760,11 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
         All the options below in one frozen, validated object (default: ``SettlementSettings()``).
     **options
         Any field of :class:`SettlementSettings` by keyword (overrides ``settings``); the fields are:
-    thermal : {"linear", "lagged", "none"}, default "linear"
-        Temperature de-biasing: the paper's §3 ("linear") or the first-order lag model.
+    thermal : {"auto", "linear", "lagged", "none"}, default "auto"
+        Temperature de-biasing: the paper's §3 ("linear"), the first-order lag model, or ("auto", the default since
+        2026-12-06 session 29; "linear" before) the lagged model where a lag explains the within-day residual
+        (:func:`~longprofile.rail._thermal.lag_variance_ratio`), else the linear one; ``settings["thermal"]`` of the
+        result says which.
     sigma : float, optional
         Std of the daily slope changes, rad. Default: estimated from the day-to-day differences
         (:func:`day_difference_sigma`); the paper's 5e-3 deg is the noise of single readings,
@@ -1859,7 +1868,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     ids = site.sensor_ids
     x = site.x
     _check_exclusions(ids, opt.exclude_sensors)
-    if list(daily.sensor_ids) != list(ids) or daily.thermal != opt.thermal:
+    if list(daily.sensor_ids) != list(ids) or daily.thermal != opt.thermal and not (
+            opt.thermal == "auto" and daily.thermal in ("linear", "lagged")):
         raise InputError("the daily angles are of other sensors or another thermal model than the settings.")
     if daily.temperature_mean_c is None:
         raise InputError("the daily angles carry no site-mean daily temperature (temperature_mean_c).")
@@ -1916,7 +1926,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     control_check = check_controls(controls)
     if control_check is not None and control_check.disagree:
         warnings.append(control_check.message())
-    settings_used = _settings_record(opt, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
+    settings_used = _settings_record(opt, daily=daily, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
                                      health_sigma_z=health_sz,
                                      settlement_sigma_z=None if joint is None else joint.sigma_z,

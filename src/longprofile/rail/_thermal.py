@@ -9,6 +9,14 @@ the temperature through a first-order response, tau dT_s/dt = T - T_s, angle = l
 tau is chosen per sensor on a grid by the median (over 24 h slices) residual variance of the
 slice-wise regression on T_s — the median makes the fit ignore days with works (settlement
 steps); with ``quiet_days`` only those days are used.
+
+Automatic choice (``thermal="auto"``, beyond the paper): the lagged model where a lag explains much of the
+within-day residual, the linear one elsewhere. For each sensor, the ratio of the median slice residual variance at
+the best lag of ``LAG_AUTO_GRID_HOURS`` to that at no lag (:func:`lag_variance_ratio`); the lagged model when the
+median ratio over the sensors is below ``LAG_AUTO_RATIO``. On the calibration seeds the median ratio was 0.92-1.00 on
+sites with swings of 2-8 degC and lags up to 4 h (where both models give the same bands) and 0.07-0.50 on sites with
+sun-heated rails (swings of 15-30 degC, lags of 1-6 h, and the farebersviller-like preset), where the linear model
+flagged healthy sensors as reversed and under-covered (docs/rail.md, "The thermal model chosen by the data").
 """
 
 from __future__ import annotations
@@ -25,12 +33,18 @@ from ..statespace import linear_recursion
 from ._data import SiteData
 
 __all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS", "DayStatistics",
+           "lag_variance_ratio", "LAG_AUTO_RATIO", "LAG_AUTO_GRID_HOURS",
            "day_statistics", "daily_angles_from_statistics", "statistics_window", "MEDIAN_UPDATE_TOLERANCE_DEG",
            "NOISE_STD_TOLERANCE", "MEDIAN_LINES"]
 
-THERMAL_MODELS = ("linear", "lagged", "none")
+THERMAL_MODELS = ("linear", "lagged", "none", "auto")
 #: Candidate time constants of the lagged thermal model, hours.
 LAG_GRID_HOURS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0)
+#: ``thermal="auto"`` takes the lagged model when the median over sensors of :func:`lag_variance_ratio` is below this
+#: (module docstring; chosen between the families' 0.92-1.00 and 0.07-0.50 on calibration seeds 300-305).
+LAG_AUTO_RATIO = 0.75
+#: The lags (h) :func:`lag_variance_ratio` tries: a coarse subset of ``LAG_GRID_HOURS`` (the choice, not the fit).
+LAG_AUTO_GRID_HOURS = (0.0, 1.0, 3.0, 6.0)
 #: A reading is an outlier when it is this many robust stds away from its 7-sample running median.
 OUTLIER_THRESHOLD = 8.0
 
@@ -70,9 +84,12 @@ class DailyAngles:
     reference_temp_c : float
         T_ref of the correction, °C.
     thermal : str
-        ``"linear"``, ``"lagged"`` or ``"none"``.
+        ``"linear"``, ``"lagged"`` or ``"none"`` (the model used; ``thermal="auto"`` gives one of the first two).
     warnings : tuple of str
         Sensors whose thermal coefficient could not be fitted (left uncorrected), reported.
+    lag_variance_ratio : float or None
+        With ``thermal="auto"``: the median over sensors of :func:`lag_variance_ratio`, which chose the model
+        (lagged below ``LAG_AUTO_RATIO``); None otherwise.
     """
 
     days: np.ndarray
@@ -90,6 +107,7 @@ class DailyAngles:
     warnings: tuple = ()
     raw_day_spread_deg: np.ndarray | None = None
     temperature_mean_c: np.ndarray | None = None
+    lag_variance_ratio: float | None = None
 
 
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
@@ -735,6 +753,70 @@ def _unfitted_warning(unfitted) -> tuple:
                   "for the fit"] if unfitted else [])
 
 
+def _sensor_series(g, t0, days):
+    """One sensor's finite readings: (angle deg, temperature degC, hours since ``t0``, day index, deviation from the
+    7-sample running median, its robust std s_hf) -- the outlier test keeps |deviation| <= OUTLIER_THRESHOLD s_hf."""
+    a = g["angle_deg"].to_numpy(float)
+    T = g["temperature_c"].to_numpy(float)
+    th = (g["timestamp"] - t0).dt.total_seconds().to_numpy() / 3600.0
+    day = np.searchsorted(days.to_numpy(), g["timestamp"].dt.normalize().to_numpy())
+    med = median_filter(a, size=7, mode="nearest") if a.size >= 7 else np.full_like(a, np.median(a))
+    dev = a - med
+    return a, T, th, day, dev, (1.4826 * np.median(np.abs(dev)) if a.size else 0.0)
+
+
+def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_GRID_HOURS) -> np.ndarray:
+    """Per sensor: how much a thermal lag explains of the within-day residual (the choice of ``thermal="auto"``).
+
+    The median over 24 h slices of the residual variance of the slice-wise regression of the angle on the lagged
+    temperature (the lagged model's criterion, module docstring), least over ``lags_hours``, divided by its value at
+    no lag: 1 where a lag explains nothing, near 0 where the linear model leaves a hysteresis loop.
+
+    Parameters
+    ----------
+    site : SiteData
+    quiet_days : sequence of dates, optional
+        Days without works: only they enter (as for the thermal fit).
+    lags_hours : sequence of float
+        Lags tried, h; the first must be 0.
+
+    Returns
+    -------
+    (N,) ndarray
+        The ratio per sensor (in order of ``site.sensor_ids``), in [0, 1]; NaN for a sensor with too few readings
+        or no day of >= 0.5 degC temperature spread.
+    """
+    lags = tuple(float(v) for v in lags_hours)
+    if not lags or lags[0] != 0.0:
+        raise InputError(f"lags_hours must start with 0 (the linear model); got {lags_hours!r}.")
+    r = site.readings
+    days = pd.DatetimeIndex(np.sort(r["timestamp"].dt.normalize().unique()))
+    if len(days) == 0:
+        raise InputError("the readings table is empty.")
+    quiet_mask = _quiet_mask(days, quiet_days)
+    groups = dict(tuple(r.groupby("sensor_id", sort=False)))
+    out = np.full(len(site.sensor_ids), np.nan)
+    for j, sid in enumerate(site.sensor_ids):
+        g = groups.get(sid)
+        if g is None:
+            continue
+        g = g[np.isfinite(g["angle_deg"].to_numpy()) & np.isfinite(g["temperature_c"].to_numpy())]
+        a, T, th, day, dev, s_hf = _sensor_series(g, days[0], days)
+        keep = np.abs(dev) <= OUTLIER_THRESHOLD * max(s_hf, 1e-4)
+        if quiet_mask is not None:
+            keep &= quiet_mask[day]
+        if keep.sum() <= 12:
+            continue
+        a, T, th, day = a[keep], T[keep], th[keep], day[keep]
+        scores = []
+        for tau in lags:
+            slope, resid = _slice_regression(day, a, first_order_response(th, T, tau), len(days))
+            scores.append(float(np.nanmedian(resid)) if np.isfinite(slope).any() else np.nan)
+        if np.isfinite(scores[0]) and scores[0] > 0:
+            out[j] = min(1.0, float(np.nanmin(scores)) / scores[0])
+    return out
+
+
 def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: float = 5.0,
                  quiet_days=None) -> DailyAngles:
     """Outlier removal, thermal correction and daily medians of every sensor's angle (paper 004 §3).
@@ -743,9 +825,11 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     ----------
     site : SiteData
         Validated site (:func:`~longprofile.rail.validate_site`).
-    thermal : {"linear", "lagged", "none"}, default "linear"
+    thermal : {"linear", "lagged", "none", "auto"}, default "linear"
         ``"linear"``: the paper's algorithm; ``"lagged"``: first-order thermal lag (module docstring);
-        ``"none"``: daily medians of the raw angles.
+        ``"none"``: daily medians of the raw angles; ``"auto"``: the lagged model where a lag explains the
+        within-day residual (:func:`lag_variance_ratio` below ``LAG_AUTO_RATIO``), else the linear one (the result's
+        ``thermal`` says which, ``lag_variance_ratio`` why).
     reference_temp_c : float, default 5
         T_ref, °C (the paper: 5 °C; it does not affect angle changes).
     quiet_days : sequence of dates, optional
@@ -763,6 +847,11 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     """
     if thermal not in THERMAL_MODELS:
         raise InputError(f"thermal must be one of {THERMAL_MODELS}; got {thermal!r}.")
+    if thermal == "auto":
+        ratio = float(np.nanmedian(lag_variance_ratio(site, quiet_days=quiet_days)))
+        chosen = "lagged" if ratio < LAG_AUTO_RATIO else "linear"
+        out = daily_angles(site, thermal=chosen, reference_temp_c=reference_temp_c, quiet_days=quiet_days)
+        return replace(out, lag_variance_ratio=ratio)
     if thermal != "lagged":
         if len(site.readings) == 0:
             raise InputError("the readings table is empty.")
@@ -797,13 +886,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         g = g[np.isfinite(g["angle_deg"].to_numpy()) & np.isfinite(g["temperature_c"].to_numpy())]
         if len(g) == 0:
             continue
-        a = g["angle_deg"].to_numpy(float)
-        T = g["temperature_c"].to_numpy(float)
-        th = (g["timestamp"] - t0).dt.total_seconds().to_numpy() / 3600.0
-        day = np.searchsorted(days.to_numpy(), g["timestamp"].dt.normalize().to_numpy())
-        med = median_filter(a, size=7, mode="nearest") if a.size >= 7 else np.full_like(a, np.median(a))
-        dev = a - med
-        s_hf = 1.4826 * np.median(np.abs(dev)) if a.size else 0.0
+        a, T, th, day, dev, s_hf = _sensor_series(g, t0, days)
         rawstd[j] = 1.4826 * np.median(np.abs(a - np.median(a)))
         by_day = pd.Series(a).groupby(day)
         spread = 1.4826 * (pd.Series(a) - by_day.transform("median")).abs().groupby(day).median()

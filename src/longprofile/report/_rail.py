@@ -299,13 +299,24 @@ def _thresholds_html(settings: dict) -> str:
     return "<p>Thresholds tested: " + "; ".join(f"{q} {lv} {html.escape(v)}" for q, lv, v in rows) + ".</p>"
 
 
+def _thermal_phrase(st: dict) -> str:
+    """The thermal model used, and why when the data chose it (``thermal="auto"``)."""
+    from ..rail import LAG_AUTO_RATIO
+
+    ratio = st.get("lag_variance_ratio")
+    if st.get("thermal_requested") != "auto" or ratio is None:
+        return str(st.get("thermal"))
+    return (f"{st.get('thermal')} (chosen from the readings: a thermal lag leaves {ratio:.2f} of the no-lag residual "
+            f"variance, median over sensors; lagged below {LAG_AUTO_RATIO:g})")
+
+
 def _method_context(result) -> dict:
     """The page's first paragraph: the site, the days and the settings of the fit (strings)."""
     st = result.settings
     order = st.get("penalty_order", 2)
     return dict(n_sensors=f"{len(result.sensor_ids)}", length=f"{result.x[-1] - result.x[0]:.1f}",
                 n_days=f"{result.days.size}", first_day=_day_label(result.days[0]),
-                last_day=_day_label(result.days[-1]), thermal=html.escape(str(st.get("thermal"))),
+                last_day=_day_label(result.days[-1]), thermal=html.escape(_thermal_phrase(st)),
                 sigma=f"{st.get('sigma_deg', float('nan')):.2e}",
                 sigma_source="estimated" if st.get("sigma_estimated") else "given", penalty_order=f"{order}",
                 rigidity=f"{st.get('rigidity', float('nan')):.2e}", rigidity_power=f"{2 * order - 2}",

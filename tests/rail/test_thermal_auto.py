@@ -1,0 +1,74 @@
+"""The thermal model chosen by the data (``thermal="auto"``, the default): lag_variance_ratio and the choice."""
+
+import numpy as np
+import pytest
+
+from longprofile.errors import InputError
+from longprofile.rail import (LAG_AUTO_RATIO, SettlementSettings, daily_angles, estimate_settlement,
+                              estimate_settlement_from_daily, lag_variance_ratio, validate_site)
+from longprofile.rail._scenarios import simulate_scenario
+
+SMALL = dict(n_sensors=(16, 18), n_days=(12, 14), sampling_minutes=60.0)
+
+
+def _site(family, seed):
+    sc = simulate_scenario(family, seed, **SMALL)
+    return sc, validate_site(sc.sensors, sc.readings, sc.survey)
+
+
+@pytest.mark.parametrize("seed", [300, 301])
+def test_the_ratio_tells_a_sun_heated_lagging_site_from_a_plain_one(seed):
+    _, plain = _site("lag-swings", seed)
+    _, sun = _site("sun-lag", seed)
+    r_plain, r_sun = lag_variance_ratio(plain), lag_variance_ratio(sun)
+    for r in (r_plain, r_sun):
+        assert r.shape == (len(plain.sensor_ids) if r is r_plain else len(sun.sensor_ids),)
+        assert np.all((r[np.isfinite(r)] >= 0) & (r[np.isfinite(r)] <= 1))
+    assert np.nanmedian(r_plain) > LAG_AUTO_RATIO > np.nanmedian(r_sun)
+    assert daily_angles(plain, thermal="auto").thermal == "linear"
+    assert daily_angles(sun, thermal="auto").thermal == "lagged"
+
+
+def test_auto_is_the_linear_model_bit_for_bit_where_it_chooses_it():
+    _, site = _site("lag-swings", 300)
+    auto, lin = daily_angles(site, thermal="auto"), daily_angles(site, thermal="linear")
+    assert auto.thermal == "linear" and lin.lag_variance_ratio is None and auto.lag_variance_ratio > LAG_AUTO_RATIO
+    np.testing.assert_array_equal(auto.angle_deg, lin.angle_deg)
+    a, b = estimate_settlement(site, n_monte_carlo=0), estimate_settlement(site, n_monte_carlo=0, thermal="linear")
+    np.testing.assert_array_equal(a.dz, b.dz)
+    np.testing.assert_array_equal(a.dz_std, b.dz_std)
+    assert a.settings["thermal"] == "linear" and a.settings["thermal_requested"] == "auto"
+
+
+def test_on_sun_heated_sites_auto_beats_the_papers_linear_model_against_the_truth():
+    """The truth is the simulator's; the linear model leaves the hysteresis loop in the daily angles. Eight small
+    sites (calibration seeds): auto chooses the lagged model on each, its settlement RMS is lower on most and its
+    total at most 0.8 x the linear model's (measured 0.71: 2.46 against 3.44 mm)."""
+    auto_rms, lin_rms = [], []
+    for seed in range(302, 310):
+        sc, site = _site("sun-lag", seed)
+        auto = estimate_settlement(site, n_monte_carlo=0)
+        lin = estimate_settlement(site, n_monte_carlo=0, thermal="linear")
+        assert auto.settings["thermal"] == "lagged" and auto.settings["lag_variance_ratio"] < LAG_AUTO_RATIO
+        for res, out in ((auto, auto_rms), (lin, lin_rms)):
+            out.append(float(np.sqrt(np.mean((res.dz[1:] - sc.truth.settlement[1:]) ** 2))))
+    assert sum(a < b for a, b in zip(auto_rms, lin_rms)) >= 6
+    assert sum(auto_rms) < 0.8 * sum(lin_rms)
+
+
+def test_from_daily_accepts_the_model_auto_chose_and_refuses_another():
+    _, site = _site("sun-lag", 303)
+    daily = daily_angles(site, thermal="auto")
+    res = estimate_settlement_from_daily(site, daily, n_monte_carlo=0)
+    assert res.settings["thermal"] == daily.thermal == "lagged"
+    with pytest.raises(InputError, match="thermal model"):
+        estimate_settlement_from_daily(site, daily, n_monte_carlo=0, thermal="linear")
+    assert SettlementSettings.until_2026_12_06().thermal == "linear" and SettlementSettings().thermal == "auto"
+
+
+def test_bad_lags_and_models_are_refused():
+    _, site = _site("lag-swings", 300)
+    with pytest.raises(InputError, match="start with 0"):
+        lag_variance_ratio(site, lags_hours=(1.0, 2.0))
+    with pytest.raises(InputError, match="thermal must be one of"):
+        daily_angles(site, thermal="warm")
