@@ -72,3 +72,20 @@ def test_bad_lags_and_models_are_refused():
         lag_variance_ratio(site, lags_hours=(1.0, 2.0))
     with pytest.raises(InputError, match="thermal must be one of"):
         daily_angles(site, thermal="warm")
+
+
+def test_the_health_tests_limit_is_named_when_reached():
+    """farebersviller-like with the paper's linear model: the hysteresis loops make the health tests exclude a quarter
+    of the (healthy) sensors, their limit, and the result says that so many faults point to a common cause; with the
+    model chosen by the data no such warning (and far fewer sensors excluded)."""
+    from longprofile.rail import simulate_site
+
+    syn = simulate_site("farebersviller-like", seed=0, sampling_minutes=60.0)
+    site = validate_site(syn.sensors, syn.readings, syn.survey)
+    lin = estimate_settlement(site, n_monte_carlo=0, thermal="linear")
+    capped = [w for w in lin.warnings if w.startswith("the health tests stopped at their limit")]
+    assert len(capped) == 1 and f"{int(lin.health.excluded.sum())} of 75 sensors" in capped[0]
+    assert "thermal model 'linear'; try --thermal lagged" in capped[0]
+    auto = estimate_settlement(site, n_monte_carlo=0)
+    assert not any("stopped at their limit" in w for w in auto.warnings)
+    assert auto.health.excluded.sum() <= 5 < lin.health.excluded.sum()

@@ -1395,6 +1395,27 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     return health, M, sz
 
 
+#: The warning when the health tests stopped at their limit (a quarter of the sensors, dead and user-excluded ones not
+#: counted; :func:`~longprofile.rail.assess_sensors`).
+_HEALTH_CAPPED = ("the health tests stopped at their limit: {n} of {N} sensors excluded as faulty (a quarter). So many "
+                  "independent faults are unlikely; a cause common to many sensors is likelier: a thermal response the "
+                  "model does not follow (thermal model '{thermal}'; try --thermal lagged), angles in another unit or "
+                  "sign convention, or a settlement the instrumented span does not contain. Check the excluded sensors "
+                  "before trusting the result (docs/rail.md, \"Sensor health\").")
+
+
+def _warn_if_health_capped(health, opt: SettlementSettings, warnings: list, daily: DailyAngles | None = None) -> None:
+    """Warn when the tests flagged as many sensors as they may (:data:`_HEALTH_CAPPED`)."""
+    if not opt.check_health:
+        return
+    status = np.asarray(health.status)
+    user = np.isin(np.asarray(health.sensor_ids), list(opt.exclude_sensors))
+    N = status.size
+    n = int(((status != "ok") & (status != "dead") & ~user).sum())
+    if n >= max(2, N // 4):
+        warnings.append(_HEALTH_CAPPED.format(n=n, N=N, thermal=opt.thermal if daily is None else daily.thermal))
+
+
 def _noise_stage(daily: DailyAngles, x, M, days, opt: SettlementSettings):
     """Slope-change noise: (sigma, sigma of each day, drift model used?, per-sensor factors or None)."""
     D = days.size
@@ -1904,6 +1925,7 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
             health_sz = _anchor_fitter(x, daily, opt)(M) if w is None else _anchor_fitter(x, daily, opt)(M, w)
         sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
         joint = _joint_stage(x, M, days, daily, sig, factors, opt, [], health_sz)
+    _warn_if_health_capped(health, opt, warnings, daily)
     joint = _end_mixture(x, slopes, days, daily, health, joint, opt, warnings) if joint is not None else None
     if joint is None:
         prior_fit, order, rig, sig, sig_days, drift, factors = _change_prior_stage(x, M, sig, sig_days, drift, factors,
