@@ -9,8 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from longprofile.errors import InputError
-from longprofile.rail import (CONTROL_CHECK_P, check_controls, compare_controls, estimate_settlement,
-                              validate_site)
+from longprofile.rail import CONTROL_CHECK_P, check_controls, compare_controls, estimate_settlement, validate_site
 from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES, simulate_scenario
 
 DAYS = pd.date_range("2024-03-01", periods=3, freq="D").to_numpy()

@@ -4,8 +4,15 @@ import numpy as np
 import pytest
 
 from longprofile.errors import InputError
-from longprofile.rail import (LAG_AUTO_RATIO, SettlementSettings, daily_angles, estimate_settlement,
-                              estimate_settlement_from_daily, lag_variance_ratio, validate_site)
+from longprofile.rail import (
+    LAG_AUTO_RATIO,
+    SettlementSettings,
+    daily_angles,
+    estimate_settlement,
+    estimate_settlement_from_daily,
+    lag_variance_ratio,
+    validate_site,
+)
 from longprofile.rail._scenarios import simulate_scenario
 
 SMALL = dict(n_sensors=(16, 18), n_days=(12, 14), sampling_minutes=60.0)
