@@ -128,3 +128,17 @@ def test_a_step_the_sensors_miss_is_named_and_a_bowl_is_not():
     res = estimate_settlement(site, n_monte_carlo=0)
     assert res.control_check is not None and not res.control_check.disagree
     assert not any("control surveys" in w for w in res.warnings)
+
+
+def test_control_points_left_out_are_named():
+    from longprofile.rail._controls import unmatched_controls
+
+    controls = pd.DataFrame({"date": ["2024-03-03", "2024-03-03", "2025-01-01", "2025-01-02"],
+                             "x_m": [10.0, 99.0, 10.0, 10.0], "z_m": [100.0] * 4})
+    t = compare_controls(controls, DAYS, X, np.zeros((3, 5)), np.full((3, 5), 1e-3), np.array([0.0, 20.0]),
+                         np.array([100.0, 100.0]))
+    msg = unmatched_controls(controls, t, DAYS)
+    assert msg.startswith("3 of 4 control point(s) not compared with the estimate: 2 on day(s) without readings "
+                          "(2025-01-01, 2025-01-02; the readings cover 2024-03-01 to 2024-03-03); 1 outside the span")
+    assert unmatched_controls(controls.iloc[:1], t, DAYS) == "" and unmatched_controls(None, None, DAYS) == ""
+    assert unmatched_controls(controls.iloc[2:], None, DAYS).startswith("2 of 2 control point(s)")

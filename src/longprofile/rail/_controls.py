@@ -26,7 +26,7 @@ import pandas as pd
 from ..errors import InputError
 from ._rigidity import DEFAULT_SIGMA_A, Z90
 
-__all__ = ["ControlCheck", "compare_controls", "check_controls", "CONTROL_CHECK_P"]
+__all__ = ["ControlCheck", "compare_controls", "check_controls", "unmatched_controls", "CONTROL_CHECK_P"]
 
 #: The control surveys disagree with the estimate when the chi-squared test of their standardised differences has a
 #: p-value below this (module docstring).
@@ -121,6 +121,28 @@ def compare_controls(controls: pd.DataFrame | None, days, x, dz, dz_std, survey_
         frames.append(pd.DataFrame({"date": pd.Timestamp(date).date().isoformat(), "x_m": cx, "dz_control_m": ctrl,
                                     "dz_estimate_m": est, "std_m": sd, "z": z, "inside_90": np.abs(z) <= Z90}))
     return pd.concat(frames, ignore_index=True)[_COLUMNS] if frames else None
+
+
+def unmatched_controls(controls: pd.DataFrame | None, table: pd.DataFrame | None, days) -> str:
+    """A warning for the control points :func:`compare_controls` left out (empty when every point was compared): those
+    on a day without readings, and those outside the sensors' or the initial survey's span."""
+    if controls is None or len(controls) == 0:
+        return ""
+    n_given, n_used = len(controls), 0 if table is None else len(table)
+    if n_used == n_given:
+        return ""
+    known = set(pd.DatetimeIndex(days).normalize())
+    off_day = ~pd.to_datetime(controls["date"]).dt.normalize().isin(known)
+    first, last = pd.Timestamp(min(known)).date(), pd.Timestamp(max(known)).date()
+    dates = sorted({pd.Timestamp(d).date().isoformat() for d in controls.loc[off_day, "date"]})
+    parts = []
+    if off_day.any():
+        parts.append(f"{int(off_day.sum())} on day(s) without readings ({', '.join(dates[:3])}"
+                     f"{', ...' if len(dates) > 3 else ''}; the readings cover {first} to {last})")
+    if n_given - n_used - int(off_day.sum()) > 0:
+        parts.append(f"{n_given - n_used - int(off_day.sum())} outside the span of the sensors and the initial survey")
+    return (f"{n_given - n_used} of {n_given} control point(s) not compared with the estimate: " + "; ".join(parts)
+            + ". Check the controls' dates and stations.")
 
 
 def check_controls(table: pd.DataFrame | None, *, p: float = CONTROL_CHECK_P) -> ControlCheck | None:

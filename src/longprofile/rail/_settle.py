@@ -12,7 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
-from ._controls import ControlCheck, check_controls, compare_controls
+from ._controls import ControlCheck, check_controls, compare_controls, unmatched_controls
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
@@ -1948,6 +1948,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     control_check = check_controls(controls)
     if control_check is not None and control_check.disagree:
         warnings.append(control_check.message())
+    if unmatched := unmatched_controls(site.controls, controls, days):
+        warnings.append(unmatched)
     settings_used = _settings_record(opt, daily=daily, drift=drift, sig=sig, rig=rig, order=order, prior_fit=prior_fit,
                                      smoothed=smoothed, joint=joint is not None,
                                      health_sigma_z=health_sz,
