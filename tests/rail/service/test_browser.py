@@ -117,7 +117,12 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         assert "action" in row.text and "raised" in row.text
         img = drv.find_element(By.ID, "profile")
         assert drv.execute_script("return arguments[0].naturalWidth", img) > 500  # the PNG loaded
+        warned = drv.find_element(By.ID, "warning-list")  # what `rail settle` prints: the excluded sensors among it
+        assert warned.is_displayed() and "excluded (reversed)" in warned.text
         _shot(drv, tmp_path, "rail-service-site-alarm.png")
+        drv.execute_script("arguments[0].scrollIntoView()", drv.find_element(By.ID, "warnings"))
+        _shot(drv, tmp_path, "rail-service-warnings.png")
+        drv.execute_script("window.scrollTo(0, 0)")
         row.find_element(By.NAME, "comment").send_keys("track crew informed")
         row.find_element(By.CSS_SELECTOR, "button.ack").click()
         WebDriverWait(drv, 30).until(ec.staleness_of(row))  # the post reloaded the page

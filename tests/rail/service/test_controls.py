@@ -226,3 +226,30 @@ def test_the_cli_stores_a_controls_file_as_rail_settle_reads_it(loaded, tmp_path
     pd.DataFrame([{**GOOD, "x_m": 500.0}]).to_csv(tmp_path / "bad.csv", index=False)
     res = runner.invoke(app, ["site", "controls", "mitt", "--file", str(tmp_path / "bad.csv"), "--db", db.url])
     assert isinstance(res.exception, LongprofileError) and "outside the sensors' span" in str(res.exception)
+
+
+def test_the_site_page_shows_the_runs_warnings_and_a_control_disagreement(loaded):
+    """The warnings `rail settle` prints are on the site page (they were stored, not shown); control surveys that
+    contradict the estimate add theirs."""
+    import html
+
+    from longprofile.rail.service._db import Run
+
+    db, _, _ = loaded
+    _core.add_user(db, "tester", "viewer1", "viewer1-password", "viewer")
+    client = TestClient(create_app(db, background=False))
+    login(client, "viewer1", "viewer1-password")
+
+    def shown():
+        with db.read() as s:
+            run = s.scalars(select(Run).where(Run.status == "ok").order_by(Run.id.desc())).first()
+            stored = json.loads(run.warnings_json)
+        page = client.get("/sites/mitt").text
+        assert stored and 'id="warning-list"' in page
+        assert all(html.escape(w, quote=False) in page.replace("&#39;", "'").replace("&#34;", '"') for w in stored)
+        return stored
+
+    assert not any("control surveys disagree" in w for w in shown())
+    _core.put_controls(db, "eng", "mitt", control_table(drop_mm=(2.0, 40.0)).to_dict("records"))
+    recompute(db, "mitt")
+    assert any(w.startswith("the control surveys disagree with the estimate") for w in shown())

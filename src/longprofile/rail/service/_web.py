@@ -612,8 +612,10 @@ def _add_page_routes(app: FastAPI, ctx: _App):
             a["raised"] = _iso(a["raised_ts"])
             a["acked"] = _iso(a["ack_ts"])
         controls = core.get_controls(db, st.name)["comparison"]
+        warnings = [] if run is None else json.loads(run.warnings_json or "[]")  # what `rail settle` prints
         return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
                           alarms=alarms, health=health, controls=controls, has_thresholds=has_thresholds,
+                          warnings=warnings,
                           can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
