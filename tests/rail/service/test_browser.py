@@ -118,7 +118,7 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         img = drv.find_element(By.ID, "profile")
         assert drv.execute_script("return arguments[0].naturalWidth", img) > 500  # the PNG loaded
         warned = drv.find_element(By.ID, "warning-list")  # what `rail settle` prints: the excluded sensors among it
-        assert warned.is_displayed() and "excluded (reversed)" in warned.text
+        assert warned.is_displayed() and "sensor S13 excluded (dead)" in warned.text
         _shot(drv, tmp_path, "rail-service-site-alarm.png")
         drv.execute_script("arguments[0].scrollIntoView()", drv.find_element(By.ID, "warnings"))
         _shot(drv, tmp_path, "rail-service-warnings.png")
