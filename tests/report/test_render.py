@@ -157,6 +157,41 @@ def test_every_preload_of_the_helper_resolves():
         _warm(("longprofile.rail:NoSuchResult",))
 
 
+def test_a_preload_entry_ending_in_parentheses_is_called(monkeypatch):
+    """``"module:function()"``: the helper calls the command's own warm-up figure (``road reconstruct``:
+    ``warm_reconstructions``); a plain name is only fetched."""
+    import longprofile.report._apl as apl
+    from longprofile.report._render import _warm
+
+    calls = []
+    monkeypatch.setattr(apl, "warm_reconstructions", lambda: calls.append(1))
+    _warm(("longprofile.report._apl:warm_reconstructions",))
+    assert calls == []
+    _warm(("longprofile.report._apl:warm_reconstructions()",))
+    assert calls == [1]
+
+
+def test_the_reconstruction_figure_from_arrays_is_the_figure_from_the_reconstruction():
+    """``road reconstruct --plot`` sends arrays (elevation, std) and the truth detrended in the command, so that the
+    helper needs neither the road package nor scipy: the same PNG bytes as from the Reconstruction and the raw truth."""
+    from longprofile.report._apl import plot_reconstructions, warm_reconstructions
+    from longprofile.report._html import png_bytes
+    from longprofile.road.apl import apl_model, detrend_profile, reconstruct_profile, simulate_apl_recording
+
+    model = apl_model(20.0, 0.05)
+    rec_in = simulate_apl_recording("iso8608", model, length=300.0, road_class="C", rng=3)
+    rec = reconstruct_profile(rec_in.signal, model, method="smoother")
+    truth = rec_in.true_elevation
+    old = plot_reconstructions(rec_in.distance, rec_in.signal, {"smoother": rec}, truth=truth,
+                               highpass_wavelength=100.0, dx=0.05, title="t")
+    new = plot_reconstructions(rec_in.distance, rec_in.signal,
+                               {"smoother": (rec.profile.elevation[:, 0], rec.profile.std[:, 0])},
+                               truth=detrend_profile(truth - truth[0], 0.05, highpass_wavelength=100.0),
+                               truth_detrended=True, title="t")
+    assert png_bytes(old, dpi=120) == png_bytes(new, dpi=120)
+    warm_reconstructions()  # draws to nothing, without error
+
+
 def _imported(name):
     import sys
 

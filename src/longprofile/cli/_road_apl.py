@@ -98,7 +98,7 @@ def reconstruct_command(
 
     from ..errors import InputError
     from ..io import read_apl_signal, write_erd, write_table
-    from ..road.apl import SHORT_WAVE_OPTIONS, InstrumentUncertainty, reconstruct_recording
+    from ..road.apl import SHORT_WAVE_OPTIONS, InstrumentUncertainty, detrend_profile, reconstruct_recording
 
     uncertainty = None if instrument_uncertainty is None else InstrumentUncertainty.parse(instrument_uncertainty)
     if short_waves is not None and short_waves not in SHORT_WAVE_OPTIONS:
@@ -122,8 +122,12 @@ def reconstruct_command(
         from ..report import plot_reconstructions  # matplotlib only when a plot is asked for
 
         truth = _truth_column(file)
-        save_plot(png, plot_reconstructions, signal.distance, signal.elevation[:, 0], {method: rec}, truth=truth,
-                  highpass_wavelength=highpass, dx=dx, title=f"{file.name}: {method}", savefig={"dpi": 120})
+        if truth is not None:  # detrended here: the figure helper then needs neither the road package nor scipy
+            truth = detrend_profile(truth - truth[0], dx, highpass_wavelength=highpass)
+        std = None if rec.profile.std is None else rec.profile.std[:, 0]
+        save_plot(png, plot_reconstructions, signal.distance, signal.elevation[:, 0],
+                  {method: (rec.profile.elevation[:, 0], std)}, truth=truth, truth_detrended=True,
+                  title=f"{file.name}: {method}", savefig={"dpi": 120})
     extra = "" if rec.q is None else f" (q = {rec.q:.3g} m^2, r = {rec.r:.3g} m^2)"
     if rec.lag_m is not None:
         extra += f", latency {rec.lag_m:g} m = {rec.lag_m / speed:.2f} s"

@@ -7,7 +7,8 @@ import numpy as np
 
 from ._layout import fixed_figure, fixed_grid
 
-__all__ = ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response"]
+__all__ = ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response",
+           "warm_reconstructions"]
 
 
 def _figure(rows, height=2.6, sharex=True):
@@ -28,31 +29,47 @@ def plot_recording(distance, true_elevation, signal, *, title=""):
     return fig
 
 
+def _elevation_and_std(rec):
+    """(detrended elevation, its std or None) of a value of ``plot_reconstructions``' dict."""
+    if isinstance(rec, tuple):
+        z, s = rec
+        return np.asarray(z), None if s is None else np.asarray(s)
+    profile = getattr(rec, "profile", None)  # a Reconstruction (duck-typed: no import of the road package here)
+    if profile is not None:
+        return profile.elevation[:, 0], None if profile.std is None else profile.std[:, 0]
+    return np.asarray(rec), None
+
+
 def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None, highpass_wavelength=None,
-                         dx=None, title=""):
+                         dx=None, title="", truth_detrended: bool = False):
     """Comparison of reconstructions (dict name -> detrended elevation, m), optional truth and 90 % band.
 
-    ``reconstructions`` values may be arrays or :class:`Reconstruction` objects (their detrended
-    profile and, for the smoother, +/- 1.645 std are drawn). The truth is detrended the same way.
+    ``reconstructions`` values may be arrays, :class:`~longprofile.road.apl.Reconstruction` objects (their detrended
+    profile and, for the smoother, +/- 1.645 std are drawn) or ``(elevation, std)`` pairs of arrays (std None: no
+    band). The truth is detrended the same way (``dx`` and ``highpass_wavelength``), or drawn as given with
+    ``truth_detrended=True`` (then ``dx`` is not needed).
     """
-    from ..road.apl import Reconstruction, detrend_profile
-
     fig, (ax, ax2) = _figure(2, 3.4, sharex=False)
     x = np.asarray(distance)
     # the zoom panel shows a 60 m window in the middle: only its samples (and one beyond each end) are drawn there
     mid = x[x.size // 2]
     zoom = slice(max(int(np.searchsorted(x, mid - 30)) - 1, 0), int(np.searchsorted(x, mid + 30, side="right")) + 1)
     ax.plot(x, 1e3 * np.asarray(signal), color="0.6", lw=0.7, label="APL signal")
-    if truth is not None and dx is not None:
-        t = detrend_profile(np.asarray(truth) - truth[0], dx, highpass_wavelength=highpass_wavelength)
+    if truth is not None and (truth_detrended or dx is not None):
+        if truth_detrended:
+            t = np.asarray(truth)
+        else:
+            from ..road.apl import detrend_profile
+
+            t = detrend_profile(np.asarray(truth) - truth[0], dx, highpass_wavelength=highpass_wavelength)
         ax.plot(x, 1e3 * t, color="k", lw=1.0, label="true (detrended)")
         ax2.plot(x[zoom], 1e3 * t[zoom], color="k", lw=1.0, label="true (detrended)")
     for name, rec in reconstructions.items():
-        z = rec.profile.elevation[:, 0] if isinstance(rec, Reconstruction) else np.asarray(rec)
+        z, std = _elevation_and_std(rec)
         line, = ax.plot(x, 1e3 * z, lw=0.8, label=name)
         ax2.plot(x[zoom], 1e3 * z[zoom], lw=0.8, color=line.get_color(), label=name)
-        if isinstance(rec, Reconstruction) and rec.profile.std is not None:
-            z, s = z[zoom], rec.profile.std[zoom, 0]
+        if std is not None:
+            z, s = z[zoom], std[zoom]
             ax2.fill_between(x[zoom], 1e3 * (z - 1.645 * s), 1e3 * (z + 1.645 * s), color=line.get_color(),
                              alpha=0.25, label=f"{name} 90 % band")
     ax.set_ylabel("elevation (mm)")
@@ -65,6 +82,18 @@ def plot_reconstructions(distance, signal, reconstructions: dict, *, truth=None,
     ax2.set_xlabel("distance (m)")
     ax2.legend(fontsize=7, ncol=3, loc="upper right")
     return fig
+
+
+def warm_reconstructions() -> None:
+    """Draw :func:`plot_reconstructions` once on 2000 synthetic samples, to nothing: a figure helper's warm-up for
+    ``road reconstruct --plot`` (fonts, band, legends and the PNG writer used once before the real figure)."""
+    import io
+
+    x = np.arange(2000) * 0.05
+    z = 1e-3 * np.sin(x)
+    fig = plot_reconstructions(x, z, {"warm": (z, np.full(x.size, 1e-4))}, truth=z, truth_detrended=True,
+                               title="warm")
+    fig.savefig(io.BytesIO(), format="png", dpi=120)
 
 
 def plot_identification(u, y, model, *, dt=None):

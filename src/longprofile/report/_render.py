@@ -53,7 +53,9 @@ class InlineRenderer:
 @quiet_interrupt
 def _warm(preload=(), second: bool = False) -> None:
     """Helper-process start: import matplotlib and draw a small figure with text (fonts, Agg), then import the
-    ``preload`` modules (those the submitted figures' arguments will need to be unpickled). ``second``: then fork a
+    ``preload`` modules (those the submitted figures' arguments will need to be unpickled; an entry
+    ``"module:function()"`` calls that function, e.g. one drawing the command's figure on small data so that its
+    first use of fonts, bands and legends is paid here). ``second``: then fork a
     second helper from this warm one (:func:`spread`).
 
     Not warmed here (measured 2026-12-06, session 28): log axes with mathtext tick labels, a legend, a band and a
@@ -69,11 +71,13 @@ def _warm(preload=(), second: bool = False) -> None:
     FigureCanvasAgg(fig)
     fig.add_subplot().set_title("warm")
     fig.savefig(io.BytesIO(), format="png")
-    for entry in preload:  # "module" or "module:name,name" (names fetched: a lazy package loads their submodules)
-        module, _, names = entry.partition(":")
+    for entry in preload:  # "module" or "module:name,name" (names fetched: a lazy package loads their submodules;
+        module, _, names = entry.partition(":")  # "name()" is called: a command's own warm-up figure)
         mod = importlib.import_module(module)
         for name in filter(None, names.split(",")):
-            getattr(mod, name)
+            obj = getattr(mod, name.removesuffix("()"))
+            if name.endswith("()"):
+                obj()
     if second:
         _start_second()
 
