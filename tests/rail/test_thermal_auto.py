@@ -1,6 +1,7 @@
 """The thermal model chosen by the data (``thermal="auto"``, the default): lag_variance_ratio and the choice."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from longprofile.errors import InputError
@@ -96,3 +97,19 @@ def test_the_health_tests_limit_is_named_when_reached():
     auto = estimate_settlement(site, n_monte_carlo=0)
     assert not any("stopped at their limit" in w for w in auto.warnings)
     assert auto.health.excluded.sum() <= 5 < lin.health.excluded.sum()
+
+
+def test_too_few_readings_a_day_to_test_a_lag_is_the_linear_model_without_a_numpy_warning():
+    import warnings
+
+    from longprofile.report._rail import _thermal_phrase
+
+    sc, _ = _site("sun-lag", 304)
+    r = sc.readings[pd.to_datetime(sc.readings.timestamp).dt.hour.isin([0, 12])]  # two readings a day
+    site = validate_site(sc.sensors, r, sc.survey)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = daily_angles(site, thermal="auto")
+    assert d.thermal == "linear" and np.isnan(d.lag_variance_ratio)
+    assert "no day had the readings" in _thermal_phrase({"thermal": "linear", "thermal_requested": "auto",
+                                                          "lag_variance_ratio": d.lag_variance_ratio})

@@ -848,7 +848,9 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     if thermal not in THERMAL_MODELS:
         raise InputError(f"thermal must be one of {THERMAL_MODELS}; got {thermal!r}.")
     if thermal == "auto":
-        ratio = float(np.nanmedian(lag_variance_ratio(site, quiet_days=quiet_days)))
+        per_sensor = lag_variance_ratio(site, quiet_days=quiet_days)
+        # no sensor with a day of enough readings and temperature spread: no evidence of a lag, the linear model
+        ratio = float(np.nanmedian(per_sensor)) if np.isfinite(per_sensor).any() else float("nan")
         chosen = "lagged" if ratio < LAG_AUTO_RATIO else "linear"
         out = daily_angles(site, thermal=chosen, reference_temp_c=reference_temp_c, quiet_days=quiet_days)
         return replace(out, lag_variance_ratio=ratio)

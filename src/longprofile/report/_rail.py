@@ -306,6 +306,8 @@ def _thermal_phrase(st: dict) -> str:
     ratio = st.get("lag_variance_ratio")
     if st.get("thermal_requested") != "auto" or ratio is None:
         return str(st.get("thermal"))
+    if not np.isfinite(ratio):
+        return f"{st.get('thermal')} (no day had the readings and temperature spread to test a thermal lag)"
     return (f"{st.get('thermal')} (chosen from the readings: a thermal lag leaves {ratio:.2f} of the no-lag residual "
             f"variance, median over sensors; lagged below {LAG_AUTO_RATIO:g})")
 
