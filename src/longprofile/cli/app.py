@@ -92,7 +92,7 @@ def _draws_figures(args) -> bool:
 #: architecture.md, "Start-up"); the other commands draw inline unless ``LONGPROFILE_FIGURES=helper``.
 _HELPER_COMMANDS = {
     ("road", "acceptance"): (), ("road", "convert"): (), ("road", "compare"): (), ("differentiate",): (),
-    ("road", "reconstruct"): ("longprofile.report._apl:warm_reconstructions()",),
+    ("road", "reconstruct"): ("longprofile.report:warm_reconstructions()",),
     ("road", "report"): ("pandas", "longprofile.road:analyse_roughness"),
     ("rail", "settle"): ("pandas", "longprofile.rail:SettlementResult"),
     ("vehicle", "vertical", "estimate"): ("pandas", "longprofile.vehicle.vertical:VerticalStateEstimate,CORNER_NAMES"),

@@ -12,6 +12,7 @@ plot_certification -- cross-correlation against offset of profiler runs vs the r
 write_compare_report -- `road compare` output: runs.csv, pairs.csv, summary.json (and correlation.png).
 report_folder, REPORT_FILES -- the one output-folder check (inputs never overwritten), and the files each report writes.
 plot_recording, plot_reconstructions, plot_identification -- APL figures: recording, reconstructions, identification.
+warm_reconstructions -- plot_reconstructions drawn once on synthetic data (a figure helper's warm-up).
 plot_frequency_response -- APL instrument models: magnitude, phase, group delay, the |H| ~ 1 band.
 plot_settlement, plot_true_settlement, write_rail_report -- rail settlement figures and HTML report (paper 004).
 plot_derivative, plot_derivative_comparison -- a derivative estimate with its band; estimators compared (paper 002).
@@ -28,7 +29,8 @@ from .._lazy import lazy_namespace
 # so `road acceptance` does not load the derivative kernels of `_signal` (0.4 s) or the vehicle figures.
 _EXPORTS = {
     "._acceptance": ("plot_certification", "write_acceptance_report",),
-    "._apl": ("plot_frequency_response", "plot_identification", "plot_reconstructions", "plot_recording",),
+    "._apl": ("plot_frequency_response", "plot_identification", "plot_reconstructions", "plot_recording",
+              "warm_reconstructions",),
     "._compare": ("write_compare_report",),
     "._html": ("REPORT_FILES", "report_folder",),
     "._network": ("write_network_report",),
@@ -47,7 +49,8 @@ __all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LI
 __all__ += ["write_network_report"]
 __all__ += ["write_acceptance_report", "plot_certification", "write_compare_report"]
 __all__ += ["report_folder", "REPORT_FILES"]
-__all__ += ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response"]
+__all__ += ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response",
+            "warm_reconstructions"]
 __all__ += ["plot_slope_estimate", "plot_drive", "plot_sensitivity", "plot_speed_measurement"]
 __all__ += ["plot_vertical_estimate", "plot_vertical_simulation", "plot_thesis_tables"]
 __all__ += ["plot_settlement", "plot_true_settlement", "write_rail_report", "plot_derivative", "plot_derivative_comparison"]
