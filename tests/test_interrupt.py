@@ -41,6 +41,12 @@ _SCRIPT = textwrap.dedent("""
         (worker,) = pool._processes.values()
         os.kill(worker.pid, signal.SIGINT)
         worker.join(20)
+        # the pool's own management thread reaps a dead worker too: the thread that loses the race for waitpid sees
+        # no status yet (exitcode None) until the winner has stored it in the shared Process object
+        for _ in range(500):
+            if worker.exitcode is not None:
+                break
+            time.sleep(0.01)
         print("exitcode", worker.exitcode)
         try:
             fut.result(timeout=20)
