@@ -183,3 +183,28 @@ def test_stored_readings_load_as_the_table_sent(site):
     np.testing.assert_array_equal(got["sensor_id"].to_numpy(), sent["sensor_id"].to_numpy())
     np.testing.assert_array_equal(got["angle_deg"].to_numpy(), sent["angle_deg"].to_numpy(dtype=float))
     np.testing.assert_array_equal(got["temperature_c"].to_numpy(), sent["temperature_c"].to_numpy(dtype=float))
+
+
+def test_the_thermal_model_chosen_by_the_data_runs_as_rail_settle_runs_it(site):
+    """A site's ``thermal: auto`` setting (rail settle's default): the run reads every reading, as with the lagged
+    model, and stores what ``estimate_settlement(thermal="auto")`` gives (on this site, without a thermal lag, the
+    linear model's numbers); a thermal model the service does not know is refused with the list."""
+    db, _, r = site
+    syn, _ = synthetic()
+    with pytest.raises(InputError, match="linear, lagged, none or auto"):
+        _core.update_site(db, "tester", "mitt", settings={"thermal": "warm"})
+    _core.update_site(db, "tester", "mitt", settings={"thermal": "auto"})
+    _core.ingest(db, "mitt", r.to_dict("records"), now=NOW)
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    n_days = pd.to_datetime(syn.readings["timestamp"]).dt.normalize().nunique()
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings, syn.survey), n_monte_carlo=0, thermal="auto",
+                              joint_days=service_joint_days({}, syn.sensors.shape[0], n_days))
+    assert ref.settings["thermal"] == "linear"
+    with db.read() as s:
+        rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m)
+                                      .where(ResultRow.run_id == out["run_id"])).all(),
+                            columns=["date", "sensor_id", "dz_m"])
+    got = rows.merge(ref.to_table(), on=["date", "sensor_id"], suffixes=("", "_ref"))
+    assert len(got) == ref.days.size * len(ref.sensor_ids)
+    np.testing.assert_allclose(got["dz_m"], got["dz_m_ref"], rtol=1e-9, atol=1e-12)

@@ -68,8 +68,8 @@ def check_settings(st: dict) -> dict:
     unknown = sorted(set(st) - set(DEFAULT_SETTINGS))
     if unknown:
         raise InputError(f"unknown setting(s) {unknown}; known: {sorted(DEFAULT_SETTINGS)}.")
-    if "thermal" in st and st["thermal"] not in ("linear", "lagged", "none"):
-        raise InputError(f"thermal must be linear, lagged or none; got {st['thermal']!r}.")
+    if "thermal" in st and st["thermal"] not in ("linear", "lagged", "none", "auto"):
+        raise InputError(f"thermal must be linear, lagged, none or auto; got {st['thermal']!r}.")
     if "n_monte_carlo" in st and not (isinstance(st["n_monte_carlo"], int) and 0 <= st["n_monte_carlo"] <= 10000):
         raise InputError("n_monte_carlo must be an integer in 0..10000.")
     if "alarm_probability" in st and not (0 < float(st["alarm_probability"]) <= 1):
@@ -540,7 +540,8 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
             return {"run_id": last.id, "status": "unchanged", "message": "", "events": [],
                     "seconds": time.perf_counter() - t0}
         # linear / no thermal model: per-day statistics cached in day_stats, only the changed days from raw;
-        # the lagged model fits its lag over the whole record: every reading, every run
+        # the lagged model fits its lag over the whole record, and "auto" (rail settle's default) chooses between
+        # the two from it: every reading, every run
         cached = settings["thermal"] in ("linear", "none")
         stats = first_day = rebuilt = cache_rows = None
         if cached:
