@@ -160,15 +160,15 @@ def check_controls(table: pd.DataFrame | None, *, p: float = CONTROL_CHECK_P) ->
     ControlCheck or None
         None without a table.
     """
-    from scipy.stats import chi2 as chi2_law
-
     if table is None or len(table) == 0:
         return None
     if not 0 < p < 1:
         raise InputError(f"p must be in (0, 1); got {p!r}.")
+    from scipy.special import chdtrc  # the chi-squared survival function (scipy.stats would add 0.24 s to start-up)
+
     z = table["z"].to_numpy(float)
     stat = float(np.sum(z**2))
-    pv = float(chi2_law.sf(stat, z.size))
+    pv = float(chdtrc(z.size, stat))
     k = int(np.argmax(np.abs(z)))
     row = table.iloc[k]
     worst = (str(row["date"]), float(row["x_m"]), float(row["dz_control_m"] - row["dz_estimate_m"]), float(z[k]))

@@ -1739,10 +1739,9 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
 
 
 def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_fit, smoothed, joint=False,
-                     health_sigma_z=None, settlement_sigma_z=None, end_mixture=(0.0, None), daily=None) -> dict:
+                     health_sigma_z=None, settlement_sigma_z=None, end_mixture=(0.0, None), daily) -> dict:
     """The options used, as reported in :attr:`SettlementResult.settings`."""
-    return dict(thermal=opt.thermal if daily is None else daily.thermal, thermal_requested=opt.thermal,
-                lag_variance_ratio=None if daily is None else daily.lag_variance_ratio,
+    return dict(thermal=daily.thermal, thermal_requested=opt.thermal, lag_variance_ratio=daily.lag_variance_ratio,
                 error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 shape_rule=opt.shape_rule,
