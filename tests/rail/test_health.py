@@ -11,6 +11,7 @@ from longprofile.rail import daily_angles, estimate_settlement, validate_site
 from longprofile.rail._health import (
     DEAD_SPREAD_DEG,
     FROZEN_MIN_DAYS,
+    REVERSED_ALL_DAYS_INC_LLR,
     REVERSED_LLR,
     STEP_Z,
     _frozen_run,
@@ -95,6 +96,38 @@ def test_days_when_the_neighbours_do_not_move_carry_no_reversal_evidence(seed, s
     pred = np.zeros_like(M)
     llr, _, _ = _increment_tests(M, pred, np.zeros(8, bool))
     assert np.allclose(llr, 0.0)
+
+
+def _noise_sites(rng, n, D, N, own, pred_noise):
+    """``n`` sites of N sensors on D days with no settlement: the sensors' changes are white noise of std ``own``,
+    their leave-one-out predictions independent noise of std ``pred_noise`` (neighbours noisier than the sensor)."""
+    for _ in range(n):
+        yield (np.cumsum(rng.normal(0, own, (D, N)), axis=0), np.cumsum(rng.normal(0, pred_noise, (D, N)), axis=0))
+
+
+def test_a_quiet_sensor_among_noisier_neighbours_does_not_pose_as_reversed():
+    """The prediction's noise is taken from its own small changes (step 17), not from the sensor's residual: on sites
+    without settlement, with a prediction as noisy as the sensor or noisier, few healthy sensors pass the all-days
+    test's gate on the day-to-day ratio (the rule before step 17: 4.9 / 2.7 / 1.5 % at 1 / 2 / 3 x, this seed)."""
+    rng = np.random.default_rng(1)
+    for ratio in (1.0, 2.0, 3.0):
+        llr = np.concatenate([_increment_tests(M, P, np.zeros(20, bool))[0]
+                              for M, P in _noise_sites(rng, 100, 28, 20, 1e-5, ratio * 1e-5)])
+        assert np.mean(llr > REVERSED_ALL_DAYS_INC_LLR) < 0.03, ratio
+        assert np.mean(llr > REVERSED_LLR) < 0.002, ratio
+
+
+def test_the_prediction_noise_rule_keeps_the_power_on_reversed_sensors():
+    """A reversed sensor on 4 work days of settlement 5 noise std each: still found (step 17 changed the weights only
+    where the prediction's small changes are noisier than half the residual)."""
+    rng = np.random.default_rng(2)
+    found = []
+    for M, P in _noise_sites(rng, 50, 28, 20, 1e-5, 1e-5):
+        inc = np.zeros_like(M)
+        inc[rng.choice(np.arange(7, 28), 4, replace=False)] = rng.normal(0, 5e-5, (4, 20))
+        theta = np.cumsum(inc, axis=0)
+        found.append(_increment_tests(M - theta, P + theta, np.zeros(20, bool))[0] > REVERSED_LLR)
+    assert np.mean(found) > 0.8
 
 
 def test_step_statistic_finds_a_detachment_day():

@@ -96,6 +96,11 @@ REVERSED_LLR = 25.0  # calibration seeds (faults 300-399): reversed 87/100, heal
 #: Relative error of the leave-one-out prediction of a day-to-day change (its shape error on a bowl the
 #: neighbours sample coarsely): the variance of a day's residual is v + (PRED_REL_ERR dmu)^2.
 PRED_REL_ERR = 0.15  # grid {0, 0.15, 0.25, 0.5} on calibration seeds (faults 300-399, others 300-311)
+#: The day-to-day reversal test's noise of the prediction's changes: at least the spread of its smallest changes, the
+#: 25 % quantile of |dmu - median dmu| over the days / PRED_NOISE_Q25 (the 25 % quantile of |N(0, 1)|, so that the
+#: estimate is the std of Gaussian noise while most days move in bursts, and a steady movement, the median, does not
+#: count as noise; docs/rail.md, "Sensor health, step 17").
+PRED_NOISE_Q25 = 0.31863936396437514
 #: ... the same in the step statistic.
 STEP_PRED_REL_ERR = 0.15  # grid {0, 0.15, 0.25, 0.5} on calibration seeds (faults 300-399, others 300-311)
 #: Step statistic (largest day-to-day LOO residual change in robust std) above which a sensor is "detached".
@@ -255,6 +260,12 @@ def _robust_scale(q, axis=0):
         return 1.4826 * np.nanmedian(np.abs(q - np.nanmedian(q, axis=axis, keepdims=True)), axis=axis)
 
 
+def _small_spread(q):
+    """Std of Gaussian noise from the smallest quarter of the deviations of ``q`` from its median along axis 0
+    (:data:`PRED_NOISE_Q25`), ignoring NaN; each column needs a finite value."""
+    return np.nanquantile(np.abs(q - np.nanmedian(q, axis=0)), 0.25, axis=0) / PRED_NOISE_Q25
+
+
 def _increment_tests(M, pred, bad):
     """Reversal log-likelihood ratio and step statistic of every sensor from the day-to-day changes.
 
@@ -263,9 +274,12 @@ def _increment_tests(M, pred, bad):
     dm + dmu: a reversed sensor's dm - dmu is ~ -2 dmu on every moving day, so its own spread would
     hide the reversal; std floored at half the site's), each day contributes -2 dm dmu w (log-likelihood
     ratio of "m follows -mu" against "m follows +mu") with the empirical-Bayes weight
-    w = tau^2 / (v_d (v / 2 + tau^2)), tau^2 = max(0, dmu^2 - v / 2), v_d = v + (PRED_REL_ERR dmu)^2:
-    days when the neighbours did not move (dmu within its noise) carry almost no weight, so the product
-    of two noises does not pose as evidence.
+    w = tau^2 / (v_d (s^2 + tau^2)), tau^2 = max(0, dmu^2 - s^2), v_d = v + (PRED_REL_ERR dmu)^2, where s^2,
+    the noise variance of the prediction's changes, is the larger of v / 2 and the squared spread of the
+    prediction's own smallest changes about their median (:func:`_small_spread`): days when the neighbours did not move (dmu
+    within its noise) carry almost no weight, so the product of two noises does not pose as evidence. (Until
+    2026-12-06, session 30, s^2 = v / 2: half the residual's variance, which under-states the prediction's
+    noise where a quiet sensor sits among noisier ones; docs/rail.md, "Sensor health, step 17".)
 
     The step statistic is the largest |dm - dmu| over the days, in units of the robust std of the
     other days' (same floor and shape term): a detached sensor jumps once. Sensors with fewer than 5
@@ -288,8 +302,9 @@ def _increment_tests(M, pred, bad):
     c = de[:, use]
     v = np.maximum(np.fmin(_robust_scale(c), _robust_scale(a + b)), 0.5 * site) ** 2
     vd = v + (PRED_REL_ERR * b) ** 2  # the prediction's shape error grows with the change it predicts
-    tau2 = np.maximum(0.0, b**2 - 0.5 * v)
-    llr[use] = np.nansum(-2.0 * a * b * tau2 / (vd * (0.5 * v + tau2)), axis=0)
+    s2 = np.maximum(0.5 * v, _small_spread(b) ** 2)
+    tau2 = np.maximum(0.0, b**2 - s2)
+    llr[use] = np.nansum(-2.0 * a * b * tau2 / (vd * (s2 + tau2)), axis=0)
     ratio = np.abs(c) / np.sqrt(v + (STEP_PRED_REL_ERR * b) ** 2)
     i = np.argmax(np.where(np.isfinite(ratio), ratio, -np.inf), axis=0)  # the first largest, as a loop finds it
     cols = np.arange(c.shape[1])
