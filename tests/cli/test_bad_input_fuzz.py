@@ -84,7 +84,7 @@ class Command:
 
 def _settle(d: Path) -> list:
     return ["rail", "settle", "--sensors", str(d / "site/sensors.csv"), "--readings", str(d / "site/readings.csv"),
-            "--survey", str(d / "site/survey.csv"), "-o", str(d / "out")]
+            "--survey", str(d / "site/survey.csv"), "-o", str(d / "out.csv")]
 
 
 COMMANDS = [
@@ -99,7 +99,8 @@ COMMANDS = [
             lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "out.erd")],
             key="distance_m", value="elevation_m", metre="elevation_m"),
     Command("differentiate", "sig.csv",
-            lambda d: ["differentiate", str(d / "sig.csv"), "--column", "x", "--dt", "0.001", "-o", str(d / "out.csv")],
+            lambda d: ["differentiate", str(d / "sig.csv"), "--column", "x", "--dt", "0.001", "--window", "45",
+                       "-o", str(d / "out.csv")],
             key="time", value="x", time="time"),
     Command("vehicle slope", "log.csv", lambda d: ["vehicle", "slope", str(d / "log.csv"), "-o", str(d / "out.csv")],
             key="time", value="wheel_speed_fl", time="time"),
@@ -108,7 +109,7 @@ COMMANDS = [
             key="time", value="dz21_FL", metre="dz21_FL", time="time"),
     Command("rail settle (readings)", "site/readings.csv",
             lambda d: ["rail", "settle", "--sensors", str(d / "site/sensors.csv"), "--readings",
-                       str(d / "site/readings.csv"), "--survey", str(d / "site/survey.csv"), "-o", str(d / "out")],
+                       str(d / "site/readings.csv"), "--survey", str(d / "site/survey.csv"), "-o", str(d / "out.csv")],
             key="timestamp", value="angle_deg"),
     Command("rail settle (survey)", "site/survey.csv", _settle, key="x_m", value="z_m", metre="x_m"),
     Command("rail settle (survey z)", "site/survey.csv", _settle, key="x_m", value="z_m", metre="z_m"),
@@ -304,6 +305,13 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
 
+#: Cases whose input has one right reading, which the command takes with a warning instead of refusing it: a rail
+#: survey is a set of (x, z) points, so its rows in another order (whole rows moved) give the same profile; the
+#: warning asks to check for a mistyped station. The outcome must then be "warned": exit 0 and this phrase in a
+#: ``warning:`` line.
+WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
+          ("rail settle (survey)", "descending keys"): "not in order of x_m"}
+
 
 # ---- running and classifying ---------------------------------------------------------------------------------
 
@@ -332,7 +340,9 @@ def run_case(valid: Path, work: Path, cmd: Command, mutation: str) -> tuple[str,
     if changed:
         return "data-loss", f"changed inputs {changed}; {text}"
     if code == 0:
-        return "silent", text
+        phrase = WARNED.get((cmd.name, mutation))
+        warned = phrase is not None and any(ln.startswith("warning:") and phrase in ln for ln in text.splitlines())
+        return ("warned" if warned else "silent"), text
     errors = [ln for ln in text.splitlines() if ln.startswith("error:")]
     if code == 2 and len(errors) == 1 and "Traceback" not in text and not written:
         return "clear", errors[0]
@@ -347,7 +357,20 @@ def valid_inputs(tmp_path_factory):
 @pytest.mark.parametrize(("cmd", "mutation"), CASES, ids=[f"{c.name}: {m}" for c, m in CASES])
 def test_bad_input_is_one_clear_line_and_nothing_is_lost(cmd, mutation, valid_inputs, tmp_path):
     outcome, text = run_case(valid_inputs, tmp_path / "case", cmd, mutation)
-    assert outcome == "clear", f"{cmd.name} with {mutation}: {outcome}\n{text}"
+    expected = "warned" if (cmd.name, mutation) in WARNED else "clear"
+    assert outcome == expected, f"{cmd.name} with {mutation}: {outcome}\n{text}"
+
+
+@pytest.mark.parametrize("cmd", [c for c in COMMANDS if not c.as_is], ids=lambda c: c.name)
+def test_every_command_runs_on_its_valid_input(cmd, valid_inputs, tmp_path):
+    """Each case must fail for its broken input, not for its command line: on the unbroken input the command succeeds
+    (the rail cases once wrote to an output without a file extension, so every one of them was "clear" for that)."""
+    MUTATIONS["(none)"] = (lambda path, cmd, rng: None, lambda c: False)
+    try:
+        outcome, text = run_case(valid_inputs, tmp_path / "ok", cmd, "(none)")
+    finally:
+        del MUTATIONS["(none)"]
+    assert outcome == "silent", f"{cmd.name} on its valid input: {outcome}\n{text}"  # exit 0
 
 
 def test_the_classifier_sees_each_failure_kind(valid_inputs, tmp_path):
@@ -377,9 +400,9 @@ if __name__ == "__main__":  # the outcome table quoted in the issue note
     for i, (c, m) in enumerate(CASES):
         outcome, text = run_case(valid, root / f"case{i}", c, m)
         counts[outcome] += 1
-        if outcome != "clear":
+        if outcome != ("warned" if (c.name, m) in WARNED else "clear"):
             print(f"{outcome:10s} {c.name}: {m}: {' '.join(text.split())[:300]}")
-    print(f"{len(CASES)} cases: " + ", ".join(f"{k} {counts[k]}" for k in ("clear", "traceback", "silent",
+    print(f"{len(CASES)} cases: " + ", ".join(f"{k} {counts[k]}" for k in ("clear", "warned", "traceback", "silent",
                                                                           "data-loss", "unclear")))
     shutil.rmtree(root, ignore_errors=True)
-    sys.exit(0 if counts["clear"] == len(CASES) else 1)
+    sys.exit(0 if counts["clear"] + counts["warned"] == len(CASES) and counts["warned"] == len(WARNED) else 1)

@@ -71,6 +71,84 @@ def test_radians_by_mistake_are_detected(small):
         validate_site(small.sensors, small.readings, small.survey, angle_unit="grad")
 
 
+def test_readings_outside_their_plausible_range_are_refused(small):
+    """One reading beyond an angle from level or a rail temperature: refused with the sensor and time (no outlier
+    removal of a value no instrument gives)."""
+    for col, value, match in (("angle_deg", 1e300, "angle_deg = 1e\\+300, outside the plausible -90..90"),
+                              ("temperature_c", 285.0, "temperature_c = 285.*kelvin")):
+        r = small.readings.copy()
+        r.loc[7, col] = value
+        with pytest.raises(UnitsError, match=match):
+            validate_site(small.sensors, r, small.survey)
+
+
+@pytest.mark.parametrize(("scale", "unit", "match"), [(1.0, "rad", "are the angles degrees"),
+                                                       (1000.0, "deg", "millidegrees")])
+def test_angles_far_from_level_are_another_unit(small, scale, unit, match):
+    """Degrees declared as radians (the issue's 14.5 mm of 'settlement' on quiet days), millidegrees under angle_deg:
+    the sensors then read a median tens of degrees from level (track_angle); check_units=False lets them through."""
+    from longprofile.rail import MAX_TRACK_ANGLE_DEG, track_angle
+
+    r = small.readings.copy()
+    assert track_angle(r) < 2.0  # the simulator's sensors: within a degree or two of level
+    r["angle_deg"] = scale * r["angle_deg"]
+    if scale > 1:  # millidegrees: keep each reading inside the row range, so the site-level test is the one refusing
+        r = r[r.groupby("sensor_id")["angle_deg"].transform(lambda a: a.abs().max()) < 90]
+    with pytest.raises(UnitsError, match=match):
+        validate_site(small.sensors, r, small.survey, angle_unit=unit)
+    site = validate_site(small.sensors, r, small.survey, angle_unit=unit, check_units=False)
+    assert track_angle(site.readings) > MAX_TRACK_ANGLE_DEG
+
+
+def test_survey_in_millimetres_is_refused(small):
+    """Altitudes beyond any terrain; relative altitudes whose grade is x 1000; stations in mm."""
+    sv = small.survey.copy()
+    sv["z_m"] *= 1000.0
+    with pytest.raises(UnitsError, match="survey table: altitude z_m = .* beyond any terrain"):
+        validate_site(small.sensors, small.readings, sv)
+    rel = small.survey.copy()
+    rel["z_m"] = (rel["z_m"] - rel["z_m"].iloc[0]) * 1000.0  # relative levels, in mm
+    with pytest.raises(UnitsError, match="grade.*millimetres"):
+        validate_site(small.sensors, small.readings, rel)
+    xs = small.survey.copy()
+    xs["x_m"] *= 1000.0
+    with pytest.raises(UnitsError, match="stations in millimetres"):
+        validate_site(small.sensors, small.readings, xs)
+
+
+def test_a_long_line_survey_around_a_short_site_is_accepted(small):
+    """A survey of 20 km every 10 m around the site (points among the sensors): not taken for millimetres."""
+    x = small.sensors["x_m"].to_numpy()
+    sx = np.arange(-10_000.0, 10_000.0 + x[-1], 10.0)
+    sv = pd.DataFrame({"x_m": sx, "z_m": 200.0 + 1e-3 * sx})
+    assert validate_site(small.sensors, small.readings, sv).warnings == ()
+
+
+def test_survey_rows_out_of_order_are_sorted_with_a_warning(small):
+    sv = small.survey.iloc[::-1].reset_index(drop=True)
+    site = validate_site(small.sensors, small.readings, sv)
+    assert any("not in order of x_m" in w and "mistyped station" in w for w in site.warnings)
+    ref = validate_site(small.sensors, small.readings, small.survey)
+    pd.testing.assert_frame_equal(site.survey, ref.survey)
+
+
+def _controls(small, change_m):
+    x = small.survey["x_m"].to_numpy()[::5]
+    z = np.interp(x, small.survey["x_m"], small.survey["z_m"]) + change_m
+    return pd.DataFrame({"date": "2019-11-20", "x_m": x, "z_m": z})
+
+
+def test_controls_in_another_unit_or_datum_are_refused(small):
+    ok = _controls(small, -0.03)  # a 30 mm settlement: a plausible control
+    assert validate_site(small.sensors, small.readings, small.survey, ok).controls is not None
+    mm = ok.assign(z_m=ok["z_m"] * 1000.0)
+    with pytest.raises(UnitsError, match="controls table: altitude z_m .* beyond any terrain"):
+        validate_site(small.sensors, small.readings, small.survey, mm)
+    datum = _controls(small, -210.0)  # relative levels against the survey's absolute ones
+    with pytest.raises(UnitsError, match="-210 m from the initial survey.*datum"):
+        validate_site(small.sensors, small.readings, small.survey, datum)
+
+
 def test_survey_must_cover_the_sensors(small):
     sv = small.survey[small.survey["x_m"] < 100]
     with pytest.raises(InputError, match="survey table covers x = 0..9.*lie outside.*extend the survey"):

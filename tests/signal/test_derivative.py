@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from longprofile.errors import InputError, ShapeError
@@ -261,3 +263,36 @@ def test_option_check_is_the_one_the_cli_uses():
         check_derivative_options("ml", {"degree": 2}, flags=True)
     with pytest.raises(InputError, match="does not take window"):
         check_derivative_options("backward", {"window": 3}, flags=True)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31), scale=st.floats(1e-6, 1e6), log_ratio=st.floats(16.5, 290.0),
+       method=st.sampled_from(["ml", "polyfit", "backward", "kalman"]))
+def test_a_sample_beyond_double_precision_of_the_signal_is_refused(seed, scale, log_ratio, method):
+    """A value 1e16+ times the signal's spread from its median (a logger's error code, 1e300, a unit mix-up) is
+    refused naming the sample, for every method: it would leave its windows' other samples in round-off (and its
+    square overflows); below 1e12 times the spread the estimators run."""
+    from longprofile.signal._derivative import MAX_DYNAMIC_RANGE
+
+    rng = np.random.default_rng(seed)
+    x = scale * np.sin(np.linspace(0, 20, 600)) + scale * 0.01 * rng.normal(size=600)
+    opts = {"kalman": {"q_over_r": 1e6}, "backward": {"degree": 2}}.get(method, {"window": 12})
+    k = int(rng.integers(0, 600))
+    bad = x.copy()
+    bad[k] = scale * 10.0 ** min(log_ratio, 300.0 - np.log10(scale))
+    assert abs(bad[k]) > MAX_DYNAMIC_RANGE * 2.0 * scale
+    with pytest.raises(InputError, match=f"x: sample {k} is .*corrupt value"):
+        derivative(bad, 0.01, method=method, **opts)
+    fine = x.copy()
+    fine[k] = scale * 1e11
+    assert np.isfinite(derivative(fine, 0.01, method=method, **opts).derivative[-1])
+
+
+def test_an_impulse_on_a_constant_signal_is_not_corrupt():
+    """The spread of a constant signal is 0: only overflow is refused there."""
+    x = np.zeros(500)
+    x[250] = 1.0
+    assert np.isfinite(derivative(x, 0.01, method="ml", window=12).derivative[-1])
+    x[250] = 1e200
+    with pytest.raises(InputError, match="sample 250"):
+        derivative(x, 0.01, method="ml", window=12)

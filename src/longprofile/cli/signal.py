@@ -33,19 +33,22 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
         if scale is None or name == column:
             continue
         t = _numeric(frame[name]) * scale
-        step = np.diff(t[np.isfinite(t)])
+        rows = np.flatnonzero(np.isfinite(t))
+        step = np.diff(t[rows])
         increasing = step.size > 0 and bool(np.all(step > 0))
+        if not increasing and step.size:
+            i = rows[int(np.flatnonzero(step <= 0)[0]) + 1]
+            raise InputFormatError(f"{file}: column {name!r} does not increase from row to row (row {i}: {t[i]:g} s "
+                                   "after an earlier sample at or after it): the samples are out of order or repeated, "
+                                   "and their derivative would be wrong; sort the file by time and drop repeated rows.")
         if dt is None:
-            if not increasing:
-                raise InputFormatError(f"{file}: column {name!r} does not increase from row to row, so it gives no "
-                                       "sample interval; sort the file by time or pass --dt SECONDS.")
             median = float(np.median(step))
             if np.max(np.abs(step - median)) > 1e-3 * median:
                 raise InputFormatError(f"{file}: column {name!r} is not uniformly sampled (steps {step.min():g} to "
                                        f"{step.max():g} s); the estimators need a constant interval: resample the "
                                        "signal, or pass --dt SECONDS if the jitter is the logger's, not the signal's.")
             return float(f"{median:.12g}")  # the decimal step the file was written with (0.001, not 0.0010000000000000009)
-        if not increasing:
+        if not increasing:  # no two finite times
             return dt
         median = float(np.median(step))
         if abs(median - dt) > 1e-3 * dt:

@@ -4,9 +4,10 @@ Profile -- a longitudinal profile (stations in m, elevations in m, one column pe
            ``longprofile.road.Profile``.
 unit_factor -- metres per length unit (m, mm, cm, km, in, ft, mi); UnitsError for anything else.
 LENGTH_UNITS -- the table behind it.
+MAX_ABS_ELEVATION_M -- no elevation on Earth is beyond it (a value that is: another unit).
 """
 
 from ._profile import Profile
-from ._units import LENGTH_UNITS, unit_factor
+from ._units import LENGTH_UNITS, MAX_ABS_ELEVATION_M, unit_factor
 
-__all__ = ["Profile", "unit_factor", "LENGTH_UNITS"]
+__all__ = ["Profile", "unit_factor", "LENGTH_UNITS", "MAX_ABS_ELEVATION_M"]

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from ..errors import UnitsError
 
-__all__ = ["LENGTH_UNITS", "unit_factor"]
+__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "unit_factor"]
 
 #: Length units understood in file headers, with their value in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
+#: No elevation or altitude on Earth is beyond this, m (terrain spans -430 m to 8 849 m): a value that is was given in
+#: another unit (millimetres under a metre label). Shared by the road profile readers and the rail site tables.
+MAX_ABS_ELEVATION_M = 10_000.0
 
 
 def unit_factor(unit: str, *, what: str = "elevation") -> float:

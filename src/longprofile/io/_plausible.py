@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core import MAX_ABS_ELEVATION_M
 from ..errors import UnitsError
 
 __all__ = ["MAX_ABS_ELEVATION_M", "MAX_MEDIAN_GRADE", "check_profile_plausible"]
 
-MAX_ABS_ELEVATION_M = 10_000.0
 MAX_MEDIAN_GRADE = 1.0
 
 

@@ -7,6 +7,8 @@ validate_site               -- validate the four long-format tables (clear error
 READING_COLUMNS             -- the columns of a readings table (timestamp, sensor_id, angle_deg, temperature_c).
 angle_noise                 -- robust high-frequency noise of the angles; below RADIAN_NOISE_THRESHOLD degrees
                                are implausible (radians given by mistake).
+track_angle                 -- how far from level the sensors read (median |angle|); beyond MAX_TRACK_ANGLE_DEG
+                               another unit. ANGLE_RANGE_DEG, TEMPERATURE_RANGE_C: one reading's plausible range.
 read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
                                tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
@@ -69,7 +71,8 @@ from .._lazy import lazy_namespace
 #: ``rail settle`` does not import the synthetic sites (scipy.signal) and nothing here imports matplotlib.
 _EXPORTS = {
     "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
-    "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS"),
+    "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
+               "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
@@ -89,6 +92,7 @@ _EXPORTS = {
 
 __all__ = [
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
+    "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C",
     "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",

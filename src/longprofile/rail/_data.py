@@ -17,10 +17,12 @@ from typing import ClassVar
 import numpy as np
 import pandas as pd
 
+from ..core import MAX_ABS_ELEVATION_M
 from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
-           "SURVEY_COLUMNS", "CONTROL_COLUMNS"]
+           "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
+           "track_angle"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -35,6 +37,16 @@ RADIAN_NOISE_THRESHOLD = 4e-4
 #: difference of a healthy degree sensor falls below the threshold about once in ten, so a monitoring batch of
 #: two readings was refused as "radians" (found by the ingestion property test).
 MIN_NOISE_DIFFERENCES = 10
+#: Plausible range of one reading's angle, deg (an inclinometer's angle from level) and temperature, degC (a rail in
+#: the sun reaches ~70 degC; loggers are rated -40..85): a reading beyond either is refused, by ``validate_site`` for
+#: files and by the monitoring service's ingestion row by row.
+ANGLE_RANGE_DEG = (-90.0, 90.0)
+TEMPERATURE_RANGE_C = (-80.0, 120.0)
+#: A sleeper inclinometer reads within a few degrees of level (track grades <= 5 %, 2.9 deg, plus a mounting offset of
+#: a degree or two): the median over sensors of each sensor's median |angle| (:func:`track_angle`) beyond this is
+#: another unit -- degrees given as radians (x 57.3), millidegrees under a degree label -- and is refused unless
+#: ``check_units=False``.
+MAX_TRACK_ANGLE_DEG = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,6 +155,41 @@ def angle_noise(readings: pd.DataFrame) -> float:
     return float(per.median()) if len(per) else float("nan")
 
 
+#: A track's grade between survey points is a few per cent (mainline railways <= 4 %, rack railways up to 48 % over
+#: short lengths): a median |dz/dx| above this (25 %) is millimetres under a metre label (x 1000: a 0.025 % grade, or
+#: a survey's 2 mm of noise over 3 m, gives 0.6), refused unless ``check_units=False``.
+MAX_SURVEY_GRADE = 0.25
+#: A survey spanning more than this many times the sensors' span, with fewer than 2 of its points among them (and 3
+#: or more outside), has its stations in another unit (millimetres under x_m: 1000 times); a line survey of a few km
+#: around a short site keeps points among the sensors.
+MAX_SURVEY_EXTENT_RATIO = 100.0
+#: A control survey differs from the initial one by the settlement, millimetres to centimetres during works: a
+#: difference beyond this, m, is another unit or another datum, never a settlement the tool could follow.
+MAX_CONTROL_CHANGE_M = 1.0
+
+
+def track_angle(readings: pd.DataFrame) -> float:
+    """Median over sensors of each sensor's median |angle_deg|, deg (NaN without a finite angle): how far from level
+    the sensors read (:data:`MAX_TRACK_ANGLE_DEG`). ``readings`` needs ``sensor_id`` and ``angle_deg``."""
+    per = readings["angle_deg"].abs().groupby(readings["sensor_id"], sort=False).median()
+    per = per[np.isfinite(per)]
+    return float(per.median()) if len(per) else float("nan")
+
+
+def _check_reading_ranges(r: pd.DataFrame) -> None:
+    """Refuse the first reading whose angle or temperature is outside its plausible range (the service's row checks)."""
+    for col, (lo, hi), unit, why in (
+            ("angle_deg", ANGLE_RANGE_DEG, "deg", "an angle from level in degrees"),
+            ("temperature_c", TEMPERATURE_RANGE_C, "degC", "a rail temperature in degC (kelvin or Fahrenheit?)")):
+        v = r[col].to_numpy(float)
+        bad = np.isfinite(v) & ((v < lo) | (v > hi))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise UnitsError(f"readings table: sensor {r['sensor_id'].iloc[i]!r} at {r['timestamp'].iloc[i]} reads "
+                             f"{col} = {v[i]:.6g}, outside the plausible {lo:g}..{hi:g} {unit} of {why}: check that "
+                             "reading and the column's unit.")
+
+
 def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
                   controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
                   check_units: bool = True) -> SiteData:
@@ -157,7 +204,10 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         Unit of ``angle_deg`` as given; radians are converted to degrees.
     check_units : bool, default True
         With ``angle_unit="deg"``, refuse angles whose high-frequency noise is
-        implausibly small for degrees (typical of radians given by mistake).
+        implausibly small for degrees (typical of radians given by mistake); with either unit, angles a median
+        beyond :data:`MAX_TRACK_ANGLE_DEG` from level, and a survey steeper than :data:`MAX_SURVEY_GRADE` (millimetres
+        under a metre label). Altitudes beyond any terrain and controls beyond :data:`MAX_CONTROL_CHANGE_M` from the
+        survey are refused either way.
 
     Returns
     -------
@@ -178,8 +228,8 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
     s = _valid_sensors(sensors)
     r = _valid_readings(readings, s, angle_unit, check_units, warnings)
-    sv = _valid_survey(survey, s, warnings)
-    ct = _valid_controls(controls, s, warnings)
+    sv = _valid_survey(survey, s, warnings, check_units)
+    ct = _valid_controls(controls, s, sv, warnings)
     return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
 
 
@@ -229,7 +279,16 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     r = r.sort_values(["sensor_id", "timestamp"], kind="stable").reset_index(drop=True)
     if angle_unit == "rad":
         r["angle_deg"] = np.rad2deg(r["angle_deg"])
-    elif check_units:
+    _check_reading_ranges(r)
+    if check_units and (level := track_angle(r)) > MAX_TRACK_ANGLE_DEG:
+        given = "radians converted to degrees" if angle_unit == "rad" else "degrees"
+        raise UnitsError(f"readings: the sensors read a median {level:.3g} deg from level (median over sensors of "
+                         f"each one's median |angle|, as {given}); sleeper inclinometers read within a few degrees of "
+                         f"level (<= {MAX_TRACK_ANGLE_DEG:g} deg): "
+                         + ("are the angles degrees? Then drop angle_unit='rad' (CLI: --angle-unit rad). "
+                            if angle_unit == "rad" else "are they millidegrees or another unit under angle_deg? ")
+                         + "If they really are, pass check_units=False (--no-check-units).")
+    if angle_unit == "deg" and check_units:
         noise = angle_noise(r)
         if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
             raise UnitsError(f"readings: the angle noise is {noise:.2g} (median over sensors of the robust std of "
@@ -245,12 +304,17 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     return r
 
 
-def _valid_survey(survey, s: pd.DataFrame, warnings: list):
+def _valid_survey(survey, s: pd.DataFrame, warnings: list, check_units: bool = True):
     """The initial survey covering every sensor (or the sensors' z_m column)."""
     sv = None
     if survey is not None:
         _require_columns(survey, SURVEY_COLUMNS, "survey")
         sv = pd.DataFrame({"x_m": _numeric(survey, "x_m", "survey"), "z_m": _numeric(survey, "z_m", "survey")})
+        back = np.flatnonzero(np.diff(sv["x_m"].to_numpy()) < 0)
+        if back.size:
+            i = int(back[0]) + 1
+            warnings.append(f"survey table: the points are not in order of x_m (row {i}: x = {sv['x_m'][i]:g} m after "
+                            f"{sv['x_m'][i - 1]:g} m); they were sorted by x_m: check for a mistyped station.")
         sv = sv.sort_values("x_m", kind="stable").reset_index(drop=True)
         if sv["x_m"].duplicated().any():
             raise InputError("survey table: two altitudes at the same x_m; keep one per position.")
@@ -264,21 +328,58 @@ def _valid_survey(survey, s: pd.DataFrame, warnings: list):
         if len(out):
             raise InputError(f"survey table covers x = {lo:g}..{hi:g} m but {len(out)} sensor(s) lie outside, e.g. "
                              f"{list(out[:5])}; extend the survey to cover every sensor (altitudes are never extrapolated).")
+        sx = sv["x_m"].to_numpy()
+        n_in = int(((sx >= x[0]) & (sx <= x[-1])).sum())
+        if hi - lo > MAX_SURVEY_EXTENT_RATIO * (x[-1] - x[0]) and n_in < 2 and len(sv) - n_in >= 3:
+            raise UnitsError(f"survey table: its stations span {lo:g}..{hi:g} m, {(hi - lo) / (x[-1] - x[0]):.0f} times "
+                             f"the sensors' {x[0]:g}..{x[-1]:g} m, with {n_in} of its {len(sv)} points among the sensors: "
+                             "are its stations in millimetres under x_m? Name the column with its unit (e.g. x_mm) or "
+                             "convert it to metres.")
     elif "z_m" in s.columns and s["z_m"].notna().all():
         sv = pd.DataFrame({"x_m": s["x_m"], "z_m": s["z_m"]})
         warnings.append("no survey table: the initial profile is the sensors' z_m column.")
     else:
         raise InputError("no initial altitude: give a survey table (x_m, z_m) or a z_m column in the sensors table.")
+    table = "survey table" if survey is not None else "sensors table's z_m column"
+    _check_altitudes(sv, table)
+    x, z = sv["x_m"].to_numpy(), sv["z_m"].to_numpy()
+    if check_units and x.size >= 3 and (grade := float(np.median(np.abs(np.diff(z)) / np.diff(x)))) > MAX_SURVEY_GRADE:
+        raise UnitsError(f"{table}: the altitudes change by a median {grade:.3g} m per m of track (a {100 * grade:.0f} % "
+                         "grade), beyond a railway's: they look like millimetres under a metre label; name the column "
+                         "z_mm or convert it to metres (check_units=False, --no-check-units, if the grade is real).")
     return sv
 
 
-def _valid_controls(controls, s: pd.DataFrame, warnings: list):
-    """The control surveys (None when not given), sorted by date and station."""
+def _check_altitudes(t: pd.DataFrame, table: str) -> None:
+    """Refuse an altitude beyond any terrain (:data:`~longprofile.core.MAX_ABS_ELEVATION_M`): another unit."""
+    z = t["z_m"].to_numpy()
+    big = np.abs(z) > MAX_ABS_ELEVATION_M
+    if big.any():
+        i = int(np.flatnonzero(big)[0])
+        raise UnitsError(f"{table}: altitude z_m = {z[i]:.6g} m at x = {t['x_m'].iloc[i]:g} m, beyond any terrain "
+                         f"(|z| <= {MAX_ABS_ELEVATION_M:g} m): the values look like millimetres (or another unit) "
+                         "under a metre label; name the column with its unit (e.g. z_mm) or convert it to metres.")
+
+
+def _valid_controls(controls, s: pd.DataFrame, sv: pd.DataFrame, warnings: list):
+    """The control surveys (None when not given), sorted by date and station; their altitudes in the initial
+    survey's unit and datum (within :data:`MAX_CONTROL_CHANGE_M` of it where it covers them)."""
     ct = None
     if controls is not None:
         _require_columns(controls, CONTROL_COLUMNS, "controls")
         ct = pd.DataFrame({"date": _times(controls["date"].to_numpy(), "controls", "date").dt.normalize(),
                            "x_m": _numeric(controls, "x_m", "controls"), "z_m": _numeric(controls, "z_m", "controls")})
+        _check_altitudes(ct, "controls table")
+        sx, sz = sv["x_m"].to_numpy(), sv["z_m"].to_numpy()
+        inside = ((ct["x_m"] >= sx[0]) & (ct["x_m"] <= sx[-1])).to_numpy()
+        change = ct["z_m"].to_numpy() - np.interp(ct["x_m"].to_numpy(), sx, sz)
+        far = inside & (np.abs(change) > MAX_CONTROL_CHANGE_M)
+        if far.any():
+            i = int(np.flatnonzero(far)[0])
+            raise UnitsError(f"controls table: the altitude at x = {ct['x_m'].iloc[i]:g} m on "
+                             f"{ct['date'].iloc[i]:%Y-%m-%d} is {change[i]:+.6g} m from the initial survey there, beyond "
+                             f"any settlement (|change| <= {MAX_CONTROL_CHANGE_M:g} m): give the controls in metres "
+                             "(or name the column with its unit, e.g. z_mm) and on the initial survey's datum.")
         x = s["x_m"].to_numpy()
         outside = (ct["x_m"] < x[0]) | (ct["x_m"] > x[-1])
         if outside.any():

@@ -67,6 +67,14 @@ class DerivativeResult:
     params: dict = field(default_factory=dict)
 
 
+#: A sample farther than this many times the signal's spread from its median leaves the other samples of its windows
+#: below double precision's 16 significant digits (their contribution is lost in round-off), and beyond ~1e154 its
+#: square overflows: such a value is corrupt (a logger's error code, a unit mix-up), never a signal's.
+MAX_DYNAMIC_RANGE = 1e15
+#: ... the spread measured on at most this many samples (strided): an O(1) cost next to the estimators'.
+_RANGE_SAMPLES = 10_001
+
+
 # --------------------------------------------------------------------------- helpers
 def _prepare(x, dt, axis) -> tuple[np.ndarray, float, int]:
     arr = as_float_array("x", x)
@@ -77,7 +85,34 @@ def _prepare(x, dt, axis) -> tuple[np.ndarray, float, int]:
         raise InputError(f"axis must be an integer; got {axis!r}.")
     if not -arr.ndim <= axis < arr.ndim:
         raise ShapeError(f"axis {axis} is out of range for x of shape {arr.shape}.")
+    _check_dynamic_range(arr)
     return arr, dt, int(axis) % arr.ndim
+
+
+def _check_dynamic_range(arr: np.ndarray) -> None:
+    """Refuse a sample beyond :data:`MAX_DYNAMIC_RANGE` times the signal's spread (the 1-99 % quantile range of a
+    strided subsample of all its finite values) from its median, or beyond 1e150 in magnitude (its square overflows).
+    A signal whose subsample does not vary (spread 0) is only checked for overflow. Two reductions over ``x``, no copy
+    (one more to name the sample when refusing)."""
+    flat = arr.ravel()
+    if flat.size == 0:
+        return
+    top, bottom = float(np.fmax.reduce(flat)), float(np.fmin.reduce(flat))  # NaN only when every sample is NaN
+    if not (np.isfinite(top) and np.isfinite(bottom)):
+        return  # infinities are the estimators' own error (they say which sample); NaN are gaps
+    sub = flat[:: max(1, flat.size // _RANGE_SAMPLES)]
+    sub = sub[np.isfinite(sub)]
+    lo, mid, hi = np.percentile(sub, [1.0, 50.0, 99.0]) if sub.size else (0.0, 0.0, 0.0)
+    worst = max(top - mid, mid - bottom)
+    if max(top, -bottom) > 1e150 or (hi > lo and worst > MAX_DYNAMIC_RANGE * (hi - lo)):
+        k = int(np.nanargmax(np.abs(flat - mid)))
+        where = f"sample {k}" if arr.ndim == 1 else f"element {np.unravel_index(k, arr.shape)}"
+        with np.errstate(over="ignore"):
+            ratio = np.float64(worst) / (hi - lo) if hi > lo else np.inf
+        how = (f"{ratio:.3g} times the signal's spread ({hi - lo:.3g}, its 1-99 % range) from its median"
+               if ratio > MAX_DYNAMIC_RANGE else "beyond 1e150, whose square overflows")
+        raise InputError(f"x: {where} is {flat[k]:.6g}, {how}: a corrupt value (a logger's error code, a unit mix-up); "
+                         "remove it or leave it empty (NaN).")
 
 
 def _to_series(arr: np.ndarray, axis: int) -> tuple[np.ndarray, tuple[int, ...]]:

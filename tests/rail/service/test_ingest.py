@@ -134,6 +134,20 @@ def test_radians_are_rejected_unless_declared(site):
     assert got == pytest.approx(sorted(x["angle_deg"] for x in rows), rel=1e-12)
 
 
+def test_degrees_sent_as_radians_or_millidegrees_are_rejected(site):
+    """The batch check of `track_angle` (as validate_site on files): sleeper inclinometers read a few degrees from
+    level; degrees declared as radians (x 57.3) or millidegrees under angle_deg read tens to thousands."""
+    db, _, r = site
+    rows = r.iloc[:1000].to_dict("records")
+    res = _core.ingest(db, "mitt", rows, angle_unit="rad", now=NOW)
+    assert res.counts["rejected"] == 1000 and "without ?angle_unit=rad" in res.rows[0]["reason"]
+    mdeg = [{**x, "angle_deg": 1000.0 * x["angle_deg"]} for x in rows if abs(x["angle_deg"]) < 0.09]
+    res = _core.ingest(db, "mitt", mdeg, now=NOW)  # each within the row range, the batch far from level
+    assert res.counts["rejected"] == len(mdeg) > 0 and "another unit" in res.rows[0]["reason"]
+    assert count_readings(db) == 0
+    assert _core.ingest(db, "mitt", rows, now=NOW).counts["accepted"] == 1000
+
+
 def test_csv_and_json_batches_parse_to_the_same_rows(site):
     db, _, r = site
     part = r.iloc[:50]

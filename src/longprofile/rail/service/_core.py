@@ -23,11 +23,15 @@ from sqlalchemy.exc import IntegrityError
 
 from ...errors import InputError, InputFormatError
 from .. import (
+    ANGLE_RANGE_DEG,
+    MAX_TRACK_ANGLE_DEG,
     RADIAN_NOISE_THRESHOLD,
     READING_COLUMNS,
+    TEMPERATURE_RANGE_C,
     SiteData,
     angle_noise,
     check_thresholds,
+    track_angle,
     validate_site,
 )
 from ._db import (
@@ -706,11 +710,11 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
             if ts > now + MAX_FUTURE_SKEW_S:
                 raise ValueError(f"timestamp is {(ts - now) / 60:.0f} min in the future of the server clock "
                                  "(logger clock skew?)")
-            lim = (-90, 90) if angle_unit == "deg" else (-math.pi / 2, math.pi / 2)
+            lim = ANGLE_RANGE_DEG if angle_unit == "deg" else tuple(math.radians(v) for v in ANGLE_RANGE_DEG)
             ang = _parse_num(r.get("angle_deg"), "angle_deg", *lim)
             if angle_unit == "rad":
                 ang = math.degrees(ang)
-            tmp = _parse_num(r.get("temperature_c"), "temperature_c", -80, 120)
+            tmp = _parse_num(r.get("temperature_c"), "temperature_c", *TEMPERATURE_RANGE_C)
         except ValueError as exc:
             out[i] = {"row": i, "outcome": "rejected", "reason": str(exc)}
             continue
@@ -776,15 +780,23 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
                 out[i] = {"row": i, "outcome": "rejected", "reason": f"sensor {sid[:64]!r} is not active"}
             else:
                 good.append((i, sensors[sid][0], sid, ts, ang, tmp))
-        if good and angle_unit == "deg" and check_units:
+        if good and check_units:  # the same checks validate_site makes on files
             df = pd.DataFrame({"sensor_id": [g[2] for g in good], "ts": [g[3] for g in good],
                                "angle_deg": [g[4] for g in good]}).sort_values(["sensor_id", "ts"])
-            noise = angle_noise(df)  # the same check validate_site makes on files
+            noise = angle_noise(df) if angle_unit == "deg" else np.nan
+            level = track_angle(df)
+            why = ""
             if np.isfinite(noise) and noise < RADIAN_NOISE_THRESHOLD:
+                why = (f"the batch's angle noise {noise:.2g} is implausibly small for degrees: the angles look like "
+                       "radians (send ?angle_unit=rad)")
+            elif level > MAX_TRACK_ANGLE_DEG:
+                why = (f"the batch's sensors read a median {level:.3g} deg from level, beyond the few degrees of "
+                       f"sleeper inclinometers (<= {MAX_TRACK_ANGLE_DEG:g}): "
+                       + ("are the angles degrees? (send them without ?angle_unit=rad)" if angle_unit == "rad" else
+                          "another unit under angle_deg?"))
+            if why:
                 for g in good:
-                    out[g[0]] = {"row": g[0], "outcome": "rejected",
-                                 "reason": f"the batch's angle noise {noise:.2g} is implausibly small for degrees: "
-                                           "the angles look like radians (send ?angle_unit=rad)"}
+                    out[g[0]] = {"row": g[0], "outcome": "rejected", "reason": why}
                 good = []
         # duplicates inside the batch
         first = {}
