@@ -53,6 +53,7 @@ def make_inputs(folder: Path) -> Path:
          "-o", str(folder / "vlog.csv")],
         ["rail", "simulate", "--preset", "mittersheim-like", "--days", "6", "-o", str(folder / "site")],
         ["road", "simulate", "--profile", "crenels", "--length", "120", "-o", str(folder / "bench.csv")],
+        ["road", "convert", str(folder / "profile.csv"), str(folder / "ref.csv")],
     ]
     for argv in run:
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
@@ -97,6 +98,12 @@ COMMANDS = [
             key="distance_m", value="elevation_m", metre="elevation_m"),
     Command("road convert", "profile.csv",
             lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "out.erd")],
+            key="distance_m", value="elevation_m", metre="elevation_m"),
+    Command("road acceptance", "profile.csv",
+            lambda d: ["road", "acceptance", str(d / "profile.csv"), "-o", str(d / "out")],
+            key="distance_m", value="elevation_m", metre="elevation_m"),
+    Command("road compare (a run)", "profile.csv",
+            lambda d: ["road", "compare", str(d / "ref.csv"), str(d / "profile.csv"), "-o", str(d / "out")],
             key="distance_m", value="elevation_m", metre="elevation_m"),
     Command("differentiate", "sig.csv",
             lambda d: ["differentiate", str(d / "sig.csv"), "--column", "x", "--dt", "0.001", "--window", "45",
