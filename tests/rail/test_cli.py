@@ -112,6 +112,15 @@ def test_end_ambiguity_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch
     assert not (tmp_path / "x.csv").exists()
 
 
+def test_witness_rule_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch, capsys):
+    seen, base = _settings_seen(monkeypatch, site_dir, tmp_path, "witness_rule",
+                                [(["--witness-rule", "steps"], "steps.csv"), ([], "off.csv")])
+    assert seen == ["steps", "off"]
+    code = main(base + ["--witness-rule", "maybe", "-o", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and "witness_rule must be one of" in err and len(err.strip().splitlines()) == 1
+
+
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
     bad = pd.read_csv(site_dir / "readings.csv")
     bad.loc[0, "sensor_id"] = "ghost"

@@ -79,6 +79,12 @@ def test_a_witness_the_old_setting_excludes_is_kept():
     assert new.health.status[j] == "ok" and new.health.witness[j]
     assert any("I018 kept" in w and "witness_rule='steps'" in w for w in new.warnings)
     assert new.settings["witness_rule"] == "steps" and old.settings["witness_rule"] == "off"
+    # by default the exclusion says what else the record could be (docs/rail.md, "an excluded sensor that may be a
+    # witness"); with the rule it is kept, and that warning is gone
+    assert old.health.excluded_witness[j] and not new.health.excluded_witness.any()
+    assert any(w.startswith("sensor I018 was excluded (detached), but its departure") and "--witness-rule steps" in w
+               for w in old.warnings)
+    assert not any("was excluded (detached), but" in w for w in new.warnings)
 
 
 @pytest.mark.parametrize("family, seed", [("faults", 300), ("faults-none", 300)])
@@ -91,6 +97,7 @@ def test_a_detached_sensor_is_still_flagged(family, seed):
         res = estimate_settlement(site, n_monte_carlo=0, witness_rule=rule)
         status = dict(zip(res.sensor_ids, res.health.status))
         assert status[sid] == "detached", (rule, status[sid])
+        assert not res.health.excluded_witness.any()  # one jump: nothing to say about a transition
 
 
 def test_off_is_the_old_estimator_and_steps_changes_nothing_without_a_witness():

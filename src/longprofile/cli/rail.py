@@ -98,7 +98,9 @@ def settle_command(
                                                               "declares its unit, angle_rad or 'angle (mrad)', is "
                                                               "converted; leave this out then)."),
     check_units: bool = typer.Option(True, "--check-units/--no-check-units",
-                                     help="Refuse angles that look like radians."),
+                                     help="Refuse angles that look like radians, or like degrees declared as "
+                                          "radians (a median beyond 10 deg from level), and a survey steeper than "
+                                          "25 % (millimetres under z_m)."),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
     quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "
                                                                    "the thermal fit then uses only these days."),
@@ -126,6 +128,12 @@ def settle_command(
                                            "by one or two sensors): off keeps the bands of the fixed ends; mixture "
                                            "widens them to carry both readings (also on bowls with a detached sensor, "
                                            "hence opt-in; docs/rail.md)."),
+    witness_rule: str = typer.Option("off", "--witness-rule",
+                                     help="off, steps or steps-ends. steps keeps a sensor whose departure from its "
+                                          "neighbours grew in separate same-sign steps (the only witness of a settling "
+                                          "transition at a joint, abutment or culvert) instead of excluding it as "
+                                          "detached; steps-ends also lets it loosen the span's end anchors "
+                                          "(docs/rail.md, \"Sensor health on a transition\")."),
     seed: int = typer.Option(0, "--seed", help="Random seed of the Monte Carlo."),
     overwrite: bool = OVERWRITE,
 ):
@@ -157,7 +165,8 @@ def settle_command(
         settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
         rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3, thresholds=graded,
         alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed,
-        max_settlement_interval="band" if max_band else "draws", end_ambiguity=end_ambiguity)
+        max_settlement_interval="band" if max_band else "draws", end_ambiguity=end_ambiguity,
+        witness_rule=witness_rule)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
         res = estimate_settlement(site, settings=settings)
@@ -174,6 +183,11 @@ def settle_command(
         write_rail_report(res, report, inputs=inputs, overwrite=overwrite)
     if plotted is not None:
         plotted.result()
+    _print_settle_summary(res, output)
+
+
+def _print_settle_summary(res, output: Path) -> None:
+    """``rail settle``'s warnings, the thermal model's note and its one-line summary."""
     for w in res.warnings:
         console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     if res.settings.get("thermal_requested") == "auto" and res.settings.get("thermal") == "lagged":

@@ -197,6 +197,12 @@ class SensorHealth:
     witness : (N,) bool ndarray or None
         With ``witness_rule="steps"``: the kept sensors whose departure from their neighbours grew in separate
         same-sign steps (:func:`step_witness_z`), which the step tests therefore did not flag; None otherwise.
+    excluded_witness : (N,) bool ndarray or None
+        The sensors :func:`assess_sensors` excluded by the step or leave-one-out tests whose record, when they were
+        flagged, was a witness's (the test of ``witness``): the departure grew in separate same-sign steps, as at a
+        settling transition (joint, abutment, culvert) the neighbours do not see. ``estimate_settlement`` warns about
+        them (docs/rail.md, "Sensor health: an excluded sensor that may be a witness"); None from callers that built
+        the health without it.
     """
 
     sensor_ids: list
@@ -212,6 +218,7 @@ class SensorHealth:
     shape_evidence: "ShapeEvidence | None" = None
     anchor_std: float | None = None
     witness: np.ndarray | None = None
+    excluded_witness: np.ndarray | None = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -443,6 +450,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     llr = np.full(N, np.nan)
     step = np.full(N, np.nan)
     witness = None
+    excluded_witness = np.zeros(N, bool)
     n_flag = 0
     gate_text = f" with the ratio > {REVERSED_Z_GATE_LLR:g}" if reversal_z_rule == "gated" else ""
     while True:
@@ -481,12 +489,11 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         n_flag += 1
         base = f"mean squared LOO z-score {score[j]:.3g} over {k[j]} days"
         if r_rev[j] >= max(r_imp[j], r_step[j]):
-            status[j] = "reversed"
-            detail[j] = (f"angle changes follow {np.nansum(M[:, j] * pred[:, j]) / np.nansum(pred[:, j] ** 2):+.2f} x the "
-                         f"neighbours' prediction (expected +1): day-to-day reversal log-likelihood ratio "
-                         f"{llr[j]:.3g} (threshold {REVERSED_LLR:g}), reversal z {np.nan_to_num(rev[j]):.3g} "
-                         f"(threshold {REVERSED_Z:g}{gate_text}); {base}")
-        elif r_step[j] >= r_imp[j]:
+            status[j], detail[j] = "reversed", _reversal_detail(M[:, j], pred[:, j], llr[j], rev[j], gate_text, base)
+            continue
+        # a step or score exclusion: was its record a witness's? (SensorHealth.excluded_witness)
+        excluded_witness[j] = (witness if witness is not None else _witnesses(M, pred, bad, looks_reversed))[j]
+        if r_step[j] >= r_imp[j]:
             status[j] = "detached"
             detail[j] = (f"its leave-one-out residual jumps on day {step_day[j]}: {step[j]:.3g} robust std of its "
                          f"day-to-day changes (threshold {STEP_Z:g}); {base}")
@@ -497,8 +504,16 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     health = SensorHealth(sensor_ids=list(range(N)), status=np.array(status, dtype=str),
                           detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
                           reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z),
-                          witness=None if witness is None else witness & (status == "ok"))
+                          witness=None if witness is None else witness & (status == "ok"),
+                          excluded_witness=excluded_witness)
     return health, float(sigma), float(rigidity)
+
+
+def _reversal_detail(m, pred, llr, rev, gate_text, base) -> str:
+    """The detail of a sensor :func:`assess_sensors` flags "reversed" (its changes ``m`` and prediction ``pred``)."""
+    return (f"angle changes follow {np.nansum(m * pred) / np.nansum(pred ** 2):+.2f} x the neighbours' prediction "
+            f"(expected +1): day-to-day reversal log-likelihood ratio {llr:.3g} (threshold {REVERSED_LLR:g}), reversal z "
+            f"{np.nan_to_num(rev):.3g} (threshold {REVERSED_Z:g}{gate_text}); {base}")
 
 
 def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):

@@ -1380,6 +1380,8 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     sz = health.anchor_std
     for sid, st, why in health.flagged():
         warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+    for j in np.flatnonzero(health.excluded_witness if health.excluded_witness is not None else []):
+        warnings.append(_EXCLUDED_WITNESS.format(sid=ids[j], status=health.status[j], x=x[j]))
     for j in np.flatnonzero(health.witness if health.witness is not None else []):
         warnings.append(f"sensor {ids[j]} kept although its departure from its neighbours is beyond the step test: it "
                         "grew in separate steps of one sign, as a witness of a localised movement of the track would "
@@ -1395,6 +1397,13 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
     return health, M, sz
 
 
+#: The warning for a sensor excluded by the step or leave-one-out tests whose record was a witness's
+#: (``SensorHealth.excluded_witness``; docs/rail.md, "Sensor health: an excluded sensor that may be a witness").
+_EXCLUDED_WITNESS = ("sensor {sid} was excluded ({status}), but its departure from its neighbours grew in separate "
+                     "steps of one sign, as a settling transition at x = {x:g} m (a joint, an abutment, a culvert) "
+                     "would show it, seen by this sensor alone; if the track can step there, the settlement beyond "
+                     "it is not what is printed: check with a levelling survey (--controls), or keep such sensors "
+                     "with --witness-rule steps and widen the bands with --end-ambiguity mixture.")
 #: The warning when the health tests stopped at their limit (a quarter of the sensors, dead and user-excluded ones not
 #: counted; :func:`~longprofile.rail.assess_sensors`).
 _HEALTH_CAPPED = ("the health tests stopped at their limit: {n} of {N} sensors excluded as faulty (a quarter). So many "
