@@ -101,8 +101,20 @@ def test_declared_units_are_converted_back_exactly(paper, col, unit, transform):
     via_header, _ = read_drive_log(g.rename(columns={col: f"{col} [{unit}]"}), CAR)
     via_parentheses, _ = read_drive_log(g.rename(columns={col: f"{col} ({unit})"}), CAR)  # as spreadsheets write it
     via_mapping, _ = read_drive_log(g, CAR, units={col: unit})
-    for log in (via_header, via_parentheses, via_mapping):
+    via_suffix, _ = read_drive_log(g.rename(columns={col: f"{col}_{unit}"}), CAR)  # time_ms, as rail and differentiate
+    for log in (via_header, via_parentheses, via_mapping, via_suffix):
         np.testing.assert_allclose(log.to_frame()[col], ref.to_frame()[col], rtol=1e-12, atol=1e-12)
+
+
+def test_a_suffix_that_is_not_a_unit_is_not_read_as_one(paper):
+    """Only ``<channel>_<unit of its quantity>`` declares a unit: wheel_speed_fl stays a channel, accel_x_mm (a length
+    unit on an acceleration) is an unknown column, and time_ms beside time is left alone (two candidates)."""
+    from longprofile.vehicle._logs import _PLANAR_QUANTITY, split_unit_headers
+
+    f, declared = split_unit_headers(paper.rename(columns={"accel_x": "accel_x_mm"}), _PLANAR_QUANTITY)
+    assert "accel_x_mm" in f.columns and "accel_x" not in declared and "wheel_speed_fl" in f.columns
+    f, declared = split_unit_headers(paper.assign(time_ms=1000 * paper.time), _PLANAR_QUANTITY)
+    assert {"time", "time_ms"} <= set(f.columns) and "time" not in declared
 
 
 def test_wheel_speeds_in_kmh_declared_use_the_rolling_radius(paper):

@@ -94,16 +94,32 @@ def parse_units(text: str | None) -> dict:
     return out
 
 
+def _suffix_unit(name: str, quantities: dict):
+    """(channel, unit) of a header ``<channel>_<unit>`` (``time_ms``, ``accel_x_g``, ``steering_angle_deg``: a
+    channel of ``quantities`` in any letter case, then a unit of its quantity, :data:`UNIT_FACTORS`), else None."""
+    base, sep, unit = str(name).rpartition("_")
+    if not sep or str(name).casefold() in {ch.casefold() for ch in quantities}:
+        return None
+    channel = next((ch for ch in quantities if ch.casefold() == base.casefold()), None)
+    if channel is None or _norm_unit(unit) not in UNIT_FACTORS.get(quantities[channel], {}):
+        return None
+    return channel, unit
+
+
 def split_unit_headers(frame, channels=()):
-    """Strip ``name [unit]`` and ``name (unit)`` headers: returns (frame with plain names, {name: unit} declared in the header).
+    """Strip ``name [unit]``, ``name (unit)`` and ``name_unit`` headers: returns (frame with plain names, {name: unit}
+    declared in the header).
 
     A name that differs from one of ``channels`` only in letter case (``Time``, ``ACCEL_X``, ``dz21_fl``) is given
     the channel's spelling, unless another column has the same name in another case (a spreadsheet's capitalised
-    header reads as the original; two candidates are left as they are and reported missing by the reader)."""
+    header reads as the original; two candidates are left as they are and reported missing by the reader). With
+    ``channels`` a {channel: quantity} dict, ``<channel>_<unit>`` (``time_ms``, ``accel_x_g``; the form the rail
+    tables and ``differentiate`` read) declares a unit of the channel's quantity too."""
     declared, rename = {}, {}
     by_fold = {ch.casefold(): ch for ch in channels}
     matches = {c: _HEADER.match(str(c)) for c in frame.columns}
-    names = {c: m.group("name") if m else str(c) for c, m in matches.items()}
+    suffixed = {c: _suffix_unit(c, channels) for c in frame.columns} if isinstance(channels, dict) else {}
+    names = {c: m.group("name") if m else (suffixed[c][0] if suffixed.get(c) else str(c)) for c, m in matches.items()}
     folds = Counter(n.casefold() for n in names.values())
     for c, name in names.items():
         if name not in channels and folds[name.casefold()] == 1 and name.casefold() in by_fold:
@@ -112,6 +128,10 @@ def split_unit_headers(frame, channels=()):
             rename[c] = name
         if matches[c]:
             declared[name] = matches[c].group("unit") or matches[c].group("unit_p")
+        elif suffixed.get(c) and folds[name.casefold()] == 1:
+            declared[name] = suffixed[c][1]
+        elif suffixed.get(c):  # time_ms next to time: two candidates, left as they are
+            rename.pop(c, None)
     return (frame.rename(columns=rename) if rename else frame), declared
 
 
