@@ -22,7 +22,7 @@ from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
-           "track_angle"]
+           "track_angle", "check_survey"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -340,14 +340,27 @@ def _valid_survey(survey, s: pd.DataFrame, warnings: list, check_units: bool = T
         warnings.append("no survey table: the initial profile is the sensors' z_m column.")
     else:
         raise InputError("no initial altitude: give a survey table (x_m, z_m) or a z_m column in the sensors table.")
-    table = "survey table" if survey is not None else "sensors table's z_m column"
-    _check_altitudes(sv, table)
-    x, z = sv["x_m"].to_numpy(), sv["z_m"].to_numpy()
+    check_survey(sv, check_units=check_units,
+                 table="survey table" if survey is not None else "sensors table's z_m column")
+    return sv
+
+
+def check_survey(survey: pd.DataFrame, *, check_units: bool = True, table: str = "survey table") -> None:
+    """Refuse a survey (``x_m``, ``z_m``; sorted by ``x_m``, distinct stations) in another unit than metres: an
+    altitude beyond any terrain (:data:`~longprofile.core.MAX_ABS_ELEVATION_M`) and, with ``check_units``, a median
+    grade beyond :data:`MAX_SURVEY_GRADE`. :func:`validate_site` runs it, and the monitoring service on a new survey.
+
+    Raises
+    ------
+    UnitsError
+        Naming the value or the grade, and the likely unit mix-up.
+    """
+    _check_altitudes(survey, table)
+    x, z = survey["x_m"].to_numpy(float), survey["z_m"].to_numpy(float)
     if check_units and x.size >= 3 and (grade := float(np.median(np.abs(np.diff(z)) / np.diff(x)))) > MAX_SURVEY_GRADE:
         raise UnitsError(f"{table}: the altitudes change by a median {grade:.3g} m per m of track (a {100 * grade:.0f} % "
                          "grade), beyond a railway's: they look like millimetres under a metre label; name the column "
                          "z_mm or convert it to metres (check_units=False, --no-check-units, if the grade is real).")
-    return sv
 
 
 def _check_altitudes(t: pd.DataFrame, table: str) -> None:

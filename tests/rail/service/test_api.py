@@ -229,3 +229,15 @@ def test_the_report_folder_of_the_app_is_removed_when_its_lifespan_ends(site, tm
         assert rep.status_code == 200
         assert len(folders()) == 1 and list(folders()[0].rglob("index.html"))
     assert folders() == []
+
+
+def test_a_batch_far_from_level_needs_check_units_false(app):
+    """Sensors mounted 12 deg from level (beyond MAX_TRACK_ANGLE_DEG): the batch is rejected as another unit, and
+    taken with ?check_units=false (as rail settle --no-check-units)."""
+    client, db, key, _, r = app
+    part = r.iloc[:100].assign(angle_deg=lambda f: f["angle_deg"] + 12.0)
+    h = {"content-type": "text/csv", "x-api-key": key}
+    resp = client.post("/api/v1/sites/mitt/readings", content=part.to_csv(index=False), headers=h)
+    assert resp.status_code == 200 and resp.json()["rejected"] == 100 and count_readings(db) == 0
+    resp = client.post("/api/v1/sites/mitt/readings?check_units=false", content=part.to_csv(index=False), headers=h)
+    assert resp.status_code == 200 and resp.json()["accepted"] == 100 and count_readings(db) == 100

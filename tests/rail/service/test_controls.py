@@ -138,6 +138,8 @@ BAD_CASES = [
     _bad([{**GOOD, "x_m": -0.5}], "outside the sensors' span"),
     _bad([{"date": "2019-11-21", "x_m": 50.0}], "missing column(s) ['z_m']"),
     _bad([{**GOOD, "sensor_id": "S1"}], "unknown column(s) ['sensor_id']"),
+    _bad([{**GOOD, "z_m": 209900.0}], "beyond any terrain"),  # millimetres
+    _bad([{**GOOD, "z_m": -0.1}], "from the initial survey there, beyond any settlement"),  # another datum
     _bad([], "no control points given"),
 ]
 
@@ -253,3 +255,13 @@ def test_the_site_page_shows_the_runs_warnings_and_a_control_disagreement(loaded
     _core.put_controls(db, "eng", "mitt", control_table(drop_mm=(2.0, 40.0)).to_dict("records"))
     recompute(db, "mitt")
     assert any(w.startswith("the control surveys disagree with the estimate") for w in shown())
+
+
+def test_a_survey_in_millimetres_is_refused(site):
+    """put_survey checks units as rail settle checks a survey file (rail.check_survey): altitudes in mm under z_m."""
+    db, _, _ = site
+    before = _core.get_site(db, "mitt")["survey"]
+    rows = [{"x_m": float(x), "z_m": 210000.0 + x} for x in range(0, 170, 10)]
+    with pytest.raises(LongprofileError, match="beyond any terrain"):
+        _core.put_survey(db, "eng", "mitt", rows)
+    assert _core.get_site(db, "mitt")["survey"] == before and len(before) > 2

@@ -30,6 +30,7 @@ from .. import (
     TEMPERATURE_RANGE_C,
     SiteData,
     angle_noise,
+    check_survey,
     check_thresholds,
     track_angle,
     validate_site,
@@ -267,6 +268,7 @@ def put_survey(db: Database, actor: str, name: str, rows) -> dict:
         raise InputError("a survey needs at least 2 points.")
     if len({p[0] for p in pts}) != len(pts):
         raise InputError("survey: two altitudes at the same x_m.")
+    check_survey(pd.DataFrame(sorted(pts), columns=["x_m", "z_m"]), table="survey")  # as rail settle checks a file
     with db.write() as s:
         site = _site(s, name)
         old = [(p.x_m, p.z_m) for p in s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id)

@@ -559,7 +559,8 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         last_ts = {k: int(v.value // 10**9) for k, v in readings.groupby("sensor_id")["timestamp"].max().items()}
     status, message, res = "ok", "", None
     try:
-        sitedata = validate_site(sensors, readings, survey, controls)
+        # the units were checked batch by batch at ingestion (where ?check_units=false may have waived them)
+        sitedata = validate_site(sensors, readings, survey, controls, check_units=False)
         days = readings["timestamp"].dt.normalize().unique() if stats is None else stats.days
         quiet = _quiet_days(site, days)
         options = dict(

@@ -368,7 +368,7 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
     db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
 
     @app.post("/api/v1/sites/{site}/readings")
-    async def post_readings(site: str, request: Request, angle_unit: str = "deg"):
+    async def post_readings(site: str, request: Request, angle_unit: str = "deg", check_units: bool = True):
         who = await run_in_threadpool(core.authenticate_logger, db, request.headers.get("x-api-key"))
         if who is None:
             raise HTTPError(401, "a valid X-API-Key is required")
@@ -382,7 +382,7 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
                 if st is None or st.id != site_id:
                     raise core.Forbidden("key not valid for this site")
             rows = core.parse_batch(body, ctype)
-            return core.ingest(db, site, rows, logger_id=logger_id, angle_unit=angle_unit)
+            return core.ingest(db, site, rows, logger_id=logger_id, angle_unit=angle_unit, check_units=check_units)
 
         res = await run_in_threadpool(run, await request.body(), request.headers.get("content-type"))
         # sent only after the commit inside ingest(); json.dumps directly (FastAPI's encoder walks every row)
@@ -742,7 +742,8 @@ def _write_day_report(db: Database, name: str, day: str, folder: Path):
     end = pd.Timestamp(day) + pd.Timedelta(days=1)
     readings = readings[readings["timestamp"] < end]
     n_days = readings["timestamp"].dt.normalize().nunique()
-    res = estimate_settlement(validate_site(sensors, readings, survey, controls), thermal=settings["thermal"],
+    res = estimate_settlement(validate_site(sensors, readings, survey, controls, check_units=False),  # see _recompute
+                              thermal=settings["thermal"],
                               joint_days=service_joint_days(settings, len(sensors), n_days),  # the live model
                               n_monte_carlo=max(int(settings["n_monte_carlo"]), 500),
                               thresholds=thr or None,  # every level of every quantity, as the live alarms
