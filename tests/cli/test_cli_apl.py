@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 import pandas as pd
 from scipy import signal
 from typer.testing import CliRunner
@@ -104,3 +105,21 @@ def test_an_apl_column_in_millimetres_is_found_and_converted(tmp_path):
         outs[name] = pd.read_csv(out, comment="#")
     for name in ("apl_mm", "APL [mm]"):  # the same profile to the round-off of the mm conversion
         np.testing.assert_allclose(outs[name]["elevation_m"], outs["apl_m"]["elevation_m"], rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize(("station", "factor"), [("distance_ft", 0.3048), ("station_km", 1000.0),
+                                                  ("chainage [m]", 1.0)])
+def test_an_apl_recording_takes_its_stations_in_any_length_unit(tmp_path, station, factor):
+    """As profiles do: a station column named with its unit (distance_ft used to be "missing column distance_m")."""
+    rec = tmp_path / "rec.csv"
+    assert _run(["road", "simulate", "-o", str(rec), "--length", "200", "--seed", "2"]).exit_code == 0
+    df = pd.read_csv(rec)
+    src = tmp_path / "other.csv"
+    df[["apl_m"]].assign(**{station: df["distance_m"] / factor})[[station, "apl_m"]].to_csv(src, index=False)
+    ref, out = tmp_path / "ref.csv", tmp_path / "out.csv"
+    assert _run(["road", "reconstruct", str(rec), "-o", str(ref)]).exit_code == 0
+    r = _run(["road", "reconstruct", str(src), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    a, b = pd.read_csv(ref, comment="#"), pd.read_csv(out, comment="#")
+    np.testing.assert_allclose(b["distance_m"], a["distance_m"], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(b["elevation_m"], a["elevation_m"], rtol=0, atol=1e-9)

@@ -167,12 +167,13 @@ def _is_reconstruct_header(names) -> bool:
 
 
 def read_apl_signal(path, *, column: str = "apl_m"):
-    """Read an APL recording: ``distance_m`` and the signal column, in metres, as a one-track Profile.
+    """Read an APL recording: its stations and the signal column, in metres, as a one-track Profile.
 
     Parameters
     ----------
     path : path-like
-        CSV or Parquet with ``distance_m`` and ``column``.
+        CSV or Parquet with a station column named with its unit (``distance_m``, or ``distance_ft``, ``station_km``,
+        ``chainage [m]``, ``x_m``, as profiles have them; converted to metres) and ``column``.
     column : str
         The signal column; a unit suffix (``apl_mm``) converts it, none means metres.
 
@@ -190,8 +191,10 @@ def read_apl_signal(path, *, column: str = "apl_m"):
         Missing columns, non-numeric cells (line named).
     """
     path = Path(path)
-    column = _signal_column(_header_names(path), column)
-    table = read_table(path, required=["distance_m", column], numeric=["distance_m", column])
+    names = _header_names(path)
+    column = _signal_column(names, column)
+    station = next((str(c) for c in names if _is_station(str(c))), "distance_m")  # any station name with its unit
+    table = read_table(path, required=[station, column], numeric=[station, column])
     _, unit = _split(column)
     values = table[column].to_numpy() * (1.0 if unit is None else unit_factor(unit))
     finite = values[np.isfinite(values)]
@@ -200,7 +203,14 @@ def read_apl_signal(path, *, column: str = "apl_m"):
         raise UnitsError(f"{path}: column {column!r} read as metres has an RMS of {rms:.3g} m, impossible for an APL "
                          "signal (a few cm at most); if it is in mm, name the column with its unit (e.g. apl_mm) "
                          "or convert it to metres.")
-    return Profile(table["distance_m"].to_numpy(), values, name=path.stem)
+    x = table[station].to_numpy() * unit_factor(_split(station)[1], what="distance")
+    return Profile(x, values, name=path.stem)
+
+
+def _is_station(name: str) -> bool:
+    """A station column named with its unit, as profiles have them: distance_m, station_ft, chainage [km], x_m."""
+    base, unit = _split(name)
+    return base.lower() in _DISTANCE_NAMES and unit is not None
 
 
 def _signal_column(names, column: str) -> str:
@@ -237,7 +247,7 @@ def read_sampled_column(path, column: str, *, dx: float) -> np.ndarray:
     """
     path = Path(path)
     table = _with_rows(read_table(path, required=[column], numeric=[column]), path)
-    stations = [c for c in table.columns if _split(str(c))[0].lower() in _DISTANCE_NAMES and _split(str(c))[1]]
+    stations = [c for c in table.columns if _is_station(str(c))]
     if stations:
         c = stations[0]
         x = pd.to_numeric(table[c], errors="coerce").to_numpy(float) * unit_factor(_split(str(c))[1], what="distance")
