@@ -58,13 +58,14 @@ def simulate_command(
 
 
 def reconstruct_command(
-    file: Path = typer.Argument(..., help="APL recording: CSV/Parquet with distance_m and the signal column (m)."),
+    file: Path = typer.Argument(..., help="APL recording: CSV/Parquet with the stations (distance_m, or another unit: "
+                                              "distance_ft, station_km) and the signal column (m)."),
     output: Path = typer.Option(..., "--output", "-o",
                                 help="Profile to write: .csv/.parquet table with distance_m, elevation_m, std_m, raw_m, "
                                      "raw_std_m; or .erd (ProVAL/UMTRI text) with the elevation track only, in mm "
                                      "(the std and raw columns go to CSV/Parquet only)."),
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
-    dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's distance_m)."),
+    dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's stations)."),
     method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
     column: str = typer.Option("apl_m", "--column",

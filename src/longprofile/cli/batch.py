@@ -100,8 +100,9 @@ def iri_command(
 
 @batch_app.command("reconstruct")
 def reconstruct_command(
-    patterns: list[str] = typer.Argument(..., help="APL recordings (CSV/Parquet with distance_m and the signal "
-                                                   "column) or quoted glob patterns ('runs/**/*.parquet')."),
+    patterns: list[str] = typer.Argument(..., help="APL recordings (CSV/Parquet with the stations, distance_m "
+                                                   "or distance_ft, ..., and the signal column) or quoted glob "
+                                                   "patterns ('runs/**/*.parquet')."),
     output: Path = typer.Option(..., "--output", "-o", help=_OUTPUT_HELP + " Profiles go to profiles/."),
     workers: int = typer.Option(None, "--workers", min=1, help=_WORKERS_HELP),
     scheduler: str = typer.Option("processes", "--scheduler", help=_SCHEDULER_HELP),
