@@ -102,23 +102,16 @@ def test_max_settlement_band_flag_selects_the_old_interval(site_dir, tmp_path, m
     assert seen == ["band", "draws"]
 
 
-def test_end_ambiguity_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch, capsys):
-    seen, base = _settings_seen(monkeypatch, site_dir, tmp_path, "end_ambiguity",
-                                [(["--end-ambiguity", "mixture"], "mix.csv"), ([], "off.csv")])
-    assert seen == ["mixture", "off"]
-    code = main(base + ["--end-ambiguity", "both", "-o", str(tmp_path / "x.csv")])
+@pytest.mark.parametrize(("attr", "flag", "value", "bad"), [("end_ambiguity", "--end-ambiguity", "mixture", "both"),
+                                                        ("witness_rule", "--witness-rule", "steps", "maybe")])
+def test_option_flags_reach_the_settings(site_dir, tmp_path, monkeypatch, capsys, attr, flag, value, bad):
+    seen, base = _settings_seen(monkeypatch, site_dir, tmp_path, attr,
+                                [([flag, value], f"{value}.csv"), ([], "off.csv")])
+    assert seen == [value, "off"]
+    code = main(base + [flag, bad, "-o", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
-    assert code == 2 and "end_ambiguity must be one of" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and f"{attr} must be one of" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
-
-
-def test_witness_rule_flag_reaches_the_settings(site_dir, tmp_path, monkeypatch, capsys):
-    seen, base = _settings_seen(monkeypatch, site_dir, tmp_path, "witness_rule",
-                                [(["--witness-rule", "steps"], "steps.csv"), ([], "off.csv")])
-    assert seen == ["steps", "off"]
-    code = main(base + ["--witness-rule", "maybe", "-o", str(tmp_path / "x.csv")])
-    err = capsys.readouterr().err
-    assert code == 2 and "witness_rule must be one of" in err and len(err.strip().splitlines()) == 1
 
 
 def test_bad_input_is_one_line_and_exit_2(site_dir, tmp_path, capsys):
