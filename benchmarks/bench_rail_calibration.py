@@ -13,8 +13,10 @@ Run: ``python -m benchmarks rail_calibration`` (full: 100 draws per family, 100 
 that is not a Gaussian bowl, seeds 100-139 by default; not in the full run) for the health tests' robustness.
 ``python -m benchmarks.bench_rail_calibration --reversal-oracle [--seeds 200-299] [--json out.json]``: the detection
 of reversed sensors a test knowing the true settlement would reach (:func:`reversal_oracle`, docs/rail.md).
-``--controls K``: every site also gets K control surveys (``ScenarioFamily.control_surveys``), and a row counts the
-sites whose controls the estimate says disagree (``SettlementResult.control_check``; docs/rail.md, "Control surveys").
+``--days D --sampling-minutes M``: every site D days long, read every M minutes (long records: docs/rail.md, "Sensor
+health, step 18"). ``--controls K``: every site also gets K control surveys (``ScenarioFamily.control_surveys``), and
+a row counts the sites whose controls the estimate says disagree (``SettlementResult.control_check``; docs/rail.md,
+"Control surveys").
 """
 
 from __future__ import annotations
@@ -106,10 +108,12 @@ def default_plan(quick: bool) -> list[tuple[str, range]]:
     return plan
 
 
-def run(quick: bool, plan=None, control_surveys: int = 0, **options) -> list[BenchRow]:
+def run(quick: bool, plan=None, control_surveys: int = 0, days: int | None = None,
+        sampling_minutes: float | None = None, **options) -> list[BenchRow]:
     """Benchmark rows of the rail calibration (module docstring); ``plan``: [(family, seeds)] instead of the default;
     ``control_surveys``: that many control surveys per site (``ScenarioFamily.control_surveys``; 0: the families as
-    they are); ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
+    they are); ``days``, ``sampling_minutes``: every site that long, read that often (the families' 21-28 days and 30
+    min otherwise); ``options`` to ``estimate_settlement`` (e.g. ``shape_evidence=True``)."""
     from longprofile.rail._calibration import calibrate_family
     from longprofile.rail._scenarios import SCENARIO_FAMILIES, SHAPE_FAMILIES
 
@@ -121,6 +125,10 @@ def run(quick: bool, plan=None, control_surveys: int = 0, **options) -> list[Ben
             fam = replace(fam, n_sensors=(12, 16), n_days=(10, 12), sampling_minutes=60.0)
         if control_surveys:
             fam = replace(fam, control_surveys=int(control_surveys))
+        if days is not None:  # long records (docs/rail.md, "Sensor health, step 18")
+            fam = replace(fam, n_days=(int(days), int(days)))
+        if sampling_minutes is not None:
+            fam = replace(fam, sampling_minutes=float(sampling_minutes))
         t0 = time.perf_counter()
         cal = calibrate_family(fam, seeds, n_monte_carlo=50 if quick else 200, **options)
         rows.extend(family_rows(cal, time.perf_counter() - t0, quick))
@@ -392,6 +400,13 @@ def main(argv=None) -> int:
                         "estimate says disagree (SettlementResult.control_check)")
     p.add_argument("--thermal", choices=("auto", "linear", "lagged", "none"), default=None,
                    help="thermal model (SettlementSettings.thermal; default: the estimator's, auto)")
+    p.add_argument("--reversal-null", choices=("site", "model"), default=None,
+                   help="the all-days reversal evidence against the site's own healthy spread or the model's "
+                        "(SettlementSettings.reversal_null, docs/rail.md step 18; default: the estimator's)")
+    p.add_argument("--days", type=int, default=None, metavar="D",
+                   help="every site D days long (long records; default: the family's 21-28)")
+    p.add_argument("--sampling-minutes", type=float, default=None, metavar="M",
+                   help="readings every M minutes (default: the family's, 30)")
     p.add_argument("--json", type=Path, default=None, help="also write the rows as JSON here")
     args = p.parse_args(argv)
     if args.reversal_oracle:
@@ -406,7 +421,7 @@ def main(argv=None) -> int:
         p.error("--family is required (or --reversal-oracle)")
     default = dict(default_plan(False))
     plan = [(f, args.seeds if args.seeds is not None else default.get(f, range(100, 140))) for f in args.family]
-    rows = run(args.quick, plan, control_surveys=args.controls,
+    rows = run(args.quick, plan, control_surveys=args.controls, days=args.days, sampling_minutes=args.sampling_minutes,
                **({"shape_evidence": True} if args.shape_evidence else {}),
                **({"shape_rule": "sum"} if args.shape_rule == "sum" else {}),
                **({"health_end_anchor": args.health_end_anchor} if args.health_end_anchor else {}),
@@ -414,7 +429,8 @@ def main(argv=None) -> int:
                **({"reversal_z_rule": args.reversal_z_rule} if args.reversal_z_rule else {}),
                **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}),
                **({"witness_rule": args.witness_rule} if args.witness_rule else {}),
-               **({"thermal": args.thermal} if args.thermal else {}))
+               **({"thermal": args.thermal} if args.thermal else {}),
+               **({"reversal_null": args.reversal_null} if args.reversal_null else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

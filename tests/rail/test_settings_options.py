@@ -1,4 +1,4 @@
-"""The options of ``SettlementSettings`` added on 2026-12-06 (session 28): their default, the value that
+"""The options of ``SettlementSettings`` added on 2026-12-06 (sessions 28-31): their default, the value that
 ``until_2026_12_06()`` restores, another accepted value, and a refused one (``InputError``, one line)."""
 
 import pytest
@@ -11,6 +11,7 @@ from longprofile.rail import SettlementSettings
     ("settlement_end_anchor", "all-days", "fixed", "fixed", "fit"),
     ("end_ambiguity", "off", "off", "mixture", "on"),
     ("witness_rule", "off", "off", "steps", "on"),
+    ("reversal_null", "site", "model", "model", "empirical"),
 ])
 def test_option_default_old_value_and_refusal(name, default, until, other, bad):
     assert getattr(SettlementSettings(), name) == default

@@ -40,7 +40,8 @@ from ._shapes import ShapeEvidence
 __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals", "ReversalEvidence", "StepEvidence",
            "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
-           "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z"]
+           "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z", "site_reversal_null", "REVERSAL_NULLS",
+           "record_length_factor", "REFERENCE_CHANGES"]
 
 SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
@@ -111,6 +112,14 @@ STEP_Z = 8.0
 FROZEN_MIN_DAYS = 2
 #: Fewest readings in a day for its within-day spread to count.
 FROZEN_MIN_READINGS = 6
+#: Day-to-day changes of the records the day-to-day reversal ratio's thresholds (:data:`REVERSED_LLR`,
+#: :data:`REVERSED_Z_GATE_LLR`, :data:`REVERSED_ALL_DAYS_INC_LLR`) were set on (21-28 days: at most 27). A sensor with
+#: more changes has them times (n / 27)^LENGTH_EXPONENT (:func:`record_length_factor`; docs/rail.md, "Sensor health,
+#: step 18").
+REFERENCE_CHANGES = 27
+#: The healthy sensors' 99 % quantile of the ratio grew as n^0.26-0.46 on long records (session 31); 1/2 was tried:
+#: 34 false alarms fewer of 9537 healthy sensors, 4 more of 120 reversals missed.
+LENGTH_EXPONENT = 1.0 / 3.0
 #: All-days reversal test (:func:`flag_reversed_all_days`): a sensor kept by :func:`assess_sensors` is "reversed" when
 #: the log Bayes factor of "reversed" against "healthy" under the all-days model exceeds this ...
 REVERSED_ALL_DAYS_LBF = 6.0
@@ -203,6 +212,9 @@ class SensorHealth:
         settling transition (joint, abutment, culvert) the neighbours do not see. ``estimate_settlement`` warns about
         them (docs/rail.md, "Sensor health: an excluded sensor that may be a witness"); None from callers that built
         the health without it.
+    reversal_llr_scale : (N,) ndarray or None
+        :func:`record_length_factor` of each sensor's number of day-to-day changes on the last pass: the factor on the
+        thresholds of ``reversal_llr`` (None: 1).
     """
 
     sensor_ids: list
@@ -219,6 +231,7 @@ class SensorHealth:
     anchor_std: float | None = None
     witness: np.ndarray | None = None
     excluded_witness: np.ndarray | None = None
+    reversal_llr_scale: np.ndarray | None = None
 
     def flagged(self) -> list[tuple[str, str, str]]:
         """(sensor_id, status, detail) of every excluded sensor."""
@@ -258,6 +271,20 @@ def _frozen_run(spread):
         if run > best[1]:
             best = (start, run)
     return best
+
+
+def record_length_factor(n_changes) -> np.ndarray:
+    """max(1, n / :data:`REFERENCE_CHANGES`)^:data:`LENGTH_EXPONENT` of each sensor's number ``n`` of day-to-day
+    changes: the factor on the day-to-day reversal ratio's thresholds.
+
+    The ratio is a sum over the days. Its thresholds were set on 3-4-week records; on longer ones the healthy sensors'
+    ratios spread wider, the model's errors (drift rates that differ by sensor, thermal residuals shared along the
+    track) adding up over the days: the 99 % quantile over healthy sensors went 8.4 / 11.5 / 15.2 / 19.6 at 27 / 89 /
+    179 / 364 changes on ``drift`` (session 31, seeds 300-339, read hourly), and the fixed thresholds flagged 0.4 /
+    1.2 / 2.5 / 4.7 % of them: the quantile grew as about n^(1/3) (a sum's spread grows as sqrt(n) when every term
+    is misfit alike). Records no longer than the calibration's keep the thresholds as they were.
+    """
+    return np.maximum(1.0, np.asarray(n_changes, float) / REFERENCE_CHANGES) ** LENGTH_EXPONENT
 
 
 def _robust_scale(q, axis=0):
@@ -389,7 +416,8 @@ def _classify(m, pred, z):
 
 def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, exclude=(), max_flagged=None,
                    fit=None, raw_day_spread_deg=None, fit_anchor=None,
-                   reversal_z_rule: str = "gated", witness_rule: str = "off") -> tuple[SensorHealth, float, float]:
+                   reversal_z_rule: str = "gated", witness_rule: str = "off",
+                   reversal_null: str = "site") -> tuple[SensorHealth, float, float]:
     """Flag dead, frozen and improbable sensors, iteratively (worst first), re-fitting the noise after each exclusion.
 
     Parameters
@@ -429,6 +457,10 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         (:func:`step_witness_z` above :data:`WITNESS_STEP_Z`, no step back as large) and whose changes minus the
         prediction does not explain is not flagged by the detachment-step and LOO-score tests
         (``SensorHealth.witness``); docs/rail.md, "Sensor health on a transition: the step's witnesses".
+    reversal_null : {"site", "model"}, default "site"
+        :data:`REVERSAL_NULLS`: "site", the day-to-day reversal ratio's thresholds times :func:`record_length_factor`
+        of each sensor's number of changes (records longer than the calibration's; docs/rail.md, "Sensor health, step
+        18"); "model", the thresholds as set (the rule until session 31).
 
     Returns
     -------
@@ -436,10 +468,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     sigma, rigidity : float
         Final values (re-fitted if ``fit`` was given).
     """
-    if reversal_z_rule not in REVERSAL_Z_RULES:
-        raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}.")
-    if witness_rule not in WITNESS_RULES:
-        raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {witness_rule!r}.")
+    _check_rules(reversal_z_rule=reversal_z_rule, witness_rule=witness_rule, reversal_null=reversal_null)
     D, N = slopes.shape
     status, detail = _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg)
     for j in exclude:
@@ -452,7 +481,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     witness = None
     excluded_witness = np.zeros(N, bool)
     n_flag = 0
-    gate_text = f" with the ratio > {REVERSED_Z_GATE_LLR:g}" if reversal_z_rule == "gated" else ""
+    lf = np.ones(N)
     while True:
         bad = status != "ok"
         M = np.where(bad[None, :], np.nan, slopes)
@@ -464,20 +493,13 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         k = np.isfinite(z).sum(axis=0)
         score = np.where(k > 0, np.nansum(z**2, axis=0) / np.maximum(k, 1), np.nan)
         pval = np.where(k > 0, gammaincc(np.maximum(k, 1) / 2.0, score * k / 2.0), 1.0)  # chi-square sf
-        with np.errstate(invalid="ignore", divide="ignore"):
-            e = M - pred
-            v = np.where(np.abs(z) > 0, (e / np.where(z == 0, 1.0, z)) ** 2, np.nan)  # LOO variance sigma^2/(1-h)
-            rev = -np.nansum(M * pred, axis=0) / np.sqrt(np.nansum(pred**2 * v, axis=0))
-            # ... and only when minus the prediction explains the changes (not a drift or a jump)
-            looks_reversed = np.nansum((M + pred) ** 2, axis=0) < 0.25 * np.nansum((M - pred) ** 2, axis=0)
-        rev = np.where((k > 0) & looks_reversed, rev, np.nan)
+        rev, looks_reversed = _reversal_z(M, pred, z, k)
         llr, step, step_day = _increment_tests(M, pred, bad)
+        if reversal_null == "site":  # step 18: thresholds grown with the record's length
+            lf = record_length_factor(np.isfinite(np.diff(M, axis=0) - np.diff(pred, axis=0)).sum(axis=0))
         # exceedance of each test over its threshold; the worst sensor (largest ratio) goes first
         r_imp = np.where((pval < IMPROBABLE_P / N) & (score > IMPROBABLE_SCORE), score / IMPROBABLE_SCORE, 0.0)
-        llr_, rev_ = np.nan_to_num(llr, nan=-np.inf), np.nan_to_num(rev, nan=-np.inf)
-        if reversal_z_rule == "gated":  # step 16: z_rev only where the day-to-day changes point to a reversal too
-            rev_ = np.where(llr_ > REVERSED_Z_GATE_LLR, rev_, -np.inf)
-        r_rev = np.nan_to_num(np.maximum(rev_ / REVERSED_Z, llr_ / REVERSED_LLR), neginf=0.0)
+        r_rev = _reversal_ratio(rev, llr, lf, reversal_z_rule)
         r_step = np.nan_to_num(step, nan=0.0) / STEP_Z
         if witness_rule != "off":  # a witness of a localised movement: only the reversal tests may flag it
             witness = _witnesses(M, pred, bad, looks_reversed)
@@ -489,7 +511,8 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         n_flag += 1
         base = f"mean squared LOO z-score {score[j]:.3g} over {k[j]} days"
         if r_rev[j] >= max(r_imp[j], r_step[j]):
-            status[j], detail[j] = "reversed", _reversal_detail(M[:, j], pred[:, j], llr[j], rev[j], gate_text, base)
+            status[j], detail[j] = "reversed", _reversal_detail(M[:, j], pred[:, j], llr[j], rev[j], lf[j],
+                                                                reversal_z_rule, base)
             continue
         # a step or score exclusion: was its record a witness's? (SensorHealth.excluded_witness)
         excluded_witness[j] = (witness if witness is not None else _witnesses(M, pred, bad, looks_reversed))[j]
@@ -505,15 +528,49 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
                           detail=np.array(detail, dtype=str), excluded=status != "ok", loo_score=score,
                           reversal_z=rev, reversal_llr=llr, step_z=step, anchor_std=float(sigma_z),
                           witness=None if witness is None else witness & (status == "ok"),
-                          excluded_witness=excluded_witness)
+                          excluded_witness=excluded_witness, reversal_llr_scale=lf)
     return health, float(sigma), float(rigidity)
 
 
-def _reversal_detail(m, pred, llr, rev, gate_text, base) -> str:
-    """The detail of a sensor :func:`assess_sensors` flags "reversed" (its changes ``m`` and prediction ``pred``)."""
+def _reversal_z(M, pred, z, k):
+    """The reversal z of :func:`assess_sensors` (:data:`REVERSED_Z`) from the changes ``M``, their leave-one-out
+    prediction ``pred`` and standardised residuals ``z`` ((D, N) each; ``k`` finite residuals per sensor), NaN unless
+    minus the prediction explains the changes (not a drift or a jump); and that condition, (N,) bool."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = M - pred
+        v = np.where(np.abs(z) > 0, (e / np.where(z == 0, 1.0, z)) ** 2, np.nan)  # LOO variance sigma^2/(1-h)
+        rev = -np.nansum(M * pred, axis=0) / np.sqrt(np.nansum(pred**2 * v, axis=0))
+        looks_reversed = np.nansum((M + pred) ** 2, axis=0) < 0.25 * np.nansum((M - pred) ** 2, axis=0)
+    return np.where((k > 0) & looks_reversed, rev, np.nan), looks_reversed
+
+
+def _reversal_ratio(rev, llr, length_factor, reversal_z_rule) -> np.ndarray:
+    """Exceedance of the reversal tests of :func:`assess_sensors` over their thresholds (0 where none applies): the
+    larger of z_rev / :data:`REVERSED_Z` (with ``reversal_z_rule="gated"``, step 16, only where the day-to-day ratio
+    exceeds :data:`REVERSED_Z_GATE_LLR`) and the ratio / :data:`REVERSED_LLR`, the ratio's thresholds times
+    ``length_factor`` (:func:`record_length_factor`)."""
+    llr_, rev_ = np.nan_to_num(llr, nan=-np.inf), np.nan_to_num(rev, nan=-np.inf)
+    if reversal_z_rule == "gated":  # z_rev only where the day-to-day changes point to a reversal too
+        rev_ = np.where(llr_ > REVERSED_Z_GATE_LLR * length_factor, rev_, -np.inf)
+    return np.nan_to_num(np.maximum(rev_ / REVERSED_Z, llr_ / (REVERSED_LLR * length_factor)), neginf=0.0)
+
+
+def _check_rules(**rules) -> None:
+    """One clear error for a rule name that is not one of its choices (:func:`assess_sensors`' keywords)."""
+    choices = {"reversal_z_rule": REVERSAL_Z_RULES, "witness_rule": WITNESS_RULES, "reversal_null": REVERSAL_NULLS}
+    for name, value in rules.items():
+        if value not in choices[name]:
+            raise InputError(f"{name} must be one of {choices[name]}; got {value!r}.")
+
+
+def _reversal_detail(m, pred, llr, rev, length_factor, reversal_z_rule, base) -> str:
+    """The detail of a sensor :func:`assess_sensors` flags "reversed" (its changes ``m`` and prediction ``pred``;
+    ``length_factor``, its :func:`record_length_factor`)."""
+    gate = f" with the ratio > {REVERSED_Z_GATE_LLR * length_factor:.3g}" if reversal_z_rule == "gated" else ""
     return (f"angle changes follow {np.nansum(m * pred) / np.nansum(pred ** 2):+.2f} x the neighbours' prediction "
-            f"(expected +1): day-to-day reversal log-likelihood ratio {llr:.3g} (threshold {REVERSED_LLR:g}), reversal z "
-            f"{np.nan_to_num(rev):.3g} (threshold {REVERSED_Z:g}{gate_text}); {base}")
+            f"(expected +1): day-to-day reversal log-likelihood ratio {llr:.3g} (threshold "
+            f"{REVERSED_LLR * length_factor:.3g}), reversal z {np.nan_to_num(rev):.3g} (threshold {REVERSED_Z:g}{gate}); "
+            f"{base}")
 
 
 def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
@@ -562,10 +619,74 @@ class ReversalEvidence:
         sum_k mu_ik^2 / v_ik: how much the neighbours predict of the sensor's changes (its squared signal-to-noise
         ratio over all days). Under "healthy" the log Bayes factor has mean -2 information and variance
         4 information; a sensor whose information is below ~2 cannot show a reversal.
+    null_shift, null_scale : float
+        The site's null taken out by :func:`site_reversal_null` (0 and 1: the model's own).
     """
 
     log_bayes_factor: np.ndarray
     information: np.ndarray
+    null_shift: float = 0.0
+    null_scale: float = 1.0
+
+
+#: The healthy sensors' standardised all-days reversal evidence s = (log BF + 2 I) / (2 sqrt I) (N(0, 1) under the
+#: model) on the 3-4-week records the thresholds were set on: median ~0.5, robust spread ~1.2 (session 31, seeds
+#: 300-339 of drift, lag-swings and faults at 28 days: 0.49 / 1.23, 0.57 / 1.13, 0.70 / 1.16). The thresholds absorb
+#: them; :func:`site_reversal_null` corrects only what a site shows beyond them (docs/rail.md, "Sensor health, step 18").
+NULL_BASELINE_MEDIAN = 0.5
+NULL_BASELINE_SPREAD = 1.2
+#: Reversal nulls (:func:`site_reversal_null`): "site", the site's kept sensors' own spread beyond the baseline;
+#: "model", the all-days model's own (the rule until session 31).
+REVERSAL_NULLS = ("site", "model")
+
+
+def site_reversal_null(evidence: ReversalEvidence, kept) -> ReversalEvidence:
+    r"""The all-days reversal evidence against the spread the site's own sensors show (an empirical null).
+
+    Beyond paper 004. Under the all-days model a healthy sensor's standardised evidence
+    s_i = (log BF_i + 2 I_i) / (2 sqrt I_i) is N(0, 1) (:class:`ReversalEvidence`). On long records it is not: the
+    model's one noise covariance for all sensors (up to a factor) under-states the errors of some (drift rates differ
+    by sensor, thermal residuals shared along the track) and the neighbours' prediction follows their errors, so the
+    healthy sensors' s grows in centre and spread with the record (session 31, seeds 300-339, 28 / 90 / 180 / 365
+    days read hourly: median 0.49 / 1.12 / 1.79 / 2.74 and spread 1.2 / 1.6 / 1.8 / 2.3 on ``drift``; healthy
+    sensors flagged 0.4 / 1.2 / 2.5 / 4.7 %). Most sensors of a site are healthy: the median d and robust spread l
+    (1.4826 MAD) of s over the ``kept`` sensors estimate that null. What exceeds the baseline the thresholds were set
+    on (:data:`NULL_BASELINE_MEDIAN`, :data:`NULL_BASELINE_SPREAD`) by more than two standard errors,
+    shift = max(0, d - 0.5 - 2 se_d) and scale = max(1, (l - 2 se_l) / 1.2) (se_d = 1.2533 l / sqrt n,
+    se_l = 1.166 l / sqrt n), is taken out: log BF'_i = (log BF_i - 2 sqrt(I_i) shift) / scale^2 and
+    I'_i = I_i / scale^2, i.e. the evidence of the model with the errors' variance times scale^2 and the healthy
+    centre moved back (s'_i = (s_i - shift) / scale). A reversed sensor's evidence, ~ +2 I, stays far above.
+
+    Parameters
+    ----------
+    evidence : ReversalEvidence
+        Of :func:`all_days_reversal_evidence`.
+    kept : (N,) array_like of bool
+        The sensors the health tests keep (the null is theirs; a reversed sensor among them is one outlier of many).
+
+    Returns
+    -------
+    ReversalEvidence
+        The corrected evidence with ``null_shift`` and ``null_scale`` set (the input itself when fewer than 8 kept
+        sensors have evidence, or nothing exceeds the baseline).
+    """
+    lbf = np.asarray(evidence.log_bayes_factor, float)
+    info = np.asarray(evidence.information, float)
+    use = np.asarray(kept, bool) & np.isfinite(lbf) & np.isfinite(info) & (info > 0)
+    n = int(use.sum())
+    if n < 8:
+        return evidence
+    s = (lbf[use] + 2.0 * info[use]) / (2.0 * np.sqrt(info[use]))
+    d = float(np.median(s))
+    spread = 1.4826 * float(np.median(np.abs(s - d)))
+    shift = max(0.0, d - NULL_BASELINE_MEDIAN - 2.0 * 1.2533 * spread / np.sqrt(n))
+    scale = max(1.0, (spread - 2.0 * 1.166 * spread / np.sqrt(n)) / NULL_BASELINE_SPREAD)
+    if shift == 0.0 and scale == 1.0:
+        return evidence
+    with np.errstate(invalid="ignore"):
+        corrected = (lbf - 2.0 * np.sqrt(np.maximum(info, 0.0)) * shift) / scale**2
+    return ReversalEvidence(log_bayes_factor=corrected, information=info / scale**2, null_shift=shift,
+                            null_scale=scale)
 
 
 def all_days_reversal_evidence(x, mode_slopes, mode_noise, *, rigidity: float, penalty_order: int = 2,
@@ -682,8 +803,7 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     flagged : int or None
         Index of the flagged sensor.
     """
-    if reversal_z_rule not in REVERSAL_Z_RULES:
-        raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {reversal_z_rule!r}.")
+    _check_rules(reversal_z_rule=reversal_z_rule)
     lbf = np.nan_to_num(evidence.log_bayes_factor, nan=-np.inf)
     N = health.status.size
     inc = np.nan_to_num(health.reversal_llr, nan=-np.inf) if health.reversal_llr is not None else np.full(N, -np.inf)
@@ -693,16 +813,17 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
                               (lbf + g + REVERSED_SUM_INC_WEIGHT * inc, REVERSED_SUM_LBF))
     by_shape = shape_candidates(health, evidence, shape_rule) & (shape_score > shape_thr)
     z = np.nan_to_num(health.reversal_z, nan=-np.inf) if health.reversal_z is not None else np.full(N, -np.inf)
-    by_inc = (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR)
+    lf = np.ones(N) if health.reversal_llr_scale is None else np.asarray(health.reversal_llr_scale, float)
+    by_inc = (lbf > REVERSED_ALL_DAYS_LBF) & (inc > REVERSED_ALL_DAYS_INC_LLR * lf)
     by_z = (lbf > REVERSED_ALL_DAYS_LBF) & (z > REVERSED_Z) & (reversal_z_rule == "gated")  # step 16
     passes = by_inc | by_z | by_shape
 
     def detail(j):
         why = (f"reversal z {z[j]:.3g} (> {REVERSED_Z:g}; day-to-day reversal log-likelihood ratio {inc[j]:.3g})"
                if by_z[j] and not by_inc[j] else
-               f"day-to-day reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR:g})")
+               f"day-to-day reversal log-likelihood ratio {inc[j]:.3g} (> {REVERSED_ALL_DAYS_INC_LLR * lf[j]:.3g})")
         text = (f"all days: log Bayes factor of 'reversed' against 'healthy' {lbf[j]:.3g} (threshold "
-                f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}), {why}")
+                f"{REVERSED_ALL_DAYS_LBF:g}; information {evidence.information[j]:.3g}{_null_text(evidence)}), {why}")
         if np.isfinite(glr[j]):
             rule = (f"threshold {REVERSED_SHAPE_EVIDENCE:g}" if shape_rule == "threshold" else
                     f"score with the all-days one and the day-to-day ratio "
@@ -714,6 +835,14 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
 
     return _flag_worst(replace(health, reversal_evidence=evidence, shape_evidence=shape),
                        lbf + np.nan_to_num(glr, nan=0.0), passes, "reversed", detail, max_flagged)
+
+
+def _null_text(evidence: ReversalEvidence) -> str:
+    """The site's null of :func:`site_reversal_null`, for a flagged sensor's detail ('' when none was applied)."""
+    if evidence.null_shift == 0.0 and evidence.null_scale == 1.0:
+        return ""
+    return (f"; against this site's healthy sensors: centre moved {evidence.null_shift:.2g}, spread x"
+            f"{evidence.null_scale:.3g}")
 
 
 def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, max_flagged: int | None):

@@ -16,6 +16,7 @@ from ._controls import ControlCheck, check_controls, compare_controls, unmatched
 from ._data import SiteData
 from ._health import (
     FROZEN_MIN_READINGS,
+    REVERSAL_NULLS,
     REVERSAL_Z_RULES,
     SHAPE_RULES,
     WITNESS_RULES,
@@ -26,6 +27,7 @@ from ._health import (
     flag_detached_all_days,
     flag_reversed_all_days,
     shape_candidates,
+    site_reversal_null,
 )
 from ._integration import INTEGRATION_METHODS, bar_angles_from_profile, integrate_angles
 from ._joint import (
@@ -1201,6 +1203,16 @@ class SettlementSettings:
         sensor on a transition has a witness's record (faults-joint-step reversed found 35 -> 17 of 40; faults-ramp
         40 -> 27), and the transition's far half stays outside its band (daily coverage 64.44 -> 63.90 % with
         "steps", 65.19 % with "steps-ends").
+    reversal_null : {"site", "model"}, default "site"
+        What a healthy sensor's reversal statistics are judged against on records longer than the 3-4 weeks the
+        thresholds were set on (:data:`~longprofile.rail._health.REVERSAL_NULLS`). "site" (the default since session
+        31): the all-days evidence against the spread of the site's own kept sensors beyond the calibration records'
+        (:func:`~longprofile.rail._health.site_reversal_null`), and the day-to-day reversal ratio's thresholds times
+        :func:`~longprofile.rail._health.record_length_factor` ((n / 27)^(1/3) past 27 day-to-day changes). "model":
+        the model's own null and fixed thresholds (the rule until session 31, :meth:`until_2026_12_06`). On sites read
+        hourly for 90 / 180 / 365 days (seeds 300-339) healthy sensors flagged 369 -> 163 of 9537, reversed sensors
+        found 100 -> 96 of 120; on the benchmark's 28-day families one status changed, a false alarm fewer
+        (docs/rail.md, "Sensor health, step 18").
     """
 
     thermal: str = "auto"
@@ -1235,6 +1247,7 @@ class SettlementSettings:
     settlement_end_anchor: str = "all-days"
     end_ambiguity: str = "off"
     witness_rule: str = "off"
+    reversal_null: str = "site"
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1243,12 +1256,13 @@ class SettlementSettings:
         and of the settlement (``health_end_anchor="fixed"``, ``settlement_end_anchor="fixed"``, the defaults until
         the all-days anchors of the same day, sessions 27 and 28) and the reversal z on its own
         (``reversal_z_rule="alone"``, the default until step 16 of the same day) and the paper's linear thermal model
-        (``thermal="linear"``, the default until session 29 of the same day); reproduces that estimator's outputs.
+        (``thermal="linear"``, the default until session 29 of the same day) and the model's null for the reversal
+        tests (``reversal_null="model"``, the rule until session 31); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"thermal": "linear", "max_settlement_interval": "band", "health_end_anchor": "fixed",
                       "settlement_end_anchor": "fixed",
                       "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
-                      **options})
+                      "reversal_null": "model", **options})
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -1282,6 +1296,8 @@ class SettlementSettings:
             raise InputError(f"end_ambiguity must be one of {END_AMBIGUITIES}; got {self.end_ambiguity!r}.")
         if self.witness_rule not in WITNESS_RULES:
             raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {self.witness_rule!r}.")
+        if self.reversal_null not in REVERSAL_NULLS:
+            raise InputError(f"reversal_null must be one of {REVERSAL_NULLS}; got {self.reversal_null!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
@@ -1371,7 +1387,7 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
                                       raw_spread_deg=daily.raw_std_deg, raw_day_spread_deg=day_spread,
                                       exclude=excl_idx, max_flagged=None if opt.check_health else 0, fit=fit,
                                       fit_anchor=fit_anchor, reversal_z_rule=opt.reversal_z_rule,
-                                      witness_rule=opt.witness_rule)
+                                      witness_rule=opt.witness_rule, reversal_null=opt.reversal_null)
     health = replace(health, sensor_ids=list(ids))
     witnesses = _anchor_witnesses(health, opt)
     if witnesses is not None and opt.health_end_anchor == "all-days":
@@ -1755,7 +1771,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
                 shape_rule=opt.shape_rule,
                 health_end_anchor=opt.health_end_anchor, reversal_z_rule=opt.reversal_z_rule,
-                health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
+                reversal_null=opt.reversal_null, health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
                 settlement_end_anchor=opt.settlement_end_anchor,
                 settlement_sigma_z=opt.sigma_z if settlement_sigma_z is None else float(settlement_sigma_z),
                 end_ambiguity=opt.end_ambiguity, end_mixture_weight=float(end_mixture[0]),
@@ -1912,6 +1928,8 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
         evidence = all_days_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, rigidity=joint.modes.rigidity,
                                               penalty_order=joint.prior.penalty_order, sensor_factors=joint.factors,
                                               segment_weights=joint.weights, sigma_z=health_sz)
+        if opt.reversal_null == "site":  # the site's own healthy spread ("Sensor health, step 18")
+            evidence = site_reversal_null(evidence, ~np.asarray(health.excluded, bool))
         cand = shape_candidates(health, evidence, opt.shape_rule) & opt.shape_evidence  # localised shapes ("Sensor health, step 14")
         shape = shape_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, sensor_factors=joint.factors,
                                         sensors=cand) if cand.any() else None
