@@ -79,9 +79,9 @@ def test_the_site_null_cuts_the_healthy_tail_and_keeps_a_clear_reversal():
     after = (out.log_bayes_factor[healthy] > REVERSED_ALL_DAYS_LBF).sum()
     assert before >= 6 and after <= before / 3, (before, after)  # the 2-standard-error tolerance keeps a few
     assert out.log_bayes_factor[7] > REVERSED_ALL_DAYS_LBF
-    excluded = kept.copy()
-    excluded[:5] = False  # sensors the health tests excluded do not enter the null, and get their evidence unchanged
-    assert site_reversal_null(replace(ev, log_bayes_factor=np.where(excluded, lbf, np.nan)), excluded).null_shift > 0
+    partly = kept.copy()
+    partly[:5] = False  # sensors the health tests excluded do not enter the null
+    assert site_reversal_null(replace(ev, log_bayes_factor=np.where(partly, lbf, np.nan)), partly).null_shift > 0
 
 
 def test_record_length_factor_is_one_on_the_calibration_records_and_grows_as_the_cube_root():

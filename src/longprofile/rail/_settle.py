@@ -1280,24 +1280,12 @@ class SettlementSettings:
                 raise InputError("give either thresholds (by quantity and level) or settlement_threshold_m / "
                                  "rate_threshold_m_per_day, not both.")
             object.__setattr__(self, "thresholds", check_thresholds(self.thresholds))
-        if self.max_settlement_interval not in MAX_SETTLEMENT_INTERVALS:
-            raise InputError(f"max_settlement_interval must be one of {MAX_SETTLEMENT_INTERVALS}; "
-                             f"got {self.max_settlement_interval!r}.")
-        if self.shape_rule not in SHAPE_RULES:
-            raise InputError(f"shape_rule must be one of {SHAPE_RULES}; got {self.shape_rule!r}.")
-        if self.health_end_anchor not in HEALTH_END_ANCHORS:
-            raise InputError(f"health_end_anchor must be one of {HEALTH_END_ANCHORS}; got {self.health_end_anchor!r}.")
-        if self.reversal_z_rule not in REVERSAL_Z_RULES:
-            raise InputError(f"reversal_z_rule must be one of {REVERSAL_Z_RULES}; got {self.reversal_z_rule!r}.")
-        if self.settlement_end_anchor not in SETTLEMENT_END_ANCHORS:
-            raise InputError(f"settlement_end_anchor must be one of {SETTLEMENT_END_ANCHORS}; "
-                             f"got {self.settlement_end_anchor!r}.")
-        if self.end_ambiguity not in END_AMBIGUITIES:
-            raise InputError(f"end_ambiguity must be one of {END_AMBIGUITIES}; got {self.end_ambiguity!r}.")
-        if self.witness_rule not in WITNESS_RULES:
-            raise InputError(f"witness_rule must be one of {WITNESS_RULES}; got {self.witness_rule!r}.")
-        if self.reversal_null not in REVERSAL_NULLS:
-            raise InputError(f"reversal_null must be one of {REVERSAL_NULLS}; got {self.reversal_null!r}.")
+        for name, choices in (("max_settlement_interval", MAX_SETTLEMENT_INTERVALS), ("shape_rule", SHAPE_RULES),
+                              ("health_end_anchor", HEALTH_END_ANCHORS), ("reversal_z_rule", REVERSAL_Z_RULES),
+                              ("settlement_end_anchor", SETTLEMENT_END_ANCHORS), ("end_ambiguity", END_AMBIGUITIES),
+                              ("witness_rule", WITNESS_RULES), ("reversal_null", REVERSAL_NULLS)):
+            if getattr(self, name) not in choices:
+                raise InputError(f"{name} must be one of {choices}; got {getattr(self, name)!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
         if self.quiet_days is not None:
             object.__setattr__(self, "quiet_days", tuple(self.quiet_days))
