@@ -49,6 +49,21 @@ LAG_AUTO_GRID_HOURS = (0.0, 1.0, 3.0, 6.0)
 OUTLIER_THRESHOLD = 8.0
 
 
+def _noise_std(dev) -> float:
+    """Robust noise std of a sensor's readings from their deviations from the 7-sample running median: 1.4826 x the
+    median of the *non-zero* |deviation| (0 when every deviation is 0, NaN when there is none).
+
+    Where the angle is monotonic over a 7-sample window (a thermal swing read hourly, steeper than the noise) the
+    running median is the reading itself and its deviation exactly 0; with these zeros the median collapsed to 0 on
+    sun-heated rails and the outlier threshold to its floor (docs/rail.md, "The outlier test's noise std, step 19").
+    """
+    ad = np.abs(np.asarray(dev, float))
+    if ad.size == 0:
+        return float("nan")
+    nz = ad[ad > 0]
+    return 1.4826 * float(np.median(nz)) if nz.size else 0.0
+
+
 @dataclass(frozen=True, eq=False)
 class DailyAngles:
     """Daily angles per sensor after outlier removal and thermal correction.
@@ -76,7 +91,8 @@ class DailyAngles:
     temperature_mean_c : (D,) ndarray or None
         Site-mean daily temperature (mean of every finite temperature reading of the day), °C.
     noise_deg : (N,) ndarray
-        Robust high-frequency noise std of each sensor, deg.
+        Robust high-frequency noise std of each sensor (:func:`_noise_std`), deg: the outlier threshold is
+        ``OUTLIER_THRESHOLD`` max(noise_deg, 1e-4).
     thermal_coef : (N,) ndarray
         k, deg/°C (0 for ``thermal="none"``).
     thermal_lag_hours : (N,) ndarray
@@ -175,11 +191,11 @@ MEDIAN_UPDATE_TOLERANCE_DEG = 1e-5
 #: (:func:`day_statistics`, Notes).
 NOISE_STD_TOLERANCE = 0.01
 DAY_FIELDS = ("n_raw", "raw_median_deg", "raw_spread_deg", "noise_used_deg", "n_dev_below", "n_dev_at_most",
-              "n_outliers", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
+              "n_dev_nonzero", "n_outliers", "n_kept", "thermal_slope", "coef_deg_per_c", "median_deg",
               "median_temp_c", "temp_range_c", "temperature_sum_c", "n_temperature", "last_ts",
               "n_below_lines", "median_window_deg_per_c")
-_INT_FIELDS = ("n_raw", "n_dev_below", "n_dev_at_most", "n_outliers", "n_kept", "n_temperature", "last_ts",
-               "n_below_lines")
+_INT_FIELDS = ("n_raw", "n_dev_below", "n_dev_at_most", "n_dev_nonzero", "n_outliers", "n_kept", "n_temperature",
+               "last_ts", "n_below_lines")
 #: Kept readings per (day, sensor) whose (angle, temperature) are kept with the day's statistics: the ones whose
 #: corrected angle is nearest the day's median (``DayStatistics.median_lines``). From them the median at another
 #: thermal coefficient k' is exact while |k' - k| <= ``median_window_deg_per_c`` (:func:`day_statistics`, Notes).
@@ -206,12 +222,13 @@ class DayStatistics:
     raw_median_deg, raw_spread_deg : (D, N) ndarray
         Median and robust spread (1.4826 MAD, NaN below 2 readings) of the raw angles, deg.
     noise_used_deg : (D, N) ndarray
-        Robust noise std s of the sensor the day was computed with (1.4826 median |angle - 7-sample running
-        median| over the sensor's readings, §3), deg; the outlier threshold is 8 max(s, 1e-4).
-    n_dev_below, n_dev_at_most : (D, N) int ndarray
-        Readings with 1.4826 |deviation| < s (1 - e) and <= s (1 + e), e = :data:`NOISE_STD_TOLERANCE`: summed
-        over the days, they tell whether the noise std of all the sensor's readings is still within s (1 +- e)
-        (exactly, without the readings).
+        Robust noise std s of the sensor the day was computed with (1.4826 median of the non-zero |angle - 7-sample
+        running median| over the sensor's readings, §3, :func:`_noise_std`), deg; the outlier threshold is
+        8 max(s, 1e-4).
+    n_dev_below, n_dev_at_most, n_dev_nonzero : (D, N) int ndarray
+        Readings with 0 < 1.4826 |deviation| < s (1 - e), with 0 < 1.4826 |deviation| <= s (1 + e), and with a
+        non-zero deviation, e = :data:`NOISE_STD_TOLERANCE`: summed over the days, they tell whether the noise std
+        of all the sensor's readings is still within s (1 +- e) (exactly, without the readings).
     n_outliers : (D, N) int ndarray
     n_kept : (D, N) int ndarray
         Readings kept (after outlier removal).
@@ -261,6 +278,7 @@ class DayStatistics:
     noise_used_deg: np.ndarray
     n_dev_below: np.ndarray
     n_dev_at_most: np.ndarray
+    n_dev_nonzero: np.ndarray
     n_outliers: np.ndarray
     n_kept: np.ndarray
     thermal_slope: np.ndarray
@@ -396,8 +414,10 @@ def _sensor_days(a, T, dev, day, D, *, noise, tref, coef_of):
     ad = np.abs(dev)
     out["noise_used_deg"] = np.where(out["n_raw"] > 0, noise, np.nan)
     m = noise / 1.4826 if np.isfinite(noise) else 0.0
-    out["n_dev_below"] = np.bincount(day[ad < m * (1 - NOISE_STD_TOLERANCE)], minlength=D)
-    out["n_dev_at_most"] = np.bincount(day[ad <= m * (1 + NOISE_STD_TOLERANCE)], minlength=D)
+    nonzero = ad > 0
+    out["n_dev_below"] = np.bincount(day[nonzero & (ad < m * (1 - NOISE_STD_TOLERANCE))], minlength=D)
+    out["n_dev_at_most"] = np.bincount(day[nonzero & (ad <= m * (1 + NOISE_STD_TOLERANCE))], minlength=D)
+    out["n_dev_nonzero"] = np.bincount(day[nonzero], minlength=D)
     keep = ad <= OUTLIER_THRESHOLD * max(noise if np.isfinite(noise) else 0.0, 1e-4)
     out["n_outliers"] = np.bincount(day[~keep], minlength=D)
     a, T, day = a[keep], T[keep], day[keep]
@@ -480,11 +500,11 @@ def _coef_rule(thermal, quiet_mask):
 
 
 def _noise_still_median(fields, j) -> bool:
-    """Is the noise std of all the sensor's readings (1.4826 x the median |deviation|, the mean of the two middle
-    values for an even count) still within NOISE_STD_TOLERANCE of the kept one s? Exactly: the lower middle value
-    is >= s (1 - e) while fewer than (n - 1) // 2 + 1 readings are below it, the upper one <= s (1 + e) while at
-    least n // 2 + 1 are at most it."""
-    n = int(fields["n_raw"][:, j].sum())
+    """Is the noise std of all the sensor's readings (1.4826 x the median non-zero |deviation|, the mean of the two
+    middle values for an even count, :func:`_noise_std`) still within NOISE_STD_TOLERANCE of the kept one s?
+    Exactly, over the n non-zero deviations: the lower middle value is >= s (1 - e) while fewer than (n - 1) // 2 + 1
+    of them are below it, the upper one <= s (1 + e) while at least n // 2 + 1 are at most it."""
+    n = int(fields["n_dev_nonzero"][:, j].sum())
     if n == 0:
         return True
     return bool(fields["n_dev_below"][:, j].sum() <= (n - 1) // 2 and fields["n_dev_at_most"][:, j].sum() >= n // 2 + 1)
@@ -598,7 +618,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
         dev = a - med
         a, T, d, dev, t = a[w], T[w], d[w], dev[w], t[w]
         if prev is None:
-            s_hf = 1.4826 * np.median(np.abs(dev)) if dev.size else np.nan
+            s_hf = _noise_std(dev)
             rawstd[j] = 1.4826 * np.median(np.abs(a - np.median(a))) if a.size else 0.0
             base = None
         else:
@@ -610,7 +630,7 @@ def day_statistics(readings: pd.DataFrame, sensor_ids, *, thermal: str = "linear
             s_hf = _kept_noise(fields, j, P)
             if s_hf is None:  # no cached day of this sensor: its noise needs all its readings
                 stale.append(sid)
-                s_hf = 1.4826 * np.median(np.abs(dev)) if dev.size else np.nan
+                s_hf = _noise_std(dev)
         st, k, fitted = _sensor_days(a, T, dev, loc, Dn, noise=s_hf, tref=tref, coef_of=coef_of)
         for f, v in st.items():
             fields[f][P:, j] = v
@@ -762,7 +782,7 @@ def _sensor_series(g, t0, days):
     day = np.searchsorted(days.to_numpy(), g["timestamp"].dt.normalize().to_numpy())
     med = median_filter(a, size=7, mode="nearest") if a.size >= 7 else np.full_like(a, np.median(a))
     dev = a - med
-    return a, T, th, day, dev, (1.4826 * np.median(np.abs(dev)) if a.size else 0.0)
+    return a, T, th, day, dev, (_noise_std(dev) if a.size else 0.0)
 
 
 def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_GRID_HOURS) -> np.ndarray:

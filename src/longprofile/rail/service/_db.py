@@ -260,6 +260,7 @@ class DayStat(Base):
     noise_used_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
     n_dev_below: Mapped[int] = mapped_column(Integer)
     n_dev_at_most: Mapped[int] = mapped_column(Integer)
+    n_dev_nonzero: Mapped[int] = mapped_column(Integer, default=0)
     n_outliers: Mapped[int] = mapped_column(Integer)
     n_kept: Mapped[int] = mapped_column(Integer)
     thermal_slope: Mapped[float | None] = mapped_column(Float, nullable=True)
