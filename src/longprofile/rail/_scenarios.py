@@ -14,6 +14,7 @@ assumes) so that the estimator can be validated on effects it does not model:
   harmless), frozen (stuck from a random day on), detached (a jump of the angle at a random
   time and a new thermal coefficient), dead (no readings from an early day on);
 * different **sensor counts and spacings** (irregular, jittered stations);
+* **logger outages**: a group of consecutive sensors (one logger's) without any reading for whole days;
 * a **settlement bowl** from nearby works with random depth, position, width and timing,
   appearing during night works on random days, plus slow creep between them.
 
@@ -45,7 +46,9 @@ class ScenarioFamily:
 
     Ranges are (low, high); ``*_log`` ranges are sampled log-uniformly. ``control_surveys``: that many control
     surveys (the initial survey's points levelled again on distinct days of the last two thirds, with
-    ``survey_noise_m``; :attr:`Scenario.controls`); 0, the default, none.
+    ``survey_noise_m``; :attr:`Scenario.controls`); 0, the default, none. ``logger_outages``: that many outages,
+    each ``outage_sensors`` consecutive sensors without any reading for ``outage_days`` whole days after the
+    reference day (:func:`_logger_outages`); 0, the default, none.
     """
 
     name: str
@@ -73,6 +76,9 @@ class ScenarioFamily:
     noise_free: bool = False
     bowl_shape: str = "gaussian"
     control_surveys: int = 0
+    logger_outages: int = 0
+    outage_sensors: tuple = (6, 12)
+    outage_days: tuple = (1, 4)
 
 
 SCENARIO_FAMILIES = {
@@ -86,6 +92,8 @@ SCENARIO_FAMILIES = {
     # rails heated by the sun: daily swings of 15-30 degC and sensor lags of 1-6 h (hysteresis loops of paper 004 §5.1,
     # the farebersviller-like preset's), where the linear thermal model leaves a loop in every day's readings
     "sun-lag": ScenarioFamily("sun-lag", daily_swing_c=(15.0, 30.0), thermal_lag_minutes_log=(60.0, 360.0)),
+    # loggers that stop for days (power, telemetry): two outages of 6-12 consecutive sensors for 1-4 days each
+    "drift-outages": ScenarioFamily("drift-outages", drift_deg_per_sqrt_day_log=(1e-3, 1e-2), logger_outages=2),
 }
 #: The ``faults`` family with a settlement that is not a Gaussian bowl (:data:`BOWL_SHAPES`; docs/rail.md, "Sensor
 #: health, step 14"): what the health tests flag when the settlement has another shape.
@@ -248,6 +256,9 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
         angle = np.where(sign[None, :] < 0, 2 * offset[None, :] - angle, angle)
     if not f.noise_free:
         angle = np.round(angle, 5)  # 1e-4 deg resolution, one more digit kept
+    outages = _logger_outages(f, seed, N, D)
+    for j0, n, d0, k in outages:
+        angle[(t_day >= d0) & (t_day < d0 + k), j0:j0 + n] = np.nan
     stamps = start + pd.to_timedelta(t_min, unit="min")
     readings = pd.DataFrame({"timestamp": np.repeat(stamps.to_numpy(), N), "sensor_id": np.tile(ids, T),
                              "angle_deg": angle.ravel(), "temperature_c": np.round(temp.ravel(), 2)})
@@ -265,12 +276,27 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                           params=dict(depth_m=depth, width_m=width, center_m=center, first_work_day=int(work[0]),
                                       bowl_shape=f.bowl_shape,
                                       creep_fraction=bowl["creep"], daily_swing_c=swing, noise_deg=noise,
-                                      n_sensors=N, n_days=D, sampling_minutes=dt_min))
+                                      n_sensors=N, n_days=D, sampling_minutes=dt_min,
+                                      logger_outages=[dict(first_sensor=ids[j0], n_sensors=n, first_day=d0, n_days=k)
+                                                      for j0, n, d0, k in outages]))
     controls = None
     if f.control_surveys > 0:
         controls = _scenario_controls(f, seed, days, sx, z0, depth_at, center, width)
     return Scenario(sensors=pd.DataFrame({"sensor_id": ids, "x_m": x}), readings=readings, survey=survey,
                     truth=truth, family=f.name, seed=int(seed), controls=controls)
+
+
+def _logger_outages(f, seed, N: int, D: int) -> list:
+    """``f.logger_outages`` outages as (first sensor index, sensors, first day, days): ``outage_sensors`` consecutive
+    sensors silent for ``outage_days`` whole days, never the reference day 0. Drawn from their own stream
+    (``default_rng([seed, 13])``), so that a family's sites are otherwise the same with and without them."""
+    rng = np.random.default_rng([int(seed), 13])
+    out = []
+    for _ in range(int(f.logger_outages)):
+        n = int(min(rng.integers(f.outage_sensors[0], f.outage_sensors[1] + 1), N))
+        k = int(min(rng.integers(f.outage_days[0], f.outage_days[1] + 1), D - 1))
+        out.append((int(rng.integers(0, N - n + 1)), n, int(rng.integers(1, D - k + 1)), k))
+    return out
 
 
 def _scenario_controls(f, seed, days, sx, z0, depth_at, center, width) -> pd.DataFrame:
