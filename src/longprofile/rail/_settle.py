@@ -1571,6 +1571,16 @@ class _JointFit:
     end_shift: np.ndarray | None = None  # (2, D, N) the second hypothesis' means minus the first's (_end_mixture)
     end_weight: float = 0.0  # the second hypothesis' weight (_end_mixture)
     end_sigma_z: float | None = None  # its end-anchor std
+    imputed_mode_slopes: np.ndarray | None = None  # (n, D-1, N) the modes' data of completed records (_impute_missing)
+
+
+#: Records completed by draws of the missing sensor-days (:func:`_impute_missing`) among which the maximum
+#: settlement's Monte Carlo draws are shared (docs/rail.md, "Logger outages").
+MISSING_DAY_IMPUTATIONS = 8
+#: Largest days x sensors x missing sensor-days for which the missing days are treated as missing
+#: (:func:`_impute_missing` keeps one (D, N) response per missing entry: 40 MB per array at this size, e.g. 4 400
+#: missing sensor-days on 28 days of 40 sensors, 230 on a year of 58); beyond, they stay interpolated, with a warning.
+MISSING_DAY_MAX_ELEMENTS = 5_000_000
 
 
 def _fill_missing_days(M, t):
@@ -1594,29 +1604,120 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     if not opt.joint_days or opt.rigidity is not None or D - 1 < 5 or (np.isfinite(M).sum(axis=0) > 0).sum() < 5:
         return None
     t = np.asarray((pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1), float)
+    observed = np.asarray(M, float)
     M, n_filled = _fill_missing_days(M, t)
-    if n_filled:
+    exact = n_filled * M.size <= MISSING_DAY_MAX_ELEMENTS
+    if n_filled and exact:
+        warnings.append(f"{n_filled} sensor-day(s) without a daily angle: the all-days model's noise and prior were "
+                        "fitted without them, and its settlement and bands treat them as missing (docs/rail.md, "
+                        "\"Logger outages\").")
+    elif n_filled:
         warnings.append(f"{n_filled} sensor-day(s) without a daily angle were filled by linear interpolation over the "
-                        "days of their sensor (the all-days model needs every kept sensor on every day).")
-    noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+                        "days of their sensor and counted as measured (too many to treat as missing): the bands on and "
+                        "after those days are too narrow (docs/rail.md, \"Logger outages\").")
+    seen = observed if n_filled else None
+    noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt, seen)
     for _ in range(JOINT_FACTOR_REFITS if factors is not None else 0):
         quiet = prior.rigidity_by_day <= (1.0 + 1e-9) * prior.rigidity_by_day.min()
-        factors = residual_noise_factors(M, jp.slope_mean, quiet, reference_factors=factors)
-        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt)
+        factors = residual_noise_factors(observed, jp.slope_mean, quiet, reference_factors=factors)
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt, seen)
     sz = _settlement_anchor(x, jp, prior.penalty_order, factors, weights, opt, health_sz)
     if sz != opt.sigma_z:
-        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, replace(opt, sigma_z=sz))
+        noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, replace(opt, sigma_z=sz), seen)
     modes = jp.modes
     post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
+    rate_std, imputed = jp.rate_std, None
+    if n_filled and exact:
+        post, rate_std, imputed = _impute_missing(x, observed, M, jp, noise.cov, prior.penalty_order, factors, weights,
+                                                  sz, np.random.default_rng(opt.rng))
     rate = np.full(M.shape, np.nan)
-    rate[1:] = np.diff(jp.z_mean, axis=0)
-    smoothed = TemporalSettlement(mean=jp.z_mean, std=jp.z_std, rate=rate, rate_std=jp.rate_std,
+    rate[1:] = np.diff(post["z_mean"], axis=0)
+    smoothed = TemporalSettlement(mean=post["z_mean"], std=post["z_std"], rate=rate, rate_std=rate_std,
                                   process_std=float("nan"))
     sig_days = np.sqrt(np.diag(noise.cov))
     sig_days = np.r_[sig_days[0], sig_days]
     return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
                      smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors,
-                     sigma_z=sz)
+                     sigma_z=sz, imputed_mode_slopes=imputed)
+
+
+def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights, sigma_z, rng,
+                    n_records: int = MISSING_DAY_IMPUTATIONS):
+    r"""The all-days posterior with the sensor-days that have no daily angle treated as missing (beyond paper 004).
+
+    The modes of :func:`~longprofile.rail._joint.joint_posterior` need every kept sensor on every day, so a missing
+    sensor-day was filled by interpolation and then counted as measured: its band did not widen. The posterior given
+    the observed days alone is exact here, from the complete-data posterior and its responses. With m the slope
+    changes of days 1..D-1 (every kept sensor), theta the settlement's, m = theta + e, e of sensor i ~ N(0, f_i^2 R),
+    the posterior mean is linear, theta_hat = H m (one ``joint_posterior`` call per data), and the precision of m is
+    Lambda = Sigma_e^{-1} (I - H). For the missing entries J (observed O):
+
+        E[m_J | m_O] = -(Lambda_JJ)^{-1} Lambda_JO m_O,   Cov[m_J | m_O] = (Lambda_JJ)^{-1},
+        E[theta | m_O] = H m*,   Cov[theta | m_O] = Cov[theta | m] + H_J Cov[m_J | m_O] H_J^T,
+
+    m* the record completed by E[m_J | m_O]; H_J's columns are the posterior means of unit data at each missing entry
+    (|J| + 1 calls), the same for z and the rate. The day covariance R, the increment prior and the factors are fitted
+    without the missing days (:func:`_joint_fit`'s ``observed``), the segment weights and the end anchor on the
+    interpolated record, and all are taken as known (named assumptions, docs/rail.md, "Logger outages").
+
+    Returns
+    -------
+    post : dict
+        ``z_mean``, ``z_std``, ``slope_mean``, ``slope_std``, ``noise_std`` (the last unchanged), (D, N) each.
+    rate_std : (D, N) ndarray
+    records : (n_records, D-1, N) ndarray
+        The modes' data of records completed by draws of m_J from N(E[m_J | m_O], Cov[m_J | m_O]), for the maximum
+        settlement's draws (:func:`_joint_max_settlement`).
+    """
+    obs = np.asarray(observed, float)[1:]
+    kept = np.isfinite(np.asarray(filled, float)[1:]).all(axis=0)
+    missing = np.isnan(obs) & kept[None, :]
+    days, cols = np.nonzero(missing)
+    f2 = (np.ones(kept.size) if factors is None else np.asarray(factors, float)) ** 2
+    base = np.where(kept[None, :], 0.0, np.nan) * np.ones_like(obs)  # excluded sensors stay NaN
+
+    def posterior(data):
+        return joint_posterior(x, np.vstack([np.zeros((1, kept.size)), data]), jp.modes, penalty_order=order,
+                               sensor_factors=factors, sigma_z=sigma_z, segment_weights=weights)
+
+    def precision_times(data, fitted):  # Sigma_e^{-1} (data - fitted), sensor by sensor over the days
+        out = np.linalg.solve(noise_cov, np.nan_to_num(data - fitted)) / f2[None, :]
+        return out[days, cols]
+
+    m0 = np.where(missing, 0.0, np.where(kept[None, :], obs, np.nan))
+    p0 = posterior(m0)
+    lam_o = precision_times(m0, p0.slope_mean[1:])
+    responses = []
+    for d, i in zip(days, cols):
+        unit = base.copy()
+        unit[d, i] = 1.0
+        r = posterior(unit)
+        responses.append((precision_times(unit, r.slope_mean[1:]), r.z_mean, r.slope_mean))
+    lam = np.column_stack([p for p, _, _ in responses])
+    lam = 0.5 * (lam + lam.T)
+    cov = np.linalg.inv(lam)
+    cov = 0.5 * (cov + cov.T)
+    m_star = -cov @ lam_o
+    w, V = np.linalg.eigh(cov)
+    root = V * np.sqrt(np.clip(w, 0.0, None))  # cov = root root^T
+
+    def combine(k, field):
+        cols_ = np.stack([r[k] for r in responses], axis=-1)  # (D, N, |J|)
+        return getattr(p0, field) + cols_ @ m_star, cols_
+
+    z_mean, Hz = combine(1, "z_mean")
+    slope_mean, Hs = combine(2, "slope_mean")
+    Hr = np.diff(Hz, axis=0)
+    post = {"z_mean": z_mean, "slope_mean": slope_mean, "noise_std": jp.noise_std,
+            "z_std": np.sqrt(jp.z_std**2 + np.sum((Hz @ root) ** 2, axis=-1)),
+            "slope_std": np.sqrt(jp.slope_std**2 + np.sum((Hs @ root) ** 2, axis=-1))}
+    rate_std = np.vstack([jp.rate_std[:1], np.sqrt(jp.rate_std[1:] ** 2 + np.sum((Hr @ root) ** 2, axis=-1))])
+    records = []
+    for _ in range(n_records):
+        done = np.where(kept[None, :], obs, np.nan)
+        done[days, cols] = m_star + root @ rng.standard_normal(root.shape[1])
+        records.append(jp.modes.to_modes @ done)
+    return post, rate_std, np.stack(records)
 
 
 #: The warning of a site whose end anchors the all-days likelihood loosened (``settlement_end_anchor="all-days"``).
@@ -1723,13 +1824,15 @@ def _end_mixture(x, slopes, days, daily: DailyAngles, health: SensorHealth, join
                    end_shift=shift, end_weight=w, end_sigma_z=float(sz1))
 
 
-def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings):
+def _joint_fit(x, M, t, daily: DailyAngles, sig, factors, opt: SettlementSettings, observed=None):
     """One fit of the all-days model with given sensor factors: (noise covariance, increment prior, segment weights,
-    JointPosterior)."""
-    noise = day_noise_covariance(x, M, day_offsets=t, temperature_change=_site_temperature_change(daily),
+    JointPosterior). ``observed``: the record with its missing sensor-days NaN (``M`` has them filled), from which the
+    noise covariance and the increment prior are fitted."""
+    seen = M if observed is None else observed
+    noise = day_noise_covariance(x, seen, day_offsets=t, temperature_change=_site_temperature_change(daily),
                                  sensor_factors=factors, floor=0.5 * sig)
     orders = PENALTY_ORDERS if opt.penalty_order is None else (opt.penalty_order,)
-    prior = increment_rigidity(x, M, noise_cov=noise.cov, sigma_z=opt.sigma_z, penalty_orders=orders,
+    prior = increment_rigidity(x, seen, noise_cov=noise.cov, sigma_z=opt.sigma_z, penalty_orders=orders,
                                sensor_factors=factors)
     modes = day_modes(noise.cov, prior.rigidity_by_day)
     order = prior.penalty_order
@@ -1751,10 +1854,13 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
     gen = np.random.default_rng(opt.rng)
     S = int(opt.n_monte_carlo)
     draws = np.empty((S, K, N))
-    for idx, s in _noise_groups(joint.modes.noise):
-        draws[:, idx] = sample_profiles(x, joint.mode_slopes[idx], S, sigma=_station_sigma(s, factors),
-                                        rigidity=joint.modes.rigidity, sigma_z=joint.sigma_z, rng=gen,
-                                        penalty_order=order, segment_weights=joint.weights)
+    # with imputed sensor-days (_impute_missing) the draws are shared among the completed records
+    records = joint.mode_slopes[None] if joint.imputed_mode_slopes is None else joint.imputed_mode_slopes
+    for data, rows in zip(records, np.array_split(np.arange(S), len(records))):
+        for idx, s in _noise_groups(joint.modes.noise):
+            draws[rows[0]:rows[-1] + 1, idx] = sample_profiles(
+                x, data[idx], rows.size, sigma=_station_sigma(s, factors), rigidity=joint.modes.rigidity,
+                sigma_z=joint.sigma_z, rng=gen, penalty_order=order, segment_weights=joint.weights)
     z = np.matmul(joint.modes.from_modes, draws)  # (K, K) @ (S, K, N): one BLAS product per draw
     if joint.end_shift is not None:  # the mixture of _end_mixture: a share w of the draws shifted by +/- delta
         pick = np.flatnonzero(gen.random(S) < joint.end_weight)
