@@ -208,3 +208,30 @@ def test_the_thermal_model_chosen_by_the_data_runs_as_rail_settle_runs_it(site):
     got = rows.merge(ref.to_table(), on=["date", "sensor_id"], suffixes=("", "_ref"))
     assert len(got) == ref.days.size * len(ref.sensor_ids)
     np.testing.assert_allclose(got["dz_m"], got["dz_m_ref"], rtol=1e-9, atol=1e-12)
+
+
+def test_a_logger_outage_is_treated_as_missing_as_rail_settle_does(site):
+    """Ten sensors silent for two days (a logger outage; a run during it and one after, the per-day cache carried
+    over): the stored results are ``estimate_settlement``'s on the same readings, whose all-days model treats the
+    missing sensor-days as missing (docs/rail.md, "Logger outages")."""
+    db, _, r = site
+    syn, _ = synthetic()
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    gone = (r["sensor_id"].isin(list(syn.sensors["sensor_id"])[20:30]) & days.isin(ud[3:5])).to_numpy()
+    _ingest_days(db, r[~gone], ud[4])
+    assert recompute(db, "mitt")["status"] == "ok"
+    _ingest_days(db, r[~gone], ud[-1])
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    ref = estimate_settlement(validate_site(syn.sensors, syn.readings[~gone].reset_index(drop=True), syn.survey),
+                              n_monte_carlo=0)
+    assert ref.settings["joint_days"] and any("treat them as missing" in w for w in ref.warnings)
+    with db.read() as s:
+        rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m)
+                                      .where(ResultRow.run_id == out["run_id"])).all(),
+                            columns=["date", "sensor_id", "dz_m", "dz_std_m"])
+    got = rows.merge(ref.to_table(), on=["date", "sensor_id"], suffixes=("", "_ref"))
+    assert len(got) == ref.days.size * len(ref.sensor_ids)
+    for c in ("dz_m", "dz_std_m"):
+        np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
