@@ -187,6 +187,24 @@ def test_empty_values_and_ignored_columns_are_reported(small):
     assert any("initial profile is the sensors' z_m column" in w for w in alone.warnings)
 
 
+def test_a_failed_temperature_channel_is_named(small):
+    """A sensor whose angles all come without a temperature loses every reading: the warning names it as a likely
+    failed temperature channel (not only a count), and the health tests say why it is dead."""
+    from longprofile.rail import estimate_settlement
+
+    r = small.readings.copy()
+    r.loc[r["sensor_id"] == "S07", "temperature_c"] = np.nan
+    r.loc[[3], "temperature_c"] = np.nan  # one empty value elsewhere is not a failed channel
+    site = validate_site(small.sensors, r, small.survey)
+    msg = [w for w in site.warnings if "empty angle or temperature" in w]
+    assert len(msg) == 1 and "never a temperature" in msg[0] and "['S07']" in msg[0]
+    res = estimate_settlement(site, n_monte_carlo=0)
+    j = res.sensor_ids.index("S07")
+    assert res.health.status[j] == "dead" and "angle and a temperature" in res.health.detail[j]
+    assert not any("never a temperature" in w for w in validate_site(small.sensors, small.readings,
+                                                                      small.survey).warnings)
+
+
 def test_angle_noise_decides_only_on_enough_differences():
     """One difference of a degree sensor can be below the radian threshold by chance: no decision on it."""
     from longprofile.rail import RADIAN_NOISE_THRESHOLD, angle_noise

@@ -190,6 +190,19 @@ def _check_reading_ranges(r: pd.DataFrame) -> None:
                              "reading and the column's unit.")
 
 
+def _temperature_less(r: pd.DataFrame) -> str:
+    """The sensors none of whose angles has a temperature (a failed temperature channel), for the warning of empty
+    readings: they lose every reading, and the health tests report them as dead."""
+    has_angle = r["angle_deg"].notna()
+    usable = (has_angle & r["temperature_c"].notna()).groupby(r["sensor_id"]).sum()
+    angles = has_angle.groupby(r["sensor_id"]).sum()
+    lost = sorted(usable.index[(usable == 0) & (angles > 0)])
+    if not lost:
+        return ""
+    return (f" {len(lost)} sensor(s) have angles but never a temperature (a failed temperature channel?): {lost[:5]}; "
+            "their angles cannot be corrected for temperature, and they are reported as dead.")
+
+
 def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
                   controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
                   check_units: bool = True) -> SiteData:
@@ -297,7 +310,8 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
                              "check_units=False (--no-check-units) if they really are degrees.")
     empty = int((r["angle_deg"].isna() | r["temperature_c"].isna()).sum())
     if empty:
-        warnings.append(f"{empty} reading(s) have an empty angle or temperature and are not used.")
+        warnings.append(f"{empty} reading(s) have an empty angle or temperature and are not used."
+                        + _temperature_less(r))
     without = sorted(known - set(r["sensor_id"].unique()))
     if without:
         warnings.append(f"{len(without)} sensor(s) have no readings at all: {without[:5]}; they are reported as dead.")

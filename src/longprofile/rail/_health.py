@@ -583,7 +583,7 @@ def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
     have = np.isfinite(slopes).sum(axis=0)
     for j in range(N):
         if have[j] == 0:
-            status[j], detail[j] = "dead", "no readings"
+            status[j], detail[j] = "dead", "no usable readings (none with both an angle and a temperature)"
         elif have[j] < 0.5 * D:
             status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
         elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:

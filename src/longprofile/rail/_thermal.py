@@ -821,6 +821,8 @@ def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_G
         if g is None:
             continue
         g = g[np.isfinite(g["angle_deg"].to_numpy()) & np.isfinite(g["temperature_c"].to_numpy())]
+        if len(g) == 0:  # angles without a temperature (a failed temperature channel): nothing to fit
+            continue
         a, T, th, day, dev, s_hf = _sensor_series(g, days[0], days)
         keep = np.abs(dev) <= OUTLIER_THRESHOLD * max(s_hf, 1e-4)
         if quiet_mask is not None:
