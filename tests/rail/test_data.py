@@ -46,7 +46,14 @@ def test_unknown_sensor_ids_are_an_error(small):
 
 def test_duplicate_timestamps_are_an_error(small):
     r = pd.concat([small.readings, small.readings.iloc[[10]]], ignore_index=True)
-    with pytest.raises(InputError, match="duplicate reading for sensor"):
+    with pytest.raises(InputError, match="duplicate reading for sensor") as one:
+        validate_site(small.sensors, r, small.survey)
+    assert "daylight-saving" not in str(one.value)
+    # a logger in local time when the clock goes back: every sensor repeats the hour 02:00-03:00
+    ts = pd.to_datetime(small.readings["timestamp"])
+    t3 = ts.min().normalize() + pd.Timedelta(days=2, hours=3)
+    r = small.readings.assign(timestamp=ts.where(ts < t3, ts - pd.Timedelta(hours=1)))
+    with pytest.raises(InputError, match="daylight-saving change"):
         validate_site(small.sensors, r, small.survey)
 
 

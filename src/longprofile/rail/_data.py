@@ -190,6 +190,17 @@ def _check_reading_ranges(r: pd.DataFrame) -> None:
                              "reading and the column's unit.")
 
 
+def _clock_change_hint(r: pd.DataFrame, dups) -> str:
+    """A hint for the duplicate-reading error when most sensors repeat time stamps within one hour: what a logger
+    recording local time writes when the clock goes back at the end of daylight-saving time."""
+    ts = r["timestamp"][dups.to_numpy()]
+    many = r["sensor_id"][dups.to_numpy()].nunique() > 0.5 * r["sensor_id"].nunique()
+    if not many or ts.max() - ts.min() > pd.Timedelta(hours=1):
+        return ""
+    return (f" Most sensors repeat the time stamps from {ts.min()} to {ts.max()}: a logger in local time at a "
+            "daylight-saving change? Give the time stamps in UTC.")
+
+
 def _temperature_less(r: pd.DataFrame) -> str:
     """The sensors none of whose angles has a temperature (a failed temperature channel), for the warning of empty
     readings: they lose every reading, and the health tests report them as dead."""
@@ -284,7 +295,7 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     if dups.any():
         i = int(np.nonzero(dups.to_numpy())[0][0])
         raise InputError(f"readings table, row {i}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
-                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp.")
+                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp." + _clock_change_hint(r, dups))
     back = (r.groupby("sensor_id", sort=False)["timestamp"].diff() < pd.Timedelta(0)).to_numpy()
     if back.any():
         bad = sorted(set(r["sensor_id"].to_numpy()[back]))
