@@ -150,10 +150,10 @@ def _outage_z(seeds, **overrides):
 def test_week_long_outages_widen_the_bands_where_the_days_are_missing(monkeypatch):
     """Outages of 5-10 days, seeds 100-109: on the missing sensor-days the 90 % band covers 77.1 % (RMS z 1.48)
     treated as missing, 67.0 % (1.76) interpolated and counted as measured (measured; pooled over seeds 100-139 85.3 %
-    against 74.6 %, docs/rail.md). Above ``MISSING_DAY_MAX_ELEMENTS`` the old treatment is kept, and said."""
+    against 74.6 %, docs/rail.md). Above ``MISSING_DAY_MAX`` the old treatment is kept, and said."""
     z, warned = _outage_z(range(100, 110), outage_days=(5, 10))
     assert len(warned) == 1 and "treat them as missing" in warned[0]
-    monkeypatch.setattr(settle, "MISSING_DAY_MAX_ELEMENTS", 0)
+    monkeypatch.setattr(settle, "MISSING_DAY_MAX", 0)
     z0, warned0 = _outage_z(range(100, 110), outage_days=(5, 10))
     assert len(warned0) == 1 and "counted as measured" in warned0[0]
     cover, cover0 = np.mean(np.abs(z) <= 1.6449), np.mean(np.abs(z0) <= 1.6449)

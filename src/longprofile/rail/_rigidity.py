@@ -833,7 +833,7 @@ def initial_profile_posterior(x, survey_x, survey_z, *, sigma_a: float = DEFAULT
 
 def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, rigidity: float = DEFAULT_RIGIDITY,
                     sigma_z: float = DEFAULT_SIGMA_Z, z_ends=(0.0, 0.0), rng=None, penalty_order: int = 2,
-                    segment_weights=None, with_slopes: bool = False):
+                    segment_weights=None) -> np.ndarray:
     r"""Draw altitude profiles from the rigidity posterior (forward-filter backward-sample on the engine).
 
     Parameters
@@ -848,13 +848,10 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
         As in :func:`rigidity_posterior`.
     rng : None, int or numpy.random.Generator
 
-    with_slopes : bool, default False
-        Also return the slope of each draw (the same draws' second state component).
-
     Returns
     -------
     (n_samples, N) or (n_samples, D, N) ndarray
-        Altitude draws, m; with ``with_slopes`` a pair (altitudes, slopes in rad) of that shape.
+        Altitude draws, m.
 
     Notes
     -----
@@ -870,8 +867,7 @@ def sample_profiles(x, slopes, n_samples: int, *, sigma: float = DEFAULT_SIGMA, 
     Y = np.full(m.shape + (2,), np.nan)
     Y[..., 0] = m
     Y[..., -1, 1] = z_ends[1]
-    draws = posterior_sample(model, Y, n_samples, rng=rng)
-    return (draws[..., 0], draws[..., 1]) if with_slopes else draws[..., 0]
+    return posterior_sample(model, Y, n_samples, rng=rng)[..., 0]
 
 
 def max_settlement_monte_carlo(x, slopes, n_samples: int = 2000, *, sigma: float = DEFAULT_SIGMA,

@@ -1577,10 +1577,9 @@ class _JointFit:
 #: Records completed by draws of the missing sensor-days (:func:`_impute_missing`) among which the maximum
 #: settlement's Monte Carlo draws are shared (docs/rail.md, "Logger outages").
 MISSING_DAY_IMPUTATIONS = 8
-#: Largest days x sensors x missing sensor-days for which the missing days are treated as missing
-#: (:func:`_impute_missing` keeps one (D, N) response per missing entry: 40 MB per array at this size, e.g. 4 400
-#: missing sensor-days on 28 days of 40 sensors, 230 on a year of 58); beyond, they stay interpolated, with a warning.
-MISSING_DAY_MAX_ELEMENTS = 5_000_000
+#: Most missing sensor-days treated as missing (:func:`_impute_missing`: 2 |J| + 2 posterior calls and a |J| x |J|
+#: matrix, 72 MB at this count); beyond, they stay interpolated, with a warning.
+MISSING_DAY_MAX = 3000
 
 
 def _fill_missing_days(M, t):
@@ -1606,7 +1605,7 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     t = np.asarray((pd.DatetimeIndex(days) - pd.Timestamp(days[0])) / pd.Timedelta(days=1), float)
     observed = np.asarray(M, float)
     M, n_filled = _fill_missing_days(M, t)
-    exact = n_filled * M.size <= MISSING_DAY_MAX_ELEMENTS
+    exact = n_filled <= MISSING_DAY_MAX
     if n_filled and exact:
         warnings.append(f"{n_filled} sensor-day(s) without a daily angle: the all-days model's noise and prior were "
                         "fitted without them, and its settlement and bands treat them as missing (docs/rail.md, "
@@ -1655,8 +1654,9 @@ def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights,
         E[m_J | m_O] = -(Lambda_JJ)^{-1} Lambda_JO m_O,   Cov[m_J | m_O] = (Lambda_JJ)^{-1},
         E[theta | m_O] = H m*,   Cov[theta | m_O] = Cov[theta | m] + H_J Cov[m_J | m_O] H_J^T,
 
-    m* the record completed by E[m_J | m_O]; H_J's columns are the posterior means of unit data at each missing entry
-    (|J| + 1 calls), the same for z and the rate. The day covariance R, the increment prior and the factors are fitted
+    m* the record completed by E[m_J | m_O]. Lambda_JJ's columns come from the posterior means of unit data at each
+    missing entry, and diag(H_J Cov H_J^T) from the posterior means of the columns of a square root of Cov put at the
+    entries: 2 |J| + 2 calls, memory O(D N + |J|^2). The same for z and the rate. The day covariance R, the increment prior and the factors are fitted
     without the missing days (:func:`_joint_fit`'s ``observed``), the segment weights and the end anchor on the
     interpolated record, and all are taken as known (named assumptions, docs/rail.md, "Logger outages").
 
@@ -1685,33 +1685,32 @@ def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights,
         return out[days, cols]
 
     m0 = np.where(missing, 0.0, np.where(kept[None, :], obs, np.nan))
-    p0 = posterior(m0)
-    lam_o = precision_times(m0, p0.slope_mean[1:])
-    responses = []
-    for d, i in zip(days, cols):
+    lam_o = precision_times(m0, posterior(m0).slope_mean[1:])
+    lam = np.empty((days.size, days.size))
+    for c, (d, i) in enumerate(zip(days, cols)):  # Lambda_JJ, a column per missing entry (its unit response)
         unit = base.copy()
         unit[d, i] = 1.0
-        r = posterior(unit)
-        responses.append((precision_times(unit, r.slope_mean[1:]), r.z_mean, r.slope_mean))
-    lam = np.column_stack([p for p, _, _ in responses])
-    lam = 0.5 * (lam + lam.T)
-    cov = np.linalg.inv(lam)
+        lam[:, c] = precision_times(unit, posterior(unit).slope_mean[1:])
+    cov = np.linalg.inv(0.5 * (lam + lam.T))
     cov = 0.5 * (cov + cov.T)
     m_star = -cov @ lam_o
     w, V = np.linalg.eigh(cov)
     root = V * np.sqrt(np.clip(w, 0.0, None))  # cov = root root^T
-
-    def combine(k, field):
-        cols_ = np.stack([r[k] for r in responses], axis=-1)  # (D, N, |J|)
-        return getattr(p0, field) + cols_ @ m_star, cols_
-
-    z_mean, Hz = combine(1, "z_mean")
-    slope_mean, Hs = combine(2, "slope_mean")
-    Hr = np.diff(Hz, axis=0)
-    post = {"z_mean": z_mean, "slope_mean": slope_mean, "noise_std": jp.noise_std,
-            "z_std": np.sqrt(jp.z_std**2 + np.sum((Hz @ root) ** 2, axis=-1)),
-            "slope_std": np.sqrt(jp.slope_std**2 + np.sum((Hs @ root) ** 2, axis=-1))}
-    rate_std = np.vstack([jp.rate_std[:1], np.sqrt(jp.rate_std[1:] ** 2 + np.sum((Hr @ root) ** 2, axis=-1))])
+    done = m0.copy()
+    done[days, cols] = m_star
+    mean = posterior(done)  # H m*: the posterior mean given the observed days
+    # diag(H_J cov H_J^T) = sum_k (H_J root_k)^2, each H_J root_k the posterior mean of root_k put at the entries
+    add = {"z": np.zeros_like(mean.z_mean), "slope": np.zeros_like(mean.z_mean), "rate": np.zeros_like(obs)}
+    for k in np.flatnonzero(np.any(root != 0.0, axis=0)):
+        v = base.copy()
+        v[days, cols] = root[:, k]
+        r = posterior(v)
+        add["z"] += r.z_mean**2
+        add["slope"] += r.slope_mean**2
+        add["rate"] += np.diff(r.z_mean, axis=0) ** 2
+    post = {"z_mean": mean.z_mean, "slope_mean": mean.slope_mean, "noise_std": jp.noise_std,
+            "z_std": np.sqrt(jp.z_std**2 + add["z"]), "slope_std": np.sqrt(jp.slope_std**2 + add["slope"])}
+    rate_std = np.vstack([jp.rate_std[:1], np.sqrt(jp.rate_std[1:] ** 2 + add["rate"])])
     records = []
     for _ in range(n_records):
         done = np.where(kept[None, :], obs, np.nan)
