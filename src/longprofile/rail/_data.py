@@ -295,7 +295,8 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     if dups.any():
         i = int(np.nonzero(dups.to_numpy())[0][0])
         raise InputError(f"readings table, row {i}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
-                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp." + _clock_change_hint(r, dups))
+                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp."
+                         + _clock_change_hint(r, dups))
     back = (r.groupby("sensor_id", sort=False)["timestamp"].diff() < pd.Timedelta(0)).to_numpy()
     if back.any():
         bad = sorted(set(r["sensor_id"].to_numpy()[back]))

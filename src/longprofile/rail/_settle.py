@@ -437,9 +437,9 @@ _LOG10_RIGIDITY_GRID = {2: np.arange(-14.0, -5.0), 3: np.arange(-19.0, -7.0)}
 STIFFEST_LR = 0.5 * 3.841458820694124
 
 
-def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None, *, stiffest: bool = False):
-    """Maximum marginal likelihood of r (sigma fixed) over the profiles ``rows``: (r, log-likelihood), and with
-    ``stiffest`` the log-likelihood at the grid's stiffest r too."""
+def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None):
+    """Maximum marginal likelihood of r (sigma fixed) over the profiles ``rows``: (r, log-likelihood, log-likelihood
+    at the grid's stiffest r)."""
 
     groups = ([(np.arange(rows.shape[0]), float(sigma))] if np.ndim(sigma) == 0
               else _noise_groups(np.asarray(sigma, float)))
@@ -459,9 +459,7 @@ def _fit_rigidity(x, rows, sigma, sigma_z, penalty_order, factors=None, *, stiff
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     res = minimize_scalar(nll, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3})
     best, fun = (res.x, res.fun) if res.fun <= vals[k] else (grid[k], vals[k])
-    if stiffest:
-        return float(np.exp(best)), -float(fun), -float(vals[0])
-    return float(np.exp(best)), -float(fun)
+    return float(np.exp(best)), -float(fun), -float(vals[0])
 
 
 def _fit_rigidity_each(x, rows, sigmas, sigma_z, penalty_order, factors=None) -> np.ndarray:
@@ -903,8 +901,7 @@ def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_
     f = None if sensor_factors is None else np.asarray(sensor_factors, float)
     lls, rs, stiff = {}, {}, {}
     for order in penalty_orders:
-        rs[int(order)], lls[int(order)], stiff[int(order)] = _fit_rigidity(x, rows, sig, sigma_z, int(order), f,
-                                                                           stiffest=True)
+        rs[int(order)], lls[int(order)], stiff[int(order)] = _fit_rigidity(x, rows, sig, sigma_z, int(order), f)
     best = max(lls, key=lls.get)
     return ChangePriorFit(penalty_order=best, rigidity=rs[best], log_likelihood=lls, rigidities=rs,
                           sigma=float(sigma) if np.ndim(sigma) == 0 else float(np.median(sigma)),
@@ -1474,14 +1471,14 @@ def _change_prior_stage(x, M, sig, sig_days, drift, factors, opt: SettlementSett
         order, rig = prior_fit.penalty_order, prior_fit.rigidity
         if drift and prior_fit.log_likelihood[order] - prior_fit.stiffest_log_likelihood[order] < STIFFEST_LR:
             # the stiffest prior of the grid (no change) is not rejected (STIFFEST_LR): with the per-day noise the
-            # likelihood cannot tell the bowl from the noise (a weak bowl under strong drift, or a bowl spanning most of a sparse site that inflated the
-            # noise estimate) and the stiffest prior would claim "no change, no doubt". The prior is then
+            # likelihood cannot tell the bowl from the noise (a weak bowl under strong drift, or a bowl spanning most
+            # of a sparse site that inflated the noise estimate) and the stiffest prior would claim "no change, no doubt". The prior is then
             # fitted with the day-difference sigma (where the bowl stands out) and the per-day noise is kept:
             # before issue 13 step 7 the white noise model replaced it, whose late-day sigma is 5-10 times too
             # small on drifting sites (coverage 70-90 % on 3 of 24 calibration drift sites, 99-100 % now).
             warnings.append("error_model='drift': with the per-day noise the likelihood does not reject the prior "
-                            "at its stiffest (the settlement cannot be told from the noise); the prior is fitted with the "
-                            "day-to-day noise instead, the per-day noise is kept.")
+                            "at its stiffest (the settlement cannot be told from the noise); the prior is fitted with "
+                            "the day-to-day noise instead, the per-day noise is kept.")
             white = float(day_difference_sigma(M))
             prior_fit = fit_change_prior(x, M, sigma=white, sigma_z=opt.sigma_z, penalty_orders=orders)
             order, rig = prior_fit.penalty_order, prior_fit.rigidity
@@ -1656,8 +1653,8 @@ def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights,
 
     m* the record completed by E[m_J | m_O]. Lambda_JJ's columns come from the posterior means of unit data at each
     missing entry, and diag(H_J Cov H_J^T) from the posterior means of the columns of a square root of Cov put at the
-    entries: 2 |J| + 2 calls, memory O(D N + |J|^2). The same for z and the rate. The day covariance R, the increment prior and the factors are fitted
-    without the missing days (:func:`_joint_fit`'s ``observed``), the segment weights and the end anchor on the
+    entries: 2 |J| + 2 calls, memory O(D N + |J|^2). The same for z and the rate. The day covariance R, the increment
+    prior and the factors are fitted without the missing days (:func:`_joint_fit`'s ``observed``), the segment weights and the end anchor on the
     interpolated record, and all are taken as known (named assumptions, docs/rail.md, "Logger outages").
 
     Returns
