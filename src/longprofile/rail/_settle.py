@@ -1624,8 +1624,9 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
     rate_std, imputed = jp.rate_std, None
     if n_filled and exact:
+        # a child stream: the maximum settlement's draws start from opt.rng itself, and must not reuse these numbers
         post, rate_std, imputed = _impute_missing(x, observed, M, jp, noise.cov, prior.penalty_order, factors, weights,
-                                                  sz, np.random.default_rng(opt.rng))
+                                                  sz, np.random.default_rng(opt.rng).spawn(1)[0])
     rate = np.full(M.shape, np.nan)
     rate[1:] = np.diff(post["z_mean"], axis=0)
     smoothed = TemporalSettlement(mean=post["z_mean"], std=post["z_std"], rate=rate, rate_std=rate_std,
