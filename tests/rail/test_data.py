@@ -186,23 +186,29 @@ def test_sensors_without_readings_are_reported(small):
 def test_empty_values_and_ignored_columns_are_reported(small):
     r = small.readings.copy()
     r.loc[[3, 4], "temperature_c"] = np.nan
+    r.loc[[5], "angle_deg"] = np.nan
     s = small.sensors.assign(z_m=1.0)
     site = validate_site(s, r, small.survey)
-    assert any("2 reading(s) have an empty angle or temperature" in w for w in site.warnings)
+    # the two temperatures are filled from the neighbours (test_temperature_fill.py); the empty angle is not used
+    assert any("2 reading(s) of" in w and "no temperature" in w for w in site.warnings)
+    assert any("1 reading(s) have an empty angle or temperature" in w for w in site.warnings)
+    kept = validate_site(s, r, small.survey, temperature_fill=False)
+    assert any("3 reading(s) have an empty angle or temperature" in w for w in kept.warnings)
     assert any("survey is used" in w for w in site.warnings)
     alone = validate_site(s, small.readings, None)
     assert any("initial profile is the sensors' z_m column" in w for w in alone.warnings)
 
 
 def test_a_failed_temperature_channel_is_named(small):
-    """A sensor whose angles all come without a temperature loses every reading: the warning names it as a likely
-    failed temperature channel (not only a count), and the health tests say why it is dead."""
+    """Without the fill (``temperature_fill=False``) a sensor whose angles all come without a temperature loses every
+    reading: the warning names it as a likely failed temperature channel (not only a count), and the health tests
+    say why it is dead."""
     from longprofile.rail import estimate_settlement
 
     r = small.readings.copy()
     r.loc[r["sensor_id"] == "S07", "temperature_c"] = np.nan
     r.loc[[3], "temperature_c"] = np.nan  # one empty value elsewhere is not a failed channel
-    site = validate_site(small.sensors, r, small.survey)
+    site = validate_site(small.sensors, r, small.survey, temperature_fill=False)  # not filled (the default fills)
     msg = [w for w in site.warnings if "empty angle or temperature" in w]
     assert len(msg) == 1 and "never a temperature" in msg[0] and "['S07']" in msg[0]
     res = estimate_settlement(site, n_monte_carlo=0)

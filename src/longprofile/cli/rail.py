@@ -101,6 +101,10 @@ def settle_command(
                                      help="Refuse angles that look like radians, or like degrees declared as "
                                           "radians (a median beyond 10 deg from level), and a survey steeper than "
                                           "25 % (millimetres under z_m)."),
+    temperature_fill: bool = typer.Option(True, "--temperature-fill/--no-temperature-fill",
+                                          help="A reading with an angle but no temperature (a failed temperature "
+                                               "channel) takes the median temperature of its 4 nearest sensors in "
+                                               "the same minute; --no-temperature-fill leaves it out (docs/rail.md)."),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
     quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "
                                                                    "the thermal fit then uses only these days."),
@@ -156,7 +160,8 @@ def settle_command(
         raise InputError("give either --thresholds FILE or --settlement-threshold-mm / --rate-threshold-mm-per-day, "
                          "not both.")
     graded = None if thresholds is None else read_rail_thresholds(thresholds)
-    site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units)
+    site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units,
+                          temperature_fill=temperature_fill)
     settings = SettlementSettings(
         thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
         rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,

@@ -73,7 +73,8 @@ from .._lazy import lazy_namespace
 _EXPORTS = {
     "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
     "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
-               "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey"),
+               "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
+               "fill_temperature", "TEMPERATURE_NEIGHBOURS"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
@@ -93,7 +94,7 @@ _EXPORTS = {
 
 __all__ = [
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
-    "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
+    "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
     "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",

@@ -22,7 +22,7 @@ from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
-           "track_angle", "check_survey"]
+           "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -47,6 +47,11 @@ TEMPERATURE_RANGE_C = (-80.0, 120.0)
 #: another unit -- degrees given as radians (x 57.3), millidegrees under a degree label -- and is refused unless
 #: ``check_units=False``.
 MAX_TRACK_ANGLE_DEG = 10.0
+#: :func:`fill_temperature`: a reading whose angle has no temperature takes the median temperature of this many
+#: nearest sensors (by station) that have one in the same minute.
+TEMPERATURE_NEIGHBOURS = 4
+#: :func:`fill_temperature` works on this many needed minutes at a time (memory: this x the sensors' count floats).
+_FILL_CHUNK = 20_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,6 +206,88 @@ def _clock_change_hint(r: pd.DataFrame, dups) -> str:
             "daylight-saving change? Give the time stamps in UTC.")
 
 
+def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
+                     neighbours: int = TEMPERATURE_NEIGHBOURS) -> tuple[pd.DataFrame, dict[str, int]]:
+    """Readings whose angle has no temperature given the median temperature of their nearest sensors' readings.
+
+    The thermal correction (paper 004 §3) needs each reading's temperature. Where a sensor's temperature channel has
+    failed (all its readings) or drops out (some), its angles would be lost; the rail a few metres away has nearly
+    the same temperature. Each such reading takes the median of the temperatures read in the same minute
+    (time stamps floored to the minute) by the ``neighbours`` nearest sensors (by ``|x_m|`` distance; the sensor
+    itself excluded) that have one. A constant offset between the sensor and its neighbours (shade) cancels in the
+    settlement, which is a change from the reference day; a different daily swing (sun exposure) or lag does not
+    (named in docs/rail.md, "A failed temperature channel"). A reading no sensor has a temperature for in that
+    minute keeps its NaN (and is left out, as before).
+
+    Parameters
+    ----------
+    readings : DataFrame
+        ``timestamp``, ``sensor_id``, ``angle_deg``, ``temperature_c`` (the long format; NaN where missing).
+    sensors : DataFrame
+        ``sensor_id``, ``x_m``: the stations that order the neighbours.
+    neighbours : int, default :data:`TEMPERATURE_NEIGHBOURS`
+        How many nearest sensors with a temperature enter each median.
+
+    Returns
+    -------
+    readings : DataFrame
+        A copy with the filled temperatures (the same rows, order and index); ``readings`` itself when nothing was
+        filled.
+    filled : dict of str -> int
+        Readings filled per sensor id (only sensors with at least one).
+    """
+    if neighbours < 1:
+        raise InputError(f"neighbours must be at least 1; got {neighbours!r}.")
+    temp = readings["temperature_c"].to_numpy(float)
+    need = np.isnan(temp) & readings["angle_deg"].notna().to_numpy()
+    if not need.any():
+        return readings, {}
+    ids = sensors["sensor_id"].astype(str).to_numpy()
+    x = sensors["x_m"].to_numpy(float)
+    col = pd.Index(ids).get_indexer(readings["sensor_id"].astype(str))
+    minute = readings["timestamp"].dt.floor("min").to_numpy()
+    have = np.isfinite(temp) & (col >= 0)
+    keys, key_of = np.unique(minute[need], return_inverse=True)
+    key = np.full(temp.size, -1)
+    key[need] = key_of
+    out = temp.copy()
+    rows = np.flatnonzero(need)
+    for lo in range(0, keys.size, _FILL_CHUNK):  # a dense minute x sensor table of the needed minutes, in chunks
+        ks = keys[lo:lo + _FILL_CHUNK]
+        pos = np.searchsorted(ks, minute)
+        src = have & (pos < ks.size)
+        src[src] = ks[pos[src]] == minute[src]
+        table = np.full((ks.size, ids.size), np.nan)
+        table[pos[src], col[src]] = temp[src]  # several readings of one sensor in a minute: one of them
+        mine = rows[(key_of >= lo) & (key_of < lo + ks.size)]
+        for j in np.unique(col[mine]):
+            at = mine[col[mine] == j]
+            order = np.argsort(np.abs(x - x[j]), kind="stable")
+            order = order[order != j]
+            vals = table[key[at] - lo][:, order]
+            ok = np.isfinite(vals)
+            vals[~ok | (np.cumsum(ok, axis=1) > neighbours)] = np.nan
+            with np.errstate(all="ignore"):
+                some = ok.any(axis=1)
+                out[at[some]] = np.nanmedian(vals[some], axis=1)
+    done = need & np.isfinite(out)
+    if not done.any():
+        return readings, {}
+    r = readings.copy()
+    r["temperature_c"] = out
+    counts = pd.Series(readings["sensor_id"].to_numpy()[done]).value_counts(sort=False)
+    return r, {str(k): int(v) for k, v in counts.items()}
+
+
+def _filled_warning(filled: dict[str, int]) -> str:
+    """The warning of :func:`fill_temperature`'s work, naming the sensors with the most readings filled."""
+    top = sorted(filled, key=lambda k: (-filled[k], k))
+    return (f"{sum(filled.values())} reading(s) of {len(filled)} sensor(s) had an angle but no temperature (a failed "
+            f"or intermittent temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
+            f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute "
+            "(temperature_fill=False, CLI --no-temperature-fill, leaves them out).")
+
+
 def _temperature_less(r: pd.DataFrame) -> str:
     """The sensors none of whose angles has a temperature (a failed temperature channel), for the warning of empty
     readings: they lose every reading, and the health tests report them as dead."""
@@ -216,7 +303,7 @@ def _temperature_less(r: pd.DataFrame) -> str:
 
 def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
                   controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
-                  check_units: bool = True) -> SiteData:
+                  check_units: bool = True, temperature_fill: bool = True) -> SiteData:
     """Validate the four tables of a site and return a :class:`SiteData`.
 
     Parameters
@@ -232,6 +319,10 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         beyond :data:`MAX_TRACK_ANGLE_DEG` from level, and a survey steeper than :data:`MAX_SURVEY_GRADE` (millimetres
         under a metre label). Altitudes beyond any terrain and controls beyond :data:`MAX_CONTROL_CHANGE_M` from the
         survey are refused either way.
+    temperature_fill : bool, default True
+        A reading with an angle but no temperature (a failed or intermittent temperature channel) takes its
+        neighbours' temperature of the same minute (:func:`fill_temperature`, with a warning naming the sensors);
+        False leaves it out, as a reading without an angle is (a sensor without any temperature is then dead).
 
     Returns
     -------
@@ -251,7 +342,7 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     if angle_unit not in ("deg", "rad"):
         raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
     s = _valid_sensors(sensors)
-    r = _valid_readings(readings, s, angle_unit, check_units, warnings)
+    r = _valid_readings(readings, s, angle_unit, check_units, warnings, temperature_fill)
     sv = _valid_survey(survey, s, warnings, check_units)
     ct = _valid_controls(controls, s, sv, warnings)
     return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
@@ -279,7 +370,7 @@ def _valid_sensors(sensors: pd.DataFrame) -> pd.DataFrame:
 
 
 def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, check_units: bool,
-                    warnings: list) -> pd.DataFrame:
+                    warnings: list, temperature_fill: bool = True) -> pd.DataFrame:
     """The readings table: known sensors, one reading per (sensor, time), sorted, angles in degrees."""
     _require_columns(readings, READING_COLUMNS, "readings")
     r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp"),
@@ -320,6 +411,10 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
                              f"successive differences), implausibly small for degrees (inclinometers: ~1e-3..1e-2 deg); "
                              "the angles look like radians. Pass angle_unit='rad' (CLI: --angle-unit rad), or "
                              "check_units=False (--no-check-units) if they really are degrees.")
+    if temperature_fill:
+        r, filled = fill_temperature(r, s)
+        if filled:
+            warnings.append(_filled_warning(filled))
     empty = int((r["angle_deg"].isna() | r["temperature_c"].isna()).sum())
     if empty:
         warnings.append(f"{empty} reading(s) have an empty angle or temperature and are not used."

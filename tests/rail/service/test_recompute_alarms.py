@@ -26,6 +26,17 @@ def _ingest_days(db, r, upto_day):
         _core.ingest(db, "mitt", part.iloc[i:i + 2000].to_dict("records"), now=NOW)
 
 
+def _stored_against(db, run_id, ref) -> pd.DataFrame:
+    """The run's stored (date, sensor) rows merged with ``ref.to_table()`` (columns ``_ref``): one per day and sensor."""
+    with db.read() as s:
+        rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m)
+                                      .where(ResultRow.run_id == run_id)).all(),
+                            columns=["date", "sensor_id", "dz_m", "dz_std_m"])
+    got = rows.merge(ref.to_table(), on=["date", "sensor_id"], suffixes=("", "_ref"))
+    assert len(got) == ref.days.size * len(ref.sensor_ids)
+    return got
+
+
 def test_stored_results_are_those_of_estimate_settlement(site):
     db, _, r = site
     syn, _ = synthetic()
@@ -227,11 +238,36 @@ def test_a_logger_outage_is_treated_as_missing_as_rail_settle_does(site):
     ref = estimate_settlement(validate_site(syn.sensors, syn.readings[~gone].reset_index(drop=True), syn.survey),
                               n_monte_carlo=0)
     assert ref.settings["joint_days"] and any("treat them as missing" in w for w in ref.warnings)
-    with db.read() as s:
-        rows = pd.DataFrame(s.execute(select(ResultRow.day, ResultRow.sensor_id, ResultRow.dz_m, ResultRow.dz_std_m)
-                                      .where(ResultRow.run_id == out["run_id"])).all(),
-                            columns=["date", "sensor_id", "dz_m", "dz_std_m"])
-    got = rows.merge(ref.to_table(), on=["date", "sensor_id"], suffixes=("", "_ref"))
-    assert len(got) == ref.days.size * len(ref.sensor_ids)
+    got = _stored_against(db, out["run_id"], ref)
+    for c in ("dz_m", "dz_std_m"):
+        np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
+
+
+def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
+    """Two sensors send angles without a temperature (a failed channel, from day 3 on; a run before and one after,
+    the per-day cache carried over): ingestion keeps the rows, and the stored results are ``estimate_settlement``'s
+    on the same readings, whose temperatures ``validate_site`` fills from the nearest sensors (docs/rail.md, "A
+    failed temperature channel")."""
+    db, _, r = site
+    syn, _ = synthetic()
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    ids = list(syn.sensors["sensor_id"])
+    failed = (r["sensor_id"].isin([ids[11], ids[31]]) & (days >= ud[3])).to_numpy()
+    r = r.copy()
+    r.loc[failed, "temperature_c"] = np.nan
+    _ingest_days(db, r, ud[4])
+    assert recompute(db, "mitt")["status"] == "ok"
+    _ingest_days(db, r, ud[-1])
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    readings = syn.readings.copy()
+    readings.loc[failed, "temperature_c"] = np.nan
+    site_data = validate_site(syn.sensors, readings, syn.survey)
+    assert any("no temperature" in w for w in site_data.warnings)
+    ref = estimate_settlement(site_data, n_monte_carlo=0)
+    got = _stored_against(db, out["run_id"], ref)
+    ids = list(syn.sensors["sensor_id"])
+    assert (got.loc[got["sensor_id"].isin([ids[11], ids[31]]), "status"] != "dead").all()  # they are kept
     for c in ("dz_m", "dz_std_m"):
         np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)

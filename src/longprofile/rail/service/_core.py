@@ -716,7 +716,12 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
             ang = _parse_num(r.get("angle_deg"), "angle_deg", *lim)
             if angle_unit == "rad":
                 ang = math.degrees(ang)
-            tmp = _parse_num(r.get("temperature_c"), "temperature_c", *TEMPERATURE_RANGE_C)
+            # a failed temperature channel: the angle is kept (temperature NULL) and the recompute gives it its
+            # nearest sensors' temperature of the same minute, as `rail settle` does (rail.fill_temperature)
+            t_raw = r.get("temperature_c")
+            missing = (t_raw is None or (isinstance(t_raw, str) and not t_raw.strip())
+                       or (isinstance(t_raw, float) and math.isnan(t_raw)))
+            tmp = None if missing else _parse_num(t_raw, "temperature_c", *TEMPERATURE_RANGE_C)
         except ValueError as exc:
             out[i] = {"row": i, "outcome": "rejected", "reason": str(exc)}
             continue

@@ -1,0 +1,118 @@
+"""A failed temperature channel: its angles take the nearest sensors' temperature (rail.fill_temperature)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from longprofile.errors import InputError
+from longprofile.rail import estimate_settlement, fill_temperature, validate_site
+from longprofile.rail._scenarios import simulate_scenario
+
+
+def _brute_fill(readings: pd.DataFrame, sensors: pd.DataFrame, k: int) -> np.ndarray:
+    """The definition, row by row: the median of the k nearest other sensors' temperatures in the same minute."""
+    x = dict(zip(sensors["sensor_id"], sensors["x_m"]))
+    order = {sid: i for i, sid in enumerate(sensors["sensor_id"])}
+    minute = readings["timestamp"].dt.floor("min")
+    out = readings["temperature_c"].to_numpy(float).copy()
+    for i, row in readings.iterrows():
+        if not (np.isnan(row["temperature_c"]) and np.isfinite(row["angle_deg"])):
+            continue
+        same = readings[(minute == minute[i]) & (readings["sensor_id"] != row["sensor_id"])
+                        & readings["temperature_c"].notna()]
+        if same.empty:
+            continue
+        by_sensor = same.groupby("sensor_id")["temperature_c"].first()  # one reading per sensor and minute here
+        near = sorted(by_sensor.index, key=lambda s: (abs(x[s] - x[row["sensor_id"]]), order[s]))[:k]
+        out[i] = float(np.median(by_sensor[near].to_numpy()))
+    return out
+
+
+@st.composite
+def _sites(draw):
+    n = draw(st.integers(3, 7))
+    xs = np.cumsum(draw(st.lists(st.floats(0.5, 5.0), min_size=n, max_size=n)))
+    sensors = pd.DataFrame({"sensor_id": [f"S{i}" for i in range(n)], "x_m": xs})
+    n_t = draw(st.integers(1, 6))
+    t0 = pd.Timestamp("2024-03-01 00:00:00")
+    rows = []
+    for k in range(n_t):
+        for i in range(n):
+            # loggers a few seconds apart within the minute
+            rows.append((t0 + pd.Timedelta(minutes=10 * k, seconds=draw(st.integers(0, 59))), f"S{i}",
+                         draw(st.sampled_from([np.nan, 0.5, -0.3])),
+                         draw(st.sampled_from([np.nan, np.nan, 1.0, 2.5, 7.0, -3.0]))))
+    r = pd.DataFrame(rows, columns=["timestamp", "sensor_id", "angle_deg", "temperature_c"])
+    r = r.sample(frac=1.0, random_state=draw(st.integers(0, 100))).reset_index(drop=True)
+    return sensors, r, draw(st.integers(1, 5))
+
+
+@settings(max_examples=60, deadline=None)
+@given(_sites())
+def test_fill_is_the_median_of_the_nearest_sensors_in_the_same_minute(case):
+    sensors, r, k = case
+    got, filled = fill_temperature(r, sensors, neighbours=k)
+    want = _brute_fill(r, sensors, k)
+    np.testing.assert_allclose(got["temperature_c"].to_numpy(float), want, equal_nan=True)
+    assert got.index.equals(r.index) and got["sensor_id"].equals(r["sensor_id"])  # rows and order kept
+    had = r["temperature_c"].notna().to_numpy()
+    np.testing.assert_array_equal(got["temperature_c"].to_numpy()[had], r["temperature_c"].to_numpy()[had])
+    new = np.isnan(r["temperature_c"].to_numpy()) & np.isfinite(want)
+    assert sum(filled.values()) == int(new.sum())
+    assert r["temperature_c"].isna().sum() == (~had).sum()  # the input is not modified
+
+
+def test_nothing_to_fill_returns_the_same_table_and_bad_neighbours_are_refused():
+    s = pd.DataFrame({"sensor_id": ["A", "B", "C"], "x_m": [0.0, 1.0, 2.0]})
+    r = pd.DataFrame({"timestamp": pd.to_datetime(["2024-01-01"] * 3), "sensor_id": ["A", "B", "C"],
+                      "angle_deg": [0.1, 0.2, np.nan], "temperature_c": [1.0, 2.0, np.nan]})
+    got, filled = fill_temperature(r, s)
+    assert got is r and filled == {}  # C has no angle: nothing to fill
+    with pytest.raises(InputError, match="neighbours"):
+        fill_temperature(r, s, neighbours=0)
+
+
+def _failed_channel(sc, ids):
+    r = sc.readings.copy()
+    r.loc[r["sensor_id"].isin(ids), "temperature_c"] = np.nan
+    return r
+
+
+def test_a_failed_channel_keeps_its_sensor_and_matches_the_intact_site():
+    """Two sensors of a drifting site lose their temperature channel: filled, they are kept (not dead), and the
+    settlement differs from the intact site's by far less than its band; without the fill they are dead."""
+    sc = simulate_scenario("drift", 7)
+    ids = list(sc.sensors["sensor_id"].iloc[[5, 14]])
+    intact = estimate_settlement(validate_site(sc.sensors, sc.readings, sc.survey), n_monte_carlo=0)
+    site = validate_site(sc.sensors, _failed_channel(sc, ids), sc.survey)
+    assert any("no temperature" in w and ids[0] in w for w in site.warnings)
+    res = estimate_settlement(site, n_monte_carlo=0)
+    status = dict(zip(res.sensor_ids, res.health.status))
+    assert all(status[i] == "ok" for i in ids)
+    diff = np.abs(res.dz[1:] - intact.dz[1:]) / intact.dz_std[1:]
+    assert np.nanmax(diff) < 0.5, np.nanmax(diff)
+    off = estimate_settlement(validate_site(sc.sensors, _failed_channel(sc, ids), sc.survey, temperature_fill=False),
+                              n_monte_carlo=0)
+    status = dict(zip(off.sensor_ids, off.health.status))
+    assert all(status[i] == "dead" for i in ids)
+
+
+def test_the_cli_fills_and_can_be_told_not_to(tmp_path):
+    from longprofile.cli.app import main
+
+    sc = simulate_scenario("drift", 3, n_days=(8, 8))
+    sc.sensors.to_csv(tmp_path / "s.csv", index=False)
+    sc.survey.to_csv(tmp_path / "v.csv", index=False)
+    _failed_channel(sc, ["S04"]).to_csv(tmp_path / "r.csv", index=False)
+    args = ["rail", "settle", "--sensors", str(tmp_path / "s.csv"), "--readings", str(tmp_path / "r.csv"),
+            "--survey", str(tmp_path / "v.csv"), "--monte-carlo", "0"]
+    assert main(args + ["-o", str(tmp_path / "a.csv")]) == 0
+    a = pd.read_csv(tmp_path / "a.csv")
+    assert (a.loc[a["sensor_id"] == "S04", "status"] == "ok").all()
+    assert main(args + ["-o", str(tmp_path / "b.csv"), "--no-temperature-fill"]) == 0
+    b = pd.read_csv(tmp_path / "b.csv")
+    assert (b.loc[b["sensor_id"] == "S04", "status"] == "dead").all()
