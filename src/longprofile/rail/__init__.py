@@ -10,6 +10,8 @@ angle_noise                 -- robust high-frequency noise of the angles; below 
 track_angle                 -- how far from level the sensors read (median |angle|); beyond MAX_TRACK_ANGLE_DEG
                                another unit. ANGLE_RANGE_DEG, TEMPERATURE_RANGE_C: one reading's plausible range.
 check_survey                -- refuse a survey in another unit than metres (altitude beyond any terrain, grade).
+fill_temperature            -- a reading without a temperature (failed channel) takes its nearest sensors' (the
+                               median of TEMPERATURE_NEIGHBOURS in the same minute).
 read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
                                tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
