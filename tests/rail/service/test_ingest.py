@@ -161,6 +161,26 @@ def test_csv_and_json_batches_parse_to_the_same_rows(site):
             _core.parse_batch(body, ctype)
 
 
+def test_a_reading_without_a_temperature_is_stored_and_a_bad_one_refused(site):
+    """A failed temperature channel: an empty (CSV) or null (JSON) temperature keeps the row, stored with a NULL
+    temperature (each recompute fills it from the nearest sensors, docs/rail.md); a temperature that is there but
+    wrong is still refused."""
+    db, _, r = site
+    part = r.iloc[:40].copy()
+    part.loc[part.index[:10], "temperature_c"] = np.nan
+    rows = _core.parse_batch(part.to_csv(index=False).encode(), "text/csv")
+    res = _core.ingest(db, "mitt", rows, now=NOW)
+    assert res.counts["accepted"] == 40, res.rows[:3]
+    js = json.loads(json.dumps({"readings": part.iloc[:10].to_dict("records")}).replace("NaN", "null"))
+    assert _core.ingest(db, "mitt", js["readings"], now=NOW).counts["duplicate"] == 10  # null = empty: same rows
+    with db.read() as s:
+        temps = s.execute(select(Reading.temperature_c)).scalars().all()
+    assert sum(t is None for t in temps) == 10
+    bad = [{**part.iloc[20].to_dict(), "temperature_c": v} for v in ("warm", float("inf"), 300.0)]
+    out = _core.ingest(db, "mitt", bad, now=NOW)
+    assert out.counts["rejected"] == 3 and "temperature_c" in out.rows[0]["reason"]
+
+
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_any_resending_pattern_stores_each_key_exactly_once(tmp_path_factory, data):
