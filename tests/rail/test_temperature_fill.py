@@ -76,6 +76,34 @@ def test_nothing_to_fill_returns_the_same_table_and_bad_neighbours_are_refused()
         fill_temperature(r, s, neighbours=0)
 
 
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_the_failures_family_is_drift_with_some_temperature_channels_lost(seed):
+    """``drift-temperature-failures`` is ``drift`` except for the failing sensors (their own random stream): their
+    temperature is empty from the failure's day on, and their own temperature (before it) is not the one ``drift``
+    drew for them."""
+    full = simulate_scenario("drift", seed).readings
+    sc = simulate_scenario("drift-temperature-failures", seed)
+    ids = list(sc.sensors["sensor_id"])
+    start = pd.Timestamp(sc.truth.days[0])
+    day = ((full["timestamp"] - start) / pd.Timedelta(days=1)).to_numpy()
+    failing = np.zeros(len(full), bool)
+    lost = np.zeros(len(full), bool)
+    failures = sc.truth.params["temperature_failures"]
+    assert len(failures) == 2
+    for f in failures:
+        assert 2 <= f["n_sensors"] <= 8 and 0.6 <= f["swing"] <= 1.4 and 0 <= f["extra_lag_minutes"] <= 120
+        j0 = ids.index(f["first_sensor"])
+        mine = full["sensor_id"].isin(ids[j0:j0 + f["n_sensors"]]).to_numpy()
+        failing |= mine
+        lost |= mine & (day >= f["first_day"])
+    pd.testing.assert_frame_equal(sc.readings[~failing], full[~failing])
+    np.testing.assert_array_equal(sc.readings["temperature_c"].isna().to_numpy(), lost)
+    kept = failing & ~lost
+    if kept.sum() > 100:  # their own temperature differs from what their neighbours' model drew
+        assert not np.allclose(sc.readings["temperature_c"][kept], full["temperature_c"][kept])
+
+
 def _failed_channel(sc, ids):
     r = sc.readings.copy()
     r.loc[r["sensor_id"].isin(ids), "temperature_c"] = np.nan

@@ -15,6 +15,9 @@ assumes) so that the estimator can be validated on effects it does not model:
   time and a new thermal coefficient), dead (no readings from an early day on);
 * different **sensor counts and spacings** (irregular, jittered stations);
 * **logger outages**: a group of consecutive sensors (one logger's) without any reading for whole days;
+* **failed temperature channels**: a group of consecutive sensors whose temperature is empty from a random day on,
+  and whose own temperature (which drives their thermal bias) swings more or less and lags more than their
+  neighbours' (sun exposure);
 * a **settlement bowl** from nearby works with random depth, position, width and timing,
   appearing during night works on random days, plus slow creep between them.
 
@@ -48,7 +51,10 @@ class ScenarioFamily:
     surveys (the initial survey's points levelled again on distinct days of the last two thirds, with
     ``survey_noise_m``; :attr:`Scenario.controls`); 0, the default, none. ``logger_outages``: that many outages,
     each ``outage_sensors`` consecutive sensors without any reading for ``outage_days`` whole days after the
-    reference day (:func:`_logger_outages`); 0, the default, none.
+    reference day (:func:`_logger_outages`); 0, the default, none. ``temperature_failures``: that many groups of
+    ``failure_sensors`` consecutive sensors whose temperature channel reports nothing from a random day on (day 0:
+    the whole record) and whose own temperature swings ``failure_swing`` times their neighbours' about its daily mean
+    and lags ``failure_extra_lag_minutes`` more, for the whole record (:func:`_temperature_failures`); 0, none.
     """
 
     name: str
@@ -79,6 +85,10 @@ class ScenarioFamily:
     logger_outages: int = 0
     outage_sensors: tuple = (6, 12)
     outage_days: tuple = (1, 4)
+    temperature_failures: int = 0
+    failure_sensors: tuple = (2, 8)
+    failure_swing: tuple = (0.6, 1.4)
+    failure_extra_lag_minutes: tuple = (0.0, 120.0)
 
 
 SCENARIO_FAMILIES = {
@@ -94,6 +104,10 @@ SCENARIO_FAMILIES = {
     "sun-lag": ScenarioFamily("sun-lag", daily_swing_c=(15.0, 30.0), thermal_lag_minutes_log=(60.0, 360.0)),
     # loggers that stop for days (power, telemetry): two outages of 6-12 consecutive sensors for 1-4 days each
     "drift-outages": ScenarioFamily("drift-outages", drift_deg_per_sqrt_day_log=(1e-3, 1e-2), logger_outages=2),
+    # temperature channels that fail (a probe, a logger's temperature bus): two groups of 2-8 consecutive sensors
+    # report no temperature from a random day on, and their own temperature is not quite their neighbours'
+    "drift-temperature-failures": ScenarioFamily("drift-temperature-failures", drift_deg_per_sqrt_day_log=(1e-3, 1e-2),
+                                                 temperature_failures=2),
 }
 #: The ``faults`` family with a settlement that is not a Gaussian bowl (:data:`BOWL_SHAPES`; docs/rail.md, "Sensor
 #: health, step 14"): what the health tests flag when the settlement has another shape.
@@ -232,6 +246,8 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
     true_angle = np.rad2deg(np.arctan(slope_t))
     offset = rng.normal(0, 0.5, N)
     temp, swing, base = _scenario_temperature(f, rng, t_day, D, N)
+    failures = _temperature_failures(f, seed, N, D)
+    temp_lost = _own_temperatures(temp, failures, t_day, dt_min)
     coef = rng.uniform(*f.thermal_coef_deg_per_c, N) * rng.choice([-1.0, 1.0], N)
     quad = rng.normal(0, f.thermal_quadratic_deg_per_c2, N)
     tau = _loguniform(rng, f.thermal_lag_minutes_log, N)
@@ -261,7 +277,8 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
         angle[(t_day >= d0) & (t_day < d0 + k), j0:j0 + n] = np.nan
     stamps = start + pd.to_timedelta(t_min, unit="min")
     readings = pd.DataFrame({"timestamp": np.repeat(stamps.to_numpy(), N), "sensor_id": np.tile(ids, T),
-                             "angle_deg": angle.ravel(), "temperature_c": np.round(temp.ravel(), 2)})
+                             "angle_deg": angle.ravel(), "temperature_c": np.round(np.where(temp_lost, np.nan,
+                                                                                           temp).ravel(), 2)})
     readings = readings[np.isfinite(readings["angle_deg"].to_numpy())].reset_index(drop=True)
     step = rng.uniform(*f.survey_step_m)
     sx = np.arange(0.0, L + 1e-9, step)
@@ -278,12 +295,43 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                                       creep_fraction=bowl["creep"], daily_swing_c=swing, noise_deg=noise,
                                       n_sensors=N, n_days=D, sampling_minutes=dt_min,
                                       logger_outages=[dict(first_sensor=ids[j0], n_sensors=n, first_day=d0, n_days=k)
-                                                      for j0, n, d0, k in outages]))
+                                                      for j0, n, d0, k in outages],
+                                      temperature_failures=[dict(first_sensor=ids[j0], n_sensors=n, first_day=d0,
+                                                                 swing=g, extra_lag_minutes=lag)
+                                                            for j0, n, d0, g, lag in failures]))
     controls = None
     if f.control_surveys > 0:
         controls = _scenario_controls(f, seed, days, sx, z0, depth_at, center, width)
     return Scenario(sensors=pd.DataFrame({"sensor_id": ids, "x_m": x}), readings=readings, survey=survey,
                     truth=truth, family=f.name, seed=int(seed), controls=controls)
+
+
+def _temperature_failures(f, seed, N: int, D: int) -> list:
+    """``f.temperature_failures`` failures as (first sensor index, sensors, first day without a temperature, swing
+    factor, extra lag in minutes). Drawn from their own stream (``default_rng([seed, 17])``), so that a family's sites
+    are otherwise the same with and without them."""
+    rng = np.random.default_rng([int(seed), 17])
+    out = []
+    for _ in range(int(f.temperature_failures)):
+        n = int(min(rng.integers(f.failure_sensors[0], f.failure_sensors[1] + 1), N))
+        out.append((int(rng.integers(0, N - n + 1)), n, int(rng.integers(0, D - 1)), float(rng.uniform(*f.failure_swing)),
+                    float(rng.uniform(*f.failure_extra_lag_minutes))))
+    return out
+
+
+def _own_temperatures(temp, failures, t_day, dt_min) -> np.ndarray:
+    """Give the failing sensors their own temperature, in place: about each day's mean, ``swing`` times the site's
+    swing, lagged ``extra_lag_minutes`` more (what drives their thermal bias, and what their channel reports until it
+    fails). Returns the (T, N) mask of the readings whose temperature is lost."""
+    lost = np.zeros(temp.shape, bool)
+    day = np.floor(t_day).astype(int)
+    for j0, n, d0, g, lag in failures:
+        cols = temp[:, j0:j0 + n]
+        mean = np.stack([np.bincount(day, c) / np.bincount(day) for c in cols.T], axis=1)[day]
+        own = mean + g * (cols - mean)
+        temp[:, j0:j0 + n] = _lagged(own, dt_min, np.full(n, lag)) if lag > 0 else own
+        lost[t_day >= d0, j0:j0 + n] = True
+    return lost
 
 
 def _logger_outages(f, seed, N: int, D: int) -> list:
