@@ -144,3 +144,14 @@ def test_the_cli_fills_and_can_be_told_not_to(tmp_path):
     assert main(args + ["-o", str(tmp_path / "b.csv"), "--no-temperature-fill"]) == 0
     b = pd.read_csv(tmp_path / "b.csv")
     assert (b.loc[b["sensor_id"] == "S04", "status"] == "dead").all()
+
+
+def test_without_the_fill_a_site_that_loses_most_sensors_is_refused_with_the_count():
+    """``drift-temperature-failures`` seed 108: 16 of 20 sensors lose their temperature from day 10-11 of 27. Left
+    out (the behaviour before the fill) they are dead, and the refusal says how many sensors were left; filled, the
+    site is estimated."""
+    sc = simulate_scenario("drift-temperature-failures", 108)
+    with pytest.raises(InputError, match=r"4 sensor\(s\) with a daily angle \(at least 5 needed\)"):
+        estimate_settlement(validate_site(sc.sensors, sc.readings, sc.survey, temperature_fill=False), n_monte_carlo=0)
+    res = estimate_settlement(validate_site(sc.sensors, sc.readings, sc.survey), n_monte_carlo=0)
+    assert (np.asarray(res.health.status) == "ok").sum() >= 18

@@ -267,7 +267,10 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
     ok = np.isfinite(M).sum(axis=0) > 0
     xs, Ms = np.asarray(x, float)[ok], M[:, ok]
     if xs.size < 5 or D < 2:
-        raise InputError("too few usable sensors or days to estimate the daily noise; use error_model='white'.")
+        raise InputError(f"too few usable sensors or days to estimate the daily noise: {xs.size} sensor(s) with a "
+                         f"daily angle (at least 5 needed) over {D} day(s) (at least 2); the others are dead or "
+                         "excluded. Check the warnings on dead sensors, or give the daily noise std "
+                         "(error_model='white' or sigma=...; CLI --sigma-deg).")
     r = _neighbour_residuals(xs, Ms)
     with np.errstate(invalid="ignore"):
         mad = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
