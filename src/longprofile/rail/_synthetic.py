@@ -233,8 +233,6 @@ def _temperatures(p, rng, t_h, D, N):
 def _angles(p, rng, x, ids, temp, slope_t, dt_h):
     """Readings in degrees with thermal bias (linear, optionally lagged), noise, outliers and bad sensors:
     (angle (T, N), thermal coefficients, lags in h, bad sensors {id: defect})."""
-    from scipy.signal import lfilter  # imported on use: scipy.signal costs ~1 s at start-up
-
     T, N = temp.shape
     kmin, kmax = p.thermal_coef_deg_per_c
     coef = rng.uniform(kmin, kmax, N) * rng.choice([-1.0, 1.0], N)
@@ -242,6 +240,8 @@ def _angles(p, rng, x, ids, temp, slope_t, dt_h):
         lag = np.zeros(N)
         felt = temp
     else:
+        from scipy.signal import lfilter  # imported on use: scipy.signal costs 0.6-1 s at start-up
+
         lag = rng.uniform(*p.thermal_lag_hours, N)
         felt = np.empty_like(temp)
         for i in range(N):
