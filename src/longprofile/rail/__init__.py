@@ -10,8 +10,9 @@ angle_noise                 -- robust high-frequency noise of the angles; below 
 track_angle                 -- how far from level the sensors read (median |angle|); beyond MAX_TRACK_ANGLE_DEG
                                another unit. ANGLE_RANGE_DEG, TEMPERATURE_RANGE_C: one reading's plausible range.
 check_survey                -- refuse a survey in another unit than metres (altitude beyond any terrain, grade).
-fill_temperature            -- a reading without a temperature (failed channel) takes its nearest sensors' (the
-                               median of TEMPERATURE_NEIGHBOURS in the same minute).
+fill_temperature            -- a reading without a temperature (failed channel), or a stuck one (STUCK_MIN_READINGS,
+                               STUCK_SITE_SPREAD_C), takes its nearest sensors' (the median of TEMPERATURE_NEIGHBOURS
+                               in the same minute).
 read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
                                tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
@@ -76,7 +77,7 @@ _EXPORTS = {
     "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
     "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
                "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
-               "fill_temperature", "TEMPERATURE_NEIGHBOURS"),
+               "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
@@ -97,6 +98,7 @@ _EXPORTS = {
 __all__ = [
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
+    "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
     "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",

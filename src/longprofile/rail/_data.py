@@ -22,7 +22,8 @@ from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
-           "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS"]
+           "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
+           "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -52,6 +53,12 @@ MAX_TRACK_ANGLE_DEG = 10.0
 TEMPERATURE_NEIGHBOURS = 4
 #: :func:`fill_temperature` works on this many needed minutes at a time (memory: this x the sensors' count floats).
 _FILL_CHUNK = 20_000
+#: A stuck temperature channel (:func:`fill_temperature`): a sensor-day with at least ``STUCK_MIN_READINGS``
+#: temperatures, all the same value, on a day when the sensors' temperatures span at least ``STUCK_SITE_SPREAD_C``
+#: (median over the sensors of each one's range that day): a rail in the open never holds one value to the last
+#: digit through a day whose temperature moves by a degree.
+STUCK_MIN_READINGS = 12
+STUCK_SITE_SPREAD_C = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,14 +214,17 @@ def _clock_change_hint(r: pd.DataFrame, dups) -> str:
 
 
 def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
-                     neighbours: int = TEMPERATURE_NEIGHBOURS) -> tuple[pd.DataFrame, dict[str, int]]:
-    """Readings whose angle has no temperature given the median temperature of their nearest sensors' readings.
+                     neighbours: int = TEMPERATURE_NEIGHBOURS) -> tuple[pd.DataFrame, dict[str, int], dict[str, int]]:
+    """Readings whose angle has no temperature, or a stuck one, given the median temperature of their nearest
+    sensors' readings.
 
     The thermal correction (paper 004 §3) needs each reading's temperature. Where a sensor's temperature channel has
     failed (all its readings) or drops out (some), its angles would be lost; the rail a few metres away has nearly
     the same temperature. Each such reading takes the median of the temperatures read in the same minute
     (time stamps floored to the minute) by the ``neighbours`` nearest sensors (by ``|x_m|`` distance; the sensor
-    itself excluded) that have one. A constant offset between the sensor and its neighbours (shade) cancels in the
+    itself excluded) that have one. A channel stuck at one value through a day when the others' temperatures move
+    (:data:`STUCK_MIN_READINGS`, :data:`STUCK_SITE_SPREAD_C`; decided per sensor and calendar day) is a missing
+    temperature on that day. A constant offset between the sensor and its neighbours (shade) cancels in the
     settlement, which is a change from the reference day; a different daily swing (sun exposure) or lag does not
     (named in docs/rail.md, "A failed temperature channel"). A reading no sensor has a temperature for in that
     minute keeps its NaN (and is left out, as before).
@@ -235,13 +245,16 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
         filled.
     filled : dict of str -> int
         Readings filled per sensor id (only sensors with at least one).
+    stuck : dict of str -> int
+        Days with a stuck temperature per sensor id (only sensors with at least one).
     """
     if neighbours < 1:
         raise InputError(f"neighbours must be at least 1; got {neighbours!r}.")
-    temp = readings["temperature_c"].to_numpy(float)
+    stuck_rows, stuck = _stuck_temperature(readings)
+    temp = np.where(stuck_rows, np.nan, readings["temperature_c"].to_numpy(float))
     need = np.isnan(temp) & readings["angle_deg"].notna().to_numpy()
     if not need.any():
-        return readings, {}
+        return readings, {}, stuck
     ids = sensors["sensor_id"].astype(str).to_numpy()
     x = sensors["x_m"].to_numpy(float)
     col = pd.Index(ids).get_indexer(readings["sensor_id"].astype(str))
@@ -271,12 +284,44 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
                 some = ok.any(axis=1)
                 out[at[some]] = np.nanmedian(vals[some], axis=1)
     done = need & np.isfinite(out)
-    if not done.any():
-        return readings, {}
+    if not done.any() and not stuck_rows.any():
+        return readings, {}, stuck
     r = readings.copy()
-    r["temperature_c"] = out
+    r["temperature_c"] = out  # a stuck reading nothing could fill stays empty: it is not a temperature
     counts = pd.Series(readings["sensor_id"].to_numpy()[done]).value_counts(sort=False)
-    return r, {str(k): int(v) for k, v in counts.items()}
+    return r, {str(k): int(v) for k, v in counts.items()}, stuck
+
+
+def _stuck_temperature(readings: pd.DataFrame) -> tuple[np.ndarray, dict[str, int]]:
+    """(rows whose temperature is stuck, {sensor id: stuck days}): see :func:`fill_temperature`."""
+    t = readings["temperature_c"].to_numpy(float)
+    ok = np.isfinite(t)
+    if ok.sum() < STUCK_MIN_READINGS:
+        return np.zeros(t.size, bool), {}
+    codes, names = pd.factorize(readings["sensor_id"])
+    ts = readings["timestamp"]
+    if getattr(ts.dt, "tz", None) is not None:  # calendar days of UTC, as validate_site gives them
+        ts = ts.dt.tz_convert(None)
+    day = ts.to_numpy().astype("datetime64[D]").astype(np.int64)
+    day = day - day.min()
+    n_days = int(day.max()) + 1
+    g = codes.astype(np.int64) * n_days + day
+    order = np.argsort(g, kind="stable")  # already in order for validated readings (by sensor, then time)
+    gs, ts = g[order], np.where(ok, t, np.nan)[order]
+    start = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1]])
+    with np.errstate(invalid="ignore"):
+        spread = np.fmax.reduceat(ts, start) - np.fmin.reduceat(ts, start)
+    count = np.add.reduceat(ok[order].astype(np.int64), start)
+    full = count >= STUCK_MIN_READINGS
+    group_day = gs[start] % n_days
+    site = pd.Series(spread[full]).groupby(group_day[full]).median()  # the sensors' median range, per day
+    moving = site.reindex(group_day).to_numpy() >= STUCK_SITE_SPREAD_C
+    stuck_group = full & (spread == 0) & moving
+    rows = np.zeros(t.size, bool)
+    rows[order] = np.repeat(stuck_group, np.diff(np.r_[start, gs.size]))
+    rows &= ok
+    per_sensor = np.bincount((gs[start] // n_days)[stuck_group], minlength=len(names))
+    return rows, {str(names[i]): int(n) for i, n in enumerate(per_sensor) if n}
 
 
 def _filled_warning(filled: dict[str, int]) -> str:
@@ -286,6 +331,14 @@ def _filled_warning(filled: dict[str, int]) -> str:
             f"or intermittent temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
             f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute "
             "(temperature_fill=False, CLI --no-temperature-fill, leaves them out).")
+
+
+def _stuck_warning(stuck: dict[str, int]) -> str:
+    """The warning for stuck temperature channels (:func:`fill_temperature`)."""
+    top = sorted(stuck, key=lambda k: (-stuck[k], k))
+    return (f"the temperature of {len(stuck)} sensor(s) holds one value all day while the other sensors' temperatures "
+            f"move (a stuck temperature channel?), most on {[f'{k} ({stuck[k]} day(s))' for k in top[:5]]}; "
+            "those days' temperatures are taken as missing.")
 
 
 def _temperature_less(r: pd.DataFrame) -> str:
@@ -412,7 +465,9 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
                              "the angles look like radians. Pass angle_unit='rad' (CLI: --angle-unit rad), or "
                              "check_units=False (--no-check-units) if they really are degrees.")
     if temperature_fill:
-        r, filled = fill_temperature(r, s)
+        r, filled, stuck = fill_temperature(r, s)
+        if stuck:
+            warnings.append(_stuck_warning(stuck))
         if filled:
             warnings.append(_filled_warning(filled))
     empty = int((r["angle_deg"].isna() | r["temperature_c"].isna()).sum())

@@ -15,8 +15,8 @@ assumes) so that the estimator can be validated on effects it does not model:
   time and a new thermal coefficient), dead (no readings from an early day on);
 * different **sensor counts and spacings** (irregular, jittered stations);
 * **logger outages**: a group of consecutive sensors (one logger's) without any reading for whole days;
-* **failed temperature channels**: a group of consecutive sensors whose temperature is empty from a random day on,
-  and whose own temperature (which drives their thermal bias) swings more or less and lags more than their
+* **failed temperature channels**: a group of consecutive sensors whose temperature is empty or stuck at one value
+  from a random day on, and whose own temperature (which drives their thermal bias) swings more or less and lags more than their
   neighbours' (sun exposure);
 * a **settlement bowl** from nearby works with random depth, position, width and timing,
   appearing during night works on random days, plus slow creep between them.
@@ -52,9 +52,10 @@ class ScenarioFamily:
     ``survey_noise_m``; :attr:`Scenario.controls`); 0, the default, none. ``logger_outages``: that many outages,
     each ``outage_sensors`` consecutive sensors without any reading for ``outage_days`` whole days after the
     reference day (:func:`_logger_outages`); 0, the default, none. ``temperature_failures``: that many groups of
-    ``failure_sensors`` consecutive sensors whose temperature channel reports nothing from a random day on (day 0:
-    the whole record) and whose own temperature swings ``failure_swing`` times their neighbours' about its daily mean
-    and lags ``failure_extra_lag_minutes`` more, for the whole record (:func:`_temperature_failures`); 0, none.
+    ``failure_sensors`` consecutive sensors whose temperature channel reports nothing (kind "empty") or one constant
+    value ("stuck") from a random day on (day 0: the whole record; the kind drawn from ``failure_kinds``) and whose
+    own temperature swings ``failure_swing`` times their neighbours' about its daily mean and lags
+    ``failure_extra_lag_minutes`` more, for the whole record (:func:`_temperature_failures`); 0, none.
     """
 
     name: str
@@ -89,6 +90,7 @@ class ScenarioFamily:
     failure_sensors: tuple = (2, 8)
     failure_swing: tuple = (0.6, 1.4)
     failure_extra_lag_minutes: tuple = (0.0, 120.0)
+    failure_kinds: tuple = ("empty", "stuck")
 
 
 SCENARIO_FAMILIES = {
@@ -105,7 +107,8 @@ SCENARIO_FAMILIES = {
     # loggers that stop for days (power, telemetry): two outages of 6-12 consecutive sensors for 1-4 days each
     "drift-outages": ScenarioFamily("drift-outages", drift_deg_per_sqrt_day_log=(1e-3, 1e-2), logger_outages=2),
     # temperature channels that fail (a probe, a logger's temperature bus): two groups of 2-8 consecutive sensors
-    # report no temperature from a random day on, and their own temperature is not quite their neighbours'
+    # report no temperature, or one stuck value, from a random day on; their own temperature is not quite their
+    # neighbours'
     "drift-temperature-failures": ScenarioFamily("drift-temperature-failures", drift_deg_per_sqrt_day_log=(1e-3, 1e-2),
                                                  temperature_failures=2),
 }
@@ -247,7 +250,7 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
     offset = rng.normal(0, 0.5, N)
     temp, swing, base = _scenario_temperature(f, rng, t_day, D, N)
     failures = _temperature_failures(f, seed, N, D)
-    temp_lost = _own_temperatures(temp, failures, t_day, dt_min)
+    temp_reported, temp_lost = _own_temperatures(temp, failures, t_day, dt_min)
     coef = rng.uniform(*f.thermal_coef_deg_per_c, N) * rng.choice([-1.0, 1.0], N)
     quad = rng.normal(0, f.thermal_quadratic_deg_per_c2, N)
     tau = _loguniform(rng, f.thermal_lag_minutes_log, N)
@@ -278,7 +281,7 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
     stamps = start + pd.to_timedelta(t_min, unit="min")
     readings = pd.DataFrame({"timestamp": np.repeat(stamps.to_numpy(), N), "sensor_id": np.tile(ids, T),
                              "angle_deg": angle.ravel(), "temperature_c": np.round(np.where(temp_lost, np.nan,
-                                                                                           temp).ravel(), 2)})
+                                                                                           temp_reported).ravel(), 2)})
     readings = readings[np.isfinite(readings["angle_deg"].to_numpy())].reset_index(drop=True)
     step = rng.uniform(*f.survey_step_m)
     sx = np.arange(0.0, L + 1e-9, step)
@@ -297,8 +300,8 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
                                       logger_outages=[dict(first_sensor=ids[j0], n_sensors=n, first_day=d0, n_days=k)
                                                       for j0, n, d0, k in outages],
                                       temperature_failures=[dict(first_sensor=ids[j0], n_sensors=n, first_day=d0,
-                                                                 swing=g, extra_lag_minutes=lag)
-                                                            for j0, n, d0, g, lag in failures]))
+                                                                 swing=g, extra_lag_minutes=lag, kind=kind)
+                                                            for j0, n, d0, g, lag, kind in failures]))
     controls = None
     if f.control_surveys > 0:
         controls = _scenario_controls(f, seed, days, sx, z0, depth_at, center, width)
@@ -308,30 +311,37 @@ def simulate_scenario(family: ScenarioFamily | str, seed: int = 0, **overrides) 
 
 def _temperature_failures(f, seed, N: int, D: int) -> list:
     """``f.temperature_failures`` failures as (first sensor index, sensors, first day without a temperature, swing
-    factor, extra lag in minutes). Drawn from their own stream (``default_rng([seed, 17])``), so that a family's sites
-    are otherwise the same with and without them."""
+    factor, extra lag in minutes, kind). Drawn from their own stream (``default_rng([seed, 17])``), so that a family's
+    sites are otherwise the same with and without them."""
     rng = np.random.default_rng([int(seed), 17])
     out = []
     for _ in range(int(f.temperature_failures)):
         n = int(min(rng.integers(f.failure_sensors[0], f.failure_sensors[1] + 1), N))
         out.append((int(rng.integers(0, N - n + 1)), n, int(rng.integers(0, D - 1)), float(rng.uniform(*f.failure_swing)),
-                    float(rng.uniform(*f.failure_extra_lag_minutes))))
+                    float(rng.uniform(*f.failure_extra_lag_minutes)), str(rng.choice(f.failure_kinds))))
     return out
 
 
-def _own_temperatures(temp, failures, t_day, dt_min) -> np.ndarray:
+def _own_temperatures(temp, failures, t_day, dt_min) -> tuple[np.ndarray, np.ndarray]:
     """Give the failing sensors their own temperature, in place: about each day's mean, ``swing`` times the site's
     swing, lagged ``extra_lag_minutes`` more (what drives their thermal bias, and what their channel reports until it
-    fails). Returns the (T, N) mask of the readings whose temperature is lost."""
+    fails). Returns the (T, N) temperatures the channels report (a stuck channel: its value at the failure) and the
+    mask of the readings whose temperature is lost (empty)."""
     lost = np.zeros(temp.shape, bool)
+    reported = temp.copy()
     day = np.floor(t_day).astype(int)
-    for j0, n, d0, g, lag in failures:
+    for j0, n, d0, g, lag, kind in failures:
         cols = temp[:, j0:j0 + n]
         mean = np.stack([np.bincount(day, c) / np.bincount(day) for c in cols.T], axis=1)[day]
         own = mean + g * (cols - mean)
         temp[:, j0:j0 + n] = _lagged(own, dt_min, np.full(n, lag)) if lag > 0 else own
-        lost[t_day >= d0, j0:j0 + n] = True
-    return lost
+        after = t_day >= d0
+        reported[:, j0:j0 + n] = temp[:, j0:j0 + n]
+        if kind == "stuck":
+            reported[after, j0:j0 + n] = temp[np.argmax(after), j0:j0 + n]
+        else:
+            lost[after, j0:j0 + n] = True
+    return reported, lost
 
 
 def _logger_outages(f, seed, N: int, D: int) -> list:

@@ -244,8 +244,8 @@ def test_a_logger_outage_is_treated_as_missing_as_rail_settle_does(site):
 
 
 def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
-    """Two sensors send angles without a temperature (a failed channel, from day 3 on; a run before and one after,
-    the per-day cache carried over): ingestion keeps the rows, and the stored results are ``estimate_settlement``'s
+    """Two sensors send angles without a temperature (a failed channel, from day 3 on) and one a stuck temperature
+    (from day 2 on; a run before and one after, the per-day cache carried over): ingestion keeps the rows, and the stored results are ``estimate_settlement``'s
     on the same readings, whose temperatures ``validate_site`` fills from the nearest sensors (docs/rail.md, "A
     failed temperature channel")."""
     db, _, r = site
@@ -254,8 +254,10 @@ def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
     ud = sorted(days.unique())
     ids = list(syn.sensors["sensor_id"])
     failed = (r["sensor_id"].isin([ids[11], ids[31]]) & (days >= ud[3])).to_numpy()
+    stuck = ((r["sensor_id"] == ids[40]) & (days >= ud[2])).to_numpy()  # a channel stuck at one value
     r = r.copy()
     r.loc[failed, "temperature_c"] = np.nan
+    r.loc[stuck, "temperature_c"] = 9.5
     _ingest_days(db, r, ud[4])
     assert recompute(db, "mitt")["status"] == "ok"
     _ingest_days(db, r, ud[-1])
@@ -263,8 +265,10 @@ def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
     assert out["status"] == "ok", out["message"]
     readings = syn.readings.copy()
     readings.loc[failed, "temperature_c"] = np.nan
+    readings.loc[stuck, "temperature_c"] = 9.5
     site_data = validate_site(syn.sensors, readings, syn.survey)
     assert any("no temperature" in w for w in site_data.warnings)
+    assert any("stuck temperature channel" in w and ids[40] in w for w in site_data.warnings)
     ref = estimate_settlement(site_data, n_monte_carlo=0)
     got = _stored_against(db, out["run_id"], ref)
     ids = list(syn.sensors["sensor_id"])

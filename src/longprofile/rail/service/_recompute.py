@@ -28,6 +28,8 @@ from .. import (
     DAY_FIELDS,
     MEDIAN_LINES,
     NOISE_STD_TOLERANCE,
+    STUCK_MIN_READINGS,
+    STUCK_SITE_SPREAD_C,
     TEMPERATURE_NEIGHBOURS,
     DayStatistics,
     daily_angles_from_statistics,
@@ -202,25 +204,44 @@ def _readings_frame(s, site: Site, sens, *, from_ts=None, pks=None, chunk: int =
                          "temperature_c": arr[:, 3]})
 
 
-def _filled(s, site: Site, sens, frame: pd.DataFrame, from_ts=None) -> pd.DataFrame:
-    """``frame`` (of the sensors ``sens``, from ``from_ts``) with the temperatures ``validate_site`` fills
-    (:func:`longprofile.rail.fill_temperature`: a reading with an angle but no temperature takes its nearest
-    sensors' of the same minute), filled from every active sensor's readings of the same span: what the day cache
-    holds is then what ``rail settle`` computes from the same readings."""
-    if not (frame["temperature_c"].isna() & frame["angle_deg"].notna()).any():
-        return frame
+def _filled(s, site: Site, frame: pd.DataFrame, *, subset: bool = False, from_ts=None) -> pd.DataFrame:
+    """``frame`` (the readings of every active sensor from ``from_ts``; with ``subset``, of some of them) with the
+    temperatures ``validate_site`` fills
+    (:func:`longprofile.rail.fill_temperature`: a reading with an angle but no temperature, or a stuck one, takes
+    its nearest sensors' of the same minute), decided and filled from every active sensor's readings of the same
+    span: what the day cache holds is then what ``rail settle`` computes from the same readings. The stuck test is
+    decided per sensor and calendar day: the window's days from the first recomputed one on are whole, and its
+    earlier readings only give the outlier test its running-median context. A frame of some of the sensors (a
+    stale sensor rebuilt, a sensor's page) is filled from all of them, read again."""
     everyone = _active_sensors(s, site)
-    present = frame["sensor_id"].unique()
-    if len(present) == len(everyone):
-        return fill_temperature(frame, _sensor_table(everyone))[0]
-    full, _ = fill_temperature(_readings_frame(s, site, everyone, from_ts=from_ts), _sensor_table(everyone))
-    return full[full["sensor_id"].isin(present)].reset_index(drop=True)
+    if subset:
+        if not _may_need_fill(frame):
+            return frame
+        present = frame["sensor_id"].unique()
+        frame_all = _readings_frame(s, site, everyone, from_ts=from_ts)
+        full, filled, stuck = fill_temperature(frame_all, _sensor_table(everyone))
+        if not filled and not stuck:
+            return frame
+        return full[full["sensor_id"].isin(present)].reset_index(drop=True)
+    return fill_temperature(frame, _sensor_table(everyone))[0]
+
+
+def _may_need_fill(frame: pd.DataFrame) -> bool:
+    """Whether ``fill_temperature`` could change ``frame`` given the other sensors: an angle without a temperature,
+    or a sensor-day of at least ``STUCK_MIN_READINGS`` temperatures all the same (stuck if the others' move)."""
+    t = frame["temperature_c"]
+    if (t.isna() & frame["angle_deg"].notna()).any():
+        return True
+    day = frame["timestamp"].dt.normalize()
+    per_day = t.groupby([frame["sensor_id"], day]).agg(["size", "nunique"])
+    return bool(((per_day["size"] >= STUCK_MIN_READINGS) & (per_day["nunique"] == 1)).any())
 
 
 def _cache_key(site: Site, thermal: str) -> str:
     blob = json.dumps({"thermal": thermal, "reference_temp_c": REFERENCE_TEMP_C, "fields": DAY_FIELDS,
                        "median_lines": MEDIAN_LINES, "noise_std_tolerance": NOISE_STD_TOLERANCE,
-                       "temperature_neighbours": TEMPERATURE_NEIGHBOURS,
+                       "temperature_neighbours": TEMPERATURE_NEIGHBOURS, "stuck": [STUCK_MIN_READINGS,
+                                                                                    STUCK_SITE_SPREAD_C],
                        "baseline_start": site.baseline_start_ts, "code": __version__}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
@@ -313,7 +334,7 @@ def sensor_daily_statistics(s, site: Site, sensor_id: str) -> pd.DataFrame:
                                                      "temp_range_c")}
         n_raw, n_temp = df["n_raw"].to_numpy(np.int64), df["n_temperature"].to_numpy(np.int64)
     else:
-        readings = _filled(s, site, sens, _readings_frame(s, site, sens))
+        readings = _filled(s, site, _readings_frame(s, site, sens), subset=True)
         if readings.empty:
             return pd.DataFrame(columns=list(SENSOR_DAILY_COLUMNS))
         st = day_statistics(readings, [sensor_id], thermal="linear", reference_temp_c=REFERENCE_TEMP_C)
@@ -357,7 +378,7 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
                                                                          .astype(np.int64)) + _DAY_S:
         prev = None  # a change on the first day (settings, sensors, baseline): build from every reading
     if prev is None:
-        readings = _filled(s, site, sens, _readings_frame(s, site, sens))
+        readings = _filled(s, site, _readings_frame(s, site, sens))
         if readings.empty:
             return None, readings, None, None, None
         days = pd.DatetimeIndex(readings["timestamp"].dt.normalize().unique())
@@ -369,7 +390,7 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
                else pd.Timestamp(int(dirty_from), unit="s").normalize())
     first, ctx = statistics_window(prev, changed)
     from_ts = int(pd.Timestamp(ctx).value // 10**9)
-    window = _filled(s, site, sens, _readings_frame(s, site, sens, from_ts=from_ts), from_ts)
+    window = _filled(s, site, _readings_frame(s, site, sens, from_ts=from_ts), from_ts=from_ts)
     all_days = pd.DatetimeIndex(np.union1d(prev.days[prev.days < first],
                                            window["timestamp"].dt.normalize().unique()))
     quiet = _quiet_days(site, all_days)
@@ -378,7 +399,7 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
     rebuilt = []
     if stats.stale_sensors:
         rebuilt = [j for j, sid in enumerate(ids) if sid in stats.stale_sensors]
-        sub = _filled(s, site, sens, _readings_frame(s, site, sens, pks=[sens[j][0] for j in rebuilt]))
+        sub = _filled(s, site, _readings_frame(s, site, sens, pks=[sens[j][0] for j in rebuilt]), subset=True)
         stats = stats.replace_sensors(day_statistics(sub, [ids[j] for j in rebuilt], thermal=thermal,
                                                      reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet))
     return stats, window, int(pd.Timestamp(first).value // (_DAY_S * 10**9)), rebuilt, rows
