@@ -55,7 +55,8 @@ class ScenarioFamily:
     ``failure_sensors`` consecutive sensors whose temperature channel reports nothing (kind "empty") or one constant
     value ("stuck") from a random day on (day 0: the whole record; the kind drawn from ``failure_kinds``) and whose
     own temperature swings ``failure_swing`` times their neighbours' about its daily mean and lags
-    ``failure_extra_lag_minutes`` more, for the whole record (:func:`_temperature_failures`); 0, none.
+    ``failure_extra_lag_minutes`` more, for the whole record (:func:`_temperature_failures`; groups may overlap, and
+    the later group decides a shared sensor's channel); 0, none.
     """
 
     name: str
@@ -335,8 +336,9 @@ def _own_temperatures(temp, failures, t_day, dt_min) -> tuple[np.ndarray, np.nda
         mean = np.stack([np.bincount(day, c) / np.bincount(day) for c in cols.T], axis=1)[day]
         own = mean + g * (cols - mean)
         temp[:, j0:j0 + n] = _lagged(own, dt_min, np.full(n, lag)) if lag > 0 else own
-        after = t_day >= d0
+        after = t_day >= d0  # a sensor in two groups: the later group decides its channel
         reported[:, j0:j0 + n] = temp[:, j0:j0 + n]
+        lost[:, j0:j0 + n] = False
         if kind == "stuck":
             reported[after, j0:j0 + n] = temp[np.argmax(after), j0:j0 + n]
         else:
