@@ -190,7 +190,7 @@ def test_empty_values_and_ignored_columns_are_reported(small):
     s = small.sensors.assign(z_m=1.0)
     site = validate_site(s, r, small.survey)
     # the two temperatures are filled from the neighbours (test_temperature_fill.py); the empty angle is not used
-    assert any("2 reading(s) of" in w and "no temperature" in w for w in site.warnings)
+    assert any("2 reading(s) of" in w and "no usable temperature" in w for w in site.warnings)
     assert any("1 reading(s) have an empty angle or temperature" in w for w in site.warnings)
     kept = validate_site(s, r, small.survey, temperature_fill=False)
     assert any("3 reading(s) have an empty angle or temperature" in w for w in kept.warnings)

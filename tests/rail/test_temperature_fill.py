@@ -122,7 +122,7 @@ def test_a_failed_channel_keeps_its_sensor_and_matches_the_intact_site():
     ids = list(sc.sensors["sensor_id"].iloc[[5, 14]])
     intact = estimate_settlement(validate_site(sc.sensors, sc.readings, sc.survey), n_monte_carlo=0)
     site = validate_site(sc.sensors, _failed_channel(sc, ids), sc.survey)
-    assert any("no temperature" in w and ids[0] in w for w in site.warnings)
+    assert any("no usable temperature" in w and ids[0] in w for w in site.warnings)
     res = estimate_settlement(site, n_monte_carlo=0)
     status = dict(zip(res.sensor_ids, res.health.status))
     assert all(status[i] == "ok" for i in ids)

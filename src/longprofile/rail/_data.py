@@ -327,8 +327,8 @@ def _stuck_temperature(readings: pd.DataFrame) -> tuple[np.ndarray, dict[str, in
 def _filled_warning(filled: dict[str, int]) -> str:
     """The warning of :func:`fill_temperature`'s work, naming the sensors with the most readings filled."""
     top = sorted(filled, key=lambda k: (-filled[k], k))
-    return (f"{sum(filled.values())} reading(s) of {len(filled)} sensor(s) had an angle but no temperature (a failed "
-            f"or intermittent temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
+    return (f"{sum(filled.values())} reading(s) of {len(filled)} sensor(s) had an angle but no usable temperature (a "
+            f"failed, intermittent or stuck temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
             f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute "
             "(temperature_fill=False, CLI --no-temperature-fill, leaves them out).")
 
@@ -373,9 +373,10 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         under a metre label). Altitudes beyond any terrain and controls beyond :data:`MAX_CONTROL_CHANGE_M` from the
         survey are refused either way.
     temperature_fill : bool, default True
-        A reading with an angle but no temperature (a failed or intermittent temperature channel) takes its
-        neighbours' temperature of the same minute (:func:`fill_temperature`, with a warning naming the sensors);
-        False leaves it out, as a reading without an angle is (a sensor without any temperature is then dead).
+        A reading with an angle but no temperature (a failed or intermittent temperature channel), or a stuck one,
+        takes its neighbours' temperature of the same minute (:func:`fill_temperature`, with a warning naming the
+        sensors); False leaves an empty one out, as a reading without an angle is (a sensor without any temperature
+        is then dead), and takes a stuck one as read.
 
     Returns
     -------

@@ -267,7 +267,7 @@ def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
     readings.loc[failed, "temperature_c"] = np.nan
     readings.loc[stuck, "temperature_c"] = 9.5
     site_data = validate_site(syn.sensors, readings, syn.survey)
-    assert any("no temperature" in w for w in site_data.warnings)
+    assert any("no usable temperature" in w for w in site_data.warnings)
     assert any("stuck temperature channel" in w and ids[40] in w for w in site_data.warnings)
     ref = estimate_settlement(site_data, n_monte_carlo=0)
     got = _stored_against(db, out["run_id"], ref)
