@@ -35,6 +35,22 @@ def _daily(db, sensor):
         return sensor_daily_statistics(s, st, sensor)
 
 
+def _viewer_seeing_figures(db, monkeypatch):
+    """A logged-in viewer's test client, and the list every figure the app encodes is appended to."""
+    from fastapi.testclient import TestClient
+
+    from longprofile.rail.service import _web
+    from longprofile.rail.service._web import create_app
+
+    _core.add_user(db, "t", "v1", "v1-password", "viewer")
+    seen = []
+    real = _web._fig_png
+    monkeypatch.setattr(_web, "_fig_png", lambda fig: (seen.append(fig), real(fig))[1])
+    client = TestClient(create_app(db, background=False))
+    login(client, "v1", "v1-password")
+    return client, seen
+
+
 @pytest.mark.parametrize("thermal", ["linear", "lagged"])
 def test_daily_angle_and_temperature_are_day_statistics_of_the_sensors_readings(site, thermal):
     db, _, r = site
@@ -60,20 +76,10 @@ def test_daily_angle_and_temperature_are_day_statistics_of_the_sensors_readings(
 
 def test_the_sensor_figure_has_the_three_panels(site, monkeypatch):
     """The PNG route draws the settlement, angle and temperature panels (checked on the figure before encoding)."""
-    from fastapi.testclient import TestClient
-
-    from longprofile.rail.service import _web
-    from longprofile.rail.service._web import create_app
-
     db, _, r = site
     _core.ingest(db, "mitt", r.to_dict("records"))
     recompute(db, "mitt")
-    _core.add_user(db, "t", "v1", "v1-password", "viewer")
-    seen = []
-    real = _web._fig_png
-    monkeypatch.setattr(_web, "_fig_png", lambda fig: (seen.append(fig), real(fig))[1])
-    client = TestClient(create_app(db, background=False))
-    login(client, "v1", "v1-password")
+    client, seen = _viewer_seeing_figures(db, monkeypatch)
     png = client.get("/sites/mitt/sensors/S20/series.png")
     assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
     axes = seen[-1].axes
@@ -83,3 +89,33 @@ def test_the_sensor_figure_has_the_three_panels(site, monkeypatch):
     np.testing.assert_array_equal(np.asarray(y, float), daily["raw_median_deg"].to_numpy())
     x, y = axes[2].lines[0].get_data()
     np.testing.assert_array_equal(np.asarray(y, float), daily["mean_temp_c"].to_numpy())
+
+
+def test_a_failed_or_stuck_temperature_channel_is_said_on_the_sensor_page(site, monkeypatch):
+    """S20 sends no temperature from the fourth day on and S21 one constant value from the third: the page says so
+    (counts from the stored readings), and the figure circles those days, whose plotted temperature is the one the
+    estimate used (the neighbours')."""
+    db, _, r = site
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    r = r.copy()
+    empty = ((r["sensor_id"] == "S20") & (days >= ud[3])).to_numpy()
+    held = ((r["sensor_id"] == "S21") & (days >= ud[2])).to_numpy()
+    r.loc[empty, "temperature_c"] = np.nan
+    r.loc[held, "temperature_c"] = 7.25
+    _core.ingest(db, "mitt", r.to_dict("records"))
+    assert recompute(db, "mitt")["status"] == "ok"
+    s20, s21, s22 = _daily(db, "S20"), _daily(db, "S21"), _daily(db, "S22")
+    assert list(s20["n_no_temperature"] > 0) == [d >= ud[3] for d in s20["day"]]
+    assert s20["n_no_temperature"].sum() == empty.sum()
+    assert list(s21["constant_temperature"]) == [d >= ud[2] for d in s21["day"]]
+    assert s22["n_no_temperature"].sum() == 0 and not s22["constant_temperature"].any()
+    assert np.isfinite(s20["mean_temp_c"]).all()  # the neighbours' temperature, as the estimate used it
+    client, seen = _viewer_seeing_figures(db, monkeypatch)
+    page = client.get("/sites/mitt/sensors/S20").text
+    assert 'id="temperature-channel"' in page and f"{int(empty.sum())} reading(s) without a temperature" in page
+    assert 'id="temperature-channel"' not in client.get("/sites/mitt/sensors/S22").text
+    assert "constant value all day on" in client.get("/sites/mitt/sensors/S21").text
+    assert client.get("/sites/mitt/sensors/S20/series.png").status_code == 200
+    labels = [t.get_text() for t in seen[-1].axes[2].get_legend().get_texts()]
+    assert any("neighbours' temperature" in lab for lab in labels)

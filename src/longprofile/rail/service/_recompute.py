@@ -58,6 +58,7 @@ from ._db import (
 )
 
 __all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "load_site_tables", "controls_table",
+           "temperature_channel_days",
            "DEFAULT_SETTINGS", "KEEP_RUNS", "MODELS", "ALL_DAYS_MAX_SENSOR_DAYS", "service_joint_days"]
 
 DEFAULT_SETTINGS = {"thermal": "linear", "n_monte_carlo": 0, "alarm_probability": 0.5, "sigma_deg": None,
@@ -306,7 +307,28 @@ def _day_cache_statistics(rows, sens, thermal: str) -> DayStatistics | None:
 
 
 #: Columns of :func:`sensor_daily_statistics`.
-SENSOR_DAILY_COLUMNS = ("day", "n_raw", "raw_median_deg", "median_deg", "mean_temp_c", "temp_range_c")
+SENSOR_DAILY_COLUMNS = ("day", "n_raw", "raw_median_deg", "median_deg", "mean_temp_c", "temp_range_c",
+                        "n_no_temperature", "constant_temperature")
+
+
+def temperature_channel_days(s, site: Site, sensor_pk: int) -> pd.DataFrame:
+    """What a sensor's own temperature channel sent, per UTC day: ``day`` (``YYYY-MM-DD``), ``n_no_temperature``
+    (readings with an angle and no temperature) and ``constant_temperature`` (at least ``STUCK_MIN_READINGS``
+    temperatures, all one value). One aggregate query of the stored readings. Such readings take their neighbours'
+    temperature in the estimate (``rail.fill_temperature``; a constant day only when the other sensors' temperatures
+    move that day), which the sensor page says."""
+    day = Reading.ts // _DAY_S
+    q = (select(day, func.count(), func.count(Reading.temperature_c), func.min(Reading.temperature_c),
+                func.max(Reading.temperature_c))
+         .where(Reading.sensor_pk == sensor_pk, Reading.angle_deg.is_not(None)).group_by(day).order_by(day))
+    if site.baseline_start_ts is not None:
+        q = q.where(Reading.ts >= site.baseline_start_ts)
+    rows = s.execute(q).all()
+    d = np.array([r[0] for r in rows], dtype=np.int64)
+    n, n_t = np.array([r[1] for r in rows], dtype=np.int64), np.array([r[2] for r in rows], dtype=np.int64)
+    lo, hi = (np.array([np.nan if r[k] is None else r[k] for r in rows], dtype=float) for k in (3, 4))
+    return pd.DataFrame({"day": pd.to_datetime(d * _DAY_S, unit="s").strftime("%Y-%m-%d"), "n_no_temperature": n - n_t,
+                         "constant_temperature": (n_t >= STUCK_MIN_READINGS) & (lo == hi)})
 
 
 def sensor_daily_statistics(s, site: Site, sensor_id: str) -> pd.DataFrame:
@@ -345,9 +367,14 @@ def sensor_daily_statistics(s, site: Site, sensor_id: str) -> pd.DataFrame:
         n_raw, n_temp = st.n_raw[:, 0], st.n_temperature[:, 0]
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_t = np.where(n_temp > 0, fields["temperature_sum_c"] / n_temp, np.nan)
-    return pd.DataFrame({"day": day.strftime("%Y-%m-%d"), "n_raw": n_raw, "raw_median_deg": fields["raw_median_deg"],
-                         "median_deg": fields["median_deg"], "mean_temp_c": mean_t,
-                         "temp_range_c": fields["temp_range_c"]})
+    out = pd.DataFrame({"day": day.strftime("%Y-%m-%d"), "n_raw": n_raw, "raw_median_deg": fields["raw_median_deg"],
+                        "median_deg": fields["median_deg"], "mean_temp_c": mean_t,
+                        "temp_range_c": fields["temp_range_c"]})
+    channel = temperature_channel_days(s, site, sens[0][0])
+    out = out.merge(channel, on="day", how="left")
+    out["n_no_temperature"] = out["n_no_temperature"].fillna(0).astype(np.int64)
+    out["constant_temperature"] = out["constant_temperature"].eq(True)
+    return out
 
 
 def _quiet_days(site: Site, days) -> list | None:
@@ -361,7 +388,8 @@ def _quiet_days(site: Site, days) -> list | None:
 def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict | None = None):
     """Per-day statistics of the site: the cache, with the days from the earliest change recomputed from raw.
 
-    Returns (stats, window readings, the first recomputed day as days since 1970 or None for a full build,
+    Returns (stats, window readings as stored (``validate_site`` of the recompute fills them again, and warns), the
+    first recomputed day as days since 1970 or None for a full build,
     the sensor columns rebuilt from all their readings, the cache's rows as read (:func:`_day_cache_rows`) and
     the ``day_cache`` state they were read at, None for a full build). Days before the change come from
     ``day_stats``; the readings from the day before the change (3 readings of running-median context further
@@ -378,11 +406,11 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
                                                                          .astype(np.int64)) + _DAY_S:
         prev = None  # a change on the first day (settings, sensors, baseline): build from every reading
     if prev is None:
-        readings = _filled(s, site, _readings_frame(s, site, sens))
+        readings = _readings_frame(s, site, sens)
         if readings.empty:
             return None, readings, None, None, None
         days = pd.DatetimeIndex(readings["timestamp"].dt.normalize().unique())
-        stats = day_statistics(readings, ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C,
+        stats = day_statistics(_filled(s, site, readings), ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C,
                                quiet_days=_quiet_days(site, days))
         return stats, readings, None, list(range(len(ids))), None
     # no recorded change (a forced run): the newest cached day is recomputed, so the window is never empty
@@ -390,12 +418,12 @@ def cached_statistics(s, site: Site, sens, thermal: str, dirty_from, memo: dict 
                else pd.Timestamp(int(dirty_from), unit="s").normalize())
     first, ctx = statistics_window(prev, changed)
     from_ts = int(pd.Timestamp(ctx).value // 10**9)
-    window = _filled(s, site, _readings_frame(s, site, sens, from_ts=from_ts), from_ts=from_ts)
+    window = _readings_frame(s, site, sens, from_ts=from_ts)
     all_days = pd.DatetimeIndex(np.union1d(prev.days[prev.days < first],
                                            window["timestamp"].dt.normalize().unique()))
     quiet = _quiet_days(site, all_days)
-    stats = day_statistics(window, ids, thermal=thermal, reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet,
-                           first_day=first, previous=prev)
+    stats = day_statistics(_filled(s, site, window, from_ts=from_ts), ids, thermal=thermal,
+                           reference_temp_c=REFERENCE_TEMP_C, quiet_days=quiet, first_day=first, previous=prev)
     rebuilt = []
     if stats.stale_sensors:
         rebuilt = [j for j, sid in enumerate(ids) if sid in stats.stale_sensors]

@@ -27,7 +27,7 @@ from . import _core as core
 from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
 from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site, Threshold
-from ._recompute import latest_run, recompute, sensor_daily_statistics
+from ._recompute import latest_run, recompute, sensor_daily_statistics, temperature_channel_days
 
 __all__ = ["create_app", "ServiceWorker"]
 
@@ -158,6 +158,10 @@ def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str) -> bytes:
     t, half = daily["mean_temp_c"].to_numpy(float), daily["temp_range_c"].to_numpy(float) / 2.0
     ax_t.fill_between(dd, t - half, t + half, color="tab:red", alpha=0.15, label="± half the day's range")
     ax_t.plot(dd, t, ".-", color="tab:red", ms=3, lw=0.8, label="mean temperature of the day")
+    lent = ((daily["n_no_temperature"] > 0) | daily["constant_temperature"]).to_numpy(bool)
+    if lent.any():  # the estimate gave these days' readings the neighbours' temperature (rail.fill_temperature)
+        ax_t.plot(dd[lent], t[lent], "o", mfc="none", mec="k", ms=7,
+                  label="own channel empty or constant: the neighbours' temperature")
     ax_t.set_ylabel("temperature (°C)")
     ax_t.legend(fontsize=7)
     for label in ax_t.get_xticklabels():
@@ -631,10 +635,17 @@ def _add_page_routes(app: FastAPI, ctx: _App):
             n = s.scalar(select(func.count()).select_from(Reading).join(
                 core.Sensor, core.Sensor.id == Reading.sensor_pk).where(core.Sensor.site_id == st.id,
                                                                         core.Sensor.sensor_id == sensor))
+            pk = s.scalar(select(core.Sensor.id).where(core.Sensor.site_id == st.id, core.Sensor.sensor_id == sensor))
+            channel = None if pk is None else temperature_channel_days(s, st, pk)
         if h is None and not n:
             raise core.NotFound("unknown sensor.")
+        lent = None
+        if channel is not None and (channel["n_no_temperature"].sum() or channel["constant_temperature"].any()):
+            lent = dict(empty=int(channel["n_no_temperature"].sum()),
+                        empty_days=int((channel["n_no_temperature"] > 0).sum()),
+                        constant_days=int(channel["constant_temperature"].sum()))
         return ctx.render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n,
-                          run=ctx.run_info(run))
+                          run=ctx.run_info(run), lent=lent)
 
     @app.post("/sites/{site}/alarms/{alarm_id}/ack")
     async def ack_form(request: Request, site: str, alarm_id: int):
