@@ -1501,9 +1501,9 @@ def _change_prior_stage(x, M, sig, sig_days, drift, factors, opt: SettlementSett
         if drift and prior_fit.log_likelihood[order] - prior_fit.stiffest_log_likelihood[order] < STIFFEST_LR:
             # the stiffest prior of the grid (no change) is not rejected (STIFFEST_LR): with the per-day noise the
             # likelihood cannot tell the bowl from the noise (a weak bowl under strong drift, or a bowl spanning most
-            # of a sparse site that inflated the noise estimate) and the stiffest prior would claim "no change, no doubt". The prior is then
-            # fitted with the day-difference sigma (where the bowl stands out) and the per-day noise is kept:
-            # before issue 13 step 7 the white noise model replaced it, whose late-day sigma is 5-10 times too
+            # of a sparse site that inflated the noise estimate) and the stiffest prior would claim "no change, no
+            # doubt". The prior is then fitted with the day-difference sigma (where the bowl stands out) and the
+            # per-day noise is kept: before issue 13 step 7 the white noise model replaced it, whose late-day sigma is 5-10 times too
             # small on drifting sites (coverage 70-90 % on 3 of 24 calibration drift sites, 99-100 % now).
             warnings.append("error_model='drift': with the per-day noise the likelihood does not reject the prior "
                             "at its stiffest (the settlement cannot be told from the noise); the prior is fitted with "
@@ -1684,8 +1684,9 @@ def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights,
     m* the record completed by E[m_J | m_O]. Lambda_JJ's columns come from the posterior means of unit data at each
     missing entry, and diag(H_J Cov H_J^T) from the posterior means of the columns of a square root of Cov put at the
     entries: 2 |J| + 2 calls, memory O(D N + |J|^2). The same for z and the rate. The day covariance R, the increment
-    prior and the factors are fitted without the missing days (:func:`_joint_fit`'s ``observed``), the segment weights and the end anchor on the
-    interpolated record, and all are taken as known (named assumptions, docs/rail.md, "Logger outages").
+    prior and the factors are fitted without the missing days (:func:`_joint_fit`'s ``observed``), the segment
+    weights and the end anchor on the interpolated record, and all are taken as known (named assumptions,
+    docs/rail.md, "Logger outages").
 
     Returns
     -------
@@ -1883,6 +1884,8 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
     # with imputed sensor-days (_impute_missing) the draws are shared among the completed records
     records = joint.mode_slopes[None] if joint.imputed_mode_slopes is None else joint.imputed_mode_slopes
     for data, rows in zip(records, np.array_split(np.arange(S), len(records))):
+        if rows.size == 0:  # fewer draws than completed records: the later records get none
+            continue
         for idx, s in _noise_groups(joint.modes.noise):
             draws[rows[0]:rows[-1] + 1, idx] = sample_profiles(
                 x, data[idx], rows.size, sigma=_station_sigma(s, factors), rigidity=joint.modes.rigidity,
