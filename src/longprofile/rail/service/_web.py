@@ -632,10 +632,8 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         with db.read() as s:
             h = None if run is None else s.scalar(select(HealthRow).where(HealthRow.run_id == run.id,
                                                                           HealthRow.sensor_id == sensor))
-            n = s.scalar(select(func.count()).select_from(Reading).join(
-                core.Sensor, core.Sensor.id == Reading.sensor_pk).where(core.Sensor.site_id == st.id,
-                                                                        core.Sensor.sensor_id == sensor))
             pk = s.scalar(select(core.Sensor.id).where(core.Sensor.site_id == st.id, core.Sensor.sensor_id == sensor))
+            n = 0 if pk is None else s.scalar(select(func.count()).select_from(Reading).where(Reading.sensor_pk == pk))
             channel = None if pk is None else temperature_channel_days(s, st, pk)
         if h is None and not n:
             raise core.NotFound("unknown sensor.")
