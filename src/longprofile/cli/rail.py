@@ -104,7 +104,8 @@ def settle_command(
     temperature_fill: bool = typer.Option(True, "--temperature-fill/--no-temperature-fill",
                                           help="A reading with an angle but no temperature (a failed temperature "
                                                "channel), or one stuck at a value all day, takes the median "
-                                               "temperature of its 4 nearest sensors in the same minute; "
+                                               "temperature of its 4 nearest sensors in the same minute plus "
+                                               "its own offset from them in the 7 days before; "
                                                "--no-temperature-fill leaves it out (docs/rail.md)."),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
     quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "

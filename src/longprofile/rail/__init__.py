@@ -12,7 +12,7 @@ track_angle                 -- how far from level the sensors read (median |angl
 check_survey                -- refuse a survey in another unit than metres (altitude beyond any terrain, grade).
 fill_temperature            -- a reading without a temperature (failed channel), or a stuck one (STUCK_MIN_READINGS,
                                STUCK_SITE_SPREAD_C), takes its nearest sensors' (the median of TEMPERATURE_NEIGHBOURS
-                               in the same minute).
+                               in the same minute) plus its own offset from them (TEMPERATURE_OFFSET_DAYS before).
 read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
                                tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
@@ -77,7 +77,8 @@ _EXPORTS = {
     "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
     "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
                "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
-               "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C"),
+               "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
+               "TEMPERATURE_OFFSET_DAYS"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
@@ -98,7 +99,7 @@ _EXPORTS = {
 __all__ = [
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
-    "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
+    "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS",
     "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",

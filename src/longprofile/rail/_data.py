@@ -23,7 +23,7 @@ from ..errors import InputError, InputFormatError, UnitsError
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
            "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
-           "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C"]
+           "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -59,6 +59,9 @@ _FILL_CHUNK = 20_000
 #: digit through a day whose temperature moves by a degree.
 STUCK_MIN_READINGS = 12
 STUCK_SITE_SPREAD_C = 1.0
+#: :func:`fill_temperature`: a filled reading takes the sensor's mean difference from its neighbours' median over
+#: this many calendar days ending on its last own-temperature day before the filled reading's day (a shade offset).
+TEMPERATURE_OFFSET_DAYS = 7
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,7 +219,7 @@ def _clock_change_hint(r: pd.DataFrame, dups) -> str:
 def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
                      neighbours: int = TEMPERATURE_NEIGHBOURS) -> tuple[pd.DataFrame, dict[str, int], dict[str, int]]:
     """Readings whose angle has no temperature, or a stuck one, given the median temperature of their nearest
-    sensors' readings.
+    sensors' readings, plus the sensor's own offset from that median.
 
     The thermal correction (paper 004 §3) needs each reading's temperature. Where a sensor's temperature channel has
     failed (all its readings) or drops out (some), its angles would be lost; the rail a few metres away has nearly
@@ -224,10 +227,18 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
     (time stamps floored to the minute) by the ``neighbours`` nearest sensors (by ``|x_m|`` distance; the sensor
     itself excluded) that have one. A channel stuck at one value through a day when the others' temperatures move
     (:data:`STUCK_MIN_READINGS`, :data:`STUCK_SITE_SPREAD_C`; decided per sensor and calendar day) is a missing
-    temperature on that day. A constant offset between the sensor and its neighbours (shade) cancels in the
-    settlement, which is a change from the reference day; a different daily swing (sun exposure) or lag does not
-    (named in docs/rail.md, "A failed temperature channel"). A reading no sensor has a temperature for in that
-    minute keeps its NaN (and is left out, as before).
+    temperature on that day.
+
+    A sensor in the shade reads a degree or so below its neighbours. When its channel fails during the record, that
+    offset would show in the thermal correction as a step of coefficient x offset from the failure on (a false
+    settlement, or a sensor taken for reversed). So a filled reading also takes the sensor's mean difference from
+    the same median over its readings of the :data:`TEMPERATURE_OFFSET_DAYS` calendar days (UTC) that end on its
+    last *own-temperature day* before the filled reading's day: a day with a temperature read with an angle and not
+    one value all day (at least :data:`STUCK_MIN_READINGS` temperatures, all equal). Causal: a filled reading
+    depends on nothing after its day, so a live record gives the same values as the whole one. A channel failed
+    from the first day has no offset (0): there it cancels in the settlement, which is a change from the reference
+    day. A different daily swing (sun exposure) or lag does not cancel (named in docs/rail.md, "A failed temperature
+    channel"). A reading no sensor has a temperature for in that minute keeps its NaN (and is left out, as before).
 
     Parameters
     ----------
@@ -252,25 +263,58 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
         raise InputError(f"neighbours must be at least 1; got {neighbours!r}.")
     stuck_rows, stuck = _stuck_temperature(readings)
     temp = np.where(stuck_rows, np.nan, readings["temperature_c"].to_numpy(float))
-    need = np.isnan(temp) & readings["angle_deg"].notna().to_numpy()
+    angle = readings["angle_deg"].notna().to_numpy()
+    need = np.isnan(temp) & angle
     if not need.any():
         return readings, {}, stuck
     ids = sensors["sensor_id"].astype(str).to_numpy()
-    x = sensors["x_m"].to_numpy(float)
     col = pd.Index(ids).get_indexer(readings["sensor_id"].astype(str))
-    minute = readings["timestamp"].dt.floor("min").to_numpy()
-    have = np.isfinite(temp) & (col >= 0)
-    keys, key_of = np.unique(minute[need], return_inverse=True)
-    key = np.full(temp.size, -1)
-    key[need] = key_of
+    day = _utc_days(readings["timestamp"])
+    pair, window = _offset_windows(readings["temperature_c"].to_numpy(float), temp, angle, need, col, day)
+    med = _neighbour_median(temp, readings["timestamp"].dt.floor("min").to_numpy(), col,
+                            sensors["x_m"].to_numpy(float), need | pair, neighbours)
     out = temp.copy()
-    rows = np.flatnonzero(need)
+    out[need] = med[need] + _offsets(temp - med, pair, need, col, day, window)
+    done = need & np.isfinite(out)
+    if not done.any() and not stuck_rows.any():
+        return readings, {}, stuck
+    r = readings.copy()
+    r["temperature_c"] = out  # a stuck reading nothing could fill stays empty: it is not a temperature
+    counts = pd.Series(readings["sensor_id"].to_numpy()[done]).value_counts(sort=False)
+    return r, {str(k): int(v) for k, v in counts.items()}, stuck
+
+
+def _utc_days(ts: pd.Series) -> np.ndarray:
+    """Days since 1970 (UTC calendar days) of the time stamps: the days of ``validate_site``."""
+    if getattr(ts.dt, "tz", None) is not None:
+        ts = ts.dt.tz_convert(None)
+    return ts.to_numpy().astype("datetime64[D]").astype(np.int64)
+
+
+def _own_temperature_days(raw: np.ndarray, angle: np.ndarray, group: np.ndarray, day: np.ndarray) -> np.ndarray:
+    """Whether each (group, day) of the rows is an own-temperature day (:func:`fill_temperature`), per row."""
+    ok = np.isfinite(raw) & angle
+    frame = pd.DataFrame({"g": group, "d": day, "t": np.where(ok, raw, np.nan)})
+    agg = frame.groupby(["g", "d"], sort=False)["t"].agg(["count", "min", "max"])
+    own = (agg["count"] > 0) & ~((agg["count"] >= STUCK_MIN_READINGS) & (agg["min"] == agg["max"]))
+    return own.reindex(pd.MultiIndex.from_arrays([group, day])).to_numpy(bool)
+
+
+def _neighbour_median(temp, minute, col, x, targets, neighbours: int) -> np.ndarray:
+    """At the ``targets`` rows, the median temperature of the ``neighbours`` nearest other sensors (by ``x``) with
+    one in the same minute (NaN elsewhere, and where none has)."""
+    have = np.isfinite(temp) & (col >= 0)
+    rows = np.flatnonzero(targets)
+    keys, key_of = np.unique(minute[rows], return_inverse=True)
+    key = np.full(temp.size, -1)
+    key[rows] = key_of
+    med = np.full(temp.size, np.nan)
     for lo in range(0, keys.size, _FILL_CHUNK):  # a dense minute x sensor table of the needed minutes, in chunks
         ks = keys[lo:lo + _FILL_CHUNK]
         pos = np.searchsorted(ks, minute)
         src = have & (pos < ks.size)
         src[src] = ks[pos[src]] == minute[src]
-        table = np.full((ks.size, ids.size), np.nan)
+        table = np.full((ks.size, x.size), np.nan)
         table[pos[src], col[src]] = temp[src]  # several readings of one sensor in a minute: one of them
         mine = rows[(key_of >= lo) & (key_of < lo + ks.size)]
         for j in np.unique(col[mine]):
@@ -282,14 +326,54 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
             vals[~ok | (np.cumsum(ok, axis=1) > neighbours)] = np.nan
             with np.errstate(all="ignore"):
                 some = ok.any(axis=1)
-                out[at[some]] = np.nanmedian(vals[some], axis=1)
-    done = need & np.isfinite(out)
-    if not done.any() and not stuck_rows.any():
-        return readings, {}, stuck
-    r = readings.copy()
-    r["temperature_c"] = out  # a stuck reading nothing could fill stays empty: it is not a temperature
-    counts = pd.Series(readings["sensor_id"].to_numpy()[done]).value_counts(sort=False)
-    return r, {str(k): int(v) for k, v in counts.items()}, stuck
+                med[at[some]] = np.nanmedian(vals[some], axis=1)
+    return med
+
+
+def _offset_windows(raw, temp, angle, need, col, day) -> tuple[np.ndarray, np.ndarray]:
+    """(rows whose difference from their neighbours enters an offset, each needed row's last own-temperature day
+    before its day or -1): :func:`fill_temperature`'s offset windows."""
+    end = np.full(raw.size, -1, dtype=np.int64)
+    pair = np.zeros(raw.size, bool)
+    sensors = np.unique(col[need])
+    mine = np.isin(col, sensors)
+    own = np.zeros(raw.size, bool)
+    own[mine] = _own_temperature_days(raw[mine], angle[mine], col[mine], day[mine])
+    for j in sensors:
+        rows = col == j
+        own_days = np.unique(day[rows & own])
+        at = np.flatnonzero(rows & need)
+        if own_days.size == 0:  # failed from its first reading: no offset
+            continue
+        k = np.searchsorted(own_days, day[at]) - 1
+        end[at] = np.where(k >= 0, own_days[np.maximum(k, 0)], -1)
+        used = np.unique(end[at][end[at] >= 0])
+        if used.size:
+            w = np.searchsorted(used, day)  # the first used window end on or after the row's day
+            inside = (w < used.size) & (used[np.minimum(w, used.size - 1)] - day < TEMPERATURE_OFFSET_DAYS)
+            pair |= rows & inside & np.isfinite(temp) & angle
+    return pair, end
+
+
+def _offsets(diff, pair, need, col, day, end) -> np.ndarray:
+    """For the needed rows, the mean of ``diff`` over the same sensor's ``pair`` rows of the
+    :data:`TEMPERATURE_OFFSET_DAYS` days ending on the row's ``end`` day (0 without any)."""
+    use = pair & np.isfinite(diff)
+    at = np.flatnonzero(need)
+    out = np.zeros(at.size)
+    for j in np.unique(col[at]):
+        sel = at[col[at] == j]
+        rows = use & (col == j)
+        days, inv = np.unique(day[rows], return_inverse=True)
+        s = np.r_[0.0, np.cumsum(np.bincount(inv, diff[rows]))]
+        n = np.r_[0, np.cumsum(np.bincount(inv))]
+        e = end[sel]
+        hi = np.searchsorted(days, e, side="right")
+        lo = np.searchsorted(days, e - TEMPERATURE_OFFSET_DAYS, side="right")
+        count = n[hi] - n[lo]
+        with np.errstate(all="ignore"):
+            out[np.searchsorted(at, sel)] = np.where((e >= 0) & (count > 0), (s[hi] - s[lo]) / count, 0.0)
+    return out
 
 
 def _stuck_temperature(readings: pd.DataFrame) -> tuple[np.ndarray, dict[str, int]]:
@@ -299,10 +383,7 @@ def _stuck_temperature(readings: pd.DataFrame) -> tuple[np.ndarray, dict[str, in
     if ok.sum() < STUCK_MIN_READINGS:
         return np.zeros(t.size, bool), {}
     codes, names = pd.factorize(readings["sensor_id"])
-    ts = readings["timestamp"]
-    if getattr(ts.dt, "tz", None) is not None:  # calendar days of UTC, as validate_site gives them
-        ts = ts.dt.tz_convert(None)
-    day = ts.to_numpy().astype("datetime64[D]").astype(np.int64)
+    day = _utc_days(readings["timestamp"])  # calendar days of UTC, as validate_site gives them
     day = day - day.min()
     n_days = int(day.max()) + 1
     g = codes.astype(np.int64) * n_days + day
@@ -329,8 +410,9 @@ def _filled_warning(filled: dict[str, int]) -> str:
     top = sorted(filled, key=lambda k: (-filled[k], k))
     return (f"{sum(filled.values())} reading(s) of {len(filled)} sensor(s) had an angle but no usable temperature (a "
             f"failed, intermittent or stuck temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
-            f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute "
-            "(temperature_fill=False, CLI --no-temperature-fill, leaves them out).")
+            f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute, plus their own "
+            f"mean difference from it over the {TEMPERATURE_OFFSET_DAYS} days before (temperature_fill=False, CLI "
+            "--no-temperature-fill, leaves them out).")
 
 
 def _stuck_warning(stuck: dict[str, int]) -> str:

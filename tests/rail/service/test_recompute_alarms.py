@@ -277,3 +277,54 @@ def test_a_failed_temperature_channel_is_filled_as_rail_settle_does(site):
     assert "no usable temperature" in warned and "stuck temperature channel" in warned
     for c in ("dz_m", "dz_std_m"):
         np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
+
+
+def test_a_channel_failed_long_before_the_window_takes_its_offset_from_before_the_failure(db):
+    """A sensor that reads 2 degC above its neighbours (shade, a probe's offset) loses its channel on day 2 of 14.
+    The second run recomputes from day 12 only, ten days after the failure: its filled temperatures still take the
+    sensor's offset from the week before the failure (the service reads those days again, ``_fill_history``), and
+    the stored results are ``rail settle``'s on the same readings (docs/rail.md, "The sensor's offset")."""
+    from longprofile.rail import fill_temperature
+
+    syn, r = synthetic(n_days=14)
+    _core.create_site(db, "tester", "mitt", clock="data")
+    _core.put_sensors(db, "tester", "mitt", syn.sensors.to_dict("records"))
+    _core.put_survey(db, "tester", "mitt", syn.survey.to_dict("records"))
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    sid = list(syn.sensors["sensor_id"])[20]
+    mine = (r["sensor_id"] == sid).to_numpy()
+    failed = mine & (days >= ud[2]).to_numpy()
+    r = r.copy()
+    r.loc[mine, "temperature_c"] += 2.0
+    r.loc[failed, "temperature_c"] = np.nan
+    _ingest_days(db, r, ud[11])
+    assert recompute(db, "mitt")["status"] == "ok"
+    _ingest_days(db, r, ud[-1])
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    with db.read() as s:
+        assert s.get(Run, out["run_id"]).changed_from_ts >= pd.Timestamp(ud[12]).value // 10**9  # incremental
+    readings = syn.readings.copy()
+    readings.loc[mine, "temperature_c"] += 2.0
+    readings.loc[failed, "temperature_c"] = np.nan
+    filled = fill_temperature(readings, syn.sensors)[0]["temperature_c"].to_numpy()
+    plain = syn.readings["temperature_c"].to_numpy()
+    assert abs(np.mean(filled[failed] - plain[failed]) - 2.0) < 0.2  # the offset is carried
+    ref = estimate_settlement(validate_site(syn.sensors, readings, syn.survey), n_monte_carlo=0)
+    got = _stored_against(db, out["run_id"], ref)
+    for c in ("dz_m", "dz_std_m"):
+        np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
+    from longprofile.rail.service._recompute import _active_sensors, _filled, _readings_frame
+
+    full = fill_temperature(readings.assign(timestamp=pd.to_datetime(readings["timestamp"])), syn.sensors)[0]
+    with db.read() as s:  # any window, whole days or not: the rows of the whole record's fill
+        site_row = _core._site(s, "mitt")
+        sens = _active_sensors(s, site_row)
+        for start in (ud[5], ud[9] + " 13:00", ud[12], ud[13] + " 06:00"):
+            t = pd.Timestamp(start).value // 10**9
+            frame = _filled(s, site_row, _readings_frame(s, site_row, sens, from_ts=t), from_ts=t)
+            want = full[full["timestamp"] >= pd.Timestamp(start)]
+            got_t = frame.merge(want, on=["timestamp", "sensor_id"], suffixes=("", "_want"))
+            assert len(got_t) == len(frame) == len(want)
+            np.testing.assert_allclose(got_t["temperature_c"], got_t["temperature_c_want"], rtol=0, atol=1e-12)

@@ -31,6 +31,7 @@ from .. import (
     STUCK_MIN_READINGS,
     STUCK_SITE_SPREAD_C,
     TEMPERATURE_NEIGHBOURS,
+    TEMPERATURE_OFFSET_DAYS,
     DayStatistics,
     daily_angles_from_statistics,
     day_statistics,
@@ -183,15 +184,17 @@ def _active_sensors(s, site: Site):
                                         .order_by(Sensor.x_m))]
 
 
-def _readings_frame(s, site: Site, sens, *, from_ts=None, pks=None, chunk: int = 65536) -> pd.DataFrame:
-    """The stored readings (from ``from_ts``; of the sensors ``pks``) in the long format, each sensor's rows
-    in time order (what ``day_statistics`` and ``validate_site`` read)."""
+def _readings_frame(s, site: Site, sens, *, from_ts=None, to_ts=None, pks=None, chunk: int = 65536) -> pd.DataFrame:
+    """The stored readings (from ``from_ts``, before ``to_ts``; of the sensors ``pks``) in the long format, each
+    sensor's rows in time order (what ``day_statistics`` and ``validate_site`` read)."""
     names = {r[0]: r[1] for r in sens}
     q = select(Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c).where(
         Reading.site_id == site.id)
     lo = site.baseline_start_ts if from_ts is None else max(from_ts, site.baseline_start_ts or from_ts)
     if lo is not None:
         q = q.where(Reading.ts >= lo)
+    if to_ts is not None:
+        q = q.where(Reading.ts < int(to_ts))
     if pks is not None:
         q = q.where(Reading.sensor_pk.in_(list(pks)))
     arr = _float_columns(s, q, 4, chunk=chunk)
@@ -209,22 +212,73 @@ def _filled(s, site: Site, frame: pd.DataFrame, *, subset: bool = False, from_ts
     """``frame`` (the readings of every active sensor from ``from_ts``; with ``subset``, of some of them) with the
     temperatures ``validate_site`` fills
     (:func:`longprofile.rail.fill_temperature`: a reading with an angle but no temperature, or a stuck one, takes
-    its nearest sensors' of the same minute), decided and filled from every active sensor's readings of the same
-    span: what the day cache holds is then what ``rail settle`` computes from the same readings. The stuck test is
-    decided per sensor and calendar day: the window's days from the first recomputed one on are whole, and its
-    earlier readings only give the outlier test its running-median context. A frame of some of the sensors (a
-    stale sensor rebuilt, a sensor's page) is filled from all of them, read again."""
+    its nearest sensors' of the same minute plus its own offset from them before), decided and filled from every
+    active sensor's readings of the same span and of the earlier days the offsets need
+    (:func:`_fill_history`): what the day cache holds is then what ``rail settle`` computes from the same readings.
+    The stuck test is decided per sensor and calendar day, and every day it reads is whole. A frame of some of the
+    sensors (a stale sensor rebuilt, a sensor's page) is filled from all of them, read again."""
+    if not _may_need_fill(frame):
+        return frame
     everyone = _active_sensors(s, site)
+    present = frame["sensor_id"].unique() if subset else None
     if subset:
-        if not _may_need_fill(frame):
-            return frame
-        present = frame["sensor_id"].unique()
-        frame_all = _readings_frame(s, site, everyone, from_ts=from_ts)
-        full, filled, stuck = fill_temperature(frame_all, _sensor_table(everyone))
-        if not filled and not stuck:
-            return frame
-        return full[full["sensor_id"].isin(present)].reset_index(drop=True)
-    return fill_temperature(frame, _sensor_table(everyone))[0]
+        frame = _readings_frame(s, site, everyone, from_ts=from_ts)
+    history = _fill_history(s, site, everyone, frame, from_ts)
+    both = frame if history is None else pd.concat([history, frame], ignore_index=True)
+    full, filled, stuck = fill_temperature(both, _sensor_table(everyone))  # row order kept: the frame's rows last
+    if not filled and not stuck:
+        return frame if present is None else frame[frame["sensor_id"].isin(present)].reset_index(drop=True)
+    full = full.iloc[both.shape[0] - frame.shape[0]:].reset_index(drop=True)
+    return full if present is None else full[full["sensor_id"].isin(present)].reset_index(drop=True)
+
+
+def _fill_history(s, site: Site, everyone, frame: pd.DataFrame, from_ts) -> pd.DataFrame | None:
+    """The readings before ``from_ts`` that :func:`longprofile.rail.fill_temperature`'s offsets read for the frame's
+    filled readings (None for a frame of the whole record): the whole day of ``from_ts`` and the
+    ``TEMPERATURE_OFFSET_DAYS`` before it, and for each sensor with a reading to fill, the same number of days ending
+    on its last own-temperature day before that day (from one aggregate query: :func:`_temperature_days`). Every
+    sensor's readings of those days: the stuck test and the neighbours' medians read them all."""
+    if from_ts is None:
+        return None
+    first = int(from_ts) // _DAY_S
+    t = frame["temperature_c"]
+    ids = frame["sensor_id"][(t.isna() & frame["angle_deg"].notna())].unique().tolist()
+    const = t.groupby([frame["sensor_id"], frame["timestamp"].dt.normalize()]).agg(["size", "nunique"])
+    ids += const.index.get_level_values(0)[(const["size"] >= STUCK_MIN_READINGS) & (const["nunique"] == 1)].tolist()
+    pks = [r[0] for r in everyone if r[1] in set(ids)]
+    spans = [(first - TEMPERATURE_OFFSET_DAYS, first)]
+    if pks:
+        pk, day, _, n_t, lo, hi = _temperature_days(s, site, pks, before_day=first)
+        own = (n_t > 0) & ~((n_t >= STUCK_MIN_READINGS) & (lo == hi))
+        ends = pd.Series(day[own]).groupby(pk[own]).max().to_numpy()
+        spans += [(int(e) - TEMPERATURE_OFFSET_DAYS + 1, int(e)) for e in np.unique(ends)]
+    merged = []
+    for a, b in sorted(spans):  # whole days a..b, merged where they touch
+        if merged and a <= merged[-1][1] + 1:
+            merged[-1][1] = max(merged[-1][1], b)
+        else:
+            merged.append([a, b])
+    parts = [_readings_frame(s, site, everyone, from_ts=a * _DAY_S, to_ts=min((b + 1) * _DAY_S, int(from_ts)))
+             for a, b in merged if a * _DAY_S < int(from_ts)]
+    return pd.concat(parts, ignore_index=True) if parts else None
+
+
+def _temperature_days(s, site: Site, pks, *, before_day=None):
+    """Per sensor and UTC day of the stored readings with an angle (from the baseline on, before ``before_day``):
+    (sensor pk, day, readings, temperatures, lowest, highest) arrays; one aggregate query."""
+    day = Reading.ts // _DAY_S
+    q = (select(Reading.sensor_pk, day, func.count(), func.count(Reading.temperature_c), func.min(Reading.temperature_c),
+                func.max(Reading.temperature_c))
+         .where(Reading.site_id == site.id, Reading.sensor_pk.in_([int(p) for p in pks]),
+                Reading.angle_deg.is_not(None)).group_by(Reading.sensor_pk, day).order_by(Reading.sensor_pk, day))
+    if site.baseline_start_ts is not None:
+        q = q.where(Reading.ts >= site.baseline_start_ts)
+    if before_day is not None:
+        q = q.where(Reading.ts < int(before_day) * _DAY_S)
+    rows = s.execute(q).all()
+    pk, day, n, n_t = (np.array([r[k] for r in rows], dtype=np.int64) for k in range(4))
+    lo, hi = (np.array([np.nan if r[k] is None else r[k] for r in rows], dtype=float) for k in (4, 5))
+    return pk, day, n, n_t, lo, hi
 
 
 def _may_need_fill(frame: pd.DataFrame) -> bool:
@@ -241,7 +295,8 @@ def _may_need_fill(frame: pd.DataFrame) -> bool:
 def _cache_key(site: Site, thermal: str) -> str:
     blob = json.dumps({"thermal": thermal, "reference_temp_c": REFERENCE_TEMP_C, "fields": DAY_FIELDS,
                        "median_lines": MEDIAN_LINES, "noise_std_tolerance": NOISE_STD_TOLERANCE,
-                       "temperature_neighbours": TEMPERATURE_NEIGHBOURS, "stuck": [STUCK_MIN_READINGS,
+                       "temperature_neighbours": TEMPERATURE_NEIGHBOURS,
+                       "temperature_offset_days": TEMPERATURE_OFFSET_DAYS, "stuck": [STUCK_MIN_READINGS,
                                                                                     STUCK_SITE_SPREAD_C],
                        "baseline_start": site.baseline_start_ts, "code": __version__}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
@@ -317,16 +372,7 @@ def temperature_channel_days(s, site: Site, sensor_pk: int) -> pd.DataFrame:
     temperatures, all one value). One aggregate query of the stored readings. Such readings take their neighbours'
     temperature in the estimate (``rail.fill_temperature``; a constant day only when the other sensors' temperatures
     move that day), which the sensor page says."""
-    day = Reading.ts // _DAY_S
-    q = (select(day, func.count(), func.count(Reading.temperature_c), func.min(Reading.temperature_c),
-                func.max(Reading.temperature_c))
-         .where(Reading.sensor_pk == sensor_pk, Reading.angle_deg.is_not(None)).group_by(day).order_by(day))
-    if site.baseline_start_ts is not None:
-        q = q.where(Reading.ts >= site.baseline_start_ts)
-    rows = s.execute(q).all()
-    d = np.array([r[0] for r in rows], dtype=np.int64)
-    n, n_t = np.array([r[1] for r in rows], dtype=np.int64), np.array([r[2] for r in rows], dtype=np.int64)
-    lo, hi = (np.array([np.nan if r[k] is None else r[k] for r in rows], dtype=float) for k in (3, 4))
+    _, d, n, n_t, lo, hi = _temperature_days(s, site, [sensor_pk])
     return pd.DataFrame({"day": pd.to_datetime(d * _DAY_S, unit="s").strftime("%Y-%m-%d"), "n_no_temperature": n - n_t,
                          "constant_temperature": (n_t >= STUCK_MIN_READINGS) & (lo == hi)})
 
