@@ -118,4 +118,4 @@ def test_a_failed_or_stuck_temperature_channel_is_said_on_the_sensor_page(site, 
     assert "constant value all day on" in client.get("/sites/mitt/sensors/S21").text
     assert client.get("/sites/mitt/sensors/S20/series.png").status_code == 200
     labels = [t.get_text() for t in seen[-1].axes[2].get_legend().get_texts()]
-    assert any("neighbours' temperature" in lab for lab in labels)
+    assert any("empty or constant: the neighbours'" in lab for lab in labels)

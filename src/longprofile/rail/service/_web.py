@@ -161,7 +161,7 @@ def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str) -> bytes:
     lent = ((daily["n_no_temperature"] > 0) | daily["constant_temperature"]).to_numpy(bool)
     if lent.any():  # the estimate gave these days' readings the neighbours' temperature (rail.fill_temperature)
         ax_t.plot(dd[lent], t[lent], "o", mfc="none", mec="k", ms=7,
-                  label="own channel empty or constant: the neighbours' temperature")
+                  label="own channel empty or constant: the neighbours' (+ its offset)")
     ax_t.set_ylabel("temperature (°C)")
     ax_t.legend(fontsize=7)
     for label in ax_t.get_xticklabels():
