@@ -161,6 +161,7 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
                                     f"{out.get('rebuilt_sensors')} sensor(s) rebuilt; "
                                     + ("day cache read from the database" if cold else
                                        "day cache from the process's memo of its previous run")))
+    rows.append(_failed_channel_row(db, readings, quick, size))
     with ServerThread(db, background=False) as srv:
         http = HttpSession(srv.url)
         http.login("viewer1", "viewer1-password")
@@ -185,6 +186,37 @@ def _pages_rows(quick, tmp) -> list[BenchRow]:
                          detail=f"{size}; {len(times)} requests, median {1e3 * np.median(times):.0f} ms"))
     db.dispose()
     return rows
+
+
+def _failed_channel_row(db, readings: pd.DataFrame, quick: bool, size: str) -> BenchRow:
+    """The recompute after one new day when two sensors' temperature channels failed ``failed_days`` days before:
+    each recompute reads again the days their offsets need (the week before the failure, docs/rail.md "The sensor's
+    own offset"). The new days are the site's first days again, shifted after its last; the earlier ones are
+    recomputed untimed."""
+    from longprofile.rail.service import _core
+    from longprofile.rail.service._recompute import recompute
+
+    failed_days = 10
+    day = readings["timestamp"].str[:10]
+    days = sorted(day.unique())
+    ids = sorted(readings["sensor_id"].unique())
+    for k in range(1, failed_days + 2):
+        src = days[(k - 1) % len(days)]
+        new = readings[day == src].copy()
+        shift = pd.Timestamp(days[-1]) + pd.Timedelta(days=k) - pd.Timestamp(src)
+        new["timestamp"] = (pd.to_datetime(new["timestamp"]) + shift).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
+        new.loc[new["sensor_id"].isin(ids[len(ids) // 2:len(ids) // 2 + 2]), "temperature_c"] = np.nan
+        for i in range(0, len(new), 20_000):
+            _core.ingest(db, "bench", new.iloc[i:i + 20_000].to_dict("records"))
+        t0 = time.perf_counter()
+        out = recompute(db, "bench")
+        t_day = time.perf_counter() - t0
+        assert out["status"] == "ok", out["message"]
+    parts = ", ".join(f"{k} {v:.2f} s" for k, v in out.get("timings", {}).items())
+    return BenchRow(AREA, f"recompute after one new day, 2 temperature channels failed {failed_days} days before",
+                    t_day, "s", target=None if quick else 2.0, higher_is_better=False,
+                    detail=f"{size} + {failed_days + 1} days; {out.get('model')} model; {parts}; recomputed from "
+                           f"{out.get('recomputed_from_day')}, {out.get('rebuilt_sensors')} sensor(s) rebuilt")
 
 
 def run(quick: bool = False) -> list[BenchRow]:

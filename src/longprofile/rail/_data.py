@@ -59,7 +59,7 @@ _FILL_CHUNK = 20_000
 #: digit through a day whose temperature moves by a degree.
 STUCK_MIN_READINGS = 12
 STUCK_SITE_SPREAD_C = 1.0
-#: :func:`fill_temperature`: a filled reading takes the sensor's mean difference from its neighbours' median over
+#: :func:`fill_temperature`: a filled reading takes the sensor's median difference from its neighbours' median over
 #: this many calendar days ending on its last own-temperature day before the filled reading's day (a shade offset).
 TEMPERATURE_OFFSET_DAYS = 7
 
@@ -231,14 +231,15 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
 
     A sensor in the shade reads a degree or so below its neighbours. When its channel fails during the record, that
     offset would show in the thermal correction as a step of coefficient x offset from the failure on (a false
-    settlement, or a sensor taken for reversed). So a filled reading also takes the sensor's mean difference from
-    the same median over its readings of the :data:`TEMPERATURE_OFFSET_DAYS` calendar days (UTC) that end on its
+    settlement, or a sensor taken for reversed). So a filled reading also takes the sensor's median difference from
+    the same neighbours' median over its readings of the :data:`TEMPERATURE_OFFSET_DAYS` calendar days (UTC) that end on its
     last *own-temperature day* before the filled reading's day: a day with a temperature read with an angle and not
     one value all day (at least :data:`STUCK_MIN_READINGS` temperatures, all equal). Causal: a filled reading
     depends on nothing after its day, so a live record gives the same values as the whole one. A channel failed
     from the first day has no offset (0): there it cancels in the settlement, which is a change from the reference
     day. A different daily swing (sun exposure) or lag does not cancel (named in docs/rail.md, "A failed temperature
-    channel"). A reading no sensor has a temperature for in that minute keeps its NaN (and is left out, as before).
+    channel"). A reading no sensor has a temperature for in that minute keeps its NaN (and is left out, as before),
+    and so does a reading of a sensor that is not in ``sensors`` (it has no station).
 
     Parameters
     ----------
@@ -269,6 +270,7 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
         return readings, {}, stuck
     ids = sensors["sensor_id"].astype(str).to_numpy()
     col = pd.Index(ids).get_indexer(readings["sensor_id"].astype(str))
+    need &= col >= 0  # a sensor without a station has no neighbours: its readings stay as they are
     day = _utc_days(readings["timestamp"])
     pair, window = _offset_windows(readings["temperature_c"].to_numpy(float), temp, angle, need, col, day)
     med = _neighbour_median(temp, readings["timestamp"].dt.floor("min").to_numpy(), col,
@@ -356,23 +358,20 @@ def _offset_windows(raw, temp, angle, need, col, day) -> tuple[np.ndarray, np.nd
 
 
 def _offsets(diff, pair, need, col, day, end) -> np.ndarray:
-    """For the needed rows, the mean of ``diff`` over the same sensor's ``pair`` rows of the
+    """For the needed rows, the median of ``diff`` over the same sensor's ``pair`` rows of the
     :data:`TEMPERATURE_OFFSET_DAYS` days ending on the row's ``end`` day (0 without any)."""
     use = pair & np.isfinite(diff)
     at = np.flatnonzero(need)
     out = np.zeros(at.size)
     for j in np.unique(col[at]):
-        sel = at[col[at] == j]
-        rows = use & (col == j)
-        days, inv = np.unique(day[rows], return_inverse=True)
-        s = np.r_[0.0, np.cumsum(np.bincount(inv, diff[rows]))]
-        n = np.r_[0, np.cumsum(np.bincount(inv))]
-        e = end[sel]
-        hi = np.searchsorted(days, e, side="right")
-        lo = np.searchsorted(days, e - TEMPERATURE_OFFSET_DAYS, side="right")
-        count = n[hi] - n[lo]
-        with np.errstate(all="ignore"):
-            out[np.searchsorted(at, sel)] = np.where((e >= 0) & (count > 0), (s[hi] - s[lo]) / count, 0.0)
+        sel = col[at] == j
+        rows = np.flatnonzero(use & (col == j))
+        for e in np.unique(end[at[sel]]):
+            if e < 0:
+                continue
+            inside = diff[rows[(day[rows] <= e) & (day[rows] > e - TEMPERATURE_OFFSET_DAYS)]]
+            if inside.size:
+                out[sel & (end[at] == e)] = np.median(inside)
     return out
 
 
@@ -411,7 +410,7 @@ def _filled_warning(filled: dict[str, int]) -> str:
     return (f"{sum(filled.values())} reading(s) of {len(filled)} sensor(s) had an angle but no usable temperature (a "
             f"failed, intermittent or stuck temperature channel?), most on {[f'{k} ({filled[k]})' for k in top[:5]]}; they take the "
             f"median temperature of their {TEMPERATURE_NEIGHBOURS} nearest sensors in the same minute, plus their own "
-            f"mean difference from it over the {TEMPERATURE_OFFSET_DAYS} days before (temperature_fill=False, CLI "
+            f"median difference from it over the {TEMPERATURE_OFFSET_DAYS} days before (temperature_fill=False, CLI "
             "--no-temperature-fill, leaves them out).")
 
 
