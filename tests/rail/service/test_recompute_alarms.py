@@ -328,3 +328,39 @@ def test_a_channel_failed_long_before_the_window_takes_its_offset_from_before_th
             got_t = frame.merge(want, on=["timestamp", "sensor_id"], suffixes=("", "_want"))
             assert len(got_t) == len(frame) == len(want)
             np.testing.assert_allclose(got_t["temperature_c"], got_t["temperature_c_want"], rtol=0, atol=1e-12)
+
+
+def test_the_fill_of_any_window_is_the_whole_records(db):
+    """The service fills a recompute window's readings (``_filled`` with ``from_ts``) as ``fill_temperature`` fills the
+    whole record, for 20 random window starts (whole days or not): one channel empty from day 3, one stuck from day
+    9, one intermittent (a third of its readings empty from day 5), each sensor with its own offset."""
+    from longprofile.rail import fill_temperature
+    from longprofile.rail.service._recompute import _active_sensors, _filled, _readings_frame
+
+    syn, r = synthetic(n_days=14)
+    _core.create_site(db, "tester", "mitt", clock="data")
+    _core.put_sensors(db, "tester", "mitt", syn.sensors.to_dict("records"))
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    ids = list(syn.sensors["sensor_id"])
+    rng = np.random.default_rng(3)
+    r = r.copy()
+    for k, sid in enumerate((ids[10], ids[30], ids[45])):
+        r.loc[r["sensor_id"] == sid, "temperature_c"] += (1.5, -2.0, 0.8)[k]
+    r.loc[(r["sensor_id"] == ids[10]) & (days >= ud[3]), "temperature_c"] = np.nan
+    r.loc[(r["sensor_id"] == ids[30]) & (days >= ud[9]), "temperature_c"] = 4.25
+    gaps = (r["sensor_id"] == ids[45]) & (days >= ud[5]) & (rng.random(len(r)) < 1 / 3)
+    r.loc[gaps, "temperature_c"] = np.nan
+    _ingest_days(db, r, ud[-1])
+    full = fill_temperature(r.assign(timestamp=pd.to_datetime(r["timestamp"]).dt.tz_localize(None)), syn.sensors)[0]
+    t0 = pd.Timestamp(ud[0]).value // 10**9
+    with db.read() as s:
+        site_row = _core._site(s, "mitt")
+        sens = _active_sensors(s, site_row)
+        for t in sorted(t0 + rng.integers(3600, 13 * 86400, 20) // 3600 * 3600):
+            frame = _filled(s, site_row, _readings_frame(s, site_row, sens, from_ts=int(t)), from_ts=int(t))
+            want = full[full["timestamp"] >= pd.Timestamp(int(t), unit="s")]
+            got = frame.merge(want, on=["timestamp", "sensor_id"], suffixes=("", "_want"))
+            assert len(got) == len(frame) == len(want)
+            np.testing.assert_allclose(got["temperature_c"], got["temperature_c_want"], rtol=0, atol=1e-12,
+                                       err_msg=f"window from {pd.Timestamp(int(t), unit='s')}")
