@@ -267,3 +267,16 @@ def test_the_offset_is_not_moved_by_a_few_glitches_of_the_failing_channel():
     r.loc[glitch, "temperature_c"] = -40.0
     got = fill_temperature(r, sc.sensors)[0]["temperature_c"].to_numpy()
     assert abs(np.mean(got[stuck] - sc.readings["temperature_c"].to_numpy()[stuck])) < 0.05
+
+
+def test_a_record_without_any_temperature_is_refused_with_the_way_out():
+    """Angles only (every temperature empty): nothing to fill from, every sensor would be dead. One refusal names the
+    cause and the way out (it was "too few daily slope changes to estimate their noise; pass sigma"); a constant
+    temperature with thermal='none' is estimated."""
+    sc, r, _ = _stuck_site()
+    site = validate_site(sc.sensors, r.assign(temperature_c=np.nan), sc.survey)
+    with pytest.raises(InputError, match=r"no reading has both an angle and a temperature.*--thermal none"):
+        estimate_settlement(site, n_monte_carlo=0)
+    res = estimate_settlement(validate_site(sc.sensors, r.assign(temperature_c=0.0), sc.survey), n_monte_carlo=0,
+                              thermal="none")
+    assert np.isfinite(res.dz).all()

@@ -839,6 +839,17 @@ def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_G
     return out
 
 
+def _require_temperatures(readings) -> None:
+    """One clear refusal when no reading has both an angle and a temperature: every sensor would be dead."""
+    r = readings
+    if len(r) and r["angle_deg"].notna().any() and not (r["angle_deg"].notna() & r["temperature_c"].notna()).any():
+        raise InputError("readings: no reading has both an angle and a temperature (temperature_c is empty in every "
+                         "row: no temperature channel, or every one failed). The thermal correction (paper 004 §3) "
+                         "needs the sensors' temperature: put a temperature record of the rail (or the air) in "
+                         "temperature_c. Without any, put one constant value there and pass thermal='none' (CLI "
+                         "--thermal none): no thermal correction.")
+
+
 def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: float = 5.0,
                  quiet_days=None) -> DailyAngles:
     """Outlier removal, thermal correction and daily medians of every sensor's angle (paper 004 §3).
@@ -867,6 +878,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     :func:`day_statistics` and the combine stage :func:`daily_angles_from_statistics`. The lagged model fits
     its lag over the whole record and runs here in one piece.
     """
+    _require_temperatures(site.readings)
     if thermal not in THERMAL_MODELS:
         raise InputError(f"thermal must be one of {THERMAL_MODELS}; got {thermal!r}.")
     if thermal == "auto":
