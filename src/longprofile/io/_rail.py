@@ -65,7 +65,23 @@ def read_rail_table(path, kind: str, *, angle_unit: str = "deg"):
     if kind == "readings" and "angle_deg" not in table.columns and any(_declared(str(c), "angle")
                                                                      for c in table.columns):
         table = _angle_in_degrees(table, path, angle_unit)
+    if kind == "readings":
+        _refuse_wide_readings(table, path)
     return _canonical_columns(table, path, SiteData.TABLE_COLUMNS[kind])
+
+
+def _refuse_wide_readings(table, path) -> None:
+    """A readings table with one column per sensor (a logger's export) gets a refusal that says how to reshape it."""
+    names = [str(c).strip().lower() for c in table.columns]
+    if len(names) < 4 or any(n.startswith(("sensor", "angle", "temperature")) for n in names):
+        return  # a long table, maybe with a misnamed column: the missing-column message names it
+    others = [c for c in table.columns if str(c).strip().lower() not in ("timestamp", "time", "date")]
+    if len(others) >= 3:
+        raise InputFormatError(
+            f"{path}: no sensor_id column, and {len(others)} other columns ({[str(c) for c in others[:4]]}, ...): one "
+            "column per sensor (a wide table)? The readings table is long: one row per reading with the columns "
+            "timestamp, sensor_id, angle_deg, temperature_c (e.g. pandas: angles.melt(id_vars='timestamp', "
+            "var_name='sensor_id', value_name='angle_deg'), and the same for the temperatures, then merge).")
 
 
 #: Units a site table may declare in a column name instead of the canonical one (x_mm for x_m, angle_rad or
