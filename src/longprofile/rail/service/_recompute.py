@@ -234,10 +234,11 @@ def _filled(s, site: Site, frame: pd.DataFrame, *, subset: bool = False, from_ts
 
 def _fill_history(s, site: Site, everyone, frame: pd.DataFrame, from_ts) -> pd.DataFrame | None:
     """The readings before ``from_ts`` that :func:`longprofile.rail.fill_temperature`'s offsets read for the frame's
-    filled readings (None for a frame of the whole record): the whole day of ``from_ts`` and the
-    ``TEMPERATURE_OFFSET_DAYS`` before it, and for each sensor with a reading to fill, the same number of days ending
-    on its last own-temperature day before that day (from one aggregate query: :func:`_temperature_days`). Every
-    sensor's readings of those days: the stuck test and the neighbours' medians read them all."""
+    filled readings (None for a frame of the whole record): the whole day of ``from_ts``; the
+    ``TEMPERATURE_OFFSET_DAYS`` before it when a sensor to fill also has temperatures in the frame (an offset window
+    may end on a day of the frame); and for each sensor with a reading to fill, the same number of days ending on its
+    last own-temperature day before that day (from one aggregate query: :func:`_temperature_days`). Every sensor's
+    readings of those days: the stuck test and the neighbours' medians read them all."""
     if from_ts is None:
         return None
     first = int(from_ts) // _DAY_S
@@ -245,8 +246,13 @@ def _fill_history(s, site: Site, everyone, frame: pd.DataFrame, from_ts) -> pd.D
     ids = frame["sensor_id"][(t.isna() & frame["angle_deg"].notna())].unique().tolist()
     const = t.groupby([frame["sensor_id"], frame["timestamp"].dt.normalize()]).agg(["size", "nunique"])
     ids += const.index.get_level_values(0)[(const["size"] >= STUCK_MIN_READINGS) & (const["nunique"] == 1)].tolist()
-    pks = [r[0] for r in everyone if r[1] in set(ids)]
-    spans = [(first - TEMPERATURE_OFFSET_DAYS, first)]
+    ids = set(ids)
+    pks = [r[0] for r in everyone if r[1] in ids]
+    spans = [(first, first)]  # the window's first day, whole
+    if frame["sensor_id"][t.notna() & frame["sensor_id"].isin(ids)].size:
+        # a sensor to fill that also reads its own temperature in the window: an offset may end on a day in it, and
+        # its days reach back before the window
+        spans.append((first - TEMPERATURE_OFFSET_DAYS, first))
     if pks:
         pk, day, _, n_t, lo, hi = _temperature_days(s, site, pks, before_day=first)
         own = (n_t > 0) & ~((n_t >= STUCK_MIN_READINGS) & (lo == hi))
