@@ -275,7 +275,7 @@ def _temperature_days(s, site: Site, pks, *, before_day=None):
     day = Reading.ts // _DAY_S
     q = (select(Reading.sensor_pk, day, func.count(), func.count(Reading.temperature_c), func.min(Reading.temperature_c),
                 func.max(Reading.temperature_c))
-         .where(Reading.site_id == site.id, Reading.sensor_pk.in_([int(p) for p in pks]),
+         .where(Reading.sensor_pk.in_([int(p) for p in pks]),  # not site_id: SQLite would scan the site's index
                 Reading.angle_deg.is_not(None)).group_by(Reading.sensor_pk, day).order_by(Reading.sensor_pk, day))
     if site.baseline_start_ts is not None:
         q = q.where(Reading.ts >= site.baseline_start_ts)
