@@ -262,14 +262,15 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
     """
     if neighbours < 1:
         raise InputError(f"neighbours must be at least 1; got {neighbours!r}.")
-    stuck_rows, stuck = _stuck_temperature(readings)
+    codes, names = pd.factorize(readings["sensor_id"])  # a few names to look up, not a row each
+    stuck_rows, stuck = _stuck_temperature(readings, codes, names)
     temp = np.where(stuck_rows, np.nan, readings["temperature_c"].to_numpy(float))
     angle = readings["angle_deg"].notna().to_numpy()
     need = np.isnan(temp) & angle
     if not need.any():
         return readings, {}, stuck
     ids = sensors["sensor_id"].astype(str).to_numpy()
-    col = pd.Index(ids).get_indexer(readings["sensor_id"].astype(str))
+    col = np.where(codes >= 0, pd.Index(ids).get_indexer(pd.Index(names).astype(str))[codes], -1)
     need &= col >= 0  # a sensor without a station has no neighbours: its readings stay as they are
     day = _utc_days(readings["timestamp"])
     pair, window = _offset_windows(readings["temperature_c"].to_numpy(float), temp, angle, need, col, day)
@@ -282,8 +283,8 @@ def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
         return readings, {}, stuck
     r = readings.copy()
     r["temperature_c"] = out  # a stuck reading nothing could fill stays empty: it is not a temperature
-    counts = pd.Series(readings["sensor_id"].to_numpy()[done]).value_counts(sort=False)
-    return r, {str(k): int(v) for k, v in counts.items()}, stuck
+    counts = np.bincount(codes[done], minlength=len(names))
+    return r, {str(names[i]): int(n) for i, n in enumerate(counts) if n}, stuck
 
 
 def _utc_days(ts: pd.Series) -> np.ndarray:
@@ -323,13 +324,23 @@ def _neighbour_median(temp, minute, col, x, targets, neighbours: int) -> np.ndar
             at = mine[col[mine] == j]
             order = np.argsort(np.abs(x - x[j]), kind="stable")
             order = order[order != j]
-            vals = table[key[at] - lo][:, order]
-            ok = np.isfinite(vals)
-            vals[~ok | (np.cumsum(ok, axis=1) > neighbours)] = np.nan
-            with np.errstate(all="ignore"):
-                some = ok.any(axis=1)
-                med[at[some]] = np.nanmedian(vals[some], axis=1)
+            near = order[:4 * neighbours]  # most minutes: the nearest sensors have a temperature
+            short = np.isfinite(table[key[at] - lo][:, near]).sum(axis=1) < neighbours
+            for cols, sel in ((near, ~short), (order, short)):
+                if sel.any():
+                    med[at[sel]] = _first_finite_median(table[key[at[sel]] - lo][:, cols], neighbours)
     return med
+
+
+def _first_finite_median(vals: np.ndarray, k: int) -> np.ndarray:
+    """Per row, the median of the first ``k`` finite values (columns in order of distance); NaN where none."""
+    ok = np.isfinite(vals)
+    vals[~ok | (np.cumsum(ok, axis=1) > k)] = np.nan
+    out = np.full(vals.shape[0], np.nan)
+    some = ok.any(axis=1)
+    with np.errstate(all="ignore"):
+        out[some] = np.nanmedian(vals[some], axis=1)
+    return out
 
 
 def _offset_windows(raw, temp, angle, need, col, day) -> tuple[np.ndarray, np.ndarray]:
@@ -337,23 +348,23 @@ def _offset_windows(raw, temp, angle, need, col, day) -> tuple[np.ndarray, np.nd
     before its day or -1): :func:`fill_temperature`'s offset windows."""
     end = np.full(raw.size, -1, dtype=np.int64)
     pair = np.zeros(raw.size, bool)
-    sensors = np.unique(col[need])
-    mine = np.isin(col, sensors)
-    own = np.zeros(raw.size, bool)
-    own[mine] = _own_temperature_days(raw[mine], angle[mine], col[mine], day[mine])
-    for j in sensors:
-        rows = col == j
-        own_days = np.unique(day[rows & own])
-        at = np.flatnonzero(rows & need)
+    mine = np.flatnonzero(np.isin(col, np.unique(col[need])))
+    mine = mine[np.argsort(col[mine], kind="stable")]  # each sensor's rows together
+    own = _own_temperature_days(raw[mine], angle[mine], col[mine], day[mine])
+    starts = np.flatnonzero(np.r_[True, col[mine][1:] != col[mine][:-1]])
+    for lo, hi in zip(starts, np.r_[starts[1:], mine.size]):
+        rows, d = mine[lo:hi], day[mine[lo:hi]]
+        own_days = np.unique(d[own[lo:hi]])
+        at = need[rows]
         if own_days.size == 0:  # failed from its first reading: no offset
             continue
-        k = np.searchsorted(own_days, day[at]) - 1
-        end[at] = np.where(k >= 0, own_days[np.maximum(k, 0)], -1)
-        used = np.unique(end[at][end[at] >= 0])
+        k = np.searchsorted(own_days, d[at]) - 1
+        end[rows[at]] = e = np.where(k >= 0, own_days[np.maximum(k, 0)], -1)
+        used = np.unique(e[e >= 0])
         if used.size:
-            w = np.searchsorted(used, day)  # the first used window end on or after the row's day
-            inside = (w < used.size) & (used[np.minimum(w, used.size - 1)] - day < TEMPERATURE_OFFSET_DAYS)
-            pair |= rows & inside & np.isfinite(temp) & angle
+            w = np.minimum(np.searchsorted(used, d), used.size - 1)  # the first used window end on or after the day
+            inside = (used[w] >= d) & (used[w] - d < TEMPERATURE_OFFSET_DAYS)
+            pair[rows[inside & np.isfinite(temp[rows]) & angle[rows]]] = True
     return pair, end
 
 
@@ -375,13 +386,13 @@ def _offsets(diff, pair, need, col, day, end) -> np.ndarray:
     return out
 
 
-def _stuck_temperature(readings: pd.DataFrame) -> tuple[np.ndarray, dict[str, int]]:
-    """(rows whose temperature is stuck, {sensor id: stuck days}): see :func:`fill_temperature`."""
+def _stuck_temperature(readings: pd.DataFrame, codes, names) -> tuple[np.ndarray, dict[str, int]]:
+    """(rows whose temperature is stuck, {sensor id: stuck days}): see :func:`fill_temperature` (``codes``,
+    ``names``: ``pd.factorize`` of the sensor ids)."""
     t = readings["temperature_c"].to_numpy(float)
     ok = np.isfinite(t)
     if ok.sum() < STUCK_MIN_READINGS:
         return np.zeros(t.size, bool), {}
-    codes, names = pd.factorize(readings["sensor_id"])
     day = _utc_days(readings["timestamp"])  # calendar days of UTC, as validate_site gives them
     day = day - day.min()
     n_days = int(day.max()) + 1
