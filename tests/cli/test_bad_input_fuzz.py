@@ -279,6 +279,15 @@ def angles_times_1000(path, cmd, rng):
     _save(f, path)
 
 
+def temperature_bus_down(path, cmd, rng):
+    """A day when no sensor sent a temperature (the loggers' temperature bus down): nothing to fill from; that day is
+    left out with a warning (session 34: a traceback)."""
+    f = _frame(path)
+    day = f["timestamp"].str[:10]
+    f.loc[day == sorted(day.unique())[rng.randrange(1, day.nunique() - 1)], "temperature_c"] = ""
+    _save(f, path)
+
+
 def no_temperature(path, cmd, rng):
     """A logger that records angles only: the temperature column is there and empty in every row (session 34: this
     ended in "too few daily slope changes to estimate their noise; pass sigma", which named neither the cause nor
@@ -314,6 +323,7 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "time in ms": (time_in_milliseconds, lambda c: _table(c) and c.time is not None),
     "angles x1000": (angles_times_1000, lambda c: c.name == "rail settle (readings)"),
     "temperature column empty": (no_temperature, lambda c: c.name == "rail settle (readings)"),
+    "a day without any temperature": (temperature_bus_down, lambda c: c.name == "rail settle (readings)"),
     "degrees for radians": (degrees_for_radians, lambda c: c.radian is not None),
     "accelerations in g": (accelerations_in_g, lambda c: bool(c.accel)),
     "absurd value in the file": (huge_toml_value, lambda c: c.target.endswith(".toml")),
@@ -324,10 +334,11 @@ CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if ap
 
 #: Cases whose input has one right reading, which the command takes with a warning instead of refusing it: a rail
 #: survey is a set of (x, z) points, so its rows in another order (whole rows moved) give the same profile; the
-#: warning asks to check for a mistyped station. The outcome must then be "warned": exit 0 and this phrase in a
+#: warning asks to check for a mistyped station. A day without any temperature is left out, with a warning. The outcome must then be "warned": exit 0 and this phrase in a
 #: ``warning:`` line.
 WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
-          ("rail settle (survey)", "descending keys"): "not in order of x_m"}
+          ("rail settle (survey)", "descending keys"): "not in order of x_m",
+          ("rail settle (readings)", "a day without any temperature"): "without a usable daily angle on any sensor"}
 
 
 # ---- running and classifying ---------------------------------------------------------------------------------

@@ -280,3 +280,23 @@ def test_a_record_without_any_temperature_is_refused_with_the_way_out():
     res = estimate_settlement(validate_site(sc.sensors, r.assign(temperature_c=0.0), sc.survey), n_monte_carlo=0,
                               thermal="none")
     assert np.isfinite(res.dz).all()
+
+
+@pytest.mark.parametrize(("column", "day"), [("temperature_c", 4), ("angle_deg", 4), ("temperature_c", 0)])
+def test_a_day_without_any_usable_reading_is_left_out_with_a_warning(column, day):
+    """A day when the loggers sent angles but no sensor a temperature (a temperature bus down for the day, nothing to
+    fill from), or no angle: that day is left out with a warning, and the estimate is that of the record without it
+    (it ended in a traceback, "array of sample points is empty")."""
+    sc = simulate_scenario("drift", 5, n_days=(8, 8))
+    r = sc.readings.copy()
+    d = ((r["timestamp"] - pd.Timestamp(sc.truth.days[0])) / pd.Timedelta(days=1)).to_numpy().astype(int)
+    r.loc[d == day, column] = np.nan
+    site = validate_site(sc.sensors, r, sc.survey)
+    res = estimate_settlement(site, n_monte_carlo=0)
+    assert any("1 day(s) without a usable daily angle on any sensor" in w for w in res.warnings)
+    ref = estimate_settlement(validate_site(sc.sensors, sc.readings[d != day].reset_index(drop=True), sc.survey),
+                              n_monte_carlo=0)
+    assert res.days.size == ref.days.size == 7
+    np.testing.assert_array_equal(res.days, ref.days)
+    np.testing.assert_allclose(res.dz, ref.dz, rtol=0, atol=1e-12, equal_nan=True)
+    np.testing.assert_allclose(res.dz_std, ref.dz_std, rtol=0, atol=1e-12, equal_nan=True)

@@ -1328,6 +1328,16 @@ def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) ->
     if D < 2:
         raise InputError(f"the readings cover {D} day; at least 2 days are needed to see a change.")
     warnings.extend(daily.warnings)
+    empty = ~np.isfinite(daily.change_deg).any(axis=1)
+    if empty.any() and not empty.all():  # e.g. a day when the loggers sent angles but no sensor a temperature
+        dates = pd.DatetimeIndex(daily.days[empty]).strftime("%Y-%m-%d").tolist()
+        warnings.append(f"{int(empty.sum())} day(s) without a usable daily angle on any sensor ({dates[:5]}: no "
+                        "reading with both an angle and a temperature that day?); they are left out of the "
+                        "estimate and the output.")
+        daily = daily.select_days(~empty)
+        D = daily.days.size
+        if D < 2:
+            raise InputError(f"the readings cover {D} usable day; at least 2 days are needed to see a change.")
     n_out = int(daily.n_outliers.sum())
     if n_out:
         warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "

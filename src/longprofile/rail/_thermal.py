@@ -125,6 +125,14 @@ class DailyAngles:
     temperature_mean_c: np.ndarray | None = None
     lag_variance_ratio: float | None = None
 
+    def select_days(self, mask) -> "DailyAngles":
+        """The same angles on the days where ``mask`` (D,) is True."""
+        m = np.asarray(mask, bool)
+        per_day = {f: getattr(self, f)[m] for f in ("days", "angle_deg", "change_deg", "n_readings")}
+        per_day.update({f: getattr(self, f)[m] for f in ("raw_day_spread_deg", "temperature_mean_c")
+                        if getattr(self, f) is not None})
+        return replace(self, **per_day)
+
 
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     r"""Response T_s of a first-order thermal lag, tau dT_s/dt = T - T_s, to a sampled temperature.
