@@ -364,3 +364,29 @@ def test_the_fill_of_any_window_is_the_whole_records(db):
             assert len(got) == len(frame) == len(want)
             np.testing.assert_allclose(got["temperature_c"], got["temperature_c_want"], rtol=0, atol=1e-12,
                                        err_msg=f"window from {pd.Timestamp(int(t), unit='s')}")
+
+
+def test_a_day_without_any_temperature_is_left_out_as_rail_settle_does(site):
+    """A day when no sensor sent a temperature (nothing to fill from): the service's run leaves it out as
+    ``rail settle`` does, with the same warning, and stores the same results (a full build, then an incremental run
+    with the day in its window)."""
+    db, _, r = site
+    syn, _ = synthetic()
+    days = r["timestamp"].str[:10]
+    ud = sorted(days.unique())
+    r = r.copy()
+    r.loc[(days == ud[5]).to_numpy(), "temperature_c"] = np.nan
+    _ingest_days(db, r, ud[3])
+    assert recompute(db, "mitt")["status"] == "ok"
+    _ingest_days(db, r, ud[-1])
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    readings = syn.readings.copy()
+    readings.loc[(days == ud[5]).to_numpy(), "temperature_c"] = np.nan
+    ref = estimate_settlement(validate_site(syn.sensors, readings, syn.survey), n_monte_carlo=0)
+    assert ref.days.size == len(ud) - 1
+    got = _stored_against(db, out["run_id"], ref)
+    with db.read() as s:
+        assert "without a usable daily angle on any sensor" in s.get(Run, out["run_id"]).warnings_json
+    for c in ("dz_m", "dz_std_m"):
+        np.testing.assert_allclose(got[c], got[c + "_ref"], rtol=1e-9, atol=1e-12)
