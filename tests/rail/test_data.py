@@ -282,3 +282,30 @@ def test_a_wide_readings_table_is_refused_with_how_to_reshape_it(small, tmp_path
     small.readings.rename(columns={"sensor_id": "sensor"}).to_csv(tmp_path / "r.csv", index=False)
     with pytest.raises(InputFormatError, match=r"missing column\(s\) \['sensor_id'\]"):
         read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
+
+
+def test_a_loggers_missing_value_marker_is_an_empty_cell(small, tmp_path):
+    """"NAN" (Campbell Scientific loggers), "#N/A", "null"... in temperature_c are empty temperatures (filled from the
+    neighbours), not a refusal of the whole file; the same marker under an angle is an empty angle; a sentinel such as
+    -9999 is refused with a hint that it looks like a missing-value code."""
+    r = small.readings.copy()
+    r["temperature_c"] = r["temperature_c"].astype(object)
+    ids = sorted(r["sensor_id"].unique())
+    for sid, marker in zip(ids[1:5], ("NAN", "#N/A", "null", " nan ")):
+        r.loc[r["sensor_id"] == sid, "temperature_c"] = marker
+    small.sensors.to_csv(tmp_path / "s.csv", index=False)
+    small.survey.to_csv(tmp_path / "v.csv", index=False)
+    r.to_csv(tmp_path / "r.csv", index=False)
+    site = read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
+    assert any("no usable temperature" in w and "4 sensor(s)" in w for w in site.warnings)
+    assert site.readings["temperature_c"].notna().all()  # all filled
+    r["angle_deg"] = r["angle_deg"].astype(object)
+    r.loc[r.index[:3], "angle_deg"] = "NAN"
+    r.to_csv(tmp_path / "r.csv", index=False)
+    site = read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
+    assert any("3 reading(s) have an empty angle or temperature" in w for w in site.warnings)
+    r.loc[r.index[:3], "angle_deg"] = small.readings["angle_deg"].iloc[:3]
+    r.loc[r["sensor_id"] == ids[1], "temperature_c"] = -9999
+    r.to_csv(tmp_path / "r.csv", index=False)
+    with pytest.raises(UnitsError, match="a logger's code for a missing value"):
+        read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")

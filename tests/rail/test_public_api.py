@@ -5,7 +5,7 @@ import longprofile.rail as rail
 EXPECTED = {
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature",
-    "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "simulate_site", "SyntheticSite", "SiteTruth",
+    "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT", "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",

@@ -13,6 +13,7 @@ check_survey                -- refuse a survey in another unit than metres (alti
 fill_temperature            -- a reading without a temperature (failed channel), or a stuck one (STUCK_MIN_READINGS,
                                STUCK_SITE_SPREAD_C), takes its nearest sensors' (the median of TEMPERATURE_NEIGHBOURS
                                in the same minute) plus its own offset from them (TEMPERATURE_OFFSET_DAYS before).
+                               MISSING_TEXT: the markers ("NAN", "n/a", ...) read as an empty cell.
 read_site                   -- deprecated alias of ``longprofile.io.read_rail_site`` (read the CSV / Parquet
                                tables and validate; file reading lives in ``io``).
 simulate_site               -- synthetic site with ground truth ("mittersheim-like", "farebersviller-like").
@@ -78,7 +79,7 @@ _EXPORTS = {
     "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
                "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
                "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
-               "TEMPERATURE_OFFSET_DAYS"),
+               "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"),
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
@@ -99,7 +100,7 @@ _EXPORTS = {
 __all__ = [
     "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
-    "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS",
+    "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT",
     "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",

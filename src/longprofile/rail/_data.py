@@ -23,7 +23,7 @@ from ..errors import InputError, InputFormatError, UnitsError
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
            "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
-           "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS"]
+           "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"]
 
 SENSOR_COLUMNS = ("sensor_id", "x_m")
 READING_COLUMNS = ("timestamp", "sensor_id", "angle_deg", "temperature_c")
@@ -48,6 +48,9 @@ TEMPERATURE_RANGE_C = (-80.0, 120.0)
 #: another unit -- degrees given as radians (x 57.3), millidegrees under a degree label -- and is refused unless
 #: ``check_units=False``.
 MAX_TRACK_ANGLE_DEG = 10.0
+#: Texts read as an empty cell where a reading's value may be missing (``angle_deg``, ``temperature_c``), in any
+#: letter case: what loggers and spreadsheets write for a failed channel (Campbell Scientific loggers' "NAN", "#N/A").
+MISSING_TEXT = frozenset({"nan", "-nan", "na", "n/a", "#n/a", "null", "none", "<na>"})
 #: :func:`fill_temperature`: a reading whose angle has no temperature takes the median temperature of this many
 #: nearest sensors (by station) that have one in the same minute.
 TEMPERATURE_NEIGHBOURS = 4
@@ -115,8 +118,11 @@ def _require_columns(df: pd.DataFrame, cols, what: str):
 
 
 def _numeric(df: pd.DataFrame, col: str, what: str, *, allow_nan: bool = False) -> np.ndarray:
-    conv = pd.to_numeric(df[col], errors="coerce")
-    bad = conv.isna() & df[col].notna() if allow_nan else conv.isna()
+    values = df[col]
+    if allow_nan and not pd.api.types.is_numeric_dtype(values):  # a logger's marker for a failed channel is an empty cell
+        values = values.mask(values.map(lambda v: isinstance(v, str) and v.strip().lower() in MISSING_TEXT))
+    conv = pd.to_numeric(values, errors="coerce")
+    bad = conv.isna() & values.notna() if allow_nan else conv.isna()
     if bad.any() or np.isinf(conv).any():
         i = int(np.nonzero((bad | np.isinf(conv)).to_numpy())[0][0])
         raise InputFormatError(f"{what} table, row {i}: column {col!r} must be a finite number; got {df[col].iloc[i]!r}.")
@@ -200,9 +206,12 @@ def _check_reading_ranges(r: pd.DataFrame) -> None:
         bad = np.isfinite(v) & ((v < lo) | (v > hi))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
+            code = abs(v[i]) >= 999 and set(f"{abs(v[i]):.0f}") == {"9"} and v[i] == round(v[i])
             raise UnitsError(f"readings table: sensor {r['sensor_id'].iloc[i]!r} at {r['timestamp'].iloc[i]} reads "
-                             f"{col} = {v[i]:.6g}, outside the plausible {lo:g}..{hi:g} {unit} of {why}: check that "
-                             "reading and the column's unit.")
+                             f"{col} = {v[i]:.6g}, outside the plausible {lo:g}..{hi:g} {unit} of {why}: "
+                             + ("a logger's code for a missing value? Leave such cells empty or write NAN (a "
+                                "missing temperature is filled from the neighbouring sensors)." if code else
+                                "check that reading and the column's unit."))
 
 
 def _clock_change_hint(r: pd.DataFrame, dups) -> str:

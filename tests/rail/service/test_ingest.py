@@ -179,6 +179,13 @@ def test_a_reading_without_a_temperature_is_stored_and_a_bad_one_refused(site):
     bad = [{**part.iloc[20].to_dict(), "temperature_c": v} for v in ("warm", float("inf"), 300.0)]
     out = _core.ingest(db, "mitt", bad, now=NOW)
     assert out.counts["rejected"] == 3 and "temperature_c" in out.rows[0]["reason"]
+    # a logger's marker for a failed channel (Campbell Scientific: "NAN") is an empty temperature, as in `rail settle`
+    marked = [{**part.iloc[k].to_dict(), "temperature_c": v} for k, v in zip(range(10), ("NAN", "n/a", "#N/A", "null",
+                                                                                        " NaN ", "", None, "nan", "NA",
+                                                                                        "None"))]
+    assert _core.ingest(db, "mitt", marked, now=NOW).counts["duplicate"] == 10  # the same rows as the empty ones
+    out = _core.ingest(db, "mitt", [{**part.iloc[21].to_dict(), "temperature_c": -9999}], now=NOW)
+    assert out.counts["rejected"] == 1 and "plausible range" in out.rows[0]["reason"]
 
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

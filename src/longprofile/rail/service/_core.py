@@ -25,6 +25,7 @@ from ...errors import InputError, InputFormatError
 from .. import (
     ANGLE_RANGE_DEG,
     MAX_TRACK_ANGLE_DEG,
+    MISSING_TEXT,
     RADIAN_NOISE_THRESHOLD,
     READING_COLUMNS,
     TEMPERATURE_RANGE_C,
@@ -719,7 +720,7 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
             # a failed temperature channel: the angle is kept (temperature NULL) and the recompute gives it its
             # nearest sensors' temperature of the same minute, as `rail settle` does (rail.fill_temperature)
             t_raw = r.get("temperature_c")
-            missing = (t_raw is None or (isinstance(t_raw, str) and not t_raw.strip())
+            missing = (t_raw is None or (isinstance(t_raw, str) and t_raw.strip().lower() in MISSING_TEXT | {""})
                        or (isinstance(t_raw, float) and math.isnan(t_raw)))
             tmp = None if missing else _parse_num(t_raw, "temperature_c", *TEMPERATURE_RANGE_C)
         except ValueError as exc:
