@@ -288,6 +288,15 @@ def temperature_bus_down(path, cmd, rng):
     _save(f, path)
 
 
+def nan_markers(path, cmd, rng):
+    """One sensor's temperature channel failed, written as a Campbell Scientific logger writes it ("NAN"): an empty
+    temperature, filled from the neighbours with a warning (session 34: the whole file was refused)."""
+    f = _frame(path)
+    sid = sorted(f["sensor_id"].unique())[rng.randrange(1, f["sensor_id"].nunique() - 1)]
+    f.loc[f["sensor_id"] == sid, "temperature_c"] = "NAN"
+    _save(f, path)
+
+
 def no_temperature(path, cmd, rng):
     """A logger that records angles only: the temperature column is there and empty in every row (session 34: this
     ended in "too few daily slope changes to estimate their noise; pass sigma", which named neither the cause nor
@@ -324,6 +333,7 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "angles x1000": (angles_times_1000, lambda c: c.name == "rail settle (readings)"),
     "temperature column empty": (no_temperature, lambda c: c.name == "rail settle (readings)"),
     "a day without any temperature": (temperature_bus_down, lambda c: c.name == "rail settle (readings)"),
+    "a channel written NAN": (nan_markers, lambda c: c.name == "rail settle (readings)"),
     "degrees for radians": (degrees_for_radians, lambda c: c.radian is not None),
     "accelerations in g": (accelerations_in_g, lambda c: bool(c.accel)),
     "absurd value in the file": (huge_toml_value, lambda c: c.target.endswith(".toml")),
@@ -334,11 +344,13 @@ CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if ap
 
 #: Cases whose input has one right reading, which the command takes with a warning instead of refusing it: a rail
 #: survey is a set of (x, z) points, so its rows in another order (whole rows moved) give the same profile; the
-#: warning asks to check for a mistyped station. A day without any temperature is left out, with a warning. The outcome must then be "warned": exit 0 and this phrase in a
+#: warning asks to check for a mistyped station. A day without any temperature is left out, with a warning; a
+#: channel written "NAN" (a logger's marker) is an empty temperature, filled with a warning. The outcome must then be "warned": exit 0 and this phrase in a
 #: ``warning:`` line.
 WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
           ("rail settle (survey)", "descending keys"): "not in order of x_m",
-          ("rail settle (readings)", "a day without any temperature"): "without a usable daily angle on any sensor"}
+          ("rail settle (readings)", "a day without any temperature"): "without a usable daily angle on any sensor",
+          ("rail settle (readings)", "a channel written NAN"): "had an angle but no usable temperature"}
 
 
 # ---- running and classifying ---------------------------------------------------------------------------------
