@@ -26,6 +26,7 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
     silently), or, without ``dt``, the step of that column when it is uniform (within 0.1 % of its median)."""
     import numpy as np
 
+    from .._validation import time_resolution
     from ..errors import InputFormatError, UnitsError
 
     for name in frame.columns:
@@ -41,19 +42,22 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
             raise InputFormatError(f"{file}: column {name!r} does not increase from row to row (row {i}: {t[i]:g} s "
                                    "after an earlier sample at or after it): the samples are out of order or repeated, "
                                    "and their derivative would be wrong; sort the file by time and drop repeated rows.")
+        if not increasing:  # no two finite times
+            if dt is None:
+                raise InputFormatError(f"{file}: column {name!r} has fewer than two finite times; the sample interval "
+                                       "cannot be taken from it: pass --dt SECONDS.")
+            return dt
+        # the mean step end to end: Unix time stamps (1.7e9 s) round each step by up to +-2.4e-7 s, the ends barely
+        mean = float((t[rows[-1]] - t[rows[0]]) / (rows.size - 1))
         if dt is None:
-            median = float(np.median(step))
-            if np.max(np.abs(step - median)) > 1e-3 * median:
+            if np.max(np.abs(step - mean)) > 1e-3 * mean + time_resolution(t[rows]):
                 raise InputFormatError(f"{file}: column {name!r} is not uniformly sampled (steps {step.min():g} to "
                                        f"{step.max():g} s); the estimators need a constant interval: resample the "
                                        "signal, or pass --dt SECONDS if the jitter is the logger's, not the signal's.")
-            return float(f"{median:.12g}")  # the decimal step the file was written with (0.001, not 0.0010000000000000009)
-        if not increasing:  # no two finite times
-            return dt
-        median = float(np.median(step))
-        if abs(median - dt) > 1e-3 * dt:
-            raise UnitsError(f"{file}: column {name!r} steps by {median:g} s but --dt is {dt:g} s; the derivative "
-                             f"would be off by a factor {median / dt:g}. Pass --dt {median:g}.")
+            return float(f"{mean:.12g}")  # the decimal step the file was written with (0.001, not 0.0010000000000000009)
+        if abs(mean - dt) > 1e-3 * dt:
+            raise UnitsError(f"{file}: column {name!r} steps by {mean:g} s but --dt is {dt:g} s; the derivative "
+                             f"would be off by a factor {mean / dt:g}. Pass --dt {mean:g}.")
         return dt
     if dt is None:
         raise InputFormatError(f"{file}: no time column (t or time, in s unless named with its unit: t_ms, "

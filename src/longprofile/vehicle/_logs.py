@@ -44,6 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import time_resolution
 from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["UNIT_FACTORS", "LogCheck", "parse_units", "split_unit_headers", "convert_units", "resample_log",
@@ -241,7 +242,7 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
     if dt >= 0.5:
         raise UnitsError(f"{source}: column 'time': median step {dt:g} s ({1 / dt:.3g} Hz) is implausible for a vehicle "
                          "log; if the time is in milliseconds declare it: header 'time [ms]' or --units time=ms.")
-    if np.ptp(d) > jitter_rtol * dt + 1e-9:
+    if np.ptp(d) > jitter_rtol * dt + 1e-9 + time_resolution(t):  # Unix time stamps: not jitter
         raise InputFormatError(f"{source}: column 'time' is not uniformly sampled (steps {d.min():.6g} to {d.max():.6g} s, "
                                f"median {dt:.6g} s); the filters use a fixed step: resample it explicitly with "
                                f"--resample {round((t.size - 1) / (t[-1] - t[0])):g} (Hz; linear interpolation, gaps refused).")

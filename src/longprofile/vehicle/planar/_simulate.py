@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..._jit import njit
-from ..._validation import as_float_array, require_positive
+from ..._validation import as_float_array, require_positive, time_resolution
 from ...errors import InputError, InputFormatError, ShapeError
 from ._model import body_derivative, body_sums, normal_loads, tyre_kinematics_forces
 from ._params import P_CXA, P_CYA, P_G, P_IW, P_LF, P_LR, P_MASS, P_R_F, P_R_R, WHEELS, Vehicle, default_vehicle
@@ -335,7 +335,7 @@ class DriveLog:
         if t.size < 3:
             raise ShapeError(f"a drive log needs at least 3 samples; got {t.size}.")
         d = np.diff(t)
-        if np.any(d <= 0) or np.ptp(d) > 1e-6 * d.mean() + 1e-9:
+        if np.any(d <= 0) or np.ptp(d) > 1e-6 * d.mean() + 1e-9 + time_resolution(t):
             raise InputError("time must be strictly increasing and uniformly sampled (the EKF of eq. (20) uses a "
                              f"fixed step); got steps from {d.min():g} to {d.max():g} s. Resample the log first.")
         object.__setattr__(self, "time", t)

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from ..._jit import njit
-from ..._validation import as_float_array, require_positive
+from ..._validation import as_float_array, require_positive, time_resolution
 from ...errors import InputError, ShapeError
 from ._model import CORNER_NAMES, CX, CY, mr_controlled_force, seven_dof_rhs, skyhook_current, vertical_params_arrays
 from ._params import SENSOR_CONFIGS, MRDamperParams, VerticalVehicleParams
@@ -610,9 +610,10 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
         raise InputFormatError(f"{source}: need at least 3 samples; got {t.shape[0]}.")
     d = np.diff(t)
     dt = float(np.median(d))
-    if dt <= 0 or not np.allclose(d, dt, rtol=1e-3, atol=1e-9):
+    if dt <= 0 or not np.allclose(d, dt, rtol=1e-3, atol=1e-9 + time_resolution(t)):
         raise InputFormatError(f"{source}: column 'time' must be uniformly increasing (constant sample period); "
                                f"steps range {d.min():g}..{d.max():g} s.")
+    dt = float((t[-1] - t[0]) / (t.shape[0] - 1))  # end to end: Unix time stamps round each step by +-2.4e-7 s
 
     def stack(prefix):
         return np.column_stack([arr[f"{prefix}_{n}"] for n in CORNER_NAMES])
