@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from longprofile.errors import InputError, OutputError
+from longprofile.errors import InputError, InputFormatError, OutputError
 from longprofile.io import read_table, write_table
 
 
@@ -160,3 +160,19 @@ def test_two_case_variants_of_a_required_column_are_not_guessed(tmp_path):
     f.write_text("X_M,X_m\n1,2\n")
     with pytest.raises(InputError, match=r"missing column\(s\) \['x_m'\]"):
         read_table(f, required=["x_m"])
+
+
+def test_a_loggers_missing_value_markers_are_missing_values(tmp_path):
+    """"NAN" (Campbell Scientific loggers), "NONE", "Null", "#N/A"... read as missing, as an empty cell and pandas'
+    own "NaN" are (core.MISSING_TEXT in the letter cases loggers write): a recording with a NAN gap reconstructs as
+    with an empty one; before, "NAN" refused the file as non-numeric."""
+    from longprofile.core import MISSING_TEXT
+
+    path = tmp_path / "t.csv"
+    path.write_text("x,y\n1,NAN\n2,Null\n3,NONE\n4,#N/A\n5,-nan\n6,n/a\n7,2.5\n8,\n")
+    t = read_table(path, numeric=["y"])
+    assert t["y"].isna().sum() == 7 and t["y"].iloc[6] == 2.5
+    assert {"nan", "null", "none", "#n/a"} <= MISSING_TEXT
+    path.write_text("x,y\n1,n.a.\n")  # text that is not a marker is still refused
+    with pytest.raises(InputFormatError, match="non-numeric"):
+        read_table(path, numeric=["y"])

@@ -5,9 +5,10 @@ Profile -- a longitudinal profile (stations in m, elevations in m, one column pe
 unit_factor -- metres per length unit (m, mm, cm, km, in, ft, mi); UnitsError for anything else.
 LENGTH_UNITS -- the table behind it.
 MAX_ABS_ELEVATION_M -- no elevation on Earth is beyond it (a value that is: another unit).
+MISSING_TEXT -- the texts read as an empty cell ("NAN", "#N/A", "null", ...; any letter case).
 """
 
 from ._profile import Profile
-from ._units import LENGTH_UNITS, MAX_ABS_ELEVATION_M, unit_factor
+from ._units import LENGTH_UNITS, MAX_ABS_ELEVATION_M, MISSING_TEXT, unit_factor
 
-__all__ = ["Profile", "unit_factor", "LENGTH_UNITS", "MAX_ABS_ELEVATION_M"]
+__all__ = ["Profile", "unit_factor", "LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import UnitsError
 
-__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "unit_factor"]
+__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT", "unit_factor"]
 
 #: Length units understood in file headers, with their value in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
@@ -25,3 +25,9 @@ def unit_factor(unit: str, *, what: str = "elevation") -> float:
     if key not in LENGTH_UNITS:
         raise UnitsError(f"unknown {what} unit {unit!r}; use one of {sorted(LENGTH_UNITS)}.")
     return LENGTH_UNITS[key]
+
+
+#: Texts read as an empty cell where a value may be missing, in any letter case: what loggers and spreadsheets write
+#: for a failed channel (Campbell Scientific loggers' "NAN", "#N/A", "null", ...). The CSV reader of ``io`` takes
+#: them as missing values; so do the rail tables and the monitoring service's batches.
+MISSING_TEXT = frozenset({"nan", "-nan", "na", "n/a", "#n/a", "null", "none", "<na>"})

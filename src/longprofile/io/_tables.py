@@ -8,6 +8,7 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
+from ..core import MISSING_TEXT
 from ..errors import InputError, InputFormatError, OutputError
 from ._atomic import atomic_path
 
@@ -17,6 +18,8 @@ __all__ = ["read_table", "write_table", "check_columns"]
 _READ_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
 #: Suffixes written.
 _WRITE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+#: The letter cases of ``core.MISSING_TEXT`` a CSV cell is read as missing in (pandas matches exactly).
+_MISSING_VARIANTS = sorted({v for m in MISSING_TEXT for v in (m, m.upper(), m.title(), m.capitalize())})
 
 
 def _format_of(path: Path) -> str:
@@ -44,7 +47,8 @@ def _read_csv(path: Path) -> pd.DataFrame:
                 header = text
                 break
     _check_separator(path, header)
-    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0)
+    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0,
+                     na_values=_MISSING_VARIANTS)  # with pandas' own: "NAN" (Campbell loggers), "NONE", "Null"...
     _check_last_row(path, df.shape[1])
     trailing = _trailing_blank_lines(path)
     if trailing:

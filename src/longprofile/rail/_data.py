@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 import pandas as pd
 
-from ..core import MAX_ABS_ELEVATION_M
+from ..core import MAX_ABS_ELEVATION_M, MISSING_TEXT
 from ..errors import InputError, InputFormatError, UnitsError
 
 __all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
@@ -48,9 +48,6 @@ TEMPERATURE_RANGE_C = (-80.0, 120.0)
 #: another unit -- degrees given as radians (x 57.3), millidegrees under a degree label -- and is refused unless
 #: ``check_units=False``.
 MAX_TRACK_ANGLE_DEG = 10.0
-#: Texts read as an empty cell where a reading's value may be missing (``angle_deg``, ``temperature_c``), in any
-#: letter case: what loggers and spreadsheets write for a failed channel (Campbell Scientific loggers' "NAN", "#N/A").
-MISSING_TEXT = frozenset({"nan", "-nan", "na", "n/a", "#n/a", "null", "none", "<na>"})
 #: :func:`fill_temperature`: a reading whose angle has no temperature takes the median temperature of this many
 #: nearest sensors (by station) that have one in the same minute.
 TEMPERATURE_NEIGHBOURS = 4
