@@ -217,13 +217,15 @@ def _filled(s, site: Site, frame: pd.DataFrame, *, subset: bool = False, from_ts
     (:func:`_fill_history`): what the day cache holds is then what ``rail settle`` computes from the same readings.
     The stuck test is decided per sensor and calendar day, and every day it reads is whole. A frame of some of the
     sensors (a stale sensor rebuilt, a sensor's page) is filled from all of them, read again."""
-    if not _may_need_fill(frame):
+    ids = _sensors_to_fill(frame)
+    if not ids:
         return frame
     everyone = _active_sensors(s, site)
     present = frame["sensor_id"].unique() if subset else None
     if subset:
         frame = _readings_frame(s, site, everyone, from_ts=from_ts)
-    history = _fill_history(s, site, everyone, frame, from_ts)
+        ids = _sensors_to_fill(frame)
+    history = _fill_history(s, site, everyone, frame, from_ts, ids)
     both = frame if history is None else pd.concat([history, frame], ignore_index=True)
     full, filled, stuck = fill_temperature(both, _sensor_table(everyone))  # row order kept: the frame's rows last
     if not filled and not stuck:
@@ -232,21 +234,18 @@ def _filled(s, site: Site, frame: pd.DataFrame, *, subset: bool = False, from_ts
     return full if present is None else full[full["sensor_id"].isin(present)].reset_index(drop=True)
 
 
-def _fill_history(s, site: Site, everyone, frame: pd.DataFrame, from_ts) -> pd.DataFrame | None:
+def _fill_history(s, site: Site, everyone, frame: pd.DataFrame, from_ts, ids: set) -> pd.DataFrame | None:
     """The readings before ``from_ts`` that :func:`longprofile.rail.fill_temperature`'s offsets read for the frame's
     filled readings (None for a frame of the whole record): the whole day of ``from_ts``; the
     ``TEMPERATURE_OFFSET_DAYS`` before it when a sensor to fill also has temperatures in the frame (an offset window
     may end on a day of the frame); and for each sensor with a reading to fill, the same number of days ending on its
     last own-temperature day before that day (from one aggregate query: :func:`_temperature_days`). Every sensor's
-    readings of those days: the stuck test and the neighbours' medians read them all."""
+    readings of those days: the stuck test and the neighbours' medians read them all. ``ids``: the frame's sensors to
+    fill (:func:`_sensors_to_fill`)."""
     if from_ts is None:
         return None
     first = int(from_ts) // _DAY_S
     t = frame["temperature_c"]
-    ids = frame["sensor_id"][(t.isna() & frame["angle_deg"].notna())].unique().tolist()
-    const = t.groupby([frame["sensor_id"], frame["timestamp"].dt.normalize()]).agg(["size", "nunique"])
-    ids += const.index.get_level_values(0)[(const["size"] >= STUCK_MIN_READINGS) & (const["nunique"] == 1)].tolist()
-    ids = set(ids)
     pks = [r[0] for r in everyone if r[1] in ids]
     spans = [(first, first)]  # the window's first day, whole
     if frame["sensor_id"][t.notna() & frame["sensor_id"].isin(ids)].size:
@@ -287,15 +286,15 @@ def _temperature_days(s, site: Site, pks, *, before_day=None):
     return pk, day, n, n_t, lo, hi
 
 
-def _may_need_fill(frame: pd.DataFrame) -> bool:
-    """Whether ``fill_temperature`` could change ``frame`` given the other sensors: an angle without a temperature,
-    or a sensor-day of at least ``STUCK_MIN_READINGS`` temperatures all the same (stuck if the others' move)."""
+def _sensors_to_fill(frame: pd.DataFrame) -> set:
+    """The sensors of ``frame`` whose readings ``fill_temperature`` could change, given the other sensors: an angle
+    without a temperature, or a sensor-day of at least ``STUCK_MIN_READINGS`` temperatures all the same (stuck if the
+    others' move). Empty: nothing to fill."""
     t = frame["temperature_c"]
-    if (t.isna() & frame["angle_deg"].notna()).any():
-        return True
-    day = frame["timestamp"].dt.normalize()
-    per_day = t.groupby([frame["sensor_id"], day]).agg(["size", "nunique"])
-    return bool(((per_day["size"] >= STUCK_MIN_READINGS) & (per_day["nunique"] == 1)).any())
+    ids = set(frame["sensor_id"][t.isna() & frame["angle_deg"].notna()].unique())
+    per_day = t.groupby([frame["sensor_id"], frame["timestamp"].dt.normalize()]).agg(["size", "nunique"])
+    const = (per_day["size"] >= STUCK_MIN_READINGS) & (per_day["nunique"] == 1)
+    return ids | set(per_day.index.get_level_values(0)[const])
 
 
 def _cache_key(site: Site, thermal: str) -> str:
