@@ -221,3 +221,18 @@ def test_vehicle_plots_are_announced_by_the_one_cli_figure_helper(inputs, tmp_pa
     assert main(["vehicle", "simulate", "--duration", "2", "-o", str(tmp_path / "d.csv"), "--plot", str(png)]) == 0
     assert f"wrote {png}" in capsys.readouterr().err
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("inside", [["-o", "{o}/rep/sensors.csv"], ["-o", "{o}/rep/mine.csv"],
+                                    ["-o", "{o}/s.csv", "--plot", "{o}/rep/settlement.png"]])
+def test_an_output_inside_the_report_folder_is_refused_before_any_work(inputs, tmp_path, capsys, inside):
+    """Found by a user's probe (session 35): ``-o rep/sensors.csv --report rep --overwrite`` had the report's sensor
+    table replace the settlement table; ``-o rep2/x.csv --report rep2`` computed, wrote -o, then refused the folder."""
+    (tmp_path / "rep").mkdir()
+    (tmp_path / "rep" / "sensors.csv").write_text("a user's earlier output\n")
+    argv = ["rail", "settle", "--sensors", "{i}/site/sensors.csv", "--readings", "{i}/site/readings.csv", "--survey",
+            "{i}/site/survey.csv", *inside, "--report", "{o}/rep", "--overwrite"]
+    before = _snapshot(tmp_path)
+    assert main([a.format(i=inputs, o=tmp_path) for a in argv]) == 2
+    assert "is inside the --report folder" in capsys.readouterr().err.replace("\n", " ")
+    assert _snapshot(tmp_path) == before

@@ -176,3 +176,12 @@ def test_a_loggers_missing_value_markers_are_missing_values(tmp_path):
     path.write_text("x,y\n1,n.a.\n")  # text that is not a marker is still refused
     with pytest.raises(InputFormatError, match="non-numeric"):
         read_table(path, numeric=["y"])
+
+
+def test_a_file_that_is_not_utf8_is_refused_with_its_line(tmp_path):
+    """A Windows spreadsheet's export in cp1252 (an accent in a name): pandas' "can't decode byte 0xe9 in position 0"
+    named neither the line nor what to do (session 35, a user's probe)."""
+    path = tmp_path / "t.csv"
+    path.write_bytes("x_m,name\n1,a\n2,capteur_\u00e9\n".encode("cp1252"))
+    with pytest.raises(InputFormatError, match=r"line 3 is not UTF-8 text \('2,capteur_\u00e9'.*save the file as UTF-8"):
+        read_table(path)

@@ -19,11 +19,6 @@ from ..errors import InputError
 
 __all__ = ["TaskOutput", "IRITask", "ReconstructTask", "options_hash", "TASKS"]
 
-#: Above this segment IRI (m/km) a result is flagged: beyond any road (unpaved roads stay below ~25 m/km);
-#: the usual cause is an elevation column in mm labelled m. Same limit as ``longprofile road iri``.
-IMPLAUSIBLE_IRI = 50.0
-
-
 @dataclass(frozen=True, eq=False)
 class TaskOutput:
     """What a task returns for one file.
@@ -94,8 +89,6 @@ def _iri_table(profile, task):
 
 def _warning(table, task, length_m: float) -> str:
     """One line about a result a user should look at (the notes of ``longprofile road iri``)."""
-    import numpy as np
-
     lu, per_m, iu, factor, _ = _UNITS[task.units]
     if len(table) == 0:
         return (f"the profile ({length_m / per_m:g} {lu}) is shorter than one {task.window or task.interval:g} {lu} "
@@ -103,11 +96,9 @@ def _warning(table, task, length_m: float) -> str:
     cols = [c for c in table.columns if str(c).startswith("iri_")]
     if not cols:
         return ""
-    worst = float(np.nanmax(table[cols].to_numpy(dtype=float)))
-    if worst > IMPLAUSIBLE_IRI * factor:
-        return (f"IRI up to {worst:.3g} {iu} is beyond any road: check the elevation unit in the column names "
-                "(e.g. left_mm).")
-    return ""
+    from ..road import iri_plausibility
+
+    return iri_plausibility(table[cols].to_numpy(dtype=float) / factor, what="segment IRI")
 
 
 def _tiny_profile(tracks, length):

@@ -69,15 +69,22 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
 
 
 def check_output_folder(output: Path, *inputs: Path | None, overwrite: bool = False, what: str = "output",
-                        writes=(), hint: str | None = None) -> Path:
+                        writes=(), hint: str | None = None, others: dict | None = None) -> Path:
     """Check an output *folder* before any work (:func:`longprofile.report.report_folder`, nothing created).
 
     Refused: the folder is an input, a file, not empty without ``overwrite``, or one of the files the command
-    writes there (``writes``, e.g. ``REPORT_FILES["road"]``) is an input (even with ``overwrite``). With
-    ``overwrite`` the command replaces the files it writes there; other files in the folder are left alone.
+    writes there (``writes``, e.g. ``REPORT_FILES["road"]``) is an input (even with ``overwrite``); one of the
+    command's other outputs (``others``: option -> path, e.g. ``{"-o": out, "--plot": png}``) inside the folder
+    (the report would replace it, or find its folder not empty). With ``overwrite`` the command replaces the files
+    it writes there; other files in the folder are left alone.
     """
     from ..report import report_folder
 
+    folder = Path(output).resolve()
+    for option, path in (others or {}).items():
+        if path is not None and folder in Path(path).resolve().parents:
+            raise OutputError(f"{option} {path} is inside the {what} folder {output}, which holds the report's files "
+                              f"only; write it outside that folder (e.g. {option} {Path(path).name}).")
     return report_folder(output, inputs, writes=writes, overwrite=overwrite, create=False, what=what, hint=hint)
 
 

@@ -36,7 +36,7 @@ def simulate_command(
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m."),
     noise: float = typer.Option(0.02, "--noise", help="Measurement noise std as a fraction of the signal RMS."),
-    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the truth and the signal to this PNG."),
     overwrite: bool = OVERWRITE,
 ):

@@ -34,16 +34,15 @@ def _tracks(track: str | None, file: Path | None = None):
     return names or None
 
 
-def _check_plausible(result) -> None:
-    """Warn when the IRI is out of any road's range (an elevation column in mm labelled m is the usual cause)."""
-    import numpy as np
+def _check_plausible(result, profile) -> None:
+    """Warn when the IRI is out of any road's range (an elevation unit mistake is the usual cause) or the stations
+    are coarse enough to bias it (:func:`longprofile.road.iri_plausibility`, :func:`~longprofile.road.sampling_note`)."""
+    from ..road import iri_plausibility, sampling_note
 
-    worst = float(np.nanmax(result.section_iri)) if np.size(result.section_iri) else 0.0
-    if getattr(result, "units", "si") == "us":
-        worst /= 63.36
-    if worst > 50.0:
-        console.print(f"[yellow]warning:[/yellow] section IRI {worst:.3g} m/km is beyond any road (unpaved roads "
-                      "are below about 25 m/km): check the elevation unit in the column names (e.g. left_mm).")
+    factor = 63.36 if getattr(result, "units", "si") == "us" else 1.0
+    for note in (iri_plausibility([v / factor for v in result.section_iri]), sampling_note(profile)):
+        if note:
+            console.print(f"[yellow]warning:[/yellow] {note}", highlight=False, soft_wrap=True)
 
 
 #: Length units the deprecated ``--units`` still accepts as the elevation unit (before ``--units si|us``).
@@ -113,7 +112,7 @@ def iri_command(
     profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
     rep = iri_report(profile, mode=mode, interval=interval, window=window, step=step, start=start,
                      units=report_units, lead_in=lead_in, moving_average=moving_average)
-    _check_plausible(rep)
+    _check_plausible(rep, profile)
     table = rep.to_frame()
     write_report_table(table, sys.stdout if out is None else out, rep.metadata)
     if png is not None:
@@ -155,7 +154,7 @@ def report_command(
     from ..report import REPORT_FILES, draw, plot_iri, write_road_report
     from ..road import analyse_roughness
 
-    check_output_folder(output, file, overwrite=overwrite, writes=REPORT_FILES["road"],
+    check_output_folder(output, file, overwrite=overwrite, writes=REPORT_FILES["road"], others={"--plot": plot},
                         hint=f"the report needs a folder, e.g. -o {Path(output).with_suffix('')}_report/.")
     png = check_plot_path(plot, file, overwrite=overwrite)
     _, elevation = _split_units(units, elevation_unit, report_units=False)
@@ -165,6 +164,7 @@ def report_command(
         bar.advance(task)
         analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold)
         bar.advance(task)
+        _check_plausible(analysis.iri, profile)
         files = write_road_report(analysis, output, inputs=(file,), overwrite=overwrite)
         if plot is not None:
             files.append(draw(plot_iri, analysis.iri, png))

@@ -33,7 +33,7 @@ def simulate(
     scenario: str = typer.Option("paper", "--scenario", "-s",
                                  help="Built-in scenario: paper, hill or low-mu (see docs/vehicle-slope.md)."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the sensor noise."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the sensor noise."),
     duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (scenario default)."),
     truth: bool = typer.Option(True, "--truth/--no-truth", help="Also write the true_* columns."),
     steering_geometry: str = typer.Option("parallel", "--steering-geometry",

@@ -56,7 +56,7 @@ def simulate(
     road_class: str = typer.Option("C", "--road-class", help="ISO 8608 road class A..H."),
     speed: float = typer.Option(20.0, "--speed", help="Vehicle speed, m/s."),
     duration: float = typer.Option(20.0, "--duration", help="Length of the run, s."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the road and the sensor noise."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the road and the sensor noise."),
     car: str = typer.Option("ideal", "--car", help="ideal (passive dampers) or magneride (MR dampers driven by a "
                                                    "skyhook controller; the log gains current_FL..RR, A)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the true states of the front-left corner (PNG)."),
@@ -146,11 +146,11 @@ def estimate(
     est = result.estimate
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
+    for text in result.warnings():
+        console.print(f"[yellow]warning: {escape(text)}[/yellow]")
     if profile is not None:
         from ..io import write_profile
 
-        for text in result.warnings():
-            console.print(f"[yellow]warning: {escape(text)}[/yellow]")
         prof, res = result.profile, result.iri
         write_profile(prof, profile)
         write_table(res.to_frame(), iri_out)
@@ -174,7 +174,7 @@ def tables(
                                                             "variable, epsilon, epsilon_all_corners, thesis, "
                                                             "reference, car."),
     duration: float = typer.Option(30.0, "--duration", help="Length of each test run, s."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the roads and the sensor noises."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the roads and the sensor noises."),
     reference: str = typer.Option("truth", "--reference", help="Score against the simulator's truth, or against "
                                                                "the thesis's references rebuilt from measured "
                                                                "signals (integrated accelerometers): truth|thesis."),

@@ -36,7 +36,7 @@ def simulate_command(
                                                              "(example graded alarm limits for rail settle "
                                                              "--thresholds)."),
     preset: str = typer.Option("mittersheim-like", "--preset", help="mittersheim-like or farebersviller-like."),
-    seed: int = typer.Option(0, "--seed", help="Random seed."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed."),
     sampling_minutes: float = typer.Option(10.0, "--sampling-minutes", help="Interval between readings, min."),
     days: int = typer.Option(None, "--days", help="Number of days (default: the preset's)."),
     fmt: str = typer.Option("csv", "--format", help="csv or parquet."),
@@ -140,7 +140,7 @@ def settle_command(
                                           "transition at a joint, abutment or culvert) instead of excluding it as "
                                           "detached; steps-ends also lets it loosen the span's end anchors "
                                           "(docs/rail.md, \"Sensor health on a transition\")."),
-    seed: int = typer.Option(0, "--seed", help="Random seed of the Monte Carlo."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed of the Monte Carlo."),
     overwrite: bool = OVERWRITE,
 ):
     """Altitude change of the track, day by day, with 90 % bands, sensor health and alarms."""
@@ -157,7 +157,8 @@ def settle_command(
     if report is not None:
         from ..report import REPORT_FILES
 
-        check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"])
+        check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"],
+                            others={"-o": output, "--plot": plot})
     if thresholds is not None and (threshold_mm is not None or rate_mm is not None):
         raise InputError("give either --thresholds FILE or --settlement-threshold-mm / --rate-threshold-mm-per-day, "
                          "not both.")
@@ -201,11 +202,19 @@ def _print_settle_summary(res, output: Path) -> None:
         console.print(f"note: thermal model lagged, chosen from the readings (a thermal lag leaves "
                       f"{res.settings['lag_variance_ratio']:.2f} of the no-lag residual variance, median over sensors; "
                       "--thermal linear gives the paper's model)", highlight=False, soft_wrap=True)
-    worst = -res.dz[-1].min()
+    import numpy as np
+
+    last = 1e3 * res.dz[-1]
+    down, up = max(-float(np.nanmin(last)), 0.0), max(float(np.nanmax(last)), 0.0)
+    moved = f"max settlement on the last day {down:.1f} mm" + (f", max heave {up:.1f} mm" if up >= 1.0 else "")
+    counts = res.daily.n_readings.sum(axis=1)
+    if counts[-1] < 0.5 * np.median(counts):
+        moved += (f" (the last day, {np.datetime64(res.days[-1], 'D')}, holds {100 * counts[-1] / np.median(counts):.0f} % of a "
+                  "usual day's readings)")
     alarms = (f"{len(res.alarms)} alarm(s)" if res.settings.get("thresholds_set") else
               "no alarm thresholds set (--thresholds FILE): nothing was tested against a limit")
     console.print(f"{len(res.sensor_ids)} sensors, {res.days.size} days; {int(res.health.excluded.sum())} sensor(s) "
-                  f"excluded; max settlement on the last day {1e3 * worst:.1f} mm; {alarms} -> {output}")
+                  f"excluded; {moved}; {alarms} -> {output}")
 
 
 def _register_service() -> None:

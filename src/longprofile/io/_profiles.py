@@ -39,6 +39,21 @@ def _split(column: str) -> tuple[str, str | None]:
     return column.strip(), None
 
 
+def _elevation_unit(path, column, unit, units, *, chosen: bool):
+    """(column, unit) of an elevation column: its declared unit, else ``units``; refused without either, or when the
+    two differ."""
+    if unit is None:
+        if units is None:
+            hint = "" if chosen else " If it is not a track, choose the tracks with --track (e.g. --track left,right)."
+            raise UnitsError(f"{path}: column {column!r} does not give its elevation unit; pass --elevation-unit m|mm "
+                             f"(units=...) or name the column e.g. {column}_mm. Units are never guessed.{hint}")
+        return column, units
+    if units is not None and unit != units.lower():
+        raise UnitsError(f"{path}: column {column!r} is in {unit} but units={units!r} was given; remove the option "
+                         "or fix the header.")
+    return column, unit
+
+
 def read_profile_table(path: Path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
     """CSV/Parquet body of :func:`longprofile.io.read_profile` (same parameters, returns and errors)."""
     path = Path(path)
@@ -62,16 +77,8 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     columns = {}
     std_columns = {}
     for c, (base, unit) in parsed.items():
-        if c == distance_column:
-            continue
-        if unit is None:
-            if units is None:
-                raise UnitsError(f"{path}: column {c!r} does not give its elevation unit; pass --elevation-unit m|mm "
-                                 f"(units=...) or name the column e.g. {c}_mm. Units are never guessed.")
-            unit = units
-        elif units is not None and unit != units.lower():
-            raise UnitsError(f"{path}: column {c!r} is in {unit} but units={units!r} was given; remove the option "
-                             "or fix the header.")
+        if c == distance_column or (str(c).startswith("Unnamed: ") and df[c].isna().all()):
+            continue  # a spreadsheet's empty trailing column (",," at the end of every row)
         if base.lower().endswith("_std"):
             std_columns[base[:-4]] = (c, unit)
         elif base.lower() == "std":  # `road reconstruct`'s std_m: the standard deviation of elevation_m
@@ -97,6 +104,10 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
             raise InputError(f"{path}: no track {t!r}; the file has {list(columns)}.")
     if not names:
         raise InputFormatError(f"{path}: no elevation column besides {distance_column!r}.")
+    for t in names:  # units are checked on the columns used only: a GPS or comment column is not a track
+        columns[t] = _elevation_unit(path, *columns[t], units, chosen=tracks is not None)
+        if t in std_columns:
+            std_columns[t] = _elevation_unit(path, *std_columns[t], units, chosen=tracks is not None)
     used = [distance_column] + [columns[t][0] for t in names] + [std_columns[t][0] for t in names if t in std_columns]
     for c in used:
         conv = pd.to_numeric(df[c], errors="coerce")

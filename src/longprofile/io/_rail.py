@@ -61,7 +61,7 @@ def read_rail_table(path, kind: str, *, angle_unit: str = "deg"):
     """
     if kind not in SiteData.TABLE_COLUMNS:
         raise InputError(f"unknown rail table {kind!r}; use one of {sorted(SiteData.TABLE_COLUMNS)}.")
-    table = read_table(path)
+    table = read_table(path, text=("sensor_id",))
     if kind == "readings" and "angle_deg" not in table.columns and any(_declared(str(c), "angle")
                                                                      for c in table.columns):
         table = _angle_in_degrees(table, path, angle_unit)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 from typing import Iterable
 
@@ -20,6 +21,10 @@ _READ_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "pa
 _WRITE_FORMATS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 #: The letter cases of ``core.MISSING_TEXT`` a CSV cell is read as missing in (pandas matches exactly).
 _MISSING_VARIANTS = sorted({v for m in MISSING_TEXT for v in (m, m.upper(), m.title(), m.capitalize())})
+#: pandas' default missing-value texts (its read_csv documentation), for the columns of a table that also has text
+#: columns: those are read with only an empty cell as missing (a sensor named "NA" keeps its name).
+_PANDAS_MISSING = ("", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN", "<NA>",
+                   "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null")
 
 
 def _format_of(path: Path) -> str:
@@ -29,13 +34,14 @@ def _format_of(path: Path) -> str:
     return fmt
 
 
-def _read_csv(path: Path) -> pd.DataFrame:
+def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
     """CSV with ``#`` comments, where an empty line inside the data is a row of missing values.
 
     pandas skips blank lines by default, which silently shifts every later sample of a one-column file with
     missing values (a logger or a spreadsheet writes an empty cell there as an empty line). Blank lines before
     the header and after the last data line are ignored; a last row of empty cells (``,,``, or ``""`` in a
-    one-column file) is a row of missing values and is kept.
+    one-column file) is a row of missing values and is kept. Columns named in ``text_columns`` (any letter case) are
+    read as written: ``007`` stays ``007`` and ``NA`` is a name; only an empty cell is missing there.
     """
     leading, header = None, ""
     with open(path, encoding="utf-8", errors="replace") as fh:
@@ -47,8 +53,14 @@ def _read_csv(path: Path) -> pd.DataFrame:
                 header = text
                 break
     _check_separator(path, header)
-    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0,
-                     na_values=_MISSING_VARIANTS)  # with pandas' own: "NAN" (Campbell loggers), "NONE", "Null"...
+    wanted = {t.lower() for t in text_columns}
+    names = [n.strip() for n in next(csv.reader([header], skipinitialspace=True))] if wanted else []
+    as_text = [n for n in names if n.lower() in wanted]
+    kw = {"na_values": _MISSING_VARIANTS}  # with pandas' own: "NAN" (Campbell loggers), "NONE", "Null"...
+    if as_text:
+        kw = {"dtype": dict.fromkeys(as_text, str), "keep_default_na": False,
+              "na_values": {n: [""] if n in as_text else [*_PANDAS_MISSING, *_MISSING_VARIANTS] for n in names}}
+    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0, **kw)
     _check_last_row(path, df.shape[1])
     trailing = _trailing_blank_lines(path)
     if trailing:
@@ -121,7 +133,7 @@ def _trailing_blank_lines(path: Path) -> int:
     return count
 
 
-def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()) -> pd.DataFrame:
+def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (), text: Iterable[str] = ()) -> pd.DataFrame:
     """Read a CSV or Parquet table.
 
     Parameters
@@ -134,6 +146,9 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
         the required spelling when it is the only one of that name.
     numeric : iterable of str
         Columns that must parse as numbers (empty cells become NaN).
+    text : iterable of str
+        Columns of names or ids (any letter case), read from a CSV as written: ``007`` is not 7 and ``NA`` is not
+        missing; only an empty cell is.
 
     Raises
     ------
@@ -148,12 +163,27 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
     if path.is_file() and path.stat().st_size == 0:
         raise InputFormatError(f"{path}: the file is empty; expected a header row and one row per sample.")
     try:
-        df = _read_csv(path) if fmt == "csv" else pd.read_parquet(path)
+        df = _read_csv(path, text) if fmt == "csv" else pd.read_parquet(path)
     except InputFormatError:
         raise
+    except UnicodeDecodeError:
+        raise InputFormatError(_not_utf8(path)) from None
     except Exception as exc:  # pandas/pyarrow raise many types
         raise InputFormatError(f"{path}: cannot be read as {fmt}: {exc}") from None
     return check_columns(df, path, required=required, numeric=numeric)
+
+
+def _not_utf8(path: Path) -> str:
+    """The message for a CSV that is not UTF-8 text: its first such line (pandas' own position is within a chunk)."""
+    with open(path, "rb") as fh:
+        for n, raw in enumerate(fh, start=1):
+            try:
+                raw.decode("utf-8")
+            except UnicodeDecodeError:
+                text = raw.decode("latin-1").strip()
+                return (f"{path}: line {n} is not UTF-8 text ({text[:60]!r}, e.g. Latin-1 or Windows-1252 accents): "
+                        "save the file as UTF-8 (a spreadsheet's \"CSV UTF-8\"; or iconv -f cp1252 -t utf-8).")
+    return f"{path}: the file is not UTF-8 text; save it as UTF-8."
 
 
 def check_columns(df: pd.DataFrame, path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()):

@@ -134,12 +134,36 @@ def _is_number(value) -> bool:
     return True
 
 
+_UTC_OFFSET = r"(?:Z|[+-]\d{2}:?\d{2})$"
+
+
+def _times_with_offsets(series: pd.Series, what: str, col: str):
+    """Times some of which carry a UTC offset (pandas refuses offsets that differ, e.g. across a DST change): all
+    with one, converted to UTC; a mix of times with and without one refused (which zone would the others be in?);
+    None when no value carries one."""
+    text = series.astype(str).str.strip()
+    has = text.str.contains(_UTC_OFFSET, regex=True).to_numpy()
+    if not has.any():
+        return None
+    if not has.all():
+        i, j = int(np.flatnonzero(~has)[0]), int(np.flatnonzero(has)[0])
+        raise InputFormatError(f"{what} table: column {col!r} mixes times with a UTC offset (row {j}: {text.iloc[j]!r}) "
+                               f"and without one (row {i}: {text.iloc[i]!r}); write them all in UTC, or all with their "
+                               "offset.")
+    try:
+        return pd.to_datetime(series, format="ISO8601", utc=True)
+    except (ValueError, TypeError):
+        return None
+
+
 def _times(values, what: str, col: str) -> pd.Series:
     series = pd.Series(values)
     try:
         t = pd.to_datetime(series, format="ISO8601")
     except (ValueError, TypeError):
-        parsed = pd.to_datetime(series, format="ISO8601", errors="coerce")
+        t = _times_with_offsets(series, what, col) if pd.api.types.is_string_dtype(series) else None
+    if t is None:
+        parsed = pd.to_datetime(series, format="ISO8601", errors="coerce", utc=True)
         bad = np.nonzero((parsed.isna() & series.notna()).to_numpy())[0]
         value = series.iloc[int(bad[0])] if bad.size else None
         where, got = (f", row {int(bad[0])}", f"; got {str(value)!r}") if bad.size else ("", "")
@@ -500,10 +524,22 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
 
 
+def _ids(table: pd.DataFrame, what: str) -> np.ndarray:
+    """The ``sensor_id`` column as stripped text; an empty cell is refused with its row (not a sensor named "nan")."""
+    ids = table["sensor_id"]
+    text = ids.astype(str).str.strip()
+    empty = ids.isna().to_numpy() | (text == "").to_numpy()
+    if empty.any():
+        i = int(np.flatnonzero(empty)[0])
+        raise InputError(f"{what} table, row {i} (CSV line {i + 2}): the sensor_id is empty; every row needs its "
+                         f"sensor's id ({int(empty.sum())} row(s) without one).")
+    return text.to_numpy()
+
+
 def _valid_sensors(sensors: pd.DataFrame) -> pd.DataFrame:
     """The sensors table: ids stripped and unique, at least 3, sorted by distinct stations."""
     _require_columns(sensors, SENSOR_COLUMNS, "sensors")
-    s = pd.DataFrame({"sensor_id": sensors["sensor_id"].astype(str).str.strip(),
+    s = pd.DataFrame({"sensor_id": _ids(sensors, "sensors"),
                       "x_m": _numeric(sensors, "x_m", "sensors")})
     if "z_m" in sensors.columns:
         s["z_m"] = _numeric(sensors, "z_m", "sensors", allow_nan=True)
@@ -526,7 +562,7 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     """The readings table: known sensors, one reading per (sensor, time), sorted, angles in degrees."""
     _require_columns(readings, READING_COLUMNS, "readings")
     r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp"),
-                      "sensor_id": readings["sensor_id"].astype(str).str.strip().to_numpy(),
+                      "sensor_id": _ids(readings, "readings"),
                       "angle_deg": _numeric(readings, "angle_deg", "readings", allow_nan=True),
                       "temperature_c": _numeric(readings, "temperature_c", "readings", allow_nan=True)})
     known = set(s["sensor_id"])

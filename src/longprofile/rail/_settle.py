@@ -285,7 +285,9 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
     A = np.column_stack(cols)
     use = np.isfinite(v) & (np.arange(D) >= 1) & (v > 0)
     if use.sum() < 2:
-        raise InputError("too few days with a measurable noise; use error_model='white'.")
+        raise InputError(f"too few days with a measurable noise ({int(use.sum())} after the reference day; at least 2 "
+                         "needed to fit its growth over the days): a longer record, or give the daily noise std "
+                         "(error_model='white' or sigma=...; CLI --sigma-deg).")
     # weights ~ 1/v_d: the per-day variances are chi-square-like, their spread grows with their level
     w = 1.0 / np.maximum(v[use], 1e-300)
     coef, _ = nnls(A[use] * w[:, None], v[use] * w)
@@ -1321,6 +1323,13 @@ def _check_exclusions(ids, exclude_sensors) -> None:
         raise InputError(f"exclude_sensors: unknown sensor id(s) {unknown[:5]}; known ids are like {ids[:3]}.")
 
 
+#: An altitude change beyond this, m, gets a warning naming the angles' unit (milliradians or mm/m under angle_deg
+#: multiply every change by 17.45; found by a user's probe, session 35: a 20 mm bowl printed as 337 mm).
+PLAUSIBLE_CHANGE_M = 0.1
+#: A first day holding less than this share of the median day's readings is left out (:func:`_partial_first_days`).
+PARTIAL_DAY_SHARE = 0.5
+
+
 def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) -> DailyAngles:
     """Checks of the daily angles (§3) and their warnings; at least 2 days."""
     ids = daily.sensor_ids
@@ -1338,10 +1347,38 @@ def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) ->
         D = daily.days.size
         if D < 2:
             raise InputError(f"the readings cover {D} usable day; at least 2 days are needed to see a change.")
+    daily = _partial_first_days(daily, warnings)
+    gaps = np.diff(daily.days).astype("timedelta64[D]").astype(int)
+    if (gaps > 1).any():
+        first = pd.Timestamp(daily.days[int(np.argmax(gaps > 1))]) + pd.Timedelta(days=1)
+        warnings.append(f"{int((gaps - 1).sum())} calendar day(s) without readings (the first {first:%Y-%m-%d}): the "
+                        "settlement is given on the days with readings, and the rate after a gap is the mean daily rate "
+                        "over it.")
     n_out = int(daily.n_outliers.sum())
     if n_out:
         warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
                         f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
+    return daily
+
+
+def _partial_first_days(daily: DailyAngles, warnings: list) -> DailyAngles:
+    """``daily`` without its first days that hold less than :data:`PARTIAL_DAY_SHARE` of the median day's readings
+    (all sensors; at least 2 days kept). The first day is every later day's reference: a daily angle from part of a
+    day carries part of the daily thermal cycle into every change (a record that starts at 23:00 excluded two
+    healthy sensors, installation tests the day before three; session 35)."""
+    total = daily.n_readings.sum(axis=1).astype(float)
+    usual = float(np.median(total))
+    k = 0
+    while k < daily.days.size - 2 and total[k] < PARTIAL_DAY_SHARE * usual:
+        k += 1
+    if k:
+        dates = pd.DatetimeIndex(daily.days[:k]).strftime("%Y-%m-%d").tolist()
+        shares = ", ".join(f"{100 * v / usual:.0f} %" for v in total[:k][:3])
+        warnings.append(f"the first {k} day(s) ({dates[:3]}) hold {shares} of a usual day's readings (a record that "
+                        "starts late in the day, installation tests, or times converted to UTC from another zone?): a "
+                        "daily angle from part of a day carries part of the daily thermal cycle into every later change, "
+                        f"so they are left out and {pd.Timestamp(daily.days[k]):%Y-%m-%d} is the reference day.")
+        daily = daily.select_days(np.arange(daily.days.size) >= k)
     return daily
 
 
@@ -1566,6 +1603,8 @@ def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: Settle
                                        noise_variance_by_day=sig_days**2 if drift else None)
     else:
         smoothed = None
+    if smoothed is not None:
+        smoothed = _per_calendar_day(smoothed, days)
     src_mean = smoothed.mean if smoothed is not None else post["z_mean"]
     src_std = smoothed.std if smoothed is not None else dz_std
     rate = (None, None) if smoothed is None else (smoothed.rate, smoothed.rate_std)
@@ -1579,6 +1618,19 @@ def _through_time_stage(site: SiteData, days, post, sig_days, drift, opt: Settle
     controls = compare_controls(site.controls, days, x, src_mean, src_std, sv["x_m"].to_numpy(), sv["z_m"].to_numpy(),
                                 sigma_a=opt.sigma_a)
     return smoothed, dz_std, alarms, controls
+
+
+def _per_calendar_day(smoothed: TemporalSettlement, days) -> TemporalSettlement:
+    """The rate and its std per calendar day: a change between two days with readings that are k days apart (days
+    without readings between them) divided by k (found by a user's probe, session 35: a 3-day change was printed as
+    one day's rate and raised rate alarms)."""
+    gaps = np.diff(np.asarray(days, "datetime64[D]")).astype(float)
+    if gaps.size == 0 or (gaps == 1.0).all():
+        return smoothed
+    rate, rate_std = smoothed.rate.copy(), smoothed.rate_std.copy()
+    rate[1:] /= gaps[:, None]
+    rate_std[1:] /= gaps[:, None]
+    return replace(smoothed, rate=rate, rate_std=rate_std)
 
 
 def _spatial_prior_stage(x, M, sig_days, drift, factors, rig, order, opt: SettlementSettings):
@@ -2120,6 +2172,11 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     integrated = _chain_integrations(x, M, health, initial)
     smoothed, dz_std, alarms, controls = _through_time_stage(site, days, post, sig_days, drift, opt,
                                                              smoothed=None if joint is None else joint.smoothed)
+    if (big := float(np.nanmax(np.abs(post["z_mean"]), initial=0.0))) > PLAUSIBLE_CHANGE_M:
+        warnings.append(f"the track moved by up to {1e3 * big:.0f} mm, beyond what monitoring near works sees (a track "
+                        f"is closed long before {1e3 * PLAUSIBLE_CHANGE_M:.0f} mm): check the angles' unit. Milliradians "
+                        "or mm/m under angle_deg give 17.5 times the change (name the column angle_mrad, or convert: "
+                        "deg = mrad x 0.0573).")
     control_check = check_controls(controls)
     if control_check is not None and control_check.disagree:
         warnings.append(control_check.message())

@@ -126,12 +126,23 @@ class DailyAngles:
     lag_variance_ratio: float | None = None
 
     def select_days(self, mask) -> "DailyAngles":
-        """The same angles on the days where ``mask`` (D,) is True."""
+        """The same angles on the days where ``mask`` (D,) is True; each sensor's changes from its first kept day."""
         m = np.asarray(mask, bool)
-        per_day = {f: getattr(self, f)[m] for f in ("days", "angle_deg", "change_deg", "n_readings")}
+        per_day = {f: getattr(self, f)[m] for f in ("days", "angle_deg", "n_readings")}
+        per_day["change_deg"] = _changes(per_day["angle_deg"])
         per_day.update({f: getattr(self, f)[m] for f in ("raw_day_spread_deg", "temperature_mean_c")
                         if getattr(self, f) is not None})
         return replace(self, **per_day)
+
+
+def _changes(angle: np.ndarray) -> np.ndarray:
+    """(D, N) each sensor's daily angle minus its angle on its first day with one (NaN before it and where missing)."""
+    change = np.full_like(angle, np.nan)
+    for j in range(angle.shape[1]):
+        ok = np.nonzero(np.isfinite(angle[:, j]))[0]
+        if ok.size:
+            change[:, j] = angle[:, j] - angle[ok[0], j]
+    return change
 
 
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
@@ -758,11 +769,7 @@ def daily_angles_from_statistics(stats: DayStatistics) -> DailyAngles:
     if di.size:
         angle[di, sj] = _lines_median(stats.median_lines[di, sj], stats.n_kept[di, sj], stats.n_below_lines[di, sj],
                                       stats.thermal_coef[sj], stats.reference_temp_c)
-    change = np.full_like(angle, np.nan)
-    for j in range(angle.shape[1]):
-        ok = np.nonzero(np.isfinite(angle[:, j]))[0]
-        if ok.size:
-            change[:, j] = angle[:, j] - angle[ok[0], j]
+    change = _changes(angle)
     nt = stats.n_temperature.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         tmean = np.where(nt > 0, stats.temperature_sum_c.sum(axis=1) / np.maximum(nt, 1), np.nan)
@@ -963,11 +970,7 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
         cnt = pd.Series(a).groupby(day).size()
         angle[dm.index.to_numpy(), j] = dm.to_numpy()
         nread[cnt.index.to_numpy(), j] = cnt.to_numpy()
-    change = np.full_like(angle, np.nan)
-    for j in range(N):
-        ok = np.nonzero(np.isfinite(angle[:, j]))[0]
-        if ok.size:
-            change[:, j] = angle[:, j] - angle[ok[0], j]
+    change = _changes(angle)
     tm = r.groupby(dates)["temperature_c"].mean().reindex(days).to_numpy(float)
     return DailyAngles(temperature_mean_c=tm, days=days.to_numpy(), sensor_ids=list(ids), angle_deg=angle, change_deg=change,
                        n_readings=nread, n_outliers=nout, raw_std_deg=rawstd, raw_day_spread_deg=dayspread,

@@ -38,7 +38,7 @@ from ..core import Profile
 
 __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
-    "GOLDEN_CAR",
+    "GOLDEN_CAR", "iri_plausibility", "sampling_note",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

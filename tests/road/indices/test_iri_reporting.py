@@ -261,7 +261,10 @@ def test_report_table_keeps_its_metadata(tmp_path, two_tracks, suffix):
     ({"mode": "continuous", "window": 10.0, "step": 20.0}, "needs step <= window"),
     ({"interval": 0.0}, "interval \\(m\\) must be finite and > 0"),
     ({"mode": "continuous", "step": 1e-4}, "more than 4 per sample"),
-    ({"interval": 1e-9}, "more than the profile's .* samples"),  # was a 7 TiB MemoryError
+    ({"interval": 1e-9}, "interval 1e-09 m is shorter than 1 m"),  # was a 7 TiB MemoryError
+    ({"interval": 0.1}, "A unit mistake \\(e.g. 0.1 for 0.1 km = 100 m\\)"),
+    ({"mode": "continuous", "window": 0.5}, "window 0.5 m is shorter than 1 m"),
+    ({"interval": 3.0, "units": "us"}, "interval 3 ft is shorter than 1 m"),
     ({"start": -1.0}, "start must lie within the profile \\(0.000 .. 260.000 m\\)"),
     ({"start": 300.0, "units": "si"}, "start must lie within the profile"),
     ({"start": 900.0, "units": "us"}, "start must lie within the profile \\(0.000 .. 853.018 ft\\)"),

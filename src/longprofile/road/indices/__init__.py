@@ -2,6 +2,7 @@
 
 iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
 iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
+iri_plausibility, sampling_note -- a sentence when a section IRI is outside any road's range, or the stations are coarse.
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 localized_roughness -- continuous short-interval IRI and defects above a threshold.
@@ -23,8 +24,8 @@ _EXPORTS = {
         "FaultingResult", "find_joints", "joint_faulting", "step_statistic",
     ),
     "._iri": (
-        "GOLDEN_CAR", "IRIReport", "IRIResult", "RectifiedSlope", "golden_car_matrices", "iri", "iri_report",
-        "rectified_slope",
+        "GOLDEN_CAR", "IRIReport", "IRIResult", "RectifiedSlope", "golden_car_matrices", "iri", "iri_plausibility",
+        "iri_report", "rectified_slope", "sampling_note",
     ),
     "._iso8608": (
         "ISO8608_BAND", "ISO8608_CLASSES", "ISO8608Fit", "ProfilePSD", "fit_iso8608", "iso8608_class", "iso8608_gd",
@@ -50,7 +51,7 @@ _EXPORTS = {
 
 __all__ = ["iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
-    "GOLDEN_CAR",
+    "GOLDEN_CAR", "iri_plausibility", "sampling_note",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

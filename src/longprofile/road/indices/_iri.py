@@ -22,6 +22,11 @@ __all__ = [
     "CONTINUOUS_WINDOW_M",
     "GOLDEN_CAR",
     "IRI_SPEED",
+    "IRI_STEP_NOTE_M",
+    "MAX_IRI_STEP_M",
+    "MIN_IRI_INTERVAL_M",
+    "iri_plausibility",
+    "sampling_note",
     "golden_car_continuous",
     "golden_car_matrices",
     "IRIResult",
@@ -38,6 +43,22 @@ __all__ = [
 GOLDEN_CAR = {"k1": 653.0, "k2": 63.3, "c": 6.0, "mu": 0.15}
 #: Simulated speed of the IRI, 80 km/h in m/s.
 IRI_SPEED = 80.0 / 3.6
+
+#: Longest station step the IRI accepts anywhere in a profile, m (a longprofile assumption). The golden car
+#: responds to waves down to about 1.3 m (wheel hop at 80 km/h); measured on an ISO 8608 class C road (10 km, the
+#: same profile decimated, docs/road-indices.md "Station steps"): -1.7 % at 0.25 m, -2.9 % at 0.3 m, -7.7 % at
+#: 0.5 m, -9.5 % at 1 m, -69 % at 2 m. A longer step is a gap (interpolated as a straight line, IRI about 0) or
+#: stations in another unit under a metre label.
+MAX_IRI_STEP_M = 1.0
+#: Median station step above which the IRI is computed but noted as biased low (see :data:`MAX_IRI_STEP_M`).
+IRI_STEP_NOTE_M = 0.3
+#: IRI range of real roads, m/km (longprofile assumptions): unpaved roads stay below about 25 and the smoothest new
+#: pavements are about 0.5; outside [0.2, 50] the usual cause is an elevation unit mistake (mm under a metre label
+#: above, metres under a mm label below) or a profile that is not a road's (a smoothed or filtered series).
+PLAUSIBLE_IRI_M_PER_KM = (0.2, 50.0)
+#: Shortest segment or window of :func:`iri_report`, m: shorter, an IRI says nothing of roughness (the quarter car
+#: integrates waves of 1.3-30 m) and is usually a unit mistake (0.1 given for 0.1 km).
+MIN_IRI_INTERVAL_M = 1.0
 
 _CHUNK = 1 << 16  # steps per chunk of per-step matrices (bounded memory for irregular profiles)
 _C_RV = np.array([[1.0, 0.0, -1.0, 0.0]])  # rectified-velocity output: sprung minus unsprung slope rate
@@ -528,6 +549,58 @@ def _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extr
     return _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx)[0]
 
 
+def _check_steps(x: np.ndarray) -> None:
+    """Refuse a station step longer than :data:`MAX_IRI_STEP_M`: a coarse profile (its median step), or gaps."""
+    h = np.diff(x)
+    k = int(np.argmax(h))
+    if h[k] <= MAX_IRI_STEP_M:
+        return
+    med = float(np.median(h))
+    if med > MAX_IRI_STEP_M:
+        raise InputError(f"the profile is sampled every {med:.4g} m: the IRI needs stations at most "
+                         f"{MAX_IRI_STEP_M:g} m apart (the quarter car responds to waves down to about 1.3 m; at 2 m the "
+                         "IRI of a class C road comes out 69 % low). Stations in mm or ft under a metre label? Name the "
+                         "column with its unit (distance_mm, distance_ft).")
+    n = int(np.count_nonzero(h > MAX_IRI_STEP_M))
+    raise InputError(f"the profile has {n} gap(s) longer than {MAX_IRI_STEP_M:g} m between stations (the longest "
+                     f"{h[k]:.4g} m from station {x[k]:.3f} m; the median step is {med:.4g} m): across a gap the IRI "
+                     "would be that of a straight line (about 0). Cut the profile at the gap(s) and analyse each "
+                     "part, or fill them explicitly.")
+
+
+def sampling_note(profile: Profile) -> str | None:
+    """A note when the profile's median station step exceeds :data:`IRI_STEP_NOTE_M` (the IRI is then biased
+    low: -7.7 % at 0.5 m, -9.5 % at 1 m on a class C road), else None. Steps above :data:`MAX_IRI_STEP_M` are
+    refused by :func:`iri` and :func:`iri_report`."""
+    x = profile.distance
+    if x.size < 2:
+        return None
+    med = float(np.median(np.diff(x)))
+    if med <= IRI_STEP_NOTE_M:
+        return None
+    return (f"the profile is sampled every {med:.3g} m, above {IRI_STEP_NOTE_M:g} m: its IRI is biased low (on a class "
+            "C road -7.7 % at 0.5 m, -9.5 % at 1 m; docs/road-indices.md, \"Station steps\").")
+
+
+def iri_plausibility(iri_m_per_km, *, what: str = "section IRI") -> str:
+    """One sentence when an IRI value (m/km; any shape, e.g. one per track) lies outside any road's range
+    (:data:`PLAUSIBLE_IRI_M_PER_KM`), naming the likely unit mistake; "" when all are plausible (NaN ignored).
+    ``what`` names the values in the sentence."""
+    v = np.asarray(iri_m_per_km, float).ravel()
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return ""
+    lo, hi = PLAUSIBLE_IRI_M_PER_KM
+    if v.max() > hi:
+        return (f"{what} {v.max():.3g} m/km is beyond any road (unpaved roads are below about 25 m/km): check "
+                "the elevation unit in the column names (e.g. left_mm).")
+    if v.min() < lo:
+        return (f"{what} {v.min():.3g} m/km is below any paved road (the smoothest new pavements are about "
+                "0.5 m/km): elevations in metres under a mm label (e.g. left_mm holding metres), or a smoothed "
+                "series rather than a measured profile?")
+    return ""
+
+
 def _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx):
     """(RectifiedSlope, mask of the inserted stations or None)."""
     lead_in = require_positive("lead_in", lead_in)
@@ -536,6 +609,7 @@ def _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, 
     x = profile.distance
     if x.size < 2:
         raise InputError("the profile needs at least 2 stations.")
+    _check_steps(x)
     if dx is None:
         dx = _is_regular(x)
     return _run_arrays(x, z, names, lead_in, moving_average, base_length, extra_stations, dx)
@@ -846,8 +920,15 @@ def _report_start(start, x0, x1, tol_u, lu) -> float:
     return max(first, x0)
 
 
-def _report_length(name, value, unit):
-    return require_positive(f"{name} ({unit})", value)
+def _report_length(name, value, unit, scale=None):
+    """A positive length in the report unit; with ``scale`` (metres per report unit: an interval or a window) at
+    least :data:`MIN_IRI_INTERVAL_M`."""
+    length = require_positive(f"{name} ({unit})", value)
+    if scale is not None and length * scale < MIN_IRI_INTERVAL_M * (1 - 1e-9):
+        raise InputError(f"{name} {length:g} {unit} is shorter than {MIN_IRI_INTERVAL_M:g} m: an IRI over less than a "
+                         "metre says nothing of roughness (the quarter car responds to waves of 1.3-30 m). A unit "
+                         f"mistake (e.g. 0.1 for 0.1 km = 100 m)? Give the {name} in {unit}.")
+    return length
 
 
 def _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval, window, step):
@@ -857,7 +938,7 @@ def _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval, wi
         if window is not None or step is not None:
             raise InputError("window and step are for mode='continuous' or 'overlapping'; mode='fixed' reports "
                              "consecutive segments of `interval`.")
-        length = _report_length("interval", interval, lu)
+        length = _report_length("interval", interval, lu, scale)
         n = int(np.floor((x1 - first) / length + 1e-9))
         if n > x.size + 1000:  # shorter than a sample spacing: every segment would be (nearly) empty
             raise InputError(f"segment {length:g} {lu} gives {n} segments, more than the profile's {x.size} samples: "
@@ -868,7 +949,7 @@ def _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval, wi
     else:
         if window is None:
             window = CONTINUOUS_WINDOW_M / scale if mode_key == "continuous" else interval
-        length = _report_length("window", window, lu)
+        length = _report_length("window", window, lu, scale)
         if step is None:
             step = ((dx if dx is not None else (x[-1] - x[0]) / (x.size - 1)) / scale if mode_key == "continuous"
                     else 0.5 * length)

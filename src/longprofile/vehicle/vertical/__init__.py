@@ -51,11 +51,13 @@ from ._params import (
                       load_vertical_params,
 )
 from ._road import (
+                      WHEEL_ACCEL_RATIO_RANGE,
                       VerticalLogEstimate,
                       VerticalRun,
                       estimate_vertical_log,
                       profile_run,
                       road_profile_from_suspension,
+                      wheel_accelerometer_ratio,
                       wheel_profiles,
 )
 from ._simulate import (
@@ -85,5 +87,5 @@ __all__ = [
     "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "VERTICAL_VARIABLES",
     "ObservabilityResult", "corner_observability",
     "road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
-    "estimate_vertical_log",
+    "estimate_vertical_log", "wheel_accelerometer_ratio", "WHEEL_ACCEL_RATIO_RANGE",
 ]

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from ._params import MRDamperParams, VerticalVehicleParams
 
 __all__ = ["road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
+           "WHEEL_ACCEL_RATIO_RANGE", "wheel_accelerometer_ratio",
            "estimate_vertical_log"]
 
 
@@ -262,6 +263,7 @@ class VerticalLogEstimate:
     mr_map: MRDamperParams | None = None
     profile: Profile | None = None
     iri: IRIResult | None = None
+    accelerometer_ratio: float | None = None
 
     def warnings(self) -> list[str]:
         """What a user should know before trusting this result (strings; empty when nothing).
@@ -271,11 +273,38 @@ class VerticalLogEstimate:
         the simulator); configuration 3 is within 3 %.
         """
         out = []
+        lo, hi = WHEEL_ACCEL_RATIO_RANGE
+        if self.accelerometer_ratio is not None and not lo <= self.accelerometer_ratio <= hi:
+            out.append(f"the wheel accelerometers' 8-25 Hz content is {self.accelerometer_ratio:.2g} times the second "
+                       "derivative of the suspension deflections (about 1 when both are in SI units, 0.25-1 on a "
+                       "smooth road): "
+                       + ("accelerations in g? Give them in m/s^2 (--units wheel_accel_FL=g,...)."
+                          if self.accelerometer_ratio < lo else "accelerations or deflections in another unit?"))
         if self.profile is not None and self.estimate.config != 3:
             out.append(f"configuration {self.estimate.config}: the road profile and IRI underestimate the IRI by "
                        "8-20 % (wheel motion from the reconstructed velocity); configuration 3 (wheel "
                        "accelerometers) is within 3 %, see docs/vehicle-vertical.md")
         return out
+
+
+#: :func:`wheel_accelerometer_ratio` of a log in SI units: ~1 on class C-E roads, 0.17-0.5 per corner (median
+#: 0.25-0.3) on a class A road where the deflections' quantisation dominates their second derivative; accelerations
+#: in g give ~0.1 (0.02-0.05 on class A). Measured on the simulator, session 35 (docs/vehicle-vertical.md).
+WHEEL_ACCEL_RATIO_RANGE = (0.15, 5.0)
+
+
+def wheel_accelerometer_ratio(sensors: VerticalSensors) -> float | None:
+    """Median over the corners of std(wheel accelerometer) / std(d^2/dt^2 suspension deflection) in 8-25 Hz (the
+    wheel hop, where the wheel's acceleration is the deflection's): ~1 when both are in SI units. None without wheel
+    accelerometers (configurations 1 and 2) or below 60 Hz sampling."""
+    if sensors.wheel_accel is None or 1.0 / sensors.dt < 60.0 or sensors.time.size < 64:
+        return None
+    sos = filter_design("butter", 4, [8.0, 25.0], btype="band", fs=1.0 / sensors.dt, output="sos")
+    second = np.gradient(np.gradient(sensors.displacement, sensors.dt, axis=0), sensors.dt, axis=0)
+    acc = np.std(sos_filtfilt(sos, sensors.wheel_accel), axis=0)
+    dd = np.std(sos_filtfilt(sos, second), axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(np.median(acc / dd))
 
 
 def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
@@ -317,9 +346,11 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
         mr_map = nominal_mr_map(MRDamperParams())
     est = estimate_vertical_states(sensors, params=params, decentralised=decentralised, mr_map=mr_map,
                                    mr_map_velocity=mr_map_velocity)
+    ratio = wheel_accelerometer_ratio(sensors)
     if speed is None:
-        return VerticalLogEstimate(estimate=est, mr_map=mr_map)
+        return VerticalLogEstimate(estimate=est, mr_map=mr_map, accelerometer_ratio=ratio)
     from ...road import iri
 
     prof = wheel_profiles(sensors, est, speed, start=start, params=params)
-    return VerticalLogEstimate(estimate=est, mr_map=mr_map, profile=prof, iri=iri(prof, segment_length=segment_length))
+    return VerticalLogEstimate(estimate=est, mr_map=mr_map, profile=prof, iri=iri(prof, segment_length=segment_length),
+                               accelerometer_ratio=ratio)

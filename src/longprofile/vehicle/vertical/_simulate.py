@@ -605,6 +605,10 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
         if not np.all(np.isfinite(arr[c])):
             i = int(np.argmax(~np.isfinite(arr[c])))
             raise InputFormatError(f"{source}: column {c!r} has a missing or non-numeric value at row {i}.")
+    for c in need[4:]:  # a suspension deflection or a vertical accelerometer never holds one value on a moving car
+        if arr[c].size > 1 and np.ptp(arr[c]) == 0.0:
+            raise InputFormatError(f"{source}: column {c!r} holds one value ({arr[c][0]:g}) through the whole log: a "
+                                   "dead or disconnected sensor? The estimate needs every corner's channel.")
     t = arr["time"]
     if t.shape[0] < 3:
         raise InputFormatError(f"{source}: need at least 3 samples; got {t.shape[0]}.")

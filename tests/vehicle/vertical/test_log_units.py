@@ -1,0 +1,45 @@
+"""A vertical log in a user's units (session 35, a user's probe): wheel accelerations in g gave states as wrong as
+the signals are large, without a word; a dead channel (one value all along) did too."""
+
+from __future__ import annotations
+
+import pytest
+
+from longprofile.errors import InputFormatError
+from longprofile.vehicle.vertical import (
+    WHEEL_ACCEL_RATIO_RANGE,
+    estimate_vertical_log,
+    sensors_from_frame,
+    sensors_to_frame,
+    vertical_test_run,
+    wheel_accelerometer_ratio,
+)
+
+
+@pytest.fixture(scope="module", params=["A", "C", "E"])
+def log(request):
+    _, sensors = vertical_test_run(3, road_class=request.param, speed=20.0, duration=4.0, seed=2)
+    return sensors_to_frame(sensors)
+
+
+def test_wheel_accelerations_in_g_are_named_and_si_are_not(log):
+    si = sensors_from_frame(log, 3)
+    g = log.copy()
+    g[[f"wheel_accel_{c}" for c in ("FL", "FR", "RL", "RR")]] /= 9.80665
+    lo, hi = WHEEL_ACCEL_RATIO_RANGE
+    assert lo <= wheel_accelerometer_ratio(si) <= hi
+    assert wheel_accelerometer_ratio(sensors_from_frame(g, 3)) < lo
+    res = estimate_vertical_log(sensors_from_frame(g, 3))
+    assert any("accelerations in g" in w for w in res.warnings())
+
+
+@pytest.mark.parametrize("column", ["wheel_accel_RR", "dz21_FL"])
+def test_a_channel_holding_one_value_is_refused(log, column):
+    dead = log.assign(**{column: 0.0123})
+    with pytest.raises(InputFormatError, match=f"column '{column}' holds one value"):
+        sensors_from_frame(dead, 3)
+
+
+def test_no_ratio_without_wheel_accelerometers():
+    _, sensors = vertical_test_run(2, road_class="C", speed=20.0, duration=2.0, seed=1)
+    assert wheel_accelerometer_ratio(sensors) is None
