@@ -306,6 +306,43 @@ def no_temperature(path, cmd, rng):
     _save(f, path)
 
 
+def rows_missing(path, cmd, rng):
+    """A stretch of rows cut out (a vendor's software removing a dropout; session 35: a profile's IRI over the gap was
+    that of a straight line, 0.00 m/km, without a word)."""
+    f = _frame(path)
+    i = _pick(rng, len(f) - len(f) // 5)
+    _save(pd.concat([f.iloc[:i], f.iloc[i + len(f) // 10:]]), path)
+
+
+def not_utf8(path, cmd, rng):
+    """A Windows spreadsheet's export: cp1252 text (an accent in the header)."""
+    text = path.read_text(encoding="utf-8")
+    head, _, body = text.partition("\n")
+    path.write_bytes((head.replace(cmd.value, cmd.value + "_\u00e9", 1) + "\n" + body).encode("cp1252"))
+
+
+def empty_id(path, cmd, rng):
+    f = _frame(path)
+    f.loc[_pick(rng, len(f)), "sensor_id"] = ""
+    _save(f, path)
+
+
+def offsets_on_some_times(path, cmd, rng):
+    """A logger's firmware update: its times carry "Z" from some row on, the earlier ones none."""
+    f = _frame(path)
+    f = f.sort_values("timestamp", kind="stable")
+    k = _pick(rng, len(f))
+    f.iloc[k:, f.columns.get_loc("timestamp")] = f["timestamp"].iloc[k:].str.replace(" ", "T") + "Z"
+    _save(f, path)
+
+
+def a_stray_reading_years_before(path, cmd, rng):
+    """One reading of a logger whose clock reset to 2000-01-01 (session 35: a traceback)."""
+    f = _frame(path)
+    f.loc[_pick(rng, len(f)), "timestamp"] = "2000-01-01 00:00:00"
+    _save(f, path)
+
+
 #: mutation -> applies to a command when the predicate holds
 def _table(c: Command) -> bool:
     return not c.as_is and not c.target.endswith(".toml")
@@ -338,6 +375,12 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "accelerations in g": (accelerations_in_g, lambda c: bool(c.accel)),
     "absurd value in the file": (huge_toml_value, lambda c: c.target.endswith(".toml")),
     "(the input as is)": (as_is, lambda c: c.as_is),
+    "rows missing (a gap)": (rows_missing, lambda c: _general(c) and c.key in ("distance_m", "time")
+                             and c.name != "road convert"),
+    "not UTF-8 (cp1252)": (not_utf8, _general),
+    "an empty sensor id": (empty_id, lambda c: c.name == "rail settle (readings)"),
+    "times with and without a UTC offset": (offsets_on_some_times, lambda c: c.name == "rail settle (readings)"),
+    "a stray reading years before": (a_stray_reading_years_before, lambda c: c.name == "rail settle (readings)"),
 }
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
@@ -350,7 +393,8 @@ CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if ap
 WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
           ("rail settle (survey)", "descending keys"): "not in order of x_m",
           ("rail settle (readings)", "a day without any temperature"): "without a usable daily angle on any sensor",
-          ("rail settle (readings)", "a channel written NAN"): "had an angle but no usable temperature"}
+          ("rail settle (readings)", "a channel written NAN"): "had an angle but no usable temperature",
+          ("rail settle (readings)", "a stray reading years before"): "is the reference day"}
 
 
 # ---- running and classifying ---------------------------------------------------------------------------------
