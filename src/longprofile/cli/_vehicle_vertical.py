@@ -83,8 +83,14 @@ def simulate(
             sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed,
                                              duration=duration, seed=seed, mr_damper=mr, params=params)
     frame = sensors_to_frame(sensors, sim)
+    if road is not None:  # the front axle's chainage (the run starts with the rear axle on the profile's first station)
+        from ..vehicle import VerticalVehicleParams
+
+        first = float(read_profile(road).distance[0])
+        frame["chainage_m"] = first + (params or VerticalVehicleParams()).wheelbase + speed * sim.time
     write_table(frame, out)
-    console.print(f"wrote {out} ({sim.time.size} samples, config {config}, test {test}, car {car})")
+    what = f"road {road}" if road is not None else f"test {test}"
+    console.print(f"wrote {out} ({sim.time.size} samples, config {config}, {what}, car {car})")
     if plot is not None:
         from ..report import plot_vertical_simulation
 
@@ -111,7 +117,9 @@ def estimate(
     profile: Path | None = typer.Option(None, "--profile", help="Also write the road profile under each wheel "
                                         "(fl, fr, rl, rr) with its chainage (.csv, .parquet or .erd); needs --speed."),
     speed: float | None = typer.Option(None, "--speed", help="Constant vehicle speed of the log, m/s (for --profile)."),
-    chainage: float = typer.Option(0.0, "--chainage", help="Chainage of the front axle at the first sample, m."),
+    chainage: float = typer.Option(None, "--chainage", help="Chainage of the front axle at the first sample, m "
+                                   "(default: the log's chainage_m column, as `vehicle vertical simulate --road` "
+                                   "writes it, else 0)."),
     segment: float = typer.Option(100.0, "--segment", help="IRI segment length for --profile, m."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
     overwrite: bool = OVERWRITE,
@@ -134,6 +142,8 @@ def estimate(
             raise InputError("--profile needs --speed (the constant speed of the log, m/s): stations are speed x time.")
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)
     frame = read_table(log)
+    if chainage is None:
+        chainage = float(frame["chainage_m"].iloc[0]) if "chainage_m" in frame.columns else 0.0
     sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, source=str(log))
     if sensors.damper_current is not None:
         # MagneRide log: the logged currents through the default nominal map (docs: "MagneRide car")

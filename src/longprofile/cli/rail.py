@@ -123,7 +123,7 @@ def settle_command(
     threshold_mm: float = typer.Option(None, "--settlement-threshold-mm", help="Alarm on |altitude change|, mm."),
     rate_mm: float = typer.Option(None, "--rate-threshold-mm-per-day", help="Alarm on |daily rate|, mm/day."),
     alarm_probability: float = typer.Option(0.5, "--alarm-probability", help="Report exceedance probabilities >= this."),
-    n_monte_carlo: int = typer.Option(1000, "--monte-carlo", help="Posterior draws per day for the max settlement."),
+    n_monte_carlo: int = typer.Option(1000, "--monte-carlo", min=0, help="Posterior draws per day for the max settlement."),
     max_band: bool = typer.Option(False, "--max-settlement-band",
                                   help="Max settlement's 90 % interval from the simultaneous band (conservative; the "
                                        "default until 2026-12-06) instead of the one holding 98 % of the draws' "

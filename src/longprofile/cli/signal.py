@@ -65,6 +65,18 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
     return dt
 
 
+def _interval_source(frame, column: str, dt: float) -> str:
+    """Where the sample interval came from, for the summary: a time column in ms under a plain 'time' label (or
+    minutes) would make every derivative 1000 (or 1/60) times too small, and only the printed interval shows it."""
+    names = [str(n) for n in frame.columns if _time_scale(n) is not None and n != column]
+    if not names:
+        return "(--dt)"
+    bare = _TIME_NAME.match(names[0].strip())
+    unit = bare.group("u1") or bare.group("u2") or bare.group("u3")
+    return (f"(column {names[0]!r}, {unit})" if unit else
+            f"(column {names[0]!r} read in seconds; name it {names[0]}_ms or {names[0]} [ms] if it is not)")
+
+
 def _numeric(series):
     """Float array of a column, NaN where a cell is not a number."""
     import pandas as pd
@@ -119,6 +131,8 @@ def differentiate(
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g}, "
                   f"derivative_std: {std})")
+    console.print(f"sample interval {dt:.6g} s {_interval_source(frame, column, dt)}: the derivative is per second",
+                  markup=False, soft_wrap=True)
     if plot is not None:
         from ..report import plot_derivative
 

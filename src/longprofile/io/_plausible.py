@@ -22,6 +22,9 @@ from ..errors import UnitsError
 __all__ = ["MAX_ABS_ELEVATION_M", "MAX_MEDIAN_GRADE", "check_profile_plausible"]
 
 MAX_MEDIAN_GRADE = 1.0
+#: A median station step below this, m, names the stations rather than the elevations as the likely unit mistake
+#: (profilers sample every 1 mm to 0.3 m; kilometres under a metre label give 5e-5 for a 5 cm step).
+MIN_PLAUSIBLE_STEP_M = 1e-3
 
 
 def check_profile_plausible(profile, source) -> None:
@@ -55,6 +58,11 @@ def check_profile_plausible(profile, source) -> None:
         dz = np.abs(np.diff(zj)) / np.diff(x)
         dz = dz[np.isfinite(dz)]
         if dz.size and (grade := float(np.median(dz))) > MAX_MEDIAN_GRADE:
+            step = float(np.median(np.diff(x)))
+            cause = ("the stations look like kilometres (or another unit) under a metre label: name the station column "
+                     "with its unit (e.g. distance_km)" if step < MIN_PLAUSIBLE_STEP_M else
+                     "the values look like millimetres under a metre label; name the column with its unit (e.g. "
+                     "left_mm) or convert it to metres")
             raise UnitsError(f"{source}: the elevations of track {track!r} change by a median {grade:.3g} m per m of "
-                             f"distance (a {100 * grade:.0f} % grade), beyond any road: the values look like millimetres "
-                             "under a metre label; name the column with its unit (e.g. left_mm) or convert it to metres.")
+                             f"distance (a {100 * grade:.0f} % grade; median station step {step:.3g} m), beyond any "
+                             f"road: {cause}.")

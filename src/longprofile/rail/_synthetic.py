@@ -128,6 +128,11 @@ def _bowl(x, center, width):
     return b, -u / width * b
 
 
+#: Most readings :func:`simulate_site` makes (about 120 bytes each while simulating): ``rail simulate --days 100000``
+#: was killed by the kernel at 22 GB after minutes (session 35). A year of 58 sensors read every minute is 3e7.
+MAX_SIMULATED_READINGS = 50_000_000
+
+
 def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes: float = 10.0,
                   n_days: int | None = None) -> SyntheticSite:
     """Simulate an inclinometer site with known settlement (ground truth).
@@ -166,6 +171,10 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
     dt_h = sampling_minutes / 60.0
     t_h = np.arange(0.0, D * 24.0, dt_h)  # hours since start
     T = t_h.size
+    if T * N > MAX_SIMULATED_READINGS:
+        raise InputError(f"{D} days read every {sampling_minutes:g} min on {N} sensors are {T * N:.3g} readings, more "
+                         f"than {MAX_SIMULATED_READINGS:.0e} (about {T * N * 1.2e-7:.0f} GB to simulate): reduce the days "
+                         "(--days) or read less often (--sampling-minutes).")
     step_days, amounts, work_days = _settlement_steps(p, rng, days)
     shape, dshape = _bowl(x, p.bowl_center_m, p.bowl_width_m)
     depth_t = _depth_at(t_h, step_days, amounts)  # (T,)
@@ -176,7 +185,8 @@ def simulate_site(preset: str = "mittersheim-like", *, seed=0, sampling_minutes:
     slope_t = depth_t[:, None] * dshape[None, :]  # (T, N) rad
     temp = _temperatures(p, rng, t_h, D, N)
     angle, coef, lag, bad = _angles(p, rng, x, ids, temp, slope_t, dt_h)
-    stamps = start + pd.to_timedelta(t_h, unit="h")
+    # whole milliseconds: float hours gave 00:19:59.999999998, which users copy as a template (session 35)
+    stamps = start + pd.to_timedelta(np.round(t_h * 3.6e6).astype(np.int64), unit="ms")
     readings = pd.DataFrame({
         "timestamp": np.repeat(stamps.to_numpy(), N),
         "sensor_id": np.tile(ids, T),

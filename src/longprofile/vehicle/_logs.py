@@ -186,7 +186,12 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
     return frame.assign(**converted)
 
 
-def resample_log(frame, rate: float | None = None, *, max_gap_steps: float = 3.0, source: str = "log"):
+#: A time step longer than this many sample periods is a gap (lost samples), refused by :func:`check_sample_rate` and
+#: :func:`resample_log` alike (interpolating across it would invent the signal).
+MAX_GAP_STEPS = 3.0
+
+
+def resample_log(frame, rate: float | None = None, *, max_gap_steps: float = MAX_GAP_STEPS, source: str = "log"):
     """Resample a jittered log onto a uniform time base by linear interpolation of every numeric column.
 
     Parameters
@@ -242,6 +247,11 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
     if dt >= 0.5:
         raise UnitsError(f"{source}: column 'time': median step {dt:g} s ({1 / dt:.3g} Hz) is implausible for a vehicle "
                          "log; if the time is in milliseconds declare it: header 'time [ms]' or --units time=ms.")
+    if d.max() > MAX_GAP_STEPS * dt:  # a gap, not jitter: --resample would refuse it too
+        k = int(np.argmax(d))
+        raise InputFormatError(f"{source}: column 'time' has a gap of {d[k]:.6g} s after t = {t[k]:.6g} s (the median "
+                               f"step is {dt:.6g} s): the filters need a continuous log; cut the log at the gap and "
+                               "estimate each part.")
     if np.ptp(d) > jitter_rtol * dt + 1e-9 + time_resolution(t):  # Unix time stamps: not jitter
         raise InputFormatError(f"{source}: column 'time' is not uniformly sampled (steps {d.min():.6g} to {d.max():.6g} s, "
                                f"median {dt:.6g} s); the filters use a fixed step: resample it explicitly with "

@@ -43,3 +43,25 @@ def test_a_channel_holding_one_value_is_refused(log, column):
 def test_no_ratio_without_wheel_accelerometers():
     _, sensors = vertical_test_run(2, road_class="C", speed=20.0, duration=2.0, seed=1)
     assert wheel_accelerometer_ratio(sensors) is None
+
+
+def test_the_road_under_the_wheels_lines_up_with_the_road_driven(tmp_path):
+    """`simulate --road` starts the run with the rear axle on the profile's first station and `estimate --profile`
+    took the first sample as the front axle's chainage 0: the wheels' profile was 2.96 m (one wheelbase) off."""
+    import numpy as np
+    import pandas as pd
+
+    from longprofile.cli.app import main
+    from longprofile.road import iso8608_profile
+
+    road = iso8608_profile(300.0, 0.05, "C", rng=5)
+    pd.DataFrame({"distance_m": road.distance, "left_m": road.elevation[:, 0]}).to_csv(tmp_path / "r.csv", index=False)
+    assert main(["vehicle", "vertical", "simulate", "--road", str(tmp_path / "r.csv"), "--config", "3", "--speed", "20",
+                 "--duration", "8", "-o", str(tmp_path / "log.csv")]) == 0
+    assert main(["vehicle", "vertical", "estimate", str(tmp_path / "log.csv"), "-o", str(tmp_path / "s.csv"),
+                 "--profile", str(tmp_path / "w.csv"), "--speed", "20"]) == 0
+    w = pd.read_csv(tmp_path / "w.csv", comment="#")
+    x, fl = w["distance_m"].to_numpy(), w["fl_m"].to_numpy()
+    shifts = np.arange(-4.0, 4.0, 0.05)
+    corr = [np.corrcoef(fl, np.interp(x + s, road.distance, road.elevation[:, 0]))[0, 1] for s in shifts]
+    assert abs(shifts[int(np.argmax(corr))]) < 0.1 and max(corr) > 0.8

@@ -979,7 +979,8 @@ def _reconstruct_double(run: _Run) -> Reconstruction:
     y = run.y
     if np.isnan(y).any():
         raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); double filtering needs "
-                         "a continuous record: cut it at the gaps or use method='smoother'.")
+                         "a continuous record: cut it at the gaps, or use the smoother (--method smoother; it bridges "
+                         f"gaps in records of up to {LONG_RECORD_SAMPLES} samples).")
     raw = double_filter(y, run.instrument)
     prof = Profile(run.distance, detrend_profile(raw, run.dx, highpass_wavelength=run.highpass_wavelength),
                    name=f"double-filtered {run.name}".strip())
@@ -1191,8 +1192,12 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
     if stationary is None:
         stationary = y.size > LONG_RECORD_SAMPLES
     if stationary and np.isnan(y).any():
-        raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); the long-record path needs a "
-                         "complete record: use stationary=False (exact filter across gaps) or cut the record.")
+        first = int(np.flatnonzero(np.isnan(y))[0])
+        raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s), the first at "
+                         f"{run.distance[first]:.3f} m; a record of more than {LONG_RECORD_SAMPLES} samples is "
+                         "reconstructed by the long-record path, which needs it complete: cut the record at the gap(s) "
+                         "and reconstruct each part (in Python, reconstruct_profile(..., stationary=False) bridges "
+                         "them with the exact filter, at a higher cost).")
     q, r, fit = _noise_variances(run, q, r, stationary)
     mean, cov, lag_m, elevation = _kalman_estimate(run, q, r, stationary)
     std = None
