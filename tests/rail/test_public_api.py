@@ -3,7 +3,8 @@
 import longprofile.rail as rail
 
 EXPECTED = {
-    "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
+    "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "missing_value_code",
+    "MISSING_CODE_HINT", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature",
     "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT", "simulate_site", "SyntheticSite", "SiteTruth",
     "integrate_angles", "bar_angles_from_profile", "daily_angles", "DailyAngles", "first_order_response",

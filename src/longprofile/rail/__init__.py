@@ -9,6 +9,8 @@ angle_noise                 -- robust high-frequency noise of the angles; below 
                                are implausible (radians given by mistake).
 track_angle                 -- how far from level the sensors read (median |angle|); beyond MAX_TRACK_ANGLE_DEG
                                another unit. ANGLE_RANGE_DEG, TEMPERATURE_RANGE_C: one reading's plausible range.
+missing_value_code          -- whether an out-of-range value looks like a logger's missing-value code (-9999);
+                               MISSING_CODE_HINT, what a refusal then says.
 check_survey                -- refuse a survey in another unit than metres (altitude beyond any terrain, grade).
 fill_temperature            -- a reading without a temperature (failed channel), or a stuck one (STUCK_MIN_READINGS,
                                STUCK_SITE_SPREAD_C), takes its nearest sensors' (the median of TEMPERATURE_NEIGHBOURS
@@ -76,7 +78,7 @@ from .._lazy import lazy_namespace
 #: ``rail settle`` does not import the synthetic sites (scipy.signal) and nothing here imports matplotlib.
 _EXPORTS = {
     "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
-    "._data": ("SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
+    "._data": ("SiteData", "validate_site", "angle_noise", "missing_value_code", "MISSING_CODE_HINT", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
                "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
                "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
                "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"),
@@ -98,7 +100,7 @@ _EXPORTS = {
 
 
 __all__ = [
-    "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "RADIAN_NOISE_THRESHOLD",
+    "SiteData", "read_site", "validate_site", "READING_COLUMNS", "angle_noise", "missing_value_code", "MISSING_CODE_HINT", "RADIAN_NOISE_THRESHOLD",
     "track_angle", "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
     "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT",
     "simulate_site", "SyntheticSite", "SiteTruth",

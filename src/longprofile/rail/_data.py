@@ -11,6 +11,7 @@ Tables (CSV or Parquet, one row per item, units in the column names):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -20,7 +21,7 @@ import pandas as pd
 from ..core import MAX_ABS_ELEVATION_M, MISSING_TEXT
 from ..errors import InputError, InputFormatError, UnitsError
 
-__all__ = ["SiteData", "validate_site", "angle_noise", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
+__all__ = ["SiteData", "validate_site", "angle_noise", "missing_value_code", "MISSING_CODE_HINT", "RADIAN_NOISE_THRESHOLD", "SENSOR_COLUMNS", "READING_COLUMNS",
            "SURVEY_COLUMNS", "CONTROL_COLUMNS", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "MAX_TRACK_ANGLE_DEG",
            "track_angle", "check_survey", "fill_temperature", "TEMPERATURE_NEIGHBOURS",
            "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C", "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"]
@@ -218,6 +219,18 @@ def track_angle(readings: pd.DataFrame) -> float:
     return float(per.median()) if len(per) else float("nan")
 
 
+#: What a refusal says of a value that :func:`missing_value_code` takes for a logger's code.
+MISSING_CODE_HINT = ("a logger's code for a missing value? Leave such cells empty or write NAN (a missing temperature "
+                     "is filled from the neighbouring sensors).")
+
+
+def missing_value_code(value: float) -> bool:
+    """Whether an out-of-range value looks like a logger's code for a missing value: a whole number of 9s, at least
+    999 in size (-9999, 99999)."""
+    v = float(value)
+    return math.isfinite(v) and abs(v) >= 999 and v == round(v) and set(f"{abs(v):.0f}") == {"9"}
+
+
 def _check_reading_ranges(r: pd.DataFrame) -> None:
     """Refuse the first reading whose angle or temperature is outside its plausible range (the service's row checks)."""
     for col, (lo, hi), unit, why in (
@@ -227,11 +240,9 @@ def _check_reading_ranges(r: pd.DataFrame) -> None:
         bad = np.isfinite(v) & ((v < lo) | (v > hi))
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            code = abs(v[i]) >= 999 and set(f"{abs(v[i]):.0f}") == {"9"} and v[i] == round(v[i])
             raise UnitsError(f"readings table: sensor {r['sensor_id'].iloc[i]!r} at {r['timestamp'].iloc[i]} reads "
                              f"{col} = {v[i]:.6g}, outside the plausible {lo:g}..{hi:g} {unit} of {why}: "
-                             + ("a logger's code for a missing value? Leave such cells empty or write NAN (a "
-                                "missing temperature is filled from the neighbouring sensors)." if code else
+                             + (MISSING_CODE_HINT if missing_value_code(v[i]) else
                                 "check that reading and the column's unit."))
 
 

@@ -222,3 +222,64 @@ def test_a_two_reading_batch_in_degrees_is_not_taken_for_radians(site):
     second = {**rows[0], "timestamp": "2019-11-18T00:10:00Z", "angle_deg": rows[0]["angle_deg"] + 1e-5}
     res = _core.ingest(db, "mitt", rows + [second], now=NOW)
     assert res.counts["rejected"] == 0 and res.counts["accepted"] == 2, res.rows
+
+
+def test_radians_sent_one_scan_at_a_time_are_caught_from_the_stored_readings(site):
+    """A logger posting each scan (one reading per sensor: no noise of its own) in radians: every batch was accepted
+    and the settlement came out 57 times too small (session 35, a probe). The stored readings of the batch's
+    sensors within a day give the test its differences: the second scan on is refused."""
+    db, _, r = site
+    scans = [g for _, g in r.groupby("timestamp", sort=True)][:4]
+    outcomes = []
+    for g in scans:
+        rad = [{**x, "angle_deg": float(np.deg2rad(x["angle_deg"]))} for x in g.to_dict("records")]
+        outcomes.append(_core.ingest(db, "mitt", rad, now=NOW))
+    assert outcomes[0].counts["accepted"] == len(scans[0])  # nothing to compare the first scan with
+    assert all(o.counts["rejected"] == o.counts["accepted"] + o.counts["rejected"] for o in outcomes[1:])
+    assert "radians" in outcomes[1].rows[0]["reason"]
+    degrees = [g.to_dict("records") for g in [x for _, x in r.groupby("timestamp", sort=True)][4:8]]
+    assert all(_core.ingest(db, "mitt", rows, now=NOW).counts["accepted"] == len(rows) for rows in degrees)
+
+
+def test_a_batch_mixing_times_with_and_without_an_offset_is_refused(site):
+    db, _, r = site
+    rows = r.iloc[:10].to_dict("records")
+    assert str(rows[0]["timestamp"]).endswith("Z")
+    rows[3] = {**rows[3], "timestamp": str(rows[3]["timestamp"])[:-1]}  # one time without its "Z"
+    with pytest.raises(_core.InputFormatError, match="mixes times with a UTC offset"):
+        _core.ingest(db, "mitt", rows, now=NOW)
+    assert count_readings(db) == 0
+
+
+@pytest.mark.parametrize(("body", "ctype", "match"), [
+    ("timestamp,sensor_id,angle_deg,temperature_c\n2019-11-18 00:00:00," + "S" * 200_000 + ",0.1,3.0\n", "text/csv",
+     "CSV batch, line"),
+    ("timestamp,sensor_id,angle_deg,temperature_c\n2019-11-18 00:00:00,Capteur_\u00e9,0.1,3.0\n".encode("cp1252"),
+     "text/csv", r"not utf-8 text: line 2 \('2019-11-18 00:00:00,Capteur_\u00e9"),
+])
+def test_odd_csv_batches_are_one_clear_refusal(body, ctype, match):
+    with pytest.raises(_core.InputFormatError, match=match):
+        _core.parse_batch(body.encode() if isinstance(body, str) else body, ctype)
+
+
+def test_a_declared_charset_is_honoured_and_rows_with_extra_fields_or_dates_out_of_range_are_rejected(site):
+    db, _, _ = site
+    body = "timestamp,sensor_id,angle_deg,temperature_c\n2019-11-18T00:00:00Z,S01,0.1,3.0\n".encode("cp1252")
+    assert _core.parse_batch(body, "text/csv; charset=windows-1252")[0]["sensor_id"] == "S01"
+    rows = _core.parse_batch(b"timestamp,sensor_id,angle_deg,temperature_c,note\n"
+                             b"2019-11-18T00:00:00Z,S01,0.1,3.0,a,EXTRA\n", "text/csv")
+    rows += [{"timestamp": "0001-01-01T00:00:00+01:00", "sensor_id": "S01", "angle_deg": 0.1, "temperature_c": 3.0},
+             {"timestamp": "2019-11-18T00:00:00Z", "sensor_id": "S01", "angle_deg": 0.1, "temperature_c": -9999}]
+    res = _core.ingest(db, "mitt", rows, now=NOW)
+    reasons = [o["reason"] for o in res.rows]
+    assert res.counts["rejected"] == 3
+    assert "6 fields, more than the header's 5" in reasons[0]
+    assert "out of the range of dates" in reasons[1]
+    assert "a logger's code for a missing value" in reasons[2]
+
+
+def test_a_sensor_id_in_another_script_is_registered(site):
+    db, _, _ = site
+    assert _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "Capteur_\u00e94", "x_m": 500.0}])
+    with pytest.raises(_core.InputError, match="starting with a letter or digit"):
+        _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "_x", "x_m": 501.0}])
