@@ -52,6 +52,8 @@ def compare_command(
     ref = read_profile(reference, units=elevation_unit, tracks=tracks)
     profiles = [read_profile(r, units=elevation_unit, tracks=tracks) for r in runs]
     thresholds = {k: v for k, v in (("repeatability", repeatability), ("accuracy", accuracy)) if v is not None}
+    from ..road.smoothness import MIN_REFERENCE_COVERAGE
+
     res = certify_profiler(ref, profiles, tracks=tracks, filter=filter, band=bands, max_offset=max_offset,
                            spacing=spacing, thresholds=thresholds or None, names=[Path(r).name for r in runs])
     write_compare_report(res, out, reference=reference, runs=runs, plot=plot, overwrite=overwrite)
@@ -60,6 +62,10 @@ def compare_command(
         rep_text = "n/a (one run)" if rep != rep else f"{rep:.3f} (>= {res.thresholds['repeatability']:g})"
         console.print(f"{t}: accuracy {res.accuracy[t]:.3f} (>= {res.thresholds['accuracy']:g}), "
                       f"repeatability {rep_text}", markup=False, soft_wrap=True)
+    short = res.runs[res.runs["coverage"] < MIN_REFERENCE_COVERAGE]
+    for row in short.drop_duplicates("run").itertuples():
+        console.print(f"{row.run} covers {100 * row.coverage:.0f} % of the reference (at least "
+                      f"{100 * MIN_REFERENCE_COVERAGE:.0f} % needed to certify): FAIL", markup=False, soft_wrap=True)
     console.print(f"{'PASS' if res.passed else 'FAIL'}: {len(runs)} run(s) against {reference}; tables in {out}",
                   markup=False, soft_wrap=True)
 

@@ -179,3 +179,18 @@ def test_a_run_without_the_reference_track_is_named_with_the_fix():
     other = Profile(distance=x, elevation=z, tracks=("Elevation",), name="run2")
     with pytest.raises(InputError, match=r"run2 has \['Elevation'\].*Elevation_m -> left_m"):
         certify_profiler(ref, [good, other])
+
+
+@pytest.mark.parametrize(("keep", "passed"), [(0.2, False), (0.85, False), (0.95, True)])
+def test_a_run_must_cover_the_reference_to_certify(long_profile, keep, passed):
+    """A 2 km run passed against a 10 km reference (accuracy 1.000 over the 2 km it covers; session 35, a probe)."""
+    from longprofile.road import certify_profiler
+    from longprofile.road.smoothness import MIN_REFERENCE_COVERAGE
+
+    x = long_profile.distance
+    cut = x <= x[0] + keep * (x[-1] - x[0])
+    run = Profile(x[cut], long_profile.elevation[cut], tracks=long_profile.tracks)
+    res = certify_profiler(long_profile, [run])
+    assert res.runs["coverage"].iloc[0] == pytest.approx(keep, abs=0.02)
+    assert res.accuracy[long_profile.tracks[0]] > 0.99  # the part it covers agrees
+    assert res.passed is passed and (keep >= MIN_REFERENCE_COVERAGE) is passed

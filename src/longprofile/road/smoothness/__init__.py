@@ -14,8 +14,8 @@ _EXPORTS = {
         "AcceptanceResult", "AcceptanceSpec", "default_spec", "read_spec", "smoothness_acceptance",
     ),
     "._compare": (
-        "R56_THRESHOLDS", "CertificationResult", "ProfileComparison", "certify_profiler", "compare_profiles",
-        "resample_profile",
+        "R56_THRESHOLDS", "MIN_REFERENCE_COVERAGE", "CertificationResult", "ProfileComparison", "certify_profiler",
+        "compare_profiles", "resample_profile",
     ),
     "._grinding": (
         "GrindingResult", "simulate_grinding",
@@ -23,7 +23,7 @@ _EXPORTS = {
 }
 
 __all__ = ["compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
-           "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
+           "R56_THRESHOLDS", "MIN_REFERENCE_COVERAGE", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
            "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

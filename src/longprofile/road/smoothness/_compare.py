@@ -19,7 +19,7 @@ from ...errors import InputError
 from ...statespace import filter_design, linear_recursion, sos_filtfilt
 from ..indices._iri import golden_car_matrices, iri
 
-__all__ = ["R56_THRESHOLDS", "CertificationResult", "ProfileComparison", "certify_profiler", "compare_profiles",
+__all__ = ["R56_THRESHOLDS", "MIN_REFERENCE_COVERAGE", "CertificationResult", "ProfileComparison", "certify_profiler", "compare_profiles",
            "filter_for_comparison", "resample_profile"]
 
 #: Pass/fail thresholds of profiler certification on the IRI-filtered cross-correlation (AASHTO R 56-14,
@@ -73,7 +73,8 @@ class CertificationResult:
     ----------
     runs : pandas.DataFrame
         One row per run: ``run, track, offset_m, accuracy_correlation, correlation_at_zero, amplitude_ratio,
-        iri_m_per_km`` (accuracy against the reference).
+        iri_m_per_km, coverage`` (accuracy against the reference; ``coverage`` the share of the reference's length the
+        run overlaps at its best offset).
     pairs : pandas.DataFrame
         One row per pair of runs: ``run_a, run_b, track, offset_m, correlation``.
     repeatability : dict
@@ -84,7 +85,8 @@ class CertificationResult:
         Per track: IRI of the reference over the whole profile, m/km.
     thresholds : dict
     passed : bool
-        Every track meets both thresholds (repeatability is not judged with a single run).
+        Every track meets both thresholds (repeatability is not judged with a single run) and every run covers at
+        least :data:`MIN_REFERENCE_COVERAGE` of the reference.
     metadata : dict
     comparisons : dict
         ``{(run, track): ProfileComparison}`` of each run against the reference (correlation curves).
@@ -99,6 +101,11 @@ class CertificationResult:
     passed: bool
     metadata: dict = field(default_factory=dict)
     comparisons: dict = field(default_factory=dict)
+
+
+#: A run certified against a reference must overlap this share of the reference's length (a longprofile
+#: assumption): a 2 km run passed against a 10 km reference on the 2 km it covers, without a word (session 35).
+MIN_REFERENCE_COVERAGE = 0.9
 
 
 def resample_profile(profile: Profile, spacing: float, *, start: float | None = None) -> Profile:
@@ -348,6 +355,7 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
     else:
         tracks = [tracks] if isinstance(tracks, str) else list(tracks)
     kw = {"filter": filter, "band": band, "max_offset": max_offset}
+    ref_length = float(reference.distance[-1] - reference.distance[0])
     run_rows, pair_rows, rep, acc, ref_iri, comps = [], [], {}, {}, {}, {}
     for t in tracks:
         ref_iri[t] = _section_iri(reference, t)
@@ -358,7 +366,7 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
             cs.append(c.correlation)
             run_rows.append({"run": lab, "track": t, "offset_m": c.offset, "accuracy_correlation": c.correlation,
                              "correlation_at_zero": c.correlation_at_zero, "amplitude_ratio": c.amplitude_ratio,
-                             "iri_m_per_km": _section_iri(r, t)})
+                             "iri_m_per_km": _section_iri(r, t), "coverage": c.overlap / ref_length})
         acc[t] = float(np.mean(cs))
         ps = []
         for (la, a), (lb, b) in combinations(zip(labels, runs), 2):
@@ -366,7 +374,9 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
             ps.append(c.correlation)
             pair_rows.append({"run_a": la, "run_b": lb, "track": t, "offset_m": c.offset, "correlation": c.correlation})
         rep[t] = float(np.mean(ps)) if ps else float("nan")
-    passed = all(acc[t] >= th["accuracy"] and (np.isnan(rep[t]) or rep[t] >= th["repeatability"]) for t in tracks)
+    covered = all(row["coverage"] >= MIN_REFERENCE_COVERAGE for row in run_rows)
+    passed = covered and all(acc[t] >= th["accuracy"] and (np.isnan(rep[t]) or rep[t] >= th["repeatability"])
+                             for t in tracks)
     meta = {"method": "Karamihas cross-correlation (UMTRI 2002/2005), AASHTO R 56 practice", "filter": str(filter),
             "band_m": None if band is None else [float(b) for b in band], "max_offset_m": float(max_offset),
             "spacing_m": None if spacing is None else float(spacing), "n_runs": len(runs),
