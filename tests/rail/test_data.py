@@ -167,7 +167,7 @@ def test_missing_columns_and_bad_values(small):
         validate_site(small.sensors, small.readings.drop(columns="temperature_c"), small.survey)
     s = small.sensors.copy().astype({"x_m": object})
     s.loc[2, "x_m"] = "abc"
-    with pytest.raises(InputFormatError, match="sensors table, row 2: column 'x_m'"):
+    with pytest.raises(InputFormatError, match=r"sensors table, row 2 \(CSV line 4\): column 'x_m'"):
         validate_site(s, small.readings, small.survey)
     with pytest.raises(InputError, match="no initial altitude"):
         validate_site(small.sensors, small.readings, None)

@@ -123,7 +123,8 @@ def _numeric(df: pd.DataFrame, col: str, what: str, *, allow_nan: bool = False) 
     bad = conv.isna() & values.notna() if allow_nan else conv.isna()
     if bad.any() or np.isinf(conv).any():
         i = int(np.nonzero((bad | np.isinf(conv)).to_numpy())[0][0])
-        raise InputFormatError(f"{what} table, row {i}: column {col!r} must be a finite number; got {df[col].iloc[i]!r}.")
+        raise InputFormatError(f"{what} table, {_row(i)}: column {col!r} must be a finite number; got "
+                               f"{str(df[col].iloc[i])!r}.")
     return conv.to_numpy(float)
 
 
@@ -136,6 +137,11 @@ def _is_number(value) -> bool:
 
 
 _UTC_OFFSET = r"(?:Z|[+-]\d{2}:?\d{2})$"
+
+
+def _row(i: int) -> str:
+    """A data row's place for a message: its 0-based index and its line in a CSV with one header line."""
+    return f"row {i} (CSV line {i + 2})"
 
 
 def _times_with_offsets(series: pd.Series, what: str, col: str):
@@ -167,14 +173,14 @@ def _times(values, what: str, col: str) -> pd.Series:
         parsed = pd.to_datetime(series, format="ISO8601", errors="coerce", utc=True)
         bad = np.nonzero((parsed.isna() & series.notna()).to_numpy())[0]
         value = series.iloc[int(bad[0])] if bad.size else None
-        where, got = (f", row {int(bad[0])}", f"; got {str(value)!r}") if bad.size else ("", "")
+        where, got = (f", {_row(int(bad[0]))}", f"; got {str(value)!r}") if bad.size else ("", "")
         hint = (" (is it day/month or month/day? write year-month-day)" if "/" in got else
                 " (a number: seconds since 1970, or days? write the dates)" if _is_number(value) else "")
         raise InputFormatError(f"{what} table{where}: column {col!r} must hold ISO 8601 dates/times "
                                f"(e.g. 2019-11-18T08:10:00){got}{hint}.") from None
     if t.isna().any():
         i = int(np.nonzero(t.isna().to_numpy())[0][0])
-        raise InputFormatError(f"{what} table, row {i}: column {col!r} is empty.")
+        raise InputFormatError(f"{what} table, {_row(i)}: column {col!r} is empty.")
     if getattr(t.dt, "tz", None) is not None:
         t = t.dt.tz_convert("UTC").dt.tz_localize(None)
     return t
@@ -542,7 +548,7 @@ def _ids(table: pd.DataFrame, what: str) -> np.ndarray:
     empty = ids.isna().to_numpy() | (text == "").to_numpy()
     if empty.any():
         i = int(np.flatnonzero(empty)[0])
-        raise InputError(f"{what} table, row {i} (CSV line {i + 2}): the sensor_id is empty; every row needs its "
+        raise InputError(f"{what} table, {_row(i)}: the sensor_id is empty; every row needs its "
                          f"sensor's id ({int(empty.sum())} row(s) without one).")
     return text.to_numpy()
 
@@ -584,7 +590,7 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     dups = r.duplicated(["sensor_id", "timestamp"])
     if dups.any():
         i = int(np.nonzero(dups.to_numpy())[0][0])
-        raise InputError(f"readings table, row {i}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
+        raise InputError(f"readings table, {_row(i)}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
                          f"{r['timestamp'][i]}; keep one reading per sensor and timestamp."
                          + _clock_change_hint(r, dups))
     back = (r.groupby("sensor_id", sort=False)["timestamp"].diff() < pd.Timedelta(0)).to_numpy()
