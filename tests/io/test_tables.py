@@ -185,3 +185,15 @@ def test_a_file_that_is_not_utf8_is_refused_with_its_line(tmp_path):
     path.write_bytes("x_m,name\n1,a\n2,capteur_\u00e9\n".encode("cp1252"))
     with pytest.raises(InputFormatError, match=r"line 3 is not UTF-8 text \('2,capteur_\u00e9'.*save the file as UTF-8"):
         read_table(path)
+
+
+def test_a_hash_inside_a_field_is_text_unless_the_data_have_comment_lines(tmp_path):
+    """"#" starts a comment line; inside a field it is text (a sensor "PK#1": its row was cut at the "#" and its
+    numbers read as missing; session 35). A file whose data also hold comment lines keeps the old rule."""
+    path = tmp_path / "t.csv"
+    path.write_text("# exported by a logger\nx_m,name,y_m\n1,PK#1,2\n2,PK#2,3\n")
+    t = read_table(path)
+    assert t["name"].tolist() == ["PK#1", "PK#2"] and t["y_m"].tolist() == [2, 3]
+    path.write_text("x_m,name,y_m\n1,a,2\n# a note among the data\n2,b,3\n")
+    t = read_table(path)
+    assert t["name"].tolist() == ["a", "b"] and t["y_m"].tolist() == [2, 3]

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import csv
+import mmap
+import os
+import re
 from pathlib import Path
 from typing import Iterable
 
@@ -43,15 +46,18 @@ def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
     one-column file) is a row of missing values and is kept. Columns named in ``text_columns`` (any letter case) are
     read as written: ``007`` stays ``007`` and ``NA`` is a name; only an empty cell is missing there.
     """
-    leading, header = None, ""
+    leading, header, header_line = None, "", 0
     with open(path, encoding="utf-8", errors="replace") as fh:
         for i, line in enumerate(fh):
             text = line.strip()
             if text and leading is None:
                 leading = i  # blank lines before the first text line are skipped
             if text and not text.startswith("#"):
-                header = text
+                header, header_line = text, i
                 break
+    # "#" starts a comment line; within a line it is text (a sensor "PK#12") unless the data have comment lines too
+    comments = ({"comment": "#", "skiprows": leading or 0} if _comment_lines_after(path, header_line) else
+                {"comment": None, "skiprows": header_line})
     _check_separator(path, header)
     wanted = {t.lower() for t in text_columns}
     names = [n.strip() for n in next(csv.reader([header], skipinitialspace=True))] if wanted else []
@@ -60,7 +66,7 @@ def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
     if as_text:
         kw = {"dtype": dict.fromkeys(as_text, str), "keep_default_na": False,
               "na_values": {n: [""] if n in as_text else [*_PANDAS_MISSING, *_MISSING_VARIANTS] for n in names}}
-    df = pd.read_csv(path, comment="#", skipinitialspace=True, skip_blank_lines=False, skiprows=leading or 0, **kw)
+    df = pd.read_csv(path, skipinitialspace=True, skip_blank_lines=False, **comments, **kw)
     _check_last_row(path, df.shape[1])
     trailing = _trailing_blank_lines(path)
     if trailing:
@@ -70,6 +76,21 @@ def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
         if drop:
             return df.iloc[:len(df) - drop].reset_index(drop=True)
     return df
+
+
+def _comment_lines_after(path: Path, header_line: int) -> bool:
+    """Whether a line after the header (line ``header_line``, 0-based) starts with "#" (a comment line among the
+    data): a byte search, no parsing."""
+    with open(path, "rb") as fh:
+        if os.fstat(fh.fileno()).st_size == 0:
+            return False
+        with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            pos = 0
+            for _ in range(header_line + 1):
+                pos = mm.find(b"\n", pos) + 1
+                if pos == 0:
+                    return False
+            return re.compile(rb"\n[ \t]*#").search(mm, pos - 1) is not None
 
 
 def _check_separator(path: Path, header: str) -> None:
