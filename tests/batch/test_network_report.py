@@ -120,3 +120,19 @@ def test_report_folder_must_not_be_the_results_folder_or_a_file(tmp_path):
     (tmp_path / "f").write_text("")
     with pytest.raises(OutputError, match="is a file"):
         write_network_report(summary, tmp_path / "f")
+
+
+def test_a_network_of_one_and_two_track_files_ranks_every_segment():
+    """33 files of which 3 had two tracks: the MRI column was taken for every row, and 30 routes had no IRI in the
+    report (session 35, a probe). Per segment: the MRI where its file has one, else its track's IRI."""
+    two = _results({"A": (0.0, 100.0, [2.0, 3.0])}, two_tracks=True)
+    one = _results({"B": (0.0, 100.0, [1.0, 4.0]), "C": (0.0, 100.0, [5.0])}, two_tracks=False)
+    seg = pd.concat([two.segments, one.segments], ignore_index=True)
+    mixed = BatchResults(folder=two.folder, task="iri", options={},
+                         manifest=pd.concat([two.manifest, one.manifest], ignore_index=True), segments=seg)
+    s = summarize_network(mixed)
+    by = s.segments.set_index(["route", "start"])["segment_iri"]
+    assert by[("A", 0.0)] == 2.0 and by[("A", 100.0)] == 3.0  # the MRI
+    assert by[("B", 0.0)] == pytest.approx(0.9) and by[("C", 0.0)] == pytest.approx(4.5)  # the one track's IRI
+    assert s.routes["mean_iri"].notna().all() and s.share["none"] == 0.0
+    assert "where a file has two tracks" in s.segment_iri

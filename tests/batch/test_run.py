@@ -258,3 +258,47 @@ def test_reconstruct_task_is_road_reconstruct_then_the_iri_report(tmp_path):
         got = res.segments[res.segments.route == f"run{i}"].drop(columns=["route", "file"]).reset_index(drop=True)
         pd.testing.assert_frame_equal(got, want, check_exact=True)
     shutil.rmtree(out)
+
+
+def test_a_second_run_on_the_same_output_folder_is_refused_while_the_first_runs(network, tmp_path):
+    """Two `--resume` runs at once on one folder lost 159 of 211 files from the manifest (session 35, a probe): the
+    second run is now refused before any work, and the folder is free again once the first ends."""
+    _, files = network
+    out = tmp_path / "r"
+    seen = []
+
+    def second(_row):  # called as the first run's files finish: a concurrent run at that moment
+        if not seen:
+            with pytest.raises(OutputError, match="another `longprofile batch` run is writing to"):
+                run_batch(IRITask(), files, out, resume=True)
+            seen.append(True)
+
+    first = run_batch(IRITask(), files, out, on_result=second)
+    assert seen and first.n_ok + first.n_error == len(files)
+    again = run_batch(IRITask(), files, out, resume=True)
+    assert again.n_skipped == first.n_ok and not list(tmp_path.glob(".*lock"))
+
+
+def test_a_report_on_an_interrupted_run_says_so(network, tmp_path):
+    """An interrupted run's report said "195 / 195 done" of 211 inputs (session 35, a probe)."""
+    from longprofile.batch import read_results, summarize_network
+    from longprofile.report import write_network_report
+
+    _, files = network
+    out = tmp_path / "r"
+    done = []
+
+    def stop(_row):
+        done.append(1)
+        if len(done) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_batch(IRITask(), files, out, on_result=stop)
+    res = read_results(out)
+    assert res.complete is False and res.n_inputs == len(files) and len(res.manifest) < len(files)
+    write_network_report(summarize_network(res), tmp_path / "rep")
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert f"/ {len(files)} done" in page and "--resume finishes it" in page
+    run_batch(IRITask(), files, out, resume=True)
+    assert read_results(out).complete is True

@@ -34,6 +34,10 @@ class BatchResults:
     segments : pandas.DataFrame
         The segment tables of the inputs with status ok or skipped, in manifest order: ``route, file`` then the
         IRI report columns. Partitions without an ok manifest row (left by an interrupted run) are not read.
+    n_inputs : int or None
+        How many inputs the last run was given (None for folders written before session 35).
+    complete : bool or None
+        Whether the last run went through all of them (False: interrupted; ``--resume`` finishes it).
     """
 
     folder: Path
@@ -41,6 +45,8 @@ class BatchResults:
     options: dict
     manifest: object
     segments: object
+    n_inputs: int | None = None
+    complete: bool | None = None
 
     def profile(self, route: str):
         """The per-sample table of one route (``reconstruct``: the reconstructed profile), as a DataFrame."""
@@ -84,7 +90,8 @@ def read_results(folder) -> BatchResults:
     else:
         segments = pd.DataFrame({"route": pd.Series(dtype=str), "file": pd.Series(dtype=str)})
     return BatchResults(folder=folder, task=info.get("task", ""), options=info.get("options", {}),
-                        manifest=manifest, segments=segments)
+                        manifest=manifest, segments=segments, n_inputs=info.get("n_inputs"),
+                        complete=info.get("complete"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,8 +173,8 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
 
     Notes
     -----
-    The *segment IRI* ranked and counted here is the MRI column when the table has one (two tracks), the
-    track's IRI for one track, and otherwise the mean of the tracks' IRIs. A segment is good below the first
+    The *segment IRI* ranked and counted here is, segment by segment, the MRI where its file has two tracks, else
+    the mean of the IRIs of the tracks its file has (a network mixes one- and two-track files). A segment is good below the first
     limit, poor above the second, fair in between (the rule of the single-file report).
     """
     import numpy as np
@@ -193,13 +200,19 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
         start, end, station_unit = "start", "end", "m"
         seg = seg.assign(start=pd.Series(dtype=float), end=pd.Series(dtype=float))
     mri = [c for c in values if _VALUE.match(str(c)).group("kind") == "mri"]
-    source = mri[0] if mri else (tracks[0] if len(tracks) == 1 else None)
+    # per segment: a network mixes files of one and two tracks (each file's own columns, NaN in the others'): the MRI
+    # where its file has one, else the mean of the tracks it has (session 35: with one two-track file among 33, the
+    # MRI column was taken for every row and 30 routes had no IRI)
+    by_row = seg[tracks].astype(float).mean(axis=1) if tracks else pd.Series(np.nan, index=seg.index)
+    seg_iri = seg[mri[0]].astype(float).fillna(by_row) if mri else by_row
+    single = mri[0] if mri else (tracks[0] if len(tracks) == 1 else None)
+    source = single if single is not None and seg_iri.equals(seg[single].astype(float)) else None
     if source is not None:
-        seg_iri = seg[source].astype(float)
         how = f"{source} (MRI: mean of the two tracks)" if mri else source
+    elif mri:
+        how = f"{mri[0]} (MRI) where a file has two tracks, else the mean of its tracks' IRIs"
     else:
-        seg_iri = seg[tracks].astype(float).mean(axis=1) if tracks else pd.Series(dtype=float)
-        how = f"mean of {', '.join(tracks)}"
+        how = f"mean of {', '.join(tracks)}" if len(tracks) > 1 else "the track's IRI"
     good, poor = limits
     v = seg_iri.to_numpy(dtype=float)
     condition = np.where(~np.isfinite(v), "none", np.where(v < good, "good", np.where(v > poor, "poor", "fair")))

@@ -218,10 +218,15 @@ def _network_cards(summary) -> list[str]:
                         for c, colour in (("good", _GOOD), ("fair", _FAIR), ("poor", _POOR)))
     cards.append(f'<div class="card">Condition, share of the length<b>{shares}</b><span class="small">good · fair · '
                  f'poor (good &lt; {good:.3g}, poor &gt; {poor:.3g} {unit})</span></div>')
-    bad = " bad" if counts["error"] else ""
-    cards.insert(0, f'<div class="card{bad}">Files<b>{counts["ok"] + counts["skipped"]} / {n_files} done</b>'
+    res = summary.results
+    interrupted = res.complete is False
+    total = max(n_files, res.n_inputs or 0)
+    bad = " bad" if counts["error"] or interrupted else ""
+    cards.insert(0, f'<div class="card{bad}">Files<b>{counts["ok"] + counts["skipped"]} / {total} done</b>'
                  f'<span class="small">{counts["error"]} failed'
-                 + (f", {counts['skipped']} kept from an earlier run" if counts["skipped"] else "") + "</span></div>")
+                 + (f", {counts['skipped']} kept from an earlier run" if counts["skipped"] else "")
+                 + (f"; the run was interrupted after {n_files} of {total} inputs: --resume finishes it"
+                    if interrupted else "") + "</span></div>")
     return cards
 
 
