@@ -302,3 +302,26 @@ def test_a_report_on_an_interrupted_run_says_so(network, tmp_path):
     assert f"/ {len(files)} done" in page and "--resume finishes it" in page
     run_batch(IRITask(), files, out, resume=True)
     assert read_results(out).complete is True
+
+
+def test_an_earlier_output_in_the_tree_and_a_copy_of_a_survey_are_not_taken_as_new_surveys(network, tmp_path):
+    """A pattern over a survey tree holding an earlier run's output took its partitions as surveys; a survey copied
+    under another name was counted twice without a word; a killed run's temporary file stayed (session 35)."""
+    from pathlib import Path
+
+    folder, _ = network
+    tree = tmp_path / "tree"
+    shutil.copytree(folder, tree)
+    good = sorted(p for p in tree.rglob("*.erd") if "truncated" not in p.name)[:2]
+    shutil.copy(good[0], tree / "copy-of-first.erd")
+    run_batch(IRITask(), good, tree / "old-results")
+    inputs = expand_paths([str(tree / "**" / "*.erd"), str(tree / "**" / "*.parquet")])
+    assert not any("old-results" in str(p) for p in inputs)
+    out = tmp_path / "r"
+    out.mkdir()
+    summary = run_batch(IRITask(), [p for p in inputs if p.suffix == ".erd"], out)
+    (out / "segments" / ".part-0.parquet.999.tmp").write_bytes(b"junk")
+    dup = [(Path(p).name, w) for p, w in summary.warnings if "same content as" in w]
+    assert len(dup) == 1 and good[0].name in dup[0][1]
+    run_batch(IRITask(), [p for p in inputs if p.suffix == ".erd"], out, resume=True)
+    assert not list(out.rglob(".*.tmp"))

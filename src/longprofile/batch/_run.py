@@ -123,6 +123,7 @@ def expand_paths(patterns: Iterable[str]) -> list[Path]:
         pattern = os.fspath(pattern)
         if glob.has_magic(pattern):
             found = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
+            found = [p for p in found if not _in_results_folder(p)]  # an earlier batch's output in the tree
             if not found:
                 raise InputError(f"{pattern!r} matches no file; check the folder, and quote the pattern so that "
                                  "longprofile expands it ('surveys/**/*.erd').")
@@ -138,6 +139,15 @@ def expand_paths(patterns: Iterable[str]) -> list[Path]:
                 seen.add(key)
                 out.append(Path(p))
     return out
+
+
+def _in_results_folder(path: str) -> bool:
+    """Whether a file lies in a batch results folder (one of its folders holds a manifest): a pattern over a survey
+    tree that also holds an earlier run's output matched its partitions and manifest as surveys (session 35)."""
+    for parent in Path(path).resolve().parents:
+        if (parent / MANIFEST).is_file():
+            return True
+    return False
 
 
 def _route_ids(paths: list[Path]) -> list[str]:
@@ -451,6 +461,8 @@ def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_re
         if overwrite:
             _clear(out)
         out.mkdir(parents=True, exist_ok=True)
+        for stale in out.rglob(".*.tmp"):  # a killed run's temporary partition or manifest (_write_atomic)
+            stale.unlink(missing_ok=True)
     except OSError as exc:
         raise OutputError(f"cannot prepare the output folder {out}: {exc.strerror or exc}; choose another folder.") from None
     # n_inputs and complete: a report on an interrupted run says so (it said "195 / 195 done" of 211; session 35)
@@ -505,11 +517,27 @@ def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_re
             if on_result is not None:
                 on_result(row)
         info["complete"] = True
+        warnings += _flag_same_content(manifest.rows)
     finally:
         manifest.flush(force=True)
     return BatchSummary(output=out, task=name, n_inputs=len(inputs), n_ok=n_ok, n_error=len(failed),
                         n_skipped=n_skipped, seconds=time.perf_counter() - t0, failed=tuple(failed),
                         warnings=tuple(warnings))
+
+
+def _flag_same_content(rows: dict) -> list:
+    """A warning on each done input whose content (sha256) equals an earlier one's: the same survey under two names
+    would be counted twice in the network (session 35). Returns the new (path, warning) pairs."""
+    first, new = {}, []
+    for row in sorted(rows.values(), key=lambda r: r["path"]):
+        if row["status"] not in ("ok", "skipped") or not row.get("sha256"):
+            continue
+        other = first.setdefault(row["sha256"], row["path"])
+        note = f"same content as {other}: the same survey counted twice?"
+        if other != row["path"] and note not in (row.get("warning") or ""):
+            row["warning"] = "; ".join(w for w in (row.get("warning") or "", note) if w)
+            new.append((row["path"], note))
+    return new
 
 
 def _assign_routes(inputs: list[Path], rows: dict) -> list[str]:
