@@ -52,3 +52,18 @@ def test_differentiate_prints_the_interval_it_used(tmp_path, capsys):
     pd.DataFrame({"time": t * 1000, "x": np.sin(t)}).to_csv(tmp_path / "s.csv", index=False)  # ms, unlabelled
     code, text = _run(["differentiate", tmp_path / "s.csv", "-c", "x", "-w", "45", "-o", tmp_path / "d.csv"], capsys)
     assert code == 0 and "sample interval 1 s (column 'time' read in seconds; name it time_ms" in text
+
+
+def test_sigterm_ends_a_batch_as_ctrl_c_does():
+    """SIGTERM (kill, a scheduler's timeout) ended `batch iri` at once: exit 143, the last files missing from the
+    manifest, the pool workers left running (session 35, a probe). Inside the batch it is a KeyboardInterrupt, which
+    the command turns into its resume hint and exit 130; outside, the previous handler is back."""
+    import os
+    import signal
+
+    from longprofile.cli.batch import _terminate_as_interrupt
+
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt), _terminate_as_interrupt():
+        os.kill(os.getpid(), signal.SIGTERM)
+    assert signal.getsignal(signal.SIGTERM) is before

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import signal
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -42,9 +45,10 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
         state["done"] += 1
 
     try:
-        summary = run_batch(task, paths, output, executor=scheduler, workers=workers, resume=resume,
-                            overwrite=overwrite, on_start=start, on_result=result)
-    except KeyboardInterrupt:  # Ctrl-C: the manifest holds the files done (run_batch writes it on the way out)
+        with _terminate_as_interrupt():
+            summary = run_batch(task, paths, output, executor=scheduler, workers=workers, resume=resume,
+                                overwrite=overwrite, on_start=start, on_result=result)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the manifest holds the files done (run_batch writes it on the way out)
         bar.stop()
         if "total" in state:
             console.print(f"[yellow]interrupted after {state['done']} of {state['total']} files:[/yellow] the results "
@@ -60,6 +64,25 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
         return
     console.print(f"[red]some files failed:[/red] {summary.line()}", highlight=False, soft_wrap=True)
     raise typer.Exit(EXIT_SOME_FAILED)
+
+
+@contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM (``kill``, a scheduler's timeout, systemd) ends a batch as Ctrl-C does: the manifest written, the pool
+    shut down, the resume hint printed. Python's default ended it at once (exit 143, no manifest of the last files,
+    the pool workers left running; session 35, a probe). Main thread only; the previous handler comes back after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _tracks(track: str | None):
