@@ -20,6 +20,8 @@ __all__ = [
     "validate_step",
     "require_positive",
     "time_resolution",
+    "utc_offset_mix",
+    "first_undecodable_line",
 ]
 
 
@@ -112,3 +114,29 @@ def time_resolution(t) -> float:
     Unix time stamps (~1.7e9 s) differ by +-2.4e-7 s from float64 rounding alone, which is not the logger's jitter."""
     t = np.asarray(t, float)
     return 4.0 * float(np.spacing(np.max(np.abs(t)))) if t.size else 0.0
+
+
+def utc_offset_mix(times) -> tuple[int, int] | None:
+    """Among ISO 8601 date-time texts, the first index with a UTC offset (``Z``, ``+01:00``) and the first without,
+    when both kinds occur (which zone the others are in cannot be known); None otherwise. Values that are not
+    date-time texts are left to the parser. One rule for files (``rail settle``) and the service's batches."""
+    import pandas as pd
+
+    text = pd.Series(list(times) if not isinstance(times, pd.Series) else times, dtype=object)
+    text = text.where(text.map(lambda v: isinstance(v, str))).str.strip()
+    iso = text.str.match(r"\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}", na=False).to_numpy(bool)
+    has = text.str.contains(r"(?:[Zz]|[+-]\d{2}:?\d{2})$", regex=True, na=False).to_numpy(bool) & iso
+    if not has.any() or not (iso & ~has).any():
+        return None
+    return int(np.flatnonzero(has)[0]), int(np.flatnonzero(iso & ~has)[0])
+
+
+def first_undecodable_line(lines, codec: str = "utf-8") -> tuple[int, str] | None:
+    """(1-based number, text as Latin-1) of the first of ``lines`` (bytes) that ``codec`` cannot decode; None if all
+    can. For messages naming the line (pandas' and the codec's positions are within a chunk)."""
+    for n, raw in enumerate(lines, start=1):
+        try:
+            raw.decode(codec)
+        except UnicodeDecodeError:
+            return n, raw.decode("latin-1").strip()
+    return None

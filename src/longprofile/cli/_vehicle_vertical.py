@@ -83,11 +83,8 @@ def simulate(
             sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed,
                                              duration=duration, seed=seed, mr_damper=mr, params=params)
     frame = sensors_to_frame(sensors, sim)
-    if road is not None:  # the front axle's chainage (the run starts with the rear axle on the profile's first station)
-        from ..vehicle import VerticalVehicleParams
-
-        first = float(read_profile(road).distance[0])
-        frame["chainage_m"] = first + (params or VerticalVehicleParams()).wheelbase + speed * sim.time
+    if road is not None:  # `estimate --profile` places the road under the wheels by it
+        frame["chainage_m"] = run.front_chainage
     write_table(frame, out)
     what = f"road {road}" if road is not None else f"test {test}"
     console.print(f"wrote {out} ({sim.time.size} samples, config {config}, {what}, car {car})")

@@ -207,10 +207,9 @@ def _print_settle_summary(res, output: Path) -> None:
     last = 1e3 * res.dz[-1]
     down, up = max(-float(np.nanmin(last)), 0.0), max(float(np.nanmax(last)), 0.0)
     moved = f"max settlement on the last day {down:.1f} mm" + (f", max heave {up:.1f} mm" if up >= 1.0 else "")
-    counts = res.daily.n_readings.sum(axis=1)
-    if counts[-1] < 0.5 * np.median(counts):
-        moved += (f" (the last day, {np.datetime64(res.days[-1], 'D')}, holds {100 * counts[-1] / np.median(counts):.0f} % of a "
-                  "usual day's readings)")
+    share = res.daily.reading_shares()[-1]
+    if share < res.daily.PARTIAL_DAY_SHARE:
+        moved += f" (the last day, {np.datetime64(res.days[-1], 'D')}, holds {100 * share:.0f} % of a usual day's readings)"
     alarms = (f"{len(res.alarms)} alarm(s)" if res.settings.get("thresholds_set") else
               "no alarm thresholds set (--thresholds FILE): nothing was tested against a limit")
     console.print(f"{len(res.sensor_ids)} sensors, {res.days.size} days; {int(res.health.excluded.sum())} sensor(s) "

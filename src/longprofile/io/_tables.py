@@ -12,6 +12,7 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
+from .._validation import first_undecodable_line
 from ..core import MISSING_TEXT
 from ..errors import InputError, InputFormatError, OutputError
 from ._atomic import atomic_path
@@ -90,6 +91,8 @@ def _comment_lines_after(path: Path, header_line: int) -> bool:
                 pos = mm.find(b"\n", pos) + 1
                 if pos == 0:
                     return False
+            if mm.find(b"#", pos) < 0:  # the usual data file: one memchr pass, no regex
+                return False
             return re.compile(rb"\n[ \t]*#").search(mm, pos - 1) is not None
 
 
@@ -197,14 +200,11 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
 def _not_utf8(path: Path) -> str:
     """The message for a CSV that is not UTF-8 text: its first such line (pandas' own position is within a chunk)."""
     with open(path, "rb") as fh:
-        for n, raw in enumerate(fh, start=1):
-            try:
-                raw.decode("utf-8")
-            except UnicodeDecodeError:
-                text = raw.decode("latin-1").strip()
-                return (f"{path}: line {n} is not UTF-8 text ({text[:60]!r}, e.g. Latin-1 or Windows-1252 accents): "
-                        "save the file as UTF-8 (a spreadsheet's \"CSV UTF-8\"; or iconv -f cp1252 -t utf-8).")
-    return f"{path}: the file is not UTF-8 text; save it as UTF-8."
+        bad = first_undecodable_line(fh)
+    if bad is None:
+        return f"{path}: the file is not UTF-8 text; save it as UTF-8."
+    return (f"{path}: line {bad[0]} is not UTF-8 text ({bad[1][:60]!r}, e.g. Latin-1 or Windows-1252 accents): save "
+            "the file as UTF-8 (a spreadsheet's \"CSV UTF-8\"; or iconv -f cp1252 -t utf-8).")
 
 
 def check_columns(df: pd.DataFrame, path, *, required: Iterable[str] = (), numeric: Iterable[str] = ()):

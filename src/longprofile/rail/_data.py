@@ -18,6 +18,7 @@ from typing import ClassVar
 import numpy as np
 import pandas as pd
 
+from .._validation import utc_offset_mix
 from ..core import MAX_ABS_ELEVATION_M, MISSING_TEXT
 from ..errors import InputError, InputFormatError, UnitsError
 
@@ -136,9 +137,6 @@ def _is_number(value) -> bool:
     return True
 
 
-_UTC_OFFSET = r"(?:Z|[+-]\d{2}:?\d{2})$"
-
-
 def _row(i: int) -> str:
     """A data row's place for a message: its 0-based index and its line in a CSV with one header line."""
     return f"row {i} (CSV line {i + 2})"
@@ -148,15 +146,12 @@ def _times_with_offsets(series: pd.Series, what: str, col: str):
     """Times some of which carry a UTC offset (pandas refuses offsets that differ, e.g. across a DST change): all
     with one, converted to UTC; a mix of times with and without one refused (which zone would the others be in?);
     None when no value carries one."""
-    text = series.astype(str).str.strip()
-    has = text.str.contains(_UTC_OFFSET, regex=True).to_numpy()
-    if not has.any():
-        return None
-    if not has.all():
-        i, j = int(np.flatnonzero(~has)[0]), int(np.flatnonzero(has)[0])
-        raise InputFormatError(f"{what} table: column {col!r} mixes times with a UTC offset (row {j}: {text.iloc[j]!r}) "
-                               f"and without one (row {i}: {text.iloc[i]!r}); write them all in UTC, or all with their "
-                               "offset.")
+    mix = utc_offset_mix(series)
+    if mix is not None:
+        j, i = mix
+        raise InputFormatError(f"{what} table: column {col!r} mixes times with a UTC offset ({_row(j)}: "
+                               f"{series.iloc[j]!r}) and without one ({_row(i)}: {series.iloc[i]!r}); write them all in "
+                               "UTC, or all with their offset.")
     try:
         return pd.to_datetime(series, format="ISO8601", utc=True)
     except (ValueError, TypeError):

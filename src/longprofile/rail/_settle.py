@@ -1326,8 +1326,6 @@ def _check_exclusions(ids, exclude_sensors) -> None:
 #: An altitude change beyond this, m, gets a warning naming the angles' unit (milliradians or mm/m under angle_deg
 #: multiply every change by 17.45; found by a user's probe, session 35: a 20 mm bowl printed as 337 mm).
 PLAUSIBLE_CHANGE_M = 0.1
-#: A first day holding less than this share of the median day's readings is left out (:func:`_partial_first_days`).
-PARTIAL_DAY_SHARE = 0.5
 
 
 def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) -> DailyAngles:
@@ -1362,18 +1360,17 @@ def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) ->
 
 
 def _partial_first_days(daily: DailyAngles, warnings: list) -> DailyAngles:
-    """``daily`` without its first days that hold less than :data:`PARTIAL_DAY_SHARE` of the median day's readings
+    """``daily`` without its first days that hold less than ``DailyAngles.PARTIAL_DAY_SHARE`` of the median day's readings
     (all sensors; at least 2 days kept). The first day is every later day's reference: a daily angle from part of a
     day carries part of the daily thermal cycle into every change (a record that starts at 23:00 excluded two
     healthy sensors, installation tests the day before three; session 35)."""
-    total = daily.n_readings.sum(axis=1).astype(float)
-    usual = float(np.median(total))
+    share = daily.reading_shares()
     k = 0
-    while k < daily.days.size - 2 and total[k] < PARTIAL_DAY_SHARE * usual:
+    while k < daily.days.size - 2 and share[k] < daily.PARTIAL_DAY_SHARE:
         k += 1
     if k:
         dates = pd.DatetimeIndex(daily.days[:k]).strftime("%Y-%m-%d").tolist()
-        shares = ", ".join(f"{100 * v / usual:.0f} %" for v in total[:k][:3])
+        shares = ", ".join(f"{100 * v:.0f} %" for v in share[:k][:3])
         warnings.append(f"the first {k} day(s) ({dates[:3]}) hold {shares} of a usual day's readings (a record that "
                         "starts late in the day, installation tests, or times converted to UTC from another zone?): a "
                         "daily angle from part of a day carries part of the daily thermal cycle into every later change, "

@@ -22,6 +22,7 @@ flagged healthy sensors as reversed and under-covered (docs/rail.md, "The therma
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -124,6 +125,15 @@ class DailyAngles:
     raw_day_spread_deg: np.ndarray | None = None
     temperature_mean_c: np.ndarray | None = None
     lag_variance_ratio: float | None = None
+    #: A day holding less than this share of the median day's readings is a partial day (the first such days are left
+    #: out by :func:`~longprofile.rail.estimate_settlement`; a partial last day is named by ``rail settle``).
+    PARTIAL_DAY_SHARE: ClassVar[float] = 0.5
+
+    def reading_shares(self) -> np.ndarray:
+        """(D,) each day's readings (all sensors) over the median day's: below :attr:`PARTIAL_DAY_SHARE`, part of a
+        day (a record starting late, installation tests, a day still being recorded)."""
+        total = self.n_readings.sum(axis=1).astype(float)
+        return total / max(float(np.median(total)), 1.0)
 
     def select_days(self, mask) -> "DailyAngles":
         """The same angles on the days where ``mask`` (D,) is True; each sensor's changes from its first kept day."""

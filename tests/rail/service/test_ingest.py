@@ -227,7 +227,7 @@ def test_a_two_reading_batch_in_degrees_is_not_taken_for_radians(site):
 def test_radians_sent_one_scan_at_a_time_are_caught_from_the_stored_readings(site):
     """A logger posting each scan (one reading per sensor: no noise of its own) in radians: every batch was accepted
     and the settlement came out 57 times too small (session 35, a probe). The stored readings of the batch's
-    sensors within a day give the test its differences: the second scan on is refused."""
+    sensors within 6 hours give the test its differences: the second scan on is refused."""
     db, _, r = site
     scans = [g for _, g in r.groupby("timestamp", sort=True)][:4]
     outcomes = []

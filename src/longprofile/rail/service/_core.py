@@ -21,6 +21,7 @@ import pandas as pd
 from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
+from ..._validation import first_undecodable_line, utc_offset_mix
 from ...errors import InputError, InputFormatError
 from .. import (
     ANGLE_RANGE_DEG,
@@ -69,6 +70,8 @@ SENSOR_RE = re.compile(r"^[^\W_][\w.:-]{0,63}$")
 #: A reading later than the server clock by more than this is refused (clock-skewed logger).
 MAX_FUTURE_SKEW_S = 300
 MAX_BATCH_ROWS = 50_000
+#: How far around a small batch its sensors' stored readings are read for the radian test (:func:`_with_recent`), s.
+RECENT_S = 6 * 3600
 CONTROL_COLUMNS = SiteData.TABLE_COLUMNS["controls"]  # date, x_m, z_m: the controls table of ``rail settle``
 
 
@@ -661,38 +664,22 @@ def _batch_text(body: bytes, content_type: str | None) -> str:
     except LookupError:
         raise InputFormatError(f"unknown charset {charset!r} in the content type; send UTF-8 text.") from None
     except UnicodeDecodeError:
-        for n, line in enumerate(body.split(b"\n"), start=1):
-            try:
-                line.decode(codec)
-            except UnicodeDecodeError:
-                shown = line.decode("latin-1").strip()[:60]
-                raise InputFormatError(f"the batch is not {charset} text: line {n} ({shown!r}; Latin-1 or "
-                                       "Windows-1252 accents?): send UTF-8, or declare the charset in the content "
-                                       "type (text/csv; charset=windows-1252).") from None
-        raise InputFormatError(f"the batch is not {charset} text.") from None
-
-
-_UTC_OFFSET = re.compile(r"(?:Z|[+-]\d{2}:?\d{2})$", re.IGNORECASE)
-_ISO_START = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}")
+        bad = first_undecodable_line(body.split(b"\n"), codec)
+        where = f": line {bad[0]} ({bad[1][:60]!r}; Latin-1 or Windows-1252 accents?)" if bad else ""
+        raise InputFormatError(f"the batch is not {charset} text{where}: send UTF-8, or declare the charset in the "
+                               "content type (text/csv; charset=windows-1252).") from None
 
 
 def _refuse_mixed_zones(rows) -> None:
     """Refuse a batch whose times partly carry a UTC offset (``Z``, ``+01:00``) and partly not, as ``rail settle``
-    refuses such a file: which zone the others are in cannot be known (session 35: the service took them as UTC)."""
-    with_, without = None, None
-    for i, r in enumerate(rows):
-        v = r.get("timestamp") if isinstance(r, dict) else None
-        if not isinstance(v, str) or not _ISO_START.match(v.strip()):
-            continue  # not a date-time: that row is rejected on its own
-        if _UTC_OFFSET.search(v.strip()):
-            with_ = with_ if with_ is not None else i
-        else:
-            without = without if without is not None else i
-        if with_ is not None and without is not None:
-            raise InputFormatError(f"the batch mixes times with a UTC offset (row {with_}: "
-                                   f"{rows[with_]['timestamp']!r}) and without one (row {without}: "
-                                   f"{rows[without]['timestamp']!r}); send them all in UTC (with Z), or all with "
-                                   "their offset.")
+    refuses such a file (:func:`~longprofile._validation.utc_offset_mix`): which zone the others are in cannot be
+    known (session 35: the service took them as UTC)."""
+    mix = utc_offset_mix([r.get("timestamp") if isinstance(r, dict) else None for r in rows])
+    if mix is not None:
+        (i, j) = mix
+        raise InputFormatError(f"the batch mixes times with a UTC offset (row {i}: {rows[i]['timestamp']!r}) and "
+                               f"without one (row {j}: {rows[j]['timestamp']!r}); send them all in UTC (with Z), or "
+                               "all with their offset.")
 
 
 def _parse_time(v) -> int:
@@ -831,11 +818,12 @@ def _existing_readings(s, keys) -> dict:
 
 
 def _with_recent(s, df: pd.DataFrame, good) -> pd.DataFrame:
-    """The batch's angles with the stored readings of its sensors within a day of it, for the radian test of a
-    batch too small to have a noise of its own (a logger posting each scan: one reading per sensor; session 35, a
-    probe: radians sent that way were all accepted, and the settlement came out 57 times too small)."""
+    """The batch's angles with the stored readings of its sensors within :data:`RECENT_S` of it, for the radian test
+    of a batch too small to have a noise of its own (a logger posting each scan: one reading per sensor; session 35,
+    a probe: radians sent that way were all accepted, and the settlement came out 57 times too small). Read on every
+    such batch, so a few hours, not the site's history: 36 readings per sensor at 10-minute readings."""
     pks = {g[2]: g[1] for g in good}
-    lo, hi = int(df["ts"].min()) - 86_400, int(df["ts"].max()) + 86_400
+    lo, hi = int(df["ts"].min()) - RECENT_S, int(df["ts"].max()) + RECENT_S
     names = {pk: sid for sid, pk in pks.items()}
     stored = s.execute(select(Reading.sensor_pk, Reading.ts, Reading.angle_deg).where(
         Reading.sensor_pk.in_(sorted(pks.values())), Reading.ts >= lo, Reading.ts <= hi).limit(20_000)).all()

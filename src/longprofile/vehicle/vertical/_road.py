@@ -182,10 +182,14 @@ class VerticalRun:
         True states (time base ``simulation.time``, s).
     sensors : VerticalSensors
         Measured signals of ``sensors.config`` (noise seeded, see :func:`profile_run`).
+    front_chainage : (T,) ndarray or None
+        Chainage of the front axle at each sample, m: the run starts with the rear axle on the profile's first
+        station, so one wheelbase further (what :func:`estimate_vertical_log`'s ``start`` expects at the first sample).
     """
 
     simulation: VerticalSimulation
     sensors: VerticalSensors
+    front_chainage: np.ndarray | None = None
 
 
 def profile_run(profile: Profile, config: int, speed: float, duration: float, *, seed: int = 0,
@@ -239,7 +243,8 @@ def profile_run(profile: Profile, config: int, speed: float, duration: float, *,
     inputs = wheel_road_inputs(profile, speed, dt, duration=min(duration, available),
                                start=float(profile.distance[0]), params=p)
     sim = simulate_vertical(inputs, dt, params=p, mr_damper=mr_damper)
-    return VerticalRun(simulation=sim, sensors=measure_vertical(sim, config, rng=seed + 1))
+    return VerticalRun(simulation=sim, sensors=measure_vertical(sim, config, rng=seed + 1),
+                       front_chainage=float(profile.distance[0]) + p.wheelbase + speed * sim.time)
 
 
 @dataclass(frozen=True, eq=False)
