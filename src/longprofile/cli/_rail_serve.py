@@ -109,18 +109,21 @@ def site_create(name: str = typer.Argument(..., help="Site name (letters, digits
                                                  help="End of the baseline (days before it are quiet days)."),
                 no_data_hours: float = typer.Option(6.0, "--no-data-hours", help="Alarm after this long without data."),
                 clock: str = typer.Option("wall", "--clock", help="wall, or data (staleness vs the newest reading)."),
+                tz: str = typer.Option("UTC", "--timezone",
+                                       help="IANA zone of the loggers' clocks (e.g. Europe/Paris): times sent without "
+                                            "a UTC offset are read in it, the hour shown twice in autumn in order."),
                 actor: str = ACTOR_OPT):
     """Create a site."""
     from ..rail import service as _service
 
     _print(_service.create_site(_db(db), _actor(actor), name, title=title, baseline_start=baseline_start,
-                             baseline_end=baseline_end, no_data_hours=no_data_hours, clock=clock))
+                             baseline_end=baseline_end, no_data_hours=no_data_hours, clock=clock, timezone=tz))
 
 
 @site_app.command("update")
 def site_update(name: str = typer.Argument(...), db: str = DB_OPT,
                 set_: list[str] = typer.Option([], "--set", help="FIELD=VALUE (title, baseline_start, baseline_end, "
-                                                                 "no_data_hours, clock; settings=JSON)."),
+                                                                 "no_data_hours, clock, timezone; settings=JSON)."),
                 actor: str = ACTOR_OPT):
     """Change site fields (recorded in the audit trail, old -> new)."""
     from ..errors import InputError

@@ -115,14 +115,14 @@ def _ts(value, what: str) -> int | None:
     return int(t.value // 10**9)
 
 
-SITE_FIELDS = ("title", "baseline_start", "baseline_end", "no_data_hours", "clock", "settings")
+SITE_FIELDS = ("title", "baseline_start", "baseline_end", "no_data_hours", "clock", "timezone", "settings")
 
 
 def _site_dict(site: Site) -> dict:
     iso = (lambda t: None if t is None else datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"))
     return {"name": site.name, "title": site.title, "baseline_start": iso(site.baseline_start_ts),
             "baseline_end": iso(site.baseline_end_ts), "no_data_hours": site.no_data_hours, "clock": site.clock,
-            "settings": site.settings}
+            "timezone": site.timezone or "UTC", "settings": site.settings}
 
 
 def _apply_site_fields(site: Site, fields: dict):
@@ -147,6 +147,8 @@ def _apply_site_fields(site: Site, fields: dict):
         if fields["clock"] not in ("wall", "data"):
             raise InputError(f"clock must be 'wall' or 'data'; got {fields['clock']!r}.")
         site.clock = fields["clock"]
+    if "timezone" in fields:
+        site.timezone = _zone(fields["timezone"]).key
     if "settings" in fields:
         st = fields["settings"] or {}
         if not isinstance(st, dict):
@@ -156,14 +158,25 @@ def _apply_site_fields(site: Site, fields: dict):
         site.settings_json = json.dumps(check_settings(st), sort_keys=True)
 
 
+def _zone(name):
+    """The IANA time zone ``name`` (``Europe/Paris``, ``UTC``) of a site's logger clocks; an unknown one refused."""
+    from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+    try:
+        return ZoneInfo(str(name).strip() or "UTC")
+    except (ZoneInfoNotFoundError, ValueError):
+        raise InputError(f"unknown time zone {str(name)[:64]!r}: give an IANA name such as Europe/Paris, "
+                         "America/New_York or UTC.") from None
+
+
 def create_site(db: Database, actor: str, name: str, **fields) -> dict:
-    """Create a site (``fields``: title, baseline_start, baseline_end, no_data_hours, clock, settings)."""
+    """Create a site (``fields``: title, baseline_start, baseline_end, no_data_hours, clock, timezone, settings)."""
     check_name(name)
     with db.write() as s:
         if s.scalar(select(Site).where(Site.name == name)) is not None:
             raise InputError(f"site {name!r} already exists.")
-        site = Site(name=name, title="", no_data_hours=6.0, clock="wall", settings_json="{}", data_version=0,
-                    created_ts=now_ts())
+        site = Site(name=name, title="", no_data_hours=6.0, clock="wall", timezone="UTC", settings_json="{}",
+                    data_version=0, created_ts=now_ts())
         _apply_site_fields(site, fields)
         s.add(site)
         s.flush()
@@ -682,7 +695,11 @@ def _refuse_mixed_zones(rows) -> None:
                                "all with their offset.")
 
 
-def _parse_time(v) -> int:
+def _parse_time(v, zone=None) -> tuple[int, int | None]:
+    """``(ts, second)``: the reading's time in seconds since 1970 UTC, and for a time without a UTC offset that the
+    site's clock ``zone`` (a ``ZoneInfo``; None: UTC) shows twice, when it goes back at the end of daylight-saving
+    time, the second of the two (``ts`` is then the first; :func:`_resolve_repeated_hour` chooses); else None. A
+    local time the clock skips when it goes forward is refused."""
     if not isinstance(v, str) or not v.strip():
         raise ValueError("timestamp is missing or not a string")
     s = v.strip()
@@ -690,14 +707,34 @@ def _parse_time(v) -> int:
         t = datetime.fromisoformat(s[:-1] + "+00:00" if s.endswith(("Z", "z")) else s)
     except ValueError:
         raise ValueError(f"timestamp {v[:40]!r} is not ISO 8601 (e.g. 2019-11-18T08:10:00Z)") from None
+    if t.microsecond:
+        raise ValueError("sub-second timestamps are not supported (one reading per sensor and second)")
+    if t.tzinfo is None and zone is not None and zone.key != "UTC":
+        return _local_seconds(t, zone, v)
     if t.tzinfo is not None:
         try:
             t = t.astimezone(timezone.utc).replace(tzinfo=None)
         except OverflowError:  # 0001-01-01T00:00:00+01:00 is before year 1 in UTC
             raise ValueError(f"timestamp {v[:40]!r} is out of the range of dates") from None
-    if t.microsecond:
-        raise ValueError("sub-second timestamps are not supported (one reading per sensor and second)")
+    return _seconds(t), None
+
+
+def _seconds(t: datetime) -> int:
+    """Seconds since 1970 of a naive UTC time."""
     return int((t - datetime(1970, 1, 1)).total_seconds())
+
+
+def _local_seconds(t: datetime, zone, text: str) -> tuple[int, int | None]:
+    """``(first, second)`` UTC seconds of the naive local time ``t`` in ``zone`` (``second`` None unless the clock
+    shows ``t`` twice); a time in the hour the clock skips refused."""
+    try:
+        first, second = (t.replace(tzinfo=zone, fold=f).astimezone(timezone.utc).replace(tzinfo=None) for f in (0, 1))
+    except OverflowError:
+        raise ValueError(f"timestamp {text[:40]!r} is out of the range of dates") from None
+    if first.replace(tzinfo=timezone.utc).astimezone(zone).replace(tzinfo=None) != t:
+        raise ValueError(f"timestamp {text[:40]!r} does not exist in {zone.key} (the clock skips that hour when it "
+                         "goes forward): is the logger's clock on that zone? (site timezone)")
+    return _seconds(first), (_seconds(second) if second != first else None)
 
 
 def _parse_num(v, what, lo, hi) -> float:
@@ -732,8 +769,9 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
     now = now_ts() if now is None else int(now)
     rows = list(rows)
     _refuse_mixed_zones(rows)
+    zone = _site_zone(db, name)
     out: list = [None] * len(rows)
-    parsed = []  # (i, sensor_id, ts, angle, temp)
+    parsed = []  # (i, sensor_id, ts, angle, temp, second): second, the other reading of a time shown twice
     for i, r in enumerate(rows):
         if not isinstance(r, dict):
             out[i] = {"row": i, "outcome": "rejected", "reason": "a reading must be an object with "
@@ -752,7 +790,7 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
             sid = str(sid).strip() if sid is not None else ""
             if not sid:
                 raise ValueError("sensor_id is missing")
-            ts = _parse_time(r.get("timestamp"))
+            ts, second = _parse_time(r.get("timestamp"), zone)
             if ts > now + MAX_FUTURE_SKEW_S:
                 raise ValueError(f"timestamp is {(ts - now) / 60:.0f} min in the future of the server clock "
                                  "(logger clock skew?)")
@@ -769,7 +807,7 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
         except ValueError as exc:
             out[i] = {"row": i, "outcome": "rejected", "reason": str(exc)}
             continue
-        parsed.append((i, sid, ts, ang, tmp))
+        parsed.append((i, sid, ts, ang, tmp, second))
     for attempt in range(5):
         try:
             return _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units)
@@ -777,6 +815,13 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
             if attempt == 4:
                 raise
     raise AssertionError("unreachable")
+
+
+def _site_zone(db: Database, name: str):
+    """The ``ZoneInfo`` of the site's logger clocks (None for UTC); an unknown site is refused."""
+    with db.read() as s:
+        key = _site(s, name).timezone or "UTC"
+    return None if key == "UTC" else _zone(key)
 
 
 def _existing_readings(s, keys) -> dict:
@@ -832,6 +877,36 @@ def _with_recent(s, df: pd.DataFrame, good) -> pd.DataFrame:
     return both.sort_values(["sensor_id", "ts"], kind="stable")
 
 
+def _resolve_repeated_hour(s, parsed, sensors) -> tuple[list, dict]:
+    """``parsed`` with each local time the clock shows twice (autumn, end of daylight-saving time) given one of its
+    two UTC times: the one a stored reading of that sensor has with the same values (a batch sent again), else the
+    second when the sensor already has a reading from the first one on, within the hour before the second (stored,
+    or earlier in this batch: the logger's clock went back), else the first. Also ``{row: note}`` for such rows."""
+    folded = [p for p in parsed if p[5] is not None and p[1] in sensors]
+    if not folded:
+        return parsed, {}
+    pks = sorted({sensors[p[1]][0] for p in folded})
+    lo, hi = min(p[2] for p in folded), max(p[5] for p in folded)
+    seen: dict = {}
+    for spk, ts, ang, tmp in s.execute(select(Reading.sensor_pk, Reading.ts, Reading.angle_deg, Reading.temperature_c)
+                                       .where(Reading.sensor_pk.in_(pks), Reading.ts >= lo, Reading.ts <= hi)):
+        seen.setdefault(spk, {})[ts] = (ang, tmp)
+    resolved, notes = [], {}
+    for p in parsed:
+        if p[5] is None or p[1] not in sensors:
+            resolved.append(p)
+            continue
+        i, sid, first, ang, tmp, second = p
+        mine = seen.setdefault(sensors[sid][0], {})
+        same = [t for t in (first, second) if t in mine and _same(mine[t][0], ang) and _same(mine[t][1], tmp)]
+        ts = same[0] if same else second if any(first <= t < second for t in mine) else first
+        mine.setdefault(ts, (ang, tmp))
+        notes[i] = (f"a local time the clock shows twice (it went back): read as the {'first' if ts == first else 'second'}"
+                    f", {datetime.fromtimestamp(ts, timezone.utc):%Y-%m-%dT%H:%M:%SZ}")
+        resolved.append((i, sid, ts, ang, tmp, None))
+    return resolved, notes
+
+
 def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> IngestResult:
     out = list(out)
     with db.write() as s:
@@ -839,7 +914,8 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
         sensors = {x.sensor_id: (x.id, x.active) for x in s.execute(
             select(Sensor.sensor_id, Sensor.id, Sensor.active).where(Sensor.site_id == site.id))}
         good = []
-        for i, sid, ts, ang, tmp in parsed:
+        parsed, notes = _resolve_repeated_hour(s, parsed, sensors)
+        for i, sid, ts, ang, tmp, _ in parsed:
             if sid not in sensors:
                 out[i] = {"row": i, "outcome": "rejected", "reason": f"unknown sensor {sid[:64]!r} on this site"}
             elif not sensors[sid][1]:
@@ -907,6 +983,8 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
                                   superseded_by_batch_id=batch.id))
             s.execute(update(Reading).where(Reading.id == rid).values(angle_deg=ang, temperature_c=tmp,
                                                                        revision=rev + 1, batch_id=batch.id))
+        for i, note in notes.items():
+            out[i]["note"] = note
         counts = {k: sum(1 for o in out if o and o["outcome"] == k)
                   for k in ("accepted", "duplicate", "revised", "rejected")}
         batch.n_accepted, batch.n_duplicate = counts["accepted"], counts["duplicate"]

@@ -58,6 +58,8 @@ class Site(Base):
     no_data_hours: Mapped[float] = mapped_column(Float, default=6.0)
     # "wall": staleness against the clock; "data": against the newest reading of the site (replays)
     clock: Mapped[str] = mapped_column(String(8), default="wall")
+    # IANA zone of the loggers' clocks: a time without a UTC offset is read in it (docs/rail-service.md)
+    timezone: Mapped[str] = mapped_column(String(64), default="UTC", server_default="UTC")
     settings_json: Mapped[str] = mapped_column(Text, default="{}")
     dirty_from_ts: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
     data_version: Mapped[int] = mapped_column(BigInteger, default=0)
