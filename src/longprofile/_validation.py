@@ -131,6 +131,18 @@ def utc_offset_mix(times) -> tuple[int, int] | None:
     return int(np.flatnonzero(has)[0]), int(np.flatnonzero(iso & ~has)[0])
 
 
+def time_zone(name):
+    """The ``zoneinfo.ZoneInfo`` of the IANA zone ``name`` (``Europe/Paris``, ``UTC``; empty: UTC), an unknown one
+    refused. One check for files (``rail settle --timezone``) and the service's site field."""
+    from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+    try:
+        return ZoneInfo(str(name).strip() or "UTC")
+    except (ZoneInfoNotFoundError, ValueError):
+        raise InputError(f"unknown time zone {str(name)[:64]!r}: give an IANA name such as Europe/Paris, "
+                         "America/New_York or UTC.") from None
+
+
 def first_undecodable_line(lines, codec: str = "utf-8") -> tuple[int, str] | None:
     """(1-based number, text as Latin-1) of the first of ``lines`` (bytes) that ``codec`` cannot decode; None if all
     can. For messages naming the line (pandas' and the codec's positions are within a chunk)."""

@@ -72,6 +72,12 @@ def simulate_command(
                   f"{', '.join(str(p) for p in written)}")
 
 
+#: ``rail settle --timezone``.
+TIMEZONE_HELP = ("IANA zone of the loggers' clocks (e.g. Europe/Paris) when the readings' times carry no UTC offset: "
+                 "read as local times (the hour shown twice in autumn in each sensor's order). Default: such times "
+                 "are UTC.")
+
+
 @rail_app.command("settle")
 def settle_command(
     sensors: Path = typer.Option(..., "--sensors", help="Sensors table: sensor_id, x_m [, z_m] (CSV/Parquet)."),
@@ -107,6 +113,7 @@ def settle_command(
                                                "temperature of its 4 nearest sensors in the same minute plus "
                                                "its own offset from them in the 7 days before; "
                                                "--no-temperature-fill leaves it out (docs/rail.md)."),
+    timezone: str = typer.Option(None, "--timezone", help=TIMEZONE_HELP),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
     quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "
                                                                    "the thermal fit then uses only these days."),
@@ -164,7 +171,7 @@ def settle_command(
                          "not both.")
     graded = None if thresholds is None else read_rail_thresholds(thresholds)
     site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units,
-                          temperature_fill=temperature_fill)
+                          temperature_fill=temperature_fill, timezone=timezone)
     settings = SettlementSettings(
         thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
         rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,

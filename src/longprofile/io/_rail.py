@@ -19,7 +19,7 @@ THRESHOLD_COLUMNS = ("quantity", "level", "value_mm")
 
 
 def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit: str = "deg",
-                   check_units: bool = True, temperature_fill: bool = True) -> SiteData:
+                   check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None) -> SiteData:
     """Read the site tables from CSV/Parquet files (:func:`read_table`) and validate them.
 
     Parameters
@@ -28,7 +28,7 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
         Required tables.
     survey, controls : path-like, optional
         Initial survey (required unless the sensors table has ``z_m``) and control surveys.
-    angle_unit, check_units, temperature_fill
+    angle_unit, check_units, temperature_fill, timezone
         See :func:`longprofile.rail.validate_site`.
 
     Returns
@@ -40,7 +40,7 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
     sv = None if survey is None else read_rail_table(survey, "survey")
     ct = None if controls is None else read_rail_table(controls, "controls")
     return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units,
-                         temperature_fill=temperature_fill)
+                         temperature_fill=temperature_fill, timezone=timezone)
 
 
 def read_rail_table(path, kind: str, *, angle_unit: str = "deg"):

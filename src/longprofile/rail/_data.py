@@ -18,7 +18,7 @@ from typing import ClassVar
 import numpy as np
 import pandas as pd
 
-from .._validation import utc_offset_mix
+from .._validation import time_zone, utc_offset_mix
 from ..core import MAX_ABS_ELEVATION_M, MISSING_TEXT
 from ..errors import InputError, InputFormatError, UnitsError
 
@@ -158,7 +158,9 @@ def _times_with_offsets(series: pd.Series, what: str, col: str):
         return None
 
 
-def _times(values, what: str, col: str) -> pd.Series:
+def _times(values, what: str, col: str, *, timezone: str | None = None, groups=None) -> pd.Series:
+    """Naive UTC times of a column of ISO 8601 texts: times with a UTC offset converted; times without one are UTC,
+    or local times of ``timezone`` (:func:`_local_times`, ``groups``: each row's sensor)."""
     series = pd.Series(values)
     try:
         t = pd.to_datetime(series, format="ISO8601")
@@ -178,7 +180,35 @@ def _times(values, what: str, col: str) -> pd.Series:
         raise InputFormatError(f"{what} table, {_row(i)}: column {col!r} is empty.")
     if getattr(t.dt, "tz", None) is not None:
         t = t.dt.tz_convert("UTC").dt.tz_localize(None)
+    elif timezone is not None and timezone != "UTC":
+        t = _local_times(t, timezone, groups, what, col)
     return t
+
+
+def _local_times(t: pd.Series, timezone: str, groups, what: str, col: str) -> pd.Series:
+    """Naive UTC times of the naive local times ``t`` of ``timezone`` (an IANA name).
+
+    A local time the clock shows twice (the hour before it goes back at the end of daylight-saving time) is the
+    second of the two when an earlier row of the same group (sensor), in the table's order, shows the same or a later
+    local time of that hour: the logger's clock went back (the monitoring service's rule, where the earlier readings
+    are those already stored). A local time the clock skips in spring is refused."""
+    timezone = time_zone(timezone).key
+    first = t.dt.tz_localize(timezone, ambiguous=np.ones(len(t), bool), nonexistent="NaT")
+    skipped = first.isna().to_numpy() & t.notna().to_numpy()
+    if skipped.any():
+        i = int(np.flatnonzero(skipped)[0])
+        raise InputFormatError(f"{what} table, {_row(i)}: {col} {t.iloc[i]} does not exist in {timezone} (the clock "
+                               "skips that hour when it goes forward); is the logger's clock on that zone?")
+    second = t.dt.tz_localize(timezone, ambiguous=np.zeros(len(t), bool), nonexistent="NaT")
+    twice = (first != second).to_numpy()
+    if twice.any():
+        g = pd.DataFrame({"g": np.asarray(groups)[twice], "day": t[twice].dt.normalize().to_numpy(),
+                          "t": t[twice].to_numpy()})
+        before = g.groupby(["g", "day"], sort=False)["t"].cummax().groupby([g["g"], g["day"]], sort=False).shift()
+        later = np.zeros(len(t), bool)
+        later[np.flatnonzero(twice)] = (before >= g["t"]).to_numpy()
+        first = first.where(~later, second)
+    return first.dt.tz_convert("UTC").dt.tz_localize(None)
 
 
 def angle_noise(readings: pd.DataFrame) -> float:
@@ -255,7 +285,8 @@ def _clock_change_hint(r: pd.DataFrame, dups) -> str:
     if not many or ts.max() - ts.min() > pd.Timedelta(hours=1):
         return ""
     return (f" Most sensors repeat the time stamps from {ts.min()} to {ts.max()}: a logger in local time at a "
-            "daylight-saving change? Give the time stamps in UTC.")
+            "daylight-saving change? Give the loggers' zone (timezone='Europe/Paris'; CLI: --timezone), or the time "
+            "stamps in UTC.")
 
 
 def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
@@ -490,7 +521,7 @@ def _temperature_less(r: pd.DataFrame) -> str:
 
 def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
                   controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
-                  check_units: bool = True, temperature_fill: bool = True) -> SiteData:
+                  check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None) -> SiteData:
     """Validate the four tables of a site and return a :class:`SiteData`.
 
     Parameters
@@ -511,6 +542,11 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         takes its neighbours' temperature of the same minute (:func:`fill_temperature`, with a warning naming the
         sensors); False leaves an empty one out, as a reading without an angle is (a sensor without any temperature
         is then dead), and takes a stuck one as read.
+    timezone : str, optional
+        IANA zone (``Europe/Paris``) of the loggers' clocks: reading times without a UTC offset are local times of
+        it, converted to UTC (default: they are UTC). The hour the clock shows twice in autumn is read in each
+        sensor's order (:func:`_local_times`); a time it skips in spring is refused. Times with an offset are
+        instants whatever this says.
 
     Returns
     -------
@@ -530,7 +566,7 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     if angle_unit not in ("deg", "rad"):
         raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
     s = _valid_sensors(sensors)
-    r = _valid_readings(readings, s, angle_unit, check_units, warnings, temperature_fill)
+    r = _valid_readings(readings, s, angle_unit, check_units, warnings, temperature_fill, timezone)
     sv = _valid_survey(survey, s, warnings, check_units)
     ct = _valid_controls(controls, s, sv, warnings)
     return SiteData(sensors=s, readings=r, survey=sv, controls=ct, warnings=tuple(warnings))
@@ -570,11 +606,13 @@ def _valid_sensors(sensors: pd.DataFrame) -> pd.DataFrame:
 
 
 def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, check_units: bool,
-                    warnings: list, temperature_fill: bool = True) -> pd.DataFrame:
+                    warnings: list, temperature_fill: bool = True, timezone: str | None = None) -> pd.DataFrame:
     """The readings table: known sensors, one reading per (sensor, time), sorted, angles in degrees."""
     _require_columns(readings, READING_COLUMNS, "readings")
-    r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp"),
-                      "sensor_id": _ids(readings, "readings"),
+    ids = _ids(readings, "readings")
+    r = pd.DataFrame({"timestamp": _times(readings["timestamp"].to_numpy(), "readings", "timestamp",
+                                          timezone=timezone, groups=ids),
+                      "sensor_id": ids,
                       "angle_deg": _numeric(readings, "angle_deg", "readings", allow_nan=True),
                       "temperature_c": _numeric(readings, "temperature_c", "readings", allow_nan=True)})
     known = set(s["sensor_id"])

@@ -21,7 +21,7 @@ import pandas as pd
 from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
-from ..._validation import first_undecodable_line, utc_offset_mix
+from ..._validation import first_undecodable_line, time_zone, utc_offset_mix
 from ...errors import InputError, InputFormatError
 from .. import (
     ANGLE_RANGE_DEG,
@@ -148,7 +148,7 @@ def _apply_site_fields(site: Site, fields: dict):
             raise InputError(f"clock must be 'wall' or 'data'; got {fields['clock']!r}.")
         site.clock = fields["clock"]
     if "timezone" in fields:
-        site.timezone = _zone(fields["timezone"]).key
+        site.timezone = time_zone(fields["timezone"]).key
     if "settings" in fields:
         st = fields["settings"] or {}
         if not isinstance(st, dict):
@@ -156,17 +156,6 @@ def _apply_site_fields(site: Site, fields: dict):
         from ._recompute import check_settings
 
         site.settings_json = json.dumps(check_settings(st), sort_keys=True)
-
-
-def _zone(name):
-    """The IANA time zone ``name`` (``Europe/Paris``, ``UTC``) of a site's logger clocks; an unknown one refused."""
-    from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
-
-    try:
-        return ZoneInfo(str(name).strip() or "UTC")
-    except (ZoneInfoNotFoundError, ValueError):
-        raise InputError(f"unknown time zone {str(name)[:64]!r}: give an IANA name such as Europe/Paris, "
-                         "America/New_York or UTC.") from None
 
 
 def create_site(db: Database, actor: str, name: str, **fields) -> dict:
@@ -821,7 +810,7 @@ def _site_zone(db: Database, name: str):
     """The ``ZoneInfo`` of the site's logger clocks (None for UTC); an unknown site is refused."""
     with db.read() as s:
         key = _site(s, name).timezone or "UTC"
-    return None if key == "UTC" else _zone(key)
+    return None if key == "UTC" else time_zone(key)
 
 
 def _existing_readings(s, keys) -> dict:
