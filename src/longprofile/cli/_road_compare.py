@@ -25,9 +25,9 @@ def compare_command(
     max_offset: float = typer.Option(5.0, "--max-offset", help="Largest distance offset searched, m."),
     spacing: float = typer.Option(None, "--spacing", help="Resample every profile to this step, m (needed when "
                                   "the files have different or irregular sample intervals)."),
-    repeatability: float = typer.Option(None, "--repeatability", help="Repeatability threshold (default 0.92, "
-                                        "AASHTO R 56 as recalled)."),
-    accuracy: float = typer.Option(None, "--accuracy", help="Accuracy threshold (default 0.90)."),
+    repeatability: float = typer.Option(None, "--repeatability", help="Repeatability threshold, a rating in (0, 1] "
+                                        "(default 0.92, AASHTO R 56 as recalled)."),
+    accuracy: float = typer.Option(None, "--accuracy", help="Accuracy threshold, a rating in (0, 1] (default 0.90)."),
     elevation_unit: str = typer.Option(None, "--elevation-unit", help="Elevation unit of columns without one "
                                        "(m, mm, cm, in, ft)."),
     overwrite: bool = OVERWRITE,
@@ -57,9 +57,11 @@ def compare_command(
     res = certify_profiler(ref, profiles, tracks=tracks, filter=filter, band=bands, max_offset=max_offset,
                            spacing=spacing, thresholds=thresholds or None, names=[Path(r).name for r in runs])
     write_compare_report(res, out, reference=reference, runs=runs, plot=plot, overwrite=overwrite)
+    for w in res.warnings:
+        console.print(f"[yellow]warning:[/yellow] {w}", highlight=False, soft_wrap=True)
     for t in res.accuracy:
         rep = res.repeatability[t]
-        rep_text = "n/a (one run)" if rep != rep else f"{rep:.3f} (>= {res.thresholds['repeatability']:g})"
+        rep_text = "not judged (one run)" if rep != rep else f"{rep:.3f} (>= {res.thresholds['repeatability']:g})"
         console.print(f"{t}: accuracy {res.accuracy[t]:.3f} (>= {res.thresholds['accuracy']:g}), "
                       f"repeatability {rep_text}", markup=False, soft_wrap=True)
     short = res.runs[res.runs["coverage"] < MIN_REFERENCE_COVERAGE]

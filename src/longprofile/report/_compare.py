@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from ._html import REPORT_FILES, report_folder, write_csv, write_text
@@ -41,8 +42,9 @@ def write_compare_report(result, outdir, *, reference=None, runs=(), plot: bool 
     summary = {"reference": None if reference is None else str(reference), "runs": [str(r) for r in runs],
                "passed": result.passed, "repeatability": result.repeatability, "accuracy": result.accuracy,
                "reference_iri_m_per_km": result.reference_iri, "thresholds": result.thresholds,
-               "metadata": result.metadata}
-    written.append(write_text(out / "summary.json", json.dumps(summary, indent=2, default=float)))
+               "warnings": list(getattr(result, "warnings", ())), "metadata": result.metadata}
+    written.append(write_text(out / "summary.json", json.dumps(_finite(summary), indent=2, default=float,
+                                                                allow_nan=False)))
     if plot:
         from ._acceptance import plot_certification
         from ._render import draw
@@ -50,3 +52,15 @@ def write_compare_report(result, outdir, *, reference=None, runs=(), plot: bool 
         # by the command's figure helper when one runs (report/_render.py)
         written.append(draw(plot_certification, result, result.comparisons, out / "correlation.png"))
     return written
+
+
+def _finite(obj):
+    """``obj`` with every non-finite float as None: strict JSON (a bare ``NaN``, e.g. the repeatability of a single
+    run, is refused by JavaScript's parser)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj

@@ -190,7 +190,82 @@ def test_a_run_must_cover_the_reference_to_certify(long_profile, keep, passed):
     x = long_profile.distance
     cut = x <= x[0] + keep * (x[-1] - x[0])
     run = Profile(x[cut], long_profile.elevation[cut], tracks=long_profile.tracks)
-    res = certify_profiler(long_profile, [run])
+    noise = 1e-4 * np.random.default_rng(0).standard_normal(long_profile.elevation[cut].shape)
+    again = Profile(x[cut], long_profile.elevation[cut] + noise, tracks=long_profile.tracks)  # a second run
+    res = certify_profiler(long_profile, [run, again])
     assert res.runs["coverage"].iloc[0] == pytest.approx(keep, abs=0.02)
     assert res.accuracy[long_profile.tracks[0]] > 0.99  # the part it covers agrees
     assert res.passed is passed and (keep >= MIN_REFERENCE_COVERAGE) is passed
+
+
+def _runs(long_profile, gains, n=6000, noise=5e-5, shift=0):
+    """Runs of the same road: the reference times each gain, plus instrument noise (separate draws)."""
+    x, z = long_profile.distance, long_profile.elevation[:, 0]
+    ref = Profile(distance=x[:n], elevation=z[100:100 + n], tracks=("left",), name="ref")
+    rng = np.random.default_rng(11)
+    return ref, [Profile(distance=x[:n], elevation=g * (z[100 + shift:100 + shift + n] + rng.normal(0, noise, n)),
+                         tracks=("left",), name=f"run{i + 1}") for i, g in enumerate(gains)]
+
+
+@settings(max_examples=15, deadline=None)
+@given(gain=st.floats(0.001, 4.0))
+def test_the_rating_penalises_an_amplitude_error_as_the_rms_ratio(long_profile, gain):
+    """Oracle: the rating of ``gain x reference`` is ``rho x min(a, 1/a)`` with rho and the RMS ratio a of the
+    filtered profiles summed directly (session 36: a run at half the reference's amplitude, or a thousandth of it,
+    metres under a mm label, was certified with rho 0.9998)."""
+    ref, (run,) = _runs(long_profile, [gain], noise=0.0)
+    c = compare_profiles(ref, run, max_offset=0.0)
+    p, q = filter_for_comparison(ref, "left"), filter_for_comparison(run, "left")
+    rho = np.sum(p * q) / np.sqrt(np.sum(p * p) * np.sum(q * q))
+    a = np.sqrt(np.sum(q * q) / np.sum(p * p))
+    assert c.rating == pytest.approx(rho * min(a, 1 / a), rel=1e-9)
+    assert c.rating == pytest.approx(min(gain, 1 / gain), rel=1e-6)
+    assert c.correlation == pytest.approx(1.0, abs=1e-9)  # the shape alone agrees
+
+
+@pytest.mark.parametrize(("gains", "passed"), [((1.0, 1.0, 1.0), True), ((1.03, 0.98, 1.0), True),
+                                               ((0.5, 0.5, 0.5), False), ((1e-3, 1e-3, 1e-3), False)])
+def test_certification_judges_amplitude(long_profile, gains, passed):
+    ref, runs = _runs(long_profile, gains)
+    res = certify_profiler(ref, runs)
+    assert res.passed is passed
+    assert np.allclose(res.runs["shape_correlation"], 1.0, atol=0.01)  # shape agrees in every case
+    assert np.allclose(res.runs["accuracy_correlation"], [min(g, 1 / g) for g in gains], atol=0.01)
+
+
+def test_an_alignment_beyond_the_search_is_named_with_the_fix(long_profile):
+    ref, runs = _runs(long_profile, [1.0, 1.0], shift=140)  # 7 m further on than the stations say
+    res = certify_profiler(ref, runs)
+    assert not res.passed and any("+7.00 m, outside the +-5 m search" in w and "max_offset" in w
+                                  for w in res.warnings)
+    wide = certify_profiler(ref, runs, max_offset=10.0)
+    assert wide.passed and not wide.warnings
+
+
+def test_one_run_identical_runs_missing_tracks_and_percent_thresholds(long_profile):
+    ref, runs = _runs(long_profile, [1.0, 1.0])
+    one = certify_profiler(ref, runs[:1])
+    assert not one.passed and any("one run" in w for w in one.warnings)
+    with pytest.raises(InputError, match="identical"):
+        certify_profiler(ref, [runs[0], runs[0]])
+    two = Profile(ref.distance, np.column_stack([ref.elevation[:, 0], ref.elevation[:, 0]]), tracks=("left", "right"))
+    res = certify_profiler(two, runs)
+    assert list(res.accuracy) == ["left"] and any("'right' is not in every run" in w for w in res.warnings)
+    with pytest.raises(InputError, match=r"a correlation in \(0, 1\].*0.90"):
+        certify_profiler(ref, runs, thresholds={"accuracy": 90})
+
+
+def test_a_flat_profile_is_named_and_the_summary_is_strict_json(tmp_path, long_profile):
+    import json
+
+    from longprofile.report import write_compare_report
+
+    ref, runs = _runs(long_profile, [1.0, 1.0])
+    dead = Profile(ref.distance, np.zeros_like(ref.elevation), tracks=("left",), name="dead")
+    with pytest.raises(InputError, match="flat after the iri filter"):
+        compare_profiles(dead, dead)
+    res = certify_profiler(ref, runs[:1])
+    write_compare_report(res, tmp_path / "c")
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text(),
+                         parse_constant=lambda c: pytest.fail(f"non-standard JSON constant {c}"))
+    assert summary["repeatability"]["left"] is None and summary["warnings"]

@@ -40,7 +40,12 @@ class ProfileComparison:
     Attributes
     ----------
     correlation : float
-        Normalised cross-correlation of the filtered profiles at the best offset (1 = identical shape).
+        Normalised cross-correlation of the filtered profiles at the best offset (1 = identical shape, whatever
+        the amplitudes).
+    rating : float
+        Karamihas' rating at the best offset: ``correlation`` times the smaller over the larger RMS of the two
+        filtered profiles (1 = identical shape and amplitude; a run at half the reference's amplitude rates at most
+        0.5). What certification judges (ASSUMPTION on the exact form, docs/road-acceptance.md).
     offset : float
         Distance to add to the run's stations to align it with the reference, m (a multiple of the step).
     correlation_at_zero : float
@@ -50,8 +55,12 @@ class ProfileComparison:
     overlap : float
         Length compared at the best offset, m.
     lags : (L,) ndarray
-        Offsets searched, m; ``curve`` (L,) the correlation at each.
+        Offsets searched, m; ``curve`` (L,) the correlation at each, ``rating_curve`` (L,) the rating.
     track, filter : str
+    outside : tuple of float, optional
+        ``(offset, rating)`` of an alignment beyond ``max_offset`` (searched up to :data:`OUTSIDE_SEARCH` times as
+        far) that rates better than the best within by more than 0.05: the stations are further apart than the
+        search allowed (widen it). None otherwise.
     """
 
     correlation: float
@@ -63,6 +72,9 @@ class ProfileComparison:
     curve: np.ndarray
     track: str
     filter: str
+    rating: float = float("nan")
+    rating_curve: np.ndarray | None = None
+    outside: tuple | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,11 +97,14 @@ class CertificationResult:
         Per track: IRI of the reference over the whole profile, m/km.
     thresholds : dict
     passed : bool
-        Every track meets both thresholds (repeatability is not judged with a single run) and every run covers at
-        least :data:`MIN_REFERENCE_COVERAGE` of the reference.
+        At least two runs, every track meets both thresholds (on Karamihas' rating, amplitude included) and every
+        run covers at least :data:`MIN_REFERENCE_COVERAGE` of the reference.
     metadata : dict
     comparisons : dict
         ``{(run, track): ProfileComparison}`` of each run against the reference (correlation curves).
+    warnings : tuple of str
+        What the verdict leaves out or may have missed: a reference track not in every run, a best offset at the
+        edge of the search, a single run.
     """
 
     runs: pd.DataFrame
@@ -101,7 +116,12 @@ class CertificationResult:
     passed: bool
     metadata: dict = field(default_factory=dict)
     comparisons: dict = field(default_factory=dict)
+    warnings: tuple = ()
 
+
+#: How far beyond ``max_offset`` a comparison looks for a better alignment to name (a multiple of it): a start
+#: offset the search missed is then reported with the fix instead of a bare FAIL (session 36, a probe).
+OUTSIDE_SEARCH = 4
 
 #: A run certified against a reference must overlap this share of the reference's length (a longprofile
 #: assumption): a 2 km run passed against a 10 km reference on the 2 km it covers, without a word (session 35).
@@ -264,9 +284,10 @@ def compare_profiles(reference: Profile, run: Profile, *, track: str | None = No
     comparison of profiles"; Karamihas, "Critical profiler accuracy requirements", UMTRI 2005; AASHTO R 56
     Appendix X1): both profiles pass through the filter of the index of interest and the agreement is the
     normalised cross-correlation ``rho = sum p_i q_i / sqrt(sum p_i^2 sum q_i^2)`` over the overlapping
-    samples, at the offset that maximises it. Karamihas' published rating also penalises a difference in
-    amplitude; longprofile reports that as ``amplitude_ratio`` separately and rates on ``rho`` (ASSUMPTION:
-    the exact penalised form was not confirmed; see docs/road-acceptance.md).
+    samples. Karamihas' rating also penalises a difference in amplitude: ``rating = rho * min(a, 1 / a)``, ``a``
+    the RMS ratio of the filtered profiles (ASSUMPTION on the exact form, docs/road-acceptance.md; until session 36
+    longprofile rated on ``rho`` alone, and a run at half or a thousandth of the reference's amplitude passed). The
+    best offset is the one that maximises the rating.
     """
     if spacing is not None:
         reference, run = resample_profile(reference, spacing), resample_profile(run, spacing)
@@ -286,17 +307,44 @@ def compare_profiles(reference: Profile, run: Profile, *, track: str | None = No
     l0 = int(np.round(nominal))
     half = int(np.floor(max_offset / dr + 1e-9))
     min_n = max(2, int(np.ceil(min_overlap * min(p.size, q.size))))
-    lags, rho, ratio, n = _xcorr(p, q, l0 - half, l0 + half, min_n)
+    _refuse_flat(p, reference, track, filter)
+    _refuse_flat(q, run, track, filter)
+    wide = OUTSIDE_SEARCH * half if half > 0 else 0
+    lags, rho, ratio, n = _xcorr(p, q, l0 - wide, l0 + wide, min_n)
+    rating = rho * np.minimum(ratio, 1.0 / ratio)
+    inside = np.abs(lags - l0) <= half
+    outside = _better_outside(rating, inside, (nominal - lags) * dr)
+    lags, rho, ratio, n, rating = lags[inside], rho[inside], ratio[inside], n[inside], rating[inside]
     if not np.isfinite(rho).any():
         raise InputError(f"the profiles do not overlap by {min_overlap:.0%} of the shorter one within "
                          f"+-{max_offset:g} m of their station alignment (reference {reference.distance[0]:g} .. "
                          f"{reference.distance[-1]:g} m, run {run.distance[0]:g} .. {run.distance[-1]:g} m).")
-    best = int(np.nanargmax(rho))
+    best = int(np.nanargmax(rating))
     offsets = (nominal - lags) * dr
     zero = int(np.argmin(np.abs(lags - l0)))
     return ProfileComparison(correlation=float(rho[best]), offset=float(offsets[best]),
                              correlation_at_zero=float(rho[zero]), amplitude_ratio=float(ratio[best]),
-                             overlap=float(n[best] * dr), lags=offsets, curve=rho, track=track, filter=str(filter))
+                             overlap=float(n[best] * dr), lags=offsets, curve=rho, track=track, filter=str(filter),
+                             rating=float(rating[best]), rating_curve=rating, outside=outside)
+
+
+def _better_outside(rating: np.ndarray, inside: np.ndarray, offsets: np.ndarray) -> tuple | None:
+    """``(offset, rating)`` of the best alignment outside the search when it rates better than the best inside by
+    more than 0.05; else None."""
+    if inside.all() or not np.isfinite(rating[~inside]).any():
+        return None
+    best_in = np.nanmax(rating[inside]) if np.isfinite(rating[inside]).any() else -np.inf
+    k = int(np.nanargmax(np.where(inside, np.nan, rating)))
+    return (float(offsets[k]), float(rating[k])) if rating[k] > best_in + 0.05 else None
+
+
+def _refuse_flat(filtered: np.ndarray, profile: Profile, track: str, filter: str) -> None:
+    """Refuse a profile whose filtered track is zero throughout (a flat or dead-sensor profile: nothing to
+    correlate; it was reported as "do not overlap")."""
+    if not np.any(filtered):
+        name = profile.name or "a profile"
+        raise InputError(f"{name}: track {track!r} is flat after the {filter} filter (every filtered value 0: a "
+                         "constant or dead-sensor profile?); nothing to compare.")
 
 
 def _section_iri(profile: Profile, track: str) -> float:
@@ -316,7 +364,8 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
     reference : Profile
         Reference profile (e.g. from a reference device).
     runs : sequence of Profile
-        Repeated runs of the profiler under test (R 56 asks for ten; any number >= 1 is accepted).
+        Repeated runs of the profiler under test (R 56 asks for ten; one is compared with the reference, but only two or
+        more can pass, repeatability being judged on them).
     tracks : str or sequence of str, optional
         Tracks to judge (default: the reference's tracks present in every run).
     filter, band, max_offset, spacing
@@ -339,14 +388,22 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
         if unknown:
             raise InputError(f"unknown threshold key {unknown[0]!r}; use {sorted(R56_THRESHOLDS)}.")
         th.update({k: float(v) for k, v in thresholds.items()})
+        bad = [k for k, v in th.items() if not 0 < v <= 1]
+        if bad:
+            raise InputError(f"the {bad[0]} threshold must be a correlation in (0, 1]; got {th[bad[0]]:g} "
+                             "(a percentage? 90 % is 0.90).")
     labels = list(names) if names is not None else [r.name or f"run{i + 1}" for i, r in enumerate(runs)]
     if len(labels) != len(runs):
         raise InputError(f"names gives {len(labels)} label(s) for {len(runs)} run(s).")
+    _refuse_copies(runs, labels)
     if spacing is not None:
         reference = resample_profile(reference, spacing)
         runs = [resample_profile(r, spacing) for r in runs]
+    notes = []
     if tracks is None:
         tracks = [t for t in reference.tracks if all(t in r.tracks for r in runs)]
+        notes += [f"the reference's track {t!r} is not in every run ({', '.join(lab for lab, r in zip(labels, runs) if t not in r.tracks)}): "
+                  "not judged" for t in reference.tracks if t not in tracks and tracks]
         if not tracks:
             lab, run = next((lab, r) for lab, r in zip(labels, runs) if not set(reference.tracks) & set(r.tracks))
             raise InputError(f"no track of the reference {list(reference.tracks)} is in every run: {lab} has "
@@ -363,24 +420,54 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
         for lab, r in zip(labels, runs):
             c = compare_profiles(reference, r, track=t, **kw)
             comps[(lab, t)] = c
-            cs.append(c.correlation)
-            run_rows.append({"run": lab, "track": t, "offset_m": c.offset, "accuracy_correlation": c.correlation,
-                             "correlation_at_zero": c.correlation_at_zero, "amplitude_ratio": c.amplitude_ratio,
-                             "iri_m_per_km": _section_iri(r, t), "coverage": c.overlap / ref_length})
+            cs.append(c.rating)
+            notes += _edge_note(c, lab, "the reference", max_offset)
+            run_rows.append({"run": lab, "track": t, "offset_m": c.offset, "accuracy_correlation": c.rating,
+                             "shape_correlation": c.correlation, "correlation_at_zero": c.correlation_at_zero,
+                             "amplitude_ratio": c.amplitude_ratio, "iri_m_per_km": _section_iri(r, t),
+                             "coverage": c.overlap / ref_length})
         acc[t] = float(np.mean(cs))
         ps = []
         for (la, a), (lb, b) in combinations(zip(labels, runs), 2):
             c = compare_profiles(a, b, track=t, **kw)
-            ps.append(c.correlation)
-            pair_rows.append({"run_a": la, "run_b": lb, "track": t, "offset_m": c.offset, "correlation": c.correlation})
+            ps.append(c.rating)
+            notes += _edge_note(c, lb, la, max_offset)
+            pair_rows.append({"run_a": la, "run_b": lb, "track": t, "offset_m": c.offset, "correlation": c.rating,
+                              "shape_correlation": c.correlation})
         rep[t] = float(np.mean(ps)) if ps else float("nan")
     covered = all(row["coverage"] >= MIN_REFERENCE_COVERAGE for row in run_rows)
-    passed = covered and all(acc[t] >= th["accuracy"] and (np.isnan(rep[t]) or rep[t] >= th["repeatability"])
-                             for t in tracks)
+    if len(runs) < 2:
+        notes.append("one run: repeatability is not judged, so the profiler is not certified (AASHTO R 56 asks for "
+                     "repeated runs)")
+    passed = covered and len(runs) >= 2 and all(acc[t] >= th["accuracy"] and rep[t] >= th["repeatability"]
+                                                for t in tracks)
     meta = {"method": "Karamihas cross-correlation (UMTRI 2002/2005), AASHTO R 56 practice", "filter": str(filter),
             "band_m": None if band is None else [float(b) for b in band], "max_offset_m": float(max_offset),
             "spacing_m": None if spacing is None else float(spacing), "n_runs": len(runs),
-            "thresholds_source": "AASHTO R 56-14 as recalled (ASSUMPTION, see docs/road-acceptance.md)"}
+            "thresholds_source": "AASHTO R 56-14 as recalled (ASSUMPTION, see docs/road-acceptance.md)",
+            "rating": "shape correlation x smaller / larger RMS of the filtered profiles (ASSUMPTION on the form)"}
     return CertificationResult(runs=pd.DataFrame(run_rows), pairs=pd.DataFrame(pair_rows, columns=[
-        "run_a", "run_b", "track", "offset_m", "correlation"]), repeatability=rep, accuracy=acc,
-        reference_iri=ref_iri, thresholds=th, passed=bool(passed), metadata=meta, comparisons=comps)
+        "run_a", "run_b", "track", "offset_m", "correlation", "shape_correlation"]), repeatability=rep, accuracy=acc,
+        reference_iri=ref_iri, thresholds=th, passed=bool(passed), metadata=meta, comparisons=comps,
+        warnings=tuple(notes))
+
+
+def _edge_note(c: ProfileComparison, run: str, against: str, max_offset: float) -> list[str]:
+    """A note when a comparison aligns better beyond the searched offsets (:attr:`ProfileComparison.outside`)."""
+    if c.outside is None:
+        return []
+    return [f"{run} against {against}, track {c.track!r}: rated {c.rating:.3f} at {c.offset:+.2f} m but "
+            f"{c.outside[1]:.3f} at {c.outside[0]:+.2f} m, outside the +-{max_offset:g} m search: the stations "
+            "differ by more than the search allows; widen max_offset (CLI: --max-offset)"]
+
+
+def _refuse_copies(runs, labels) -> None:
+    """Refuse two runs with identical stations and elevations (the same file given twice counts as a perfect
+    repeat)."""
+    seen = {}
+    for lab, r in zip(labels, runs):
+        key = (tuple(r.tracks), r.distance.tobytes(), np.asarray(r.elevation).tobytes())
+        if key in seen:
+            raise InputError(f"runs {seen[key]} and {lab} are identical (the same file twice?): repeatability needs "
+                             "separate runs.")
+        seen[key] = lab
