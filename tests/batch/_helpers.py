@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,6 +52,14 @@ def boom(path):
     if "bad" in str(path):
         raise ZeroDivisionError("boom on " + str(path))
     return str(path).upper()
+
+
+def busy_for_a_minute(path):
+    """A worker busy with a long file: writes its pid to ``path`` (atomically), then sleeps 60 s."""
+    tmp = f"{path}.tmp"
+    Path(tmp).write_text(str(os.getpid()))
+    os.replace(tmp, path)
+    time.sleep(60.0)
 
 
 def comparable(frame):

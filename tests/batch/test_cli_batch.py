@@ -95,7 +95,7 @@ def test_us_units_flow_through_to_the_dataset_and_the_report(surveys, tmp_path):
 def test_dask_scheduler_address(surveys, tmp_path, capsys):
     distributed = pytest.importorskip("distributed", reason="dask[distributed] not installed "
                                                             "(pip install longprofile[dask])")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None,
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0",
                                   protocol="tcp", host="127.0.0.1") as cluster:  # a tcp:// address on loopback
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         code = main(["batch", "iri", str(surveys / "surveys" / "**" / "lane*"), "-o", str(tmp_path / "d"),
@@ -150,3 +150,17 @@ def test_ctrl_c_is_one_line_exit_130_and_resume_finishes(surveys, tmp_path, caps
     monkeypatch.setattr(batch, "run_batch", real)
     assert main(args + ["--resume"]) == 0
     assert "2 ok, 0 failed, 1 skipped of 3 file(s)" in capsys.readouterr().err
+
+
+def test_a_dangling_link_in_the_pattern_is_a_failed_file_exit_3(surveys, tmp_path, capsys):
+    """It was left out silently (session 35): now the run goes on, and the link is a failed row saying why."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for f in (surveys / "surveys").rglob("lane*"):
+        (folder / f.name).symlink_to(f)
+    (folder / "moved.erd").symlink_to(tmp_path / "elsewhere.erd")
+    code = main(["batch", "iri", str(folder / "*"), "-o", str(tmp_path / "r"), "--scheduler", "serial"])
+    assert code == EXIT_SOME_FAILED
+    assert "some files failed: batch iri: 3 ok, 1 failed" in capsys.readouterr().err
+    m = read_results(tmp_path / "r").manifest.set_index("path")
+    assert "dangling symbolic link" in m.loc[str(folder / "moved.erd"), "error"]

@@ -11,7 +11,7 @@ from longprofile.batch import IRITask, ReconstructTask, error_message, map_files
 from longprofile.batch._map import _worker_info
 from longprofile.errors import DependencyError, InputError, UnitsError
 
-from ._helpers import boom, expected_allocator_status
+from ._helpers import boom, busy_for_a_minute, expected_allocator_status
 
 
 @settings(max_examples=40)
@@ -65,6 +65,32 @@ def test_allocator_tuning_can_be_switched_off_and_is_never_applied_to_the_caller
     assert {r.value["allocator"] for r in res[1:]} == {None} and _alloc.memory_status() is None
     monkeypatch.setattr(_alloc, "_STATE", {})
     assert _alloc.tune_process_memory() == "disabled" and _alloc.tune_process_memory() == "disabled"  # once, then cached
+
+
+@pytest.mark.parametrize("pool", ["open_executor", "process_executor"])
+def test_a_pool_left_by_an_exception_stops_its_busy_workers_at_once(tmp_path, pool):
+    """Ctrl-C (or an error) in the driver: the workers still computing are terminated, not waited for; the shutdown
+    waited for their files (minutes for a long survey), and a second Ctrl-C in that wait hung the driver (session 35)."""
+    import os
+    import time
+
+    started = tmp_path / "pid"
+    with pytest.raises(KeyboardInterrupt), (open_executor("processes", 1) if pool == "open_executor"
+                                            else process_executor(1)) as ex:
+        ex.submit(busy_for_a_minute, str(started))
+        deadline = time.monotonic() + 60.0
+        while not started.is_file() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        pid, t0 = int(started.read_text()), time.monotonic()
+        raise KeyboardInterrupt
+    assert time.monotonic() - t0 < 10.0  # SIGTERM: at once; the pool would have waited 60 s
+    while time.monotonic() - t0 < 10.0:  # and the worker is gone (reaped by the pool)
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"worker {pid} still running")
 
 
 def test_unknown_executor_and_scheduler_are_refused():
@@ -156,7 +182,7 @@ def test_dask_groups_files_per_task_yet_records_each_file_own_outcome():
     from longprofile.batch._map import dask_files_per_task
 
     paths = [f"{'bad' if i % 3 == 1 else 'good'}-{i}" for i in range(37)]  # 1 worker: tasks of 5, a short last one
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) \
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") \
             as cluster, distributed.Client(cluster) as client:
         submitted = []
         submit = client.submit

@@ -92,7 +92,7 @@ def test_dask_local_cluster_equals_serial_bit_for_bit(processes, network, serial
     distributed = pytest.importorskip("distributed", reason="dask[distributed] not installed "
                                                             "(pip install longprofile[dask])")
     _, files = network
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=processes, dashboard_address=None) \
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=processes, dashboard_address=":0") \
             as cluster, distributed.Client(cluster) as client:
         run_batch(IRITask(), files, tmp_path / "r", executor=client)
         if processes:  # each worker process tuned its allocator against the nanny's MALLOC_TRIM_THRESHOLD_
@@ -325,3 +325,28 @@ def test_an_earlier_output_in_the_tree_and_a_copy_of_a_survey_are_not_taken_as_n
     assert len(dup) == 1 and good[0].name in dup[0][1]
     run_batch(IRITask(), [p for p in inputs if p.suffix == ".erd"], out, resume=True)
     assert not list(out.rglob(".*.tmp"))
+
+
+def test_dangling_links_and_link_loops_matched_by_a_glob_are_failed_rows_saying_why(tmp_path):
+    """A glob matching a dangling symbolic link or a loop (a -> b -> a) left them out of the run without a manifest
+    row (session 35, a probe); given directly, a loop stopped run_batch with a RuntimeError."""
+    files = make_network(tmp_path / "in", 2, corrupt=False)
+    folder = files[0].parent
+    (folder / "gone.erd").symlink_to(folder / "deleted.erd")
+    (folder / "loop-a.erd").symlink_to("loop-b.erd")
+    (folder / "loop-b.erd").symlink_to("loop-a.erd")
+    (folder / "z-alias.erd").symlink_to(files[0])  # a working link: the file it names, taken once
+    inputs = expand_paths([str(tmp_path / "in" / "**" / "*")])
+    assert sorted(p.name for p in inputs) == sorted(["gone.erd", "loop-a.erd", "loop-b.erd", *(f.name for f in files)])
+    summary = run_batch(IRITask(), inputs, tmp_path / "r", executor="threads", workers=2)
+    assert (summary.n_ok, summary.n_error) == (2, 3)
+    m = read_manifest(tmp_path / "r")[0].set_index("route")
+    assert m.loc["R1/gone", "status"] == "error" and m.loc["R1/gone", "path"] == str(folder.resolve() / "gone.erd")
+    assert m.loc["R1/gone", "error"] == (f"{folder.resolve() / 'gone.erd'}: dangling symbolic link: "
+                                         f"{folder.resolve() / 'deleted.erd'} does not exist; restore the target or "
+                                         "remove the link.")
+    for name in ("loop-a", "loop-b"):
+        assert m.loc[f"R1/{name}", "status"] == "error"
+        assert m.loc[f"R1/{name}", "error"].startswith(f"{folder.resolve() / name}.erd: symbolic link loop (it points to ")
+    with pytest.raises(InputError, match="no such file"):
+        expand_paths([str(folder / "deleted.erd")])

@@ -7,9 +7,11 @@ initializer pins the BLAS thread count, which must happen before numpy is first 
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import threading
 import time
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
@@ -28,6 +30,10 @@ BLAS_ENV = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 SCHEDULERS = ("processes", "threads", "serial")
 _DASK_PREFIXES = ("tcp://", "tls://", "ucx://", "inproc://")
 _MAX_MESSAGE = 2000
+#: How often a pool worker checks that its driver process is still there, s.
+_DRIVER_POLL_SECONDS = 0.5
+#: How long an interrupted pool's workers get to end after SIGTERM before they are killed, s.
+_STOP_SECONDS = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,16 +104,44 @@ def _warm(func) -> None:
 
 
 @quiet_interrupt
-def _init_process_worker(func=None) -> None:
-    """Process-pool initializer: BLAS threads pinned to 1 (already so since exec, see _PinnedSpawnProcess), the
-    allocator tuned for repeated large arrays (:mod:`longprofile._memory`), then the task warmed once."""
+def _init_process_worker(func=None, driver: int | None = None) -> None:
+    """Process-pool initializer: SIGINT ignored and the worker tied to its driver (:func:`_follow_driver`), BLAS
+    threads pinned to 1 (already so since exec, see _PinnedSpawnProcess), the allocator tuned for repeated large
+    arrays (:mod:`longprofile._memory`), then the task warmed once."""
     global _NUMPY_BEFORE_INIT
+    _follow_driver(driver)
     _NUMPY_BEFORE_INIT = "numpy" in sys.modules
     for name in BLAS_ENV:
         os.environ[name] = "1"
     tune_process_memory()
     if func is not None:
         _warm(func)
+
+
+def _follow_driver(driver: int | None) -> None:
+    """A pool worker answers to its driver only: SIGINT ignored (a terminal's Ctrl-C reaches the whole process group;
+    each worker printed a traceback, session 35), and the worker ends when the driver is gone (kill -9 of the driver
+    left its workers running), by :func:`_watch_driver` in a daemon thread."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # blocked from exec (_PinnedSpawnProcess); ignored from now on
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    if driver is None:
+        return
+    if os.getppid() != driver:  # the driver died while this worker started
+        os._exit(1)
+    threading.Thread(target=_watch_driver, args=(driver,), name="longprofile-watch-driver", daemon=True).start()
+
+
+def _watch_driver(driver: int, period: float = _DRIVER_POLL_SECONDS) -> None:
+    """End this process at once when its parent is no longer ``driver`` (the driver died: the worker was re-parented).
+
+    Polling ``getppid`` rather than ``prctl(PR_SET_PDEATHSIG)``: the death signal follows the *thread* that started
+    the worker (the one that called ``submit``, CPython 3.11), which may end long before the driver does.
+    """
+    while True:
+        time.sleep(period)
+        if os.getppid() != driver:
+            os._exit(1)
 
 
 def _worker_info(_path=None) -> dict:
@@ -126,19 +160,25 @@ _ENV_LOCK = threading.Lock()
 
 
 class _PinnedSpawnProcess(SpawnProcess):
-    """A ``spawn`` process exec'd with the BLAS variables set to 1.
+    """A ``spawn`` process exec'd with the BLAS variables set to 1 and SIGINT blocked.
 
-    Setting them in the initializer is too late when the parent's ``__main__`` (re-run by ``spawn``) imports
-    numpy; so they are exported, under a lock, only for the instant of the exec, then restored here.
+    Setting the variables in the initializer is too late when the parent's ``__main__`` (re-run by ``spawn``)
+    imports numpy; so they are exported, under a lock, only for the instant of the exec, then restored here. SIGINT
+    is blocked in this thread for that instant too: the child inherits the mask, so a Ctrl-C while it starts up
+    (before its initializer ignores SIGINT) is never delivered to it; here it waits until the mask is restored.
     """
 
     def start(self):
         with _ENV_LOCK:
             saved = {name: os.environ.get(name) for name in BLAS_ENV}
             os.environ.update({name: "1" for name in BLAS_ENV})
+            mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if hasattr(signal, "pthread_sigmask") \
+                else None
             try:
                 super().start()
             finally:
+                if mask is not None:
+                    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
                 for name, value in saved.items():
                     if value is None:
                         os.environ.pop(name, None)
@@ -331,6 +371,10 @@ def process_executor(max_workers: int | None = None, *, warm=None):
     is left as it was). Their initializer then calls ``warm.warm()`` once (e.g. a task run on a tiny synthetic
     profile, which compiles or loads the numba kernels) so the first file is not charged for it.
 
+    The workers ignore SIGINT (Ctrl-C is this process's to answer) and end by themselves within a second when this
+    process dies, even by ``kill -9``. A ``with`` block on the pool left by an exception (``KeyboardInterrupt``
+    included) terminates the workers still computing instead of waiting for their files.
+
     As with any ``spawn`` pool, a script that creates one must guard its work with
     ``if __name__ == "__main__":``.
 
@@ -341,11 +385,19 @@ def process_executor(max_workers: int | None = None, *, warm=None):
     warm : object with a ``warm()`` method, optional
         Usually the task the pool will run.
     """
-    from concurrent.futures import ProcessPoolExecutor
-
     workers = default_workers() if max_workers is None else _positive_workers(max_workers)
-    return ProcessPoolExecutor(max_workers=workers, mp_context=_PinnedSpawnContext(),
-                               initializer=_init_process_worker, initargs=(warm,))
+    return _StoppingPool(max_workers=workers, mp_context=_PinnedSpawnContext(), initializer=_init_process_worker,
+                         initargs=(warm, os.getpid()))
+
+
+class _StoppingPool(ProcessPoolExecutor):
+    """A process pool whose ``with`` block, left by an exception, stops the workers at once (:func:`_stop_pool`)."""
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            return super().__exit__(exc_type, exc, tb)
+        _stop_pool(self)
+        return False
 
 
 def _positive_workers(n) -> int:
@@ -404,6 +456,11 @@ def open_executor(scheduler: str = "processes", workers: int | None = None, *, w
     Yields
     ------
     concurrent.futures.Executor, dask.distributed.Client or None
+
+    Notes
+    -----
+    Left normally, the pool is shut down once its calls are done; left by an exception (``KeyboardInterrupt``
+    included), a process pool's workers still computing are terminated at once (:func:`_stop_pool`).
     """
     check_scheduler(scheduler)
     if workers is not None:
@@ -426,5 +483,49 @@ def open_executor(scheduler: str = "processes", workers: int | None = None, *, w
         return
     try:
         yield ex
-    finally:
+    except BaseException:  # an error or Ctrl-C: the files in progress are abandoned, not waited for
+        _stop_pool(ex)
+        raise
+    ex.shutdown(wait=True, cancel_futures=True)
+
+
+def _stop_pool(ex, timeout: float = _STOP_SECONDS) -> None:
+    """Shut ``ex`` down without waiting for the calls in progress: a process pool's workers are terminated (killed if
+    still there after ``timeout`` s); a thread pool's running calls cannot be stopped and are waited for."""
+    from multiprocessing.connection import wait
+
+    if not isinstance(ex, ProcessPoolExecutor):
         ex.shutdown(wait=True, cancel_futures=True)
+        return
+    # ProcessPoolExecutor._processes and ._executor_manager_thread are private (CPython 3.8-3.14; 3.14's public
+    # terminate_workers() does the same but waits for nothing): read before shutdown() drops them; missing, the
+    # workers finish their files as before. The manager thread ends once the workers have; joined so that the
+    # command's fast exit is not given up for it (cli/app.py, run).
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    manager = getattr(ex, "_executor_manager_thread", None)
+    ex.shutdown(wait=False, cancel_futures=True)
+    left = _signal_processes(procs)
+    deadline = time.monotonic() + timeout
+    while left and deadline > time.monotonic():  # a sentinel is ready once its process has ended
+        for ended in wait(list(left), max(0.0, deadline - time.monotonic())):
+            left.pop(ended)
+    if left:
+        _signal_processes(left.values(), kill=True)
+    if manager is not None and manager.is_alive():
+        manager.join(max(1.0, deadline - time.monotonic()))
+
+
+def _signal_processes(procs, *, kill: bool = False) -> dict:
+    """Terminate (or kill) each process still there; returns {sentinel: process} of those signalled.
+
+    Their sentinels rather than ``join``: the pool's own manager thread reaps its workers too, and the thread that
+    loses that race sees no exit status."""
+    sent = {}
+    for p in procs:
+        try:
+            if p.exitcode is None:
+                (p.kill if kill else p.terminate)()
+                sent[p.sentinel] = p
+        except (OSError, ValueError):  # gone (ProcessLookupError), or the Process object already closed
+            pass
+    return sent

@@ -13,11 +13,13 @@ interrupted run therefore leaves, at worst, partitions whose files ``--resume`` 
 
 from __future__ import annotations
 
+import errno
 import glob
 import hashlib
 import json
 import os
 import shutil
+import signal
 import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
@@ -26,6 +28,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 from urllib.parse import quote
 
+from .._interrupt import interrupt_once
 from ..errors import InputError, InputFormatError, OutputError
 from ._map import _WARM_LOCK, _WARMED, check_scheduler, error_message, iter_files, open_executor
 from ._tasks import options_hash
@@ -114,7 +117,8 @@ def expand_paths(patterns: Iterable[str]) -> list[Path]:
     """Files matched by glob patterns (``**`` = any depth), sorted per pattern, duplicates dropped.
 
     A pattern without wildcard is a file name that must exist. Raises :class:`InputError` for a pattern
-    matching no file or naming a folder.
+    matching no file or naming a folder. A symbolic link that cannot be followed (dangling, or a loop) is kept: the
+    batch gives it a failed manifest row saying why (:func:`_link_problem`), where it used to vanish from the run.
     """
     if isinstance(patterns, (str, os.PathLike)):
         patterns = [patterns]
@@ -122,19 +126,19 @@ def expand_paths(patterns: Iterable[str]) -> list[Path]:
     for pattern in patterns:
         pattern = os.fspath(pattern)
         if glob.has_magic(pattern):
-            found = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p))
+            found = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p) or _link_problem(p))
             found = [p for p in found if not _in_results_folder(p)]  # an earlier batch's output in the tree
             if not found:
                 raise InputError(f"{pattern!r} matches no file; check the folder, and quote the pattern so that "
                                  "longprofile expands it ('surveys/**/*.erd').")
         elif os.path.isdir(pattern):
             raise InputError(f"{pattern} is a folder; give a pattern such as '{Path(pattern) / '**' / '*.erd'}'.")
-        elif not os.path.isfile(pattern):
+        elif not os.path.isfile(pattern) and not _link_problem(pattern):
             raise InputError(f"{pattern}: no such file.")
         else:
             found = [pattern]
         for p in found:
-            key = os.path.realpath(p)
+            key = _input_path(p)
             if key not in seen:
                 seen.add(key)
                 out.append(Path(p))
@@ -144,10 +148,40 @@ def expand_paths(patterns: Iterable[str]) -> list[Path]:
 def _in_results_folder(path: str) -> bool:
     """Whether a file lies in a batch results folder (one of its folders holds a manifest): a pattern over a survey
     tree that also holds an earlier run's output matched its partitions and manifest as surveys (session 35)."""
-    for parent in Path(path).resolve().parents:
+    for parent in _input_path(path).parents:
         if (parent / MANIFEST).is_file():
             return True
     return False
+
+
+def _input_path(path) -> Path:
+    """Absolute path of an input with its symbolic links followed; a link that cannot be followed (dangling, a loop)
+    stays itself, in its resolved folder."""
+    p = Path(path)
+    try:
+        return p.resolve(strict=True)
+    except (OSError, RuntimeError):  # missing, dangling, or a loop (RuntimeError up to Python 3.12)
+        return p.parent.resolve() / p.name
+
+
+def _link_problem(path) -> str:
+    """Why ``path``, a symbolic link, cannot be followed (one line); "" when it can or is no link.
+
+    Followed link by link (``realpath``), not by the kernel: a folder's link to its parent, met by ``**`` 40 levels
+    deep, exceeds the kernel's 40 links per path without being a loop."""
+    if not os.path.islink(path):
+        return ""
+    try:
+        os.path.realpath(path, strict=True)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return (f"{path}: symbolic link loop (it points to {os.readlink(path)}, and the chain of links never "
+                    "reaches a file); fix or remove the link.")
+        if exc.errno == errno.ENOENT:
+            return (f"{path}: dangling symbolic link: {os.path.realpath(path)} does not exist; restore the target or "
+                    "remove the link.")
+        return f"{path}: the symbolic link to {os.readlink(path)} cannot be followed ({exc.strerror})."
+    return ""
 
 
 def _route_ids(paths: list[Path]) -> list[str]:
@@ -181,6 +215,9 @@ class _Job:
         self.task.warm()
 
     def __call__(self, path):
+        problem = _link_problem(path)
+        if problem:  # the task would say "FileNotFoundError" or "OSError: [Errno 40]" about the link's target
+            raise InputError(problem)
         out = self.task(path)
         digest, size = file_digest(path)
         return digest, size, out
@@ -316,8 +353,8 @@ def _check_output(out: Path, inputs: list[Path], resume: bool, overwrite: bool):
     if out.exists() and not out.is_dir():
         raise OutputError(f"output {out} is a file; the batch writes a folder, e.g. -o {out.with_suffix('')}_results/.")
     root = out.resolve()
-    for p in inputs:
-        if root in p.resolve().parents:
+    for p in inputs:  # resolved by run_batch (_input_path)
+        if root in p.parents:
             raise OutputError(f"input {p} is inside the output folder {out}; choose an output folder outside the "
                               "inputs (inputs are never overwritten).")
     if not (out.is_dir() and any(out.iterdir())):
@@ -387,9 +424,12 @@ def run_batch(task, paths: Iterable, output, *, executor=None, workers: int | No
     InputError, OutputError, DependencyError
         Before any work: no input, bad options, refused output folder, different task/options on resume, an
         unknown scheduler, no Dask scheduler at the address (or Dask not installed).
+    KeyboardInterrupt
+        Ctrl-C: raised once the manifest of the files done is written and a pool opened here is stopped (its workers
+        terminated, not waited for); a further Ctrl-C meanwhile is ignored.
     """
     t0 = time.perf_counter()
-    inputs = [Path(p).resolve() for p in paths]
+    inputs = [_input_path(p) for p in paths]
     if not inputs:
         raise InputError("no input file; give at least one file or glob pattern.")
     if len({str(p) for p in inputs}) != len(inputs):
@@ -397,7 +437,8 @@ def run_batch(task, paths: Iterable, output, *, executor=None, workers: int | No
     if isinstance(executor, str):
         check_scheduler(executor)
     out = Path(output)
-    with _output_lock(out):
+    # a second Ctrl-C must not cut short the cleanup of the first (manifest, pool): it hung the driver (session 35)
+    with interrupt_once(signal.SIGINT), _output_lock(out):
         return _locked_run(task, inputs, out, executor, workers, resume, overwrite, on_start, on_result, t0)
 
 

@@ -12,6 +12,10 @@ from ..errors import OutputError
 
 console = Console(stderr=True)
 
+#: True in the ``longprofile`` process itself (set by ``app.run``), which ends when its command returns; False when
+#: ``app.main`` is called by tests or another program, whose process goes on.
+COMMAND_PROCESS = False
+
 
 #: Table formats a ``-o`` table output accepts (written by :func:`longprofile.io.write_table`).
 TABLE_SUFFIXES = (".csv", ".parquet")

@@ -188,6 +188,9 @@ def run() -> None:
     non-daemon thread is alive, on an uncaught exception (the traceback prints as usual) and with
     ``LONGPROFILE_FAST_EXIT=0``. :func:`main` itself (called by tests and by other programs) returns normally.
     """
+    from . import _common
+
+    _common.COMMAND_PROCESS = True  # e.g. an interrupted batch keeps ignoring Ctrl-C until the exit (cli/batch.py)
     code = main()
     if os.environ.get("LONGPROFILE_FAST_EXIT", "1") == "0" or _other_threads():
         sys.exit(code)

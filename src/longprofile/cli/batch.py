@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import signal
-import threading
-from contextlib import contextmanager
 from pathlib import Path
 
 import typer
 
+from . import _common
 from ._common import OVERWRITE, check_output_folder, console, progress
 
 batch_app = typer.Typer(help="Survey networks: run `road iri` / `road reconstruct` over many files in parallel "
@@ -44,21 +43,23 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
         bar.advance(state["task"])
         state["done"] += 1
 
-    try:
-        with _terminate_as_interrupt():
+    # the first Ctrl-C or SIGTERM stops the run; later ones are ignored until it has written its manifest, stopped its
+    # pool and printed the line below
+    with _terminate_as_interrupt():
+        try:
             summary = run_batch(task, paths, output, executor=scheduler, workers=workers, resume=resume,
                                 overwrite=overwrite, on_start=start, on_result=result)
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the manifest holds the files done (run_batch writes it on the way out)
-        bar.stop()
-        if "total" in state:
-            console.print(f"[yellow]interrupted after {state['done']} of {state['total']} files:[/yellow] the results "
-                          f"so far are in {output}; the same command with --resume continues.", highlight=False,
-                          soft_wrap=True)
-        else:
-            console.print("[yellow]interrupted[/yellow] before the first file.", highlight=False, soft_wrap=True)
-        raise typer.Exit(130) from None
-    finally:
-        bar.stop()
+        except KeyboardInterrupt:  # the manifest holds the files done (run_batch writes it on the way out)
+            bar.stop()
+            if "total" in state:
+                console.print(f"[yellow]interrupted after {state['done']} of {state['total']} files:[/yellow] the "
+                              f"results so far are in {output}; the same command with --resume continues.",
+                              highlight=False, soft_wrap=True)
+            else:
+                console.print("[yellow]interrupted[/yellow] before the first file.", highlight=False, soft_wrap=True)
+            raise typer.Exit(130) from None
+        finally:
+            bar.stop()
     if summary.ok:
         console.print(summary.line(), markup=False, highlight=False, soft_wrap=True)
         return
@@ -66,23 +67,15 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
     raise typer.Exit(EXIT_SOME_FAILED)
 
 
-@contextmanager
 def _terminate_as_interrupt():
     """SIGTERM (``kill``, a scheduler's timeout, systemd) ends a batch as Ctrl-C does: the manifest written, the pool
     shut down, the resume hint printed. Python's default ended it at once (exit 143, no manifest of the last files,
-    the pool workers left running; session 35, a probe). Main thread only; the previous handler comes back after."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    the pool workers left running; session 35, a probe). After the first SIGINT or SIGTERM the others are ignored
+    until the block ends (a second Ctrl-C hung the shutdown), and in the ``longprofile`` process until it has exited.
+    Main thread only; in a process that goes on (``main`` called in-process) the previous handlers come back after."""
+    from .._interrupt import interrupt_once
 
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    return interrupt_once(signal.SIGINT, signal.SIGTERM, keep_ignoring=_common.COMMAND_PROCESS)
 
 
 def _tracks(track: str | None):
