@@ -131,8 +131,10 @@ def differentiate(
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g}, "
                   f"derivative_std: {std})")
-    console.print(f"sample interval {dt:.6g} s {_interval_source(frame, column, dt)}: the derivative is per second",
-                  markup=False, soft_wrap=True)
+    source = _interval_source(frame, column, dt)
+    console.print(f"sample interval {dt:.6g} s {source}: the derivative is per second" if source != "(--dt)" else
+                  f"sample step {dt:.6g} (--dt): the derivative is per unit of that step (per second for a time "
+                  "step, per metre for a profile sampled every --dt metres)", markup=False, soft_wrap=True)
     if plot is not None:
         from ..report import plot_derivative
 

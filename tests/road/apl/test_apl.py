@@ -154,8 +154,10 @@ def test_apl_response_profile_checks_spacing_and_nan():
 def test_model_from_polynomials_checks_units():
     with pytest.raises(UnitsError):
         apl_model_from_polynomials([0, 1.0], [1, -0.5], dt=0.01, speed=20.0, dx=0.05)
-    with pytest.raises(ModelError, match="proper"):
-        apl_model_from_polynomials([1.0, 1.0, 1.0], [1, -0.5], dt=0.01)
+    # more zeros than poles is causal in z^-1 (refused as "not proper" until session 36): the response is B/A
+    m = apl_model_from_polynomials([1.0, 1.0, 1.0], [1, -0.5], dt=0.01)
+    zi = np.exp(-2j * np.pi * np.array([0.0, 7.0, 31.0]) * 0.01)
+    np.testing.assert_allclose(m.response_at([0.0, 7.0, 31.0]), (1 + zi + zi ** 2) / (1 - 0.5 * zi), rtol=1e-9)
 
 
 @settings(max_examples=20, deadline=None)
@@ -193,3 +195,26 @@ def test_public_namespace_resolves():
         assert getattr(apl, name) is not None
     for name in ("apl", "apl_model", "apl_response", "double_filter", "reconstruct_profile", "Reconstruction"):
         assert name in road.__all__
+
+
+@settings(max_examples=20, deadline=None)
+@given(taps=st.lists(st.floats(-2.0, 2.0).filter(lambda v: abs(v) > 1e-3), min_size=2, max_size=6),
+       delay=st.integers(0, 2))
+def test_an_fir_bench_model_is_accepted_and_responds_as_its_taps(taps, delay):
+    """Orders ``0 nb nk`` (no poles: an FIR bench model) were refused as "not proper" (session 36, a probe); causal in
+    z^-1, its response must be the taps' direct sum sum_k b_k e^{-j w (k + delay)} (the oracle)."""
+    from longprofile.road.apl import apl_model_from_polynomials
+
+    m = apl_model_from_polynomials([0.0] * delay + list(taps), [1.0], dt=0.01)
+    f = np.linspace(0.0, 49.0, 37)
+    w = 2 * np.pi * f * 0.01
+    direct = sum(b * np.exp(-1j * w * (k + delay)) for k, b in enumerate(taps))
+    np.testing.assert_allclose(m.response_at(f), direct, rtol=1e-7, atol=1e-9 * max(map(abs, taps)))
+
+
+def test_identify_names_a_bad_speed_not_dt():
+    from longprofile.road.apl import identify_trailer
+
+    u = np.random.default_rng(0).standard_normal(400)
+    with pytest.raises(InputError, match=r"speed \(m/s\) must be finite and > 0; got -20"):
+        identify_trailer(u, u, speed=-20.0, dx=0.05)

@@ -269,3 +269,14 @@ def test_a_flat_profile_is_named_and_the_summary_is_strict_json(tmp_path, long_p
     summary = json.loads((tmp_path / "c" / "summary.json").read_text(),
                          parse_constant=lambda c: pytest.fail(f"non-standard JSON constant {c}"))
     assert summary["repeatability"]["left"] is None and summary["warnings"]
+
+
+def test_track_names_that_differ_only_in_case_are_the_same_track(long_profile):
+    """A CSV's ``left`` against a ProVAL ERD's ``Left`` / ``LEFT`` (session 36, a probe: the only fix was to edit the
+    ERD's header)."""
+    from dataclasses import replace
+
+    ref, runs = _runs(long_profile, [1.0, 1.0])
+    upper = [replace(runs[0], tracks=("Left",)), replace(runs[1], tracks=("LEFT",))]
+    res = certify_profiler(ref, upper)
+    assert res.passed and list(res.accuracy) == ["left"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..._validation import require_positive
 from ...errors import InputError
 from ._model import APLModel, apl_model_from_polynomials
 
@@ -91,7 +92,7 @@ def identify_trailer(u, y, *, speed: float, dx: float, orders: tuple[int, int, i
                              f"+-{MAX_BENCH_SIGNAL_M:g} m (a bench excitation or trailer response; no gaps); check "
                              "that value and the unit of the column.")
     na, nb, nk = orders
-    dt = dx / speed
+    dt = require_positive("dx (m)", dx) / require_positive("speed (m/s)", speed)
     if structure == "oe":
         est = fit_output_error(u, y, na=na, nb=nb, nk=nk, dt=dt)
     else:

@@ -320,8 +320,8 @@ def apl_model_from_polynomials(numerator, denominator, *, dt: float, speed: floa
     nz = np.flatnonzero(b)
     delay = int(nz[0])
     b = np.trim_zeros(b[delay:], "b")
-    if b.size > a.size:
-        raise ModelError(f"numerator degree ({b.size - 1}) exceeds denominator degree ({a.size - 1}): not proper.")
+    if b.size > a.size:  # more zeros than poles (an FIR bench model, orders 0 nb nk): causal in z^-1; the missing
+        a = np.concatenate([a, np.zeros(b.size - a.size)])  # poles sit at the origin, factors (1 - 0 z^-1) = 1
     dt = require_positive("dt", dt)
     if speed is not None and dx is not None and not np.isclose(dx / speed, dt, rtol=1e-6):
         raise UnitsError(f"dx / speed = {dx}/{speed} = {dx / speed:g} s differs from dt = {dt:g} s.")

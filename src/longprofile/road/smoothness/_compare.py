@@ -7,7 +7,7 @@ golden-car filter runs in the state-space engine (:func:`longprofile.statespace.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import combinations
 
 import numpy as np
@@ -399,6 +399,7 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
     if spacing is not None:
         reference = resample_profile(reference, spacing)
         runs = [resample_profile(r, spacing) for r in runs]
+    runs = [_reference_track_names(reference, r) for r in runs]
     notes = []
     if tracks is None:
         tracks = [t for t in reference.tracks if all(t in r.tracks for r in runs)]
@@ -459,6 +460,14 @@ def _edge_note(c: ProfileComparison, run: str, against: str, max_offset: float) 
     return [f"{run} against {against}, track {c.track!r}: rated {c.rating:.3f} at {c.offset:+.2f} m but "
             f"{c.outside[1]:.3f} at {c.outside[0]:+.2f} m, outside the +-{max_offset:g} m search: the stations "
             "differ by more than the search allows; widen max_offset (CLI: --max-offset)"]
+
+
+def _reference_track_names(reference: Profile, run: Profile) -> Profile:
+    """``run`` with a track named as the reference's where the names differ only in case (a CSV's ``left``, a ProVAL
+    ERD's ``Left`` or ``LEFT``: the user had to edit the ERD's header)."""
+    by_lower = {t.lower(): t for t in reference.tracks}
+    names = tuple(t if t in reference.tracks else by_lower.get(t.lower(), t) for t in run.tracks)
+    return run if names == tuple(run.tracks) or len(set(names)) < len(names) else replace(run, tracks=names)
 
 
 def _refuse_copies(runs, labels) -> None:
