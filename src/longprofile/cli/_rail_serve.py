@@ -23,14 +23,27 @@ DB_OPT = typer.Option(..., "--db", help="Database URL: sqlite:///site.db or post
 ACTOR_OPT = typer.Option(None, "--actor", help="Name recorded in the audit trail (default: cli:<login>).")
 
 
-def _db(url):
-    from ..errors import DependencyError
+def _db(url, *, existing: bool = False):
+    """The service database; ``existing``: a SQLite file must already exist (a read or a change of what a site
+    has: a mistyped path would create an empty database and show no sites)."""
+    from ..errors import DependencyError, InputError
 
     try:
         from ..rail.service import Database
     except ImportError as exc:
         raise DependencyError(f"the service needs the serve extra: pip install 'longprofile[serve]' ({exc}).") from None
+    path = _sqlite_path(url)
+    if existing and path is not None and not Path(path).exists():
+        raise InputError(f"no such database: {path} does not exist (create a site first with rail site create).")
     return Database(url)
+
+
+def _sqlite_path(url) -> str | None:
+    """The file of a ``sqlite:///...`` URL (None for another database or an in-memory one)."""
+    if not isinstance(url, str) or not url.startswith("sqlite:///"):
+        return None
+    path = url[len("sqlite:///"):].split("?", 1)[0]
+    return None if path in ("", ":memory:") else path
 
 
 def _actor(actor):
@@ -150,7 +163,7 @@ def site_list(db: str = DB_OPT):
     """List the sites."""
     from ..rail import service as _service
 
-    for n in _service.list_sites(_db(db)):
+    for n in _service.list_sites(_db(db, existing=True)):
         typer.echo(n)
 
 
@@ -159,7 +172,7 @@ def site_show(name: str = typer.Argument(...), db: str = DB_OPT):
     """Print a site: fields, sensors, survey, thresholds, loggers, channels."""
     from ..rail import service as _service
 
-    _print(_service.get_site(_db(db), name))
+    _print(_service.get_site(_db(db, existing=True), name))
 
 
 @site_app.command("sensors")
@@ -200,7 +213,7 @@ def site_controls(name: str = typer.Argument(...),
     _print(_service.put_controls(_db(db), _actor(actor), name, _rows(file, "controls", text=("date",))))
 
 
-@site_app.command("threshold")
+@site_app.command("threshold", context_settings={"ignore_unknown_options": True})  # "-5" is a value, not an option
 def site_threshold(name: str = typer.Argument(...),
                    quantity: str = typer.Argument(..., help="settlement, rate or twist."),
                    level: str = typer.Argument(..., help="alert, action or alarm."),
@@ -262,23 +275,53 @@ def site_channel(name: str = typer.Argument(...), kind: str = typer.Argument(...
     _print(_service.add_channel(_db(db), _actor(actor), name, kind, target))
 
 
+@site_app.command("channel-remove")
+def site_channel_remove(name: str = typer.Argument(...), kind: str = typer.Argument(..., help="webhook or smtp."),
+                        target: str = typer.Argument(..., help="URL or e-mail address, as added."), db: str = DB_OPT,
+                        actor: str = ACTOR_OPT):
+    """Remove a notification channel (audited; its undelivered notifications are dropped)."""
+    from ..rail import service as _service
+
+    _print(_service.remove_channel(_db(db, existing=True), _actor(actor), name, kind, target))
+
+
+@site_app.command("channels")
+def site_channels(name: str = typer.Argument(...), db: str = DB_OPT):
+    """Print the site's channels with their deliveries: sent, waiting, failing and the last error."""
+    from ..rail import service as _service
+
+    _print(_service.channel_status(_db(db, existing=True), name))
+
+
 @site_app.command("user")
 def site_user(username: str = typer.Argument(...), role: str = typer.Option("viewer", "--role",
                                                                           help="viewer, engineer or admin."),
+              reset_password: bool = typer.Option(False, "--reset-password",
+                                                  help="Set a new password for an existing person."),
               db: str = DB_OPT, actor: str = ACTOR_OPT):
-    """Create a person or change their role (password asked on the terminal, or read from stdin)."""
+    """Create a person (password asked on the terminal, or read from stdin), or change an existing person's role
+    (no password; --reset-password to set a new one). Audited, never the password."""
     from ..rail import service as _service
 
-    pw = typer.prompt("password", hide_input=True, confirmation_prompt=False)
-    _print(_service.add_user(_db(db), _actor(actor), username, pw, role))
+    database = _db(db)
+    pw = None
+    if reset_password or not _service.user_exists(database, username):
+        pw = typer.prompt("password", hide_input=True, confirmation_prompt=False)
+    _print(_service.add_user(database, _actor(actor), username, pw, role, reset_password=reset_password))
 
 
 @site_app.command("audit")
-def site_audit(name: str = typer.Argument(...), db: str = DB_OPT, limit: int = typer.Option(100, "--limit")):
-    """Print the audit trail of a site (newest first)."""
+def site_audit(name: str = typer.Argument(None, help="Site name (leave out with --users)."), db: str = DB_OPT,
+               limit: int = typer.Option(100, "--limit"),
+               users: bool = typer.Option(False, "--users", help="The people's trail instead: creation, role and "
+                                                                 "password changes.")):
+    """Print the audit trail of a site, or of the people (newest first)."""
+    from ..errors import InputError
     from ..rail import service as _service
 
-    _print(_service.audit_trail(_db(db), name, limit))
+    if (name is None) != users:
+        raise InputError("give a site name, or --users for the people's audit trail.")
+    _print(_service.audit_trail(_db(db, existing=True), name, limit, users=users))
 
 
 @site_app.command("ingest")

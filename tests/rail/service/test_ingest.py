@@ -280,6 +280,7 @@ def test_a_declared_charset_is_honoured_and_rows_with_extra_fields_or_dates_out_
 
 def test_a_sensor_id_in_another_script_is_registered(site):
     db, _, _ = site
-    assert _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "Capteur_\u00e94", "x_m": 500.0}])
+    # within the survey (0..167.5 m): a sensor outside it is refused since session 36
+    assert _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "Capteur_\u00e94", "x_m": 1.0}])
     with pytest.raises(_core.InputError, match="starting with a letter or digit"):
-        _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "_x", "x_m": 501.0}])
+        _core.put_sensors(db, "tester", "mitt", [{"sensor_id": "_x", "x_m": 1.5}])

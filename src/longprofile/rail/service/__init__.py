@@ -21,7 +21,7 @@ from ..._lazy import lazy_namespace
 #: one is used.
 _EXPORTS = {
     "._db": ("Database",),
-    "._core": ("add_channel", "add_logger", "add_user", "audit_trail", "create_site", "delete_controls", "get_controls",
+    "._core": ("add_channel", "remove_channel", "channel_status", "add_logger", "add_user", "user_exists", "audit_trail", "create_site", "delete_controls", "get_controls",
                "get_site", "ingest", "list_sites", "put_controls", "put_sensors", "put_survey", "revoke_logger",
                "rotate_logger", "set_threshold", "replace_thresholds", "update_site"),
     "._recompute": ("recompute",),

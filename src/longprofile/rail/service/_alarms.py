@@ -24,7 +24,7 @@ import pandas as pd
 from sqlalchemy import func, select, update
 
 from .. import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, threshold_alarms
-from ._db import Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
+from ._db import LEVELS, Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
            "list_alarms"]
@@ -57,7 +57,7 @@ def quantity_levels(res, thresholds: dict, *, probability: float = 0.5) -> dict:
 def _payload(site: Site, alarm: Alarm, event: str) -> dict:
     return {"site": site.name, "event": event, "alarm_id": alarm.id, "quantity": alarm.quantity,
             "subject": alarm.subject, "level": alarm.level, "value": alarm.value, "threshold": alarm.threshold,
-            "day": alarm.day, "message": alarm.message, "state": alarm.state}
+            "day": alarm.day, "message": alarm.message, "state": alarm.state, "reason": alarm.cleared_reason}
 
 
 def _enqueue(s, site: Site, alarm: Alarm, event: str):
@@ -74,29 +74,61 @@ def open_alarms(s, site: Site) -> dict:
                                                                  Alarm.open_key.is_not(None)))}
 
 
+#: Notification events of an alarm: "raised"; for the alarm it ends, "cleared" (back within thresholds),
+#: "escalated" / "de-escalated" (a new alarm of another level replaces it), "withdrawn" (its threshold was removed,
+#: or its sensor deactivated); the payload's "reason" says why in words.
+EVENTS = ("raised", "cleared", "escalated", "de-escalated", "withdrawn")
+
+
+def _end_event(cur: Alarm, level: str | None, reason: str | None) -> tuple[str, str]:
+    """(event, reason) of the open alarm ``cur`` ended by a move to ``level`` (None: back within thresholds)."""
+    if reason is not None:
+        return "withdrawn", reason if level is None else f"{reason}; now at {level} level"
+    if level is None:
+        return "cleared", "back within thresholds"
+    up = LEVELS.index(level) > LEVELS.index(cur.level) if cur.level in LEVELS and level in LEVELS else True
+    return ("escalated", f"escalated to {level}") if up else ("de-escalated", f"de-escalated to {level}")
+
+
+def _refresh(s, site: Site, cur: Alarm, value, threshold, day, message):
+    """An open alarm at the same level follows the latest run: value, day, message; a changed threshold is audited."""
+    if threshold != cur.threshold and not (threshold is None and cur.threshold is None):
+        from ._core import _audit
+
+        _audit(s, "service", site.id, "alarm", str(cur.id), "update", {"threshold": cur.threshold,
+                                                                       "message": cur.message},
+               {"threshold": threshold, "message": message})
+        cur.threshold = threshold
+    cur.value, cur.day = value, day
+    if message:
+        cur.message = message
+
+
 def transition(s, site: Site, quantity: str, subject: str, level: str | None, *, value=None, threshold=None,
-               day=None, message="", run_id=None, opened: dict | None = None) -> str:
+               day=None, message="", run_id=None, opened: dict | None = None, reason: str | None = None) -> str:
     """Move the open alarm of (site, quantity, subject) to ``level`` (None = clear).
 
-    Returns what happened: "none" (same level: de-duplicated), "raised", "changed" (cleared + raised) or
-    "cleared". Notifications go to the outbox in the caller's transaction. ``opened``: the site's open alarms
-    from :func:`open_alarms` in this transaction (kept up to date here) instead of one query per call.
+    Returns what happened: "none" (same level: de-duplicated, the open alarm's numbers and message updated),
+    "raised", "changed" (ended + raised) or "cleared". Notifications go to the outbox in the caller's transaction
+    (:data:`EVENTS`). ``opened``: the site's open alarms from :func:`open_alarms` in this transaction (kept up to
+    date here) instead of one query per call. ``reason``: why the open alarm ends other than by the values (e.g.
+    its threshold was removed).
     """
     key = f"{site.id}:{quantity}:{subject}"
     cur = s.scalar(select(Alarm).where(Alarm.open_key == key)) if opened is None else opened.get(key)
     if cur is not None and cur.level == level:
-        cur.value, cur.day = value, day  # the latest value, no new alarm
+        _refresh(s, site, cur, value, threshold, day, message)
         return "none"
     if cur is None and level is None:
         return "none"
     what = "raised"
     if cur is not None:
+        event, cur.cleared_reason = _end_event(cur, level, reason)
         cur.state, cur.open_key, cur.cleared_ts = "cleared", None, now_ts()
         if opened is not None:
             opened.pop(key, None)
-        cur.cleared_reason = "back within thresholds" if level is None else f"level changed to {level}"
         s.flush()
-        _enqueue(s, site, cur, "cleared")
+        _enqueue(s, site, cur, event)
         what = "cleared" if level is None else "changed"
     if level is not None:
         a = Alarm(site_id=site.id, quantity=quantity, subject=subject, level=level, state="raised", open_key=key,
@@ -107,6 +139,26 @@ def transition(s, site: Site, quantity: str, subject: str, level: str | None, *,
             opened[key] = a
         _enqueue(s, site, a, "raised")
     return what
+
+
+def close_sensor_alarms(s, site: Site, sensor_ids, *, actor: str, reason: str = "sensor deactivated") -> int:
+    """End the open alarms of these sensors (health, no data) with ``reason``, notified ("withdrawn") and audited;
+    returns how many."""
+    from ._core import _audit
+
+    sids = [str(x) for x in sensor_ids]
+    if not sids:
+        return 0
+    n = 0
+    for a in s.scalars(select(Alarm).where(Alarm.site_id == site.id, Alarm.open_key.is_not(None),
+                                           Alarm.subject.in_(sids), Alarm.quantity.in_(("health", "no_data")))):
+        a.state, a.open_key, a.cleared_ts, a.cleared_reason = "cleared", None, now_ts(), reason
+        s.flush()
+        _enqueue(s, site, a, "withdrawn")
+        _audit(s, actor, site.id, "alarm", str(a.id), "close", {"state": "open", "level": a.level},
+               {"state": "cleared", "reason": reason})
+        n += 1
+    return n
 
 
 def thresholds_of(s, site: Site) -> dict:
@@ -122,11 +174,15 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
     opened = open_alarms(s, site)
     day = pd.Timestamp(res.days[-1]).strftime("%Y-%m-%d")
     unit = {"settlement": "mm", "rate": "mm/day", "twist": "mm"}
-    for q, (lv, val, thr, where) in quantity_levels(res, thresholds_of(s, site), probability=probability).items():
+    thresholds = thresholds_of(s, site)
+    for q, (lv, val, thr, where) in quantity_levels(res, thresholds, probability=probability).items():
         msg = "" if lv is None else (f"{q} {1e3 * val:+.1f} {unit[q]} at {where} on {day} "
                                      f"(|{q}| > {1e3 * thr:.1f} {unit[q]}, {lv} level)")
+        cur = opened.get(f"{site.id}:{q}:site")
+        removed = None if cur is None or cur.level in thresholds.get(q, {}) else \
+            f"the {cur.level} threshold of {q} was removed"
         w = transition(s, site, q, "site", lv, value=val, threshold=thr, day=day, message=msg, run_id=run_id,
-                       opened=opened)
+                       opened=opened, reason=removed)
         if w != "none":
             events.append(f"{q}:{w}")
     for sid, st, detail in zip(res.health.sensor_ids, res.health.status, res.health.detail):
@@ -138,27 +194,44 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
     return events
 
 
+def _inactive_with_open_alarms(s, site: Site) -> list[str]:
+    """Inactive sensors of the site that still have an open health or no-data alarm (deactivated before alarms
+    were closed on deactivation)."""
+    return list(s.scalars(select(Sensor.sensor_id).where(
+        Sensor.site_id == site.id, Sensor.active.is_(False),
+        Sensor.sensor_id.in_(select(Alarm.subject).where(Alarm.site_id == site.id, Alarm.open_key.is_not(None),
+                                                         Alarm.quantity.in_(("health", "no_data")))))))
+
+
 def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
-    """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data")."""
+    """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data").
+
+    A sensor that has not reported since it was registered gets the same ``no_data_hours`` of grace from its
+    registration (against the wall clock) before the alarm; open alarms of inactive sensors are closed."""
+    swept = _inactive_with_open_alarms(s, site)
+    events = [f"withdrawn:{sid}" for sid in swept] if close_sensor_alarms(s, site, swept, actor="service") else []
     # one index seek per sensor on the (sensor_pk, ts) key: a join grouped by sensor scanned every reading of
     # the site (0.67 s at 5.3 M readings, docs/rail-service.md, Measured)
     newest = select(func.max(Reading.ts)).where(Reading.sensor_pk == Sensor.id).scalar_subquery()
-    last = dict(s.execute(select(Sensor.sensor_id, newest).where(Sensor.site_id == site.id,
-                                                                 Sensor.active.is_(True))).all())
+    rows = s.execute(select(Sensor.sensor_id, newest, Sensor.created_ts).where(Sensor.site_id == site.id,
+                                                                               Sensor.active.is_(True))).all()
+    last = {sid: t for sid, t, _ in rows}
+    created = {sid: c for sid, _, c in rows}
     if not last:
-        return []
+        return events
     seen = [t for t in last.values() if t is not None]
     if site.clock == "data":
         if not seen:
-            return []
+            return events
         ref = max(seen)
     else:
         ref = now_ts() if now is None else int(now)
+    wall = now_ts() if now is None else int(now)
     limit = site.no_data_hours * 3600.0
-    events = []
     opened = open_alarms(s, site)
     for sid, t in sorted(last.items()):
-        stale = t is None or ref - t > limit
+        new = t is None and created[sid] is not None and wall - created[sid] <= limit  # grace after registration
+        stale = not new and (t is None or ref - t > limit)
         lv = "alert" if stale else None
         msg = "" if not stale else (f"no data from sensor {sid} for {site.no_data_hours:g} h" if t is None else
                                     f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
@@ -196,14 +269,24 @@ def alarm_dict(a: Alarm) -> dict:
             "cleared_reason": a.cleared_reason}
 
 
-def list_alarms(db: Database, site: str, *, open_only: bool = False, limit: int = 500) -> list[dict]:
+ALARM_STATES = ("raised", "acknowledged", "cleared")
+
+
+def list_alarms(db: Database, site: str, *, open_only: bool = False, limit: int = 500,
+                state: str | None = None) -> list[dict]:
+    """The site's alarms, newest first (``open_only``: not cleared; ``state``: only that state)."""
+    from ...errors import InputError
     from ._core import _site
 
+    if state is not None and state not in ALARM_STATES:
+        raise InputError(f"state must be one of {list(ALARM_STATES)}; got {state!r}.")
     with db.read() as s:
         st = _site(s, site)
         q = select(Alarm).where(Alarm.site_id == st.id)
         if open_only:
             q = q.where(Alarm.state != "cleared")
+        if state is not None:
+            q = q.where(Alarm.state == state)
         return [alarm_dict(a) for a in s.scalars(q.order_by(Alarm.id.desc()).limit(limit))]
 
 

@@ -39,16 +39,19 @@ from .. import (
     track_angle,
     validate_site,
 )
+from ._alarms import close_sensor_alarms
 from ._db import (
     LEVELS,
     QUANTITIES,
     ROLES,
+    Alarm,
     Audit,
     Batch,
     Channel,
     ControlPoint,
     Database,
     Logger,
+    Outbox,
     Reading,
     ReadingRevision,
     Sensor,
@@ -61,8 +64,8 @@ from ._db import (
 
 __all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "put_controls",
            "delete_controls", "get_controls", "set_threshold", "add_logger", "revoke_logger", "rotate_logger",
-           "authenticate_logger", "add_channel", "add_user", "audit_trail", "ingest", "parse_batch",
-           "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
+           "authenticate_logger", "add_channel", "remove_channel", "channel_status", "add_user", "user_exists", "audit_trail",
+           "ingest", "parse_batch", "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
 
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 #: A sensor id: letters (any script: ``Capteur_é4``, as ``rail settle`` takes it), digits, '_', '.', ':', '-'.
@@ -126,6 +129,10 @@ def _site_dict(site: Site) -> dict:
 
 
 def _apply_site_fields(site: Site, fields: dict):
+    """Set the given site fields, checked; unknown fields (and ``name``: a site is not renamed) refused."""
+    if "name" in fields:
+        raise InputError("a site cannot be renamed (its name is in its loggers' URLs and the audit trail); create a "
+                         f"new site instead. Fields that can change: {list(SITE_FIELDS)}.")
     unknown = sorted(set(fields) - set(SITE_FIELDS))
     if unknown:
         raise InputError(f"unknown site field(s) {unknown}; known: {list(SITE_FIELDS)}.")
@@ -158,7 +165,7 @@ def _apply_site_fields(site: Site, fields: dict):
         site.settings_json = json.dumps(check_settings(st), sort_keys=True)
 
 
-def create_site(db: Database, actor: str, name: str, **fields) -> dict:
+def create_site(db: Database, actor: str, name: str, /, **fields) -> dict:
     """Create a site (``fields``: title, baseline_start, baseline_end, no_data_hours, clock, timezone, settings)."""
     check_name(name)
     with db.write() as s:
@@ -174,7 +181,8 @@ def create_site(db: Database, actor: str, name: str, **fields) -> dict:
     return new
 
 
-def update_site(db: Database, actor: str, name: str, **fields) -> dict:
+def update_site(db: Database, actor: str, name: str, /, **fields) -> dict:
+    """Change site fields (audited old -> new; a change marks the whole record for a recompute)."""
     with db.write() as s:
         site = _site(s, name)
         old = _site_dict(site)
@@ -222,48 +230,88 @@ def _finite(v, what):
     return f
 
 
-def put_sensors(db: Database, actor: str, name: str, rows) -> dict:
-    """Add or update sensors (``sensor_id``, ``x_m``, optional ``z_m``, ``active``); returns counts."""
-    rows = list(rows)
-    if not rows:
-        raise InputError("no sensors given.")
+#: Columns of a sensors request or file: the ``rail settle`` sensors table, optional ``z_m``, and ``active``.
+SENSOR_FIELDS = (*SiteData.TABLE_COLUMNS["sensors"], "z_m", "active")
+
+
+def _clean_sensor_rows(rows) -> dict:
+    """{sensor_id: {x_m, z_m, active}} of a sensors request; unknown columns and an id given twice refused."""
     clean = {}
     for i, r in enumerate(rows):
         if not isinstance(r, dict) or "sensor_id" not in r or "x_m" not in r:
             raise InputError(f"sensor row {i}: needs sensor_id and x_m.")
+        extra = sorted(map(str, set(r) - set(SENSOR_FIELDS)))
+        if extra:
+            raise InputError(f"sensor row {i}: unknown column(s) {extra[:3]}; expected {list(SENSOR_FIELDS)}.")
         sid = str(r["sensor_id"]).strip()
         if not SENSOR_RE.match(sid):
             raise InputError(f"sensor row {i}: sensor id {sid!r} must be 1-64 letters (any script), digits, '_', '.', "
                              "':', '-', starting with a letter or digit.")
+        if sid in clean:
+            raise InputError(f"sensors: sensor id {sid!r} appears more than once (row {i}); ids must be unique.")
         z = r.get("z_m")
         clean[sid] = {"x_m": _finite(r["x_m"], f"sensor row {i}: x_m"),
-                      "z_m": None if z in (None, "") else _finite(z, f"sensor row {i}: z_m"),
+                      "z_m": None if z is None or z == "" or (isinstance(z, float) and math.isnan(z))
+                      else _finite(z, f"sensor row {i}: z_m"),
                       "active": bool(r.get("active", True)) if not isinstance(r.get("active"), str)
                       else r["active"].strip().lower() not in ("0", "false", "no")}
+    return clean
+
+
+def _check_active_stations(s, site: Site) -> None:
+    """Refuse two active sensors at one station (an inactive sensor does not hold its station: a replacement), and
+    active sensors that ``validate_site`` (what every run calls) would refuse with the site's survey."""
+    from ._recompute import load_site_tables
+
+    sensors, survey = load_site_tables(s, site)
+    x = sensors["x_m"].to_numpy(float)
+    same = np.nonzero(np.diff(x) <= 0)[0]
+    if same.size:
+        i = int(same[0])
+        raise InputError(f"sensors {sensors['sensor_id'][i]!r} and {sensors['sensor_id'][i + 1]!r} would both be active "
+                         f"at station x = {x[i]:g} m; each active sensor needs its own station (to replace a sensor, "
+                         "make the old one inactive, \"active\": false, in the same request or before).")
+    if survey is not None and len(sensors) >= 3:
+        empty = pd.DataFrame({c: pd.Series(dtype=object) for c in READING_COLUMNS})
+        validate_site(sensors, empty, survey)  # e.g. a sensor outside the survey: every run would fail
+
+
+def put_sensors(db: Database, actor: str, name: str, rows) -> dict:
+    """Add or update sensors (``sensor_id``, ``x_m``, optional ``z_m``, ``active``); returns counts. A sensor made
+    inactive has its open alarms closed ("sensor deactivated")."""
+    rows = list(rows)
+    if not rows:
+        raise InputError("no sensors given.")
+    clean = _clean_sensor_rows(rows)
     added = changed = 0
+    now = now_ts()
     with db.write() as s:
         site = _site(s, name)
         have = {x.sensor_id: x for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id))}
+        off = []
         for sid, v in clean.items():
             cur = have.get(sid)
             if cur is None:
-                s.add(Sensor(site_id=site.id, sensor_id=sid, **v))
+                s.add(Sensor(site_id=site.id, sensor_id=sid, created_ts=now,
+                             deactivated_ts=None if v["active"] else now, **v))
                 _audit(s, actor, site.id, "sensor", sid, "create", None, v)
                 added += 1
-            else:
-                old = {"x_m": cur.x_m, "z_m": cur.z_m, "active": cur.active}
-                if old != v:
-                    cur.x_m, cur.z_m, cur.active = v["x_m"], v["z_m"], v["active"]
-                    _audit(s, actor, site.id, "sensor", sid, "update", old, v)
-                    changed += 1
+                continue
+            old = {"x_m": cur.x_m, "z_m": cur.z_m, "active": cur.active}
+            if old != v:
+                if cur.active != v["active"]:
+                    cur.deactivated_ts = None if v["active"] else now
+                    off += [] if v["active"] else [sid]
+                cur.x_m, cur.z_m, cur.active = v["x_m"], v["z_m"], v["active"]
+                _audit(s, actor, site.id, "sensor", sid, "update", old, v)
+                changed += 1
         s.flush()
-        xs = sorted(x.x_m for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id)))
-        if len(set(xs)) != len(xs):
-            raise InputError("two sensors of the site are at the same station x_m; each sensor needs its own.")
+        _check_active_stations(s, site)
+        closed = close_sensor_alarms(s, site, off, actor=actor)
         if added or changed:
             site.dirty_from_ts = site.baseline_start_ts or 0
             site.data_version = (site.data_version or 0) + 1
-    return {"added": added, "changed": changed}
+    return {"added": added, "changed": changed, **({"alarms_closed": closed} if closed else {})}
 
 
 def put_survey(db: Database, actor: str, name: str, rows) -> dict:
@@ -290,6 +338,8 @@ def put_survey(db: Database, actor: str, name: str, rows) -> dict:
             s.flush()
             s.add_all([SurveyPoint(site_id=site.id, x_m=x, z_m=z) for x, z in new])
             _audit(s, actor, site.id, "survey", name, "replace", old or None, new)
+            s.flush()
+            _check_active_stations(s, site)  # the sensors must lie within the new survey
             site.dirty_from_ts = site.baseline_start_ts or 0
             site.data_version = (site.data_version or 0) + 1
     return {"points": len(pts)}
@@ -570,31 +620,108 @@ def add_channel(db: Database, actor: str, name: str, kind: str, target: str) -> 
     return {"kind": kind, "target": target}
 
 
-def add_user(db: Database, actor: str, username: str, password: str, role: str) -> dict:
+def _channel_row(s, site: Site, kind: str, target: str) -> Channel:
+    ch = s.scalar(select(Channel).where(Channel.site_id == site.id, Channel.kind == kind, Channel.target == target))
+    if ch is None:
+        raise NotFound(f"site {site.name!r} has no {kind} channel {str(target)[:300]!r}.")
+    return ch
+
+
+def _site_outbox(s, site: Site):
+    """The site's notification rows (through their alarms)."""
+    return select(Outbox).where(Outbox.alarm_id.in_(select(Alarm.id).where(Alarm.site_id == site.id)))
+
+
+def remove_channel(db: Database, actor: str, name: str, kind: str, target: str) -> dict:
+    """Remove a notification channel (audited); its notifications not yet delivered are dropped (counted)."""
+    with db.write() as s:
+        site = _site(s, name)
+        ch = _channel_row(s, site, kind, str(target).strip())
+        pending = list(s.scalars(_site_outbox(s, site).where(Outbox.kind == ch.kind, Outbox.target == ch.target,
+                                                           Outbox.sent_ts.is_(None))))
+        for row in pending:
+            s.delete(row)
+        _audit(s, actor, site.id, "channel", f"{ch.kind}:{ch.target}", "delete", {"kind": ch.kind, "target": ch.target},
+               {"undelivered_dropped": len(pending)})
+        out = {"kind": ch.kind, "target": ch.target, "removed": True, "undelivered_dropped": len(pending)}
+        s.delete(ch)
+    return out
+
+
+def channel_status(db: Database, name: str) -> list[dict]:
+    """The site's channels with their delivery state: notifications sent, waiting, failing (tried and not yet
+    accepted: retried with back-off) and the last error."""
+    with db.read() as s:
+        site = _site(s, name)
+        rows = list(s.scalars(_site_outbox(s, site).order_by(Outbox.id)))
+        out = []
+        for ch in s.scalars(select(Channel).where(Channel.site_id == site.id).order_by(Channel.id)):
+            mine = [o for o in rows if o.kind == ch.kind and o.target == ch.target]
+            failing = [o for o in mine if o.sent_ts is None and o.attempts > 0]
+            last = max(failing, key=lambda o: o.id, default=None)
+            out.append({"kind": ch.kind, "target": ch.target, "sent": sum(o.sent_ts is not None for o in mine),
+                        "waiting": sum(o.sent_ts is None for o in mine), "failing": len(failing),
+                        "attempts": max((o.attempts for o in failing), default=0),
+                        "last_error": None if last is None else last.last_error,
+                        "next_try": None if last is None else _iso_ts(last.next_try_ts)})
+    return out
+
+
+def _iso_ts(ts):
+    return None if ts is None else datetime.fromtimestamp(ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def user_exists(db: Database, username: str) -> bool:
+    with db.read() as s:
+        return s.scalar(select(User.id).where(User.username == str(username))) is not None
+
+
+def _check_password(password) -> str:
+    if not isinstance(password, str) or len(password) < 8:
+        raise InputError("a password needs at least 8 characters.")
+    return password
+
+
+def add_user(db: Database, actor: str, username: str, password: str | None, role: str, *,
+             reset_password: bool = False) -> dict:
+    """Create a person, or change an existing person's role (no password needed) and, only with
+    ``reset_password``, their password. Audited: creation, role old -> new, "password changed" (never the
+    password). Creating an existing person without ``reset_password`` and with a password is refused."""
     from ._auth import hash_password
 
     check_name(username, "user name")
     if role not in ROLES:
         raise InputError(f"role must be one of {list(ROLES)}; got {role!r}.")
-    if not isinstance(password, str) or len(password) < 8:
-        raise InputError("a password needs at least 8 characters.")
     with db.write() as s:
         cur = s.scalar(select(User).where(User.username == username))
         if cur is None:
-            s.add(User(username=username, password_hash=hash_password(password), role=role, active=True))
+            s.add(User(username=username, password_hash=hash_password(_check_password(password)), role=role,
+                       active=True))
             _audit(s, actor, None, "user", username, "create", None, {"role": role})
-        else:
-            old = {"role": cur.role}
-            cur.password_hash, cur.role, cur.active = hash_password(password), role, True
-            _audit(s, actor, None, "user", username, "update", old, {"role": role, "password": "changed"})
-    return {"username": username, "role": role}
+            return {"username": username, "role": role, "created": True, "password_changed": True}
+        if password is not None and not reset_password:
+            raise InputError(f"user {username!r} already exists: to change their password say so (--reset-password; "
+                             'API "reset_password": true); a role change needs no password.')
+        old, new = {"role": cur.role, "active": cur.active}, {"role": role, "active": True}
+        changed_pw = reset_password and password is not None
+        if changed_pw:
+            cur.password_hash = hash_password(_check_password(password))
+            new["password"] = "changed"
+        cur.role, cur.active = role, True
+        if new != old:
+            _audit(s, actor, None, "user", username, "update", old, new)
+    return {"username": username, "role": role, "created": False, "password_changed": changed_pw}
 
 
-def audit_trail(db: Database, name: str | None = None, limit: int = 500) -> list[dict]:
+def audit_trail(db: Database, name: str | None = None, limit: int = 500, *, users: bool = False) -> list[dict]:
+    """Audit entries, newest first: of a site, of the people (``users``: creation, role and password changes), or
+    all (neither)."""
     with db.read() as s:
         q = select(Audit).order_by(Audit.id.desc()).limit(max(1, min(int(limit), 10_000)))
         if name is not None:
             q = q.where(Audit.site_id == _site(s, name).id)
+        if users:
+            q = q.where(Audit.site_id.is_(None), Audit.entity == "user")
         return [{"ts": datetime.fromtimestamp(a.ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "actor": a.actor,
                  "entity": a.entity, "key": a.key, "action": a.action,
                  "old": None if a.old_json is None else json.loads(a.old_json),

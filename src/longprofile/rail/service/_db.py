@@ -79,6 +79,10 @@ class Sensor(Base):
     x_m: Mapped[float] = mapped_column(Float)
     z_m: Mapped[float | None] = mapped_column(Float, nullable=True)
     active: Mapped[bool] = mapped_column(Boolean, default=True)
+    #: when the sensor was registered (NULL for sensors registered before 2026-12-07): the no-data grace period
+    created_ts: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
+    #: when it was last made inactive (NULL while active, or inactive before 2026-12-07)
+    deactivated_ts: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
 
 
 class SurveyPoint(Base):

@@ -636,6 +636,16 @@ def latest_run(s, site: Site, *, ok_only: bool = True) -> Run | None:
     return s.scalar(q.order_by(Run.id.desc()).limit(1))
 
 
+#: Refusals of ``validate_site`` / ``estimate_settlement`` that only mean "not enough data yet": the run is "waiting".
+WAITING_MESSAGES = ("at least 2 days", "too few days", "at least 3 sensors", "the readings table is empty")
+
+
+def _failed_or_waiting(exc: Exception) -> str:
+    """"waiting" for a run refused for want of data (:data:`WAITING_MESSAGES`), else "failed" (e.g. a sensor outside
+    the survey: the site's tables need a change; with no readings yet this was "waiting" before session 36)."""
+    return "waiting" if any(w in str(exc) for w in WAITING_MESSAGES) else "failed"
+
+
 def recompute(db: Database, name: str, *, force: bool = False) -> dict:
     """Recompute a site when its data or settings changed since the last run (``force``: always).
 
@@ -694,8 +704,7 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
         else:
             res = estimate_settlement(sitedata, **options)
     except LongprofileError as exc:
-        waiting = ("at least 2 days", "too few days", "at least 3 sensors")  # not enough data yet
-        status = "waiting" if n_readings == 0 or any(w in str(exc) for w in waiting) else "failed"
+        status = _failed_or_waiting(exc)
         message = str(exc)
     t_estimate = time.perf_counter() - t0 - t_load
     events: list[str] = []

@@ -87,6 +87,18 @@ class ServiceWorker:
             self._thread.join(timeout=30)
 
 
+def _sensor_state(s, st: Site, row) -> str:
+    """What the sensor page says of a sensor beyond its health: "inactive since ...", or "no data" while its
+    no-data alarm is open; "" otherwise."""
+    if row is None:
+        return ""
+    if not row.active:
+        return "inactive" + (f" since {_iso(row.deactivated_ts)}" if row.deactivated_ts else "") + \
+            ": not in the estimate, its readings are refused"
+    a = s.scalar(select(Alarm).where(Alarm.open_key == f"{st.id}:no_data:{row.sensor_id}"))
+    return "" if a is None else a.message
+
+
 def _figure(width, height):
     """A plain Agg figure with fixed margins (constrained layout costs ~0.4 s per page view)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -368,7 +380,7 @@ def _add_error_handlers(app: FastAPI, ctx: _App):
 
 
 def _add_site_api_routes(app: FastAPI, ctx: _App):
-    """Ingestion and the site configuration API: readings, sites, sensors, survey, thresholds, loggers, channels."""
+    """Ingestion and the site configuration API: readings, sites, sensors, survey, thresholds, loggers."""
     db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
 
     @app.post("/api/v1/sites/{site}/readings")
@@ -477,6 +489,11 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
         user = person(request, "admin")
         return {"name": logger, "api_key": core.rotate_logger(db, user[0], site_name(site), logger)}
 
+
+def _add_channel_routes(app: FastAPI, ctx: _App):
+    """Notification channels: add (admin), their delivery state (engineer), remove (admin)."""
+    db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
+
     @app.post("/api/v1/sites/{site}/channels")
     async def api_channel(site: str, request: Request):
         user = person(request, "admin")
@@ -486,6 +503,16 @@ def _add_site_api_routes(app: FastAPI, ctx: _App):
         return await run_in_threadpool(
             lambda: core.add_channel(db, user[0], site_name(site), body.get("kind"), body.get("target", "")))
 
+    @app.get("/api/v1/sites/{site}/channels")
+    def api_channels(site: str, request: Request):
+        person(request, "engineer")
+        return {"channels": core.channel_status(db, site_name(site))}
+
+    @app.delete("/api/v1/sites/{site}/channels")
+    def api_channel_remove(site: str, request: Request, kind: str = "", target: str = ""):
+        user = person(request, "admin")
+        return core.remove_channel(db, user[0], site_name(site), kind, target)
+
 
 def _add_result_api_routes(app: FastAPI, ctx: _App):
     """The rest of the API: audit, recompute, alarms, settlement results, users, and /healthz."""
@@ -493,8 +520,13 @@ def _add_result_api_routes(app: FastAPI, ctx: _App):
 
     @app.get("/api/v1/sites/{site}/audit")
     def api_audit(site: str, request: Request, limit: int = 500):
-        person(request, "engineer")
+        person(request)  # a viewer reads the site's audit trail (docs: "Viewer: read")
         return {"audit": core.audit_trail(db, site_name(site), limit)}
+
+    @app.get("/api/v1/audit")
+    def api_user_audit(request: Request, limit: int = 500):
+        person(request, "admin")
+        return {"audit": core.audit_trail(db, None, limit, users=True)}
 
     @app.post("/api/v1/sites/{site}/recompute")
     def api_recompute(site: str, request: Request):
@@ -502,9 +534,9 @@ def _add_result_api_routes(app: FastAPI, ctx: _App):
         return recompute(db, site_name(site), force=True)
 
     @app.get("/api/v1/sites/{site}/alarms")
-    def api_alarms(site: str, request: Request, open_only: bool = False):
+    def api_alarms(site: str, request: Request, open_only: bool = False, state: str | None = None):
         person(request)
-        return {"alarms": list_alarms(db, site_name(site), open_only=open_only)}
+        return {"alarms": list_alarms(db, site_name(site), open_only=open_only, state=state)}
 
     @app.post("/api/v1/sites/{site}/alarms/{alarm_id}/ack")
     async def api_ack(site: str, alarm_id: int, request: Request):
@@ -525,9 +557,10 @@ def _add_result_api_routes(app: FastAPI, ctx: _App):
         user = person(request, "admin")
         body = await json_body(request)
         if not isinstance(body, dict):
-            raise InputError('expected {"username", "password", "role"}.')
+            raise InputError('expected {"username", "role"[, "password"][, "reset_password": true]}.')
         return await run_in_threadpool(lambda: core.add_user(db, user[0], str(body.get("username", "")),
-                                                             body.get("password"), str(body.get("role", ""))))
+                                                             body.get("password"), str(body.get("role", "")),
+                                                             reset_password=body.get("reset_password") is True))
 
     @app.get("/healthz")
     def healthz():
@@ -607,19 +640,22 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         alarms = list_alarms(db, st.name, limit=200)
         with db.read() as s:
             last_any = latest_run(s, st, ok_only=False)
+            silent = set(s.scalars(select(Alarm.subject).where(Alarm.site_id == st.id, Alarm.quantity == "no_data",
+                                                               Alarm.open_key.is_not(None))))
             has_thresholds = s.scalar(select(func.count()).select_from(Threshold).where(Threshold.site_id == st.id)) > 0
             health = [] if run is None else [
                 {"sensor_id": h.sensor_id, "status": h.status, "reason": h.reason,
-                 "last": _iso(h.last_reading_ts)}
+                 "last": _iso(h.last_reading_ts), "silent": h.sensor_id in silent}
                 for h in s.scalars(select(HealthRow).where(HealthRow.run_id == run.id).order_by(HealthRow.id))]
         for a in alarms:
             a["raised"] = _iso(a["raised_ts"])
             a["acked"] = _iso(a["ack_ts"])
         controls = core.get_controls(db, st.name)["comparison"]
+        channels = core.channel_status(db, st.name)
         warnings = [] if run is None else json.loads(run.warnings_json or "[]")  # what `rail settle` prints
         return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
                           alarms=alarms, health=health, controls=controls, has_thresholds=has_thresholds,
-                          warnings=warnings,
+                          warnings=warnings, channels=channels,
                           can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
@@ -632,9 +668,12 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         with db.read() as s:
             h = None if run is None else s.scalar(select(HealthRow).where(HealthRow.run_id == run.id,
                                                                           HealthRow.sensor_id == sensor))
-            pk = s.scalar(select(core.Sensor.id).where(core.Sensor.site_id == st.id, core.Sensor.sensor_id == sensor))
+            row = s.scalar(select(core.Sensor).where(core.Sensor.site_id == st.id, core.Sensor.sensor_id == sensor))
+            pk = None if row is None else row.id
             n = 0 if pk is None else s.scalar(select(func.count()).select_from(Reading).where(Reading.sensor_pk == pk))
+            last = None if pk is None else s.scalar(select(func.max(Reading.ts)).where(Reading.sensor_pk == pk))
             channel = None if pk is None else temperature_channel_days(s, st, pk)
+            state = _sensor_state(s, st, row)
         if h is None and not n:
             raise core.NotFound("unknown sensor.")
         lent = None
@@ -643,7 +682,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
                         empty_days=int((channel["n_no_temperature"] > 0).sum()),
                         constant_days=int(channel["constant_temperature"].sum()))
         return ctx.render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n,
-                          run=ctx.run_info(run), lent=lent)
+                          run=ctx.run_info(run), lent=lent, last_reading=_iso(last), state=state)
 
     @app.post("/sites/{site}/alarms/{alarm_id}/ack")
     async def ack_form(request: Request, site: str, alarm_id: int):
@@ -728,6 +767,7 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     app.state.db, app.state.worker, app.state.notifier, app.state.ctx = db, ctx.worker, notifier, ctx
     _add_error_handlers(app, ctx)
     _add_site_api_routes(app, ctx)
+    _add_channel_routes(app, ctx)
     _add_result_api_routes(app, ctx)
     _add_auth_routes(app, ctx)
     _add_page_routes(app, ctx)
