@@ -22,7 +22,16 @@ __all__ = [
     "time_resolution",
     "utc_offset_mix",
     "first_undecodable_line",
+    "missing_value_code",
+    "missing_value_codes",
+    "constant_runs",
+    "MISSING_PROFILE_HINT",
 ]
+
+#: What a refusal of a missing profile sample written as a number (a logger's code, a held or zero value) says to do:
+#: one hint for the profile readers (``io``) and the road commands.
+MISSING_PROFILE_HINT = ("write the missing samples as NaN (leave the cells empty), then cut the profile there (road iri, "
+                        "road report) or cover them with an exclusion zone (road acceptance: [exclusions] zones)")
 
 
 def as_float_array(name: str, value, *, ndim: int | Sequence[int] | None = None,
@@ -152,3 +161,30 @@ def first_undecodable_line(lines, codec: str = "utf-8") -> tuple[int, str] | Non
         except UnicodeDecodeError:
             return n, raw.decode("latin-1").strip()
     return None
+
+
+def missing_value_codes(values) -> np.ndarray:
+    """Mask of the values that look like a logger's code for a missing value: a whole number of 9s, at least 999 in
+    size (-9999, 99999). One rule for the rail tables and the road profile files."""
+    a = np.abs(np.asarray(values, dtype=float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        whole = np.isfinite(a) & (a >= 999.0) & (a == np.round(a)) & (a < 1e15)
+        return whole & (10.0 ** np.round(np.log10(np.where(whole, a + 1.0, 1.0))) == a + 1.0)
+
+
+def missing_value_code(value: float) -> bool:
+    """Whether one value looks like a logger's code for a missing value (:func:`missing_value_codes`)."""
+    return bool(missing_value_codes([value])[0])
+
+
+def constant_runs(x, z, min_length: float) -> list[tuple[int, int]]:
+    """``(first, last)`` sample indices of the runs of exactly equal, finite values of ``z`` over at least
+    ``min_length`` of ``x`` (stations, increasing): a sensor holding one value (a dropout written as a number)."""
+    x, z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
+    if z.size < 2:
+        return []
+    same = np.isfinite(z[1:]) & (z[1:] == z[:-1])
+    d = np.diff(np.concatenate([[0], same.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)  # steps starts .. ends-1: samples starts .. ends
+    keep = x[ends] - x[starts] >= min_length
+    return list(zip(starts[keep].tolist(), ends[keep].tolist()))

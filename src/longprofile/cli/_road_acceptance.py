@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 from ._common import OVERWRITE, check_output_folder, console
 
@@ -22,6 +23,12 @@ def acceptance_command(
                                        "(m, mm, cm, in, ft)."),
     grind: bool = typer.Option(True, "--grind/--no-grind", help="Run the grinding simulation when the spec "
                                "gives a threshold."),
+    check_units: bool = typer.Option(True, "--check-units/--no-check-units",
+                                     help="Refuse a section whose IRI is outside any paved road's 0.2-50 m/km (a "
+                                          "dead sensor, metres under a mm label) and a track holding one exact "
+                                          "elevation over 2 m outside the exclusions (a dropout written as a "
+                                          "value); --no-check-units computes the acceptance anyway, with the "
+                                          "warning on the console, in the report and in summary.json."),
     overwrite: bool = OVERWRITE,
 ):
     """Smoothness acceptance: lot IRI/MRI, localized roughness, exclusions, pay factors, grinding, one HTML page."""
@@ -35,7 +42,7 @@ def acceptance_command(
     s = read_spec(spec) if spec is not None else default_spec()
     tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
     profile = read_profile(file, units=elevation_unit, tracks=tracks)
-    result = smoothness_acceptance(profile, s)
+    result = smoothness_acceptance(profile, s, check_units=check_units)
     ground = []  # the grinding runs inside the report, once the figures that do not need it are queued (drawn by
     # the command's figure helper meanwhile, when one runs)
 
@@ -46,12 +53,22 @@ def acceptance_command(
 
     files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
                                     inputs=(file, spec), overwrite=overwrite, ground_profile=True)
-    grinding = ground[0] if ground else None
-    ps = result.pay_summary
-    pay = "" if ps["mean_pay_factor"] is None else f", mean pay factor {ps['mean_pay_factor']:.4f}"
-    console.print(f"{ps['lots']} lot(s){pay}; {ps['localized_defects']} localized roughness area(s)"
-                  + ("" if grinding is None else "; " + grinding.summary()), markup=False, soft_wrap=True)
+    _print_summary(result, ground[0] if ground else None)
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
+
+
+def _print_summary(result, grinding) -> None:
+    """The console's account of an acceptance: the lots over the section, the warnings, the pay (lots needing
+    corrective work named), the localized roughness (or that it was not assessed) and the grinding's outcome."""
+    console.print(result.lots_text(), markup=False, soft_wrap=True)
+    for w in result.warnings:
+        console.print(f"[yellow]warning:[/yellow] {escape(w)}", highlight=False, soft_wrap=True)
+    pay = result.pay_text()
+    if pay is not None:
+        console.print(f"pay: {pay}" + (" -- CHECK THE WARNING(S) ABOVE BEFORE PAYING" if result.warnings else ""),
+                      markup=False, soft_wrap=True)
+    console.print(result.localized_text() + ("" if grinding is None else "; " + grinding.summary()), markup=False,
+                  soft_wrap=True)
 
 
 def register(app: typer.Typer) -> None:

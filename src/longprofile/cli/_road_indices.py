@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 
 from ._common import (
     OVERWRITE,
@@ -35,14 +36,17 @@ def _tracks(track: str | None, file: Path | None = None):
 
 
 def _check_plausible(result, profile) -> None:
-    """Warn when the IRI is out of any road's range (an elevation unit mistake is the usual cause) or the stations
-    are coarse enough to bias it (:func:`longprofile.road.iri_plausibility`, :func:`~longprofile.road.sampling_note`)."""
-    from ..road import iri_plausibility, sampling_note
+    """Warn when a track holds one elevation over metres (a dropout written as a value), the IRI is out of any road's
+    range (an elevation unit mistake is the usual cause) or the stations are coarse enough to bias it
+    (:func:`longprofile.road.dropout_note`, :func:`~longprofile.road.iri_plausibility`,
+    :func:`~longprofile.road.sampling_note`)."""
+    from ..road import dropout_note, iri_plausibility, sampling_note
 
     factor = 63.36 if getattr(result, "units", "si") == "us" else 1.0
-    for note in (iri_plausibility([v / factor for v in result.section_iri]), sampling_note(profile)):
+    for note in (dropout_note(profile), iri_plausibility([v / factor for v in result.section_iri]),
+                 sampling_note(profile)):
         if note:
-            console.print(f"[yellow]warning:[/yellow] {note}", highlight=False, soft_wrap=True)
+            console.print(f"[yellow]warning:[/yellow] {escape(note)}", highlight=False, soft_wrap=True)
 
 
 #: Length units the deprecated ``--units`` still accepts as the elevation unit (before ``--units si|us``).

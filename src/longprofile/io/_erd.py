@@ -34,6 +34,7 @@ import numpy as np
 from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, OutputError, UnitsError
 from ._atomic import atomic_path
+from ._plausible import check_missing_codes
 
 __all__ = ["read_erd", "write_erd"]
 
@@ -263,8 +264,9 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     values = _parse_body_fast(raw, start, nchan, npts)
     if values is None:
         values = _parse_body_slow(path, raw, start, end_line + 1, nchan, npts).reshape(npts, nchan)
-    data = values[:, keep] * factors
     x = (x0 + dx * np.arange(npts)) * xfactor
+    check_missing_codes(path, x, values[:, keep], [names[k] for k in keep], [chan_units[k] for k in keep], factors)
+    data = values[:, keep] * factors
     title = keys.get("TITLE", "").strip() or path.stem
     return Profile(distance=x, elevation=data, tracks=tuple(names[k] for k in keep), name=title)
 

@@ -10,6 +10,7 @@ import pandas as pd
 
 from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, UnitsError
+from ._plausible import check_missing_codes
 from ._tables import read_table, write_table
 
 __all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "read_sampled_column",
@@ -124,7 +125,10 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
         i = int(np.flatnonzero(np.diff(x) <= 0)[0]) + 1
         raise InputFormatError(f"{path}: {fmt_line(i)}: station {df[distance_column].iloc[i]:g} is not greater than "
                                f"the previous one {df[distance_column].iloc[i - 1]:g}; stations must increase strictly.")
-    z = np.column_stack([df[columns[t][0]].to_numpy() * unit_factor(columns[t][1]) for t in names])
+    raw = np.column_stack([df[columns[t][0]].to_numpy() for t in names])
+    factors = [unit_factor(columns[t][1]) for t in names]
+    check_missing_codes(path, x, raw, names, [columns[t][1] for t in names], factors)
+    z = raw * np.array(factors)
     std = None
     if any(t in std_columns for t in names):
         std = np.full(z.shape, np.nan)

@@ -11,14 +11,13 @@ Tables (CSV or Parquet, one row per item, units in the column names):
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 import pandas as pd
 
-from .._validation import time_zone, utc_offset_mix
+from .._validation import missing_value_code, time_zone, utc_offset_mix  # the rule shared with road files
 from ..core import MAX_ABS_ELEVATION_M, MISSING_TEXT
 from ..errors import InputError, InputFormatError, UnitsError
 
@@ -253,13 +252,6 @@ def track_angle(readings: pd.DataFrame) -> float:
 #: What a refusal says of a value that :func:`missing_value_code` takes for a logger's code.
 MISSING_CODE_HINT = ("a logger's code for a missing value? Leave such cells empty or write NAN (a missing temperature "
                      "is filled from the neighbouring sensors).")
-
-
-def missing_value_code(value: float) -> bool:
-    """Whether an out-of-range value looks like a logger's code for a missing value: a whole number of 9s, at least
-    999 in size (-9999, 99999)."""
-    v = float(value)
-    return math.isfinite(v) and abs(v) >= 999 and v == round(v) and set(f"{abs(v):.0f}") == {"9"}
 
 
 def _check_reading_ranges(r: pd.DataFrame) -> None:

@@ -256,8 +256,11 @@ def _write_tables(out: Path, result, grinding, ground_profile: bool) -> tuple[di
 
 
 def _summary(result, grinding) -> dict:
-    """``summary.json``: pay summary, metadata, the spec and (with a grinding) its outcome."""
-    summary = {"pay": result.pay_summary, "metadata": result.metadata,
+    """``summary.json``: the warnings, the console's sentences (lots, pay, localized roughness), pay summary,
+    metadata, the spec and (with a grinding) its outcome."""
+    summary = {"warnings": list(result.warnings),
+               "text": {"lots": result.lots_text(), "pay": result.pay_text(), "localized": result.localized_text()},
+               "pay": result.pay_summary, "metadata": result.metadata,
                "spec": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(result.spec).items()}}
     if grinding is not None:
         summary["grinding"] = {"threshold": grinding.threshold, "achieved": grinding.achieved,
@@ -266,11 +269,16 @@ def _summary(result, grinding) -> dict:
     return summary
 
 
+def _sentence(text: str, capital: bool = True) -> str:
+    """``text`` escaped for the page, as a sentence (capital first letter unless not ``capital``, final full stop)."""
+    return html.escape((text[:1].upper() if capital else text[:1]) + text[1:] + ("" if text.endswith(".") else "."))
+
+
 def _grinding_context(grinding) -> dict | None:
     """The grinding section of the page: target, verdict (bold when not achieved), model, grind list (HTML)."""
     if grinding is None:
         return None
-    line = html.escape(grinding.summary()[:1].upper() + grinding.summary()[1:] + ".")
+    line = _sentence(grinding.summary())
     return {"threshold": f"{grinding.threshold:g}", "verdict": line if grinding.achieved else f"<b>{line}</b>",
             "model": html.escape(grinding.metadata["model"]),
             "table": _table(grinding.grinds) if len(grinding.grinds) else ""}
@@ -280,16 +288,18 @@ def _page_context(result, grinding, tables: list[str], images: dict, title: str 
     """Everything ``templates/acceptance_report.html`` shows: escaped text, numbers as shown, HTML tables, the
     figures as ``<img>`` tags by file name."""
     spec, ps = result.spec, result.pay_summary
-    pay = (None if ps.get("mean_pay_factor") is None else
-           {"mean": f"{ps['mean_pay_factor']:.4f}", "lots_with": ps["lots_with_pay"],
-            "lots_without": ps["lots_without_pay"]})
+    pay = result.pay_text()
+    if pay is not None:
+        pay = _sentence(pay, capital=False)
+        pay = f"<b>{pay}</b>" if ps["lots_corrective_work"] or result.warnings else pay
     return dict(name=html.escape(title or "Smoothness acceptance"), lu=spec.length_unit, iu=spec.iri_unit,
+                warnings=[_sentence(w) for w in result.warnings], lots_text=_sentence(result.lots_text()),
+                localized=_sentence(result.localized_text()),
                 lot_length=f"{spec.lot_length:g}", index=spec.index.upper(), window=f"{spec.localized_window:g}",
                 threshold=("" if spec.localized_threshold is None else f"{spec.localized_threshold:g}"),
                 n_exclusions=len(spec.exclusions),
                 ma_reason=html.escape(str(result.metadata.get("moving_average_reason", ""))), pay=pay,
                 img={n: img_tag(images, n, n) for n in images}, lots_table=_table(result.lots),
-                n_defects=ps["localized_defects"], defect_length=f"{ps['localized_defect_length']:.1f}",
                 defects_table=_table(result.defects), grinding=_grinding_context(grinding),
                 histogram_table=_table(result.histogram), tables=tables)
 

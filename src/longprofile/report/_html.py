@@ -47,10 +47,14 @@ def report_folder(outdir, inputs=(), *, writes=(), overwrite: bool = True, creat
     writes : iterable of str
         File names written into the folder (e.g. ``REPORT_FILES["road"]``).
     overwrite : bool, default True
-        False refuses an existing folder that is not empty (the CLI's default; True replaces the files written
-        there and leaves the others alone).
+        False refuses an existing folder that is not empty (the CLI's default). True replaces the files written
+        there and leaves the others alone; the files of ``writes`` an earlier run left there are removed first
+        (with ``create``), so that a run that writes fewer of them (no grind list, no correlation plot) does not
+        leave the earlier run's beside its own: the folder never mixes two runs. Only names of ``writes`` are
+        removed, never a folder, never an input (refused above).
     create : bool, default True
-        Create the folder. False only checks (a command's check before any work).
+        Create the folder (and remove the earlier run's files). False only checks (a command's check before any
+        work).
     what : str
         How the folder is named in the messages (``"output"``, ``"--report"``).
     hint : str, optional
@@ -88,7 +92,20 @@ def report_folder(outdir, inputs=(), *, writes=(), overwrite: bool = True, creat
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OutputError(f"cannot create the folder {out}: {exc.strerror or exc}; choose another folder.") from None
+        _remove_earlier_run(out, writes)
     return out
+
+
+def _remove_earlier_run(out: Path, writes) -> None:
+    """Remove the files named in ``writes`` from ``out`` (an earlier run's outputs; files and links only)."""
+    for name in writes:
+        path = out / name
+        if path.is_symlink() or path.is_file():
+            try:
+                path.unlink()
+            except OSError as exc:
+                raise OutputError(f"cannot remove the earlier run's {path}: {exc.strerror or exc}; remove it or "
+                                  "choose another folder.") from None
 
 
 def write_csv(frame, path: Path) -> Path:

@@ -29,9 +29,13 @@ def test_lots_match_iri_report(two_track, units, lot):
     res = smoothness_acceptance(two_track, spec)
     rep = iri_report(two_track, mode="fixed", interval=lot, units=units)
     assert len(res.lots) == rep.iri.shape[0]
+    # iri_report leaves out an incomplete last segment; the acceptance merges a remainder shorter than half a lot into
+    # the last lot (US: the 41 ft after 8 lots of 528 ft), which then differs: the whole lots agree
+    k = int(np.isclose(res.lots.end - res.lots.start, lot).sum())
+    assert k >= len(res.lots) - 1
     # limits interpolated within a step here, inserted as stations there: agree to ~dx / lot length
-    assert np.allclose(res.lots[["iri_left", "iri_right"]].to_numpy(), rep.iri, rtol=5e-4)
-    assert np.allclose(res.lots["mri"], rep.mri, rtol=5e-4)
+    assert np.allclose(res.lots[["iri_left", "iri_right"]].to_numpy()[:k], rep.iri[:k], rtol=5e-4)
+    assert np.allclose(res.lots["mri"][:k], rep.mri[:k], rtol=5e-4)
 
 
 def test_localized_matches_continuous_iri_report(two_track):
@@ -146,7 +150,10 @@ def test_cli_acceptance_report(tmp_path):
     spec.write_text('units = "us"\n[lot]\nlength = 528\n[localized]\nthreshold = 120\n'
                     '[exclusions]\nzones = [[2000, 2100]]\n[pay]\nschedule = [[60, 1.05], [90, 1.0], [200, 0.9]]\n')
     out = tmp_path / "report"
+    # a synthetic sine, smoother than any pavement (section IRI 0.17 m/km): refused unless --no-check-units
     res = CliRunner().invoke(_cli(), ["acceptance", str(f), "--spec", str(spec), "-o", str(out)])
+    assert isinstance(res.exception, UnitsError) and "--no-check-units" in str(res.exception)
+    res = CliRunner().invoke(_cli(), ["acceptance", str(f), "--spec", str(spec), "-o", str(out), "--no-check-units"])
     assert res.exit_code == 0, res.output
     page = (out / "index.html").read_text()
     assert "Lots" in page and "Grinding simulation" in page and "data:image/png;base64" in page

@@ -54,7 +54,7 @@ def test_grinding_with_the_acceptance_result_equals_grinding_without_it():
     for index in ("auto", "mri", "iri"):
         spec = spec_from_dict({"index": index, "lot": {"length": 200.0}, "localized": {"threshold": 2.0},
                                "exclusions": {"zones": [[600.0, 610.0]]}})
-        res = smoothness_acceptance(prof, spec) if index != "iri" else None
+        res = smoothness_acceptance(prof, spec, check_units=False) if index != "iri" else None  # a sine: 0.16 m/km
         if res is None:  # "iri" needs one track for the acceptance: grind the two-track profile on its own
             g = simulate_grinding(prof, spec)
             assert len(g.grinds)

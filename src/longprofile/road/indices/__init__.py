@@ -3,6 +3,7 @@
 iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
 iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
 iri_plausibility, sampling_note -- a sentence when a section IRI is outside any road's range, or the stations are coarse.
+dropout_runs, dropout_note -- runs of one exact elevation over 2 m (a dropout written as a value), and their sentence.
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 localized_roughness -- continuous short-interval IRI and defects above a threshold.
@@ -20,6 +21,9 @@ joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASH
 from ..._lazy import lazy_namespace
 
 _EXPORTS = {
+    "._dropouts": (
+        "MIN_DROPOUT_RUN_M", "dropout_note", "dropout_runs",
+    ),
     "._faulting": (
         "FaultingResult", "find_joints", "joint_faulting", "step_statistic",
     ),
@@ -51,7 +55,7 @@ _EXPORTS = {
 
 __all__ = ["iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
-    "GOLDEN_CAR", "iri_plausibility", "sampling_note",
+    "GOLDEN_CAR", "iri_plausibility", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

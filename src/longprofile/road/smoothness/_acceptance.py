@@ -16,10 +16,11 @@ import pandas as pd
 from ..._validation import require_positive
 from ...core import Profile
 from ...errors import InputError, InputFormatError, UnitsError
-from ..indices._iri import REPORT_UNITS, ReportUnits, rectified_slope
+from ..indices._dropouts import dropout_message, dropout_runs
+from ..indices._iri import PLAUSIBLE_IRI_M_PER_KM, REPORT_UNITS, ReportUnits, iri_plausibility, rectified_slope
 
-__all__ = ["AcceptanceResult", "AcceptanceSpec", "default_spec", "read_spec", "smoothness_acceptance",
-           "spec_from_dict"]
+__all__ = ["AcceptanceResult", "AcceptanceSpec", "acceptance_slope", "default_spec", "lot_bounds", "read_spec",
+           "smoothness_acceptance", "spec_from_dict"]
 
 _FT = 0.3048
 
@@ -57,7 +58,9 @@ class AcceptanceSpec(ReportUnits):
     grind_max_depth : float
         Largest grind depth allowed, in the elevation unit of the spec (mm in SI, in in US; default 10 mm).
     min_lot_fraction : float
-        A lot with less than this share of its length outside the exclusions gets no pay factor (default 0.5).
+        A lot with less than this share of its length outside the exclusions gets no pay factor (default 0.5); the
+        section's remainder after the whole lots is a lot of its own when at least this share of a lot, else it is
+        merged into the previous lot (:func:`lot_bounds`).
     """
 
     units: str = "si"
@@ -258,10 +261,14 @@ class AcceptanceResult:
     histogram : pandas.DataFrame
         ``low, high, lots, length`` of the lot index.
     pay_summary : dict
-        Length-weighted mean pay factor, lots without pay, totals.
+        Length-weighted mean pay factor, lots with and without pay (corrective work, not rated), the section, the
+        last lot's rule, the excluded length, the localized roughness areas (None: not assessed).
     spec : AcceptanceSpec
     tracks : tuple of str
     metadata : dict
+    warnings : tuple of str
+        What the acceptance was computed despite (``check_units=False``) or flags (lots outside any paved road's
+        IRI range): shown by the command, the report and summary.json.
     """
 
     lots: pd.DataFrame
@@ -272,6 +279,47 @@ class AcceptanceResult:
     spec: AcceptanceSpec
     tracks: tuple[str, ...]
     metadata: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def lots_text(self) -> str:
+        """How the lots cover the section: their number and stations, the last lot's rule, the excluded length."""
+        ps, lu = self.pay_summary, self.spec.length_unit
+        sec, last = ps["section"], ps["last_lot"]
+        text = f"{ps['lots']} lot(s) over {sec['start']:.6g}-{sec['end']:.6g} {lu}"
+        span = f"the last, {last['start']:.6g}-{last['end']:.6g} {lu}"
+        if last["rule"] == "own":
+            text += f" ({span}, is the {last['remainder']:.4g} {lu} remainder as a lot of its own)"
+        elif last["rule"] == "merged":
+            text += (f" ({span}, takes the {last['remainder']:.4g} {lu} remainder, shorter than "
+                     f"{self.spec.min_lot_fraction:g} lot: {last['end'] - last['start']:.4g} {lu})")
+        if ps["excluded_length"] > 0:
+            text += (f"; {ps['excluded_length']:.4g} {lu} in {len(_merge(self.spec.exclusions))} exclusion zone(s) "
+                     "not evaluated")
+        return text
+
+    def pay_text(self) -> str | None:
+        """The pay in one sentence: mean factor of the paid lots, lots needing corrective work, lots not rated
+        (None without a pay schedule)."""
+        ps, spec = self.pay_summary, self.spec
+        if not spec.pay_schedule:
+            return None
+        parts = ["no lot earns a pay factor" if ps["mean_pay_factor"] is None else
+                 f"mean pay factor {ps['mean_pay_factor']:.4f} over {ps['lots_with_pay']} paid lot(s)"]
+        if ps["lots_corrective_work"]:
+            parts.append(f"{ps['lots_corrective_work']} lot(s) NEED CORRECTIVE WORK ({spec.index.upper()} above the "
+                         f"last pay limit {spec.pay_schedule[-1][0]:g} {spec.iri_unit}): no pay")
+        if ps["lots_not_rated"]:
+            parts.append(f"{ps['lots_not_rated']} lot(s) not rated (less than {spec.min_lot_fraction:g} of their "
+                         "length outside the exclusions): no pay")
+        return "; ".join(parts)
+
+    def localized_text(self) -> str:
+        """The localized roughness in one sentence, or that it was not assessed (no threshold)."""
+        ps, spec = self.pay_summary, self.spec
+        if ps["localized_defects"] is None:
+            return "localized roughness not assessed (no threshold in the spec: [localized] threshold)"
+        return (f"{ps['localized_defects']} localized roughness area(s) above {spec.localized_threshold:g} "
+                f"{spec.iri_unit} ({ps['localized_defect_length']:.4g} {spec.length_unit})")
 
 
 def _cumulative(rs):
@@ -320,7 +368,7 @@ def localized_index(profile: Profile, spec: AcceptanceSpec, *, tracks=None, rs=N
 
     Returns (centres in the length unit, values (M, K) per track, index (M,) MRI or worst track, tracks).
     """
-    rs = rectified_slope(profile, tracks=tracks) if rs is None else rs
+    rs = acceptance_slope(profile, spec, tracks=tracks) if rs is None else rs
     st, cum = _cumulative(rs)
     centres = _localized_centres(profile.distance, st, spec)
     vals = _localized_values(st, cum, centres, spec)
@@ -372,16 +420,248 @@ def pay_factor(value: float, schedule) -> float:
     return float("nan")
 
 
-def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, *, tracks=None) -> AcceptanceResult:
+def lot_bounds(x0: float, x1: float, spec: AcceptanceSpec) -> tuple[np.ndarray, dict]:
+    """Lot limits from the first station ``x0`` to the last ``x1`` (spec unit) and the last lot's rule.
+
+    Whole lots of ``lot_length`` from ``x0``; the remainder is a (shorter) lot of its own when it is at least
+    ``min_lot_fraction`` of a lot, else it is merged into the previous lot (ASSUMPTION, the common agency rule;
+    0.5 by default: a remainder of at least half a lot is its own lot). So the lots cover the whole section.
+    Returns ``(bounds, {"rule": "none" | "own" | "merged", "remainder": length})``; a section shorter than
+    ``min_lot_fraction`` of a lot is refused (:class:`InputError`).
+    """
+    lot, lu = spec.lot_length, spec.length_unit
+    n = int(np.floor((x1 - x0) / lot + 1e-9))
+    rest = (x1 - x0) - n * lot
+    tiny = 1e-6 * lot  # float noise of the stations, not a remainder
+    bounds = x0 + lot * np.arange(n + 1)
+    if rest <= tiny and n >= 1:
+        bounds[-1] = x1
+        return bounds, {"rule": "none", "remainder": 0.0}
+    if rest >= spec.min_lot_fraction * lot - tiny:
+        return np.append(bounds, x1), {"rule": "own", "remainder": float(rest)}
+    if n < 1:
+        raise InputError(f"the profile ({x1 - x0:.2f} {lu}) is shorter than the shortest lot the spec makes "
+                         f"({spec.min_lot_fraction:g} of a {lot:g} {lu} lot, [lot] min_fraction): set a shorter "
+                         "[lot] length or a smaller min_fraction.")
+    bounds[-1] = x1
+    return bounds, {"rule": "merged", "remainder": float(rest)}
+
+
+def acceptance_slope(profile: Profile, spec: AcceptanceSpec, *, tracks=None):
+    """:func:`~longprofile.road.rectified_slope` of the profile for the acceptance; missing (NaN) elevations are
+    accepted inside the spec's exclusion zones only.
+
+    With such gaps the golden car runs once per part between them (each restarted with the standard 11 m
+    initialisation, ASTM E1926) and the parts are joined with a zero rectified slope across each gap: the gap lies
+    in an excluded zone, whose integral the lots subtract and whose windows are blank. A part wholly inside a zone is
+    skipped. A gap outside the zones is refused (:class:`InputError`), naming it and the zone that would cover it.
+    """
+    names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
+    z = np.column_stack([profile.track(t) for t in names])
+    missing = np.isnan(z).any(axis=1)
+    if not missing.any():
+        return rectified_slope(profile, tracks=names)
+    scale, x = spec.metres_per_unit, profile.distance
+    zones = [(a * scale, b * scale) for a, b in _merge(spec.exclusions)]
+    for i, k in _runs(missing):
+        if not any(a <= x[i] and x[k] <= b for a, b in zones):
+            _refuse_gap(x, z, names, i, k, spec)
+    parts = [(i, k) for i, k in _runs(~missing) if not any(a <= x[i] and x[k] <= b for a, b in zones)]
+    runs = []
+    for i, k in parts:
+        if x[k] - x[i] < 11.0:  # the golden car's lead-in: a shorter part cannot be initialised
+            raise InputError(f"the profile between the missing elevations, {x[i] / scale:.3f} to {x[k] / scale:.3f} "
+                             f"{spec.length_unit}, is shorter than the IRI's 11 m lead-in: extend the exclusion zone "
+                             "over it.")
+        runs.append(rectified_slope(Profile(distance=x[i:k + 1], elevation=z[i:k + 1], tracks=names)))
+    return _join_runs(runs)
+
+
+def _refuse_gap(x, z, names, i, k, spec) -> None:
+    """Refuse the missing samples ``i .. k`` outside the exclusion zones: the gap, and the zone that covers it."""
+    scale, lu = spec.metres_per_unit, spec.length_unit
+    track = names[int(np.flatnonzero(np.isnan(z[i]))[0])]
+    lo, hi = x[max(i - 1, 0)] / scale, x[min(k + 1, x.size - 1)] / scale
+    raise InputError(f"track {track!r} has missing (NaN) elevations from station {x[i] / scale:.3f} to "
+                     f"{x[k] / scale:.3f} {lu} ({k - i + 1} sample(s)) outside the exclusion zones; the IRI needs a "
+                     f"continuous profile: add an exclusion zone covering the gap to the spec (e.g. [exclusions] "
+                     f"zones = [[{np.floor(lo):g}, {np.ceil(hi):g}]]), or fill it explicitly.")
+
+
+def _join_runs(runs):
+    """One RectifiedSlope of the golden-car runs of consecutive profile parts, a zero rectified slope across the
+    step between two parts."""
+    first = runs[0]
+    station = np.concatenate([r.station for r in runs])
+    zero = np.zeros((1, first.rectified.shape[1]))
+    rectified = np.concatenate([a for r in runs for a in (zero, r.rectified)][1:])
+    return replace(first, station=station, step=np.diff(station), rectified=rectified,
+                   moving_average=any(r.moving_average for r in runs))
+
+
+def _selected_profile(profile: Profile, tracks) -> Profile:
+    """The profile with the acceptance's tracks only (as read: NaN kept)."""
+    if tuple(tracks) == tuple(profile.tracks):
+        return profile
+    z = np.column_stack([profile.track(t) for t in tracks])
+    return Profile(distance=profile.distance, elevation=z, tracks=tuple(tracks), name=profile.name)
+
+
+def _check_dropouts(profile: Profile, spec: AcceptanceSpec, tracks, check_units: bool) -> list[str]:
+    """Refuse (``check_units``) or return as a warning the runs of one exact elevation over
+    :data:`~longprofile.road.MIN_DROPOUT_RUN_M` outside the exclusion zones (a dropout written as a value)."""
+    scale = spec.metres_per_unit
+    runs = dropout_runs(_selected_profile(profile, tracks), exclusions=[(a * scale, b * scale) for a, b in
+                                                                          _merge(spec.exclusions)])
+    text = dropout_message(runs, length_unit=spec.length_unit, metres_per_unit=scale)
+    if not text:
+        return []
+    if check_units:
+        raise InputError(f"{text} (If the profile is right, e.g. a synthetic one, --no-check-units / "
+                         "check_units=False computes the acceptance with this warning.)")
+    return [f"{text} (computed anyway: check_units off)"]
+
+
+def _lot_ranges(numbers) -> str:
+    """Lot numbers (1-based, sorted) as ``1-3, 7``."""
+    out, numbers = [], list(numbers)
+    i = 0
+    while i < len(numbers):
+        j = i
+        while j + 1 < len(numbers) and numbers[j + 1] == numbers[j] + 1:
+            j += 1
+        out.append(f"{numbers[i]}" if i == j else f"{numbers[i]}-{numbers[j]}")
+        i = j + 1
+    return ", ".join(out)
+
+
+def _check_plausible(lots, lot_iri_m, section_m, spec, check_units: bool) -> tuple[list[str], list[int]]:
+    """The plausibility rule of ``road iri`` (:func:`~longprofile.road.iri_plausibility`, 0.2-50 m/km) on the
+    section IRI of each track and on each lot: a section outside it is refused with ``check_units`` (a dead sensor,
+    metres under a mm label), else a warning; lots outside it are warned of. Returns (warnings, lot numbers)."""
+    lo, hi = PLAUSIBLE_IRI_M_PER_KM
+    bad = np.flatnonzero(np.any(np.isfinite(lot_iri_m) & ((lot_iri_m < lo) | (lot_iri_m > hi)), axis=1)) + 1
+    where = ""
+    if bad.size:
+        lu = spec.length_unit
+        where = (f"lot(s) {_lot_ranges(bad.tolist())} of {len(lots)} ({lots['start'].iloc[bad[0] - 1]:.6g}-"
+                 f"{lots['end'].iloc[bad[-1] - 1]:.6g} {lu}) have an IRI outside {lo:g}-{hi:g} m/km")
+    note = iri_plausibility(section_m, what="section IRI")
+    lots_note = f" {where[:1].upper()}{where[1:]}." if where else ""
+    if note and check_units:
+        raise UnitsError(f"{note}{lots_note} No pay is computed on such a profile: check the sensor and the elevation "
+                         "unit; if the profile is right, --no-check-units (check_units=False) computes the acceptance "
+                         "with this warning.")
+    if note:
+        return [f"{note}{lots_note} Computed anyway (check_units off): do not pay on it before checking the "
+                "profile."], bad.tolist()
+    if where:
+        return [f"{where}: {iri_plausibility(lot_iri_m, what='lot IRI')} Check the profile there before paying on "
+                "these lots."], bad.tolist()
+    return [], []
+
+
+def _lot_table(st, cum, bounds_u, zones, spec, tracks):
+    """The lots (``start, end, included_length, iri_<track>, [mri], index, pay_factor``) and their IRI per track in
+    m/km (NaN where nothing is evaluated), and the section IRI per track in m/km (outside the zones)."""
+    scale = spec.metres_per_unit
+    a, b = bounds_u[:-1] * scale, bounds_u[1:] * scale
+    ac, bc = np.maximum(a, st[0]), np.minimum(b, st[-1])  # the moving average leaves half its base at each end
+    total, length, included = _interval_sum(st, cum, ac, bc), bc - ac, b - a
+    for za, zb in zones:
+        ca, cb = np.clip(za * scale, ac, bc), np.clip(zb * scale, ac, bc)
+        total = total - _interval_sum(st, cum, ca, cb)
+        length = length - (cb - ca)
+        included = included - (np.clip(zb * scale, a, b) - np.clip(za * scale, a, b))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lot_iri_m = np.where(length[:, None] > 1e-9, total / length[:, None], np.nan)
+        section_m = total.sum(axis=0) / length.sum()
+    lot_iri = lot_iri_m * spec.iri_factor
+    cols = {"start": bounds_u[:-1], "end": bounds_u[1:], "included_length": included / scale}
+    for j, t in enumerate(tracks):
+        cols[f"iri_{t}"] = lot_iri[:, j]
+    if len(tracks) == 2:
+        cols["mri"] = lot_iri.mean(axis=1)
+    index = cols["mri"] if spec.index == "mri" else lot_iri.max(axis=1)
+    cols["index"] = np.where(included / (b - a) >= spec.min_lot_fraction, index, np.nan)
+    cols["pay_factor"] = (np.array([pay_factor(v, spec.pay_schedule) for v in cols["index"]]) if spec.pay_schedule
+                          else np.nan)
+    return pd.DataFrame(cols), lot_iri_m, section_m
+
+
+def _localized_table(profile, spec, rs):
+    """The localized index table (``station, iri_<track>, [mri], index``) and its defects above the threshold (none
+    without a threshold)."""
+    centres, vals, loc_index, _ = localized_index(profile, spec, rs=rs)
+    loc = {"station": centres}
+    for j, t in enumerate(rs.tracks):
+        loc[f"iri_{t}"] = vals[:, j]
+    if len(rs.tracks) == 2:
+        loc["mri"] = vals.mean(axis=1)
+    loc["index"] = loc_index
+    rows = []
+    if spec.localized_threshold is not None:
+        above = np.nan_to_num(loc_index, nan=-np.inf) > spec.localized_threshold
+        for i, k in _runs(above):
+            p = i + int(np.argmax(loc_index[i:k + 1]))
+            rows.append({"start": centres[i], "end": centres[k], "length": centres[k] - centres[i],
+                         "peak_station": centres[p], "peak": loc_index[p]})
+    return pd.DataFrame(loc), pd.DataFrame(rows, columns=["start", "end", "length", "peak_station", "peak"])
+
+
+def _histogram(lots, spec) -> pd.DataFrame:
+    """``low, high, lots, length`` of the rated lots' index (bin ``histogram_bin``)."""
+    index = lots["index"].to_numpy(dtype=float)
+    width = spec.histogram_bin or (10.0 if spec.units == "us" else 0.2)
+    finite = index[np.isfinite(index)]
+    top = max(width, float(np.ceil((finite.max() if finite.size else width) / width + 1e-9) * width))
+    edges = np.arange(0.0, top + width / 2, width)
+    counts, _ = np.histogram(finite, bins=edges)
+    lens, _ = np.histogram(finite, bins=edges, weights=lots["included_length"].to_numpy()[np.isfinite(index)])
+    return pd.DataFrame({"low": edges[:-1], "high": edges[1:], "lots": counts, "length": lens})
+
+
+def _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible) -> dict:
+    """The pay summary: lots with pay, needing corrective work (index above the schedule), not rated (too much
+    excluded); length-weighted mean pay factor; the section, its last lot and excluded length; the defects."""
+    pf, index = lots["pay_factor"].to_numpy(dtype=float), lots["index"].to_numpy(dtype=float)
+    paid = np.isfinite(pf)
+    weights = lots["included_length"].to_numpy()
+    mean_pf = float(np.sum(pf[paid] * weights[paid]) / np.sum(weights[paid])) if paid.any() else None
+    scheduled = bool(spec.pay_schedule)
+    assessed = spec.localized_threshold is not None
+    end = lots.iloc[-1]
+    return {"lots": len(lots), "lots_with_pay": int(paid.sum()),
+            "lots_without_pay": int((~paid).sum()) if scheduled else None,
+            "lots_corrective_work": int((~paid & np.isfinite(index)).sum()) if scheduled else None,
+            "lots_not_rated": int((~np.isfinite(index)).sum()) if scheduled else None,
+            "mean_pay_factor": mean_pf,
+            "section": {"start": float(x0u), "end": float(x1u), "length": float(x1u - x0u)},
+            "last_lot": {**last, "start": float(end["start"]), "end": float(end["end"])},
+            "evaluated_length": float(weights.sum()),
+            "excluded_length": float(sum(zb - za for za, zb in zones)),
+            "implausible_lots": implausible,
+            "localized_defects": len(defects) if assessed else None,
+            "localized_defect_length": float(defects["length"].sum()) if assessed else None}
+
+
+def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, *, tracks=None,
+                          check_units: bool = True) -> AcceptanceResult:
     """Lot IRI/MRI, localized roughness, exclusions, histogram and pay factors of a profile against a spec.
 
     Parameters
     ----------
     profile : Profile
-        SI profile (stations, elevations in m); one track (index IRI) or two (MRI).
+        SI profile (stations, elevations in m); one track (index IRI) or two (MRI). Missing (NaN) elevations are
+        accepted inside exclusion zones only (:func:`acceptance_slope`).
     spec : AcceptanceSpec, optional
         Default :func:`default_spec` ("si").
     tracks : str or sequence of str, optional
+    check_units : bool, default True
+        Refuse a section whose IRI is outside any paved road's range (0.2-50 m/km,
+        :func:`~longprofile.road.iri_plausibility`: a dead sensor, metres under a mm label) and a track holding
+        one exact elevation over 2 m outside the exclusions (:func:`~longprofile.road.dropout_runs`: a dropout
+        written as a value). False computes the acceptance anyway, with these in ``warnings``.
 
     Returns
     -------
@@ -391,7 +671,10 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     ------
     InputError
         Exclusion zones outside the profile; MRI asked of a profile without two tracks; a profile shorter
-        than one lot or than the localized window.
+        than ``min_lot_fraction`` of a lot or than the localized window; a gap (NaN) outside the exclusion zones;
+        a dropout (``check_units``).
+    UnitsError
+        A section IRI outside 0.2-50 m/km (``check_units``).
 
     Notes
     -----
@@ -403,7 +686,8 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     rectified slope over its length outside the exclusions (longprofile's reading of "excluded from the
     lot"); the localized roughness is the continuous IRI over ``localized_window`` centred on each
     station, as ProVAL's Smoothness Assurance continuous analysis (FHWA), blanked where the window touches an
-    exclusion. Lots start at the first station and only complete lots are reported.
+    exclusion. Lots start at the first station and cover the section to the last (:func:`lot_bounds`: the
+    remainder is a lot of its own or merged into the previous one).
     """
     spec = validate_spec(spec or default_spec())
     scale, lu = spec.metres_per_unit, spec.length_unit
@@ -415,70 +699,21 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
         if value * scale < 10.0 * step:  # e.g. 1e-9 ft: a trillion lots (a 7 TiB array), not a statement
             raise InputError(f"the {what} {value:g} {lu} is shorter than 10 samples of the profile ({step / scale:.3g} "
                              f"{lu} apart): a unit mistake in the spec?")
-    n_lots = int(np.floor((x1u - x0u) / spec.lot_length + 1e-9))
-    if n_lots < 1:
-        raise InputError(f"the profile ({x1u - x0u:.2f} {lu}) is shorter than one lot ({spec.lot_length:g} {lu}).")
-    bounds_u = x0u + spec.lot_length * np.arange(n_lots + 1)
+    bounds_u, last = lot_bounds(x0u, x1u, spec)
     zones = _merge(spec.exclusions)
-    rs = rectified_slope(profile, tracks=tracks)  # no inserted limits: keeps the fast constant-step run
+    rs = acceptance_slope(profile, spec, tracks=tracks)  # no inserted limits: keeps the fast constant-step run
     spec = resolve_index(spec, rs.tracks)
+    warnings = _check_dropouts(profile, spec, rs.tracks, check_units)
     st, cum = _cumulative(rs)
-    a, b = bounds_u[:-1] * scale, bounds_u[1:] * scale
-    a, b = np.maximum(a, st[0]), np.minimum(b, st[-1])
-    total = _interval_sum(st, cum, a, b)
-    length = b - a
-    for za, zb in zones:
-        ca, cb = np.clip(za * scale, a, b), np.clip(zb * scale, a, b)
-        total = total - _interval_sum(st, cum, ca, cb)
-        length = length - (cb - ca)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lot_iri = np.where(length[:, None] > 1e-9, total / length[:, None], np.nan) * spec.iri_factor
-    fraction = length / (b - a)
-    cols = {"start": bounds_u[:-1], "end": bounds_u[1:], "included_length": length / scale}
-    for j, t in enumerate(rs.tracks):
-        cols[f"iri_{t}"] = lot_iri[:, j]
-    if len(rs.tracks) == 2:
-        cols["mri"] = lot_iri.mean(axis=1)
-    index = cols["mri"] if spec.index == "mri" else lot_iri.max(axis=1)
-    index = np.where(fraction >= spec.min_lot_fraction, index, np.nan)
-    cols["index"] = index
-    cols["pay_factor"] = np.array([pay_factor(v, spec.pay_schedule) for v in index]) if spec.pay_schedule else np.nan
-    lots = pd.DataFrame(cols)
-    centres, vals, loc_index, _ = localized_index(profile, spec, rs=rs)
-    loc = {"station": centres}
-    for j, t in enumerate(rs.tracks):
-        loc[f"iri_{t}"] = vals[:, j]
-    if len(rs.tracks) == 2:
-        loc["mri"] = vals.mean(axis=1)
-    loc["index"] = loc_index
-    localized = pd.DataFrame(loc)
-    defect_rows = []
-    if spec.localized_threshold is not None:
-        above = np.nan_to_num(loc_index, nan=-np.inf) > spec.localized_threshold
-        for i, k in _runs(above):
-            p = i + int(np.argmax(loc_index[i:k + 1]))
-            defect_rows.append({"start": centres[i], "end": centres[k], "length": centres[k] - centres[i],
-                                "peak_station": centres[p], "peak": loc_index[p]})
-    defects = pd.DataFrame(defect_rows, columns=["start", "end", "length", "peak_station", "peak"])
-    width = spec.histogram_bin or (10.0 if spec.units == "us" else 0.2)
-    finite = index[np.isfinite(index)]
-    top = max(width, float(np.ceil((finite.max() if finite.size else width) / width + 1e-9) * width))
-    edges = np.arange(0.0, top + width / 2, width)
-    counts, _ = np.histogram(finite, bins=edges)
-    lens, _ = np.histogram(finite, bins=edges, weights=(length / scale)[np.isfinite(index)])
-    histogram = pd.DataFrame({"low": edges[:-1], "high": edges[1:], "lots": counts, "length": lens})
-    pf = lots["pay_factor"].to_numpy(dtype=float)
-    paid = np.isfinite(pf)
-    weights = length / scale
-    mean_pf = float(np.sum(pf[paid] * weights[paid]) / np.sum(weights[paid])) if paid.any() else None
-    summary = {"lots": int(n_lots), "lots_with_pay": int(paid.sum()),
-               "lots_without_pay": int((~paid).sum()) if spec.pay_schedule else None,
-               "mean_pay_factor": mean_pf,
-               "excluded_length": float(sum(zb - za for za, zb in zones)),
-               "localized_defects": len(defects), "localized_defect_length": float(defects["length"].sum())}
+    lots, lot_iri_m, section_m = _lot_table(st, cum, bounds_u, zones, spec, rs.tracks)
+    plausible_warnings, implausible = _check_plausible(lots, lot_iri_m, section_m, spec, check_units)
+    localized, defects = _localized_table(profile, spec, rs)
+    summary = _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible)
     meta = {"standard": "ASTM E1926 IRI (golden car, 80 km/h); MRI mean of two tracks; continuous IRI as ProVAL SAM",
             "units": spec.units, "length_unit": lu, "iri_unit": spec.iri_unit,
             "moving_average": bool(rs.moving_average), "moving_average_reason": rs.moving_average_reason,
-            "first_station": float(x0u), "last_station": float(x1u)}
-    return AcceptanceResult(lots=lots, localized=localized, defects=defects, histogram=histogram,
-                            pay_summary=summary, spec=spec, tracks=rs.tracks, metadata=meta)
+            "first_station": float(x0u), "last_station": float(x1u),
+            "section_iri_m_per_km": {t: (float(v) if np.isfinite(v) else None) for t, v in zip(rs.tracks, section_m)}}
+    return AcceptanceResult(lots=lots, localized=localized, defects=defects, histogram=_histogram(lots, spec),
+                            pay_summary=summary, spec=spec, tracks=rs.tracks, metadata=meta,
+                            warnings=tuple(warnings + plausible_warnings))

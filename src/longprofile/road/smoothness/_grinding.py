@@ -38,14 +38,16 @@ class GrindingResult:
     ----------
     grinds : pandas.DataFrame
         One row per area and track: ``area, track, start, end, length, max_depth, mean_depth, achieved,
-        peak_before, peak_after`` (lengths in the spec's length unit, depths in mm (SI) or in (US), localized
-        index in its IRI unit; ``mean_depth`` over the ground length, ``start``/``end`` the ground length).
+        peak_before, peak_after, limit`` (lengths in the spec's length unit, depths in mm (SI) or in (US), localized
+        index in its IRI unit; ``mean_depth`` over the ground length, ``start``/``end`` the ground length;
+        ``limit`` what stops an area not achieved: ``depression``, ``depth`` or ``frame``, see
+        :func:`_binding_limit`; also ``metadata["limits"]``).
     profile : Profile
         The profile after grinding (SI).
     threshold : float
         Localized roughness target, IRI unit.
     achieved : bool
-        Every area reached the threshold within the depth limit.
+        Every area reached the threshold within the depth limit and with the grinder frame.
     station, index_before, index_after : (M,) ndarray
         Localized index (IRI unit) at the window centres (length unit) before and after grinding: the index of
         :func:`~longprofile.road.smoothness_acceptance` (MRI of two tracks unless the spec says ``index = "iri"``:
@@ -63,8 +65,8 @@ class GrindingResult:
     metadata: dict = field(default_factory=dict)
 
     def summary(self) -> str:
-        """One line: how many must-grind areas the grinding brings below the threshold, and how many it cannot
-        (depth limit)."""
+        """One line: how many must-grind areas the grinding brings below the threshold, and of those it cannot,
+        what stops it (:func:`_binding_limit`: a depression, the depth limit or the grinder frame)."""
         n = int(self.metadata.get("areas", self.grinds["area"].nunique()))
         unit = self.metadata.get("iri_unit", "")
         target = f"{self.threshold:g} {unit}".strip()
@@ -73,9 +75,60 @@ class GrindingResult:
         failed = int(self.grinds.loc[~self.grinds["achieved"].astype(bool), "area"].nunique())
         if failed == 0:
             return f"grinding brings all {n} must-grind area(s) to <= {target}"
-        depth = f"{self.metadata.get('max_depth', float('nan')):g} {self.metadata.get('depth_unit', '')}".strip()
-        return (f"grinding brings {n - failed} of {n} must-grind area(s) to <= {target}; {failed} CANNOT be "
-                f"brought below it within the depth limit ({depth})")
+        return (f"grinding brings {n - failed} of {n} must-grind area(s) to <= {target}; {failed} CANNOT be brought "
+                f"below it: {self._limits_text()}")
+
+    def _limits_text(self) -> str:
+        """What stops the areas the grinding cannot fix, grouped by limit (from ``metadata["limits"]``)."""
+        m = self.metadata
+        du, lu = m.get("depth_unit", ""), m.get("length_unit", "")
+        limits = m.get("limits", [])
+        parts = []
+        dips = [r for r in limits if r["limit"] == "depression"]
+        if dips:
+            parts.append(f"{len(dips)} depression(s) ({_stations(dips, lu)}, up to {max(r['value'] for r in dips):.3g} "
+                         f"{du} below the surroundings), which grinding cannot fill: it only removes what stands above "
+                         "the grinder's chord (patch, or mill and inlay)")
+        deep = [r for r in limits if r["limit"] == "depth"]
+        if deep:
+            parts.append(f"{len(deep)} limited by the depth limit ({m.get('max_depth', float('nan')):g} {du}, reached; "
+                         f"{_stations(deep, lu)}; grinding.max_depth)")
+        frame = [r for r in limits if r["limit"] == "frame"]
+        if frame:
+            parts.append(f"{len(frame)} limited by the grinder frame ({m.get('grinder_length', float('nan')):g} {lu}; "
+                         f"{_stations(frame, lu)}): grinding all that stands above its chord, at most "
+                         f"{max(r['value'] for r in frame):.3g} {du} deep (within the {m.get('max_depth'):g} {du} "
+                         "depth limit), is not enough; a longer frame may be (grinding.grinder_length)")
+        return "; ".join(parts) or "limit not recorded"
+
+
+def _stations(limits, lu) -> str:
+    """``a-b lu`` of the first area of ``limits`` (and how many more)."""
+    r = limits[0]
+    more = f" and {len(limits) - 1} more" if len(limits) > 1 else ""
+    return f"{r['start']:.6g}-{r['end']:.6g} {lu}{more}"
+
+
+def _binding_limit(xs, zs, cut, a, b, w, max_depth) -> tuple[str, float]:
+    """Why the grind of an area ``[a, b]`` (m) that stays above the threshold cannot do better: ``("depression",
+    depth)`` when the area lies deeper below its surroundings than anything in it stands above them (grinding
+    removes only what is above the chord: it cannot fill a dip), else ``("depth", max_depth)`` when the deepest
+    grind tried reaches the depth limit, else ``("frame", deepest cut)``: all that stands above the frame's chord is
+    ground and it is not enough. Depths in m.
+
+    The surroundings: a quadratic (grade and vertical curve) fitted per track to the profile within one
+    localized window ``w`` before and after the area (ASSUMPTION, longprofile's reading of "a depression")."""
+    around = ((xs >= a - w) & (xs < a)) | ((xs > b) & (xs <= b + w))
+    inside = (xs >= a) & (xs <= b)
+    if around.sum() > 3 and inside.any():
+        dip = bump = 0.0
+        for j in range(zs.shape[1]):
+            r = zs[inside, j] - np.polyval(np.polyfit(xs[around] - a, zs[around, j], 2), xs[inside] - a)
+            dip, bump = max(dip, float(-r.min())), max(bump, float(r.max()))
+        if dip > bump:
+            return "depression", dip
+    deepest = float(cut.max()) if cut.size else 0.0
+    return ("depth", max_depth) if deepest >= max_depth * (1.0 - 1e-9) else ("frame", deepest)
 
 
 def _chord_deviation(x, z, half):
@@ -211,8 +264,23 @@ def _grind_setting(xs, zs, in_area, nb, a, b, half, max_depth, names, loc_spec, 
     return zg, cut, ok, before, after
 
 
-def _grind_rows(n, names, cut, xs, scale, spec, ok, before, after) -> list[dict]:
-    """The grind-list rows of area ``n``: one per track with a cut (start, end, length, depths)."""
+def _sub_profile(x, missing, a, b, lead, margin) -> tuple[int, int]:
+    """Rows ``i0 .. i1 - 1`` of the stations ``x`` from ``lead`` before the area ``[a, b]`` (m) to ``margin`` after
+    it, between the missing rows (sorted) around it: the sub-profile re-simulated for one area (a gap lies in an
+    exclusion zone, outside the area)."""
+    i0 = int(np.searchsorted(x, max(x[0], a - lead)))
+    i1 = int(np.searchsorted(x, min(x[-1], b + margin), side="right"))
+    if missing.size:
+        mid = int(np.searchsorted(x, 0.5 * (a + b)))
+        k = int(np.searchsorted(missing, mid))
+        i0 = max(i0, int(missing[k - 1]) + 1) if k > 0 else i0
+        i1 = min(i1, int(missing[k])) if k < missing.size else i1
+    return i0, i1
+
+
+def _grind_rows(n, names, cut, xs, scale, spec, ok, before, after, limit=None) -> list[dict]:
+    """The grind-list rows of area ``n``: one per track with a cut (start, end, length, depths, what limits an
+    area the grinding cannot fix)."""
     rows = []
     for j, t in enumerate(names):
         cj = cut[:, j]
@@ -223,7 +291,8 @@ def _grind_rows(n, names, cut, xs, scale, spec, ok, before, after) -> list[dict]
         rows.append({"area": n, "track": t, "start": ga / scale, "end": gb / scale, "length": (gb - ga) / scale,
                      "max_depth": float(cj.max()) / spec.depth_factor,
                      "mean_depth": float(cj[(xs >= ga) & (xs <= gb)].mean()) / spec.depth_factor,
-                     "achieved": bool(ok), "peak_before": before, "peak_after": after})
+                     "achieved": bool(ok), "peak_before": before, "peak_after": after,
+                     "limit": "" if limit is None else limit[0]})
     return rows
 
 
@@ -268,7 +337,10 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
     setting); it is found by grid refinement (8 settings per car run) as the largest (shallowest grind) that
     brings every window of the area to the threshold (aiming 0.1 % below it), the area re-simulated with
     ``lead`` m of profile before it. Grinding only removes material, only in runs of cutting that touch the
-    area. An area that the depth limit cannot fix is ground to the limit and flagged ``achieved = False``.
+    area. An area that the grinder cannot fix is ground as deep as it can (everything above the chord, to the depth
+    limit) and flagged ``achieved = False`` with what limits it (:func:`_binding_limit`: a depression, the depth
+    limit or the frame length). Missing (NaN) elevations are accepted inside the exclusion zones (as
+    :func:`~longprofile.road.smoothness_acceptance`): an area's sub-profile stops at the gaps around it.
     """
     spec = validate_spec(spec or default_spec())
     target = threshold if threshold is not None else (spec.grind_threshold or spec.localized_threshold)
@@ -299,11 +371,11 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
     areas = _must_grind_areas(centres, above, scale, w)
     half = 0.5 * spec.grinder_length * scale
     max_depth = spec.grind_max_depth * spec.depth_factor
-    rows = []
+    rows, limits = [], []
     all_ok = True
+    missing = np.flatnonzero(np.isnan(z_all).any(axis=1))  # gaps, inside exclusion zones (acceptance_slope)
     for n, (a, b) in enumerate(areas, start=1):
-        i0 = int(np.searchsorted(x, max(x[0], a - lead)))
-        i1 = int(np.searchsorted(x, min(x[-1], b + margin), side="right"))
+        i0, i1 = _sub_profile(x, missing, a, b, lead, margin)
         xs = x[i0:i1]
         zs = z_new[i0:i1].copy()  # not a view: z_new is updated below
         in_area = (xs >= a) & (xs <= b)
@@ -312,16 +384,21 @@ def simulate_grinding(profile: Profile, spec: AcceptanceSpec | None = None, *, t
                                                     spec, scale, w, target, tolerance)
         all_ok &= ok
         z_new[i0:i1] = zg
-        rows.extend(_grind_rows(n, names, cut, xs, scale, spec, ok, before, after))
+        limit = None if ok else _binding_limit(xs, zs, cut, a, b, w, max_depth)
+        if limit is not None:
+            limits.append({"area": n, "start": a / scale, "end": b / scale, "limit": limit[0],
+                           "value": limit[1] / spec.depth_factor})
+        rows.extend(_grind_rows(n, names, cut, xs, scale, spec, ok, before, after, limit))
     ground_profile = Profile(distance=x, elevation=z_new, tracks=names, name=(profile.name + " ground").strip())
     # the localized index after grinding: one run of the whole ground profile (as smoothness_acceptance on it)
     index_after = localized_index(ground_profile, loc_spec)[2] if rows else np.array(index, dtype=float, copy=True)
     meta = {"model": "one-pass grinder: cut = clip(d - c, 0, max_depth), d = deviation from a chord of "
                      "grinder_length; c by grid refinement per area (longprofile assumption)",
             "grinder_length": spec.grinder_length, "max_depth": spec.grind_max_depth,
-            "depth_unit": "mm" if spec.units == "si" else "in", "areas": len(areas), "iri_unit": spec.iri_unit}
+            "depth_unit": "mm" if spec.units == "si" else "in", "areas": len(areas), "iri_unit": spec.iri_unit,
+            "length_unit": spec.length_unit, "limits": limits}
     grinds = pd.DataFrame(rows, columns=["area", "track", "start", "end", "length", "max_depth", "mean_depth",
-                                         "achieved", "peak_before", "peak_after"])
+                                         "achieved", "peak_before", "peak_after", "limit"])
     return GrindingResult(grinds=grinds, profile=ground_profile, threshold=target, achieved=bool(all_ok),
                           station=np.asarray(centres, dtype=float), index_before=np.asarray(index, dtype=float),
                           index_after=index_after, metadata=meta)
