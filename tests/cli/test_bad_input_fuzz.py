@@ -343,6 +343,22 @@ def a_stray_reading_years_before(path, cmd, rng):
     _save(f, path)
 
 
+def a_dropout_coded_9999(path, cmd, rng):
+    """A profiler's dropout written as the logger's missing-value code over 20 samples (session 36, a probe: the
+    IRI read it as pavement, 140.7 m/km)."""
+    f = _frame(path)
+    k = _pick(rng, len(f) - 20)
+    f.loc[k:k + 19, cmd.value] = "-9999"
+    _save(f, path)
+
+
+def a_dead_sensor(path, cmd, rng):
+    """Every elevation 0 (a dead height sensor; session 36, a probe: paid the acceptance bonus on every lot)."""
+    f = _frame(path)
+    f[cmd.value] = "0"
+    _save(f, path)
+
+
 #: mutation -> applies to a command when the predicate holds
 def _table(c: Command) -> bool:
     return not c.as_is and not c.target.endswith(".toml")
@@ -381,6 +397,8 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "an empty sensor id": (empty_id, lambda c: c.name == "rail settle (readings)"),
     "times with and without a UTC offset": (offsets_on_some_times, lambda c: c.name == "rail settle (readings)"),
     "a stray reading years before": (a_stray_reading_years_before, lambda c: c.name == "rail settle (readings)"),
+    "a dropout coded -9999": (a_dropout_coded_9999, lambda c: _general(c) and c.key == "distance_m"),
+    "a dead height sensor": (a_dead_sensor, lambda c: c.name in ("road acceptance", "road compare (a run)")),
 }
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
