@@ -41,9 +41,12 @@ __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals",
            "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
            "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z", "site_reversal_null", "REVERSAL_NULLS",
-           "record_length_factor", "REFERENCE_CHANGES"]
+           "record_length_factor", "REFERENCE_CHANGES", "UNUSABLE_STATUSES"]
 
-SENSOR_STATUSES = ("ok", "dead", "reversed", "drifting", "detached", "improbable")
+SENSOR_STATUSES = ("ok", "dead", "late", "reversed", "drifting", "detached", "improbable")
+#: Statuses of sensors whose record cannot enter the estimate, whatever the health tests say: no usable reading
+#: ("dead": none, stuck, frozen) or none on the reference day ("late": installed, or first read, after it).
+UNUSABLE_STATUSES = ("dead", "late")
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
 DEAD_SPREAD_DEG = 1e-4
 #: Family-wise false-alarm probability of the chi-square test on a sensor's LOO residuals.
@@ -576,7 +579,12 @@ def _reversal_detail(m, pred, llr, rev, length_factor, reversal_z_rule, base) ->
 def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
     """(status, detail) object arrays of :func:`assess_sensors` before its tests: "dead" for a sensor without readings,
     with readings on fewer than half the days, stuck (raw spread under the resolution) or frozen (:func:`_frozen_run`);
-    "ok" otherwise."""
+    "late" for one without a daily angle on the reference day (day 0); "ok" otherwise.
+
+    A late sensor (installed, or first read, after the reference day) has changes only from its own first day: taken
+    as changes since the reference day they claimed that the track did not move before it (session 36: a sensor
+    added to a site during the works, an operator's probe). Its change since the reference day is unknown, so it is
+    left out, saying how to take it in (a later reference day)."""
     D, N = slopes.shape
     status = np.array(["ok"] * N, dtype=object)
     detail = np.array([""] * N, dtype=object)
@@ -584,6 +592,12 @@ def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
     for j in range(N):
         if have[j] == 0:
             status[j], detail[j] = "dead", "no usable readings (none with both an angle and a temperature)"
+        elif not np.isfinite(slopes[0, j]):
+            first = int(np.flatnonzero(np.isfinite(slopes[:, j]))[0])
+            status[j], detail[j] = "late", (f"no daily angle on the reference day (its first on day {first} of {D}, "
+                                            "days counted from 0): its change since the reference day is unknown; "
+                                            "readings from a later first day (rail settle) or a later baseline "
+                                            "(the service) take it in")
         elif have[j] < 0.5 * D:
             status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
         elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
@@ -853,7 +867,7 @@ def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, m
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
     ok = ~np.asarray(health.excluded)
     cand = ok & passes
-    if not cand.any() or (~ok & (np.asarray(health.status) != "dead")).sum() >= max_flagged or ok.sum() <= 3:
+    if not cand.any() or (~ok & ~np.isin(health.status, UNUSABLE_STATUSES)).sum() >= max_flagged or ok.sum() <= 3:
         return health, None
     j = int(np.argmax(np.where(cand, score, -np.inf)))
     status = np.array(health.status, dtype=object)

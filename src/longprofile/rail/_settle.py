@@ -19,6 +19,7 @@ from ._health import (
     REVERSAL_NULLS,
     REVERSAL_Z_RULES,
     SHAPE_RULES,
+    UNUSABLE_STATUSES,
     WITNESS_RULES,
     SensorHealth,
     all_days_reversal_evidence,
@@ -1510,7 +1511,7 @@ def _warn_if_health_capped(health, opt: SettlementSettings, warnings: list, dail
     status = np.asarray(health.status)
     user = np.isin(np.asarray(health.sensor_ids), list(opt.exclude_sensors))
     N = status.size
-    n = int(((status != "ok") & (status != "dead") & ~user).sum())
+    n = int(((status != "ok") & ~np.isin(status, UNUSABLE_STATUSES) & ~user).sum())
     if n >= max(2, N // 4):
         warnings.append(_HEALTH_CAPPED.format(n=n, N=N, thermal=opt.thermal if daily is None else daily.thermal))
 
@@ -1832,13 +1833,13 @@ def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, 
 
 
 def _restored_slopes(slopes, health: SensorHealth, user_excluded) -> np.ndarray:
-    """The slope changes of every sensor but the user's exclusions and those flagged "dead" (no reading, or frozen: their
+    """The slope changes of every sensor but the user's exclusions and those flagged "dead" or "late" (no reading, or frozen: their
     record says nothing of the track after they stopped, and the all-days model would fill it as "no change"), those
     flagged "reversed" with their sign corrected (under the fixed ends a reversal explains them; as read they would
     fake an end movement)."""
     M = np.array(slopes, float)
     M[:, list(user_excluded)] = np.nan
-    M[:, np.asarray(health.status) == "dead"] = np.nan
+    M[:, np.isin(health.status, UNUSABLE_STATUSES)] = np.nan
     rev = np.asarray(health.status) == "reversed"
     M[:, rev] = -M[:, rev]
     return M
@@ -1900,7 +1901,7 @@ def _end_mixture(x, slopes, days, daily: DailyAngles, health: SensorHealth, join
     z_std = np.sqrt(joint.post["z_std"] ** 2 + 0.5 * w * (shift**2).sum(axis=0))
     rshift = np.diff(shift, axis=1, prepend=np.nan)
     rate_std = np.sqrt(joint.smoothed.rate_std ** 2 + 0.5 * w * (rshift**2).sum(axis=0))
-    out = [sid for sid, st, _ in health.flagged() if sid not in opt.exclude_sensors and st != "dead"]
+    out = [sid for sid, st, _ in health.flagged() if sid not in opt.exclude_sensors and st not in UNUSABLE_STATUSES]
     warnings.append(f"the all-days likelihood of all sensors{' (' + ', '.join(out) + ' included)' if out else ''} "
                     f"says the span's ends moved (anchor std {sz1:g} m), the guarded test on the kept sensors does "
                     "not: the bands carry both (end_ambiguity='mixture'), up to "

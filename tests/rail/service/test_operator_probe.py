@@ -318,3 +318,19 @@ def test_a_viewer_reads_the_site_audit_trail_as_the_docs_say(site):
     client = _viewer(db)
     assert client.get("/api/v1/sites/mitt/audit").status_code == 200
     assert client.get("/api/v1/audit").status_code == 403  # the people's trail: admins
+
+
+def test_a_sensor_added_to_extend_the_span_is_late_at_alert_level_not_dead(site):
+    """An extension of the span mid-record: the new sensor was "dead" at action level for ever (the probe's item 2);
+    it is "late" (rail health: no angle on the reference day), left out, at alert level."""
+    db, _, r = site
+    _ingest(db, r, "2019-11-21")
+    x01, x02 = _x(db, "S01"), _x(db, "S02")
+    _core.put_sensors(db, "eng", "mitt", [{"sensor_id": "S01B", "x_m": 0.5 * (x01 + x02)}])
+    new = r[(r.sensor_id == "S01") & (r.timestamp.str[:10] >= "2019-11-22")].assign(sensor_id="S01B")
+    _ingest(db, r[r.timestamp.str[:10] >= "2019-11-22"])
+    _core.ingest(db, "mitt", new.to_dict("records"), now=NOW)
+    out = recompute(db, "mitt")
+    assert out["status"] == "ok", out["message"]
+    (alarm,) = _open(db, "health", "S01B")
+    assert alarm["level"] == "alert" and "S01B late" in alarm["message"] and "dead" not in alarm["message"]

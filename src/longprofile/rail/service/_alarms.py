@@ -186,7 +186,8 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
         if w != "none":
             events.append(f"{q}:{w}")
     for sid, st, detail in zip(res.health.sensor_ids, res.health.status, res.health.detail):
-        lv = None if st == "ok" else "action"
+        # a late sensor (installed after the baseline: rail health "late") is left out, not faulty: an alert says so
+        lv = None if st == "ok" else "alert" if st == "late" else "action"
         w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id, opened=opened,
                        message="" if lv is None else f"sensor {sid} {st}: {detail}")
         if w != "none":
