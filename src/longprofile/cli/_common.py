@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from ..errors import OutputError
+from ..errors import InputError, OutputError
 
 console = Console(stderr=True)
 
@@ -21,6 +21,20 @@ COMMAND_PROCESS = False
 TABLE_SUFFIXES = (".csv", ".parquet")
 #: Profile formats a ``-o`` profile output accepts (:func:`longprofile.io.write_profile`): tables or ERD.
 PROFILE_SUFFIXES = TABLE_SUFFIXES + (".erd",)
+
+
+def parse_tracks(track: str | None) -> list[str] | None:
+    """The names of a comma-separated ``--track`` list (None when not given or empty); a name given twice is refused."""
+    if track is None:
+        return None
+    names = [t.strip() for t in track.split(",") if t.strip()]
+    seen: dict[str, str] = {}
+    for t in names:
+        if t.casefold() in seen:
+            raise InputError(f"--track names the track {t!r} twice ({track}); give each track once (an MRI or HRI "
+                             "needs two different tracks).")
+        seen[t.casefold()] = t
+    return names or None
 
 
 #: The ``--overwrite`` option of every command that writes a file or a folder (the same name and meaning).

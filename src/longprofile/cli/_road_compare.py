@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, check_output_folder, console
+from ._common import OVERWRITE, check_output_folder, console, parse_tracks
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -48,7 +48,7 @@ def compare_command(
             bands = tuple(float(v) for v in band.split(","))
         except ValueError:
             raise InputError(f"--band must be SHORT,LONG in m (e.g. 0.5,50); got {band!r}.") from None
-    tracks = None if track is None else [t.strip() for t in track.split(",") if t.strip()]
+    tracks = parse_tracks(track)
     ref = read_profile(reference, units=elevation_unit, tracks=tracks)
     profiles = [read_profile(r, units=elevation_unit, tracks=tracks) for r in runs]
     thresholds = {k: v for k, v in (("repeatability", repeatability), ("accuracy", accuracy)) if v is not None}

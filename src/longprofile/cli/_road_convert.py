@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, PROFILE_SUFFIXES, check_output_path, check_plot_path, console
+from ._common import OVERWRITE, PROFILE_SUFFIXES, check_output_path, check_plot_path, console, parse_tracks
 
 
 def convert_command(
@@ -20,6 +20,9 @@ def convert_command(
                                     help="Elevation unit of input columns that do not give one (m, mm, cm, in, ft), as "
                                          "in `road iri`; never guessed."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks to keep (default: all), e.g. left,right."),
+    spacing: float = typer.Option(None, "--spacing", help="Resample the profile onto a regular grid of this step, m "
+                                  "(linear interpolation from the first station, as `road compare --spacing`): "
+                                  "irregular or rounded stations can then be written as ERD. Default: stations kept."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the profile to this PNG."),
     overwrite: bool = OVERWRITE,
 ):
@@ -32,12 +35,14 @@ def convert_command(
     erd = out.suffix.lower() == ".erd"
     units = units or ("mm" if erd else "m")
     unit_factor(units)
-    tracks = [t.strip() for t in track.split(",") if t.strip()] if track else None
+    tracks = parse_tracks(track)
     if tracks is None and is_reconstruct_output(file):
         console.print(f"note: {file} is a `road reconstruct` output: converting its profile track 'elevation' "
                       "(std_m and raw_m are not tracks; pass --track to choose).", markup=False)
         tracks = ["elevation"]
     profile = read_profile(file, units=input_units, tracks=tracks)
+    if spacing is not None:
+        profile = _resampled(profile, spacing)
     write_profile(profile, out, units=units)
     if plot is not None:
         from ..report import draw, plot_profile  # matplotlib only when drawing (in the figure helper if one runs)
@@ -47,10 +52,20 @@ def convert_command(
     step = profile.spacing
     console.print(f"converted {profile.n_samples} samples x {len(profile.tracks)} track(s) "
                   f"({', '.join(profile.tracks)}; stations {x[0]:g} .. {x[-1]:g} m"
-                  f"{'' if step is None else f', dx {step:g} m'}) in {units} -> {out}", markup=False)
+                  f"{'' if step is None else f', dx {step:g} m'}{'' if spacing is None else ', resampled'}) in {units} -> {out}", markup=False)
     if erd and profile.std is not None:
         console.print("note: the standard deviation columns are not written to ERD (elevations only); convert to "
                       "CSV or Parquet to keep them.", markup=False)
+
+
+def _resampled(profile, spacing: float):
+    """``profile`` linearly resampled onto a grid of ``spacing`` m from its first station (its std is not kept)."""
+    from ..road import resample_profile
+
+    if profile.std is not None:
+        console.print("note: --spacing resamples the elevations only; the standard deviation columns are not "
+                      "written.", markup=False)
+    return resample_profile(profile, spacing)
 
 
 def register(app: typer.Typer) -> None:

@@ -15,6 +15,7 @@ from ._common import (
     check_output_path,
     check_plot_path,
     console,
+    parse_tracks,
     progress,
 )
 
@@ -31,8 +32,7 @@ def _tracks(track: str | None, file: Path | None = None):
                           "(std_m and the undetrended raw_m are not tracks; pass --track to choose).", markup=False)
             return ["elevation"]
         return None
-    names = [t.strip() for t in track.split(",") if t.strip()]
-    return names or None
+    return parse_tracks(track)
 
 
 def _check_plausible(result, profile) -> None:

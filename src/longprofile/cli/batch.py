@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from . import _common
-from ._common import OVERWRITE, check_output_folder, console, progress
+from ._common import OVERWRITE, check_output_folder, console, parse_tracks, progress
 
 batch_app = typer.Typer(help="Survey networks: run `road iri` / `road reconstruct` over many files in parallel "
                              "(resumable), and the network report.", no_args_is_help=True)
@@ -78,10 +78,6 @@ def _terminate_as_interrupt():
     return interrupt_once(signal.SIGINT, signal.SIGTERM, keep_ignoring=_common.COMMAND_PROCESS)
 
 
-def _tracks(track: str | None):
-    return None if track is None else [t.strip() for t in track.split(",") if t.strip()] or None
-
-
 @batch_app.command("iri")
 def iri_command(
     patterns: list[str] = typer.Argument(..., help=_PATTERNS_HELP),
@@ -110,7 +106,8 @@ def iri_command(
     from ..batch import IRITask
 
     task = IRITask(mode=mode, interval=segment, window=window, step=step, start=start, units=units,
-                   tracks=_tracks(track), lead_in=lead_in, moving_average=moving_average, elevation_unit=elevation_unit)
+                   tracks=parse_tracks(track), lead_in=lead_in, moving_average=moving_average,
+                   elevation_unit=elevation_unit)
     _run(task, patterns, output, workers, scheduler, resume, overwrite)
 
 

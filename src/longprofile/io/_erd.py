@@ -44,6 +44,21 @@ _END = re.compile(rb"^[ \t]*END[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
 _EMPTY_FIELD = re.compile(rb",[ \t]*,|^[ \t]*,", re.MULTILINE)
 #: Text a body cell may hold for a missing sample.
 _NAN_TOKENS = ["nan", "NaN", "NAN", "-nan", "+nan"]
+#: Spelled-out unit names other tools (ProVAL among them) write in UNITSNAM/XUNITS, any letter case, and the unit
+#: each one is.
+_UNIT_SPELLINGS = {
+    **dict.fromkeys(("inch", "inches"), "in"), **dict.fromkeys(("foot", "feet"), "ft"),
+    **dict.fromkeys(("millimeter", "millimeters", "millimetre", "millimetres"), "mm"),
+    **dict.fromkeys(("centimeter", "centimeters", "centimetre", "centimetres"), "cm"),
+    **dict.fromkeys(("meter", "meters", "metre", "metres"), "m"),
+    **dict.fromkeys(("kilometer", "kilometers", "kilometre", "kilometres"), "km"),
+    **dict.fromkeys(("mile", "miles"), "mi"),
+}
+#: The spellings for a refusal, grouped by unit.
+_SPELLED_NAMES = ("inch(es), foot/feet, millimeter(s)/millimetre(s), centimeter(s)/centimetre(s), meter(s)/metre(s), "
+                  "kilometer(s)/kilometre(s), mile(s) (any letter case)")
+#: A UTF-8 byte order mark (Windows editors put one at the start of a text file).
+_BOM = b"\xef\xbb\xbf"
 #: Station error tolerated when a profile is written as X0 + i DX, m.
 _STATION_TOLERANCE = 1e-6
 #: Resolution of the written elevations, m: the number of decimals is chosen per unit so that a written and
@@ -215,7 +230,9 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     Notes
     -----
     Layout: module docstring (UMTRI ERD specification; the LTPP and ProVAL text files). Every header field
-    that defines a number is honoured: NCHAN, NPTS, DX, X0 (line 2), ``UNITSNAM`` and ``XUNITS``. The data are
+    that defines a number is honoured: NCHAN, NPTS, DX, X0 (line 2), ``UNITSNAM`` and ``XUNITS`` (short unit names or
+    spelled out: ``inches``, ``Feet``, ``millimetres``...). A UTF-8 byte order mark and an ``END`` line after the
+    records are ignored. The data are
     parsed by pandas' C reader; only when that fails, or the count of values is not NCHAN x NPTS, a line-by-line
     pass finds and names the offending line (it also reads records broken over several lines).
     """
@@ -225,6 +242,7 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     if path.is_dir():
         raise InputError(f"{path} is a folder; give an ERD file.")
     raw = path.read_bytes()
+    raw = raw[len(_BOM):] if raw.startswith(_BOM) else raw  # as the CSV reader, a byte order mark is ignored
     lines, start, end_line = _split_header(path, raw)
     if len(lines) < 2:
         raise InputFormatError(f"{path}: line 2: expected 'NCHAN, NPTS, f3, f4, f5, DX, X0' before END.")
@@ -238,8 +256,8 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     keep = list(range(nchan)) if tracks is None else [_index(path, names, t) for t in
                                                       ([tracks] if isinstance(tracks, str) else tracks)]
     if "UNITSNAM" in keys:
-        chan_units = _fields8(path, "UNITSNAM", keys["UNITSNAM"], nchan)
-        wrong = [chan_units[k] for k in keep if units is not None and chan_units[k].lower() != units.lower()]
+        chan_units = [_spelled(u) for u in _fields8(path, "UNITSNAM", keys["UNITSNAM"], nchan)]
+        wrong = [chan_units[k] for k in keep if units is not None and chan_units[k].lower() != _spelled(units).lower()]
         if wrong:
             raise UnitsError(f"{path}: the header gives units {chan_units} but units={units!r} was given; remove the "
                              "option or fix the header.")
@@ -247,10 +265,10 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
         raise UnitsError(f"{path}: the ERD header has no UNITSNAM line; pass --elevation-unit m|mm (units=...) or "
                          "add the line. Units are never guessed.")
     else:
-        chan_units = [units] * nchan
+        chan_units = [_spelled(units)] * nchan
     factors = np.array([_unit(path, chan_units[k], "UNITSNAM", "elevation") for k in keep])
-    xunit = keys.get("XUNITS", "").strip()
-    if xunit and distance_units is not None and xunit.lower() != distance_units.lower():
+    xunit = _spelled(keys.get("XUNITS", ""))
+    if xunit and distance_units is not None and xunit.lower() != _spelled(distance_units).lower():
         raise UnitsError(f"{path}: XUNITS is {xunit!r} but distance_units={distance_units!r} was given; remove the "
                          "option or fix the header.")
     xunit = xunit or distance_units
@@ -261,6 +279,8 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     if binary and not raw[start:].strip():
         raise InputFormatError(f"{path}: the data are in the binary file {binary[0].name}, which is not supported; "
                                "export the profile as text ERD, CSV or Parquet.")
+    end = _body_end(raw, start)
+    raw = raw if end == len(raw) else raw[:end]
     values = _parse_body_fast(raw, start, nchan, npts)
     if values is None:
         values = _parse_body_slow(path, raw, start, end_line + 1, nchan, npts).reshape(npts, nchan)
@@ -271,11 +291,26 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     return Profile(distance=x, elevation=data, tracks=tuple(names[k] for k in keep), name=title)
 
 
+def _spelled(unit: str) -> str:
+    """The short name of a spelled-out unit (``inches``, ``Metres`` -> ``in``, ``m``); any other text unchanged."""
+    return _UNIT_SPELLINGS.get(unit.strip().lower(), unit.strip())
+
+
 def _unit(path: Path, unit: str, key: str, what: str) -> float:
     try:
         return unit_factor(unit, what=what)
     except UnitsError as exc:
-        raise UnitsError(f"{path}: {key}: {exc}") from None
+        raise UnitsError(f"{path}: {key}: {str(exc).rstrip('.')}, or spelled out: {_SPELLED_NAMES}.") from None
+
+
+def _body_end(raw: bytes, start: int) -> int:
+    """Where the records end: before an END line after them (some writers close the data with one; blank lines after
+    it aside), else the end of the file."""
+    stripped = raw.rstrip()
+    cut = stripped.rfind(b"\n") + 1
+    if cut >= start and stripped[cut:].strip().upper() == b"END":
+        return cut
+    return len(raw)
 
 
 def _index(path, names, t):
@@ -349,7 +384,8 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
     if deviation[worst] > _STATION_TOLERANCE:
         raise InputError(f"ERD files store a constant station step; this profile is irregular (station "
                          f"{x[worst]:.6f} m is {deviation[worst]:.3g} m off the grid X0 + i DX, DX = {dx:.9g} m). "
-                         "Write it as CSV or Parquet instead, or resample it.")
+                         "Write it as CSV or Parquet instead, or resample it (`road convert --spacing DX`, "
+                         "longprofile.road.resample_profile).")
     for t in profile.tracks:
         if not t or any(c.isspace() for c in t):
             raise InputError(f"track name {t!r} cannot be an ERD channel name (empty or with blanks); rename the "

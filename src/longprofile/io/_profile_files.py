@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..core import unit_factor
+from ..errors import InputError
 from ._erd import read_erd, write_erd
 from ._plausible import check_profile_plausible
 from ._profiles import read_profile_table, write_profile_table
@@ -45,19 +46,32 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
         metre label; ``io._plausible`` gives the limits).
     InputFormatError
         Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
-        names the line), a standard-deviation column without its track, a last row cut short.
+        names the line; stations decreasing throughout get the way out), a standard-deviation column without its
+        track, a last row cut short, title lines above the header.
+    InputError
+        A track asked for twice in ``tracks`` (any letter case).
 
     Notes
     -----
     Column naming: ``<name>_<unit>`` or ``<name> [<unit>]``, e.g. ``distance_m, left_mm, right_mm``.
     """
     path = Path(path)
+    _check_unique(path, tracks)
     if path.suffix.lower() == ".erd":
         profile = read_erd(path, units=units, tracks=tracks)
     else:
         profile = read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
     check_profile_plausible(profile, path)
     return profile
+
+
+def _check_unique(path: Path, tracks) -> None:
+    """Refuse a track asked for twice (any letter case): an MRI or HRI of one track with itself."""
+    names = [] if tracks is None or isinstance(tracks, str) else [str(t) for t in tracks]
+    twice = [t for k, t in enumerate(names) if t.casefold() in {u.casefold() for u in names[:k]}]
+    if twice:
+        raise InputError(f"{path}: the track {twice[0]!r} is asked for twice ({', '.join(names)}); give each track "
+                         "once.")
 
 
 def write_profile(profile, path, *, units: str = "m") -> Path:

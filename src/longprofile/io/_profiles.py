@@ -33,6 +33,13 @@ def _with_rows(df: pd.DataFrame, path: Path) -> pd.DataFrame:
     return df
 
 
+def _without_empty_tail(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` without its last rows whose every cell is empty: a spreadsheet's trailing ``,,,`` rows hold no sample."""
+    filled = df.notna().to_numpy().any(axis=1)
+    last = int(np.flatnonzero(filled)[-1]) + 1 if filled.any() else 0
+    return df if last == len(df) else df.iloc[:last]
+
+
 def _split(column: str) -> tuple[str, str | None]:
     m = _SUFFIX.match(column.strip())
     if m:
@@ -60,7 +67,7 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     path = Path(path)
     if units is not None:
         unit_factor(units)
-    df = _with_rows(read_table(path), path)
+    df = _with_rows(_without_empty_tail(read_table(path)), path)
     fmt_line = (lambda i: f"line {i + 2}") if path.suffix.lower() in (".csv", ".txt") else (lambda i: f"row {i}")
     parsed = {c: _split(str(c)) for c in df.columns}
     if distance_column is None:
@@ -121,6 +128,11 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     if np.isnan(x).any():
         i = int(np.flatnonzero(np.isnan(x))[0])
         raise InputFormatError(f"{path}: {fmt_line(i)}: empty station in column {distance_column!r}.")
+    if x.size > 1 and np.all(np.diff(x) < 0):
+        raise InputFormatError(f"{path}: the stations in column {distance_column!r} decrease ({df[distance_column].iloc[0]:g} .. "
+                               f"{df[distance_column].iloc[-1]:g}); they must increase in the driving direction: if "
+                               "the file lists the run backwards, reverse its rows; if the run was driven the other "
+                               "way, give the distances from its start.")
     if x.size > 1 and np.any(np.diff(x) <= 0):
         i = int(np.flatnonzero(np.diff(x) <= 0)[0]) + 1
         raise InputFormatError(f"{path}: {fmt_line(i)}: station {df[distance_column].iloc[i]:g} is not greater than "

@@ -60,6 +60,7 @@ def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
     comments = ({"comment": "#", "skiprows": leading or 0} if _comment_lines_after(path, header_line) else
                 {"comment": None, "skiprows": header_line})
     _check_separator(path, header)
+    _check_title_lines(path, header_line)
     wanted = {t.lower() for t in text_columns}
     names = [n.strip() for n in next(csv.reader([header], skipinitialspace=True))] if wanted else []
     as_text = [n for n in names if n.lower() in wanted]
@@ -105,6 +106,44 @@ def _check_separator(path: Path, header: str) -> None:
         if sep in header:
             raise InputFormatError(f"{path}: the header {header!r} is separated by {name}, not commas; save the file "
                                    "as comma-separated values with decimal points (e.g. 0.25, not 0,25).")
+
+
+def _check_title_lines(path: Path, header_line: int, *, scan: int = 50) -> None:
+    """Refuse title lines above the header (an export's preamble, ``Project: I-95 resurfacing``, then the column names).
+
+    Within the first ``scan`` text lines from line ``header_line`` (0-based; comments and blank lines skipped): the
+    first line that has more fields than the first one, that are all names (no number) and that the next line
+    matches in count, is taken for the header. pandas stops on such a file with "Error tokenizing data" (or reads
+    its first column as an index); nothing is skipped on a guess.
+    """
+    rows: list[tuple[int, list[str]]] = []
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for i, line in enumerate(fh):
+            text = line.strip().lstrip("\ufeff")
+            if i < header_line or not text or text.startswith("#"):
+                continue
+            rows.append((i + 1, next(csv.reader([text], skipinitialspace=True), [])))
+            if len(rows) >= scan:
+                break
+    widths = [len(fields) for _, fields in rows]
+    k = next((j for j, w in enumerate(widths) if w > widths[0]), None)
+    if k is None or k + 1 >= len(rows) or widths[k + 1] != widths[k]:
+        return
+    names = [f.strip() for f in rows[k][1] if f.strip()]
+    if len(names) < 2 or any(_is_number(f) for f in names):
+        return
+    raise InputFormatError(f"{path}: line {rows[0][0]} looks like a title, not a header ({', '.join(rows[0][1])!r}): "
+                           f"the column names seem to be on line {rows[k][0]} ({', '.join(names)}); remove the lines "
+                           "above the header (or start them with #).")
+
+
+def _is_number(text: str) -> bool:
+    """Whether ``text`` reads as a float (a data value, not a column name)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _tail(path: Path, size: int = 65536) -> tuple[int, bytes]:
