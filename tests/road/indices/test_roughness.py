@@ -16,7 +16,7 @@ def bumpy():
 
 
 def test_continuous_iri_equals_iri_of_the_window(bumpy):
-    loc = localized_roughness(bumpy, window=25.0, threshold=100.0)
+    loc = localized_roughness(bumpy, window=25.0, threshold=np.inf)  # the curve alone (100 m/km: in/mi? refused)
     for centre in (40.0, 180.0, 250.3):
         k = int(np.argmin(np.abs(loc.station - centre)))
         c = loc.station[k]
@@ -79,3 +79,16 @@ def test_analysis_and_report_on_irregular_stations(tmp_path):
     files = write_road_report(a, tmp_path / "rep")
     page = files[0].read_text()
     assert "Stations are irregular" in page and "psd.png" not in [f.name for f in files]
+
+
+@pytest.mark.parametrize("threshold", [60.0, 160.0, 170.0])
+def test_a_threshold_in_inches_per_mile_is_named(threshold):
+    """160 in/mi given as m/km flagged nothing, silently (session 36, a pavement engineer's probe)."""
+    from longprofile.errors import UnitsError
+    from longprofile.road import iso8608_profile, localized_roughness
+
+    p = iso8608_profile(300.0, 0.05, "C", rng=1)
+    with pytest.raises(UnitsError, match=rf"threshold {threshold:g} m/km is above any road's IRI.*"
+                                         rf"{threshold / 63.36:.3g} m/km"):
+        localized_roughness(p, threshold=threshold)
+    assert localized_roughness(p, threshold=threshold / 63.36).threshold == pytest.approx(threshold / 63.36)

@@ -9,8 +9,8 @@ import pandas as pd
 
 from ..._validation import require_positive
 from ...core import Profile
-from ...errors import InputError
-from ._iri import rectified_slope
+from ...errors import InputError, UnitsError
+from ._iri import PLAUSIBLE_IRI_M_PER_KM, REPORT_UNITS, rectified_slope
 
 __all__ = [
     "APL_BANDS",
@@ -95,6 +95,15 @@ class LocalizedRoughness:
         })
 
 
+def _check_threshold_unit(threshold: float) -> None:
+    """Refuse a threshold above any road's IRI (:data:`PLAUSIBLE_IRI_M_PER_KM`): in/mi given as m/km (160 in/mi, a
+    common localized-roughness limit, is 2.53 m/km; as 160 m/km nothing is ever flagged; session 36, a probe)."""
+    hi = PLAUSIBLE_IRI_M_PER_KM[1]
+    if threshold > hi:
+        raise UnitsError(f"threshold {threshold:g} m/km is above any road's IRI ({hi:g} m/km): nothing would ever be "
+                         f"flagged. In in/mi? {threshold:g} in/mi is {threshold / REPORT_UNITS['us']['iri_per_m_per_km']:.3g} m/km.")
+
+
 def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: float = 2.7, tracks=None,
                         lead_in: float = 11.0, moving_average: bool | None = None,
                         base_length: float = 0.25) -> LocalizedRoughness:
@@ -108,7 +117,8 @@ def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: fl
         Length of the sliding IRI window, m (default 25).
     threshold : float
         Defect threshold, m/km (default 2.7, about the FHWA "poor" limit of 170 in/mi; an assumption,
-        set it from your specification).
+        set it from your specification). Above any road's IRI (50 m/km) it is refused as in/mi given as m/km;
+        ``numpy.inf`` asks for the curve alone.
     tracks, lead_in, moving_average, base_length
         As in :func:`longprofile.road.iri`.
 
@@ -127,7 +137,9 @@ def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: fl
     25 m is asked here).
     """
     window = require_positive("window", window)
-    threshold = require_positive("threshold", threshold, strict=False)
+    if not (isinstance(threshold, (int, float, np.floating)) and np.isposinf(threshold)):
+        threshold = require_positive("threshold", threshold, strict=False)
+        _check_threshold_unit(threshold)
     rs = rectified_slope(profile, tracks=tracks, lead_in=lead_in, moving_average=moving_average,
                          base_length=base_length)
     x = rs.station
