@@ -328,8 +328,9 @@ def site_audit(name: str = typer.Argument(None, help="Site name (leave out with 
 def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., "--file", help="readings table."),
                 db: str = DB_OPT, angle_unit: str = typer.Option(
                     "deg", "--angle-unit", help="Unit of a plain angle_deg column: deg or rad (a header such as "
-                                                "angle_rad declares its own; leave this out then).")):
-    """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes)."""
+                                                "angle_rad declares its own; leave this out then)."),
+                actor: str = ACTOR_OPT):
+    """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes; audited)."""
     from ..errors import InputFormatError
     from ..io import read_rail_table
     from ..rail import READING_COLUMNS
@@ -341,7 +342,8 @@ def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., 
         raise InputFormatError(f"{file}: the columns are {list(map(str, t.columns))}; a readings table has exactly "
                                f"{list(READING_COLUMNS)} (as for rail settle).")
     t["timestamp"] = t["timestamp"].astype(str)
-    res = _service.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit)
+    res = _service.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit, actor=_actor(actor),
+                          source=Path(file).name)
     _print({k: v for k, v in res.as_dict().items() if k != "rows"})
     rejected = [r for r in res.rows if r["outcome"] == "rejected"]
     for r in rejected[:_SHOW_REJECTED]:
@@ -356,11 +358,12 @@ _SHOW_REJECTED = 10
 
 @site_app.command("recompute")
 def site_recompute(name: str = typer.Argument(...), db: str = DB_OPT,
-                   force: bool = typer.Option(False, "--force", help="Even if nothing changed.")):
+                   force: bool = typer.Option(False, "--force", help="Even if nothing changed (audited)."),
+                   actor: str = ACTOR_OPT):
     """Recompute the settlement of a site now (the server's worker does this when data arrive)."""
     from ..rail.service import recompute
 
-    _print(recompute(_db(db), name, force=force))
+    _print(recompute(_db(db), name, force=force, actor=_actor(actor) if force else None))
 
 
 def register(app: typer.Typer) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from sqlalchemy import select
 
@@ -334,3 +335,189 @@ def test_a_sensor_added_to_extend_the_span_is_late_at_alert_level_not_dead(site)
     assert out["status"] == "ok", out["message"]
     (alarm,) = _open(db, "health", "S01B")
     assert alarm["level"] == "alert" and "S01B late" in alarm["message"] and "dead" not in alarm["message"]
+
+
+def _survey_z(db, x):
+    """The initial survey's altitude at ``x`` (linear between its points)."""
+    pts = sorted((p["x_m"], p["z_m"]) for p in _core.get_site(db, "mitt")["survey"])
+    return float(np.interp(x, [p[0] for p in pts], [p[1] for p in pts]))
+
+
+def _controls_like_the_estimate(db, shift_m=0.0):
+    """Control rows at five interior sensors on the last day: the estimate's change there plus ``shift_m``."""
+    comp = _core.get_controls(db, "mitt")["comparison"]
+    got = {(c["date"], c["x_m"]): c for c in comp}
+    rows = _core.get_controls(db, "mitt")["controls"]
+    return [{"date": c["date"], "x_m": c["x_m"],
+             "z_m": c["z_m"] - got[(c["date"], c["x_m"])]["dz_control_m"] + got[(c["date"], c["x_m"])]["dz_estimate_m"]
+             + shift_m} for c in rows]
+
+
+def test_control_surveys_contradicting_the_estimate_raise_an_alert_cleared_when_they_agree(site):
+    """Probe item 13: a 20 mm contradiction was a page warning only; now an alert (notified), cleared later."""
+    db, _, r = site
+    _site_with_settlement(db, r)
+    day = r["timestamp"].str[:10].max()
+    xs = [_x(db, f"S{i}") for i in (20, 25, 30, 35, 40)]
+    z0 = [_survey_z(db, x) for x in xs]
+    _core.put_controls(db, "eng", "mitt", [{"date": day, "x_m": x, "z_m": z} for x, z in zip(xs, z0)])
+    assert recompute(db, "mitt")["status"] == "ok"  # the controls as levelled: no settlement at all
+    rows = _controls_like_the_estimate(db, shift_m=0.020)  # 20 mm above the estimate everywhere
+    _core.put_controls(db, "eng", "mitt", rows)
+    out = recompute(db, "mitt")
+    (a,) = _open(db, "controls")
+    assert a["level"] == "alert" and "contradict" in a["message"] and "chi-squared" in a["message"], out
+    assert "p = " in a["message"] and "largest difference +20.0 mm" in a["message"]
+    assert any(e == "raised" and p["quantity"] == "controls" for e, p in _outbox(db))
+    _core.put_controls(db, "eng", "mitt", _controls_like_the_estimate(db))
+    out = recompute(db, "mitt")
+    assert "controls:cleared" in out["events"] and not _open(db, "controls")
+
+
+def _two_loggers(db, key):
+    """logger-1 (the fixture's) and logger-2: their pks."""
+    key2 = _core.add_logger(db, "t", "mitt", "logger-2")
+    return _core.authenticate_logger(db, key)[0], _core.authenticate_logger(db, key2)[0]
+
+
+def _ingest_as(db, rows, logger_pk):
+    for i in range(0, len(rows), 4000):
+        _core.ingest(db, "mitt", rows.iloc[i:i + 4000].to_dict("records"), logger_id=logger_pk, now=NOW)
+
+
+def _no_data_pass(db, now=None):
+    from longprofile.rail.service._alarms import evaluate_no_data
+
+    with db.write() as s:
+        return evaluate_no_data(s, s.scalar(select(Site).where(Site.name == "mitt")), now=now)
+
+
+def test_a_silent_logger_raises_one_logger_alarm_on_a_data_clock_site(site):
+    """Probe item 14: a logger silent for two days on a clock=data site raised nothing (its sensors' alarms were
+    one per sensor on clock=wall); now one "logger" alarm naming its sensors, no sensor alarm, cleared on return."""
+    db, key, r = site
+    pk1, pk2 = _two_loggers(db, key)
+    ids = sorted(r.sensor_id.unique())
+    mine2 = r.sensor_id.isin(ids[:20])
+    early = r.timestamp.str[:10] <= "2019-11-22"
+    _ingest_as(db, r[~mine2], pk1)
+    _ingest_as(db, r[mine2 & early], pk2)
+    events = _no_data_pass(db)
+    (a,) = _open(db, "logger")
+    assert a["subject"] == "logger-2" and a["level"] == "alert" and "no data from logger logger-2" in a["message"]
+    assert "20 sensor(s)" in a["message"] and ids[0] in a["message"]
+    assert not _open(db, "no_data"), events  # its sensors are named in the logger's alarm, not alarmed one by one
+    _ingest_as(db, r[mine2 & ~early], pk2)
+    _no_data_pass(db)
+    assert not _open(db, "logger") and not _open(db, "no_data")
+
+
+def test_a_silent_logger_on_a_wall_clock_site_and_a_sensor_silent_before_it(site):
+    """clock=wall: both loggers silent past no_data_hours give two logger alarms, not 58 sensor alarms; a sensor
+    that was already silent before its logger fell silent keeps its own alarm."""
+    from longprofile.rail.service._db import now_ts
+
+    db, key, r = site
+    _core.update_site(db, "adm", "mitt", clock="wall")
+    pk1, pk2 = _two_loggers(db, key)
+    ids = sorted(r.sensor_id.unique())
+    mine2 = r.sensor_id.isin(ids[:20])
+    _ingest_as(db, r[~mine2 & (r.sensor_id != "S50")], pk1)
+    _ingest_as(db, r[(r.sensor_id == "S50") & (r.timestamp.str[:10] <= "2019-11-20")], pk1)
+    _ingest_as(db, r[mine2], pk2)
+    _no_data_pass(db, now=now_ts() + 60)  # the batches just arrived: no logger is silent
+    assert not _open(db, "logger")
+    _no_data_pass(db, now=now_ts() + 7 * 3600)
+    assert sorted(a["subject"] for a in _open(db, "logger")) == ["logger-1", "logger-2"]
+    assert [a["subject"] for a in _open(db, "no_data")] == ["S50"]
+
+
+def test_bad_or_empty_days_get_an_html_page_on_pages_and_json_on_the_api(site):
+    """Probe item 16: the pages answered a bad day with raw JSON, the same for a malformed date and a day without
+    a result."""
+    db, _, r = site
+    _ingest(db, r)
+    assert recompute(db, "mitt")["status"] == "ok"
+    client = _viewer(db)
+    for path, status, words in (("/sites/mitt?day=garbage", 422, "is not a date"),
+                                ("/sites/mitt?day=2019-02-30", 422, "is not a date"),
+                                ("/sites/mitt?day=2030-01-01", 404, "no result for 2030-01-01"),
+                                ("/sites/mitt/report/2019-11-10", 404, "no result for 2019-11-10"),
+                                ("/sites/mitt/report/garbage", 422, "is not a date")):
+        res = client.get(path)
+        assert res.status_code == status and res.headers["content-type"].startswith("text/html"), (path, res.text)
+        assert words in res.text and 'id="back" href="/sites/mitt"' in res.text and "results cover" not in words
+    assert "results cover" in client.get("/sites/mitt?day=2030-01-01").text
+    api = client.get("/api/v1/sites/mitt/settlement", params={"day": "garbage"})
+    assert api.status_code == 422 and "is not a date" in api.json()["detail"]
+    api = client.get("/api/v1/sites/mitt/settlement", params={"day": "2030-01-01"})
+    assert api.status_code == 404 and "no result for 2030-01-01" in api.json()["detail"]
+
+
+def test_manual_ingest_and_forced_recomputes_are_audited(site, tmp_path, monkeypatch):
+    """Probe item 17: `rail site ingest` had no --actor and neither it nor a forced recompute left an audit entry."""
+    import typer
+    from typer.testing import CliRunner
+
+    from longprofile.cli import _rail_serve
+    from longprofile.cli._rail_serve import register
+
+    db, _, r = site
+    monkeypatch.setattr(_rail_serve, "_db", lambda url, **_: db)  # the fixture's engine: no pool left open
+    path = tmp_path / "late.csv"
+    r[r.timestamp.str[:10] <= "2019-11-21"].to_csv(path, index=False)
+    app = typer.Typer()
+    register(app)
+    res = CliRunner().invoke(app, ["site", "ingest", "mitt", "--file", str(path), "--db", db.url, "--actor", "ops"])
+    assert res.exit_code == 0, res.output
+    (a,) = [a for a in _core.audit_trail(db, "mitt") if a["entity"] == "readings"]
+    assert a["actor"] == "ops" and a["action"] == "ingest" and a["key"] == "late.csv"
+    assert a["new"]["accepted"] == int((r.timestamp.str[:10] <= "2019-11-21").sum()) and a["new"]["file"] == "late.csv"
+    res = CliRunner().invoke(app, ["site", "recompute", "mitt", "--force", "--db", db.url, "--actor", "ops"])
+    assert res.exit_code == 0, res.output
+    (f,) = [a for a in _core.audit_trail(db, "mitt") if a["action"] == "recompute"]
+    assert f["actor"] == "ops" and f["new"]["forced"] and f["new"]["run_id"] == json.loads(res.stdout)["run_id"]
+    assert f["ts"]
+    from fastapi.testclient import TestClient
+
+    from longprofile.rail.service._web import create_app
+
+    _core.add_user(db, "t", "eng1", "eng1-password", "engineer")
+    res = TestClient(create_app(db, background=False)).post("/api/v1/sites/mitt/recompute",
+                                                           auth=("eng1", "eng1-password"))
+    assert res.status_code == 200
+    assert [a["actor"] for a in _core.audit_trail(db, "mitt") if a["action"] == "recompute"] == ["eng1", "ops"]
+    recompute(db, "mitt")  # the worker's own runs are not audited (nobody asked)
+    assert len([a for a in _core.audit_trail(db, "mitt") if a["action"] == "recompute"]) == 2
+
+
+def test_site_names_differing_only_in_case_are_refused(db):
+    _core.create_site(db, "adm", "s1")
+    with pytest.raises(InputError, match="'s1' already exists and differs from 'S1' only in letter case"):
+        _core.create_site(db, "adm", "S1")
+    assert _core.list_sites(db) == ["s1"]
+
+
+def test_a_control_date_with_a_time_of_day_is_refused(site):
+    """Probe item 21: 2019-11-22T10:00:00 was stored as 2019-11-22 without a word; midnight is a date."""
+    db, _, r = site
+    _ingest(db, r)
+    x = _x(db, "S30")
+    z = _survey_z(db, x)
+    with pytest.raises(InputError, match=r"carries a time of day.*give the date only, 2019-11-22"):
+        _core.put_controls(db, "eng", "mitt", [{"date": "2019-11-22T10:00:00", "x_m": x, "z_m": z}])
+    assert _core.get_controls(db, "mitt")["controls"] == []
+    out = _core.put_controls(db, "eng", "mitt", [{"date": "2019-11-22 00:00:00", "x_m": x, "z_m": z}])
+    assert out["dates"] == ["2019-11-22"]
+
+
+def test_removing_a_threshold_that_does_not_exist_is_refused(site):
+    """Probe item 20: it exited 0 without a word."""
+    db, _, _ = site
+    _core.set_threshold(db, "eng", "mitt", "settlement", "alert", 0.010)
+    with pytest.raises(_core.NotFound, match=r"no settlement action threshold to remove; its thresholds: "
+                                             r"settlement alert 10 mm\."):
+        _core.set_threshold(db, "eng", "mitt", "settlement", "action", None)
+    _core.set_threshold(db, "eng", "mitt", "settlement", "alert", None)
+    with pytest.raises(_core.NotFound, match="its thresholds: none"):
+        _core.set_threshold(db, "eng", "mitt", "settlement", "alert", None)

@@ -23,8 +23,8 @@ import numpy as np
 import pandas as pd
 from sqlalchemy import func, select, update
 
-from .. import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, threshold_alarms
-from ._db import LEVELS, Alarm, Channel, Database, Outbox, Reading, Sensor, Site, Threshold, now_ts
+from .. import CONTROL_CHECK_P, THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, threshold_alarms
+from ._db import LEVELS, Alarm, Batch, Channel, Database, Logger, Outbox, Reading, Sensor, Site, Threshold, now_ts
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
            "list_alarms"]
@@ -192,7 +192,29 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
                        message="" if lv is None else f"sensor {sid} {st}: {detail}")
         if w != "none":
             events.append(f"health:{sid}:{w}")
+    w = _controls_alarm(s, site, res.control_check, day, run_id, opened)
+    if w != "none":
+        events.append(f"controls:{w}")
     return events
+
+
+def _controls_alarm(s, site: Site, check, day: str, run_id: int, opened: dict) -> str:
+    """An alert while the run's control check (:attr:`longprofile.rail.SettlementResult.control_check`, the test
+    ``rail settle`` warns from) says the control surveys contradict the estimate; cleared when a later run's does not.
+
+    Alert, not action: the check says the estimate cannot be trusted where the controls were levelled, not that the
+    track passed a threshold; the controls themselves are the measurement to act on (docs/rail-service.md)."""
+    bad = check is not None and bool(check.disagree)
+    msg = ""
+    if bad:
+        date, x, diff, z = check.worst
+        msg = (f"the control surveys contradict the estimate: {check.n_outside} of {check.n_points} control points "
+               f"outside the 90 % band, chi-squared {check.chi2:.3g} on {check.n_points} points "
+               f"(p = {check.p_value:.1e} < {CONTROL_CHECK_P:g}); largest difference {1e3 * diff:+.1f} mm at "
+               f"x = {x:g} m on {date} ({z:+.1f} std). Trust the controls; see the site page's control surveys.")
+    return transition(s, site, "controls", "site", "alert" if bad else None, value=None if check is None else
+                      check.p_value, threshold=CONTROL_CHECK_P, day=day, message=msg, run_id=run_id, opened=opened,
+                      reason="no control survey compared in the latest run" if check is None else None)
 
 
 def _inactive_with_open_alarms(s, site: Site) -> list[str]:
@@ -205,19 +227,24 @@ def _inactive_with_open_alarms(s, site: Site) -> list[str]:
 
 
 def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
-    """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data").
+    """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data");
+    and "no data from logger L" when none of a logger's batches arrived for as long (:func:`_silent_loggers`).
 
     A sensor that has not reported since it was registered gets the same ``no_data_hours`` of grace from its
-    registration (against the wall clock) before the alarm; open alarms of inactive sensors are closed."""
+    registration (against the wall clock) before the alarm; open alarms of inactive sensors are closed. A sensor
+    whose newest reading came from a silent logger, and that was reporting when the logger fell silent, gets no
+    alarm of its own: the logger's alarm names it (one alarm, not one per sensor)."""
     swept = _inactive_with_open_alarms(s, site)
     events = [f"withdrawn:{sid}" for sid in swept] if close_sensor_alarms(s, site, swept, actor="service") else []
     # one index seek per sensor on the (sensor_pk, ts) key: a join grouped by sensor scanned every reading of
-    # the site (0.67 s at 5.3 M readings, docs/rail-service.md, Measured)
+    # the site (0.67 s at 5.3 M readings, docs/rail-service.md, Measured); and the logger of that newest reading
     newest = select(func.max(Reading.ts)).where(Reading.sensor_pk == Sensor.id).scalar_subquery()
-    rows = s.execute(select(Sensor.sensor_id, newest, Sensor.created_ts).where(Sensor.site_id == site.id,
-                                                                               Sensor.active.is_(True))).all()
-    last = {sid: t for sid, t, _ in rows}
-    created = {sid: c for sid, _, c in rows}
+    via = (select(Batch.logger_id).join(Reading, Reading.batch_id == Batch.id).where(Reading.sensor_pk == Sensor.id)
+           .order_by(Reading.ts.desc()).limit(1).scalar_subquery())
+    rows = s.execute(select(Sensor.sensor_id, newest, Sensor.created_ts, via).where(Sensor.site_id == site.id,
+                                                                                    Sensor.active.is_(True))).all()
+    last = {sid: t for sid, t, _, _ in rows}
+    created = {sid: c for sid, _, c, _ in rows}
     if not last:
         return events
     seen = [t for t in last.values() if t is not None]
@@ -230,17 +257,62 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
     wall = now_ts() if now is None else int(now)
     limit = site.no_data_hours * 3600.0
     opened = open_alarms(s, site)
+    silent = _silent_loggers(s, site, ref, limit)
+    covered = {sid: silent[lg][0] for sid, t, _, lg in rows
+               if lg in silent and t is not None and (silent[lg][2] is None or silent[lg][2] - t <= limit)}
+    events += _logger_alarms(s, site, silent, covered, ref, opened)
     for sid, t in sorted(last.items()):
         new = t is None and created[sid] is not None and wall - created[sid] <= limit  # grace after registration
-        stale = not new and (t is None or ref - t > limit)
+        stale = not new and (t is None or ref - t > limit) and sid not in covered
         lv = "alert" if stale else None
         msg = "" if not stale else (f"no data from sensor {sid} for {site.no_data_hours:g} h" if t is None else
                                     f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
                                     f"(limit {site.no_data_hours:g} h)")
         w = transition(s, site, "no_data", sid, lv, value=None if t is None else (ref - t) / 3600.0,
-                       threshold=site.no_data_hours, message=msg, opened=opened)
+                       threshold=site.no_data_hours, message=msg, opened=opened,
+                       reason=f"its logger {covered[sid]} is silent (logger alarm)" if sid in covered else None)
         if w != "none":
             events.append(f"no_data:{sid}:{w}")
+    return events
+
+
+def _silent_loggers(s, site: Site, ref: int, limit: float) -> dict:
+    """{logger pk: (name, hours silent, its newest reading's time)} of the site's active loggers none of whose batches
+    arrived for ``limit`` s before ``ref``: by the batches' arrival (clock="wall", ``ref`` the wall clock), or by
+    their newest reading (clock="data", ``ref`` the site's newest reading), as the sensor rule measures. A logger is
+    watched from its first batch (a logger registered but never heard from is not: its sensors' alarms say it)."""
+    rows = s.execute(select(Logger.id, Logger.name, func.max(Batch.received_ts), func.max(Batch.last_reading_ts))
+                     .join(Batch, Batch.logger_id == Logger.id)
+                     .where(Logger.site_id == site.id, Logger.active.is_(True))
+                     .group_by(Logger.id, Logger.name)).all()
+    out = {}
+    for pk, name, received, newest in rows:
+        t = newest if site.clock == "data" else received
+        if t is not None and ref - t > limit:
+            out[pk] = (name, (ref - t) / 3600.0, newest)
+    return out
+
+
+def _logger_alarms(s, site: Site, silent: dict, covered: dict, ref: int, opened: dict) -> list[str]:
+    """Raise, refresh or clear the per-logger no-data alarms (quantity "logger", subject the logger's name)."""
+    events = []
+    names = {name for name, _, _ in silent.values()}
+    for a in list(opened.values()):
+        if a.quantity == "logger" and a.subject not in names:
+            active = s.scalar(select(Logger.active).where(Logger.site_id == site.id, Logger.name == a.subject))
+            w = transition(s, site, "logger", a.subject, None, opened=opened,
+                           reason=None if active else "the logger's key was revoked")
+            events.append(f"logger:{a.subject}:{w}")
+    for name, hours, _ in sorted(silent.values()):
+        mine = sorted(sid for sid, lg in covered.items() if lg == name)
+        said = (f"; its {len(mine)} sensor(s) {', '.join(mine[:8])}{', ...' if len(mine) > 8 else ''} are silent "
+                "with it (no alarm of their own)") if mine else ""
+        msg = (f"no data from logger {name} for {hours:.1f} h (limit {site.no_data_hours:g} h){said}: check the "
+               "logger's power and connection")
+        w = transition(s, site, "logger", name, "alert", value=hours, threshold=site.no_data_hours, message=msg,
+                       opened=opened)
+        if w != "none":
+            events.append(f"logger:{name}:{w}")
     return events
 
 

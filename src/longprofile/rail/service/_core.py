@@ -169,8 +169,11 @@ def create_site(db: Database, actor: str, name: str, /, **fields) -> dict:
     """Create a site (``fields``: title, baseline_start, baseline_end, no_data_hours, clock, timezone, settings)."""
     check_name(name)
     with db.write() as s:
-        if s.scalar(select(Site).where(Site.name == name)) is not None:
-            raise InputError(f"site {name!r} already exists.")
+        same = s.scalar(select(Site.name).where(func.lower(Site.name) == name.lower()))
+        if same is not None:
+            raise InputError(f"site {name!r} already exists." if same == name else
+                             f"site {same!r} already exists and differs from {name!r} only in letter case; site "
+                             "names are compared ignoring case (they look alike on pages and in e-mails).")
         site = Site(name=name, title="", no_data_hours=6.0, clock="wall", timezone="UTC", settings_json="{}",
                     data_version=0, created_ts=now_ts())
         _apply_site_fields(site, fields)
@@ -373,6 +376,7 @@ def _check_controls(s, site: Site, rows, now: int) -> dict:
     table = pd.DataFrame(rows).astype(object)  # a missing column is validate_site's error
     if "date" in table:
         table["date"] = [v if v is None or isinstance(v, str) else str(v) for v in table["date"]]
+        _refuse_control_times(table["date"])
     sensors, survey = load_site_tables(s, site)
     empty = pd.DataFrame({c: pd.Series(dtype=object) for c in READING_COLUMNS})
     ct = validate_site(sensors, empty, survey, table).controls  # the checks of `rail settle`, nothing re-implemented
@@ -400,6 +404,20 @@ def _check_controls(s, site: Site, rows, now: int) -> dict:
     for d, xm, zm in zip(dates, ct["x_m"], ct["z_m"]):
         out_by_date.setdefault(d, []).append((float(xm), float(zm)))
     return {d: sorted(v) for d, v in out_by_date.items()}
+
+
+def _refuse_control_times(dates) -> None:
+    """Refuse a control date that carries a time of day other than midnight: a control survey is a day's levelling,
+    stored and compared per day, so the time would be dropped without a word (operator's probe, session 36)."""
+    for i, v in enumerate(dates):
+        try:
+            t = pd.Timestamp(v) if isinstance(v, str) and ("T" in v or " " in v.strip()) else None
+        except (ValueError, TypeError):
+            continue  # not a date at all: validate_site's refusal
+        if t is not None and (t.hour, t.minute, t.second, t.microsecond, t.nanosecond) != (0, 0, 0, 0, 0):
+            raise InputError(f"control row {i}: date {v[:40]!r} carries a time of day; control surveys are per day "
+                             f"(a day's levelling, compared with that day's estimate): give the date only, "
+                             f"{t.date().isoformat()}.")
 
 
 def _control_dates(s, site: Site) -> dict:
@@ -484,7 +502,10 @@ def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str
         table = _threshold_rows(s, site)
         levels = {lv: t.value for (q, lv), t in table.items() if q == quantity}
         if v is None:
-            levels.pop(level, None)
+            if level not in levels:
+                raise NotFound(f"site {name!r} has no {quantity} {level} threshold to remove; its thresholds: "
+                               f"{_threshold_names(table)}.")
+            levels.pop(level)
         else:
             levels[level] = v
         others = {}
@@ -505,6 +526,14 @@ def replace_thresholds(db: Database, actor: str, name: str, thresholds: dict) ->
         site = _site(s, name)
         _store_thresholds(s, actor, site, _threshold_rows(s, site), new)
     return new
+
+
+def _threshold_names(table: dict) -> str:
+    """The stored thresholds in words, in the command line's units: "settlement alert 10 mm, rate action 3 mm/day"."""
+    unit = {"rate": "mm/day"}
+    names = [f"{q} {lv} {1e3 * table[(q, lv)].value:g} {unit.get(q, 'mm')}" for q in QUANTITIES for lv in LEVELS
+             if (q, lv) in table]
+    return ", ".join(names) or "none"
 
 
 def _threshold_rows(s, site: Site) -> dict:
@@ -873,12 +902,15 @@ def _same(a, b) -> bool:
 
 
 def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle_unit: str = "deg",
-           check_units: bool = True, now: int | None = None) -> IngestResult:
+           check_units: bool = True, now: int | None = None, actor: str | None = None,
+           source: str | None = None) -> IngestResult:
     """Store a batch of readings; returns after the commit (acknowledge only then).
 
     Per row: ``accepted`` (new key), ``duplicate`` (same key and values: nothing written), ``revised``
     (same key, new values: the old ones are kept in reading_revisions) or ``rejected`` (with the reason).
-    Idempotent: sending a batch twice gives ``duplicate`` for every row the second time.
+    Idempotent: sending a batch twice gives ``duplicate`` for every row the second time. ``actor``: a batch loaded
+    by hand (``rail site ingest``), audited in the same transaction with its counts and ``source`` (the file name);
+    a logger's batches are recorded in the batches table instead.
     """
     if angle_unit not in ("deg", "rad"):
         raise InputError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
@@ -926,7 +958,7 @@ def ingest(db: Database, name: str, rows, *, logger_id: int | None = None, angle
         parsed.append((i, sid, ts, ang, tmp, second))
     for attempt in range(5):
         try:
-            return _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units)
+            return _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units, (actor, source))
         except IntegrityError:  # PostgreSQL: a concurrent batch inserted the same key; start again
             if attempt == 4:
                 raise
@@ -1023,7 +1055,8 @@ def _resolve_repeated_hour(s, parsed, sensors) -> tuple[list, dict]:
     return resolved, notes
 
 
-def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> IngestResult:
+def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units, by=(None, None)) -> IngestResult:
+    """Store the parsed rows in one transaction (``by``: (actor, source) of a batch loaded by hand, audited)."""
     out = list(out)
     with db.write() as s:
         site = _site(s, name, lock=True)  # PostgreSQL: concurrent batches of a site update its watermark in turn
@@ -1074,7 +1107,8 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
             first[k] = g
             uniq.append(g)
         existing = _existing_readings(s, [(g[1], g[3]) for g in uniq])
-        batch = Batch(site_id=site.id, logger_id=logger_id, received_ts=now_ts())
+        batch = Batch(site_id=site.id, logger_id=logger_id, received_ts=now_ts(),
+                      last_reading_ts=max((g[3] for g in good), default=None))
         s.add(batch)
         s.flush()
         new, revs, changed_ts = [], [], []
@@ -1105,6 +1139,9 @@ def _store(db, name, rows, out, parsed, logger_id, angle_unit, check_units) -> I
                   for k in ("accepted", "duplicate", "revised", "rejected")}
         batch.n_accepted, batch.n_duplicate = counts["accepted"], counts["duplicate"]
         batch.n_revised, batch.n_rejected = counts["revised"], counts["rejected"]
+        if by[0] is not None:  # a manual load changes the data behind the alarms: who, which file, what it did
+            _audit(s, by[0], site.id, "readings", (by[1] or f"batch {batch.id}")[-200:], "ingest", None,
+                   {"batch_id": batch.id, "file": by[1], **counts})
         if changed_ts:
             lo = min(changed_ts)
             site.dirty_from_ts = lo if site.dirty_from_ts is None else min(site.dirty_from_ts, lo)

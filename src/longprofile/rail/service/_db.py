@@ -163,6 +163,9 @@ class Batch(Base):
     n_duplicate: Mapped[int] = mapped_column(Integer, default=0)
     n_revised: Mapped[int] = mapped_column(Integer, default=0)
     n_rejected: Mapped[int] = mapped_column(Integer, default=0)
+    #: the newest reading time of the batch's rows for known, active sensors (accepted, duplicate or revised): the
+    #: logger's newest reading on a clock="data" site (logger no-data alarm); None when every row was rejected
+    last_reading_ts: Mapped[int | None] = mapped_column(BigInteger, nullable=True)
 
 
 class Audit(Base):

@@ -640,14 +640,24 @@ def latest_run(s, site: Site, *, ok_only: bool = True) -> Run | None:
 WAITING_MESSAGES = ("at least 2 days", "too few days", "at least 3 sensors", "the readings table is empty")
 
 
+def _audit_forced(s, site: Site, run: Run, force: bool, actor: str | None) -> None:
+    """Audit a recompute someone forced (CLI ``--force``, the API's recompute): who, when (the entry's time), the run."""
+    if force and actor is not None:
+        from ._core import _audit
+
+        _audit(s, actor, site.id, "run", str(run.id), "recompute", None,
+               {"forced": True, "run_id": run.id, "status": run.status, "message": run.message[:200]})
+
+
 def _failed_or_waiting(exc: Exception) -> str:
     """"waiting" for a run refused for want of data (:data:`WAITING_MESSAGES`), else "failed" (e.g. a sensor outside
     the survey: the site's tables need a change; with no readings yet this was "waiting" before session 36)."""
     return "waiting" if any(w in str(exc) for w in WAITING_MESSAGES) else "failed"
 
 
-def recompute(db: Database, name: str, *, force: bool = False) -> dict:
-    """Recompute a site when its data or settings changed since the last run (``force``: always).
+def recompute(db: Database, name: str, *, force: bool = False, actor: str | None = None) -> dict:
+    """Recompute a site when its data or settings changed since the last run (``force``: always; with ``actor``,
+    the person who asked, audited with the run's id and outcome).
 
     Returns {"run_id", "status" ("ok", "unchanged", "waiting", "failed"), "message", "events", "seconds"}.
     """
@@ -737,6 +747,7 @@ def recompute(db: Database, name: str, *, force: bool = False) -> dict:
                 s.execute(delete(ControlComparison).where(ControlComparison.run_id.in_(old)))
         events += evaluate_no_data(s, site)
         run.finished_ts = now_ts()
+        _audit_forced(s, site, run, force, actor)
         # the site is clean only if nothing arrived meanwhile (compare-and-set on the watermark)
         s.execute(update(Site).where(Site.id == site_id, Site.data_version == version).values(dirty_from_ts=None))
         run_id = run.id

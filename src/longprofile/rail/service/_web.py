@@ -40,6 +40,23 @@ class HTTPError(Exception):
         self.status, self.detail = status, detail
 
 
+class BadDay(core.NotFound):
+    """A day the site has no page for: not a date at all (status 422) or a date without a result (404)."""
+
+    def __init__(self, message: str, *, status: int, days):
+        super().__init__(message)
+        self.status, self.days = status, list(days)
+
+
+def _not_a_date(day: str) -> bool:
+    """True for a YYYY-MM-DD string that is no calendar day (2019-02-30)."""
+    try:
+        datetime.strptime(day, "%Y-%m-%d")
+    except ValueError:
+        return True
+    return False
+
+
 def _iso(ts):
     return "" if ts is None else datetime.fromtimestamp(ts, timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
 
@@ -293,10 +310,15 @@ class _App:
 
     @staticmethod
     def pick_day(days, day):
+        """``day`` if the latest run has a result for it (None: the newest day); else :class:`BadDay`, saying whether
+        the day is not a date or a date without a result, and which days have one."""
         if day is None:
             return days[-1] if days else None
-        if not DAY_RE.match(day) or day not in days:
-            raise core.NotFound("no result for this day.")
+        if not DAY_RE.match(day) or _not_a_date(day):
+            raise BadDay(f"{day[:40]!r} is not a date: give a day as YYYY-MM-DD.", status=422, days=days)
+        if day not in days:
+            span = f"results cover {days[0]} to {days[-1]}" if days else "there is no result yet"
+            raise BadDay(f"no result for {day}: {span}.", status=404, days=days)
         return day
 
     def day_rows(self, run, day) -> pd.DataFrame:
@@ -365,6 +387,16 @@ def _add_error_handlers(app: FastAPI, ctx: _App):
     @app.exception_handler(core.NotFound)
     async def _nf(request, exc):
         return JSONResponse({"detail": str(exc)}, status_code=404)
+
+    @app.exception_handler(BadDay)
+    async def _bad_day(request, exc: BadDay):
+        """A page answers with a page that says what is wrong and links back; the API and the figures with JSON."""
+        path = request.url.path
+        if path.startswith("/api/") or path.endswith(".png"):
+            return JSONResponse({"detail": str(exc)}, status_code=exc.status)
+        site = request.path_params.get("site", "")
+        return ctx.render(request, "bad_day.html", status=exc.status, message=str(exc), site=site,
+                          days=exc.days[-10:], n_days=len(exc.days))
 
     @app.exception_handler(core.Forbidden)
     async def _fb(request, exc):
@@ -530,8 +562,8 @@ def _add_result_api_routes(app: FastAPI, ctx: _App):
 
     @app.post("/api/v1/sites/{site}/recompute")
     def api_recompute(site: str, request: Request):
-        person(request, "engineer")
-        return recompute(db, site_name(site), force=True)
+        who = person(request, "engineer")
+        return recompute(db, site_name(site), force=True, actor=who[0])
 
     @app.get("/api/v1/sites/{site}/alarms")
     def api_alarms(site: str, request: Request, open_only: bool = False, state: str | None = None):
@@ -698,8 +730,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         if page_user(request) is None:
             return to_login(request)
         st, run, days = ctx.run_days(site_name(site))
-        if not DAY_RE.match(day) or day not in days:
-            raise core.NotFound("no result for this day.")
+        ctx.pick_day(days, day)
         folder = ctx.report_root / str(st.id) / str(run.id) / day
         page = folder / "index.html"
         with ctx.report_lock:
