@@ -164,8 +164,8 @@ def identify_command(
     check_identification_structure(structure, flag="--structure")  # before reading the files
     model_path = check_output_path(model_out, input, output_file, suffixes=(".json",), overwrite=overwrite)
     png = check_plot_path(plot, input, output_file, model_path, overwrite=overwrite)
-    u = read_sampled_column(input, input_column, dx=dx)
-    y = read_sampled_column(output_file, output_column, dx=dx)
+    u = _bench_column(read_sampled_column, input, input_column, "--input-column", dx)
+    y = _bench_column(read_sampled_column, output_file, output_column, "--output-column", dx)
     na, nb, nk = orders
     dt = dx / speed
     with progress() as bar:
@@ -179,6 +179,18 @@ def identify_command(
     console.print(f"{structure.upper()} converged in {est.n_iterations} iterations, residual std "
                   f"{est.residual_std:.4g}, simulation fit {est.fit_simulation:.1f} % -> {model_out}")
     sys.stdout.flush()
+
+
+def _bench_column(reader, path, column: str, flag: str, dx: float):
+    """``reader(path, column, dx=dx)``; a missing column's refusal names the option that chooses it."""
+    from ..errors import InputFormatError
+
+    try:
+        return reader(path, column, dx=dx)
+    except InputFormatError as exc:
+        if "missing column" not in str(exc):
+            raise
+        raise InputFormatError(f"{str(exc).rstrip('.')}; choose the column with {flag} NAME.") from None
 
 
 def register(app: typer.Typer) -> None:

@@ -76,7 +76,8 @@ def simulate(
     params = _vertical_params(vehicle)
     with console.status("simulating the 7-DOF car..."):
         if road is not None:
-            run = profile_run(read_profile(road), config, speed, duration, seed=seed, mr_damper=mr, params=params,
+            surface = read_profile(road)
+            run = profile_run(surface, config, speed, duration, seed=seed, mr_damper=mr, params=params,
                               source=f"--road {road}")
             sim, sensors = run.simulation, run.sensors
         else:
@@ -86,7 +87,10 @@ def simulate(
     if road is not None:  # `estimate --profile` places the road under the wheels by it
         frame["chainage_m"] = run.front_chainage
     write_table(frame, out)
-    what = f"road {road}" if road is not None else f"test {test}"
+    what = f"test {test}" if road is None else (f"road {road}, chainage {run.front_chainage[0]:.6g}.."
+                                                 f"{run.front_chainage[-1]:.6g} m of its {surface.distance[0]:.6g}.."
+                                                 f"{surface.distance[-1]:.6g} m"
+                                                 f" at {speed:g} m/s: --duration sets how far")
     console.print(f"wrote {out} ({sim.time.size} samples, config {config}, {what}, car {car})")
     if plot is not None:
         from ..report import plot_vertical_simulation

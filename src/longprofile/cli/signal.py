@@ -88,7 +88,7 @@ def differentiate(
     file: Path = typer.Argument(..., help="Input table (.csv or .parquet) with one row per sample."),
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
     dt: float | None = typer.Option(None, "--dt", help="Sample interval, s (default: the constant step of the "
-                                                          "file's time column: t or time, with a unit t_ms, time [ms])."),
+                                                          "file's time column: t or time, with a unit t_ms, time \\[ms])."),
     output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
                                                             "derivative_std (one row per input row; see --std)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),

@@ -215,6 +215,14 @@ def _table_html(df: pd.DataFrame, fmt="{:.4g}") -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
+def _with_units(alarms: pd.DataFrame) -> pd.DataFrame:
+    """The alarms table with the unit of its ``value`` and ``threshold`` (SI: m, m/day for a rate; a user reading
+    ``-0.0036`` next to thresholds given in mm asked which unit it was; session 36)."""
+    if alarms is None or "kind" not in alarms:
+        return alarms
+    return alarms.assign(unit=np.where(alarms["kind"].astype(str) == "rate", "m/day", "m"))
+
+
 def _report_figures(result) -> dict:
     """The report's figures by PNG file name: the function drawing each (``function(result)`` -> Figure)."""
     figs = {"profiles_by_week.png": _weekly_figure, "through_time.png": _time_figure,
@@ -381,7 +389,8 @@ def write_rail_report(result, outdir, *, title: str = "Track settlement report",
     # drawn by the command's figure helper while the tables are written, when one runs (report/_render.py)
     figures = current_renderer().submit(figure_pngs, _report_figures(result), result, savefig={"dpi": 110})
     health = _sensor_table(result)
-    written = [write_csv(result.to_table(), out / "settlement.csv"), write_csv(result.alarms, out / "alarms.csv"),
+    written = [write_csv(result.to_table(), out / "settlement.csv"), write_csv(_with_units(result.alarms),
+                                                                              out / "alarms.csv"),
                write_csv(health, out / "sensors.csv")]
     paths, images = write_pngs(figures.result(), out)
     page = render("rail_report.html", **_page_context(result, title, health, images))

@@ -41,7 +41,9 @@ def plot_derivative(x, dt: float, result: DerivativeResult, *, truth=None, label
     ax1.set_ylabel(label)
     ax1.legend(loc="best")
     d, s = result.derivative, result.derivative_std
-    ax2.fill_between(t, d - 2 * s, d + 2 * s, color="C1", alpha=0.25, lw=0, label="±2 std (noise)")
+    total = result.params.get("std", "noise") == "total"  # the std printed in the table (docs/signal.md, Calibration)
+    ax2.fill_between(t, d - 2 * s, d + 2 * s, color="C1", alpha=0.25, lw=0,
+                     label="±2 std (noise and model error)" if total else "±2 std (noise)")
     ax2.plot(t, d, lw=0.8, color="C1", label=f"derivative ({result.method})")
     if truth is not None:
         ax2.plot(t, np.asarray(truth, dtype=float), lw=1.0, color="k", ls="--", label="true derivative")
@@ -53,7 +55,8 @@ def plot_derivative(x, dt: float, result: DerivativeResult, *, truth=None, label
     p = result.params
     setting = ", ".join(f"{k.replace('_', ' ')} {p[k]:g}" for k in ("window", "degree", "q_over_r") if k in p)
     fig.suptitle(f"{'derivative' if order == 1 else f'derivative of order {order}'} of {label} by {result.method}"
-                 f" ({setting}{', ' if setting else ''}dt = {dt:g} s); band = noise only, not bias")
+                 f" ({setting}{', ' if setting else ''}dt = {dt:g} s); band = "
+                 + ("noise and the model's bias and lag (std total)" if total else "noise only, not bias (std noise)"))
     return fig
 
 
