@@ -288,12 +288,12 @@ class AcceptanceResult:
         text = f"{ps['lots']} lot(s) over {sec['start']:.6g}-{sec['end']:.6g} {lu}"
         span = f"the last, {last['start']:.6g}-{last['end']:.6g} {lu}"
         if last["rule"] == "own":
-            text += f" ({span}, is the {last['remainder']:.4g} {lu} remainder as a lot of its own)"
+            text += f" ({span}, is the {last['remainder']:.6g} {lu} remainder as a lot of its own)"
         elif last["rule"] == "merged":
-            text += (f" ({span}, takes the {last['remainder']:.4g} {lu} remainder, shorter than "
-                     f"{self.spec.min_lot_fraction:g} lot: {last['end'] - last['start']:.4g} {lu})")
+            text += (f" ({span}, takes the {last['remainder']:.6g} {lu} remainder, shorter than "
+                     f"{self.spec.min_lot_fraction:g} lot: {last['end'] - last['start']:.6g} {lu})")
         if ps["excluded_length"] > 0:
-            text += (f"; {ps['excluded_length']:.4g} {lu} in {len(_merge(self.spec.exclusions))} exclusion zone(s) "
+            text += (f"; {ps['excluded_length']:.6g} {lu} in {len(_merge(self.spec.exclusions))} exclusion zone(s) "
                      "not evaluated")
         return text
 
@@ -319,7 +319,7 @@ class AcceptanceResult:
         if ps["localized_defects"] is None:
             return "localized roughness not assessed (no threshold in the spec: [localized] threshold)"
         return (f"{ps['localized_defects']} localized roughness area(s) above {spec.localized_threshold:g} "
-                f"{spec.iri_unit} ({ps['localized_defect_length']:.4g} {spec.length_unit})")
+                f"{spec.iri_unit} ({ps['localized_defect_length']:.6g} {spec.length_unit})")
 
 
 def _cumulative(rs):
