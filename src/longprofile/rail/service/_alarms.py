@@ -281,10 +281,12 @@ def _silent_loggers(s, site: Site, ref: int, limit: float) -> dict:
     arrived for ``limit`` s before ``ref``: by the batches' arrival (clock="wall", ``ref`` the wall clock), or by
     their newest reading (clock="data", ``ref`` the site's newest reading), as the sensor rule measures. A logger is
     watched from its first batch (a logger registered but never heard from is not: its sensors' alarms say it)."""
-    rows = s.execute(select(Logger.id, Logger.name, func.max(Batch.received_ts), func.max(Batch.last_reading_ts))
-                     .join(Batch, Batch.logger_id == Logger.id)
-                     .where(Logger.site_id == site.id, Logger.active.is_(True))
-                     .group_by(Logger.id, Logger.name)).all()
+    # one index seek per logger (ix_batches_logger_*); a GROUP BY over the batches scanned a year's 157 000 of
+    # them on every pass (51 ms, session 36)
+    newest = {c: select(func.max(c)).where(Batch.logger_id == Logger.id).scalar_subquery()
+              for c in (Batch.received_ts, Batch.last_reading_ts)}
+    rows = s.execute(select(Logger.id, Logger.name, *newest.values())
+                     .where(Logger.site_id == site.id, Logger.active.is_(True))).all()
     out = {}
     for pk, name, received, newest in rows:
         t = newest if site.clock == "data" else received

@@ -155,6 +155,9 @@ class ReadingRevision(Base):
 
 class Batch(Base):
     __tablename__ = "batches"
+    # a logger's newest batch by arrival and by reading, one index seek per logger (the logger no-data alarm)
+    __table_args__ = (Index("ix_batches_logger_received", "logger_id", "received_ts"),
+                      Index("ix_batches_logger_last_reading", "logger_id", "last_reading_ts"))
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     site_id: Mapped[int] = mapped_column(ForeignKey("sites.id"), index=True)
     logger_id: Mapped[int | None] = mapped_column(ForeignKey("loggers.id"), nullable=True)
