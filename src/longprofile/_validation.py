@@ -25,6 +25,7 @@ __all__ = [
     "missing_value_code",
     "missing_value_codes",
     "constant_runs",
+    "true_runs",
     "MISSING_PROFILE_HINT",
 ]
 
@@ -177,6 +178,15 @@ def missing_value_code(value: float) -> bool:
     return bool(missing_value_codes([value])[0])
 
 
+def true_runs(mask) -> list[tuple[int, int]]:
+    """``(first, last)`` index of each run of True in a 1-D boolean mask."""
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        return []
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1).tolist(), (np.flatnonzero(d == -1) - 1).tolist()))
+
+
 def constant_runs(x, z, min_length: float) -> list[tuple[int, int]]:
     """``(first, last)`` sample indices of the runs of exactly equal, finite values of ``z`` over at least
     ``min_length`` of ``x`` (stations, increasing): a sensor holding one value (a dropout written as a number)."""
@@ -184,7 +194,5 @@ def constant_runs(x, z, min_length: float) -> list[tuple[int, int]]:
     if z.size < 2:
         return []
     same = np.isfinite(z[1:]) & (z[1:] == z[:-1])
-    d = np.diff(np.concatenate([[0], same.astype(np.int8), [0]]))
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)  # steps starts .. ends-1: samples starts .. ends
-    keep = x[ends] - x[starts] >= min_length
-    return list(zip(starts[keep].tolist(), ends[keep].tolist()))
+    # steps i .. j equal: samples i .. j + 1
+    return [(i, j + 1) for i, j in true_runs(same) if x[j + 1] - x[i] >= min_length]

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import MISSING_PROFILE_HINT, missing_value_codes
+from .._validation import MISSING_PROFILE_HINT, missing_value_codes, true_runs
 from ..core import MAX_ABS_ELEVATION_M
 from ..errors import InputFormatError, UnitsError
 
@@ -91,8 +91,7 @@ def check_missing_codes(source, x, raw, tracks, units, factors) -> None:
             continue
         z = raw[:, j] * factors[j]
         other = np.flatnonzero(np.isfinite(z) & ~code)
-        d = np.diff(np.concatenate([[0], code.astype(np.int8), [0]]))
-        for i, k in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
+        for i, k in true_runs(code):
             if _stands_apart(x, z, other, i, k):
                 more = f" to {x[k]:.3f} m ({k - i + 1} samples)" if k > i else ""
                 raise InputFormatError(f"{source}: track {track!r} holds {raw[i, j]:g} {units[j]} at station "

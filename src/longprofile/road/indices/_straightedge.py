@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..._validation import require_positive
+from ..._validation import true_runs as _runs
 from ...core import Profile
 from ...errors import InputError
 
@@ -74,14 +75,6 @@ class StraightedgeResult:
         for j, t in enumerate(self.tracks):
             cols[f"deviation_{t}_m"] = self.deviation[:, j]
         return pd.DataFrame(cols)
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(first, last) index of each run of True in a 1-D mask."""
-    if not mask.any():
-        return []
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
 
 
 def rolling_straightedge(profile: Profile, *, length: float = STRAIGHTEDGE_10FT, threshold: float | None = None,

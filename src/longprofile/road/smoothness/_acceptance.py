@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..._validation import require_positive
+from ..._validation import true_runs as _runs
 from ...core import Profile
 from ...errors import InputError, InputFormatError, UnitsError
 from ..indices._dropouts import dropout_message, dropout_runs
@@ -342,13 +343,6 @@ def _merge(zones):
         else:
             out.append([a, b])
     return [(a, b) for a, b in out]
-
-
-def _runs(mask):
-    if not mask.any():
-        return []
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
 
 
 def resolve_index(spec: AcceptanceSpec, tracks) -> AcceptanceSpec:
