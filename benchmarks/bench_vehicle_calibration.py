@@ -37,6 +37,10 @@ stated std, or the force model and the accelerometer disagreeing beyond 30 % / 3
 also "sensors unverified", the same calibration finding that widens the slope band): on ``sensor bias``
 (offsets beyond the stated ones) the detection rate, on the other families the false-flag rate.
 
+The ``radius error`` family's stated-tolerance drives run twice more with the estimator told the family's
+rolling-radius spread (``SlopeUncertainty(radius_rel_std=...)``, the car file's ``[tolerances] radius_rel_std``;
+:data:`RADIUS_TOLD`): the family's std (1.32 %) and the std whose 90 % interval reaches its 90th percentile (1.12 %).
+
 Seeds: the rows use seed 0; any tuning of the estimator's uncertainty model was done with other seeds
 (``calibrate(..., seed=1000)``), so the rows are out-of-sample.
 
@@ -59,6 +63,18 @@ FAMILIES = ("own model", "mass error", "radius error", "tyre error", "friction e
             "steep grades", "lag, jitter")
 STATES = ("slope", "vx", "vy", "yaw_rate")
 STATED_DRAWS = 100
+#: The ``radius error`` family's relative rolling-radius errors: magnitude uniform over this range, random sign.
+RADIUS_ERROR_RANGE = (0.005, 0.02)
+#: Rolling-radius tolerances stated to the estimator on the family's drives (``[tolerances] radius_rel_std`` of the
+#: car file, session 37): the distribution's std, sqrt(E[r^2]) = sqrt((b^3 - a^3) / (3 (b - a))) = 1.32 %, and the
+#: std whose 90 % interval (+- 1.645 std) reaches the family's 90th percentile of |r|, (a + 0.9 (b - a)) / 1.645 =
+#: 1.12 % (the errors are bounded, not Gaussian: a band of their own std holds all of them).
+RADIUS_TOLD = {
+    "the family's std": float(np.sqrt((RADIUS_ERROR_RANGE[1] ** 3 - RADIUS_ERROR_RANGE[0] ** 3)
+                                      / (3 * (RADIUS_ERROR_RANGE[1] - RADIUS_ERROR_RANGE[0])))),
+    "its 90th percentile / 1.645": (RADIUS_ERROR_RANGE[0] + 0.9 * (RADIUS_ERROR_RANGE[1] - RADIUS_ERROR_RANGE[0]))
+    / 1.645,
+}
 #: SlopeEstimate.warnings() by the start of their text; the first three name a sensor (or the accelerometer)
 WARNING_KINDS = {"the gyro reads": "gyro", "wheel speed scale errors": "wheel scale",
                  "the model's longitudinal force": "force vs accelerometer",
@@ -102,7 +118,7 @@ def _true_car(family, rng, car):
     if family == "mass error":
         return car.with_changes(mass=car.mass * (1 + sign * rng.uniform(0.05, 0.2)))
     if family == "radius error":
-        return car.with_changes(wheel_radius=car.wheel_radius * (1 + sign * rng.uniform(0.005, 0.02)))
+        return car.with_changes(wheel_radius=car.wheel_radius * (1 + sign * rng.uniform(*RADIUS_ERROR_RANGE)))
     if family == "tyre error":
         return car.with_changes(longitudinal_stiffness=car.longitudinal_stiffness * rng.uniform(0.7, 1.3),
                                 cornering_stiffness=car.cornering_stiffness * rng.uniform(0.7, 1.3))
@@ -226,6 +242,24 @@ def run(quick: bool) -> list[BenchRow]:
             rows += _score_rows(family, stated, STATED_DRAWS, duration, time.perf_counter() - t0, quick,
                                 ", stated-tolerance cars")
             rows.append(_warning_row(family, warned))
+        if not quick and family == "radius error":  # the same drives, the estimator told the family's spread
+            rows += _told_radius_rows(duration)
+    return rows
+
+
+def _told_radius_rows(duration) -> list[BenchRow]:
+    """The ``radius error`` family's stated-tolerance drives estimated with the rolling-radius tolerance stated at
+    each :data:`RADIUS_TOLD` value (``SlopeUncertainty(radius_rel_std=...)``, what the car file's ``[tolerances]
+    radius_rel_std`` gives ``vehicle slope``)."""
+    from longprofile.vehicle import SlopeUncertainty
+
+    rows = []
+    for what, told in RADIUS_TOLD.items():
+        t0 = time.perf_counter()
+        scores = calibrate("radius error", STATED_DRAWS, duration=duration, background="stated",
+                           estimator_kwargs={"uncertainty": SlopeUncertainty(radius_rel_std=told)})
+        rows += _score_rows("radius error", scores, STATED_DRAWS, duration, time.perf_counter() - t0, False,
+                            f", stated-tolerance cars, radius_rel_std told {100 * told:.3g} % ({what})")
     return rows
 
 

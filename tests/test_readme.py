@@ -18,17 +18,27 @@ ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 
 
+def markdown_blocks(text: str, lang: str) -> list[str]:
+    """The bodies of the ```lang fenced blocks of a Markdown text, in order."""
+    return re.findall(rf"^```{lang}\n(.*?)^```", text, flags=re.S | re.M)
+
+
 def _blocks(lang: str) -> list[str]:
-    return re.findall(rf"^```{lang}\n(.*?)^```", README.read_text(), flags=re.S | re.M)
+    return markdown_blocks(README.read_text(), lang)
+
+
+def shell_commands(text: str) -> list[str]:
+    """The command lines of a Markdown text's ```sh blocks (backslash continuations joined, comment lines dropped;
+    ``source .venv/bin/activate`` is what :func:`_env` does: the venv's bin first on PATH)."""
+    cmds = []
+    for block in markdown_blocks(text, "sh"):
+        block = re.sub(r"\\\n\s*", " ", block)
+        cmds += [line.strip() for line in block.splitlines() if line.strip() and not line.strip().startswith("#")]
+    return [c for c in cmds if c != "source .venv/bin/activate"]
 
 
 def _commands() -> list[str]:
-    cmds = []
-    for block in _blocks("sh"):
-        block = re.sub(r"\\\n\s*", " ", block)
-        cmds += [line.strip() for line in block.splitlines() if line.strip() and not line.strip().startswith("#")]
-    # the activation is what _env() does (the venv's bin first on PATH); the temporary folder has no .venv
-    return [c for c in cmds if c != "source .venv/bin/activate"]
+    return shell_commands(README.read_text())
 
 
 def test_readme_opens_with_exactly_the_two_set_up_commands():

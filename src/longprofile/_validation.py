@@ -31,8 +31,9 @@ __all__ = [
 
 #: What a refusal of a missing profile sample written as a number (a logger's code, a held or zero value) says to do:
 #: one hint for the profile readers (``io``) and the road commands.
-MISSING_PROFILE_HINT = ("write the missing samples as NaN (leave the cells empty), then cut the profile there (road iri, "
-                        "road report) or cover them with an exclusion zone (road acceptance: [exclusions] zones)")
+MISSING_PROFILE_HINT = ("write the missing samples as NaN (leave the cells empty), then analyse with --gaps restart (road "
+                        "iri, road report, batch iri: the IRI over the measured parts) or cover them with an exclusion "
+                        "zone (road acceptance: [exclusions] zones)")
 
 
 def as_float_array(name: str, value, *, ndim: int | Sequence[int] | None = None,

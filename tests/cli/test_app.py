@@ -2,6 +2,9 @@
 
 import subprocess
 import sys
+from pathlib import Path
+
+import pytest
 
 from longprofile import __version__
 from longprofile.cli.app import main
@@ -35,6 +38,26 @@ def test_library_error_is_one_line_exit_2():
 
 def test_usage_error_exit_2(capsys):
     assert main(["no-such-command"]) == 2
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["road", "iri", "--segmnt", "100", "p.csv"], ["--segmnt", "--segment", "'longprofile road iri --help'"]),
+    (["road", "irri", "p.csv"], ["'irri'", "'iri'", "'longprofile road --help'"]),
+    (["rail", "settle", "--sensors", "s.csv"], ["'--readings'", "'longprofile rail settle --help'"]),
+    (["road", "iri", "p.csv", "--segment", "abc"], ["'--segment'", "'abc'"]),
+])
+def test_a_command_line_click_refuses_is_one_line_naming_the_help(argv, says):
+    # a typo got click's usage block (usage, "Try ...", a blank line, "Error: ..."): now one line, exit 2
+    proc = subprocess.run([str(Path(sys.executable).parent / "longprofile"), *argv], capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert all(s in lines[0] for s in says), lines[0]
+
+
+def test_a_group_without_its_command_still_shows_its_help():
+    proc = subprocess.run([str(Path(sys.executable).parent / "longprofile"), "road"], capture_output=True, text=True)
+    assert "Usage: longprofile road" in proc.stdout and "Commands" in proc.stdout
 
 
 def test_error_text_is_printed_as_written_not_as_markup():

@@ -78,19 +78,19 @@ def test_until_2026_12_06_is_unchanged_by_the_option():
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(3, 9), d=st.integers(2, 6))
 def test_restored_slopes(seed, n, d):
-    """Every sensor back but the user's exclusions and the dead ones (NaN); those flagged reversed with the other
-    sign; the input is not modified."""
+    """Every sensor back but the user's exclusions and the dead, frozen and late ones (NaN); those flagged reversed
+    with the other sign; the input is not modified."""
     rng = np.random.default_rng(seed)
     M = rng.normal(size=(d, n))
     keep = M.copy()
-    status = rng.choice(["ok", "reversed", "detached", "dead"], n).tolist()
+    status = rng.choice(["ok", "reversed", "detached", "dead", "frozen", "late"], n).tolist()
     user = sorted(set(rng.integers(0, n, rng.integers(0, 3)).tolist()))
     health = SensorHealth(sensor_ids=[f"S{i}" for i in range(n)], status=np.array(status), detail=np.array([""] * n),
                           excluded=np.array([s != "ok" for s in status]), loo_score=np.ones(n))
     out = _restored_slopes(M, health, user)
     assert np.array_equal(M, keep)
     for j in range(n):
-        if j in user or status[j] == "dead":
+        if j in user or status[j] in ("dead", "frozen", "late"):
             assert np.isnan(out[:, j]).all()
         else:
             assert np.array_equal(out[:, j], -M[:, j] if status[j] == "reversed" else M[:, j])

@@ -7,7 +7,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from longprofile.rail import daily_angles, estimate_settlement, validate_site
+from longprofile.rail import SENSOR_STATUSES, UNUSABLE_STATUSES, daily_angles, estimate_settlement, validate_site
 from longprofile.rail._health import (
     DEAD_SPREAD_DEG,
     FROZEN_MIN_DAYS,
@@ -65,8 +65,9 @@ def _freeze(readings, sid, fraction):
     return r
 
 
-def test_a_sensor_frozen_late_in_the_record_is_flagged_dead_as_frozen():
-    """Frozen for the last 40 % of the record, its whole-record spread is normal; the within-day test sees it."""
+def test_a_sensor_frozen_late_in_the_record_is_flagged_frozen():
+    """Frozen for the last 40 % of the record, its whole-record spread is normal; the within-day test sees it: status
+    "frozen" (its own status since session 37, "dead" before), excluded as a dead one."""
     for seed in (3, 11):
         sc = simulate_scenario("lag-swings", seed, **SMALL)
         final = sc.truth.settlement[-1]
@@ -75,7 +76,8 @@ def test_a_sensor_frozen_late_in_the_record_is_flagged_dead_as_frozen():
         res = estimate_settlement(validate_site(sc.sensors, r, sc.survey), n_monte_carlo=0)
         flagged = {s: (k, why) for s, k, why in res.health.flagged()}
         assert set(flagged) == {sid}, flagged
-        assert flagged[sid][0] == "dead" and "frozen" in flagged[sid][1]
+        assert flagged[sid][0] == "frozen" and flagged[sid][1].startswith("frozen: ")
+        assert "frozen" in UNUSABLE_STATUSES and "frozen" in SENSOR_STATUSES
 
 
 def test_reversal_likelihood_ratio_separates_a_reversed_sensor():
@@ -148,7 +150,7 @@ def test_assess_sensors_names_the_test_that_flagged_each_sensor():
     spread[10:, 11] = 0.0
     health, _, _ = assess_sensors(x, M, sigma=2e-6, rigidity=1e-9, sigma_z=1e-3, raw_day_spread_deg=spread)
     status = dict(zip(health.sensor_ids, health.status))
-    assert status[11] == "dead" and "frozen" in health.detail[11]
+    assert status[11] == "frozen" and "frozen" in health.detail[11]
     assert status[4] == "reversed"
     assert status[9] == "detached" and "day 12" in health.detail[9]
 

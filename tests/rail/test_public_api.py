@@ -11,6 +11,7 @@ EXPECTED = {
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
+    "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings",
     "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval", "MaxSettlement",

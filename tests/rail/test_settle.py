@@ -125,7 +125,7 @@ def test_options_exclusion_affine_and_errors(mitt):
                               n_monte_carlo=0, sigma=2e-5)
     assert res.smoothed is None and np.isnan(res.max_settlement_mean).all()
     assert any("affine correction" in w for w in res.warnings)
-    assert dict((s, st) for s, st, _ in res.health.flagged())["S01"] == "improbable"
+    assert dict((s, st) for s, st, _ in res.health.flagged())["S01"] == "excluded"  # was "improbable"
     assert res.sigma == 2e-5
     with pytest.raises(InputError, match="unknown sensor id"):
         estimate_settlement(site, exclude_sensors=["nope"])

@@ -1,6 +1,7 @@
 """Vehicle sensor logs (issue 14): declared units, conversion, resampling, unit/sign plausibility checks."""
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -270,3 +271,93 @@ def test_a_vertical_log_with_unix_time_stamps_gives_the_relative_time_estimate(v
     ea, eb = estimate_vertical_log(a).estimate, estimate_vertical_log(b).estimate
     for f in ("vehicle_disturbance", "tyre_force", "suspension_velocity"):
         np.testing.assert_allclose(getattr(eb, f), getattr(ea, f), rtol=1e-9, atol=1e-9)
+
+
+# ------------------------------------------------------------------------------------------ unit patterns (session 37)
+
+def test_a_wildcard_units_key_gives_its_unit_to_every_channel_it_matches(paper, vertical_frame):
+    g = _wheels_times(paper, CAR.wheel_radius * 3.6).assign(accel_x=paper.accel_x / 9.80665,
+                                                            accel_y=paper.accel_y / 9.80665)
+    explicit, _ = read_drive_log(g, CAR, units={**dict.fromkeys(WHEELS, "km/h"), "accel_x": "g", "accel_y": "g"})
+    for units in (parse_units("wheel_speed_*=km/h,accel_?=g"), parse_units("WHEEL_SPEED_[fr][lr]=km/h,accel_*=g")):
+        log, _ = read_drive_log(g, CAR, units=units)
+        np.testing.assert_array_equal(log.to_frame().to_numpy(), explicit.to_frame().to_numpy())
+    dz = [f"dz21_{c}" for c in ("FL", "FR", "RL", "RR")]
+    mm = vertical_frame.assign(**{c: 1000 * vertical_frame[c] for c in dz})
+    sensors, _ = read_vertical_log(mm, units=parse_units("dz21_*=mm"))
+    np.testing.assert_allclose(sensors.displacement, vertical_frame[dz].to_numpy(), rtol=1e-12)
+
+
+def test_an_explicit_units_key_beats_a_wildcard_and_a_pattern_matching_nothing_is_refused(paper):
+    g = _wheels_times(paper, CAR.wheel_radius * 3.6).assign(wheel_speed_rr=paper.wheel_speed_rr)
+    log, _ = read_drive_log(g, CAR, units={"wheel_speed_*": "km/h", "wheel_speed_rr": "rad/s"})
+    np.testing.assert_allclose(log.wheel_speeds, paper[WHEELS].to_numpy(), rtol=1e-12)
+    with pytest.raises(UnitsError, match=r"pattern 'speed_\*' matches no channel of this log"):
+        read_drive_log(paper, CAR, units={"speed_*": "km/h"})
+    with pytest.raises(UnitsError, match=r"'wheel_speed_fl' matches the unit patterns .* declare it explicitly"):
+        read_drive_log(paper, CAR, units={"wheel_speed_*": "km/h", "wheel_speed_f?": "m/s"})
+    # the header's unit is overridden by --units as before, a pattern included
+    log, _ = read_drive_log(_wheels_times(paper, 60 / (2 * math.pi)).rename(columns={"wheel_speed_fl":
+                                                                                    "wheel_speed_fl [km/h]"}),
+                            CAR, units={"wheel_speed_*": "rpm"})
+    np.testing.assert_allclose(log.wheel_speeds, paper[WHEELS].to_numpy(), rtol=1e-12)
+
+
+#: A declaration a message suggests: ``--units 'key=unit,...'``, ``--units key=unit`` or a header ``'name [unit]'``.
+_SUGGESTION = re.compile(r"--units '(?P<quoted>[^']+)'|--units (?P<bare>[^\s']+?)(?=[.;,)]?(?:\s|$))"
+                         r"|'(?P<name>[^'\[\]]+?) \[(?P<unit>[^\]]+)\]'")
+#: Errors that refuse the declaration itself (as opposed to the log it reads).
+_REFUSED = ("unknown unit", "not a channel", "matches no channel", "unit patterns", "column=unit pairs")
+
+
+def _apply(frame, message, reader):
+    """Read ``frame`` with each declaration ``message`` suggests: a list of True (the log then reads) or False (the
+    declaration is accepted, the log still fails a check, e.g. a suggestion for another cause)."""
+    outcomes = []
+    for m in _SUGGESTION.finditer(message):
+        try:
+            if m["name"]:
+                assert m["name"] in frame.columns, f"a header suggested for a column the log lacks: {m[0]!r}"
+                reader(frame.rename(columns={m["name"]: f"{m['name']} [{m['unit']}]"}))
+            else:
+                reader(frame, units=parse_units(m["quoted"] or m["bare"]))
+            outcomes.append(True)
+        except (UnitsError, InputError) as exc:
+            assert not any(r in str(exc) for r in _REFUSED), f"suggested {m[0]!r}, refused: {exc}"
+            outcomes.append(False)
+    return outcomes
+
+
+@pytest.mark.parametrize("name,transform,message", MISTAKES, ids=[m[0] for m in MISTAKES])
+def test_every_declaration_an_error_suggests_is_accepted(paper, name, transform, message):
+    g = transform(paper)
+    with pytest.raises(UnitsError) as exc:
+        read_drive_log(g, CAR)
+    outcomes = _apply(g, str(exc.value), lambda f, **kw: read_drive_log(f, CAR, **kw))
+    if " in " in name:  # a unit mistake: one of the declarations suggested reads the log
+        assert any(outcomes), f"no working declaration suggested for {name}: {exc.value}"
+
+
+def test_the_vertical_log_suggestions_are_accepted(vertical_frame):
+    from longprofile.vehicle import estimate_vertical_log
+
+    dz = [f"dz21_{c}" for c in ("FL", "FR", "RL", "RR")]
+    g = vertical_frame.assign(**{c: 1000 * vertical_frame[c] for c in dz})
+    with pytest.raises(UnitsError) as exc:
+        read_vertical_log(g)
+    assert _apply(g, str(exc.value), lambda f, **kw: read_vertical_log(f, **kw))[0]  # --units 'dz21_*=mm' reads it
+    acc = [f"wheel_accel_{c}" for c in ("FL", "FR", "RL", "RR")]
+    g = vertical_frame.assign(**{c: vertical_frame[c] / 9.80665 for c in acc})
+    (warning,) = [w for w in estimate_vertical_log(read_vertical_log(g)[0]).warnings() if "in g" in w]
+    units = re.search(r"--units '([^']+)'", warning)[1]
+    sensors, _ = read_vertical_log(g, units=parse_units(units))
+    np.testing.assert_allclose(sensors.wheel_accel, vertical_frame[acc].to_numpy(), rtol=1e-12)
+
+
+@pytest.mark.parametrize("column, unit", [("steering_angle", "furlong"), ("yaw_rate", "furlong/s"),
+                                          ("accel_x", "gee"), ("time", "h"), ("wheel_speed_fl", "mph")])
+def test_the_unknown_unit_message_uses_the_right_article(paper, column, unit):
+    with pytest.raises(UnitsError, match="unknown unit") as exc:
+        read_drive_log(paper, CAR, units={column: unit})
+    article, word = re.search(r"for (an?) (\w+)", str(exc.value)).groups()
+    assert (article == "an") == (word[0] in "aeiou"), str(exc.value)

@@ -83,7 +83,7 @@ def _iri_table(profile, task):
 
     report = iri_report(profile, mode=task.mode, interval=task.interval, window=task.window, step=task.step,
                         start=task.start, units=task.units, tracks=task.tracks, lead_in=task.lead_in,
-                        moving_average=task.moving_average)
+                        moving_average=task.moving_average, gaps=task.gaps, min_valid=task.min_valid)
     return report.to_frame(), dict(report.metadata)
 
 
@@ -109,10 +109,13 @@ def _tiny_profile(tracks, length):
 
 
 def _default_tracks(path):
-    """The rule of ``road iri``: a ``road reconstruct`` output is analysed on its profile track only."""
-    from ..io import is_reconstruct_output
+    """The rule of ``road iri``: a ``road reconstruct`` output is analysed on its profile track only, a ``road
+    simulate`` recording on its true profile (its ``apl_m`` is the trailer's raw signal)."""
+    from ..io import is_reconstruct_output, is_simulated_recording
 
-    return ("elevation",) if is_reconstruct_output(Path(path)) else None
+    if is_reconstruct_output(Path(path)):
+        return ("elevation",)
+    return ("true",) if is_simulated_recording(Path(path)) else None
 
 
 def _check_units(units):
@@ -144,6 +147,12 @@ class IRITask:
         The 250 mm moving average (``auto``: the ASTM E1926 rule).
     elevation_unit : str, optional
         Elevation unit of file columns that do not name one (``read_profile(units=...)``); never guessed.
+    gaps : {"refuse", "restart"}
+        Missing elevations: the file is refused (default; it fails in the manifest) or its IRI is computed over the
+        measured parts, the quarter car restarted after each gap (``iri_report(gaps=...)``, ``--gaps``); the gaps
+        are then the file's warning.
+    min_valid : float
+        With ``gaps="restart"``: the smallest measured fraction of an interval for its IRI (``--min-valid``).
 
     Calling the task on a path returns a :class:`TaskOutput`.
     """
@@ -158,6 +167,8 @@ class IRITask:
     lead_in: float = 11.0
     moving_average: str = "auto"
     elevation_unit: str | None = None
+    gaps: str = "refuse"
+    min_valid: float = 0.8
 
     name: ClassVar[str] = "iri"
 
@@ -171,11 +182,20 @@ class IRITask:
         object.__setattr__(self, "tracks", _tracks_tuple(self.tracks))
         if self.moving_average not in ("auto", "on", "off"):
             raise InputError(f"moving_average must be 'auto', 'on' or 'off'; got {self.moving_average!r}.")
+        if self.gaps not in ("refuse", "restart"):
+            raise InputError(f"gaps must be 'refuse' or 'restart'; got {self.gaps!r}.")
+        min_valid = _finite_positive("min_valid", self.min_valid)
+        if min_valid > 1.0:
+            raise InputError(f"min_valid must be a fraction in (0, 1]; got {self.min_valid!r}.")
+        object.__setattr__(self, "min_valid", min_valid)
 
     def options(self) -> dict:
-        """The options as a JSON-ready dict (stored in the manifest; their hash keys ``--resume``)."""
+        """The options as a JSON-ready dict (stored in the manifest; their hash keys ``--resume``). ``gaps`` and
+        ``min_valid`` only with ``gaps="restart"``: a results folder made before they existed resumes as it was."""
         d = dataclasses.asdict(self)
         d["tracks"] = None if self.tracks is None else list(self.tracks)
+        if self.gaps == "refuse":
+            del d["gaps"], d["min_valid"]
         return d
 
     def __call__(self, path) -> TaskOutput:
@@ -189,11 +209,12 @@ class IRITask:
         """The task on a :class:`~longprofile.road.Profile` already in memory."""
         table, meta = _iri_table(profile, self)
         length = float(profile.distance[-1] - profile.distance[0])
-        return TaskOutput(segments=table, metadata=meta, warning=_warning(table, self, length))
+        warning = "; ".join(w for w in (_warning(table, self, length), meta.get("gap_note", "")) if w)
+        return TaskOutput(segments=table, metadata=meta, warning=warning)
 
     def warm(self) -> None:
         """Run the task once on a tiny synthetic profile (compiles or loads the numba kernels; checks options)."""
-        from ..io import is_reconstruct_output, read_profile  # noqa: F401  (imports of __call__, paid here)
+        from ..io import is_reconstruct_output, is_simulated_recording, read_profile  # noqa: F401  (imports of __call__)
 
         task = self if self.start is None else dataclasses.replace(self, start=None)
         span = (self.window or self.interval) * _UNITS[self.units][1]

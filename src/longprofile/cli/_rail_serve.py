@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import getpass
 import json
+import os
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -94,24 +96,85 @@ def serve_command(
         console.print(f"serving {db} on http://{host}:{port}/ (Ctrl-C stops)")
         serve(db, host=host, port=port, notifier=notifier, tick_s=tick)
         return
-    import tempfile
+    with _demo_database(db) as db:
+        _serve_demo(db, port, tick, notifier)
+
+
+def _serve_demo(db: str, port: int, tick: float, notifier) -> None:
+    """Seed the demo site in ``db``, replay its readings through the API, keep serving until Ctrl-C."""
     import time
 
     from ..rail.service import DEMO_PASSWORD, DEMO_USER, ServerThread, replay_demo, seed_demo_site
 
-    if db is None:
-        db = f"sqlite:///{tempfile.mkdtemp(prefix='longprofile-demo-')}/site.db"
     database = _db(db)
-    key, readings, _ = seed_demo_site(database)
-    with ServerThread(database, port=port, tick_s=min(tick, 0.5), notifier=notifier) as srv:
-        console.print(f"demo service on {srv.url}/ ({db}); log in as {DEMO_USER} / {DEMO_PASSWORD}")
-        replay_demo(database, srv.url, key, readings, echo=console.print)
-        console.print(f"replay finished; the service keeps running on {srv.url}/ (Ctrl-C stops)")
+    try:
+        key, readings, _ = seed_demo_site(database)
+        with ServerThread(database, port=port, tick_s=min(tick, 0.5), notifier=notifier) as srv:
+            console.print(f"demo service on {srv.url}/ ({db}); log in as {DEMO_USER} / {DEMO_PASSWORD}")
+            replay_demo(database, srv.url, key, readings, echo=console.print)
+            console.print(f"replay finished; the service keeps running on {srv.url}/ (Ctrl-C stops)")
+            try:
+                while True:
+                    time.sleep(1)
+            except KeyboardInterrupt:
+                pass
+    finally:
+        database.dispose()
+
+
+#: Prefix of the demo's temporary folders (``rail serve --demo`` without ``--db``); each holds the database and a
+#: ``pid`` file naming the process that owns it.
+DEMO_FOLDER_PREFIX = "longprofile-demo-"
+
+
+@contextmanager
+def _demo_database(db: str | None):
+    """The demo's database URL: ``db`` as given (kept), or a SQLite file in a temporary folder removed when the demo
+    stops (Ctrl-C, or SIGTERM: ``kill``, a service manager). A folder left by a demo killed with -9 (nothing runs
+    then) is removed by the next demo, once its owner process no longer exists."""
+    if db is not None:
+        yield db
+        return
+    import shutil
+    import signal
+    import tempfile
+
+    _remove_orphan_demo_folders(Path(tempfile.gettempdir()))
+    folder = Path(tempfile.mkdtemp(prefix=DEMO_FOLDER_PREFIX))
+    (folder / "pid").write_text(str(os.getpid()))
+    previous = signal.signal(signal.SIGTERM, _interrupt) if _main_thread() else None
+    try:
+        yield f"sqlite:///{folder}/site.db"
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _interrupt(signum, frame):
+    """SIGTERM during the demo: stop as Ctrl-C does (the ``finally`` blocks run, the temporary folder goes)."""
+    raise KeyboardInterrupt
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
+def _remove_orphan_demo_folders(tmp: Path) -> None:
+    """Remove the demo folders under ``tmp`` whose owner process (their ``pid`` file) is gone; a folder without a
+    readable ``pid`` file, or whose owner lives, is left alone."""
+    import shutil
+
+    for folder in tmp.glob(f"{DEMO_FOLDER_PREFIX}*"):
         try:
-            while True:
-                time.sleep(1)
-        except KeyboardInterrupt:
-            pass
+            pid = int((folder / "pid").read_text())
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+        except (OSError, ValueError):  # no pid file (a folder of another version), another user's process, garbage
+            continue
 
 
 @site_app.command("create")
@@ -169,7 +232,8 @@ def site_list(db: str = DB_OPT):
 
 @site_app.command("show")
 def site_show(name: str = typer.Argument(...), db: str = DB_OPT):
-    """Print a site: fields, sensors, survey, thresholds, loggers, channels."""
+    """Print a site: fields, sensors, survey, thresholds (m, rate m/day; threshold_rows: with their units and in mm),
+    loggers, channels."""
     from ..rail import service as _service
 
     _print(_service.get_site(_db(db, existing=True), name))
@@ -219,7 +283,8 @@ def site_threshold(name: str = typer.Argument(...),
                    level: str = typer.Argument(..., help="alert, action or alarm."),
                    value_mm: float = typer.Argument(None, help="|value| in mm (rate: mm/day); omit to remove."),
                    db: str = DB_OPT, actor: str = ACTOR_OPT):
-    """Set one of the three levels of a quantity's threshold."""
+    """Set one of the three levels of a quantity's threshold (printed: value in m, m/day for the rate, and value_mm as
+    given)."""
     from ..rail import service as _service
 
     _print(_service.set_threshold(_db(db), _actor(actor), name, quantity, level,
@@ -231,11 +296,14 @@ def site_thresholds(name: str = typer.Argument(...),
                     file: Path = typer.Option(..., "--file", help="thresholds table (quantity, level, value_mm), as "
                                                                  "rail settle --thresholds reads."),
                     db: str = DB_OPT, actor: str = ACTOR_OPT):
-    """Replace all thresholds of a site with a table (one transaction; levels may be raised or lowered together)."""
+    """Replace all thresholds of a site with a table (one transaction; levels may be raised or lowered together).
+    Prints each level: value in m (m/day for the rate, as stored and as the API gives it) and value_mm, as in the
+    table."""
     from ..io import read_rail_thresholds
     from ..rail import service as _service
 
-    _print(_service.replace_thresholds(_db(db), _actor(actor), name, read_rail_thresholds(file)))
+    new = _service.replace_thresholds(_db(db), _actor(actor), name, read_rail_thresholds(file))
+    _print(_service.threshold_rows(new))
 
 
 @site_app.command("logger")
@@ -297,17 +365,37 @@ def site_channels(name: str = typer.Argument(...), db: str = DB_OPT):
 def site_user(username: str = typer.Argument(...), role: str = typer.Option("viewer", "--role",
                                                                           help="viewer, engineer or admin."),
               reset_password: bool = typer.Option(False, "--reset-password",
-                                                  help="Set a new password for an existing person."),
+                                                  help="Set a new password for an existing person (asked on the "
+                                                       "terminal; from a pipe or a file, the first line of stdin)."),
               db: str = DB_OPT, actor: str = ACTOR_OPT):
-    """Create a person (password asked on the terminal, or read from stdin), or change an existing person's role
-    (no password; --reset-password to set a new one). Audited, never the password."""
+    """Create a person, or change an existing person's role (no password; --reset-password to set a new one).
+    The password is asked on the terminal without echo; when stdin is not a terminal (echo pw | ..., < file) it is
+    the first line of stdin, read without a prompt. Audited, never the password."""
     from ..rail import service as _service
 
     database = _db(db)
     pw = None
     if reset_password or not _service.user_exists(database, username):
-        pw = typer.prompt("password", hide_input=True, confirmation_prompt=False)
+        pw = _read_password()
     _print(_service.add_user(database, _actor(actor), username, pw, role, reset_password=reset_password))
+
+
+def _read_password() -> str:
+    """The new password: asked on the terminal without echo; the first line of stdin (its line end removed) when
+    stdin is not a terminal, without getpass (which warns that it cannot turn the echo off and prompts on the
+    terminal)."""
+    import sys
+
+    from ..errors import InputError
+
+    stdin = sys.stdin
+    if stdin is not None and stdin.isatty():
+        return typer.prompt("password", hide_input=True, confirmation_prompt=False)
+    line = "" if stdin is None else stdin.readline()
+    if not line:
+        raise InputError("no password: stdin is not a terminal and is empty; give the password as its first line "
+                         "(echo \"$PASSWORD\" | longprofile rail site user ...) or run the command in a terminal.")
+    return line.rstrip("\r\n")
 
 
 @site_app.command("audit")

@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from ._common import OVERWRITE, check_output_folder, console, parse_tracks
+from ._common import OVERWRITE, check_output_folder, console
+from ._road_tracks import file_tracks
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -40,8 +41,7 @@ def acceptance_command(
     check_output_folder(out, file, spec, overwrite=overwrite, writes=REPORT_FILES["acceptance"],
                         hint=f"the report needs a folder, e.g. -o {out.with_suffix('')}_acceptance/.")
     s = read_spec(spec) if spec is not None else default_spec()
-    tracks = parse_tracks(track)
-    profile = read_profile(file, units=elevation_unit, tracks=tracks)
+    profile = read_profile(file, units=elevation_unit, tracks=file_tracks(track, file))
     result = smoothness_acceptance(profile, s, check_units=check_units)
     ground = []  # the grinding runs inside the report, once the figures that do not need it are queued (drawn by
     # the command's figure helper meanwhile, when one runs)

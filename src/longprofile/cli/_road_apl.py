@@ -36,7 +36,11 @@ def simulate_command(
     speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m."),
     noise: float = typer.Option(0.02, "--noise", help="Measurement noise std as a fraction of the signal RMS."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Random seed."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Random seed of the noise and, without --road-seed, of the "
+                             "road (drawn first, then the noise)."),
+    road_seed: int = typer.Option(None, "--road-seed", min=0, help="Random seed of the road alone (iso8608, "
+                                  "white-noise); default: --seed. --road-seed S --seed N is the road of --seed S "
+                                  "with the noise of --seed N: another --seed records the same road with new noise."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the truth and the signal to this PNG."),
     overwrite: bool = OVERWRITE,
 ):
@@ -48,7 +52,7 @@ def simulate_command(
     out = check_output_path(output, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, out, overwrite=overwrite)
     rec = simulate_apl_recording(profile, apl_model(speed, dx), length=length, road_class=road_class,
-                                 noise_fraction=noise, rng=seed)
+                                 noise_fraction=noise, rng=seed, road_rng=road_seed)
     write_table(rec.to_frame(), out)
     if plot is not None:
         save_plot(png, plot_recording, rec.distance, rec.true_elevation, rec.signal,

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from ._common import OVERWRITE, check_output_folder, console, parse_tracks
+from ._road_tracks import RENAME, file_tracks, parse_renames, renamed
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -19,6 +20,7 @@ def compare_command(
     plot: bool = typer.Option(False, "--plot", help="Also draw the correlation against offset of every run."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: the reference's tracks "
                               "present in every run)."),
+    rename: str = RENAME,
     filter: str = typer.Option("iri", "--filter", help="iri (golden-car filter, default), bandpass (needs "
                                "--band) or none."),
     band: str = typer.Option(None, "--band", help="Wavelength band for --filter bandpass, m: SHORT,LONG."),
@@ -34,7 +36,6 @@ def compare_command(
 ):
     """Cross-correlate runs with a reference and with each other (Karamihas' method, AASHTO R 56 practice)."""
     from ..errors import InputError
-    from ..io import read_profile
     from ..report import REPORT_FILES, write_compare_report
     from ..road import certify_profiler
 
@@ -49,8 +50,8 @@ def compare_command(
         except ValueError:
             raise InputError(f"--band must be SHORT,LONG in m (e.g. 0.5,50); got {band!r}.") from None
     tracks = parse_tracks(track)
-    ref = read_profile(reference, units=elevation_unit, tracks=tracks)
-    profiles = [read_profile(r, units=elevation_unit, tracks=tracks) for r in runs]
+    renames = parse_renames(rename)
+    ref, *profiles = _read_profiles(inputs, tracks, renames, elevation_unit)
     thresholds = {k: v for k, v in (("repeatability", repeatability), ("accuracy", accuracy)) if v is not None}
     from ..road.smoothness import MIN_REFERENCE_COVERAGE
 
@@ -70,6 +71,26 @@ def compare_command(
                       f"{100 * MIN_REFERENCE_COVERAGE:.0f} % needed to certify): FAIL", markup=False, soft_wrap=True)
     console.print(f"{'PASS' if res.passed else 'FAIL'}: {len(runs)} run(s) against {reference}; tables in {out}",
                   markup=False, soft_wrap=True)
+
+
+def _read_profiles(files, tracks, renames: dict, elevation_unit):
+    """The profiles of ``files``: their ``tracks`` (each file's own default, with its note, when not given), then
+    ``renames`` applied where a file has the track; with renames every track is read and ``tracks`` (new names)
+    chosen by the comparison. A name to rename that no file has is refused."""
+    from ..errors import InputError
+    from ..io import read_profile
+
+    profiles, found = [], {}
+    for f in files:
+        profile = read_profile(f, units=elevation_unit,
+                               tracks=tracks if tracks is not None and not renames else file_tracks(None, f))
+        found.update({t.casefold(): t for t in profile.tracks})
+        profiles.append(renamed(profile, renames, source=f, strict=False))
+    unused = [old for old in renames if old.casefold() not in found]
+    if unused:
+        raise InputError(f"--rename {unused[0]}={renames[unused[0]]}: no file has the track {unused[0]!r}; their "
+                         f"tracks are {sorted(found.values())}.")
+    return profiles
 
 
 def register(app: typer.Typer) -> None:

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from ._common import OVERWRITE, PROFILE_SUFFIXES, check_output_path, check_plot_path, console, parse_tracks
+from ._common import OVERWRITE, PROFILE_SUFFIXES, check_output_path, check_plot_path, console
+from ._road_tracks import RENAME, file_tracks, parse_renames, renamed
 
 
 def convert_command(
@@ -20,6 +21,7 @@ def convert_command(
                                     help="Elevation unit of input columns that do not give one (m, mm, cm, in, ft), as "
                                          "in `road iri`; never guessed."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks to keep (default: all), e.g. left,right."),
+    rename: str = RENAME,
     spacing: float = typer.Option(None, "--spacing", help="Resample the profile onto a regular grid of this step, m "
                                   "(linear interpolation from the first station, as `road compare --spacing`): "
                                   "irregular or rounded stations can then be written as ERD. Default: stations kept."),
@@ -28,19 +30,16 @@ def convert_command(
 ):
     """Convert a profile file (CSV, Parquet, ERD) into another; values kept exactly (CSV/Parquet) or to 1e-7 m (ERD)."""
     from ..core import unit_factor
-    from ..io import is_reconstruct_output, read_profile, write_profile
+    from ..io import read_profile, write_profile
 
     out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     erd = out.suffix.lower() == ".erd"
     units = units or ("mm" if erd else "m")
     unit_factor(units)
-    tracks = parse_tracks(track)
-    if tracks is None and is_reconstruct_output(file):
-        console.print(f"note: {file} is a `road reconstruct` output: converting its profile track 'elevation' "
-                      "(std_m and raw_m are not tracks; pass --track to choose).", markup=False)
-        tracks = ["elevation"]
-    profile = read_profile(file, units=input_units, tracks=tracks)
+    renames = parse_renames(rename)
+    profile = read_profile(file, units=input_units, tracks=file_tracks(track, file, verb="converting"))
+    profile = renamed(profile, renames, source=file)
     if spacing is not None:
         profile = _resampled(profile, spacing)
     write_profile(profile, out, units=units)

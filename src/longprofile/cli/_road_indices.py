@@ -15,24 +15,20 @@ from ._common import (
     check_output_path,
     check_plot_path,
     console,
-    parse_tracks,
     progress,
 )
+from ._road_tracks import file_tracks
+
+#: ``--gaps`` and ``--min-valid`` of ``road iri``, ``road report`` and ``batch iri`` (one meaning everywhere).
+GAPS = typer.Option("refuse", "--gaps", help="Missing (NaN) elevations or station steps over 1 m: refuse (default) or "
+                    "restart (the IRI over the measured parts, the quarter car restarted after each gap, each run of "
+                    "data as its own file; docs/road-indices.md, 'Profiles with gaps').")
+MIN_VALID = typer.Option(0.8, "--min-valid", help="With --gaps restart: the smallest measured fraction of a segment "
+                         "or window for its IRI to be given (default 0.8); below it the IRI is empty, with the "
+                         "reason in the note column.")
 
 _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column per track named with its unit "
               "(left_mm, right_m, ...), or an ERD file.")
-
-
-def _tracks(track: str | None, file: Path | None = None):
-    if track is None:
-        from ..io import is_reconstruct_output
-
-        if file is not None and is_reconstruct_output(file):
-            console.print(f"note: {file} is a `road reconstruct` output: analysing its profile track 'elevation' "
-                          "(std_m and the undetrended raw_m are not tracks; pass --track to choose).", markup=False)
-            return ["elevation"]
-        return None
-    return parse_tracks(track)
 
 
 def _check_plausible(result, profile) -> None:
@@ -47,6 +43,22 @@ def _check_plausible(result, profile) -> None:
                  sampling_note(profile)):
         if note:
             console.print(f"[yellow]warning:[/yellow] {escape(note)}", highlight=False, soft_wrap=True)
+
+
+def _print_section_iri(result, iri_unit: str, what: str) -> None:
+    """The one-line summary of ``road iri`` and ``road report``: the section IRI of each track, with the MRI and HRI
+    of two tracks (in/mi to the unit, m/km to 0.01, as agencies print them), then ``what`` was computed."""
+    prec = 0 if iri_unit == "in/mi" else 2
+    summary = ", ".join(f"{t} {v:.{prec}f}" for t, v in zip(result.tracks, result.section_iri))
+    if result.section_mri is not None:
+        summary += f"; MRI {result.section_mri:.{prec}f}, HRI {result.section_hri:.{prec}f}"
+    console.print(f"section IRI ({iri_unit}): {summary} ({what})", markup=False, soft_wrap=True)
+
+
+def _warn_gaps(note: str) -> None:
+    """The one warning of a profile analysed with --gaps restart (its gaps, the segments affected and without IRI)."""
+    if note:
+        console.print(f"[yellow]warning:[/yellow] {escape(note)}", highlight=False, soft_wrap=True)
 
 
 #: Length units the deprecated ``--units`` still accepts as the elevation unit (before ``--units si|us``).
@@ -102,6 +114,8 @@ def iri_command(
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all), e.g. left,right."),
     lead_in: float = typer.Option(11.0, "--lead-in", help="Initialisation length, m (ASTM E1926: 11)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the report (segments or IRI along the road)."),
+    gaps: str = GAPS,
+    min_valid: float = MIN_VALID,
     overwrite: bool = OVERWRITE,
 ):
     """IRI per fixed segment, continuous or overlapping window (ASTM E1926), SI or US units, MRI/HRI."""
@@ -113,24 +127,22 @@ def iri_command(
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     report_units, elevation = _split_units(units, elevation_unit)
     interval = segment if segment is not None else (528.0 if report_units == "us" else 100.0)
-    profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
+    profile = read_profile(file, units=elevation, tracks=file_tracks(track, file))
     rep = iri_report(profile, mode=mode, interval=interval, window=window, step=step, start=start,
-                     units=report_units, lead_in=lead_in, moving_average=moving_average)
+                     units=report_units, lead_in=lead_in, moving_average=moving_average, gaps=gaps,
+                     min_valid=min_valid)
     _check_plausible(rep, profile)
+    _warn_gaps(rep.metadata.get("gap_note", ""))
     table = rep.to_frame()
     write_report_table(table, sys.stdout if out is None else out, rep.metadata)
     if png is not None:
         from ..report import draw, plot_iri_report  # matplotlib only when drawing (in the figure helper if one runs)
 
         draw(plot_iri_report, rep, png)
-    meta, lu, iu = rep.metadata, rep.length_unit, rep.iri_unit
-    prec = 0 if report_units == "us" else 2  # in/mi to the unit, m/km to 0.01 (as agencies print them)
-    summary = ", ".join(f"{t} {v:.{prec}f}" for t, v in zip(rep.tracks, rep.section_iri))
-    extra = "" if rep.section_mri is None else f"; MRI {rep.section_mri:.{prec}f}, HRI {rep.section_hri:.{prec}f}"
+    meta, lu = rep.metadata, rep.length_unit
     what = (f"{len(table)} segment(s) of {meta['interval']:g} {lu}" if rep.mode == "fixed" else
             f"{len(table)} {rep.mode} window(s) of {meta['window']:g} {lu} every {meta['step']:.4g} {lu}")
-    console.print(f"section IRI ({iu}): {summary}{extra} ({what} from {meta['start']:g} {lu})", markup=False,
-                  soft_wrap=True)
+    _print_section_iri(rep, rep.iri_unit, f"{what} from {meta['start']:g} {lu}")
     console.print(f"moving average: {'applied' if meta['moving_average_applied'] else 'not applied'} "
                   f"({meta['moving_average_reason']})", markup=False, soft_wrap=True)
     if len(table) == 0:
@@ -151,6 +163,8 @@ def report_command(
     window: float = typer.Option(25.0, "--window", help="Localised roughness window, m."),
     threshold: float = typer.Option(2.7, "--threshold", help="Localised roughness threshold, m/km."),
     plot: Path = typer.Option(None, "--plot", help="Also draw the IRI per segment to this PNG."),
+    gaps: str = GAPS,
+    min_valid: float = MIN_VALID,
     overwrite: bool = OVERWRITE,
 ):
     """HTML roughness report: profile, IRI per segment, localised roughness, PSD with ISO 8608 class, tables."""
@@ -164,15 +178,22 @@ def report_command(
     _, elevation = _split_units(units, elevation_unit, report_units=False)
     with progress() as bar:
         task = bar.add_task("road report", total=3)
-        profile = read_profile(file, units=elevation, tracks=_tracks(track, file))
+        profile = read_profile(file, units=elevation, tracks=file_tracks(track, file))
         bar.advance(task)
-        analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold)
+        analysis = analyse_roughness(profile, segment_length=segment, window=window, threshold=threshold, gaps=gaps,
+                                     min_valid=min_valid)
         bar.advance(task)
         _check_plausible(analysis.iri, profile)
+        if analysis.iri.gaps is not None:
+            _warn_gaps(analysis.iri.gaps.message())
         files = write_road_report(analysis, output, inputs=(file,), overwrite=overwrite)
         if plot is not None:
             files.append(draw(plot_iri, analysis.iri, png))
         bar.advance(task)
+    res = analysis.iri
+    start = res.segment_start[0] if len(res.segment_start) else res.section_start
+    _print_section_iri(res, "m/km", f"{len(res.segment_start)} segment(s) of {res.segment_length:g} m from "
+                                    f"{start:g} m")
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 
 

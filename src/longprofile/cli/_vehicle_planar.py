@@ -34,7 +34,10 @@ def simulate(
                                  help="Built-in scenario: paper, hill or low-mu (see docs/vehicle-slope.md)."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the sensor noise."),
-    duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (scenario default)."),
+    duration: float | None = typer.Option(None, "--duration", help="Length of the drive, s (default: the "
+                                          "scenario's, 40 s; low-mu 30 s). The events are placed for the default: a "
+                                          "shorter drive leaves out or cuts those after its end (the command names "
+                                          "them; e.g. paper at 5 s: no steering, no grade)."),
     truth: bool = typer.Option(True, "--truth/--no-truth", help="Also write the true_* columns."),
     steering_geometry: str = typer.Option("parallel", "--steering-geometry",
                                           help="parallel (both front wheels steer alike, the paper's) or ackermann "
@@ -44,7 +47,7 @@ def simulate(
 ):
     """Simulate a drive with the 4-wheel model and write the sensor log (and the truth)."""
     from ..io import write_table
-    from ..vehicle import drive_scenario, simulate_drive
+    from ..vehicle import drive_scenario, missed_scenario_events, simulate_drive
 
     out = check_output_path(output, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, vehicle, out, overwrite=overwrite)
@@ -53,6 +56,11 @@ def simulate(
                          steering_geometry=steering_geometry)
     write_table(sim.to_frame() if truth else sim.log.to_frame(), out)
     console.print(f"wrote {out} ({sim.log.time.size} samples, scenario {scenario})")
+    missed = () if duration is None else missed_scenario_events(scenario, sim)
+    if missed:
+        full = drive_scenario(scenario)
+        console.print(f"[yellow]scenario {scenario} is laid out for {full.time.size * full.dt:g} s: this {duration:g} s "
+                      f"drive ({sim.truth.distance[-1]:.0f} m) leaves out or cuts {'; '.join(missed)}[/yellow]")
     if plot is not None:
         from ..report import plot_drive
 
@@ -62,14 +70,18 @@ def simulate(
 def slope(
     log: Path = typer.Argument(..., help="Drive log (.csv or .parquet) with the channels of docs/vehicle-slope.md."),
     output: Path = typer.Option(..., "--output", "-o", help="States file to write (.csv or .parquet)."),
-    vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted."),
+    vehicle: Path | None = typer.Option(None, "--vehicle", help="Vehicle description (TOML); default car if omitted. "
+                                        "Its optional \\[tolerances] table states the tolerances behind the printed "
+                                        "stds, e.g. radius_rel_std = 0.002 for a rolling radius known to 0.2 % "
+                                        "(docs/vehicle-slope.md)."),
     method: str = typer.Option("cascade", "--method", help="cascade (EKF + Luenberger, paper 001) or joint (one EKF with the grade in the state)."),
     speed_measurement: str = typer.Option("robust", "--speed-measurement", help="V_x measurement: robust (slip-compensated reference speed, missing when no wheel is trustworthy) or rear-mean (the paper's mean rear-wheel speed)."),
     poles: str = typer.Option("-5,-7", "--poles", help="Luenberger observer poles, 1/s (cascade)."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG)."),
     units: str | None = typer.Option(None, "--units", help="Units of the log's columns when not SI, e.g. "
-                                     "'time=ms,yaw_rate=deg/s,wheel_speed_fl=km/h,accel_x=g' (or in the header: "
-                                     "'yaw_rate (deg/s)' or 'yaw_rate \\[deg/s]'); see docs/vehicle-slope.md."),
+                                     "'time=ms,yaw_rate=deg/s,wheel_speed_*=km/h,accel_x=g' (a key with * ? \\[ ] "
+                                     "names every channel it matches; an explicit key wins) or in the header: "
+                                     "'yaw_rate (deg/s)' or 'yaw_rate \\[deg/s]'; see docs/vehicle-slope.md."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
                                           "(linear interpolation; gaps are refused)."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
@@ -91,7 +103,7 @@ def slope(
     import math
 
     from ..io import read_table, write_table
-    from ..vehicle import estimate_slope, parse_units, read_drive_log
+    from ..vehicle import SlopeUncertainty, estimate_slope, parse_units, read_drive_log
 
     if not (math.isfinite(max_grade) and max_grade > 0):
         from ..errors import InputError
@@ -100,6 +112,7 @@ def slope(
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
+    uncertainty = SlopeUncertainty() if vehicle is None else SlopeUncertainty.from_car_file(vehicle)
     frame = read_table(log)
     drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, source=str(log))
     unchecked = [c.name for c in checks if c.ok is None]
@@ -107,9 +120,12 @@ def slope(
         console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
     with console.status("estimating states and slope..."):
         est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement,
-                             force_correction=force_correction, sensor_calibration=sensor_calibration)
+                             force_correction=force_correction, sensor_calibration=sensor_calibration,
+                             uncertainty=uncertainty)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
+    source = "the defaults" if uncertainty == SlopeUncertainty() else f"the \\[tolerances] of {vehicle}"
+    console.print(f"the stds assume ({source}): {uncertainty.describe()}")
     fit = est.force_fit
     if fit is not None and fit.n_blocks == 0:
         console.print("[yellow]log too short for the force check against the accelerometer (under 7 s): the slope "
@@ -118,14 +134,8 @@ def slope(
         console.print(f"force model vs accelerometer ({fit.n_blocks} blocks of 1 s): relative error {100 * fit.beta:+.1f} "
                       f"+- {100 * fit.beta_std:.1f} %, constant {100 * fit.offset:+.2f} +- {100 * fit.offset_std:.2f} % "
                       "of grade (the slope is corrected for both)")
-    cal = est.sensor_calibration
-    if cal is not None:
-        scales = "/".join(f"{100 * x:+.3f}" for x in cal.wheel_scale)
-        stds = "/".join(f"{100 * x:.3f}" for x in cal.wheel_scale_std)
-        console.print(f"gyro and wheels from the log (blocks of 1 s: {cal.n_blocks[0]} rear, {cal.n_blocks[1]} front "
-                      f"left/right, {cal.n_blocks[2]} straight front/rear): gyro offset {cal.gyro_offset:+.2e} "
-                      f"+- {cal.gyro_offset_std:.1e} rad/s, wheel scale FL/FR/RL/RR {scales} % (+- {stds} %, relative "
-                      "to the rear axle; the gyro and each axle's left/right difference corrected)")
+    if est.sensor_calibration is not None:
+        console.print(_calibration_line(est.sensor_calibration, est.time[-1] - est.time[0] + drive.dt))
     for w in est.warnings(max_missing=max_missing, max_slope=math.atan(max_grade)):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:
@@ -134,6 +144,31 @@ def slope(
         # the true_* columns of a simulated log are overlaid; the truth is on the original time base
         save_plot(plot, plot_slope_estimate, est, frame if resample is None else None, savefig={"dpi": 110},
                   announce=True)
+
+
+def _calibration_line(cal, duration: float) -> str:
+    """The printed line of the sensor calibration: what it found and what it corrected (nothing, and why, when no
+    part had enough usable blocks)."""
+    from ..vehicle import CALIBRATION_MIN_BLOCKS as need
+
+    rear, front, straight = (int(n) for n in cal.n_blocks)
+    if rear == 0 and front == 0:
+        why = (f"the log is {duration:.3g} s, under the {need + 1} s it needs: the first second and {need} blocks of 1 s"
+               if duration < need + 1 else
+               f"fewer than {need} of its 1 s blocks had V_x >= 5 m/s, no braking, |a_y| <= 4 m/s^2 and little "
+               "traction slip")
+        return (f"[yellow]gyro and wheels from the log: nothing corrected ({why}); the gyro offset and the wheel "
+                f"scales keep their priors (+- {cal.prior_std[0]:.1e} rad/s, +- {100 * cal.prior_std[1]:.1f} %)"
+                "[/yellow]")
+    done = ("the gyro and each axle's left/right difference" if rear and front else
+            "the gyro and the rear axle's left/right difference" if rear else "the front axle's left/right difference")
+    kept = "" if rear and front else (f"; the {'front axle' if rear else 'gyro and the rear axle'} kept the prior: "
+                                      f"under {need} usable blocks")
+    scales = "/".join(f"{100 * x:+.3f}" for x in cal.wheel_scale)
+    stds = "/".join(f"{100 * x:.3f}" for x in cal.wheel_scale_std)
+    return (f"gyro and wheels from the log (blocks of 1 s: {rear} rear, {front} front left/right, {straight} straight "
+            f"front/rear): gyro offset {cal.gyro_offset:+.2e} +- {cal.gyro_offset_std:.1e} rad/s, wheel scale "
+            f"FL/FR/RL/RR {scales} % (+- {stds} %, relative to the rear axle; {done} corrected{kept})")
 
 
 def register(app: typer.Typer) -> None:

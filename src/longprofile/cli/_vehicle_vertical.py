@@ -111,8 +111,9 @@ def estimate(
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG); the truth is "
                                                           "overlaid when the log has true_* columns."),
     units: str | None = typer.Option(None, "--units", help="Units of columns that are not SI, e.g. "
-                                     "'time=ms,dz21_FL=mm,wheel_accel_FL=g' (or in the header: 'dz21_FL (mm)' or "
-                                     "'dz21_FL \\[mm]')."),
+                                     "'time=ms,dz21_*=mm,wheel_accel_*=g' (a key with * ? \\[ ] names every channel "
+                                     "it matches; an explicit key wins) or in the header: 'dz21_FL (mm)' or "
+                                     "'dz21_FL \\[mm]'."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
                                           "(linear interpolation; gaps are refused)."),
     profile: Path | None = typer.Option(None, "--profile", help="Also write the road profile under each wheel "
@@ -168,6 +169,11 @@ def estimate(
         sec = ", ".join(f"{t} {v:.2f}" for t, v in zip(res.tracks, res.section_iri))
         console.print(f"wrote {profile} (chainage {prof.distance[0]:g}..{prof.distance[-1]:.4g} m) and {iri_out} "
                       f"({res.segment_start.size} segments of {segment:g} m); section IRI m/km: {sec}")
+        if res.segment_start.size == 0:  # as `road iri`: the table keeps its header, the console says why
+            console.print(f"[yellow]note: the {prof.distance[-1] - prof.distance[0]:.4g} m of road under the wheels is "
+                          f"too short for one segment of {segment:g} m: {escape(str(iri_out))} has its header only and "
+                          "the section IRI is over the whole road; use a shorter --segment or a longer log[/yellow]",
+                          soft_wrap=True)  # a path is never folded
     if plot is not None:
         from dataclasses import replace
 

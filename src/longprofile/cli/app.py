@@ -162,12 +162,25 @@ def main(argv: list[str] | None = None) -> int:
         console.print("[red]aborted[/red]")
         return 1
     except Exception as exc:
-        # usage errors from typer's bundled click (ClickException: has show() and exit_code)
+        # usage errors from typer's bundled click (ClickException: has show(), format_message() and exit_code)
         if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
-            exc.show()
-            return exc.exit_code
+            return _usage_error(exc)
         raise
     return code if isinstance(code, int) else 0
+
+
+def _usage_error(exc) -> int:
+    """A command line click refuses (a mistyped option or command, a missing or invalid value): one line, as every
+    other input error, naming the command's help instead of click's usage block. A group called without a command
+    (click's ``NoArgsIsHelpError``) shows its help, as click does."""
+    if type(exc).__name__ == "NoArgsIsHelpError":
+        exc.show()
+        return exc.exit_code
+    ctx = getattr(exc, "ctx", None)
+    see = f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+    message = " ".join(str(exc.format_message()).split())
+    console.print(f"[red]error:[/red] {escape(message.rstrip('.'))}{escape(see)}.", highlight=False, soft_wrap=True)
+    return exc.exit_code
 
 
 def _other_threads() -> bool:

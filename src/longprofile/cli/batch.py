@@ -9,6 +9,7 @@ import typer
 
 from . import _common
 from ._common import OVERWRITE, check_output_folder, console, parse_tracks, progress
+from ._road_indices import GAPS, MIN_VALID
 
 batch_app = typer.Typer(help="Survey networks: run `road iri` / `road reconstruct` over many files in parallel "
                              "(resumable), and the network report.", no_args_is_help=True)
@@ -101,13 +102,15 @@ def iri_command(
                                        "rule), on or off."),
     track: str = typer.Option(None, "--track", help="Comma-separated tracks (default: all), e.g. left,right."),
     lead_in: float = typer.Option(11.0, "--lead-in", help="Initialisation length, m (ASTM E1926: 11)."),
+    gaps: str = GAPS,
+    min_valid: float = MIN_VALID,
 ):
     """IRI per segment of every profile file (as `longprofile road iri`), into one Parquet dataset."""
     from ..batch import IRITask
 
     task = IRITask(mode=mode, interval=segment, window=window, step=step, start=start, units=units,
                    tracks=parse_tracks(track), lead_in=lead_in, moving_average=moving_average,
-                   elevation_unit=elevation_unit)
+                   elevation_unit=elevation_unit, gaps=gaps.strip().lower(), min_valid=min_valid)
     _run(task, patterns, output, workers, scheduler, resume, overwrite)
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -84,3 +84,22 @@ class Profile:
         if name not in self.tracks:
             raise InputError(f"no track {name!r}; the profile has {list(self.tracks)}.")
         return self.elevation[:, self.tracks.index(name)]
+
+    def renamed(self, mapping: dict) -> Profile:
+        """The profile with tracks renamed, ``{old: new}`` (the data and the other tracks unchanged).
+
+        Tracks are matched by name wherever profiles meet (``certify_profiler``, MRI/HRI of ``left``/``right``):
+        this makes a run's ``elevation`` the reference's ``left``, say. A name that is not a track, an empty new
+        name, or a result with two tracks of one name is refused (:class:`~longprofile.errors.InputError`).
+        """
+        unknown = [old for old in mapping if old not in self.tracks]
+        if unknown:
+            raise InputError(f"cannot rename track {unknown[0]!r}: the profile has {list(self.tracks)}.")
+        names = tuple(str(mapping.get(t, t)) for t in self.tracks)
+        if any(not n.strip() for n in names):
+            raise InputError(f"a track cannot be renamed to an empty name ({mapping}).")
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise InputError(f"renaming {mapping} gives two tracks named {twice[0]!r} ({list(self.tracks)} -> "
+                             f"{list(names)}); rename or drop the other one.")
+        return replace(self, tracks=names)

@@ -6,6 +6,8 @@ read_profile -- read a road profile (CSV/Parquet with unit-suffixed columns, or 
 read_apl_signal -- read an APL recording (distance_m + signal column, unit checked) as a Profile.
 read_sampled_column -- one column of a table sampled dx apart (stations checked), m.
 is_reconstruct_output -- whether a table is a `road reconstruct` output (one profile track, 'elevation').
+is_simulated_recording -- whether a table is a `road simulate` recording (one profile track, 'true'; apl_m is the
+                      trailer's raw signal, not a profile).
 write_profile -- write a profile as CSV, Parquet or ERD with its units in the header.
 read_erd, write_erd -- UMTRI/ProVAL ERD text files (ERDFILEV2.00, several channels).
 write_report_table, read_report_table -- a result table with its metadata ('#' header lines in CSV, schema
@@ -30,7 +32,7 @@ _EXPORTS = {
         "read_profile", "write_profile",
     ),
     "._profiles": (
-        "is_reconstruct_output", "read_apl_signal", "read_sampled_column",
+        "is_reconstruct_output", "is_simulated_recording", "read_apl_signal", "read_sampled_column",
     ),
     "._rail": (
         "read_rail_site", "read_rail_table", "read_rail_thresholds",
@@ -45,7 +47,7 @@ _EXPORTS = {
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
            "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "is_reconstruct_output",
-           "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site",
+           "is_simulated_recording", "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site",
            "read_rail_table", "read_rail_thresholds"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

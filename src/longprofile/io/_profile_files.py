@@ -37,7 +37,8 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
         Stations and elevations converted to metres. Columns ``<track>_std_<u>`` become ``Profile.std``
         (NaN for tracks without one). A ``road reconstruct`` output (columns exactly ``distance_m, elevation_m,
         std_m, raw_m, raw_std_m``) is read as its one profile track ``elevation`` with ``std_m`` as its std,
-        unless ``tracks`` names others.
+        unless ``tracks`` names others; a ``road simulate`` recording (exactly ``distance_m, true_m, apl_m``) as
+        its true profile ``true``.
 
     Raises
     ------
@@ -49,7 +50,9 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
         names the line; stations decreasing throughout get the way out), a standard-deviation column without its
         track, a last row cut short, title lines above the header.
     InputError
-        A track asked for twice in ``tracks`` (any letter case).
+        A track asked for twice in ``tracks`` (any letter case); an APL trailer's raw signal as a track: ``apl``
+        of a ``road simulate`` recording, or a column ``apl_<u>`` of a CSV/Parquet table unless ``tracks`` names
+        it (``road reconstruct`` makes a profile of it).
 
     Notes
     -----

@@ -14,10 +14,12 @@ from ._plausible import check_missing_codes
 from ._tables import read_table, write_table
 
 __all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "read_sampled_column",
-           "RECONSTRUCT_COLUMNS", "is_reconstruct_output"]
+           "RECONSTRUCT_COLUMNS", "RECORDING_COLUMNS", "is_reconstruct_output", "is_simulated_recording"]
 
 #: Columns of a ``road reconstruct`` output table: one profile (``elevation``) plus diagnostics.
 RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m")
+#: Columns of a ``road simulate`` recording: the true profile (``true``) and the trailer's raw signal (``apl``).
+RECORDING_COLUMNS = ("distance_m", "true_m", "apl_m")
 
 _DISTANCE_NAMES = ("distance", "station", "chainage", "x")
 #: ``name_unit``, ``name [unit]`` or ``name (unit)`` (the last as spreadsheets and ProVAL-style exports write it)
@@ -100,16 +102,20 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     if orphans:
         raise InputFormatError(f"{path}: column {orphans[0]!r} is a standard deviation but the file has no column of "
                                f"its elevations ({list(df.columns)}); a standard deviation is never read as a track.")
-    if _is_reconstruct_header(df.columns):
+    chosen = tracks is not None
+    recording = _is_header(df.columns, RECORDING_COLUMNS)
+    if tracks is None and _is_header(df.columns, RECONSTRUCT_COLUMNS):
         # a `road reconstruct` output holds one profile: elevation_m with its std_m (raw_m is the undetrended
         # estimate, a diagnostic, not a track)
-        if tracks is None:
-            tracks = ("elevation",)
+        tracks = ("elevation",)
+    elif tracks is None and recording:
+        tracks = ("true",)  # a `road simulate` recording: its one profile is the truth (apl_m is the raw signal)
     names = list(columns) if tracks is None else ([tracks] if isinstance(tracks, str) else list(tracks))
     names = [t if t in columns else by_lower.get(str(t).lower(), t) for t in names]  # --track left finds Left_mm
     for t in names:
         if t not in columns:
             raise InputError(f"{path}: no track {t!r}; the file has {list(columns)}.")
+    _refuse_apl_signal(path, names, columns, recording=recording, chosen=chosen)
     if not names:
         raise InputFormatError(f"{path}: no elevation column besides {distance_column!r}.")
     for t in names:  # units are checked on the columns used only: a GPS or comment column is not a track
@@ -169,7 +175,35 @@ def is_reconstruct_output(path) -> bool:
     Such a file holds one profile, ``elevation``; ``std_m`` and ``raw_m`` would otherwise be read as tracks.
     An unreadable file gives False (its reader reports the problem).
     """
-    return _is_reconstruct_header(_header_names(path))
+    return _is_header(_header_names(path), RECONSTRUCT_COLUMNS)
+
+
+def is_simulated_recording(path) -> bool:
+    """True when the header of a CSV/Parquet file is exactly the column set written by ``road simulate``
+    (:data:`RECORDING_COLUMNS`).
+
+    Such a file holds one profile, ``true`` (the simulated road); ``apl_m`` is what the trailer records, not a
+    profile (``road reconstruct`` turns it into one). An unreadable file gives False (its reader reports the
+    problem).
+    """
+    return _is_header(_header_names(path), RECORDING_COLUMNS)
+
+
+def _refuse_apl_signal(path, names, columns, *, recording: bool, chosen: bool) -> None:
+    """Refuse to read an APL trailer's raw signal (a track ``apl``: the column ``road reconstruct`` reads) as a
+    profile: its IRI would be a number about the trailer, not the road. In a ``road simulate`` recording it is
+    refused even when asked for; elsewhere only by default (``--track apl`` reads a profile that is named so)."""
+    signal = next((t for t in names if str(t).lower() == "apl"), None)
+    if signal is None or (chosen and not recording):
+        return
+    how = f"longprofile road reconstruct {path} -o profile.csv"
+    if recording:
+        raise InputError(f"{path}: track {signal!r} of this `road simulate` recording is the trailer's raw signal, "
+                         "not a profile (its IRI would describe the trailer, not the road): analyse the true profile "
+                         f"(--track true) or reconstruct the profile the trailer measured ({how}).")
+    raise InputError(f"{path}: column {columns[signal][0]!r} looks like an APL trailer's raw signal (the column "
+                     "`road reconstruct` reads), not a profile: reconstruct the profile first "
+                     f"({how}); if it is a profile, choose the tracks with --track (e.g. --track {signal}).")
 
 
 def _header_names(path) -> list:
@@ -188,9 +222,10 @@ def _header_names(path) -> list:
     return []
 
 
-def _is_reconstruct_header(names) -> bool:
-    """The header is ``road reconstruct``'s column set (any letter case; ``__`` columns, e.g. pandas' index, aside)."""
-    return [str(c).lower() for c in names if not str(c).startswith("__")] == list(RECONSTRUCT_COLUMNS)
+def _is_header(names, expected) -> bool:
+    """The header is the column set ``expected`` (``road reconstruct``'s, ``road simulate``'s; any letter case;
+    ``__`` columns, e.g. pandas' index, aside)."""
+    return [str(c).lower() for c in names if not str(c).startswith("__")] == list(expected)
 
 
 def read_apl_signal(path, *, column: str = "apl_m"):

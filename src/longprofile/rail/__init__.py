@@ -51,6 +51,8 @@ max_settlement_interval     -- the same with a band-shaped 90 % interval from th
                                MaxSettlement is its result.
 affine_correction           -- the affine correction of §5.2 (with the paper's warning).
 assess_sensors, SensorHealth -- flag dead / reversed / drifting / detached / improbable sensors (§6).
+SENSOR_STATUSES             -- every sensor status; UNUSABLE_STATUSES, those whose record cannot enter the estimate
+                               (dead, frozen, late); USER_EXCLUDED, the status of a sensor the user excluded.
 
 Beyond the paper
 ----------------
@@ -83,7 +85,7 @@ _EXPORTS = {
                "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
                "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"),
     "._deprecated": ("read_site",),
-    "._health": ("SensorHealth", "assess_sensors"),
+    "._health": ("SensorHealth", "assess_sensors", "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
     "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
                    "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
@@ -108,6 +110,7 @@ __all__ = [
     "rigidity_cost_matrix", "rigidity_posterior_dense", "rigidity_model", "rigidity_posterior", "ProfilePosterior",
     "measurement_std", "initial_profile_posterior", "initial_profile_posterior_dense", "sample_profiles",
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
+    "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
     "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",

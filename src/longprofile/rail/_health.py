@@ -6,9 +6,12 @@ settlement and listed in every output — never dropped silently.
 Statuses
 --------
 ok          readings consistent with the model
-dead        no readings, readings on fewer than half of the days, a stuck value (robust spread of
-            the raw readings below the sensors' 1e-4 deg resolution), or frozen: stuck within each of
-            FROZEN_MIN_DAYS consecutive days (a channel that stopped updating mid-record)
+dead        no readings, readings on fewer than half of the days, or a stuck value (robust spread of
+            the raw readings below the sensors' 1e-4 deg resolution) from the first day
+frozen      stuck within each of FROZEN_MIN_DAYS consecutive days (a channel that stopped updating
+            mid-record: its readings before are real, after it the same value; left out as a dead one),
+            also when it was stuck for most of the record after days of normal readings
+late        no daily angle on the reference day (installed, or first read, after it)
 reversed    its angle changes follow minus what its neighbours predict (mounted backwards): the
             reversal z of the daily changes when the day-to-day log-likelihood ratio or the all-days Bayes factor
             agrees (step 16: the z treats the days as independent), or the day-to-day log-likelihood ratio, or (with the
@@ -23,6 +26,8 @@ detached    its leave-one-out residual jumps once and stays (sensor came loose /
             :func:`flag_detached_all_days`)
 
 improbable  residuals far beyond the noise level without one of the patterns above
+excluded    excluded by the user (``exclude``; ``rail settle --exclude``, the service's site setting
+            ``exclude``): not tested, not a fault
 """
 
 from __future__ import annotations
@@ -41,12 +46,17 @@ __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals",
            "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
            "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z", "site_reversal_null", "REVERSAL_NULLS",
-           "record_length_factor", "REFERENCE_CHANGES", "UNUSABLE_STATUSES"]
+           "record_length_factor", "REFERENCE_CHANGES", "UNUSABLE_STATUSES", "USER_EXCLUDED"]
 
-SENSOR_STATUSES = ("ok", "dead", "late", "reversed", "drifting", "detached", "improbable")
+SENSOR_STATUSES = ("ok", "dead", "frozen", "late", "reversed", "drifting", "detached", "improbable", "excluded")
 #: Statuses of sensors whose record cannot enter the estimate, whatever the health tests say: no usable reading
-#: ("dead": none, stuck, frozen) or none on the reference day ("late": installed, or first read, after it).
-UNUSABLE_STATUSES = ("dead", "late")
+#: ("dead": none, stuck; "frozen": stuck from some day on) or none on the reference day ("late": installed, or first
+#: read, after it). The user's exclusions ("excluded") are not among them: they count as before wherever the health
+#: tests count their flags.
+UNUSABLE_STATUSES = ("dead", "frozen", "late")
+#: Status of a sensor the user excluded (``assess_sensors(exclude=...)``, ``rail settle --exclude``): not a health
+#: test's verdict, so the service raises no health alarm for it.
+USER_EXCLUDED = "excluded"
 #: Resolution of the sensors (paper 004 §1.3), deg: a stuck sensor's readings spread less.
 DEAD_SPREAD_DEG = 1e-4
 #: Family-wise false-alarm probability of the chi-square test on a sensor's LOO residuals.
@@ -436,7 +446,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     raw_spread_deg : (N,) ndarray, optional
         Robust spread of each sensor's raw readings (dead-sensor test).
     exclude : iterable of int
-        Sensors excluded by the user (status "improbable", detail "excluded by the user").
+        Sensors excluded by the user (status "excluded", :data:`USER_EXCLUDED`; detail "excluded by the user").
     max_flagged : int, optional
         Stop after this many LOO exclusions (default: a quarter of the sensors).
     fit : callable, optional
@@ -444,7 +454,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
         exclusion.
     raw_day_spread_deg : (D, N) ndarray, optional
         Robust within-day spread of the raw readings (``DailyAngles.raw_day_spread_deg``), NaN on days with
-        too few readings (fewer than :data:`FROZEN_MIN_READINGS`): frozen-sensor test, a sensor is "dead"
+        too few readings (fewer than :data:`FROZEN_MIN_READINGS`): frozen-sensor test, a sensor is "frozen"
         when it spreads less than :data:`DEAD_SPREAD_DEG` within each of :data:`FROZEN_MIN_DAYS` consecutive days.
     fit_anchor : callable, optional
         ``fit_anchor(slopes_masked) -> sigma_z`` re-estimates the end-anchor std of the prediction from the kept
@@ -475,7 +485,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     D, N = slopes.shape
     status, detail = _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg)
     for j in exclude:
-        status[j], detail[j] = "improbable", "excluded by the user"
+        status[j], detail[j] = USER_EXCLUDED, "excluded by the user"
     max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
     score = np.full(N, np.nan)
     rev = np.full(N, np.nan)
@@ -578,7 +588,9 @@ def _reversal_detail(m, pred, llr, rev, length_factor, reversal_z_rule, base) ->
 
 def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
     """(status, detail) object arrays of :func:`assess_sensors` before its tests: "dead" for a sensor without readings,
-    with readings on fewer than half the days, stuck (raw spread under the resolution) or frozen (:func:`_frozen_run`);
+    with readings on fewer than half the days or stuck (raw spread under the resolution) from its first day; "frozen"
+    for one stuck from some day on (:func:`_frozen_run`; after days of normal readings, also when its raw spread over
+    the record is under the resolution);
     "late" for one without a daily angle on the reference day (day 0); "ok" otherwise.
 
     A late sensor (installed, or first read, after the reference day) has changes only from its own first day: taken
@@ -600,13 +612,18 @@ def _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg):
                                             "(the service) take it in")
         elif have[j] < 0.5 * D:
             status[j], detail[j] = "dead", f"readings on {have[j]} of {D} days"
-        elif raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG:
-            status[j], detail[j] = "dead", f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg resolution"
-        elif raw_day_spread_deg is not None:
-            d0, run = _frozen_run(raw_day_spread_deg[:, j])
-            if run >= FROZEN_MIN_DAYS:
-                status[j], detail[j] = "dead", (f"frozen: its raw readings spread less than the 1e-4 deg resolution within "
-                                                f"each of {run} consecutive days from day {d0} on (>= {FROZEN_MIN_DAYS})")
+        else:
+            d0, run = (0, 0) if raw_day_spread_deg is None else _frozen_run(raw_day_spread_deg[:, j])
+            # stuck over most of the record after reading normally (a day before the run spread beyond the
+            # resolution): frozen, although its robust spread over the record is that of a stuck sensor
+            moved_first = run >= FROZEN_MIN_DAYS and bool(np.any(raw_day_spread_deg[:d0, j] >= DEAD_SPREAD_DEG))
+            if raw_spread_deg is not None and raw_spread_deg[j] < DEAD_SPREAD_DEG and not moved_first:
+                status[j], detail[j] = "dead", (f"stuck: spread of raw readings {raw_spread_deg[j]:.1e} deg < 1e-4 deg "
+                                                "resolution")
+            elif run >= FROZEN_MIN_DAYS:
+                status[j], detail[j] = "frozen", (f"frozen: its raw readings spread less than the 1e-4 deg resolution "
+                                                  f"within each of {run} consecutive days from day {d0} on "
+                                                  f"(>= {FROZEN_MIN_DAYS})")
     return status, detail
 
 

@@ -20,6 +20,7 @@ from ._health import (
     REVERSAL_Z_RULES,
     SHAPE_RULES,
     UNUSABLE_STATUSES,
+    USER_EXCLUDED,
     WITNESS_RULES,
     SensorHealth,
     all_days_reversal_evidence,
@@ -1109,9 +1110,9 @@ class SettlementSettings:
     quiet_days : sequence of dates or None, default None
         Days without works (e.g. "2019-11-18") for the thermal fit; None: every day.
     check_health : bool, default True
-        Flag and exclude improbable sensors (§6); dead sensors are always excluded.
+        Flag and exclude improbable sensors (§6); dead, frozen and late sensors are always excluded.
     exclude_sensors : tuple of str, default ()
-        Sensor ids excluded by the user.
+        Sensor ids excluded by the user (status "excluded", not tested).
     use_affine_correction : bool, default False
         Apply the §5.2 affine correction (not robust, see :func:`affine_correction`).
     through_time : bool, default True
@@ -1444,7 +1445,8 @@ def _health_stage(x, ids, slopes, daily: DailyAngles, opt: SettlementSettings, w
         health = replace(health, anchor_std=fit_anchor(np.where(health.excluded[None, :], np.nan, slopes), witnesses))
     sz = health.anchor_std
     for sid, st, why in health.flagged():
-        warnings.append(f"sensor {sid} excluded ({st}): {why}.")
+        warnings.append(f"sensor {sid} excluded by the user." if st == USER_EXCLUDED else
+                        f"sensor {sid} excluded ({st}): {why}.")
     for j in np.flatnonzero(health.excluded_witness if health.excluded_witness is not None else []):
         warnings.append(_EXCLUDED_WITNESS.format(sid=ids[j], status=health.status[j], x=x[j]))
     for j in np.flatnonzero(health.witness if health.witness is not None else []):
@@ -1833,8 +1835,9 @@ def _settlement_anchor(x, jp, order, factors, weights, opt: SettlementSettings, 
 
 
 def _restored_slopes(slopes, health: SensorHealth, user_excluded) -> np.ndarray:
-    """The slope changes of every sensor but the user's exclusions and those flagged "dead" or "late" (no reading, or frozen: their
-    record says nothing of the track after they stopped, and the all-days model would fill it as "no change"), those
+    """The slope changes of every sensor but the user's exclusions and those flagged "dead", "frozen" or "late" (no
+    reading, or frozen: their record says nothing of the track after they stopped, and the all-days model would fill it
+    as "no change"), those
     flagged "reversed" with their sign corrected (under the fixed ends a reversal explains them; as read they would
     fake an end movement)."""
     M = np.array(slopes, float)
@@ -2032,9 +2035,9 @@ def estimate_settlement(site: SiteData, settings: SettlementSettings | None = No
     quiet_days : sequence of dates, optional
         Days without works, for the thermal fit.
     check_health : bool, default True
-        Flag and exclude improbable sensors (§6). Dead sensors are always excluded.
+        Flag and exclude improbable sensors (§6). Dead, frozen and late sensors are always excluded.
     exclude_sensors : iterable of str
-        Sensor ids to exclude (reported as excluded by the user).
+        Sensor ids to exclude (status "excluded", detail "excluded by the user").
     use_affine_correction : bool, default False
         Apply the §5.2 affine correction (see :func:`affine_correction` for the paper's warning).
     through_time : bool, default True

@@ -235,13 +235,15 @@ def write_acceptance_report(result, outdir, *, grinding=None, title: str | None 
 
 def _write_tables(out: Path, result, grinding, ground_profile: bool) -> tuple[dict, list[Path]]:
     """Write the tables (lots, localized roughness as Parquet, defects, histogram, grinds; the ground profile when
-    asked and ground); return them by file name and the paths written."""
+    asked and ground), their columns named with their units (:meth:`AcceptanceSpec.with_unit_names`); return them
+    by file name and the paths written."""
     tables = {"lots.csv": result.lots, "localized.parquet": result.localized, "defects.csv": result.defects,
               "histogram.csv": result.histogram}
     if grinding is not None:
         tables["grinds.csv"] = grinding.grinds
     written = []
     for name, frame in tables.items():
+        frame = result.spec.with_unit_names(frame)  # start_m, iri_left_m_per_km, max_depth_mm: as `road iri` names
         if name.endswith(".parquet"):  # one row per sample: Parquet (a CSV of 400k rows takes ~0.6 s)
             with atomic_path(out / name) as tmp:
                 frame.to_parquet(tmp, index=False, use_dictionary=False)  # floats: dictionary pages cost 4x

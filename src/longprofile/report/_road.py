@@ -6,6 +6,7 @@ Rendering only: every number comes from :func:`longprofile.road.analyse_roughnes
 from __future__ import annotations
 
 import html
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +40,9 @@ def _envelope(x, y, max_points=60000):
     m = (n // k) * k
     xb = x[:m].reshape(-1, k).mean(axis=1)
     yb = y[:m].reshape(-1, k)
-    return xb, np.nanmin(yb, axis=1), np.nanmax(yb, axis=1)
+    with warnings.catch_warnings():  # a bin wholly in a gap (NaN, gaps="restart") stays NaN: the line breaks there
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return xb, np.nanmin(yb, axis=1), np.nanmax(yb, axis=1)
 
 
 def _iri_axes(ax, result, limits, reference=None, reference_label="reference"):
@@ -148,6 +151,9 @@ def _profile_figure(analysis, reference_profile=None, reference_label="reference
             xs, s_lo, s_hi = _envelope(p.distance, (p.elevation[:, j] - 2 * p.std[:, j]) * 1000)
             _, s_lo2, s_hi2 = _envelope(p.distance, (p.elevation[:, j] + 2 * p.std[:, j]) * 1000)
             ax.fill_between(xs, s_lo, s_hi2, alpha=0.2, lw=0, label=f"{t} ± 2σ")
+    gaps = getattr(analysis.iri, "gaps", None)
+    for i, (_tracks, a, b) in enumerate((gaps.gaps + gaps.dropped) if gaps is not None else ()):
+        ax.axvspan(a, b, color="0.75", alpha=0.5, lw=0, label="no data (gap, run < lead-in)" if i == 0 else None)
     if reference_profile is not None:
         for j, _t in enumerate(reference_profile.tracks):
             x, lo, hi = _envelope(reference_profile.distance, reference_profile.elevation[:, j] * 1000)
@@ -216,7 +222,9 @@ def _table_html(df: pd.DataFrame, *, fmt="{:.3f}", highlight=None) -> str:
             style = ""
             if highlight is not None:
                 style = highlight(c, v)
-            if isinstance(v, (float, np.floating)):
+            if isinstance(v, (float, np.floating)) and not np.isfinite(v):
+                text = "—"  # no value: e.g. a segment measured over less than min_valid (gaps="restart")
+            elif isinstance(v, (float, np.floating)):
                 text = f"{v:.1f}" if str(c).endswith("_m") else fmt.format(v)
             else:
                 text = html.escape(str(v))

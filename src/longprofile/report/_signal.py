@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 
 from ..signal import DerivativeResult
@@ -54,9 +56,11 @@ def plot_derivative(x, dt: float, result: DerivativeResult, *, truth=None, label
     ax2.legend(loc="best")
     p = result.params
     setting = ", ".join(f"{k.replace('_', ' ')} {p[k]:g}" for k in ("window", "degree", "q_over_r") if k in p)
-    fig.suptitle(f"{'derivative' if order == 1 else f'derivative of order {order}'} of {label} by {result.method}"
-                 f" ({setting}{', ' if setting else ''}dt = {dt:g} s); band = "
-                 + ("noise and the model's bias and lag (std total)" if total else "noise only, not bias (std noise)"))
+    # two lines, each wrapped to the figure's width (a 12 pt title holds about 90 characters across 9 in)
+    what = (f"{'derivative' if order == 1 else f'derivative of order {order}'} of {label} by {result.method}"
+            f" ({setting}{', ' if setting else ''}dt = {dt:g} s)")
+    band = "band: " + ("noise and the model's bias and lag (std total)" if total else "noise only, not bias (std noise)")
+    fig.suptitle("\n".join(textwrap.fill(line, 90) for line in (what, band)))
     return fig
 
 

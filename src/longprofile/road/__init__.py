@@ -6,6 +6,7 @@ iso8608_profile -- random road profile of an ISO 8608 class (A..H), seedable.
 Roughness indices and spectra (ASTM E1926 / WTP-46, ISO 8608)
 iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
 iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
+GapSummary, MIN_VALID_FRACTION -- gaps="restart": the IRI over the measured parts of a profile with gaps.
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 iri_plausibility, sampling_note, dropout_runs, dropout_note -- what a road command warns of or refuses in a profile.
@@ -38,7 +39,8 @@ from .._lazy import lazy_namespace
 from ..core import Profile
 
 __all__ = ["Profile", "iso8608_profile",
-    "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
+    "iri", "IRIResult", "iri_report", "IRIReport", "GapSummary", "MIN_VALID_FRACTION", "rectified_slope",
+    "RectifiedSlope", "golden_car_matrices",
     "GOLDEN_CAR", "iri_plausibility", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",

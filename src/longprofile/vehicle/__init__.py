@@ -11,7 +11,8 @@ Vehicle               -- validated vehicle description (TOML via load_vehicle; d
 load_vehicle          -- read a vehicle description (TOML); load_vertical_params reads its [vertical] table.
 default_vehicle       -- the documented default car (vehicle/data/default_car.toml).
 dugoff_forces         -- Dugoff tyre model, eq. (15)-(17); TyreForces result.
-drive_scenario        -- built-in drives ("paper", "hill", "low-mu"); DriveScenario, SCENARIOS.
+drive_scenario        -- built-in drives ("paper", "hill", "low-mu"); DriveScenario, SCENARIOS; missed_scenario_events
+                         (what a shortened drive leaves out).
 simulate_drive        -- 4-wheel RK4 simulator: truth and sensor log (PlanarSimulation, DriveLog, DriveTruth).
 ackermann_angles      -- front-left / front-right road-wheel angles of an Ackermann linkage (simulate_drive option).
 SensorSpec            -- ABS encoder, steering, gyro and accelerometer models of the simulator.
@@ -21,7 +22,8 @@ slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
 SlopeUncertainty      -- the parameter uncertainty added to the printed stds; nis_inflation (innovation consistency).
 force_scale_fit       -- the drive's relative force error (mass, tyres) against the accelerometer; ForceScaleFit.
-calibrate_sensors     -- the gyro offset and the wheels' relative scale errors from the log; SensorCalibration.
+calibrate_sensors     -- the gyro offset and the wheels' relative scale errors from the log; SensorCalibration,
+                         CALIBRATION_MIN_BLOCKS (fewest usable 1 s blocks per part).
 EKFTuning             -- EKF noise settings.
 speed_reference       -- slip-robust V_x measurement (torque-free / slip-compensated wheels, per-sample std,
                          missing when no wheel is trustworthy); SpeedReference, SPEED_SOURCES.
@@ -68,9 +70,9 @@ from .._lazy import lazy_namespace
 _EXPORTS = {
     ".planar": ("Vehicle", "default_vehicle", "load_vehicle", "SIMULATOR_ONLY", "TyreForces", "dugoff_forces",
                 "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
-                "drive_scenario", "simulate_drive", "ackermann_angles", "EKFTuning", "SlopeEstimate", "SlopeUncertainty",
+                "drive_scenario", "simulate_drive", "missed_scenario_events", "ackermann_angles", "EKFTuning", "SlopeEstimate", "SlopeUncertainty",
                 "nis_inflation", "ForceScaleFit", "force_scale_fit", "SensorCalibration", "calibrate_sensors",
-                "estimate_slope", "planar_ekf_model",
+                "CALIBRATION_MIN_BLOCKS", "estimate_slope", "planar_ekf_model",
                 "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
                 "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
     ".vertical": ("load_vertical_params", "CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
@@ -95,9 +97,10 @@ __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle", "load_vertical_params", "SIMULATOR_ONLY",
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
-    "simulate_drive", "ackermann_angles", "LOG_COLUMNS",
+    "simulate_drive", "missed_scenario_events", "ackermann_angles", "LOG_COLUMNS",
     "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation", "ForceScaleFit", "force_scale_fit",
-    "SensorCalibration", "calibrate_sensors", "estimate_slope", "planar_ekf_model", "slope_ekf_model", "planar_inputs",
+    "SensorCalibration", "calibrate_sensors", "CALIBRATION_MIN_BLOCKS", "estimate_slope", "planar_ekf_model",
+    "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "plot_slope_estimate", "plot_drive",

@@ -37,6 +37,7 @@ of the two exceeds 0.01 rad):
 
 from __future__ import annotations
 
+import fnmatch
 import math
 import re
 from collections import Counter
@@ -47,7 +48,8 @@ import numpy as np
 from .._validation import time_resolution
 from ..errors import InputError, InputFormatError, UnitsError
 
-__all__ = ["UNIT_FACTORS", "LogCheck", "parse_units", "split_unit_headers", "convert_units", "resample_log",
+__all__ = ["UNIT_FACTORS", "LogCheck", "parse_units", "expand_unit_patterns", "split_unit_headers", "convert_units",
+           "resample_log",
            "read_drive_log", "check_drive_log", "check_sample_rate", "infer_vertical_config", "read_vertical_log"]
 
 GRAVITY = 9.80665
@@ -63,6 +65,10 @@ UNIT_FACTORS = {
     # wheel speeds may also be logged as the wheel's translational speed R omega (needs the rolling radius)
     "wheel": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0, "m/s": None, "km/h": None},
 }
+
+#: What each quantity of :data:`UNIT_FACTORS` is called in messages, with its article.
+_QUANTITY_NAMES = {"time": "a time", "angle": "an angle", "rate": "an angular rate", "accel": "an acceleration",
+                   "length": "a length", "current": "a current", "wheel": "a wheel speed"}
 
 _PLANAR_QUANTITY = {"time": "time", "steering_angle": "angle", "steer_fl": "angle", "steer_fr": "angle",
                     "yaw_rate": "rate", "accel_x": "accel",
@@ -82,7 +88,10 @@ def _norm_unit(u: str) -> str:
 
 
 def parse_units(text: str | None) -> dict:
-    """Parse a ``--units`` mapping ``"col=unit,col=unit"`` into a dict (empty for None or "")."""
+    """Parse a ``--units`` mapping ``"col=unit,col=unit"`` into a dict (empty for None or "").
+
+    A key may be a shell-style pattern (``wheel_speed_*=km/h``), expanded against the channels of the log by
+    :func:`expand_unit_patterns` when the log is read."""
     if not text:
         return {}
     out = {}
@@ -92,6 +101,38 @@ def parse_units(text: str | None) -> dict:
                              f"got {item!r}.")
         k, v = item.split("=", 1)
         out[k.strip()] = v.strip()
+    return out
+
+
+def _is_pattern(key: str) -> bool:
+    return any(ch in key for ch in "*?[")
+
+
+def expand_unit_patterns(units: dict | None, quantities: dict, *, source: str = "log") -> dict:
+    """Give the unit of each shell-style pattern key (``wheel_speed_*``, ``dz21_?L``; :mod:`fnmatch`, any letter
+    case) to every channel of ``quantities`` it matches; an explicit key beats a pattern.
+
+    Raises
+    ------
+    UnitsError
+        For a pattern that matches no channel of this log type, or a channel that two patterns give different
+        units (name it explicitly).
+    """
+    units = dict(units or {})
+    out, by = {}, {}
+    for key, unit in units.items():
+        if not _is_pattern(key):
+            continue
+        hits = [ch for ch in quantities if fnmatch.fnmatchcase(ch.casefold(), key.strip().casefold())]
+        if not hits:
+            raise UnitsError(f"{source}: the unit pattern {key!r} matches no channel of this log (channels: "
+                             f"{', '.join(quantities)}).")
+        for ch in hits:
+            if ch in out and _norm_unit(out[ch]) != _norm_unit(unit) and ch not in units:
+                raise UnitsError(f"{source}: channel {ch!r} matches the unit patterns {by[ch]!r} ({out[ch]}) and "
+                                 f"{key!r} ({unit}); declare it explicitly, e.g. --units {ch}={unit}.")
+            out[ch], by[ch] = unit, key
+    out.update({k: v for k, v in units.items() if not _is_pattern(k)})
     return out
 
 
@@ -145,7 +186,7 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
     frame : pandas.DataFrame
         The log, plain column names.
     units : dict
-        {column: unit} as declared (header or ``--units``).
+        {column: unit} as declared (header or ``--units``); pattern keys are expanded (:func:`expand_unit_patterns`).
     quantities : dict
         {column: quantity} of the channels this reader knows (keys of :data:`UNIT_FACTORS`).
     wheel_radius : float or dict, optional
@@ -159,6 +200,7 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
     """
     if not units:
         return frame
+    units = expand_unit_patterns(units, quantities, source=source)
     converted = {}
     for col, unit in units.items():
         if col not in quantities:
@@ -170,8 +212,8 @@ def convert_units(frame, units: dict, quantities: dict, *, wheel_radius: float |
         table = UNIT_FACTORS[q]
         u = _norm_unit(unit)
         if u not in table:
-            raise UnitsError(f"{source}: column {col!r}: unknown unit {unit!r} for a {q} channel; use one of "
-                             f"{', '.join(table)}.")
+            raise UnitsError(f"{source}: column {col!r}: unknown unit {unit!r} for {_QUANTITY_NAMES[q]} channel; use "
+                             f"one of {', '.join(table)}.")
         factor = table[u]
         if factor is None:  # translational wheel speed -> spin rate
             if wheel_radius is None:
@@ -399,7 +441,7 @@ def _range_problems(log, vehicle) -> list[str]:
     vmax = float(np.max(vehicle.wheel_radius_of_each * log.wheel_speeds))
     if vmax > 95.0:
         problems.append(f"wheel_speed_*: R omega reaches {vmax:.4g} m/s (> 95 m/s): wheel speeds in rpm or deg/s? "
-                        "declare the unit (e.g. 'wheel_speed_fl [rpm]'), or check wheels.radius")
+                        "declare the unit (e.g. --units 'wheel_speed_*=rpm'), or check wheels.radius")
     smax = float(np.max(np.abs(log.steering_angle)))
     if smax > 0.8:
         problems.append(f"steering_angle reaches {smax:.3g} rad ({math.degrees(smax):.0f} deg), beyond a road wheel's "
@@ -426,9 +468,9 @@ def _yaw_rate_check(rw, r, moving, min_n, R, problems) -> LogCheck:
             "yaw_rate of opposite sign: a z-down / y-to-the-right (SAE) frame or a clockwise-positive gyro; negate "
             "yaw_rate and accel_y (and steering_angle if positive to the right)": -1.0,
             # a wheel column holding X = c omega is read as omega' = c omega, so the ratio is 1/c
-            "wheel speeds in m/s (declare 'wheel_speed_* [m/s]')": 1.0 / R,
-            "wheel speeds in km/h (declare 'wheel_speed_* [km/h]')": 1.0 / (3.6 * R),
-            "wheel speeds in rpm (declare 'wheel_speed_* [rpm]')": 2 * math.pi / 60,
+            "wheel speeds in m/s (declare --units 'wheel_speed_*=m/s')": 1.0 / R,
+            "wheel speeds in km/h (declare --units 'wheel_speed_*=km/h')": 1.0 / (3.6 * R),
+            "wheel speeds in rpm (declare --units 'wheel_speed_*=rpm')": 2 * math.pi / 60,
             "left and right wheel columns swapped": -1.0,
         })
         if 0.8 <= k1 <= 1.25:
@@ -544,7 +586,7 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
     from .planar import DriveLog
 
     frame, declared = split_unit_headers(frame, _PLANAR_QUANTITY)
-    declared.update(units or {})
+    declared.update(expand_unit_patterns(units, _PLANAR_QUANTITY, source=source))
     radii = dict(zip(("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"),
                      vehicle.wheel_radius_of_each.tolist()))
     frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=radii, source=source)
@@ -599,7 +641,7 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
     from .vertical import sensors_from_frame
 
     frame, declared = split_unit_headers(frame, _VERTICAL_QUANTITY)
-    declared.update(units or {})
+    declared.update(expand_unit_patterns(units, _VERTICAL_QUANTITY, source=source))
     frame = convert_units(frame, declared, _VERTICAL_QUANTITY, source=source)
     if config is None:
         config = infer_vertical_config(frame.columns, source=source)
@@ -612,7 +654,7 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
     dmax = float(np.max(np.abs(sensors.displacement)))
     if dmax > 0.3:
         raise UnitsError(f"{source}: dz21_*: suspension deflection reaches {dmax:.4g} m (> 0.3 m, the sensor range): "
-                         "in mm? declare 'dz21_FL [mm]' or --units dz21_FL=mm,...")
+                         "in mm? declare it: --units 'dz21_*=mm' (or head each column as 'dz21_FL [mm]')")
     for name, a in (("body_accel_*", sensors.body_accel), ("wheel_accel_*", sensors.wheel_accel)):
         if a is not None and float(np.max(np.abs(a))) > 50 * GRAVITY:
             raise UnitsError(f"{source}: {name} exceeds 50 g: check its unit.")

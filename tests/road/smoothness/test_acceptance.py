@@ -161,7 +161,7 @@ def test_cli_acceptance_report(tmp_path):
 
     grinds = pd.read_csv(out / "grinds.csv")
     assert len(grinds) >= 1 and grinds.achieved.all()
-    assert abs(grinds.start.min() * 0.3048 - 400.0) < 3.0
+    assert abs(grinds.start_ft.min() * 0.3048 - 400.0) < 3.0  # columns named with the spec's units (US: ft)
     assert (out / "profile_ground.csv").exists()
     spec.write_text('units = "us"\n[lot]\nlength = 528\nsize = 3\n')
     bad = CliRunner().invoke(_cli(), ["acceptance", str(f), "--spec", str(spec), "-o", str(out), "--overwrite"])

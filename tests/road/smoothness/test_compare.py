@@ -177,7 +177,7 @@ def test_a_run_without_the_reference_track_is_named_with_the_fix():
     ref = Profile(distance=x, elevation=z, tracks=("left",), name="ref")
     good = Profile(distance=x, elevation=z, tracks=("left",), name="run1")
     other = Profile(distance=x, elevation=z, tracks=("Elevation",), name="run2")
-    with pytest.raises(InputError, match=r"run2 has \['Elevation'\].*Elevation_m -> left_m"):
+    with pytest.raises(InputError, match=r"run2 has \['Elevation'\].*--rename Elevation=left"):
         certify_profiler(ref, [good, other])
 
 

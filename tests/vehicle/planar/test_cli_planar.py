@@ -141,3 +141,20 @@ def test_simulate_with_ackermann_steering_writes_both_front_angles_and_slope_rea
     assert code == 2 and not (tmp_path / "bad.csv").exists()
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "steering_geometry" in err[0]
+
+
+def test_slope_says_nothing_was_corrected_when_no_calibration_block_qualifies(tmp_path):
+    """Session 37: on a 5 s log the line read "blocks of 1 s: 0 rear, 0 front ... gyro offset +0.00e+00 ... the gyro
+    and each axle's left/right difference corrected", though nothing was."""
+    for seconds in ("5", "12"):
+        log = tmp_path / f"log{seconds}.csv"
+        assert main(["vehicle", "simulate", "--duration", seconds, "-o", str(log)]) == 0
+        res = runner.invoke(app, ["vehicle", "slope", str(log), "-o", str(tmp_path / f"s{seconds}.csv")])
+        assert res.exit_code == 0, res.output
+        text = " ".join(res.output.split())
+        if seconds == "5":
+            assert ("gyro and wheels from the log: nothing corrected (the log is 5 s, under the 8 s it needs" in text
+                    and "keep their priors (+- 5.0e-04 rad/s, +- 0.5 %)" in text and "difference corrected" not in text)
+        else:
+            assert "blocks of 1 s: 11 rear, 10 front left/right" in text
+            assert "the gyro and each axle's left/right difference corrected)" in text

@@ -114,3 +114,20 @@ def test_one_vehicle_file_for_planar_and_vertical_commands(tmp_path, capsys):
     est = pd.read_csv(out)
     # and so did the estimator: its tyre load is -k_t dZ10 with the file's k_t
     np.testing.assert_allclose(est["tyre_force_FL"], -200_000.0 * est["dz10_FL"], rtol=1e-9, atol=1e-6)
+
+
+def test_a_log_shorter_than_one_iri_segment_says_so(tmp_path):
+    """Session 37: 5 s at 20 m/s is 97 m of road, under one 100 m segment; the IRI table (kept, as `road iri` keeps
+    its own) has its header only, and the command now says why."""
+    log = tmp_path / "vlog.csv"
+    assert main(["vehicle", "vertical", "simulate", "--config", "3", "--duration", "5", "-o", str(log)]) == 0
+    res = runner.invoke(app, ["vehicle", "vertical", "estimate", str(log), "-o", str(tmp_path / "s.csv"),
+                              "--profile", str(tmp_path / "wheels.csv"), "--speed", "20"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.output.split())
+    assert "note: the 97.04 m of road under the wheels is too short for one segment of 100 m" in text
+    assert "wheels_iri.csv has its header only" in text and "use a shorter --segment" in text
+    assert len(pd.read_csv(tmp_path / "wheels_iri.csv")) == 0
+    res = runner.invoke(app, ["vehicle", "vertical", "estimate", str(log), "-o", str(tmp_path / "s2.csv"),
+                              "--profile", str(tmp_path / "w2.csv"), "--speed", "20", "--segment", "50"])
+    assert res.exit_code == 0 and "too short" not in res.output and len(pd.read_csv(tmp_path / "w2_iri.csv")) == 1

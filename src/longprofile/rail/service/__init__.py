@@ -23,7 +23,7 @@ _EXPORTS = {
     "._db": ("Database",),
     "._core": ("add_channel", "remove_channel", "channel_status", "add_logger", "add_user", "user_exists", "audit_trail", "create_site", "delete_controls", "get_controls",
                "get_site", "ingest", "list_sites", "put_controls", "put_sensors", "put_survey", "revoke_logger",
-               "rotate_logger", "set_threshold", "replace_thresholds", "update_site"),
+               "rotate_logger", "set_threshold", "replace_thresholds", "threshold_rows", "update_site"),
     "._recompute": ("recompute",),
     "._alarms": ("Notifier", "list_alarms"),
     "._web": ("create_app",),

@@ -23,11 +23,23 @@ import numpy as np
 import pandas as pd
 from sqlalchemy import func, select, update
 
-from .. import CONTROL_CHECK_P, THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, threshold_alarms
+from .. import CONTROL_CHECK_P, THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, USER_EXCLUDED, threshold_alarms
 from ._db import LEVELS, Alarm, Batch, Channel, Database, Logger, Outbox, Reading, Sensor, Site, Threshold, now_ts
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
-           "list_alarms"]
+           "list_alarms", "health_level", "HEALTH_LEVELS", "ended_as"]
+
+#: Level of the health alarm of a sensor status (:data:`longprofile.rail.SENSOR_STATUSES`) other than the ones below:
+#: "action" (a faulty sensor, or one without usable readings: dead, frozen).
+HEALTH_ACTION = "action"
+#: ... and of these: none for "ok" and for a sensor the user excluded (the site setting ``exclude``: a decision, not a
+#: fault); "alert" for a late sensor (installed after the baseline: left out, not faulty, an alert says so).
+HEALTH_LEVELS = {"ok": None, USER_EXCLUDED: None, "late": "alert"}
+
+
+def health_level(status: str) -> str | None:
+    """The level of the health alarm of a sensor of this status (None: no alarm; :data:`HEALTH_LEVELS`)."""
+    return HEALTH_LEVELS.get(str(status), HEALTH_ACTION)
 
 
 def quantity_levels(res, thresholds: dict, *, probability: float = 0.5) -> dict:
@@ -80,12 +92,26 @@ def open_alarms(s, site: Site) -> dict:
 EVENTS = ("raised", "cleared", "escalated", "de-escalated", "withdrawn")
 
 
+def ended_as(reason: str | None) -> str:
+    """The notification event (:data:`EVENTS`) of an ended alarm from its ``cleared_reason``, as :func:`_end_event`
+    wrote it: "escalated", "de-escalated", "cleared" (back within thresholds; also an alarm ended before reasons
+    were recorded) or "withdrawn"."""
+    for event in ("escalated", "de-escalated"):
+        if (reason or "").startswith(f"{event} to "):
+            return event
+    return "cleared" if reason in (None, "", _BACK_WITHIN) else "withdrawn"
+
+
+#: The ``cleared_reason`` of an alarm back within its thresholds.
+_BACK_WITHIN = "back within thresholds"
+
+
 def _end_event(cur: Alarm, level: str | None, reason: str | None) -> tuple[str, str]:
     """(event, reason) of the open alarm ``cur`` ended by a move to ``level`` (None: back within thresholds)."""
     if reason is not None:
         return "withdrawn", reason if level is None else f"{reason}; now at {level} level"
     if level is None:
-        return "cleared", "back within thresholds"
+        return "cleared", _BACK_WITHIN
     up = LEVELS.index(level) > LEVELS.index(cur.level) if cur.level in LEVELS and level in LEVELS else True
     return ("escalated", f"escalated to {level}") if up else ("de-escalated", f"de-escalated to {level}")
 
@@ -186,10 +212,10 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
         if w != "none":
             events.append(f"{q}:{w}")
     for sid, st, detail in zip(res.health.sensor_ids, res.health.status, res.health.detail):
-        # a late sensor (installed after the baseline: rail health "late") is left out, not faulty: an alert says so
-        lv = None if st == "ok" else "alert" if st == "late" else "action"
+        lv = health_level(st)  # none for a sensor the user excluded: its open health alarm is withdrawn
         w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id, opened=opened,
-                       message="" if lv is None else f"sensor {sid} {st}: {detail}")
+                       message="" if lv is None else f"sensor {sid} {st}: {detail}",
+                       reason="excluded by the user (site setting exclude)" if st == USER_EXCLUDED else None)
         if w != "none":
             events.append(f"health:{sid}:{w}")
     w = _controls_alarm(s, site, res.control_check, day, run_id, opened)

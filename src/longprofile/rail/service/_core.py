@@ -63,7 +63,8 @@ from ._db import (
 )
 
 __all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "put_controls",
-           "delete_controls", "get_controls", "set_threshold", "add_logger", "revoke_logger", "rotate_logger",
+           "delete_controls", "get_controls", "set_threshold", "threshold_row", "threshold_rows", "add_logger",
+           "revoke_logger", "rotate_logger",
            "authenticate_logger", "add_channel", "remove_channel", "channel_status", "add_user", "user_exists", "audit_trail",
            "ingest", "parse_batch", "IngestResult", "NotFound", "Forbidden", "MAX_FUTURE_SKEW_S"]
 
@@ -206,8 +207,10 @@ def get_site(db: Database, name: str) -> dict:
                           for x in s.scalars(select(Sensor).where(Sensor.site_id == site.id).order_by(Sensor.x_m))]
         out["survey"] = [{"x_m": p.x_m, "z_m": p.z_m} for p in
                          s.scalars(select(SurveyPoint).where(SurveyPoint.site_id == site.id).order_by(SurveyPoint.x_m))]
-        out["thresholds"] = {f"{t.quantity}.{t.level}": t.value for t in
-                             s.scalars(select(Threshold).where(Threshold.site_id == site.id))}
+        rows = sorted(s.scalars(select(Threshold).where(Threshold.site_id == site.id)),
+                      key=lambda t: (QUANTITIES.index(t.quantity), LEVELS.index(t.level)))
+        out["thresholds"] = {f"{t.quantity}.{t.level}": t.value for t in rows}  # m (rate: m/day)
+        out["threshold_rows"] = [threshold_row(t.quantity, t.level, t.value) for t in rows]
         lgs = list(s.scalars(select(Logger).where(Logger.site_id == site.id).order_by(Logger.name)))
         out["loggers"] = [lg.name for lg in lgs]
         out["revoked_loggers"] = [lg.name for lg in lgs if not lg.active]
@@ -514,7 +517,7 @@ def set_threshold(db: Database, actor: str, name: str, quantity: str, level: str
                 others.setdefault(q, {})[lv] = t.value
         # only the changed quantity is checked: a level stored before a check existed does not block the others
         _store_thresholds(s, actor, site, table, {**others, **check_thresholds({quantity: levels})})
-    return {"quantity": quantity, "level": level, "value": v}
+    return threshold_row(quantity, level, v)
 
 
 def replace_thresholds(db: Database, actor: str, name: str, thresholds: dict) -> dict:
@@ -528,12 +531,34 @@ def replace_thresholds(db: Database, actor: str, name: str, thresholds: dict) ->
     return new
 
 
+#: Unit of each quantity's threshold ``value`` (the library's, the database's and the API's) and of its ``value_mm``
+#: (the command line's and the thresholds table's, as the user gives it).
+THRESHOLD_UNITS = {"settlement": ("m", "mm"), "rate": ("m/day", "mm/day"), "twist": ("m", "mm")}
+
+
+def threshold_row(quantity: str, level: str, value) -> dict:
+    """One threshold as the CLI and the API show it: ``value`` in m (m/day for the rate) as stored, its ``unit``, and
+    ``value_mm``, the same in mm (mm/day for the rate), as the user gave it (``rail site threshold``, the thresholds
+    table's ``value_mm`` column); None values for a removed level."""
+    unit, unit_mm = THRESHOLD_UNITS[quantity]
+    mm = None if value is None else float(f"{1e3 * value:.12g}")  # 0.0023 m -> 2.3 mm, not 2.3000000000000003
+    return {"quantity": quantity, "level": level, "value": value, "unit": unit, "value_mm": mm, "unit_mm": unit_mm}
+
+
+def threshold_rows(thresholds: dict) -> list[dict]:
+    """:func:`threshold_row` of every level of ``{quantity: {level: value}}`` (m, m/day for the rate), in the order
+    of the quantities and levels (what :func:`replace_thresholds` returns, as ``rail site thresholds`` prints it)."""
+    return [threshold_row(q, lv, thresholds[q][lv]) for q in QUANTITIES for lv in LEVELS
+            if lv in thresholds.get(q, {})]
+
+
 def _threshold_names(table: dict) -> str:
     """The stored thresholds in words, in the command line's units: "settlement alert 10 mm, rate action 3 mm/day"."""
-    unit = {"rate": "mm/day"}
-    names = [f"{q} {lv} {1e3 * table[(q, lv)].value:g} {unit.get(q, 'mm')}" for q in QUANTITIES for lv in LEVELS
-             if (q, lv) in table]
-    return ", ".join(names) or "none"
+    nested: dict = {}
+    for (q, lv), t in table.items():
+        nested.setdefault(q, {})[lv] = t.value
+    rows = threshold_rows(nested)
+    return ", ".join(f"{r['quantity']} {r['level']} {r['value_mm']:g} {r['unit_mm']}" for r in rows) or "none"
 
 
 def _threshold_rows(s, site: Site) -> dict:

@@ -16,7 +16,7 @@ from pathlib import Path
 from ._alarms import Notifier
 from ._db import Database
 
-__all__ = ["serve", "ServerThread", "free_port", "seed_demo_site", "replay_demo", "HttpSession"]
+__all__ = ["serve", "ServerThread", "free_port", "seed_demo_site", "replay_demo", "HttpSession", "alarm_line"]
 
 
 def free_port() -> int:
@@ -151,10 +151,24 @@ def replay_demo(db: Database, base_url: str, key: str, readings, *, name: str = 
         for a in reversed(alarms):
             if (a["id"], a["state"] == "cleared") not in seen:
                 seen.add((a["id"], a["state"] == "cleared"))
-                verb = "cleared" if a["state"] == "cleared" else "raised"
-                echo(f"  {day}: {verb} {a['level']} {a['quantity']} ({a['subject']}) {a['message']}")
+                echo(f"  {day}: {alarm_line(a)}")
         echo(f"  {day}: {len(part)} readings ingested; run {run.id if run else '-'} {run.status if run else ''}")
     return alarms
+
+
+def alarm_line(a: dict) -> str:
+    """What the demo's replay prints of an alarm (:func:`~longprofile.rail.service._alarms.list_alarms` row): raised
+    with its message, or how it ended as the API's notification event says it (escalated / de-escalated to another
+    level, cleared: back within thresholds, withdrawn) with its reason."""
+    from ._alarms import ended_as
+
+    what = f"{a['level']} {a['quantity']} ({a['subject']})"
+    if a["state"] != "cleared":
+        return f"raised {what} {a['message']}"
+    event = ended_as(a.get("cleared_reason"))
+    if event in ("escalated", "de-escalated"):  # the reason names the new level: "escalated to action"
+        return f"{event} {a['quantity']} ({a['subject']}) from {a['level']} {a['cleared_reason'][len(event) + 1:]}"
+    return f"{event} {what}" + (f": {a['cleared_reason']}" if event == "withdrawn" else "")
 
 
 def run_demo(outdir) -> list[Path]:

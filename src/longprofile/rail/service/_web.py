@@ -24,7 +24,7 @@ from starlette.concurrency import run_in_threadpool
 from ... import __version__
 from ...errors import InputError, LongprofileError
 from . import _core as core
-from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, list_alarms
+from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, health_level, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
 from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site, Threshold
 from ._recompute import latest_run, recompute, sensor_daily_statistics, temperature_channel_days
@@ -676,7 +676,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
                                                                Alarm.open_key.is_not(None))))
             has_thresholds = s.scalar(select(func.count()).select_from(Threshold).where(Threshold.site_id == st.id)) > 0
             health = [] if run is None else [
-                {"sensor_id": h.sensor_id, "status": h.status, "reason": h.reason,
+                {"sensor_id": h.sensor_id, "status": h.status, "reason": h.reason, "level": health_level(h.status),
                  "last": _iso(h.last_reading_ts), "silent": h.sensor_id in silent}
                 for h in s.scalars(select(HealthRow).where(HealthRow.run_id == run.id).order_by(HealthRow.id))]
         for a in alarms:

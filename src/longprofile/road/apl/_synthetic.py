@@ -220,7 +220,7 @@ SYNTHETIC_PROFILES = ("iso8608", "bump", "crenels", "speed-hump", "sine-arcs", "
 
 
 def simulate_apl_recording(kind: str, model, *, length: float = 1000.0, road_class: str = "C",
-                           noise_fraction: float = 0.02, rng=None) -> APLRecording:
+                           noise_fraction: float = 0.02, rng=None, road_rng=None) -> APLRecording:
     """Simulate an APL recording of a synthetic road with known truth.
 
     Parameters
@@ -236,6 +236,12 @@ def simulate_apl_recording(kind: str, model, *, length: float = 1000.0, road_cla
     noise_fraction : float
         Measurement noise std as a fraction of the noise-free signal RMS (default 0.02).
     rng : int, Generator or None
+        Seed or generator of the noise and, without ``road_rng``, of the road: the road is drawn first, then the
+        noise, from one generator.
+    road_rng : int, Generator or None, optional
+        Seed or generator of the road alone (random kinds: ``iso8608``, ``white-noise``). The noise is then what
+        ``rng`` alone would add: the draws of ``rng`` after its own road. So ``road_rng=s, rng=s`` is ``rng=s``, and
+        ``road_rng=s`` with another ``rng`` is the road of ``rng=s`` recorded with another noise.
 
     Returns
     -------
@@ -249,17 +255,19 @@ def simulate_apl_recording(kind: str, model, *, length: float = 1000.0, road_cla
     dx = model.dx
     gen = np.random.default_rng(rng)
     makers = {
-        "iso8608": lambda: iso8608_profile(length, dx, road_class, rng=gen),
-        "bump": lambda: bump_profile(length, dx),
-        "crenels": lambda: crenel_profile(length, dx, n_crenels=5),
-        "speed-hump": lambda: speed_hump_profile(length, dx),
-        "sine-arcs": lambda: sine_arcs_profile(length, dx),
-        "white-noise": lambda: white_noise_profile(length, dx, rng=gen),
+        "iso8608": lambda g: iso8608_profile(length, dx, road_class, rng=g),
+        "bump": lambda g: bump_profile(length, dx),
+        "crenels": lambda g: crenel_profile(length, dx, n_crenels=5),
+        "speed-hump": lambda g: speed_hump_profile(length, dx),
+        "sine-arcs": lambda g: sine_arcs_profile(length, dx),
+        "white-noise": lambda g: white_noise_profile(length, dx, rng=g),
     }
     if kind not in makers:
         raise InputError(f"kind must be one of {SYNTHETIC_PROFILES}; got {kind!r}.")
     frac = require_positive("noise_fraction", noise_fraction, strict=False)
-    prof = makers[kind]()
+    prof = makers[kind](gen)  # the road of rng, drawn even with road_rng: the noise follows it in rng's stream
+    if road_rng is not None:
+        prof = makers[kind](np.random.default_rng(road_rng))
     u = prof.elevation[:, 0]
     y0 = apl_response(u, model)
     sd = frac * float(np.sqrt(np.mean(y0 ** 2)))

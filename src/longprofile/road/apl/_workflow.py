@@ -6,7 +6,7 @@ from ...core import Profile
 from ...errors import InputError, UnitsError
 from ._deconvolution import Reconstruction, reconstruct_profile
 from ._files import load_model
-from ._model import apl_model
+from ._model import TABLE1_CONFIGURATIONS, _table_key, apl_model
 
 __all__ = ["reconstruct_recording"]
 
@@ -37,7 +37,9 @@ def reconstruct_recording(signal: Profile, *, speed: float, dx: float, model_fil
     Raises
     ------
     InputError
-        Stations not evenly spaced, and every error of :func:`load_model` and :func:`reconstruct_profile`.
+        Stations not evenly spaced; a (speed, dx) outside Table 1 without ``model_file`` (the message names what
+        the command line offers: another --speed/--dx, or ``road identify`` and --model); every error of
+        :func:`load_model` and :func:`reconstruct_profile`.
     UnitsError
         Stations not ``dx`` apart; a model file for another speed or spacing.
     """
@@ -47,5 +49,20 @@ def reconstruct_recording(signal: Profile, *, speed: float, dx: float, model_fil
         raise InputError(f"{label}: distance_m is not evenly spaced; the APL samples every dx. Resample first.")
     if abs(spacing - dx) > 1e-6 * dx:
         raise UnitsError(f"{label}: the samples are {spacing:g} m apart but --dx is {dx:g} m.")
+    if model_file is None and _table_key(speed, dx) is None:
+        _refuse_uncalibrated(label, speed, dx)
     instrument = apl_model(speed, dx) if model_file is None else load_model(model_file, speed=speed, dx=dx)
     return reconstruct_profile(signal, instrument, **options)
+
+
+def _refuse_uncalibrated(label, speed: float, dx: float) -> None:
+    """Refuse a (speed, dx) without Table 1 poles, naming what a command-line user can do (the library's
+    ``apl_model`` names ``poles=TrailerPoles(...)``, which the command line has no option for)."""
+    known = sorted(TABLE1_CONFIGURATIONS)
+    listed = "; ".join(f"{v:g} m/s at dx {', '.join(f'{h:g}' for w, h in known if w == v)} m"
+                       for v in sorted({w for w, _ in known}, reverse=True))
+    raise InputError(f"{label}: no Table 1 calibration for --speed {speed:g} m/s and --dx {dx:g} m: paper 000 "
+                     f"gives the trailer's poles only for {listed}. If the record was made at one of these, "
+                     "give its --speed and --dx; otherwise identify your trailer at this configuration from bench "
+                     f"records (longprofile road identify --input IN.csv --output OUT.csv --speed {speed:g} "
+                     f"--dx {dx:g} -o model.json) and pass --model model.json.")

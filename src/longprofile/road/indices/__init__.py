@@ -2,6 +2,7 @@
 
 iri -- IRI per segment and whole section, MRI and HRI for two tracks (IRIResult).
 iri_report -- IRI as agencies report it: fixed, continuous or overlapping intervals, SI or US units (IRIReport).
+GapSummary, MIN_VALID_FRACTION -- gaps="restart" (iri, iri_report, analyse_roughness): IRI over the measured parts.
 iri_plausibility, sampling_note -- a sentence when a section IRI is outside any road's range, or the stations are coarse.
 dropout_runs, dropout_note -- runs of one exact elevation over 2 m (a dropout written as a value), and their sentence.
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
@@ -23,6 +24,9 @@ from ..._lazy import lazy_namespace
 _EXPORTS = {
     "._dropouts": (
         "MIN_DROPOUT_RUN_M", "dropout_note", "dropout_runs",
+    ),
+    "._gaps": (
+        "GapSummary", "MIN_VALID_FRACTION",
     ),
     "._faulting": (
         "FaultingResult", "find_joints", "joint_faulting", "step_statistic",
@@ -54,7 +58,8 @@ _EXPORTS = {
 }
 
 __all__ = ["iso8608_profile",
-    "iri", "IRIResult", "iri_report", "IRIReport", "rectified_slope", "RectifiedSlope", "golden_car_matrices",
+    "iri", "IRIResult", "iri_report", "IRIReport", "GapSummary", "MIN_VALID_FRACTION", "rectified_slope",
+    "RectifiedSlope", "golden_car_matrices",
     "GOLDEN_CAR", "iri_plausibility", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",

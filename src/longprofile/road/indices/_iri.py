@@ -16,6 +16,7 @@ from ..._validation import require_positive
 from ...core import Profile
 from ...errors import InputError
 from ...statespace import linear_recursion, linear_recursion_columns
+from ._gaps import MIN_VALID_FRACTION, GappedIRI, GapSummary, gap_columns, gapped_iri, gaps_mode, min_valid_fraction
 
 __all__ = [
     "AUTO_MOVING_AVERAGE_SHARE",
@@ -226,19 +227,42 @@ class IRIResult:
     lead_in: float
     method: str
     moving_average_reason: str = ""
+    valid_length: np.ndarray | None = None
+    hri_valid_length: np.ndarray | None = None
+    gaps: GapSummary | None = None
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per segment: ``start_m, end_m, iri_<track>_m_per_km`` (and ``mri_m_per_km, hri_m_per_km``)."""
+        """One row per segment: ``start_m, end_m, iri_<track>_m_per_km`` (and ``mri_m_per_km, hri_m_per_km``); with
+        ``gaps="restart"`` also ``valid_length_<track>_m`` (and ``valid_length_hri_m``), ``valid_fraction``,
+        ``note``."""
         cols = {"start_m": self.segment_start, "end_m": self.segment_end}
         for j, t in enumerate(self.tracks):
             cols[f"iri_{t}_m_per_km"] = self.iri[:, j]
         if self.mri is not None:
             cols["mri_m_per_km"] = self.mri
             cols["hri_m_per_km"] = self.hri
+        cols.update(_gap_columns(self.valid_length, self.hri_valid_length, self.tracks,
+                                 self.segment_end - self.segment_start, self.gaps, "m"))
         return pd.DataFrame(cols)
 
 
-def _select_tracks(profile: Profile, tracks) -> tuple[np.ndarray, tuple[str, ...]]:
+def _gap_columns(valid, hri_valid, tracks, interval_length, gaps, unit) -> dict:
+    """The ``valid_length_*``, ``valid_fraction`` and ``note`` columns of a table computed with gaps="restart"
+    (none otherwise)."""
+    if valid is None or gaps is None:
+        return {}
+    names = tuple(tracks)
+    if hri_valid is not None:
+        valid, names = np.column_stack([valid, hri_valid]), names + ("hri",)
+    return gap_columns(valid, names, interval_length, gaps.min_valid, unit)
+
+
+#: What a refusal of a profile with gaps says to do (the option of ``iri``, ``iri_report`` and the CLI).
+GAPS_HINT = ("pass --gaps restart (gaps='restart') to compute the IRI over the measured parts, the quarter car "
+             "restarted after each gap, or fill the gap explicitly")
+
+
+def _select_tracks(profile: Profile, tracks, allow_nan: bool = False) -> tuple[np.ndarray, tuple[str, ...]]:
     if tracks is None:
         names = profile.tracks
     else:
@@ -246,10 +270,10 @@ def _select_tracks(profile: Profile, tracks) -> tuple[np.ndarray, tuple[str, ...
         if not names:
             raise InputError("tracks must name at least one track.")
     z = np.column_stack([profile.track(t) for t in names])  # always a new array
-    if np.isnan(z.sum()):  # one pass, no temporary (infinite values are refused by Profile)
+    if not allow_nan and np.isnan(z.sum()):  # one pass, no temporary (infinite values are refused by Profile)
         i, j = np.argwhere(np.isnan(z))[0]
         raise InputError(f"track {names[j]!r} has a missing (NaN) elevation at station {profile.distance[i]:.3f} m; "
-                         "the IRI needs a continuous profile: cut the profile at the gap or fill it explicitly.")
+                         f"the IRI needs a continuous profile: {GAPS_HINT}.")
     return z, names
 
 
@@ -549,8 +573,9 @@ def _rectified_slope(profile, tracks, lead_in, moving_average, base_length, extr
     return _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx)[0]
 
 
-def _check_steps(x: np.ndarray) -> None:
-    """Refuse a station step longer than :data:`MAX_IRI_STEP_M`: a coarse profile (its median step), or gaps."""
+def _check_steps(x: np.ndarray, gaps_allowed: bool = False) -> None:
+    """Refuse a station step longer than :data:`MAX_IRI_STEP_M`: a coarse profile (its median step), or gaps (unless
+    ``gaps_allowed``: ``gaps="restart"`` splits the profile there)."""
     h = np.diff(x)
     k = int(np.argmax(h))
     if h[k] <= MAX_IRI_STEP_M:
@@ -561,11 +586,13 @@ def _check_steps(x: np.ndarray) -> None:
                          f"{MAX_IRI_STEP_M:g} m apart (the quarter car responds to waves down to about 1.3 m; at 2 m the "
                          "IRI of a class C road comes out 69 % low). Stations in mm or ft under a metre label? Name the "
                          "column with its unit (distance_mm, distance_ft).")
+    if gaps_allowed:
+        return
     n = int(np.count_nonzero(h > MAX_IRI_STEP_M))
     raise InputError(f"the profile has {n} gap(s) longer than {MAX_IRI_STEP_M:g} m between stations (the longest "
                      f"{h[k]:.4g} m from station {x[k]:.3f} m; the median step is {med:.4g} m): across a gap the IRI "
-                     "would be that of a straight line (about 0). Cut the profile at the gap(s) and analyse each "
-                     "part, or fill them explicitly.")
+                     f"would be that of a straight line (about 0). Cut the profile at the gap(s) and analyse each "
+                     f"part, or {GAPS_HINT}.")
 
 
 def sampling_note(profile: Profile) -> str | None:
@@ -630,24 +657,35 @@ def _run_arrays(x, z, names, lead_in, moving_average, base_length, extra_station
                           method="constant-step" if regular else "per-step", moving_average_reason=reason), mask
 
 
-def _segment_means(station, step, values, bounds, tol):
-    """Length-weighted mean of per-step values over [bounds[j], bounds[j+1]] (step assigned by its end).
+def _segment_sums(station, step, values, bounds, tol):
+    """Integral of per-step values (step assigned by its end) and length covered over each [bounds[j], bounds[j+1]]:
+    ``(sums (S, K), length (S,))``, both 0 for a segment the stations do not reach.
 
     Every boundary inside the station range is a station (inserted before the run), so segment j covers
     the steps ``e_j .. e_{j+1} - 1`` with ``e_j`` the index of the station at ``bounds[j]``.
     """
     n_seg = bounds.size - 1
-    out = np.full((n_seg, values.shape[1]), np.nan)
-    if n_seg == 0:
-        return out
+    sums = np.zeros((max(n_seg, 0), values.shape[1]))
+    if n_seg <= 0:
+        return sums, np.zeros(0)
     e = np.minimum(np.searchsorted(station, bounds - tol, side="left"), step.size)
     ok = e[1:] > e[:-1]
-    starts = np.minimum(e[:-1], max(e[-1] - 1, 0))
-    length = np.add.reduceat(step[:e[-1]], starts) if e[-1] > 0 else np.zeros(n_seg)
-    for j in range(values.shape[1]):
-        weighted = step[:e[-1]] * values[:e[-1], j]
-        sums = np.add.reduceat(weighted, starts) if e[-1] > 0 else np.zeros(n_seg)
-        out[ok, j] = sums[ok] / length[ok]
+    length = np.zeros(n_seg)
+    if ok.any():  # the segments reached are contiguous runs of steps: one reduceat over them
+        first, end = e[:-1][ok], int(e[1:][ok][-1])
+        length[ok] = np.add.reduceat(step[:end], first)
+        for j in range(values.shape[1]):
+            sums[ok, j] = np.add.reduceat(step[:end] * values[:end, j], first)
+    return sums, length
+
+
+def _segment_means(station, step, values, bounds, tol):
+    """Length-weighted mean of per-step values over [bounds[j], bounds[j+1]] (:func:`_segment_sums`; NaN where
+    the stations do not reach)."""
+    sums, length = _segment_sums(station, step, values, bounds, tol)
+    out = np.full(sums.shape, np.nan)
+    ok = length > 0
+    out[ok] = sums[ok] / length[ok, None]
     return out
 
 
@@ -674,8 +712,24 @@ def _mri_hri(profile, rs, values, section, run_half, per_interval, factor=None):
     return mri, hri, section_mri, float(section_hri)
 
 
+def _gapped(profile, tracks, lead_in, moving_average, base_length, extra, starts_m, ends_m, min_valid, factor,
+            per_interval):
+    """The gaps="restart" computation of :func:`iri` and :func:`iri_report` (:func:`~._gaps.gapped_iri`): the
+    checks of :func:`_run` (the station steps as gaps), then the golden car per run of measured samples."""
+    lead_in = require_positive("lead_in", lead_in)
+    base_length = require_positive("base_length", base_length)
+    _moving_average_mode(moving_average)
+    z, names = _select_tracks(profile, tracks, allow_nan=True)
+    x = profile.distance
+    _check_steps(x, gaps_allowed=True)
+    return gapped_iri(x, z, names, lead_in=lead_in, moving_average=moving_average, base_length=base_length,
+                      extra_stations=extra, per_interval=per_interval, starts_m=starts_m, ends_m=ends_m,
+                      min_valid=min_valid, factor=factor)
+
+
 def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: float | None = None,
-        lead_in: float = 11.0, moving_average: bool | None = None, base_length: float = 0.25) -> IRIResult:
+        lead_in: float = 11.0, moving_average: bool | None = None, base_length: float = 0.25, gaps: str = "refuse",
+        min_valid: float = MIN_VALID_FRACTION) -> IRIResult:
     """International Roughness Index per fixed-length segment and for the whole section (ASTM E1926).
 
     Parameters
@@ -698,6 +752,14 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
         decision and its reason are in ``moving_average`` and ``moving_average_reason`` of the result.
     base_length : float
         Moving-average base, m (default 0.25).
+    gaps : {"refuse", "restart"}
+        Missing (NaN) elevations and station steps over :data:`MAX_IRI_STEP_M`: refused (default), or
+        ``"restart"``: the IRI over the measured parts, the quarter car restarted after each gap, each run of
+        measured samples computed exactly as its own file (:mod:`longprofile.road.indices._gaps`; the result gains
+        ``valid_length``, ``hri_valid_length`` and ``gaps``).
+    min_valid : float
+        With ``gaps="restart"``: the smallest measured fraction of a segment for its IRI to be given (default
+        0.8); below it the segment's IRI is NaN.
 
     Returns
     -------
@@ -707,7 +769,7 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
     Raises
     ------
     InputError
-        NaN elevations, a profile shorter than the lead-in, a start outside the profile.
+        NaN elevations (unless ``gaps="restart"``), a profile shorter than the lead-in, a start outside the profile.
 
     Notes
     -----
@@ -737,6 +799,7 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
     M. W. Sayers, "On the calculation of IRI from longitudinal road profile", TRR 1501, 1995 (HRI, MRI).
     """
     segment_length = require_positive("segment_length", segment_length)
+    gaps, min_valid = gaps_mode(gaps), min_valid_fraction(min_valid)
     x = profile.distance
     if x.size < 2:
         raise InputError(f"the profile needs at least 2 stations; got {x.size}.")
@@ -747,6 +810,15 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
     tol = 1e-6 * (dx if dx is not None else float(np.min(np.diff(x))))
     n_seg = int(np.floor((x[-1] - first) / segment_length + 1e-9))
     bounds = first + segment_length * np.arange(n_seg + 1)
+    if gaps == "restart":
+        g = _gapped(profile, tracks, lead_in, moving_average, base_length, bounds, bounds[:-1], bounds[1:],
+                    min_valid, 1.0, lambda r, mask, t: _segment_sums(r.station, r.step, r.rectified, bounds, t))
+        return IRIResult(segment_start=bounds[:-1], segment_end=bounds[1:], iri=g.values, tracks=g.tracks,
+                         section_iri=g.section, section_start=g.start, section_end=g.end, mri=g.mri, hri=g.hri,
+                         section_mri=g.section_mri, section_hri=g.section_hri, segment_length=segment_length,
+                         moving_average=g.moving_average, base_length=float(base_length), lead_in=float(lead_in),
+                         method=g.method, moving_average_reason=g.moving_average_reason, valid_length=g.valid,
+                         hri_valid_length=g.hri_valid, gaps=g.summary)
     rs = _rectified_slope(profile, tracks, lead_in, moving_average, base_length, bounds, dx)
     seg = _segment_means(rs.station, rs.step, rs.rectified, bounds, tol)
     section = (rs.step @ rs.rectified) / rs.step.sum()
@@ -762,7 +834,18 @@ def iri(profile: Profile, *, segment_length: float = 100.0, tracks=None, start: 
 
 
 def _window_means(station, step, values, inserted, starts, ends, tol):
-    """Length-weighted mean of per-step values over each window ``[starts[j], ends[j]]``, O(M + S).
+    """Length-weighted mean of per-step values over each window ``[starts[j], ends[j]]``, O(M + S)
+    (:func:`_window_sums`; NaN where the stations do not reach)."""
+    total, length = _window_sums(station, step, values, inserted, starts, ends, tol)
+    out = np.full_like(total, np.nan)
+    ok = length > 0
+    out[ok] = total[ok] / length[ok, None]
+    return out
+
+
+def _window_sums(station, step, values, inserted, starts, ends, tol):
+    """Integral of per-step values and length covered over each window ``[starts[j], ends[j]]``, O(M + S):
+    ``(total (S, K), length (S,))``, both 0 for a window the stations do not reach.
 
     Every window limit inside the station range is a station of the run (inserted before it; ``inserted`` marks
     them, None when none was). The quadrature is that of a run in which only the window's own two limits were
@@ -787,11 +870,7 @@ def _window_means(station, step, values, inserted, starts, ends, tol):
         before = orig[np.searchsorted(orig, k) - 1]  # last unsplit station before the window's end
         lo = np.maximum(station[before], station[ia[cut]])
         total[cut] += (station[k] - lo)[:, None] * (values[k - 1] - v_orig[k - 1])
-    length = station[ib] - station[ia]
-    out = np.full_like(total, np.nan)
-    ok = length > 0
-    out[ok] = total[ok] / length[ok, None]
-    return out
+    return total, station[ib] - station[ia]
 
 
 #: Report unit systems: length unit, its value in m, IRI unit, its value per m/km, column suffix.
@@ -876,6 +955,9 @@ class IRIReport(ReportUnits):
     mode: str
     units: str
     metadata: dict
+    valid_length: np.ndarray | None = None
+    hri_valid_length: np.ndarray | None = None
+    gaps: GapSummary | None = None
 
     def to_frame(self) -> pd.DataFrame:
         """One row per interval: ``start_<u>, end_<u>, iri_<track>_<iri-u>`` (+ ``mri_<iri-u>, hri_<iri-u>``).
@@ -890,6 +972,8 @@ class IRIReport(ReportUnits):
         if self.mri is not None:
             cols[f"mri_{iu}"] = self.mri
             cols[f"hri_{iu}"] = self.hri
+        cols.update(_gap_columns(self.valid_length, self.hri_valid_length, self.tracks,
+                                 self.interval_end - self.interval_start, self.gaps, lu))
         frame = pd.DataFrame(cols)
         frame.attrs["longprofile"] = dict(self.metadata)
         return frame
@@ -975,15 +1059,17 @@ def _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval, wi
     return starts_u, ends_u, bounds_u, grid
 
 
-def _report_metadata(rs, section, section_mri, section_hri, *, mode_key, units_key, lu, iri_unit, grid, first, x0,
-                     x1, n_samples, n_intervals, ma_mode, base_length, lead_in, scale) -> dict:
-    """The ``metadata`` of an :class:`IRIReport`: software, standard, method, grid, stations, section values."""
+def _report_metadata(g, *, mode_key, units_key, lu, iri_unit, grid, first, x0, x1, n_samples, n_intervals, ma_mode,
+                     base_length, lead_in, scale) -> dict:
+    """The ``metadata`` of an :class:`IRIReport` (from the :class:`~._gaps.GappedIRI` ``g`` of
+    :func:`_report_values`): software, standard, method, grid, stations, section values, gaps."""
     from ... import __version__
 
+    carried = "state carried through" if g.summary is None else "restarted after each gap (gaps='restart')"
     meta = {
         "software": f"longprofile {__version__}",
         "standard": "ASTM E1926-08 (R2015) / World Bank Technical Paper 46 (1986); MRI, HRI: Sayers, TRR 1501 (1995)",
-        "method": f"golden quarter car at 80 km/h, exact discretisation ({rs.method}), state carried through",
+        "method": f"golden quarter car at 80 km/h, exact discretisation ({g.method}), {carried}",
         "mode": mode_key,
         "units": units_key,
         "length_unit": lu,
@@ -994,26 +1080,66 @@ def _report_metadata(rs, section, section_mri, section_hri, *, mode_key, units_k
         "last_station": x1,
         "n_samples": n_samples,
         "n_intervals": n_intervals,
-        "tracks": ",".join(rs.tracks),
+        "tracks": ",".join(g.tracks),
         "moving_average": ma_mode,
-        "moving_average_applied": bool(rs.moving_average),
+        "moving_average_applied": bool(g.moving_average),
         "moving_average_rule": _moving_average_rule(base_length),
-        "moving_average_reason": rs.moving_average_reason,
+        "moving_average_reason": g.moving_average_reason,
         "base_length_m": float(base_length),
         "lead_in_m": float(lead_in),
-        "section_start": float(rs.station[0] / scale),
-        "section_end": float(rs.station[-1] / scale),
+        "section_start": float(g.start / scale),
+        "section_end": float(g.end / scale),
     }
-    for t, v in zip(rs.tracks, section):
+    for t, v in zip(g.tracks, g.section):
         meta[f"section_iri_{t}"] = float(v)
-    if section_mri is not None:
-        meta["section_mri"], meta["section_hri"] = section_mri, section_hri
+    if g.section_mri is not None:
+        meta["section_mri"], meta["section_hri"] = g.section_mri, g.section_hri
+    if g.summary is not None:
+        meta.update(g.summary.metadata(scale))
+        meta["gap_note"] = g.summary.message(length_unit=lu, metres_per_unit=scale,
+                                             what="segment" if mode_key == "fixed" else "window")
     return meta
+
+
+def _report_values(profile, tracks, mode_key, lead_in, ma_mode, base_length, bounds_m, starts_m, ends_m, dx, tol,
+                   factor, gaps, min_valid) -> GappedIRI:
+    """The IRI per interval of :func:`iri_report` (in its unit: ``factor`` per m/km), MRI/HRI and section values,
+    as a :class:`~._gaps.GappedIRI` (``valid``, ``hri_valid`` and ``summary`` None unless ``gaps="restart"``)."""
+    if gaps == "restart":
+        def sums(r, mask, t):
+            if mode_key == "fixed":
+                return _segment_sums(r.station, r.step, r.rectified, bounds_m, t)
+            # only the windows that reach the run (the others are 0): O(run + its windows) per run
+            a = np.searchsorted(ends_m, r.station[0], side="left")
+            b = np.searchsorted(starts_m, r.station[-1], side="right")
+            total, length = np.zeros((starts_m.size, r.rectified.shape[1])), np.zeros(starts_m.size)
+            total[a:b], length[a:b] = _window_sums(r.station, r.step, r.rectified, mask, starts_m[a:b], ends_m[a:b], t)
+            return total, length
+
+        return _gapped(profile, tracks, lead_in, ma_mode, base_length, bounds_m, starts_m, ends_m, min_valid, factor,
+                       sums)
+
+    def per_interval(r, mask):
+        if mode_key == "fixed":
+            return _segment_means(r.station, r.step, r.rectified, bounds_m, tol)
+        return _window_means(r.station, r.step, r.rectified, mask, starts_m, ends_m, tol)
+
+    rs, inserted = _run(profile, tracks, lead_in, ma_mode, base_length, bounds_m, dx)
+    values = per_interval(rs, inserted) * factor
+    section = (rs.step @ rs.rectified) / rs.step.sum() * factor
+    mri, hri, section_mri, section_hri = _mri_hri(
+        profile, rs, values, section, lambda half: _run(half, None, lead_in, ma_mode, base_length, bounds_m, dx),
+        per_interval, factor=factor)
+    return GappedIRI(tracks=rs.tracks, values=values, valid=None, mri=mri, hri=hri, hri_valid=None, section=section,
+                     section_mri=section_mri, section_hri=section_hri, start=float(rs.station[0]),
+                     end=float(rs.station[-1]), moving_average=rs.moving_average,
+                     moving_average_reason=rs.moving_average_reason, method=rs.method, summary=None)
 
 
 def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0, window: float | None = None,
                step: float | None = None, start: float | None = None, units: str = "si", tracks=None,
-               lead_in: float = 11.0, moving_average="auto", base_length: float = 0.25) -> IRIReport:
+               lead_in: float = 11.0, moving_average="auto", base_length: float = 0.25, gaps: str = "refuse",
+               min_valid: float = MIN_VALID_FRACTION) -> IRIReport:
     """The whole IRI report of a profile as road agencies make it: fixed, continuous or overlapping intervals.
 
     Parameters
@@ -1049,6 +1175,11 @@ def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0
         The 250 mm moving average (see Notes). None/True/False are the :func:`iri` spellings.
     base_length : float
         Moving-average base, **m** in both unit systems (default 0.25).
+    gaps : {"refuse", "restart"}, min_valid : float
+        As in :func:`iri`: missing elevations refused (default), or the IRI over the measured parts with the
+        quarter car restarted after each gap, an interval measured over less than ``min_valid`` (default 0.8) of its
+        length NaN. The report then has ``valid_length``, ``hri_valid_length`` (length unit), ``gaps`` and the gap
+        metadata (``gap_count``, ``gap_length``, ``gap_note``...).
 
     Returns
     -------
@@ -1092,6 +1223,7 @@ def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0
     (1995) for MRI/HRI; FHWA ProVAL (continuous IRI, 25 ft base length).
     """
     mode_key, units_key = _report_mode_and_units(mode, units)
+    gaps, min_valid = gaps_mode(gaps), min_valid_fraction(min_valid)
     u = REPORT_UNITS[units_key]
     lu, scale = u["length_unit"], u["metres_per_unit"]
     ma_mode = _moving_average_mode(moving_average)
@@ -1108,25 +1240,14 @@ def iri_report(profile: Profile, *, mode: str = "fixed", interval: float = 100.0
     starts_u, ends_u, bounds_u, grid = _report_intervals(mode_key, x, dx, first, x1, scale, lu, tol_u, interval,
                                                          window, step)
     bounds_m = np.minimum(bounds_u * scale, x[-1])
-    rs, inserted = _run(profile, tracks, lead_in, ma_mode, base_length, bounds_m, dx)
-
-    def per_interval(r, mask):
-        if mode_key == "fixed":
-            return _segment_means(r.station, r.step, r.rectified, bounds_m, tol)
-        return _window_means(r.station, r.step, r.rectified, mask, np.minimum(starts_u * scale, x[-1]),
-                             np.minimum(ends_u * scale, x[-1]), tol)
-
-    k_iri = u["iri_per_m_per_km"]
-    values = per_interval(rs, inserted) * k_iri
-    section = (rs.step @ rs.rectified) / rs.step.sum() * k_iri
-    mri, hri, section_mri, section_hri = _mri_hri(
-        profile, rs, values, section, lambda half: _run(half, None, lead_in, ma_mode, base_length, bounds_m, dx),
-        per_interval, factor=k_iri)
-    meta = _report_metadata(rs, section, section_mri, section_hri, mode_key=mode_key, units_key=units_key, lu=lu,
-                            iri_unit=u["iri_unit"], grid=grid, first=first, x0=x0, x1=x1, n_samples=int(x.size),
-                            n_intervals=int(starts_u.size), ma_mode=ma_mode, base_length=base_length,
-                            lead_in=lead_in, scale=scale)
-    return IRIReport(interval_start=starts_u, interval_end=ends_u, iri=values, tracks=rs.tracks, mri=mri, hri=hri,
-                     section_iri=section, section_mri=section_mri, section_hri=section_hri,
-                     section_start=float(rs.station[0] / scale), section_end=float(rs.station[-1] / scale),
-                     mode=mode_key, units=units_key, metadata=meta)
+    g = _report_values(profile, tracks, mode_key, lead_in, ma_mode, base_length, bounds_m,
+                       np.minimum(starts_u * scale, x[-1]), np.minimum(ends_u * scale, x[-1]), dx, tol,
+                       u["iri_per_m_per_km"], gaps, min_valid)
+    meta = _report_metadata(g, mode_key=mode_key, units_key=units_key, lu=lu, iri_unit=u["iri_unit"], grid=grid,
+                            first=first, x0=x0, x1=x1, n_samples=int(x.size), n_intervals=int(starts_u.size),
+                            ma_mode=ma_mode, base_length=base_length, lead_in=lead_in, scale=scale)
+    return IRIReport(interval_start=starts_u, interval_end=ends_u, iri=g.values, tracks=g.tracks, mri=g.mri,
+                     hri=g.hri, section_iri=g.section, section_mri=g.section_mri, section_hri=g.section_hri,
+                     section_start=g.start / scale, section_end=g.end / scale, mode=mode_key, units=units_key,
+                     metadata=meta, valid_length=None if g.valid is None else g.valid / scale,
+                     hri_valid_length=None if g.hri_valid is None else g.hri_valid / scale, gaps=g.summary)

@@ -19,6 +19,7 @@ import numpy as np
 from ..._validation import as_float_array, require_positive
 from ...core import Profile
 from ...errors import InputError, ShapeError
+from ._gaps import gaps_mode, valid_runs
 
 __all__ = [
     "ISO8608_CLASSES",
@@ -233,7 +234,7 @@ def _window(name: str, n: int) -> np.ndarray:
 
 
 def profile_psd(profile: Profile, *, segment_length: float | None = None, detrend: str = "linear",
-                window: str = "hann") -> ProfilePSD:
+                window: str = "hann", gaps: str = "refuse") -> ProfilePSD:
     """Welch estimate of the one-sided displacement PSD of each track, in cycles/m.
 
     Parameters
@@ -247,6 +248,11 @@ def profile_psd(profile: Profile, *, segment_length: float | None = None, detren
         Per-segment detrending (default linear: removes grade).
     window : str
         Window name of :func:`scipy.signal.get_window` (default Hann, periodic), 50 % overlap.
+    gaps : {"refuse", "restart"}
+        Missing (NaN) elevations: refused (default), or ``"restart"``: Welch's average over the segments lying in
+        the runs of measured samples only (each run as its own record; ``mlab.psd`` per run, the runs' averages
+        weighted by their numbers of segments; a run shorter than one segment is not used). The default segment
+        is then at most the shortest track's longest run.
 
     Returns
     -------
@@ -271,28 +277,52 @@ def profile_psd(profile: Profile, *, segment_length: float | None = None, detren
 
     if detrend not in ("linear", "constant"):
         raise InputError(f"profile_psd: detrend must be 'linear' or 'constant', not {detrend!r}.")
+    gaps_mode(gaps)
     dx = profile.spacing
     if dx is None:
         raise InputError("profile_psd needs a constant station spacing; this profile is irregular. Interpolate it "
                          "onto a regular grid first (e.g. numpy.interp) and state it in your report.")
-    if np.isnan(profile.elevation).any():
-        raise InputError("profile_psd: the elevation has NaN (missing) samples; fill or cut them out first.")
     n = profile.n_samples
+    z = profile.elevation.reshape(n, -1)
+    runs = None
+    if np.isnan(z).any():
+        if gaps_mode(gaps) != "restart":
+            raise InputError("profile_psd: the elevation has NaN (missing) samples; fill or cut them out first, or "
+                             "pass gaps='restart' (--gaps restart) to average the Welch segments of the measured runs.")
+        runs = [valid_runs(profile.distance, np.isnan(z[:, j])) for j in range(z.shape[1])]
+        n = min((max((k - i + 1 for i, k in r), default=0) for r in runs), default=0)
     if segment_length is None:
         nper = min(n, int(2 ** np.ceil(np.log2(max(100.0 / dx, 8)))))
     else:
         seg = require_positive("segment_length", segment_length)
         nper = int(round(seg / dx))
         if nper > n:
-            raise InputError(f"segment_length {seg:g} m is longer than the profile ({n * dx:g} m); shorten it.")
+            what = "the profile" if runs is None else "the longest measured run between the gaps"
+            raise InputError(f"segment_length {seg:g} m is longer than {what} ({n * dx:g} m); shorten it.")
         if nper < 8:
             raise InputError(f"segment_length {seg:g} m covers only {nper} samples of {dx:g} m; need at least 8.")
+    if runs is not None and nper < 8:
+        raise InputError(f"the longest run of measured elevations between the gaps has {n} samples; the PSD needs at "
+                         "least 8.")
     taps = _window(window, nper)
-    columns = [mlab.psd(z, NFFT=nper, Fs=1.0 / dx, detrend="mean" if detrend == "constant" else "linear",
+
+    def welch(col):
+        return mlab.psd(col, NFFT=nper, Fs=1.0 / dx, detrend="mean" if detrend == "constant" else "linear",
                         window=taps, noverlap=nper // 2, sides="onesided", scale_by_freq=True)
-               for z in profile.elevation.T]
+
+    if runs is None:
+        columns = [welch(col) for col in z.T]
+        n_segments = 1 + (n - nper) // (nper - nper // 2)
+    else:
+        columns, counts = [], []
+        for j, track_runs in enumerate(runs):
+            parts = [(1 + (k - i + 1 - nper) // (nper - nper // 2), welch(z[i:k + 1, j])) for i, k in track_runs
+                     if k - i + 1 >= nper]
+            count = sum(c for c, _ in parts)
+            columns.append((sum(c * p for c, (p, _) in parts) / count, parts[0][1][1]))
+            counts.append(count)
+        n_segments = min(counts)
     pxx, f = np.stack([c[0] for c in columns], axis=1), columns[0][1]
-    n_segments = 1 + (n - nper) // (nper - nper // 2)
     return ProfilePSD(wavenumber=f, psd=pxx, tracks=profile.tracks, segment_length=nper * dx, n_segments=n_segments)
 
 

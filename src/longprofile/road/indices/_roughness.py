@@ -7,10 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..._validation import require_positive
+from ..._validation import require_positive, true_runs
 from ...core import Profile
 from ...errors import InputError, UnitsError
-from ._iri import PLAUSIBLE_IRI_M_PER_KM, REPORT_UNITS, rectified_slope
+from ._gaps import gaps_mode, run_slopes, valid_runs
+from ._iri import MAX_IRI_STEP_M, PLAUSIBLE_IRI_M_PER_KM, REPORT_UNITS, _check_steps, _select_tracks, rectified_slope
 
 __all__ = [
     "APL_BANDS",
@@ -106,13 +107,13 @@ def _check_threshold_unit(threshold: float) -> None:
 
 def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: float = 2.7, tracks=None,
                         lead_in: float = 11.0, moving_average: bool | None = None,
-                        base_length: float = 0.25) -> LocalizedRoughness:
+                        base_length: float = 0.25, gaps: str = "refuse") -> LocalizedRoughness:
     """Continuous short-interval IRI (sliding window) and the list of locations above a threshold.
 
     Parameters
     ----------
     profile : Profile
-        Elevations in m (no NaN in the analysed tracks).
+        Elevations in m (no NaN in the analysed tracks unless ``gaps="restart"``).
     window : float
         Length of the sliding IRI window, m (default 25).
     threshold : float
@@ -121,6 +122,11 @@ def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: fl
         ``numpy.inf`` asks for the curve alone.
     tracks, lead_in, moving_average, base_length
         As in :func:`longprofile.road.iri`.
+    gaps : {"refuse", "restart"}
+        As in :func:`longprofile.road.iri`. With ``"restart"`` each run of measured samples of a track is computed
+        as its own profile and a window is evaluated only where it lies inside one run (the stations of all
+        tracks' windows together; NaN where a track has none); with two tracks the "MRI" column is the mean of the
+        two (NaN where either is). A defect never spans a gap.
 
     Returns
     -------
@@ -140,17 +146,34 @@ def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: fl
     if not (isinstance(threshold, (int, float, np.floating)) and np.isposinf(threshold)):
         threshold = require_positive("threshold", threshold, strict=False)
         _check_threshold_unit(threshold)
-    rs = rectified_slope(profile, tracks=tracks, lead_in=lead_in, moving_average=moving_average,
-                         base_length=base_length)
-    x = rs.station
-    if x[-1] - x[0] < window:
-        raise InputError(f"the profile ({x[-1] - x[0]:.2f} m) is shorter than the window ({window:g} m).")
-    values = rs.rectified
-    names = rs.tracks
-    if values.shape[1] == 2:
-        values = np.column_stack([values, values.mean(axis=1)])
-        names = names + ("MRI",)
-    cum = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(rs.step[:, None] * values, axis=0)])
+    if gaps_mode(gaps) == "restart":
+        centres, ciri, names = _localized_gapped(profile, tracks, window, lead_in, moving_average, base_length)
+    else:
+        rs = rectified_slope(profile, tracks=tracks, lead_in=lead_in, moving_average=moving_average,
+                             base_length=base_length)
+        x = rs.station
+        if x[-1] - x[0] < window:
+            raise InputError(f"the profile ({x[-1] - x[0]:.2f} m) is shorter than the window ({window:g} m).")
+        values = rs.rectified
+        names = rs.tracks
+        if values.shape[1] == 2:
+            values = np.column_stack([values, values.mean(axis=1)])
+            names = names + ("MRI",)
+        centres, ciri = _window_iri(rs.station, rs.step, values, window)
+    defects = []
+    for j, name in enumerate(names):
+        for a, b in true_runs(ciri[:, j] > threshold):
+            k = a + int(np.argmax(ciri[a:b + 1, j]))
+            defects.append(RoughnessDefect(track=name, start=float(centres[a]), end=float(centres[b]),
+                                           peak_station=float(centres[k]), peak_iri=float(ciri[k, j])))
+    return LocalizedRoughness(station=centres, continuous_iri=ciri, tracks=names, window=window,
+                              threshold=threshold, defects=tuple(defects))
+
+
+def _window_iri(x, step, values, window):
+    """Window centres (the stations ``x`` whose window lies inside them) and the continuous IRI of ``values``
+    (M - 1, K: the rectified slope per step) over ``window`` centred on each."""
+    cum = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(step[:, None] * values, axis=0)])
     inside = (x - 0.5 * window >= x[0] - 1e-9) & (x + 0.5 * window <= x[-1] + 1e-9)
     centres = x[inside]
     ciri = np.empty((centres.size, values.shape[1]))
@@ -158,19 +181,32 @@ def localized_roughness(profile: Profile, *, window: float = 25.0, threshold: fl
         hi = np.interp(centres + 0.5 * window, x, cum[:, j])
         lo = np.interp(centres - 0.5 * window, x, cum[:, j])
         ciri[:, j] = (hi - lo) / window
-    defects = []
-    for j, name in enumerate(names):
-        above = ciri[:, j] > threshold
-        if not above.any():
-            continue
-        edges = np.diff(np.concatenate([[0], above.astype(np.int8), [0]]))
-        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
-        for a, b in zip(starts, ends):
-            k = a + int(np.argmax(ciri[a:b + 1, j]))
-            defects.append(RoughnessDefect(track=name, start=float(centres[a]), end=float(centres[b]),
-                                           peak_station=float(centres[k]), peak_iri=float(ciri[k, j])))
-    return LocalizedRoughness(station=centres, continuous_iri=ciri, tracks=names, window=window,
-                              threshold=threshold, defects=tuple(defects))
+    return centres, ciri
+
+
+def _localized_gapped(profile, tracks, window, lead_in, moving_average, base_length):
+    """``(centres, ciri, names)`` of :func:`localized_roughness` with ``gaps="restart"``: the windows inside each run
+    of measured samples of each track (:mod:`._gaps`), on the union of the tracks' centres."""
+    z, names = _select_tracks(profile, tracks, allow_nan=True)
+    x = profile.distance
+    _check_steps(x, gaps_allowed=True)
+    missing = np.isnan(z)
+    parts = []  # (column, centres, values)
+    for j in range(z.shape[1]):
+        runs = valid_runs(x, missing[:, j], max_step=MAX_IRI_STEP_M)
+        kept, _ = run_slopes(x, z[:, [j]], [names[j]], runs, lead_in=lead_in, moving_average=moving_average,
+                             base_length=base_length)
+        parts += [(j, *_window_iri(rs.station, rs.step, rs.rectified, window)) for *_, rs, _m, _t in kept]
+    centres = np.unique(np.concatenate([c for _, c, _ in parts])) if parts else np.zeros(0)
+    if centres.size == 0:
+        raise InputError(f"no run of measured elevations between the gaps is as long as the window ({window:g} m) "
+                         "and the lead-in: no localised roughness can be computed; use a shorter window.")
+    ciri = np.full((centres.size, z.shape[1]), np.nan)
+    for j, c, v in parts:
+        ciri[np.searchsorted(centres, c), j] = v[:, 0]
+    if z.shape[1] == 2:
+        return centres, np.column_stack([ciri, ciri.mean(axis=1)]), names + ("MRI",)
+    return centres, ciri, names
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,7 +285,8 @@ def waveband_energy(profile: Profile, *, bands: dict | None = None, segment_leng
     names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
     z = np.column_stack([profile.track(t) for t in names])
     if np.isnan(z).any():
-        raise InputError("waveband_energy: the elevation has NaN (missing) samples; fill or cut them out first.")
+        raise InputError("waveband_energy: the elevation has NaN (missing) samples, and the band-pass filters the "
+                         "whole record (no per-run computation): fill or cut them out first.")
     for name, (lo, _hi) in bands.items():
         if lo < 2 * dx:
             raise InputError(f"band {name!r} starts at {lo:g} m, shorter than twice the spacing ({2 * dx:g} m): "

@@ -8,6 +8,7 @@ import numpy as np
 
 from ...core import Profile
 from ...errors import InputError
+from ._gaps import MIN_VALID_FRACTION
 from ._iri import IRIResult, iri
 from ._iso8608 import ISO8608Fit, ProfilePSD, fit_iso8608, profile_psd
 from ._roughness import APL_BANDS, LocalizedRoughness, WavebandEnergy, localized_roughness, waveband_energy
@@ -48,7 +49,8 @@ class RoughnessAnalysis:
 
 def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks=None, window: float = 25.0,
                       threshold: float = 2.7, bands: dict | None = None, band_segment_length: float = 200.0,
-                      lead_in: float = 11.0) -> RoughnessAnalysis:
+                      lead_in: float = 11.0, gaps: str = "refuse",
+                      min_valid: float = MIN_VALID_FRACTION) -> RoughnessAnalysis:
     """IRI, localised roughness, PSD with ISO 8608 class and waveband energies of a profile.
 
     Parameters
@@ -67,13 +69,19 @@ def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks
         Segment length for waveband energies, m (default 200).
     lead_in : float
         IRI initialisation length, m (default 11).
+    gaps : {"refuse", "restart"}, min_valid : float
+        Missing elevations (NaN): refused (default), or ``"restart"``: each run of measured samples computed as its
+        own profile -- the IRI per segment over the measured parts (NaN below ``min_valid``, default 0.8, of the
+        segment measured; :func:`~longprofile.road.iri`), the localised roughness in windows inside one run, the
+        PSD from the Welch segments inside the runs; the waveband energies (a band-pass of the whole record) are
+        not computed. A note names the gaps.
 
     Returns
     -------
     RoughnessAnalysis
         The IRI and localised roughness are always computed; PSD, ISO 8608 fit and waveband energies are
         None with an explanation in ``notes`` when the profile does not allow them (irregular stations,
-        too short, too coarse).
+        too short, too coarse, gaps for the waveband energies).
     """
     names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
     if not names:
@@ -82,17 +90,20 @@ def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks
                   tracks=names, std=None if profile.std is None else profile.std[:, [profile.tracks.index(t) for t in names]],
                   name=profile.name)
     notes = []
-    iri_res = iri(sub, segment_length=segment_length, lead_in=lead_in)
+    iri_res = iri(sub, segment_length=segment_length, lead_in=lead_in, gaps=gaps, min_valid=min_valid)
+    if iri_res.gaps is not None and iri_res.gaps.any:
+        notes.append(f"Gaps: {iri_res.gaps.message()} Localised roughness: windows inside one measured run only; "
+                     "PSD: the Welch segments inside the measured runs.")
     if iri_res.iri.shape[0] == 0:
         notes.append(f"The profile is shorter than one {segment_length:g} m segment: only the section IRI is given.")
-    loc = localized_roughness(sub, window=window, threshold=threshold, lead_in=lead_in)
+    loc = localized_roughness(sub, window=window, threshold=threshold, lead_in=lead_in, gaps=gaps)
     psd = fits = wave = None
     if sub.spacing is None:
         notes.append("Stations are irregular: the PSD, ISO 8608 class and waveband energies need a constant step and "
                      "are not computed (interpolate onto a regular grid explicitly to get them).")
     else:
         try:
-            psd = profile_psd(sub)
+            psd = profile_psd(sub, gaps=gaps)
             fits = tuple(fit_iso8608(psd.wavenumber, psd.psd[:, k]) for k in range(len(names)))
         except InputError as exc:
             notes.append(f"ISO 8608 fit not computed: {exc}")

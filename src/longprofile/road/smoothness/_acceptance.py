@@ -18,7 +18,15 @@ from ..._validation import true_runs as _runs
 from ...core import Profile
 from ...errors import InputError, InputFormatError, UnitsError
 from ..indices._dropouts import dropout_message, dropout_runs
-from ..indices._iri import PLAUSIBLE_IRI_M_PER_KM, REPORT_UNITS, ReportUnits, iri_plausibility, rectified_slope
+from ..indices._gaps import run_slopes, valid_runs
+from ..indices._iri import (
+    PLAUSIBLE_IRI_M_PER_KM,
+    REPORT_UNITS,
+    ReportUnits,
+    _check_steps,
+    iri_plausibility,
+    rectified_slope,
+)
 
 __all__ = ["AcceptanceResult", "AcceptanceSpec", "acceptance_slope", "default_spec", "lot_bounds", "read_spec",
            "smoothness_acceptance", "spec_from_dict"]
@@ -82,6 +90,25 @@ class AcceptanceSpec(ReportUnits):
     def depth_factor(self) -> float:
         """Metres per spec depth unit (mm in SI, in in US)."""
         return 1e-3 if self.units == "si" else 0.0254
+
+    def with_unit_names(self, table: pd.DataFrame) -> pd.DataFrame:
+        """``table`` (``lots``, ``localized``, ``defects``, ``histogram`` of an :class:`AcceptanceResult` or a
+        grind list) with each column's unit in its name, as ``road acceptance`` writes them and as ``road iri``
+        names its own: lengths ``_m`` / ``_ft``, IRI ``_m_per_km`` / ``_in_per_mi``, depths ``_mm`` / ``_in``
+        (``start_m``, ``iri_left_m_per_km``, ``max_depth_mm``). Counts, pay factors, names and flags keep theirs."""
+        iri = REPORT_UNITS[self.units]["iri_column"]
+        suffix = {**dict.fromkeys(_LENGTH_COLUMNS, self.length_unit), **dict.fromkeys(_IRI_COLUMNS, iri),
+                  **dict.fromkeys(_DEPTH_COLUMNS, "mm" if self.units == "si" else "in")}
+        names = {c: f"{c}_{suffix.get(c, iri)}" for c in table.columns
+                 if c in suffix or str(c).startswith("iri_")}
+        return table.rename(columns=names)
+
+
+#: Columns of the acceptance tables in the spec's length unit, its IRI unit and its depth unit
+#: (:meth:`AcceptanceSpec.with_unit_names`; ``iri_<track>`` columns are IRI too).
+_LENGTH_COLUMNS = ("start", "end", "length", "included_length", "peak_station", "station")
+_IRI_COLUMNS = ("mri", "index", "peak", "peak_before", "peak_after", "low", "high")
+_DEPTH_COLUMNS = ("max_depth", "mean_depth")
 
 
 #: TOML layout of a spec file: section -> key -> AcceptanceSpec field (top-level keys under "").
@@ -445,10 +472,12 @@ def acceptance_slope(profile: Profile, spec: AcceptanceSpec, *, tracks=None):
     """:func:`~longprofile.road.rectified_slope` of the profile for the acceptance; missing (NaN) elevations are
     accepted inside the spec's exclusion zones only.
 
-    With such gaps the golden car runs once per part between them (each restarted with the standard 11 m
-    initialisation, ASTM E1926) and the parts are joined with a zero rectified slope across each gap: the gap lies
-    in an excluded zone, whose integral the lots subtract and whose windows are blank. A part wholly inside a zone is
-    skipped. A gap outside the zones is refused (:class:`InputError`), naming it and the zone that would cover it.
+    With such gaps the golden car runs once per part between them (``valid_runs`` and ``run_slopes`` of
+    :mod:`longprofile.road.indices._gaps`, as ``road iri --gaps restart``: each part restarted with the standard
+    11 m initialisation, ASTM E1926) and the parts are joined with a zero rectified slope across each gap: the gap
+    lies in an excluded zone, whose integral the lots subtract and whose windows are blank. A part wholly inside a
+    zone is skipped. A gap outside the zones is refused (:class:`InputError`), naming it and the zone that would
+    cover it.
     """
     names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
     z = np.column_stack([profile.track(t) for t in names])
@@ -460,15 +489,16 @@ def acceptance_slope(profile: Profile, spec: AcceptanceSpec, *, tracks=None):
     for i, k in _runs(missing):
         if not any(a <= x[i] and x[k] <= b for a, b in zones):
             _refuse_gap(x, z, names, i, k, spec)
-    parts = [(i, k) for i, k in _runs(~missing) if not any(a <= x[i] and x[k] <= b for a, b in zones)]
-    runs = []
+    parts = [(i, k) for i, k in valid_runs(x, missing) if not any(a <= x[i] and x[k] <= b for a, b in zones)]
     for i, k in parts:
-        if x[k] - x[i] < 11.0:  # the golden car's lead-in: a shorter part cannot be initialised
-            raise InputError(f"the profile between the missing elevations, {x[i] / scale:.3f} to {x[k] / scale:.3f} "
-                             f"{spec.length_unit}, is shorter than the IRI's 11 m lead-in: extend the exclusion zone "
-                             "over it.")
-        runs.append(rectified_slope(Profile(distance=x[i:k + 1], elevation=z[i:k + 1], tracks=names)))
-    return _join_runs(runs)
+        _check_steps(x[i:k + 1])  # a station step over 1 m inside a part is refused, as without gaps
+    runs, short = run_slopes(x, z, names, parts, lead_in=11.0, moving_average=None, base_length=0.25)
+    if short:  # the golden car's lead-in: a shorter part cannot be initialised
+        i, k = short[0]
+        raise InputError(f"the profile between the missing elevations, {x[i] / scale:.3f} to {x[k] / scale:.3f} "
+                         f"{spec.length_unit}, is shorter than the IRI's 11 m lead-in: extend the exclusion zone "
+                         "over it.")
+    return _join_runs([rs for _i, _k, rs, _mask, _tol in runs])
 
 
 def _refuse_gap(x, z, names, i, k, spec) -> None:

@@ -408,8 +408,9 @@ def certify_profiler(reference: Profile, runs, *, tracks=None, filter: str = "ir
         if not tracks:
             lab, run = next((lab, r) for lab, r in zip(labels, runs) if not set(reference.tracks) & set(r.tracks))
             raise InputError(f"no track of the reference {list(reference.tracks)} is in every run: {lab} has "
-                             f"{list(run.tracks)}; tracks are matched by name (rename the column, e.g. "
-                             f"{run.tracks[0]}_m -> {reference.tracks[0]}_m).")
+                             f"{list(run.tracks)}; tracks are matched by name: rename the run's track with --rename "
+                             f"{run.tracks[0]}={reference.tracks[0]} (road compare, or road convert to keep the "
+                             f"file; in Python, profile.renamed({{{run.tracks[0]!r}: {reference.tracks[0]!r}}})).")
     else:
         tracks = [tracks] if isinstance(tracks, str) else list(tracks)
     kw = {"filter": filter, "band": band, "max_offset": max_offset}

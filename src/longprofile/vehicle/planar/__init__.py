@@ -24,7 +24,7 @@ from ._model import (
                         slope_observer_matrices,
 )
 from ._params import GRAVITY, SIMULATOR_ONLY, WHEELS, Vehicle, default_vehicle, load_vehicle
-from ._sensor_calibration import SensorCalibration, calibrate_sensors
+from ._sensor_calibration import CALIBRATION_MIN_BLOCKS, SensorCalibration, calibrate_sensors
 from ._simulate import (
                         LOG_COLUMNS,
                         SCENARIOS,
@@ -35,6 +35,7 @@ from ._simulate import (
                         SensorSpec,
                         ackermann_angles,
                         drive_scenario,
+                        missed_scenario_events,
                         simulate_drive,
 )
 from ._speed_reference import SPEED_SOURCES, SpeedReference, speed_reference
@@ -43,11 +44,11 @@ __all__ = [
     "Vehicle", "load_vehicle", "default_vehicle", "SIMULATOR_ONLY", "WHEELS", "GRAVITY",
     "TyreForces", "dugoff_forces",
     "DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth", "PlanarSimulation",
-    "simulate_drive", "ackermann_angles", "LOG_COLUMNS",
+    "simulate_drive", "ackermann_angles", "LOG_COLUMNS", "missed_scenario_events",
     "EKFTuning", "planar_ekf_model", "slope_ekf_model", "planar_inputs", "planar_measurements",
     "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",
     "SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation", "ForceScaleFit", "force_scale_fit",
-    "SensorCalibration", "calibrate_sensors",
+    "SensorCalibration", "calibrate_sensors", "CALIBRATION_MIN_BLOCKS",
     "accuracy_scores", "sensitivity_study", "speed_measurement_study", "PAPER_PROTOTYPE_ERRORS",
 ]

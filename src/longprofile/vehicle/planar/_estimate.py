@@ -35,6 +35,7 @@ from ._model import (
 from ._params import GRAVITY, Vehicle, default_vehicle
 from ._sensor_calibration import SensorCalibration, calibrate_sensors
 from ._simulate import DriveLog
+from ._tolerances import describe_tolerances, load_tolerances
 
 __all__ = ["SlopeEstimate", "SlopeUncertainty", "estimate_slope", "nis_inflation"]
 
@@ -77,7 +78,8 @@ class SlopeUncertainty:
         the legal 1.6 mm, 2.1 % of a 0.30 m radius; the car file's radius is mid-life and the tyre's state unknown
         (uniform over +-1.05 %: std 0.6 %); pressure, load, speed growth and the make add about 0.5 % each way: about
         0.8 %, rounded to 1 %. V_x is not observable at a better scale from the wheel speeds (``vx_std`` holds
-        |V_x| x this); state your car's if you know it (a radius measured by a GNSS run: 0.1-0.2 %).
+        |V_x| x this); state your car's if you know it (a radius measured by a GNSS run: 0.1-0.2 %; on the command
+        line: ``radius_rel_std`` in the car file's ``[tolerances]`` table, :meth:`from_car_file`).
     wheel_radius_rel_std : float
         Relative std of each wheel's radius against the others (after an ESC-style relative calibration): 2e-4.
     gyro_bias_std : float
@@ -227,6 +229,26 @@ class SlopeUncertainty:
         stated offsets made the accelerometer's and the gyro's offsets unverified (``unverified_accel_offset_std``,
         ``unverified_gyro_offset_std`` None); reproduces that estimator's outputs."""
         return cls(unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+
+    @classmethod
+    def from_car_file(cls, path) -> "SlopeUncertainty":
+        """The stated tolerances of a vehicle description file's ``[tolerances]`` table (what ``vehicle slope
+        --vehicle FILE`` assumes): its keys are fields of this class, the stated errors of the car and its sensors
+        (``mass_rel_std``, ``force_rel_std``, ``radius_rel_std``, ``wheel_radius_rel_std``, ``gyro_bias_std``,
+        ``accel_gain_std``, ``accel_offset_std``, ``gyro_offset_prior_std``, ``wheel_scale_prior_std``); a key
+        left out, or the whole table, keeps the default.
+
+        Relative stds are fractions (0.002 for 0.2 %). Raises InputFormatError (one line naming the file and the
+        key) for an unknown key, a value that is not a number, negative or not finite, and one beyond a plausible
+        bound (a relative std above 10 % for the rolling radius, 50 % for the mass: a percentage written for a
+        fraction; a gyro offset above 0.05 rad/s, an accelerometer offset above 2 m/s^2: a unit slip).
+        """
+        return cls(**load_tolerances(path))
+
+    def describe(self) -> str:
+        """The stated tolerances as one line, each field of :meth:`from_car_file` by its name and value, with the
+        default beside those that differ from it (``vehicle slope`` prints it after the states file)."""
+        return describe_tolerances(self, type(self)())
 
     @property
     def grade_floor(self) -> float:

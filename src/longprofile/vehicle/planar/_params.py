@@ -272,10 +272,10 @@ def _check_number(name: str, value, *, positive: bool, unit: str | None = None) 
 def _from_mapping(data: dict, source: str) -> Vehicle:
     kwargs = {}
     for key in data:
-        if key not in _TOML_LAYOUT and key not in ("name", "description", "vertical"):
+        if key not in _TOML_LAYOUT and key not in ("name", "description", "vertical", "tolerances"):
             raise InputFormatError(f"{source}: unknown key {key!r}; expected the tables "
-                                   f"{sorted(_TOML_LAYOUT)}, the optional table 'vertical' and the keys 'name', "
-                                   "'description'.")
+                                   f"{sorted(_TOML_LAYOUT)}, the optional tables 'tolerances' and 'vertical' and "
+                                   "the keys 'name', 'description'.")
     for section, keys in _TOML_LAYOUT.items():
         table = data.get(section)
         if not isinstance(table, dict):
@@ -313,7 +313,9 @@ def load_vehicle(path) -> Vehicle:
         ``longprofile/vehicle/data/default_car.toml`` (SI units; every key required except the
         simulator-only ``wheels.inertia`` and ``drivetrain.brake_front_share``, see :data:`SIMULATOR_ONLY`).
         The per-axle keys ``body.track``, ``wheels.radius``, ``wheels.longitudinal_stiffness`` and
-        ``wheels.cornering_stiffness`` take one number (both axles) or a ``[front, rear]`` pair.
+        ``wheels.cornering_stiffness`` take one number (both axles) or a ``[front, rear]`` pair. The optional
+        tables ``[tolerances]`` (:meth:`~longprofile.vehicle.SlopeUncertainty.from_car_file`) and ``[vertical]``
+        (:func:`~longprofile.vehicle.load_vertical_params`) are read by those, not here.
 
     Returns
     -------

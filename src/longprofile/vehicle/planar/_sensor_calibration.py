@@ -37,7 +37,7 @@ from ._params import P_CXA, Vehicle, default_vehicle
 from ._regression import block_means, conjugate_regression
 from ._simulate import DriveLog
 
-__all__ = ["SensorCalibration", "calibrate_sensors"]
+__all__ = ["SensorCalibration", "calibrate_sensors", "CALIBRATION_MIN_BLOCKS"]
 
 #: Fewest usable blocks per regression (an axle's left/right one, the front/rear one; at least 3 more than the
 #: 4 coefficients of an axle, so that the Student-t variance factor dof/(dof - 2) is finite); fewer: that part keeps

@@ -14,13 +14,14 @@ import numpy as np
 import pandas as pd
 
 from ..._jit import njit
-from ..._validation import as_float_array, require_positive, time_resolution
+from ..._validation import as_float_array, require_positive, time_resolution, true_runs
 from ...errors import InputError, InputFormatError, ShapeError
 from ._model import body_derivative, body_sums, normal_loads, tyre_kinematics_forces
 from ._params import P_CXA, P_CYA, P_G, P_IW, P_LF, P_LR, P_MASS, P_R_F, P_R_R, WHEELS, Vehicle, default_vehicle
 
 __all__ = ["DriveScenario", "drive_scenario", "SCENARIOS", "SensorSpec", "DriveLog", "DriveTruth",
-           "PlanarSimulation", "simulate_drive", "ackermann_angles", "LOG_COLUMNS", "WHEEL_STEERING_COLUMNS"]
+           "PlanarSimulation", "simulate_drive", "ackermann_angles", "LOG_COLUMNS", "WHEEL_STEERING_COLUMNS",
+           "missed_scenario_events"]
 
 #: Sensor channels of a drive log, in file order (see docs/vehicle-slope.md).
 LOG_COLUMNS = ("time", "steering_angle", "wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr",
@@ -167,6 +168,67 @@ SCENARIOS = {
               "accelerating to 25 m/s (30 s)",
 }
 _BUILDERS = {"paper": _paper, "hill": _hill, "low-mu": _low_mu}
+
+
+def missed_scenario_events(name: str, simulation: PlanarSimulation) -> tuple[str, ...]:
+    """The events of the built-in scenario ``name`` at its default length that a (shortened) simulated drive leaves
+    out or cuts.
+
+    The scenarios place their events for their default length (:data:`SCENARIOS`): the steering and the speed
+    changes in time, the grade ramps and the friction patches along the road. An event is left out when the drive
+    ends before it starts (in time, or in the distance travelled for a road event), cut when it ends inside it; the
+    steering is named when the drive's peak steering is under 90 % of the full scenario's (``paper`` fades its
+    steering in from 3 s and out over the last 2 s of the drive: none at all in a drive of 7 s or less). Road
+    events beyond the full drive's distance (the speed target integrated) are not events of the scenario.
+
+    Parameters
+    ----------
+    name : {"paper", "hill", "low-mu"}
+        The scenario the drive was simulated from.
+    simulation : PlanarSimulation
+        The drive (:func:`simulate_drive`).
+
+    Returns
+    -------
+    tuple of str
+        One phrase per event left out or cut (empty when the drive holds them all).
+    """
+    full = drive_scenario(name, dt=simulation.log.dt)
+    end_t = float(simulation.log.time[-1] - simulation.log.time[0]) + simulation.log.dt
+    end_s = float(simulation.truth.distance[-1])
+    full_s = float(np.sum(full.target_speed) * full.dt)
+    out = []
+    peak = float(np.max(np.abs(full.steering)))
+    if peak > 0:
+        reached = float(np.max(np.abs(simulation.truth.steering_angle))) / peak
+        start = full.time[int(np.argmax(np.abs(full.steering) > 0))]
+        if reached < 0.9:
+            out.append(f"the steering ({peak:.3g} rad from {start:.3g} s; "
+                       + ("none in this drive)" if reached < 0.01 else f"{100 * reached:.0f} % of it in this drive)"))
+
+    def cut(first, last, end, unit):  # None: left out, "": in the drive (to 2 % of its span), else the note
+        return None if first >= end else "" if last <= end + 0.02 * (last - first) else f" (cut at {end:.4g} {unit})"
+
+    v, t = full.target_speed, full.time
+    for i, j in true_runs(np.abs(np.gradient(v)) > 1e-9):
+        note = cut(t[i], t[j], end_t, "s")
+        if note != "":
+            v0, v1 = v[max(i - 1, 0)], v[min(j + 1, v.size - 1)]
+            out.append(f"the {'acceleration' if v1 > v0 else 'braking'} {v0:.3g} -> {v1:.3g} m/s at {t[i]:.3g}-"
+                       f"{t[j]:.3g} s{note or ''}")
+    d, slope = full.road_distance, full.road_slope
+    for i, j in true_runs(np.abs(np.gradient(slope)) > 1e-12):
+        note = cut(d[i], d[j], end_s, "m")
+        if note != "" and d[i] < full_s:
+            to = slope[min(j + 1, d.size - 1)]
+            level = f"{math.degrees(to):+.3g} deg ({100 * math.tan(to):+.3g} %)" if to else "level"
+            out.append(f"the grade ramp to {level} at {d[i]:.4g}-{d[j]:.4g} m{note or ''}")
+    mu = full.road_friction
+    for i, j in true_runs(np.any(mu != mu[0], axis=1)):
+        note = cut(d[i], d[j], end_s, "m")
+        if note != "" and d[i] < full_s:
+            out.append(f"the mu {float(np.min(mu[i:j + 1])):.2g} patch at {d[i]:.4g}-{d[j] + d[1]:.4g} m{note or ''}")
+    return tuple(out)
 
 
 def drive_scenario(name: str, *, dt: float = 1e-3, duration: float | None = None) -> DriveScenario:

@@ -51,9 +51,12 @@ from ._params import (
                       load_vertical_params,
 )
 from ._road import (
+                      DEFLECTION_OFFSET_LIMIT,
                       WHEEL_ACCEL_RATIO_RANGE,
+                      DeflectionZeroCheck,
                       VerticalLogEstimate,
                       VerticalRun,
+                      deflection_zero_check,
                       estimate_vertical_log,
                       profile_run,
                       road_profile_from_suspension,
@@ -87,5 +90,6 @@ __all__ = [
     "THESIS_BENCH_TABLE", "THESIS_TRACK_TABLE", "VERTICAL_VARIABLES",
     "ObservabilityResult", "corner_observability",
     "road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
-    "estimate_vertical_log", "wheel_accelerometer_ratio", "WHEEL_ACCEL_RATIO_RANGE",
+    "estimate_vertical_log", "wheel_accelerometer_ratio", "WHEEL_ACCEL_RATIO_RANGE", "deflection_zero_check",
+    "DeflectionZeroCheck", "DEFLECTION_OFFSET_LIMIT",
 ]

@@ -14,10 +14,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..._jit import njit
 from ..._validation import require_positive
 from ...errors import InputError
 from ...statespace import filter_design, sos_filtfilt
 from ._estimate import VerticalStateEstimate
+from ._model import CKBAR, CORNER_NAMES, OPPOSITE, STAU, suspension_tensions, vertical_params_arrays
 from ._simulate import VerticalSensors, VerticalSimulation, vehicle_speed
 
 if TYPE_CHECKING:
@@ -25,8 +27,8 @@ if TYPE_CHECKING:
     from ._params import MRDamperParams, VerticalVehicleParams
 
 __all__ = ["road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
-           "WHEEL_ACCEL_RATIO_RANGE", "wheel_accelerometer_ratio",
-           "estimate_vertical_log"]
+           "WHEEL_ACCEL_RATIO_RANGE", "wheel_accelerometer_ratio", "DeflectionZeroCheck", "deflection_zero_check",
+           "DEFLECTION_OFFSET_LIMIT", "estimate_vertical_log"]
 
 
 def _integrate(a, dt):
@@ -262,6 +264,10 @@ class VerticalLogEstimate:
         Road under the four wheels (tracks fl, fr, rl, rr; chainage m, elevations m) when a speed was given.
     iri : longprofile.road.IRIResult or None
         IRI of ``profile`` per segment (m/km).
+    accelerometer_ratio : float or None
+        :func:`wheel_accelerometer_ratio` of the log (configuration 3), else None.
+    deflection_check : DeflectionZeroCheck or None
+        :func:`deflection_zero_check` of the log (None on a log shorter than ``DEFLECTION_CHECK_MIN_DURATION``).
     """
 
     estimate: VerticalStateEstimate
@@ -269,21 +275,26 @@ class VerticalLogEstimate:
     profile: Profile | None = None
     iri: IRIResult | None = None
     accelerometer_ratio: float | None = None
+    deflection_check: DeflectionZeroCheck | None = None
 
     def warnings(self) -> list[str]:
         """What a user should know before trusting this result (strings; empty when nothing).
 
-        A road profile from configurations 1 and 2 (no wheel accelerometers) underestimates the IRI by 8-20 %:
+        Deflection sensors not zeroed at the static ride height (:func:`deflection_zero_check`); wheel accelerometers
+        in another unit (:func:`wheel_accelerometer_ratio`). A road profile from configurations 1 and 2 (no wheel
+        accelerometers) underestimates the IRI by 8-20 %:
         the wheel motion comes from the reconstructed suspension velocity (docs/vehicle-vertical.md, measured on
         the simulator); configuration 3 is within 3 %.
         """
         out = []
+        if self.deflection_check is not None and self.deflection_check.suspect:
+            out.append(self.deflection_check.message())
         lo, hi = WHEEL_ACCEL_RATIO_RANGE
         if self.accelerometer_ratio is not None and not lo <= self.accelerometer_ratio <= hi:
             out.append(f"the wheel accelerometers' 8-25 Hz content is {self.accelerometer_ratio:.2g} times the second "
                        "derivative of the suspension deflections (about 1 when both are in SI units, 0.25-1 on a "
                        "smooth road): "
-                       + ("accelerations in g? Give them in m/s^2 (--units wheel_accel_FL=g,...)."
+                       + ("accelerations in g? Declare them: --units 'wheel_accel_*=g'."
                           if self.accelerometer_ratio < lo else "accelerations or deflections in another unit?"))
         if self.profile is not None and self.estimate.config != 3:
             out.append(f"configuration {self.estimate.config}: the road profile and IRI underestimate the IRI by "
@@ -310,6 +321,136 @@ def wheel_accelerometer_ratio(sensors: VerticalSensors) -> float | None:
     dd = np.std(sos_filtfilt(sos, second), axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return float(np.median(acc / dd))
+
+
+#: Largest zero offset of a suspension deflection sensor that :func:`deflection_zero_check` lets pass, m. On the
+#: simulator, sensors zeroed at the static ride height gave offsets within 2.6 mm on 120 drives (median 0.42, 99 %
+#: 2.42 mm; ``benchmarks/bench_vertical_zero_check.py`` ``score(120, seed=11)``: ISO 8608 classes A-E, 5-40 m/s,
+#: 2-30 s, road, track and 4-poster tests, passive and MagneRide cars), and 3.05 mm on the 50 drives of seed 12
+#: (no false alarm); 5 mm leaves room for what the simulator lacks. A 5 mm offset raised the front-left tyre-load
+#: RMS error of the guide's 5 s configuration-3 log from 218 to 274 N (+26 %), 20 mm to 666 N (session 37).
+DEFLECTION_OFFSET_LIMIT = 0.005
+#: Shortest log :func:`deflection_zero_check` runs on, s: a mean over less does not average the wheel hop out.
+DEFLECTION_CHECK_MIN_DURATION = 2.0
+#: Low-pass of the damper velocity the check evaluates the dampers at, Hz (the wheel hop, 13 Hz, passes; the 1 kHz
+#: quantisation steps of the deflection do not).
+_CHECK_VELOCITY_CUTOFF = 50.0
+
+
+@dataclass(frozen=True, eq=False)
+class DeflectionZeroCheck:
+    """Whether the suspension deflection sensors read zero at the static ride height (:func:`deflection_zero_check`).
+
+    Attributes
+    ----------
+    mean : (4,) ndarray, m
+        Mean of each ``dz21_*`` over the log (FL, FR, RL, RR).
+    offset : (4,) ndarray, m
+        The zero offset of each sensor that the suspension's force balance implies (0 for a sensor zeroed at the
+        static ride height, within :data:`DEFLECTION_OFFSET_LIMIT` on the simulator).
+    limit : float, m
+        The offset beyond which :attr:`suspect` is True.
+    """
+
+    mean: np.ndarray
+    offset: np.ndarray
+    limit: float = DEFLECTION_OFFSET_LIMIT
+
+    @property
+    def expected_mean(self) -> np.ndarray:
+        """Mean of each deflection a sensor zeroed at the static ride height would have shown, m."""
+        return self.mean - self.offset
+
+    @property
+    def suspect(self) -> bool:
+        """True when a sensor's offset exceeds :attr:`limit`."""
+        return bool(np.any(np.abs(self.offset) > self.limit))
+
+    def message(self) -> str:
+        """One line naming the suspect channels, their means, the means expected and what to do."""
+        bad = np.flatnonzero(np.abs(self.offset) > self.limit)
+        one = bad.size == 1
+
+        def mm(values):
+            return ", ".join(f"{1e3 * values[c]:+.1f}" for c in bad)
+
+        return (f"{', '.join(f'dz21_{CORNER_NAMES[c]}' for c in bad)} {'does' if one else 'do'} not read zero at the "
+                f"static ride height: mean{'' if one else 's'} {mm(self.mean)} mm over the log, {mm(self.expected_mean)} "
+                f"mm expected from the suspension's force balance (offset{'' if one else 's'} {mm(self.offset)} mm); "
+                f"zero {'the' if one else 'each'} sensor at the static ride height or subtract its static reading (if "
+                "zeroed: a car unlike the filter's, --vehicle)")
+
+
+@njit(cache=True)
+def _mean_tensions(dz, dzdot, actuator, corner, tau, shift):
+    """Mean over the samples of the four suspension tensions (:func:`suspension_tensions`) at ``dz - shift``, N, and
+    of their spring slopes, N/m."""
+    total = np.zeros(4)
+    slope = np.zeros(4)
+    force = np.empty(4)
+    ks = np.empty(4)
+    cd = np.empty(4)
+    for k in range(dz.shape[0]):
+        suspension_tensions(dz[k] - shift, dzdot[k], actuator[k], corner, tau, force, ks, cd)
+        total += force
+        slope += ks
+    n = max(dz.shape[0], 1)
+    return total / n, slope / n
+
+
+def deflection_zero_check(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
+                          actuator_force=None) -> DeflectionZeroCheck | None:
+    """The zero offset of each suspension deflection sensor, from the suspension's force balance over the log.
+
+    The filters of thesis 003 take the deflections ``dz21_*`` from the static ride height (ASSUMPTION, their spring
+    force is ``k dZ``): a sensor zeroed elsewhere reads the static load as a force (20 mm is 800 N on the thesis
+    car's front spring) and the tyre load comes out wrong. The mean deflection itself is no test: the asymmetric
+    dampers (rebound stiffer than compression) pull the car down on a rough road, by -3 to -30 mm on the simulator
+    (classes A to E). But the body's vertical, roll and pitch velocities stay bounded, so over a drive the mean
+    suspension tensions balance the mean load transfer of a_x, a_y and the yaw acceleration; with the car's
+    warp mode at zero mean on a road whose left and right paths average level, each corner's mean tension is the
+    load transfer's. So the mean tension of each corner, computed with the model's spring, anti-roll bar and
+    damper at the measured deflection and its velocity (derivative low-passed at 50 Hz, ASSUMPTION: passes the
+    13 Hz wheel hop, not the quantisation steps), must equal the mean tension of the flat-road handling response to
+    the measured a_x, a_y, psidd; the offset that makes them equal (Newton on the progressive springs and the
+    anti-roll bars) is each sensor's. On the simulator the offset found on zeroed sensors stayed within 3.05 mm
+    (``DEFLECTION_OFFSET_LIMIT``); the mean deflections were -3 to -30 mm.
+
+    Parameters
+    ----------
+    sensors : VerticalSensors
+        The log (:func:`read_vertical_log`).
+    params : VerticalVehicleParams, optional
+        The car (default: thesis set); a car whose springs or dampers differ from it shows as an offset too.
+    actuator_force : (T, 4) array_like, optional
+        The actuator forces the filter used (:attr:`VerticalStateEstimate.actuator_force`), N; default 0.
+
+    Returns
+    -------
+    DeflectionZeroCheck or None
+        None for a log shorter than ``DEFLECTION_CHECK_MIN_DURATION`` (2 s).
+    """
+    from ._estimate import _handling_response, damper_velocity_from_displacement, vertical_ekf_inputs
+    from ._params import VerticalVehicleParams
+
+    if sensors.time.size * sensors.dt < DEFLECTION_CHECK_MIN_DURATION:
+        return None
+    p = params or VerticalVehicleParams()
+    corner, _, scalars = vertical_params_arrays(p)
+    dz = np.ascontiguousarray(sensors.displacement, dtype=float)
+    v = damper_velocity_from_displacement(dz, sensors.dt, cutoff=_CHECK_VELOCITY_CUTOFF)
+    act = np.zeros_like(dz) if actuator_force is None else np.ascontiguousarray(actuator_force, dtype=float)
+    _, hdz, hdzd, _ = _handling_response(vertical_ekf_inputs(sensors), p, sensors.dt)
+    target, _ = _mean_tensions(np.ascontiguousarray(hdz), np.ascontiguousarray(hdzd), np.zeros_like(dz), corner,
+                               scalars[STAU], np.zeros(4))
+    v = np.ascontiguousarray(v)
+    offset = np.zeros(4)
+    for _ in range(3):  # Newton on the offset: the progressive springs (k dZ (1 + beta dZ^4)) stiffen far from rest
+        force, slope = _mean_tensions(dz, v, act, corner, scalars[STAU], offset)
+        stiffness = np.diag(slope + corner[:, CKBAR])  # the anti-roll bar couples each left/right pair
+        stiffness[np.arange(4), OPPOSITE] = -corner[:, CKBAR]
+        offset = offset + np.linalg.solve(stiffness, force - target)
+    return DeflectionZeroCheck(mean=dz.mean(axis=0), offset=offset)
 
 
 def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
@@ -351,11 +492,12 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
         mr_map = nominal_mr_map(MRDamperParams())
     est = estimate_vertical_states(sensors, params=params, decentralised=decentralised, mr_map=mr_map,
                                    mr_map_velocity=mr_map_velocity)
-    ratio = wheel_accelerometer_ratio(sensors)
+    checks = {"accelerometer_ratio": wheel_accelerometer_ratio(sensors),
+              "deflection_check": deflection_zero_check(sensors, params=params, actuator_force=est.actuator_force)}
     if speed is None:
-        return VerticalLogEstimate(estimate=est, mr_map=mr_map, accelerometer_ratio=ratio)
+        return VerticalLogEstimate(estimate=est, mr_map=mr_map, **checks)
     from ...road import iri
 
     prof = wheel_profiles(sensors, est, speed, start=start, params=params)
     return VerticalLogEstimate(estimate=est, mr_map=mr_map, profile=prof, iri=iri(prof, segment_length=segment_length),
-                               accelerometer_ratio=ratio)
+                               **checks)

@@ -1,0 +1,83 @@
+"""Which tracks of a profile file the road commands read, and ``--rename``: one rule for every command."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from ..errors import InputError
+from ._common import console, parse_tracks
+
+#: ``--rename`` of ``road convert`` and ``road compare`` (one syntax and meaning).
+RENAME = typer.Option(None, "--rename", help="Rename tracks, OLD=NEW[,OLD=NEW...] (e.g. elevation=left): tracks are "
+                      "matched by name wherever profiles meet (road compare, the MRI of left and right). Applied "
+                      "after reading, so --track names the file's tracks in road convert and the new names in road "
+                      "compare.")
+
+
+def file_tracks(track: str | None, file: Path | None, *, verb: str = "analysing") -> list[str] | None:
+    """The tracks to read from ``file``: ``--track`` when given; else the one profile of a ``road reconstruct``
+    output (``elevation``) or of a ``road simulate`` recording (``true``; its ``apl_m`` is the trailer's raw
+    signal), each with a note on the console naming what is read; else None (every track)."""
+    if track is not None:
+        return parse_tracks(track)
+    if file is None:
+        return None
+    from ..io import is_reconstruct_output, is_simulated_recording
+
+    if is_reconstruct_output(file):
+        console.print(f"note: {file} is a `road reconstruct` output: {verb} its profile track 'elevation' "
+                      "(std_m and the undetrended raw_m are not tracks; pass --track to choose).", markup=False,
+                      soft_wrap=True)
+        return ["elevation"]
+    if is_simulated_recording(file):
+        console.print(f"note: {file} is a `road simulate` recording: {verb} its true profile, track 'true' (apl_m is "
+                      "the trailer's raw signal, not a profile; `longprofile road reconstruct "
+                      f"{file} -o profile.csv` gives the profile the trailer measured).", markup=False, soft_wrap=True)
+        return ["true"]
+    return None
+
+
+def parse_renames(text: str | None) -> dict[str, str]:
+    """``--rename OLD=NEW[,OLD=NEW...]`` as ``{old: new}`` (empty when not given); a malformed pair, an old name
+    given twice or two tracks renamed to one name is refused."""
+    if text is None:
+        return {}
+    renames: dict[str, str] = {}
+    for pair in (p.strip() for p in text.split(",") if p.strip()):
+        old, sep, new = (s.strip() for s in pair.partition("="))
+        if not sep or not old or not new:
+            raise InputError(f"--rename takes OLD=NEW pairs separated by commas (e.g. --rename elevation=left); got "
+                             f"{pair!r}.")
+        if old.casefold() in (o.casefold() for o in renames):
+            raise InputError(f"--rename names the track {old!r} twice ({text}); rename each track once.")
+        renames[old] = new
+    news = list(renames.values())
+    twice = next((n for n in news if news.count(n) > 1), None)
+    if twice is not None:
+        raise InputError(f"--rename gives two tracks the name {twice!r} ({text}); each track needs its own name.")
+    return renames
+
+
+def renamed(profile, renames: dict[str, str], *, source, strict: bool = True):
+    """``profile`` with the ``renames`` whose old name is one of its tracks (any letter case, as ``--track``) applied.
+
+    ``strict``: an old name that is not a track of the profile is refused, naming ``source`` (the file) and its
+    tracks; otherwise it is skipped (``road compare``, where a name may be in some of the files only).
+    """
+    if not renames:
+        return profile
+    by_lower = {t.casefold(): t for t in profile.tracks}
+    mapping = {}
+    for old, new in renames.items():
+        name = old if old in profile.tracks else by_lower.get(old.casefold())
+        if name is not None:
+            mapping[name] = new
+        elif strict:
+            raise InputError(f"--rename {old}={new}: {source} has no track {old!r}; its tracks are "
+                             f"{list(profile.tracks)}.")
+    try:
+        return profile.renamed(mapping)
+    except InputError as exc:
+        raise InputError(f"--rename on {source}: {exc}") from None
