@@ -19,6 +19,7 @@ def _results(routes, *, units="si", failed=(), two_tracks=True):
     rows, manifest = [], []
     for name, (x0, seg, values) in routes.items():
         for k, v in enumerate(values):
+            v = v * (1.0 if units == "si" else 63.36)  # values given in m/km
             row = {"route": name, "file": f"/data/{name}.erd", f"start_{lu}": x0 + k * seg,
                    f"end_{lu}": x0 + (k + 1) * seg, f"iri_left_{iu}": v * 0.9}
             if two_tracks:
@@ -34,7 +35,7 @@ def _results(routes, *, units="si", failed=(), two_tracks=True):
                         segments=seg)
 
 
-iri_values = st.lists(st.floats(0.2, 12.0) | st.just(float("nan")), min_size=1, max_size=15)
+iri_values = st.lists(st.floats(0.6, 12.0) | st.just(float("nan")), min_size=1, max_size=15)
 networks = st.dictionaries(st.text("ABCR0123/", min_size=1, max_size=6), st.tuples(
     st.sampled_from([0.0, 250.0]), st.sampled_from([20.0, 100.0]), iri_values), min_size=1, max_size=6)
 

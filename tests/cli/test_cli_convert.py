@@ -55,6 +55,20 @@ def test_convert_round_trips_between_formats(tmp_path, capsys):
     assert pd.read_csv(src).columns.tolist() == ["distance_m", "left_mm", "right_mm"]
 
 
+@pytest.mark.parametrize("tracks", [("LEFT", "RIGHT"), ("LEFTWHEE", "RIGHTWHE", "c"), ("left_wheel_path", "R"),
+                                    ("Lw", "LEFTWHEE", "centre_line_1")])
+def test_convert_to_erd_and_back_keeps_the_track_names(tmp_path, capsys, tracks):
+    """The writer's SHORTNAM (8-character fields, or blank-separated long names) reads back as the same names
+    whatever their lengths (names are never cut at column 8 nor glued)."""
+    p = iso8608_profile(20.0, 0.25, "C", rng=1, tracks=tracks)
+    write_profile(p, tmp_path / "x.csv", units="mm")
+    assert main(["road", "convert", str(tmp_path / "x.csv"), str(tmp_path / "x.erd")]) == 0, _err(capsys)
+    assert main(["road", "convert", str(tmp_path / "x.erd"), str(tmp_path / "y.csv")]) == 0, _err(capsys)
+    q = read_profile(tmp_path / "y.csv")
+    assert q.tracks == tracks
+    np.testing.assert_allclose(q.elevation, p.elevation, rtol=0, atol=5e-8 + 1e-15)
+
+
 def test_convert_units_tracks_and_plot(tmp_path, capsys):
     f = tmp_path / "raw.csv"
     f.write_text("distance_m,left,right\n0,1.0,2.0\n0.5,1.5,2.5\n1.0,2.0,3.0\n")

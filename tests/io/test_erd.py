@@ -103,8 +103,40 @@ def test_names_and_title(tmp_path):
     assert read_erd(_erd(tmp_path, BODY), tracks="right").tracks == ("right",)
     with pytest.raises(InputError, match="no channel 'centre'; the file has"):
         read_erd(_erd(tmp_path, BODY), tracks=["centre"])
-    with pytest.raises(InputFormatError, match="SHORTNAM gives 3 field"):
+    with pytest.raises(InputFormatError, match="line 4: SHORTNAM gives neither 2 blank-separated names nor 2 "):
         read_erd(_erd(tmp_path, BODY, names="left    right   centre  "))
+
+
+@pytest.mark.parametrize("names,units,tracks", [
+    ("  LEFT RIGHT", "  inch inch", ("LEFT", "RIGHT")),      # hand-written, blank-separated (probe 37)
+    ("\tLeft\tRight", "\tmm\tmm", ("Left", "Right")),        # tab-separated
+    (" LWP     RWP     ", " mm      mm      ", ("LWP", "RWP")),  # one blank after the keyword, then 8-char fields
+    ("LEFTWHEERIGHTWHE", "mm      mm      ", ("LEFTWHEE", "RIGHTWHE")),  # 8-char names with no blank between
+    ("L elev  R elev  ", "mm      mm      ", ("L elev", "R elev")),  # names holding a blank, fixed fields
+    ("  Left       Right", "  mm mm", ("Left", "Right")),        # wider than 16 columns, two words
+])
+def test_names_and_units_blank_separated_or_in_8_character_fields(tmp_path, names, units, tracks):
+    """A name is never cut at column 8 (it gave tracks 'LEFT R', 'IGHT' and the unit 'inch i'): NCHAN words are the
+    names, else the 8-character fields of the ERD convention."""
+    p = read_erd(_erd(tmp_path, BODY, names=names, units=units))
+    assert p.tracks == tracks
+    factor = 0.0254 if "inch" in units else 1e-3
+    np.testing.assert_allclose(p.elevation[:, 0], np.arange(1, 5) * factor)
+
+
+@pytest.mark.parametrize("names", ["  LEFT RIGHT CENTRE", "  LEFT RIGHT X", "left    right   centre  "])
+def test_names_neither_blank_separated_nor_in_fields_are_refused_naming_the_line(tmp_path, names):
+    with pytest.raises(InputFormatError, match=r"line 4: SHORTNAM gives neither 2 blank-separated names nor 2 "
+                                               r"8-character fields .*write one name per channel"):
+        read_erd(_erd(tmp_path, BODY, names=names))
+
+
+def test_track_names_in_any_letter_case(tmp_path):
+    """``tracks=`` finds a channel in any letter case, as in CSV files (``--track left`` on ``Left``)."""
+    path = _erd(tmp_path, BODY, names="Left    RIGHT   ")
+    assert read_erd(path, tracks=["left", "right"]).tracks == ("Left", "RIGHT")
+    with pytest.raises(InputError, match="2 channels are 'left' in some letter case"):
+        read_erd(_erd(tmp_path, BODY, names="Left    LEFT    ", name="two.erd"), tracks="left")
 
 
 @pytest.mark.parametrize("unit", sorted(LENGTH_UNITS))

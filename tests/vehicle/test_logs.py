@@ -361,3 +361,27 @@ def test_the_unknown_unit_message_uses_the_right_article(paper, column, unit):
         read_drive_log(paper, CAR, units={column: unit})
     article, word = re.search(r"for (an?) (\w+)", str(exc.value)).groups()
     assert (article == "an") == (word[0] in "aeiou"), str(exc.value)
+
+
+def test_one_export_feeds_both_readers_accelerations_by_either_name(paper, vertical_frame):
+    """Session 37: the planar log names the body's accelerations accel_x/accel_y, the vertical log ax/ay; a CAN
+    export with one naming had to be renamed by hand for the other command. Each reader now takes the other name
+    (with its header unit, or a --units key of either name) when its own is absent."""
+    ref, _ = read_drive_log(paper, CAR)
+    g = paper.assign(accel_x=paper.accel_x / 9.80665).rename(columns={"accel_x": "ax [g]", "accel_y": "AY"})
+    log, _ = read_drive_log(g, CAR)
+    np.testing.assert_allclose(log.accel_x, ref.accel_x, rtol=1e-12)
+    np.testing.assert_array_equal(log.accel_y, ref.accel_y)
+    via_key, _ = read_drive_log(paper.assign(accel_x=paper.accel_x / 9.80665).rename(columns={"accel_x": "ax"}),
+                                CAR, units={"accel_x": "g"})
+    np.testing.assert_allclose(via_key.accel_x, ref.accel_x, rtol=1e-12)
+
+    sensors_ref, config = read_vertical_log(vertical_frame)
+    v = vertical_frame.rename(columns={"ax": "accel_x", "ay": "accel_y"})
+    sensors, config2 = read_vertical_log(v.assign(accel_y=v.accel_y / 9.80665), units={"ay": "g"})
+    assert config2 == config
+    np.testing.assert_array_equal(sensors.ax, sensors_ref.ax)
+    np.testing.assert_allclose(sensors.ay, sensors_ref.ay, rtol=1e-12)
+    # a log with both names keeps its own channel (the other column is ignored, as any unknown column)
+    both, _ = read_vertical_log(vertical_frame.assign(accel_x=vertical_frame.ax + 1.0))
+    np.testing.assert_array_equal(both.ax, sensors_ref.ax)

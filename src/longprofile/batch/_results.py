@@ -38,6 +38,9 @@ class BatchResults:
         How many inputs the last run was given (None for folders written before session 35).
     complete : bool or None
         Whether the last run went through all of them (False: interrupted; ``--resume`` finishes it).
+    missing_inputs : tuple of str
+        Manifest paths with results whose file no longer exists when the folder is read (deleted or renamed since:
+        ``--resume`` keeps their rows).
     """
 
     folder: Path
@@ -47,6 +50,7 @@ class BatchResults:
     segments: object
     n_inputs: int | None = None
     complete: bool | None = None
+    missing_inputs: tuple = ()
 
     def profile(self, route: str):
         """The per-sample table of one route (``reconstruct``: the reconstructed profile), as a DataFrame."""
@@ -89,9 +93,10 @@ def read_results(folder) -> BatchResults:
         segments = pa.concat_tables(tables, promote_options="default").to_pandas()
     else:
         segments = pd.DataFrame({"route": pd.Series(dtype=str), "file": pd.Series(dtype=str)})
+    missing = tuple(str(p) for p in done["path"] if not Path(str(p)).exists())
     return BatchResults(folder=folder, task=info.get("task", ""), options=info.get("options", {}),
                         manifest=manifest, segments=segments, n_inputs=info.get("n_inputs"),
-                        complete=info.get("complete"))
+                        complete=info.get("complete"), missing_inputs=missing)
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,15 +107,21 @@ class NetworkSummary:
     ----------
     results : BatchResults
     segments : pandas.DataFrame
-        ``route, file, start, end`` (station unit), the IRI columns, ``segment_iri`` and ``condition``
-        (good / fair / poor / none).
+        ``route, file, start, end`` (station unit), the IRI columns, ``segment_iri``, ``condition``
+        (good / fair / poor / none) and ``counted`` (False for the rows of a route left out of the totals).
     routes : pandas.DataFrame
-        Per route, worst mean first: ``route, file, start, end, length, segments, mean_iri`` (length-weighted),
-        ``max_iri, good, fair, poor`` (share of the length, 0..1).
+        Per route, worst mean first: ``route, file, start, end, length`` (length covered: overlapping windows
+        counted once), ``segments, mean_iri`` (length-weighted), ``max_iri, good, fair, poor, none`` (share of the
+        length, 0..1; none = no IRI, e.g. unmeasured), ``counted`` ("yes", or why the route is left out of the
+        totals).
     worst : pandas.DataFrame
-        The ``n_worst`` segments with the highest segment IRI.
+        The ``n_worst`` distinct worst areas of the counted routes, highest segment IRI first. Overlapping windows
+        (continuous / overlapping modes) of one condition are merged: ``start, end`` is the extent of the area, the
+        IRI columns those of its peak window (``peak_start, peak_end``), ``windows`` how many windows it spans.
     failed, warnings : pandas.DataFrame
         ``path, route, error`` of the files that failed; ``path, route, warning`` of flagged results.
+    excluded : pandas.DataFrame
+        ``path, route, reason, length`` of the routes with results left out of the totals.
     value_columns : tuple of str
         IRI columns of the report table (per track, then MRI/HRI).
     segment_iri : str
@@ -122,9 +133,14 @@ class NetworkSummary:
     limits : (float, float)
         Good/poor condition limits in ``iri_unit``.
     length, mean_iri : float
-        Network length (station unit) and its length-weighted mean segment IRI (NaN without segments).
+        Length covered by the counted routes (station unit; overlapping windows counted once) and its
+        length-weighted mean segment IRI (NaN without segments).
     share : dict
-        Share of the length per condition (good, fair, poor, none).
+        Share of the length per condition (good, fair, poor, none = no IRI); they add up to 1.
+    measured : float
+        Measured part of ``length`` (without the gaps of ``--gaps restart``: segment length x ``valid_fraction``).
+    overlapping : bool
+        Whether segments overlap (windows of the continuous / overlapping modes).
     """
 
     results: BatchResults
@@ -142,6 +158,9 @@ class NetworkSummary:
     length: float
     mean_iri: float
     share: dict
+    measured: float = float("nan")
+    excluded: object = None
+    overlapping: bool = False
 
     @property
     def counts(self) -> dict:
@@ -158,8 +177,86 @@ def _find(columns, pattern, what):
     raise InputFormatError(f"the segment table has no {what} column (columns: {list(columns)}).")
 
 
+def _left_out(results: BatchResults, seg, tracks, factor) -> dict:
+    """Route -> why its results are left out of the network totals: its file no longer exists, its IRI is
+    implausible (:func:`longprofile.road.iri_plausibility`, the check behind the manifest's warning), or its content
+    (sha256) is that of an earlier counted input (counted once)."""
+    from ..road import iri_plausibility
+
+    manifest = results.manifest
+    done = manifest[manifest["status"].isin(["ok", "skipped"])].sort_values("path")
+    missing = set(results.missing_inputs)
+    reasons, first = {}, {}
+    by_route = {r: g for r, g in seg.groupby("route", sort=False)} if len(seg) and tracks else {}
+    for row in done.itertuples():
+        route = str(row.route)
+        if str(row.path) in missing:
+            reasons[route] = "file no longer exists (results kept by --resume)"
+            continue
+        g = by_route.get(route)
+        note = iri_plausibility(g[tracks].to_numpy(dtype=float) / factor, what="segment IRI") if g is not None else ""
+        if note:
+            reasons[route] = f"implausible IRI: {note}"
+            continue
+        digest = str(getattr(row, "sha256", "") or "")
+        if digest:
+            other = first.setdefault(digest, str(row.path))
+            if other != str(row.path):
+                reasons[route] = f"same content as {other}: counted once"
+    return reasons
+
+
+def _covered(out):
+    """Length each segment stands for: to the next segment's start when they overlap (windows), else its own; the
+    lengths of a route add up to the length its segments cover (ASSUMPTION, docs/batch.md: a window stands for the
+    stretch up to the next window)."""
+    import numpy as np
+
+    route = out["route"].to_numpy(dtype=str)
+    start, end = out["start"].to_numpy(dtype=float), out["end"].to_numpy(dtype=float)
+    pos = np.lexsort((end, start, route))
+    s, e, r = start[pos], end[pos], route[pos]
+    nxt = np.append(s[1:], np.nan)
+    nxt[np.append(r[1:] != r[:-1], True)] = np.nan  # the last segment of each route
+    covered = np.empty_like(start)
+    covered[pos] = np.where(np.isfinite(nxt), np.clip(np.minimum(e, nxt) - s, 0.0, None), e - s)
+    overlap = bool(np.any(np.isfinite(nxt) & (nxt < e - 1e-9 * np.maximum(1.0, np.abs(e)))))
+    return covered, overlap
+
+
+def _worst_areas(out, n_worst: int, overlapping: bool):
+    """The ``n_worst`` distinct worst areas: without overlap, the worst segments; with overlapping windows, each
+    chain of overlapping windows of one condition is one area (extent, peak window, window count), and an area
+    overlapping one already listed is not listed again."""
+    import numpy as np
+
+    ok = out[np.isfinite(out["segment_iri"].to_numpy(dtype=float)) & out["counted"]]
+    if not overlapping:
+        return (ok.sort_values(["segment_iri", "route", "start"], ascending=[False, True, True])
+                .head(int(n_worst)).drop(columns=["counted"]).reset_index(drop=True))
+    ok = ok.sort_values(["route", "start", "end"], kind="stable").reset_index(drop=True)
+    same = ((ok["route"] == ok["route"].shift()) & (ok["condition"] == ok["condition"].shift())
+            & (ok["start"] < ok["end"].shift()))
+    ok["_run"] = (~same).cumsum()
+    g = ok.groupby("_run", sort=False)
+    peaks = ok.loc[g["segment_iri"].idxmax()].copy()
+    peaks["peak_start"], peaks["peak_end"] = peaks["start"], peaks["end"]
+    peaks["start"], peaks["end"] = g["start"].min().to_numpy(), g["end"].max().to_numpy()
+    peaks["windows"] = g.size().to_numpy()
+    peaks = peaks.sort_values(["segment_iri", "route", "start"], ascending=[False, True, True])
+    keep, taken = [], {}
+    for idx, r in zip(peaks.index, peaks.itertuples()):
+        if len(keep) >= int(n_worst):
+            break
+        if any(a < r.end and r.start < b for a, b in taken.get(r.route, ())):
+            continue
+        keep.append(idx)
+        taken.setdefault(r.route, []).append((r.start, r.end))
+    return peaks.loc[keep].drop(columns=["counted", "_run"]).reset_index(drop=True)
+
+
 def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: int = 20) -> NetworkSummary:
-    """Per-route and network tables of a batch: condition shares, length-weighted means, worst segments.
+    """Per-route and network tables of a batch: condition shares, length-weighted means, worst areas.
 
     Parameters
     ----------
@@ -176,6 +273,10 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
     The *segment IRI* ranked and counted here is, segment by segment, the MRI where its file has two tracks, else
     the mean of the IRIs of the tracks its file has (a network mixes one- and two-track files). A segment is good below the first
     limit, poor above the second, fair in between (the rule of the single-file report).
+
+    Lengths are lengths covered: overlapping windows (continuous / overlapping modes) count once, each window for
+    the stretch up to the next window's start. The totals (length, shares, mean, worst areas) leave out the routes of
+    :func:`_left_out` (file gone, implausible IRI, duplicate content); they stay listed in ``routes``.
     """
     import numpy as np
     import pandas as pd
@@ -222,32 +323,51 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
         out[c] = seg[c].astype(float)
     out["segment_iri"] = v
     out["condition"] = condition
-    length = (out["end"] - out["start"]).to_numpy(dtype=float)
-    out["_len"] = length
-    out["_w"] = np.where(np.isfinite(v), v * length, 0.0)
-    out["_wl"] = np.where(np.isfinite(v), length, 0.0)
+    reasons = _left_out(results, out, tracks, factor)
+    out["counted"] = ~out["route"].isin(list(reasons))
+    length, overlapping = _covered(out)
+    valid = seg["valid_fraction"].astype(float).fillna(0.0).to_numpy() if "valid_fraction" in seg else 1.0
+    routes = _route_table(out, length, v, condition, reasons)
+    w = out["counted"].to_numpy(dtype=bool)
+    total = float(length[w].sum())
+    rated = w & np.isfinite(v)
+    share = {c: (float(length[w & (condition == c)].sum()) / total if total > 0 else float("nan"))
+             for c in ("good", "fair", "poor", "none")}
+    done = manifest[manifest["route"].astype(str).isin(list(reasons))]
+    excluded = pd.DataFrame({"path": done["path"].astype(str).to_numpy(), "route": done["route"].astype(str).to_numpy(),
+                             "reason": [reasons[str(r)] for r in done["route"]],
+                             "length": [float(length[(out["route"] == str(r)).to_numpy()].sum()) for r in done["route"]]})
+    return NetworkSummary(results=results, segments=out, routes=routes,
+                          worst=_worst_areas(out, n_worst, overlapping), failed=failed, warnings=flagged,
+                          value_columns=tuple(values), segment_iri=how,
+                          segment_iri_column=source, iri_unit=iri_unit, station_unit=station_unit,
+                          limits=limits, length=total,
+                          mean_iri=float(np.sum(v[rated] * length[rated]) / length[rated].sum()) if length[rated].sum() > 0
+                          else float("nan"),
+                          share=share, measured=float(np.sum((length * valid)[w])), excluded=excluded,
+                          overlapping=overlapping)
+
+
+def _route_table(out, length, v, condition, reasons):
+    """Per route, worst mean first (see :class:`NetworkSummary`)."""
+    import numpy as np
+    import pandas as pd
+
+    t = out[["route", "file", "start", "end", "segment_iri"]].assign(_len=length)
+    t["_w"] = np.where(np.isfinite(v), v * length, 0.0)
+    t["_wl"] = np.where(np.isfinite(v), length, 0.0)
     for c in ("good", "fair", "poor", "none"):
-        out[f"_{c}"] = np.where(condition == c, length, 0.0)
-    g = out.groupby("route", sort=False)
+        t[f"_{c}"] = np.where(condition == c, length, 0.0)
+    g = t.groupby("route", sort=False)
+    lengths = g["_len"].sum()
     routes = pd.DataFrame({
         "route": list(g.groups),
         "file": g["file"].first().to_numpy(),
         "start": g["start"].min().to_numpy(), "end": g["end"].max().to_numpy(),
-        "length": g["_len"].sum().to_numpy(), "segments": g.size().to_numpy(),
+        "length": lengths.to_numpy(), "segments": g.size().to_numpy(),
         "mean_iri": (g["_w"].sum() / g["_wl"].sum().where(g["_wl"].sum() > 0)).to_numpy(),
         "max_iri": g["segment_iri"].max().to_numpy(),
-        **{c: (g[f"_{c}"].sum() / g["_len"].sum().where(g["_len"].sum() > 0)).to_numpy() for c in ("good", "fair", "poor")},
+        **{c: (g[f"_{c}"].sum() / lengths.where(lengths > 0)).to_numpy() for c in ("good", "fair", "poor", "none")},
     })
-    routes = routes.sort_values(["mean_iri", "route"], ascending=[False, True], na_position="last").reset_index(drop=True)
-    total = float(length.sum())
-    weighted = float(out["_wl"].sum())
-    share = {c: (float(out[f"_{c}"].sum()) / total if total > 0 else float("nan")) for c in ("good", "fair", "poor", "none")}
-    out = out.drop(columns=[c for c in out.columns if c.startswith("_")])
-    worst = (out[np.isfinite(v)].sort_values(["segment_iri", "route", "start"], ascending=[False, True, True])
-             .head(int(n_worst)).reset_index(drop=True))
-    return NetworkSummary(results=results, segments=out, routes=routes, worst=worst, failed=failed, warnings=flagged,
-                          value_columns=tuple(values), segment_iri=how,
-                          segment_iri_column=source, iri_unit=iri_unit, station_unit=station_unit,
-                          limits=limits, length=total,
-                          mean_iri=float(out["segment_iri"].mul(length).sum() / weighted) if weighted > 0 else float("nan"),
-                          share=share)
+    routes["counted"] = [reasons.get(r, "yes") for r in routes["route"]]
+    return routes.sort_values(["mean_iri", "route"], ascending=[False, True], na_position="last").reset_index(drop=True)

@@ -31,6 +31,7 @@ from urllib.parse import quote
 from .._interrupt import interrupt_once
 from ..errors import InputError, InputFormatError, OutputError
 from ._map import _WARM_LOCK, _WARMED, check_scheduler, error_message, iter_files, open_executor
+from ._options import option_changes
 from ._tasks import options_hash
 
 __all__ = ["EXIT_SOME_FAILED", "MANIFEST", "MANIFEST_COLUMNS", "SEGMENTS", "PROFILES", "BatchSummary",
@@ -116,16 +117,21 @@ class BatchSummary:
 def expand_paths(patterns: Iterable[str]) -> list[Path]:
     """Files matched by glob patterns (``**`` = any depth), sorted per pattern, duplicates dropped.
 
-    A pattern without wildcard is a file name that must exist. Raises :class:`InputError` for a pattern
-    matching no file or naming a folder. A symbolic link that cannot be followed (dangling, or a loop) is kept: the
-    batch gives it a failed manifest row saying why (:func:`_link_problem`), where it used to vanish from the run.
+    An argument that names an existing file is that file, even when its name holds ``[``, ``*`` or ``?``
+    (``Route [7]/lane*1.csv``); any other with a wildcard is a pattern, and one without is a file name that must
+    exist (assumption: a pattern that is also the name of an existing file means that file). Raises
+    :class:`InputError` for a pattern matching no file or naming a folder. A symbolic link that cannot be followed
+    (dangling, or a loop) is kept: the batch gives it a failed manifest row saying why (:func:`_link_problem`), where
+    it used to vanish from the run.
     """
     if isinstance(patterns, (str, os.PathLike)):
         patterns = [patterns]
     out, seen = [], set()
     for pattern in patterns:
         pattern = os.fspath(pattern)
-        if glob.has_magic(pattern):
+        if os.path.isfile(pattern) or (glob.has_magic(pattern) and os.path.islink(pattern)):
+            found = [pattern]  # a file named with wildcard characters is itself, never a pattern
+        elif glob.has_magic(pattern):
             found = sorted(p for p in glob.glob(pattern, recursive=True) if os.path.isfile(p) or _link_problem(p))
             found = [p for p in found if not _in_results_folder(p)]  # an earlier batch's output in the tree
             if not found:
@@ -234,15 +240,34 @@ def _manifest_schema(meta: dict):
 
 
 def _write_atomic(table, path: Path) -> None:
-    """Write a pyarrow table to Parquet at ``path`` through a hidden temporary file and an atomic rename."""
+    """Write a pyarrow table to Parquet at ``path`` through a hidden temporary file and an atomic rename.
+
+    A failed write (a full disk, a read-only file system) leaves ``path`` as it was and no temporary file, and raises
+    :class:`OutputError` (one line: the CLI's ``error:``, exit 2), where it gave a traceback (session 37).
+    """
     import pyarrow.parquet as pq
 
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        pq.write_table(table, fh)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as fh:
+            pq.write_table(table, fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
+        raise _write_error(path, exc) from None
+
+
+def _write_error(path, exc: OSError) -> OutputError:
+    """The one line of a write that failed: what, why (the system's words), and what to do."""
+    why = exc.strerror or str(exc)
+    hint = "free space on that disk" if exc.errno in (errno.ENOSPC, errno.EDQUOT) else "make it writable"
+    return OutputError(f"cannot write {path}: {why}; {hint}, or choose another output folder (-o), then run the same "
+                       "command with --resume.")
 
 
 def read_manifest(folder) -> tuple:
@@ -319,7 +344,10 @@ def _write_partition(folder: Path, route: str, kind: str, frame, metadata: dict)
     import pyarrow as pa
 
     path = partition_file(folder, route, kind)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _write_error(path.parent, exc) from None
     table = pa.Table.from_pandas(frame, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[b"longprofile"] = json.dumps(metadata, sort_keys=True, default=_json_default).encode()
@@ -329,8 +357,10 @@ def _write_partition(folder: Path, route: str, kind: str, frame, metadata: dict)
 def _remove_partitions(folder: Path, route: str) -> None:
     for kind in (SEGMENTS, PROFILES):
         path = partition_file(folder, route, kind)
-        if path.exists():
-            path.unlink()
+        try:
+            path.unlink(missing_ok=True)
+        except OSError as exc:
+            raise _write_error(path, exc) from None
 
 
 def _store(folder: Path, route: str, path: str, output) -> None:
@@ -446,15 +476,22 @@ def run_batch(task, paths: Iterable, output, *, executor=None, workers: int | No
 def _output_lock(out: Path):
     """Hold an exclusive lock on the output folder for the whole run (a hidden file beside it, removed at the end):
     two runs writing one results folder lost results (two --resume runs at once: 159 of 211 files missing from the
-    manifest; session 35, a probe). POSIX advisory locks (fcntl); where there are none, no lock."""
+    manifest; session 35, a probe). POSIX advisory locks (fcntl); where there are none, no lock. The lock is keyed on
+    the folder's real path (symbolic links followed): ``-o results`` and ``-o link_to_results`` are one folder and
+    take one lock (each took its own; session 37)."""
     try:
         import fcntl
     except ImportError:  # not POSIX
         yield
         return
-    out.parent.mkdir(parents=True, exist_ok=True)
-    lock = out.parent / f".{out.name}.longprofile-lock"
-    fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+    real = out.resolve()  # one lock per folder, whatever the path to it: a link to the folder got its own (session 37)
+    lock = real.parent / f".{real.name}.longprofile-lock"
+    try:
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+    except OSError as exc:
+        raise OutputError(f"cannot create the lock file {lock} beside the output folder {out}: "
+                          f"{exc.strerror or exc}; choose another folder.") from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -477,9 +514,9 @@ def _locked_run(task, inputs, out, executor, workers, resume, overwrite, on_star
     if existing is not None:
         old, info = existing
         if info.get("options_hash") != opts_hash:
-            raise InputError(f"{out} holds `{info.get('task')}` results with options {info.get('options')}; this run "
-                             f"asks `{name}` with {opts}. --resume needs the same task and options: pass --overwrite "
-                             "to replace the results, or choose another output folder.")
+            raise InputError(f"{out} holds results made with other options ({option_changes(info, task)}); --resume "
+                             "needs the same task and options: run with those of the results, pass --overwrite to "
+                             "replace them, or choose another output folder.")
         rows = {r["path"]: r for r in old.to_dict("records")}
     else:
         rows = {}
@@ -538,7 +575,7 @@ def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_re
             path, route = str(inputs[i]), routes[i]
             if result.ok:
                 digest, size, output = result.value
-                _store(out, route, path, output)
+                _store_or_forget(out, route, path, output, manifest)
                 row = _row(path, route, "ok", digest=digest, size=size, seconds=result.seconds,
                            rows=len(output.segments), warning=output.warning, metadata=output.metadata, **common)
                 n_ok += 1
@@ -559,8 +596,13 @@ def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_re
                 on_result(row)
         info["complete"] = True
         warnings += _flag_same_content(manifest.rows)
-    finally:
-        manifest.flush(force=True)
+    except BaseException:
+        try:  # the files done so far (Ctrl-C, a full disk): resumable; a second write error must not hide the first
+            manifest.flush(force=True)
+        except OutputError:
+            pass
+        raise
+    manifest.flush(force=True)
     return BatchSummary(output=out, task=name, n_inputs=len(inputs), n_ok=n_ok, n_error=len(failed),
                         n_skipped=n_skipped, seconds=time.perf_counter() - t0, failed=tuple(failed),
                         warnings=tuple(warnings))
@@ -598,10 +640,33 @@ def _assign_routes(inputs: list[Path], rows: dict) -> list[str]:
     return routes
 
 
+def _store_or_forget(out: Path, route: str, path: str, output, manifest: _Manifest) -> None:
+    """:func:`_store`; when it fails (a full disk), the route's partitions and manifest row are removed before the
+    error goes up, so that the manifest lists as done only routes whose partitions were written (``--resume``
+    computes the route again)."""
+    try:
+        _store(out, route, path, output)
+    except OutputError:
+        manifest.rows.pop(path, None)
+        try:
+            _remove_partitions(out, route)
+        except OutputError:
+            pass
+        raise
+
+
 def _has_results(out: Path, route: str) -> bool:
-    if not partition_file(out, route, SEGMENTS).is_file():
+    """Whether a route's partitions exist and can be read (as ``batch report`` reads them): ``--resume`` recomputes a
+    route whose partition is missing or damaged, as the report's message says (it was skipped; session 37)."""
+    import pyarrow.parquet as pq
+
+    try:
+        pq.read_table(partition_file(out, route, SEGMENTS))
+        if (out / PROFILES).is_dir():
+            pq.read_metadata(partition_file(out, route, PROFILES))
+    except Exception:  # missing, truncated, not Parquet: computed again
         return False
-    return not (out / PROFILES).is_dir() or partition_file(out, route, PROFILES).is_file()
+    return True
 
 
 def _same_content(path: Path, digest: str) -> bool:

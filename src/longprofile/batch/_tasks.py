@@ -78,13 +78,13 @@ _UNITS = {"si": ("m", 1.0, "m/km", 1.0, 100.0), "us": ("ft", 0.3048, "in/mi", 63
 
 
 def _iri_table(profile, task):
-    """Segment table and metadata from :func:`longprofile.road.iri_report` (the function ``road iri`` calls)."""
+    """The report and its metadata from :func:`longprofile.road.iri_report` (the function ``road iri`` calls)."""
     from ..road import iri_report
 
     report = iri_report(profile, mode=task.mode, interval=task.interval, window=task.window, step=task.step,
                         start=task.start, units=task.units, tracks=task.tracks, lead_in=task.lead_in,
                         moving_average=task.moving_average, gaps=task.gaps, min_valid=task.min_valid)
-    return report.to_frame(), dict(report.metadata)
+    return report, dict(report.metadata)
 
 
 def _warning(table, task, length_m: float) -> str:
@@ -203,13 +203,23 @@ class IRITask:
 
         tracks = self.tracks if self.tracks is not None else _default_tracks(path)
         task = self if tracks == self.tracks else dataclasses.replace(self, tracks=tracks)
-        return task.analyse(read_profile(path, units=self.elevation_unit, tracks=tracks))
+        profile = read_profile(path, units=self.elevation_unit, tracks=tracks)
+        if tracks is not None and profile.tracks != tuple(tracks):  # found in another letter case (Left for left):
+            profile = profile.renamed(dict(zip(profile.tracks, tracks)))  # one column per track across the network
+        return task.analyse(profile)
 
     def analyse(self, profile) -> TaskOutput:
-        """The task on a :class:`~longprofile.road.Profile` already in memory."""
-        table, meta = _iri_table(profile, self)
+        """The task on a :class:`~longprofile.road.Profile` already in memory. The warning holds every warning
+        ``road iri`` prints for the same file (:func:`~longprofile.road.iri_notes`: a dropout written as a held
+        value, an implausible section IRI, coarse stations), then the batch's own (no complete segment, an
+        implausible segment IRI) and the gaps of ``gaps="restart"``, joined by "; "."""
+        from ..road import iri_notes
+
+        report, meta = _iri_table(profile, self)
+        table = report.to_frame()
         length = float(profile.distance[-1] - profile.distance[0])
-        warning = "; ".join(w for w in (_warning(table, self, length), meta.get("gap_note", "")) if w)
+        notes = (*iri_notes(report, profile), _warning(table, self, length), meta.get("gap_note", ""))
+        warning = "; ".join(dict.fromkeys(w for w in notes if w))
         return TaskOutput(segments=table, metadata=meta, warning=warning)
 
     def warm(self) -> None:

@@ -34,15 +34,11 @@ _FILE_HELP = ("Profile file: CSV/Parquet with a distance_m column and one column
 def _check_plausible(result, profile) -> None:
     """Warn when a track holds one elevation over metres (a dropout written as a value), the IRI is out of any road's
     range (an elevation unit mistake is the usual cause) or the stations are coarse enough to bias it
-    (:func:`longprofile.road.dropout_note`, :func:`~longprofile.road.iri_plausibility`,
-    :func:`~longprofile.road.sampling_note`)."""
-    from ..road import dropout_note, iri_plausibility, sampling_note
+    (:func:`longprofile.road.iri_notes`, the sentences ``batch iri`` writes to its manifest)."""
+    from ..road import iri_notes
 
-    factor = 63.36 if getattr(result, "units", "si") == "us" else 1.0
-    for note in (dropout_note(profile), iri_plausibility([v / factor for v in result.section_iri]),
-                 sampling_note(profile)):
-        if note:
-            console.print(f"[yellow]warning:[/yellow] {escape(note)}", highlight=False, soft_wrap=True)
+    for note in iri_notes(result, profile):
+        console.print(f"[yellow]warning:[/yellow] {escape(note)}", highlight=False, soft_wrap=True)
 
 
 def _print_section_iri(result, iri_unit: str, what: str) -> None:

@@ -32,6 +32,7 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
     """Expand the patterns, make the one library call (run_batch) with a progress bar, report, exit code."""
     from ..batch import EXIT_SOME_FAILED, expand_paths, run_batch
 
+    _warn_ignored_workers(workers, scheduler)
     paths = expand_paths(patterns)
     bar = progress()
     state = {}
@@ -66,6 +67,22 @@ def _run(task, patterns: list[str], output: Path, workers: int | None, scheduler
         return
     console.print(f"[red]some files failed:[/red] {summary.line()}", highlight=False, soft_wrap=True)
     raise typer.Exit(EXIT_SOME_FAILED)
+
+
+def _warn_ignored_workers(workers: int | None, scheduler: str) -> None:
+    """One line when ``--workers`` has no effect: the serial scheduler runs one file at a time, and a Dask cluster's
+    workers are those started on it (it was silently ignored)."""
+    if workers is None or scheduler in ("processes", "threads"):
+        return
+    if scheduler == "serial":
+        why = "--scheduler serial runs one file at a time in this process"
+    elif "://" in scheduler:
+        why = (f"the Dask scheduler {scheduler} runs the files on the workers started on its cluster (start more with "
+               "`dask worker`)")
+    else:
+        return  # an unknown scheduler is refused by run_batch
+    console.print(f"[yellow]warning:[/yellow] --workers {workers} is ignored: {why}.", highlight=False,
+                  soft_wrap=True)
 
 
 def _terminate_as_interrupt():

@@ -66,24 +66,39 @@ _STATION_TOLERANCE = 1e-6
 _RESOLUTION = 1e-7
 
 
-def _fields8(path: Path, key: str, value: str, n: int) -> list[str]:
-    """The ``n`` per-channel fields of a SHORTNAM/UNITSNAM value.
+def _fields8(path: Path, key: str, entry: tuple[int, str], n: int) -> list[str]:
+    """The ``n`` per-channel fields of a SHORTNAM/UNITSNAM value (``entry``: its file line and the text after the
+    keyword).
 
-    The ERD convention is one 8-character field per channel. ``n`` blank-separated words one of which is longer
-    than 8 characters (long track names, as :func:`write_erd` writes them) are read as the names.
+    The ERD convention is one 8-character field per channel. When the value holds exactly ``n`` blank-separated
+    words (blanks or tabs, a hand-written ``SHORTNAM  LEFT RIGHT`` or ``UNITSNAM  inch inch``, or the long names
+    :func:`write_erd` writes blank-separated), the words are the fields: the 8-character columns would cut them
+    (``'LEFT R'``, ``'IGHT'``). Otherwise the 8-character fields are read (names of 8 characters written without a
+    blank between them, names holding a blank), unless one of them looks cut (a word crossing a field boundary
+    that starts after a blank of its field); then the line is refused.
     """
+    lineno, value = entry
     value = value.rstrip("\r\n ")
     words = value.split()
-    if len(words) == n and any(len(w) > 8 for w in words):
-        return words
-    if len(value) <= 8 * n:
-        parts = [value[i:i + 8].strip() for i in range(0, 8 * n, 8)]
-        if all(parts):
-            return parts
     if len(words) == n:
         return words
-    raise InputFormatError(f"{path}: {key} gives {len(words)} field(s) {words} but line 2 says NCHAN = {n}; write "
-                           "one 8-character field per channel.")
+    value = value.expandtabs(8)
+    parts = [value[i:i + 8].strip() for i in range(0, 8 * n, 8)]
+    if len(value) <= 8 * n and all(parts) and not _looks_cut(value, n):
+        return parts
+    raise InputFormatError(f"{path}: line {lineno}: {key} gives neither {n} blank-separated names nor {n} "
+                           f"8-character fields (NCHAN = {n} on line 2): {value.strip()!r}; write one name per "
+                           "channel, separated by blanks.")
+
+
+def _looks_cut(value: str, n: int) -> bool:
+    """Whether a word crosses a boundary of the 8-character fields having started after a blank of its field (a
+    name of exactly 8 characters followed at once by the next is not cut)."""
+    for b in range(8, 8 * n, 8):
+        if b < len(value) and not value[b - 1].isspace() and not value[b].isspace() \
+                and any(c.isspace() for c in value[b - 8:b]):
+            return True
+    return False
 
 
 def _line2(path: Path, line: str) -> tuple[int, int, float, float]:
@@ -248,15 +263,17 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
         raise InputFormatError(f"{path}: line 2: expected 'NCHAN, NPTS, f3, f4, f5, DX, X0' before END.")
     nchan, npts, dx, x0 = _line2(path, lines[1])
     keys: dict[str, str] = {}
-    for line in lines[2:]:
+    fields: dict[str, tuple[int, str]] = {}  # SHORTNAM/UNITSNAM: file line and value
+    for lineno, line in enumerate(lines[2:], start=3):
         if line.strip():
             keys.setdefault(line[:8].strip().upper(), line[8:])
-    names = (_fields8(path, "SHORTNAM", keys["SHORTNAM"], nchan) if "SHORTNAM" in keys
+            fields.setdefault(line[:8].strip().upper(), (lineno, line[8:]))
+    names = (_fields8(path, "SHORTNAM", fields["SHORTNAM"], nchan) if "SHORTNAM" in keys
              else [f"ch{k + 1}" for k in range(nchan)])
     keep = list(range(nchan)) if tracks is None else [_index(path, names, t) for t in
                                                       ([tracks] if isinstance(tracks, str) else tracks)]
     if "UNITSNAM" in keys:
-        chan_units = [_spelled(u) for u in _fields8(path, "UNITSNAM", keys["UNITSNAM"], nchan)]
+        chan_units = [_spelled(u) for u in _fields8(path, "UNITSNAM", fields["UNITSNAM"], nchan)]
         wrong = [chan_units[k] for k in keep if units is not None and chan_units[k].lower() != _spelled(units).lower()]
         if wrong:
             raise UnitsError(f"{path}: the header gives units {chan_units} but units={units!r} was given; remove the "
@@ -314,9 +331,16 @@ def _body_end(raw: bytes, start: int) -> int:
 
 
 def _index(path, names, t):
-    if t not in names:
-        raise InputError(f"{path}: no channel {t!r}; the file has {names}.")
-    return names.index(t)
+    """The channel named ``t``: that exact name, else the one name equal to it in any letter case (``--track left``
+    finds ``Left``, as in CSV files)."""
+    if t in names:
+        return names.index(t)
+    same = [k for k, name in enumerate(names) if name.casefold() == str(t).casefold()]
+    if len(same) != 1:
+        raise InputError(f"{path}: no channel {t!r}; the file has {names}." if not same else
+                         f"{path}: {len(same)} channels are {t!r} in some letter case ({[names[k] for k in same]}); "
+                         "give the exact name.")
+    return same[0]
 
 
 def _decimals(factor: float) -> int:

@@ -114,7 +114,7 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     names = [t if t in columns else by_lower.get(str(t).lower(), t) for t in names]  # --track left finds Left_mm
     for t in names:
         if t not in columns:
-            raise InputError(f"{path}: no track {t!r}; the file has {list(columns)}.")
+            raise InputError(f"{path}: no track {t!r}; {_tracks_line(df.columns, columns, recording)}.")
     _refuse_apl_signal(path, names, columns, recording=recording, chosen=chosen)
     if not names:
         raise InputFormatError(f"{path}: no elevation column besides {distance_column!r}.")
@@ -187,6 +187,17 @@ def is_simulated_recording(path) -> bool:
     problem).
     """
     return _is_header(_header_names(path), RECORDING_COLUMNS)
+
+
+def _tracks_line(header, columns, recording: bool) -> str:
+    """What a file's tracks are, for a refusal: a ``road reconstruct`` output's profile only (``raw_m`` is the
+    undetrended estimate, a diagnostic) and a ``road simulate`` recording's true profile only (``apl_m`` is the
+    trailer's raw signal)."""
+    if _is_header(header, RECONSTRUCT_COLUMNS):
+        return "the file (a `road reconstruct` output) has the track ['elevation'] (raw_m is not a track)"
+    if recording:
+        return "the file (a `road simulate` recording) has the track ['true'] (apl_m is the trailer's raw signal)"
+    return f"the file has {list(columns)}"
 
 
 def _refuse_apl_signal(path, names, columns, *, recording: bool, chosen: bool) -> None:

@@ -29,6 +29,20 @@ font-size:0.85em;white-space:normal;max-width:720px}th.l{text-align:left}td.path
 """
 
 
+#: IRI unit label -> column-name suffix (as ``road iri``: ``mean_iri_m_per_km``, ``mean_iri_in_per_mi``).
+_IRI_SUFFIX = {"m/km": "m_per_km", "in/mi": "in_per_mi", "mm/m": "mm_per_m"}
+_STATION_COLUMNS = ("start", "end", "length", "peak_start", "peak_end")
+_IRI_COLUMNS = ("mean_iri", "max_iri", "segment_iri")
+
+
+def with_units(table, summary):
+    """``table`` with its station and IRI columns named with their unit, as ``road iri`` names them
+    (``start_m`` / ``start_ft``, ``mean_iri_m_per_km`` / ``mean_iri_in_per_mi``): the CSV files and the page."""
+    su, iu = summary.station_unit, _IRI_SUFFIX.get(summary.iri_unit, summary.iri_unit.replace("/", "_per_"))
+    names = {c: f"{c}_{su}" for c in _STATION_COLUMNS} | {c: f"{c}_{iu}" for c in _IRI_COLUMNS}
+    return table.rename(columns={c: n for c, n in names.items() if c in table.columns})
+
+
 def _legend_handles(limits, unit):
     from matplotlib.patches import Patch
 
@@ -104,8 +118,10 @@ def plot_worst_routes(summary, routes):
 
 
 def plot_iri_histogram(summary, *, bins: int = 40):
-    """Distribution of the segment IRI: segments per bin, bins coloured by condition, limits marked."""
-    v = summary.segments["segment_iri"].to_numpy(dtype=float)
+    """Distribution of the segment IRI of the counted routes: segments per bin, bins coloured by condition, limits
+    marked."""
+    seg = summary.segments
+    v = (seg[seg["counted"]] if "counted" in seg else seg)["segment_iri"].to_numpy(dtype=float)
     v = v[np.isfinite(v)]
     good, poor = summary.limits
     fig = _figure(height=3.4)
@@ -170,7 +186,8 @@ def write_network_report(summary, outdir, *, title: str | None = None, inputs=()
         Files written, ``index.html`` first.
     """
     out = report_folder(outdir, inputs, writes=_REPORT_FILES, overwrite=overwrite)
-    tables = {"routes.csv": summary.routes, "worst_segments.csv": summary.worst, "failed.csv": summary.failed}
+    tables = {"routes.csv": with_units(summary.routes, summary), "worst_segments.csv": with_units(summary.worst, summary),
+              "failed.csv": summary.failed}
     written = [write_csv(df, out / fname) for fname, df in tables.items()]
     figs, drawn = _network_figures(summary)
     for stale in out.glob("routes-*.png"):  # an earlier report of a bigger network
@@ -202,22 +219,41 @@ def _network_figures(summary):
     return figs, drawn
 
 
+def _length_text(summary, length) -> str:
+    su = summary.station_unit
+    value = length / (1000.0 if su == "m" else (5280.0 if su == "ft" else 1.0))
+    return f"{value:.1f} {dict(m='km', ft='mi').get(su, su)}"
+
+
 def _network_cards(summary) -> list[str]:
-    """The summary cards of the page: files, network length, mean segment IRI, condition shares."""
+    """The summary cards of the page: files, measured length, mean segment IRI, condition shares."""
     counts, routes = summary.counts, summary.routes
     n_files = len(summary.results.manifest)
     good, poor = summary.limits
-    unit, su = summary.iri_unit, summary.station_unit
-    km = summary.length / (1000.0 if su == "m" else (5280.0 if su == "ft" else 1.0))
-    length_unit = {"m": "km", "ft": "mi"}.get(su, su)
-    cards = [f'<div class="card">Network<b>{km:.1f} {length_unit}</b><span class="small">{len(summary.segments)} '
-             f"segments, {len(routes)} routes</span></div>",
+    unit = summary.iri_unit
+    counted = summary.segments["counted"] if "counted" in summary.segments else None
+    n_seg = int(counted.sum()) if counted is not None else len(summary.segments)
+    kind = "overlapping windows" if summary.overlapping else "segments"
+    n_routes = int((routes["counted"] == "yes").sum()) if "counted" in routes else len(routes)
+    measured = summary.measured if np.isfinite(summary.measured) else summary.length
+    gaps = summary.length - measured
+    detail = (f"of {_length_text(summary, summary.length)} surveyed, {_length_text(summary, gaps)} unmeasured (gaps); "
+              if gaps > 1e-6 * max(summary.length, 1.0) else "")
+    detail += "overlapping windows counted once; " if summary.overlapping else ""
+    cards = [f'<div class="card">Network, measured length<b>{_length_text(summary, measured)}</b><span class="small">'
+             f"{detail}{n_seg} {kind}, {n_routes} routes</span></div>",
              f'<div class="card"{_condition(summary.mean_iri, summary.limits)}>'
              f'Mean segment IRI<b>{_num(summary.mean_iri)} {unit}</b><span class="small">length-weighted</span></div>']
-    shares = " · ".join(f'<span style="color:{colour}">{_pct(summary.share[c])}</span>'
-                        for c, colour in (("good", _GOOD), ("fair", _FAIR), ("poor", _POOR)))
+    parts = (("good", _GOOD), ("fair", _FAIR), ("poor", _POOR), ("none", _NONE))
+    shares = " · ".join(f'<span style="color:{colour}">{_pct(summary.share[c])}</span>' for c, colour in parts)
     cards.append(f'<div class="card">Condition, share of the length<b>{shares}</b><span class="small">good · fair · '
-                 f'poor (good &lt; {good:.3g}, poor &gt; {poor:.3g} {unit})</span></div>')
+                 f'poor · no IRI (unmeasured or too short; good &lt; {good:.3g}, poor &gt; {poor:.3g} {unit})</span>'
+                 "</div>")
+    excluded = summary.excluded
+    if excluded is not None and len(excluded):
+        cards.append(f'<div class="card bad">Left out of the totals<b>{len(excluded)} files, '
+                     f'{_length_text(summary, float(excluded["length"].sum()))}</b><span class="small">listed below '
+                     "and in routes.csv (column counted)</span></div>")
     res = summary.results
     interrupted = res.complete is False
     total = max(n_files, res.n_inputs or 0)
@@ -232,19 +268,18 @@ def _network_cards(summary) -> list[str]:
 
 def _network_tables(summary) -> tuple[str, str]:
     """The HTML tables of the worst segments and of the routes (first 100); "" for an empty one."""
-    routes, su = summary.routes, summary.station_unit
+    routes = summary.routes
     highlight = (lambda c, v: _condition(float(v), summary.limits)
-                 if (str(c) in summary.value_columns or c in ("segment_iri", "mean_iri", "max_iri"))
+                 if (str(c) in summary.value_columns or str(c).startswith(_IRI_COLUMNS))
                  and isinstance(v, (float, np.floating)) else "")
     dup = ["segment_iri"] if summary.segment_iri_column is not None else []  # a copy of a column shown
-    worst = summary.worst.drop(columns=["file", "condition"] + dup, errors="ignore")
-    worst = worst.rename(columns={"start": f"start_{su}", "end": f"end_{su}"})
+    worst = with_units(summary.worst.drop(columns=["file", "condition"] + dup, errors="ignore"), summary)
     worst_html = _table_html(worst, fmt="{:.2f}", highlight=highlight) if len(worst) else ""
     rtab = routes.head(100).copy()
-    for c in ("good", "fair", "poor"):
-        rtab[c] = [_pct(x) for x in rtab[c]]
-    rtab = rtab.drop(columns=["file"]).rename(columns={"start": f"start_{su}", "end": f"end_{su}",
-                                                       "length": f"length_{su}"})
+    for c in ("good", "fair", "poor", "none"):
+        if c in rtab:
+            rtab[c] = [_pct(x) for x in rtab[c]]
+    rtab = with_units(rtab.drop(columns=["file"]), summary)
     routes_html = _table_html(rtab, fmt="{:.2f}", highlight=highlight) if len(rtab) else ""
     return worst_html, routes_html
 
@@ -262,6 +297,7 @@ def _page_context(summary, tables, figs, images, drawn, title) -> dict:
     meta = (f"{n_files} input files, task {res.task}; IRI in {summary.iri_unit} per segment (the IRI report of each "
             f"file); segment IRI = {summary.segment_iri}.")
     warnings = summary.warnings
+    excluded = summary.excluded.head(500) if summary.excluded is not None else summary.failed.head(0)
     return dict(
         name=html.escape(name), css=_CSS + _EXTRA_CSS, meta=html.escape(meta), cards=_network_cards(summary),
         img={f: img_tag(images, f, _ALT.get(f, "condition along each route")) for f in images},
@@ -269,8 +305,23 @@ def _page_context(summary, tables, figs, images, drawn, title) -> dict:
         n_drawn=len(drawn), n_routes=len(routes), good=f"{summary.limits[0]:.3g}", poor=f"{summary.limits[1]:.3g}",
         unit=summary.iri_unit, worst_table=worst_table, routes_table=routes_table,
         n_failed=summary.counts["error"], failed_table=_failed_html(summary.failed),
+        excluded=[(html.escape(str(r.path)), html.escape(str(r.reason)), html.escape(_length_text(summary, r.length)))
+                  for r in excluded.itertuples()], n_excluded=len(excluded), unseen=html.escape(_unseen_note(summary)),
         n_warnings=len(warnings), warnings=[(html.escape(str(r.path)), html.escape(str(r.warning)))
                                             for r in warnings.head(500).itertuples()],
         folder=html.escape(str(res.folder)), options=html.escape(json.dumps(res.options)),
         version=html.escape(str(res.manifest["longprofile_version"].iloc[0] if n_files else "")),
         files=[html.escape(f) for f in list(tables) + list(figs)])
+
+
+def _unseen_note(summary) -> str:
+    """A sentence when the manifest holds more inputs with results than the last run was given (rows kept by
+    ``--resume`` of files not given again): the manifest does not record which, so only the count is known."""
+    res = summary.results
+    done = int(res.manifest["status"].isin(["ok", "skipped"]).sum())
+    gone = len(res.missing_inputs)
+    if res.n_inputs is None or done - gone <= res.n_inputs:
+        return ""
+    return (f"The manifest holds results of {done - gone - res.n_inputs} more existing file(s) than the last run was "
+            "given (rows kept by --resume from earlier runs); the manifest does not record which, so they are "
+            "counted.")

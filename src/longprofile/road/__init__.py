@@ -10,6 +10,7 @@ GapSummary, MIN_VALID_FRACTION -- gaps="restart": the IRI over the measured part
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 iri_plausibility, sampling_note, dropout_runs, dropout_note -- what a road command warns of or refuses in a profile.
+iri_notes -- the warnings of `road iri` about an IRI and its profile (all of the above that apply).
 localized_roughness -- continuous short-interval IRI and defects above a threshold.
 waveband_energy -- mean-square elevation per segment in wavelength bands (APL_BANDS built in).
 profile_psd -- Welch displacement PSD in cycles/m; fit_iso8608 -- Gd(n0), waviness and class A..H.
@@ -41,7 +42,7 @@ from ..core import Profile
 __all__ = ["Profile", "iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "GapSummary", "MIN_VALID_FRACTION", "rectified_slope",
     "RectifiedSlope", "golden_car_matrices",
-    "GOLDEN_CAR", "iri_plausibility", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
+    "GOLDEN_CAR", "iri_plausibility", "iri_notes", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

@@ -79,6 +79,27 @@ _VERTICAL_QUANTITY = {"time": "time", "ax": "accel", "ay": "accel", "yaw_rate": 
                       **{f"dz21_{c}": "length" for c in _CORNERS}, **{f"body_accel_{c}": "accel" for c in _CORNERS},
                       **{f"wheel_accel_{c}": "accel" for c in _CORNERS}, **{f"current_{c}": "current" for c in _CORNERS}}
 
+#: Other names of a channel, per log type: one CAN export feeds both readers (the planar log names the body's
+#: accelerations ``accel_x``/``accel_y``, the vertical log ``ax``/``ay``). A column of the other name is read as the
+#: channel when the log has no column of the channel's own name; ``--units`` keys may use either name.
+_PLANAR_ALIASES = {"ax": "accel_x", "ay": "accel_y"}
+_VERTICAL_ALIASES = {"accel_x": "ax", "accel_y": "ay"}
+
+
+def _with_aliases(frame, units, quantities: dict, aliases: dict, *, source: str):
+    """``frame`` with its header units split and its alias columns renamed to the channels, and the declared units
+    ({channel: unit}, header then ``units``, pattern keys expanded) keyed by channel."""
+    extended = {**quantities, **{a: quantities[c] for a, c in aliases.items()}}
+    frame, declared = split_unit_headers(frame, extended)
+    rename = {a: c for a, c in aliases.items() if a in frame.columns and c not in frame.columns}
+    if rename:
+        frame = frame.rename(columns=rename)
+        declared = {rename.get(k, k): v for k, v in declared.items()}
+    given = {(aliases.get(k, k) if isinstance(k, str) else k): v for k, v in dict(units or {}).items()}
+    declared.update(expand_unit_patterns(given, quantities, source=source))
+    return frame, declared
+
+
 #: ``name [unit]`` or ``name (unit)``
 _HEADER = re.compile(r"^\s*(?P<name>[^\[\]()]*?)\s*(?:\[(?P<unit>[^\[\]]+)\]|\((?P<unit_p>[^()]+)\))\s*$")
 
@@ -585,8 +606,7 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
     """
     from .planar import DriveLog
 
-    frame, declared = split_unit_headers(frame, _PLANAR_QUANTITY)
-    declared.update(expand_unit_patterns(units, _PLANAR_QUANTITY, source=source))
+    frame, declared = _with_aliases(frame, units, _PLANAR_QUANTITY, _PLANAR_ALIASES, source=source)
     radii = dict(zip(("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"),
                      vehicle.wheel_radius_of_each.tolist()))
     frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=radii, source=source)
@@ -640,8 +660,7 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
 
     from .vertical import sensors_from_frame
 
-    frame, declared = split_unit_headers(frame, _VERTICAL_QUANTITY)
-    declared.update(expand_unit_patterns(units, _VERTICAL_QUANTITY, source=source))
+    frame, declared = _with_aliases(frame, units, _VERTICAL_QUANTITY, _VERTICAL_ALIASES, source=source)
     frame = convert_units(frame, declared, _VERTICAL_QUANTITY, source=source)
     if config is None:
         config = infer_vertical_config(frame.columns, source=source)

@@ -5,6 +5,7 @@ iri_report -- IRI as agencies report it: fixed, continuous or overlapping interv
 GapSummary, MIN_VALID_FRACTION -- gaps="restart" (iri, iri_report, analyse_roughness): IRI over the measured parts.
 iri_plausibility, sampling_note -- a sentence when a section IRI is outside any road's range, or the stations are coarse.
 dropout_runs, dropout_note -- runs of one exact elevation over 2 m (a dropout written as a value), and their sentence.
+iri_notes -- the warnings of `road iri` about an IRI and its profile (all of the above that apply).
 rectified_slope -- golden-car rectified slope per step (building block of the IRI).
 golden_car_matrices -- exact discrete golden car (WTP-46 ST, PR) for a step or per-step array.
 localized_roughness -- continuous short-interval IRI and defects above a threshold.
@@ -32,8 +33,8 @@ _EXPORTS = {
         "FaultingResult", "find_joints", "joint_faulting", "step_statistic",
     ),
     "._iri": (
-        "GOLDEN_CAR", "IRIReport", "IRIResult", "RectifiedSlope", "golden_car_matrices", "iri", "iri_plausibility",
-        "iri_report", "rectified_slope", "sampling_note",
+        "GOLDEN_CAR", "IRIReport", "IRIResult", "RectifiedSlope", "golden_car_matrices", "iri", "iri_notes",
+        "iri_plausibility", "iri_report", "rectified_slope", "sampling_note",
     ),
     "._iso8608": (
         "ISO8608_BAND", "ISO8608_CLASSES", "ISO8608Fit", "ProfilePSD", "fit_iso8608", "iso8608_class", "iso8608_gd",
@@ -60,7 +61,7 @@ _EXPORTS = {
 __all__ = ["iso8608_profile",
     "iri", "IRIResult", "iri_report", "IRIReport", "GapSummary", "MIN_VALID_FRACTION", "rectified_slope",
     "RectifiedSlope", "golden_car_matrices",
-    "GOLDEN_CAR", "iri_plausibility", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
+    "GOLDEN_CAR", "iri_plausibility", "iri_notes", "sampling_note", "dropout_runs", "dropout_note", "MIN_DROPOUT_RUN_M",
     "localized_roughness", "LocalizedRoughness", "RoughnessDefect", "waveband_energy", "WavebandEnergy",
     "APL_BANDS", "profile_psd", "ProfilePSD", "fit_iso8608", "ISO8608Fit", "iso8608_gd", "iso8608_class",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",

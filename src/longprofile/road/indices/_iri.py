@@ -27,6 +27,7 @@ __all__ = [
     "MAX_IRI_STEP_M",
     "MIN_IRI_INTERVAL_M",
     "iri_plausibility",
+    "iri_notes",
     "sampling_note",
     "golden_car_continuous",
     "golden_car_matrices",
@@ -626,6 +627,32 @@ def iri_plausibility(iri_m_per_km, *, what: str = "section IRI") -> str:
                 "0.5 m/km): elevations in metres under a mm label (e.g. left_mm holding metres), or a smoothed "
                 "series rather than a measured profile?")
     return ""
+
+
+def iri_notes(result, profile: Profile) -> tuple[str, ...]:
+    """The warnings of ``longprofile road iri`` and ``road report`` about an IRI and the profile it was computed on,
+    in the order they are printed: a dropout written as a held value (:func:`~longprofile.road.dropout_note`), a
+    section IRI out of any road's range (:func:`iri_plausibility`), stations coarse enough to bias the IRI low
+    (:func:`sampling_note`). ``batch iri`` writes the same sentences to its manifest.
+
+    Parameters
+    ----------
+    result : IRIReport or IRIResult
+        The IRI (its ``section_iri``, in in/mi when ``result.units == "us"``, else m/km).
+    profile : Profile
+        The profile it was computed on.
+
+    Returns
+    -------
+    tuple of str
+        The non-empty sentences (empty tuple when there is nothing to look at).
+    """
+    from ._dropouts import dropout_note
+
+    factor = REPORT_UNITS["us"]["iri_per_m_per_km"] if getattr(result, "units", "si") == "us" else 1.0
+    notes = (dropout_note(profile), iri_plausibility([v / factor for v in result.section_iri]),
+             sampling_note(profile))
+    return tuple(n for n in notes if n)
 
 
 def _run(profile, tracks, lead_in, moving_average, base_length, extra_stations, dx):
