@@ -334,9 +334,10 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
     share = {c: (float(length[w & (condition == c)].sum()) / total if total > 0 else float("nan"))
              for c in ("good", "fair", "poor", "none")}
     done = manifest[manifest["route"].astype(str).isin(list(reasons))]
+    by_route = pd.Series(length).groupby(out["route"].astype(str).to_numpy()).sum()  # one pass, not one per route
     excluded = pd.DataFrame({"path": done["path"].astype(str).to_numpy(), "route": done["route"].astype(str).to_numpy(),
                              "reason": [reasons[str(r)] for r in done["route"]],
-                             "length": [float(length[(out["route"] == str(r)).to_numpy()].sum()) for r in done["route"]]})
+                             "length": [float(by_route.get(str(r), 0.0)) for r in done["route"]]})
     return NetworkSummary(results=results, segments=out, routes=routes,
                           worst=_worst_areas(out, n_worst, overlapping), failed=failed, warnings=flagged,
                           value_columns=tuple(values), segment_iri=how,
