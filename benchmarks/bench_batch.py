@@ -184,6 +184,49 @@ def run(quick: bool) -> list[BenchRow]:
                          detail=f"{rss['dask']:.0f} MB vs {rss['processes']:.0f} MB (largest worker, ru_maxrss; both "
                                 f"with the batch's allocator tuning, longprofile._memory)"),
             ]
+        rows += _report_rows(tmp, files, quick)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return rows
+
+
+def _report_rows(tmp: Path, files: list[Path], quick: bool) -> list[BenchRow]:
+    """``batch report`` on a continuous-IRI network (a window every step): its throughput in windows/s, in this
+    process and as the whole command in a fresh one, and its ratio against reading the same dataset with pyarrow."""
+    import pyarrow.dataset as ds
+
+    from benchmarks._common import cli_wall_time
+    from longprofile.batch import IRITask, read_results, run_batch, summarize_network
+    from longprofile.report import write_network_report
+
+    # full: 40 files x 10 km, a 7.62 m window every 0.3 m (1.33 million windows, the size that took 45 s in session
+    # 37); quick: 8 files x 1 km, a window every sample (0.05 m, 160 000 windows)
+    subset, task = (files, IRITask(mode="continuous")) if quick else (files[:40], IRITask(mode="continuous", step=0.3))
+    results = tmp / "report-network"
+    summary = run_batch(task, subset, results, executor=None if quick else "processes", workers=WORKERS)
+    if summary.n_ok != len(subset):
+        raise RuntimeError(f"benchmark batch report: the continuous run failed: {summary.line()}")
+    load = os.getloadavg()[0]
+    t_report, t_read = float("inf"), float("inf")
+    for rep in range(2):  # alternating, best of two: the machine is shared
+        t0 = time.perf_counter()
+        write_network_report(summarize_network(read_results(results)), tmp / f"report-{rep}")
+        t_report = min(t_report, time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        n = ds.dataset(results / "segments", partitioning="hive").to_table().num_rows
+        t_read = min(t_read, time.perf_counter() - t0)
+    repeat = 1 if quick else 2
+    wall, _ = cli_wall_time(["batch", "report", str(results)], [tmp / f"report-cli-{k}" for k in range(repeat + 1)],
+                            repeat=repeat)
+    what = f"{n} windows over {len(subset)} routes, continuous IRI"
+    return [
+        BenchRow(AREA, "batch report throughput (read_results + summarize_network + write_network_report)",
+                 n / t_report, "windows/s", target=None if quick else 150_000.0,
+                 detail=f"{what}: {t_report:.2f} s in this process (best of 2); 1.3 million windows took 44.8 s "
+                        f"before session 38 (about 30 000 windows/s); load average before {load:.2f}"),
+        BenchRow(AREA, "batch report / reading the dataset with pyarrow", t_report / t_read, "x",
+                 higher_is_better=False,
+                 detail=f"{t_report:.2f} s vs {t_read:.3f} s (pyarrow.dataset over segments/, best of 2, alternating)"),
+        BenchRow(AREA, "longprofile batch report, whole command (fresh process)", wall, "s", higher_is_better=False,
+                 detail=f"{what}; best of {repeat} after a warm-up run; imports and the PNG and HTML writing included"),
+    ]

@@ -12,11 +12,19 @@ random per family (the estimator always keeps the nominal car, its default tunin
 * ``sensor bias``    -- accelerometer offsets of 0.1-0.3 m/s^2 (model: 0.02), gyro offset 1-3e-3 rad/s, and a
   per-wheel wheel-speed scale error of 0.1-0.5 % (tyre-to-tyre radius spread);
 * ``steep grades``   -- random smooth hills up to 15-18 % (the other families stay within 6 %);
-* ``lag, jitter``    -- wheel speeds 5-20 ms late against the IMU (CAN latency) and 0.2 ms sample-time jitter.
+* ``lag, jitter``    -- wheel speeds 5-20 ms late against the IMU (CAN latency) and 0.2 ms sample-time jitter;
+* ``sample rate``    -- the log a CAN logger writes: every channel sampled at a rate drawn from 50-200 Hz (1 kHz /
+  5..20, a random phase), plain sampling of the 1 kHz sensor values (each sample the value on the bus at the
+  logger's tick, as the probe of session 38 decimated ``vehicle simulate`` drives): the sensors' white noise keeps
+  its per-sample std and aliases;
+* ``sample rate, filtered`` -- the same rates with each channel low-passed before sampling
+  (``scipy.signal.resample_poly``, zero-phase FIR anti-alias filter, edges padded by a line: a sensor band-limited to
+  the sending rate, or an export tool that resamples with an anti-alias filter), so the noise per sample shrinks with the rate. Assumption (both): the channels stay time-aligned (no
+  filter delay; a sensor's causal filter would delay the estimate against the truth, not covered here).
 
 Per draw: a random drive (speed 10-28 m/s with accelerations and braking up to 2.5 m/s^2, sine steering,
-smooth grade ramps), simulated at 1 kHz (``simulate_drive``), then ``estimate_slope`` with the cascade (the
-paper) and the joint EKF. The first 2 s are left out. Coverage = share of samples whose truth is inside
+smooth grade ramps), simulated at 1 kHz (``simulate_drive``; the two ``sample rate`` families then decimate the log
+and the truth), then ``estimate_slope`` with the cascade (the paper) and the joint EKF. The first 2 s are left out. Coverage = share of samples whose truth is inside
 estimate +- 1.645 std (target 85-95 %); z = error / std, its RMS (target ~1); PIT = Phi(z), the share in each
 decile (target 10 % each; the detail gives the largest deviation and, for the slope, all ten shares).
 
@@ -60,7 +68,9 @@ from benchmarks._common import BenchRow, CoverageScore
 AREA = "vehicle_calibration"
 DT, SETTLE = 1e-3, 2.0
 FAMILIES = ("own model", "mass error", "radius error", "tyre error", "friction error", "sensor bias",
-            "steep grades", "lag, jitter")
+            "steep grades", "lag, jitter", "sample rate", "sample rate, filtered")
+#: The ``sample rate`` families' decimation factors of the 1 kHz simulation: 5..20, i.e. logs at 200 to 50 Hz.
+RATE_STEPS = (5, 20)
 STATES = ("slope", "vx", "vy", "yaw_rate")
 STATED_DRAWS = 100
 #: The ``radius error`` family's relative rolling-radius errors: magnitude uniform over this range, random sign.
@@ -142,6 +152,27 @@ def _log(family, rng, sim):
     return log
 
 
+def _sampled(family, rng, log):
+    """(log, index into the simulation's samples): the ``sample rate`` families' log at a random rate (1 kHz / step,
+    step drawn from :data:`RATE_STEPS`, random phase), plain sampling or after a zero-phase anti-alias FIR
+    (``scipy.signal.resample_poly``); the other families' log as it is (index ``slice(None)``)."""
+    if not family.startswith("sample rate"):
+        return log, slice(None)
+    step = int(rng.integers(RATE_STEPS[0], RATE_STEPS[1] + 1))
+    start = int(rng.integers(0, step))
+    idx = slice(start, None, step)
+    from scipy.signal import resample_poly
+
+    def pick(a):  # the FIR's edges padded by a line fit (zero padding would pull the first samples towards 0)
+        out = a[idx] if family == "sample rate" else resample_poly(a[start:], 1, step, axis=0, padtype="line")
+        return np.ascontiguousarray(out)
+
+    return replace(log, time=log.time[idx], steering_angle=pick(log.steering_angle),
+                   wheel_speeds=pick(log.wheel_speeds), yaw_rate=pick(log.yaw_rate), accel_x=pick(log.accel_x),
+                   accel_y=pick(log.accel_y),
+                   wheel_steering=None if log.wheel_steering is None else pick(log.wheel_steering)), idx
+
+
 def _sensors(family, rng):
     from longprofile.vehicle import SensorSpec
 
@@ -203,7 +234,7 @@ def calibrate(family: str, draws: int, *, seed: int = 0, duration: float = 24.0,
         if background == "stated":
             true_car, sensors, wheel_scale, gain = _stated_background(family, rng_bg, true_car, sensors)
         sim = simulate_drive(scenario, true_car, sensors=sensors, seed=rng)
-        log = _log(family, rng, sim)
+        log, idx = _sampled(family, rng, _log(family, rng, sim))
         if background == "stated":
             log = replace(log, wheel_speeds=log.wheel_speeds * wheel_scale, accel_x=log.accel_x * gain)
         keep = log.time >= SETTLE
@@ -212,7 +243,7 @@ def calibrate(family: str, draws: int, *, seed: int = 0, duration: float = 24.0,
             if warned is not None and m == methods[0]:
                 warned.append(_warning_kinds(est))
             for k in STATES:
-                err = getattr(est, k) - getattr(sim.truth, k)
+                err = getattr(est, k) - getattr(sim.truth, k)[idx]
                 scores[(m, k)].add(err[keep], np.broadcast_to(getattr(est, f"{k}_std"), err.shape)[keep])
     return scores
 

@@ -13,6 +13,9 @@ Rows:
   dampers pull the car down on a rough road);
 * detected: share of the same drives warned about with a zero offset added to the deflections (+-20 mm and
   +-10 mm on every corner, 8 mm on one corner of either sign), with the channels named right.
+* sign (session 38): drives of configurations 2 and 3 whose zeroed, right-signed deflections are called "sign
+  inverted?" (false alarms), and the share of them called so, every corner named, with all four deflections negated
+  (logged positive in compression), per configuration.
 """
 
 from __future__ import annotations
@@ -53,11 +56,19 @@ def score(n: int, seed: int = 12) -> dict:
                "-10 mm all": (-0.01,) * 4, "8 mm one corner": None}
     alarms, found_clean, worst_mean, worst_what = 0, [], 0.0, ""
     detected = dict.fromkeys(offsets, 0)
+    sign = {"false": 0, 2: [0, 0], 3: [0, 0]}  # per config: [drives, inverted logs with every corner named]
     for _ in range(n):
         what, sensors = _drive(rng)
         res = estimate_vertical_log(sensors)
         check = res.deflection_check
         alarms += bool(check.suspect)
+        if sensors.config in (2, 3):
+            sign["false"] += bool(check.inverted.any())
+            # the MR map's force is odd in the damper velocity: the negated log's actuator force is its negative
+            flipped = deflection_zero_check(replace(sensors, displacement=-sensors.displacement),
+                                            actuator_force=-res.estimate.actuator_force)
+            sign[sensors.config][0] += 1
+            sign[sensors.config][1] += bool(flipped.inverted.all())
         if not found_clean or np.max(np.abs(check.offset)) > max(found_clean):
             worst_what = what
         found_clean.append(float(np.max(np.abs(check.offset))))
@@ -72,7 +83,7 @@ def score(n: int, seed: int = 12) -> dict:
             named = np.abs(found.offset) > DEFLECTION_OFFSET_LIMIT
             detected[name] += bool(np.array_equal(named, add != 0))
     return {"n": n, "alarms": alarms, "found": np.array(found_clean), "worst_what": worst_what,
-            "worst_mean": worst_mean, "detected": detected}
+            "worst_mean": worst_mean, "detected": detected, "sign": sign}
 
 
 def run(quick: bool = False) -> list[BenchRow]:
@@ -89,4 +100,13 @@ def run(quick: bool = False) -> list[BenchRow]:
     for name, k in s["detected"].items():
         rows.append(BenchRow(AREA, f"detected and named: {name}", 100.0 * k / n, "%", target=95.0,
                              detail=f"{k} of {n} drives"))
+    sign = s["sign"]
+    m = sign[2][0] + sign[3][0]
+    rows.append(BenchRow(AREA, "sign inverted? on right-signed deflections (configs 2, 3)",
+                         100.0 * sign["false"] / max(m, 1), "%", target=5.0, higher_is_better=False,
+                         detail=f"{sign['false']} of {m} drives"))
+    for config, target in ((2, 95.0), (3, 80.0)):
+        k, total = sign[config][1], sign[config][0]
+        rows.append(BenchRow(AREA, f"deflections negated: sign inverted? on every corner, config {config}",
+                             100.0 * k / max(total, 1), "%", target=target, detail=f"{k} of {total} drives"))
     return rows

@@ -38,3 +38,30 @@ def test_vehicle_calibration_stated_background_draws_within_the_stated_tolerance
     assert _stated_background("mass error", rng, heavy, SensorSpec())[0].mass == heavy.mass
     scores = calibrate("own model", 1, duration=6.0, background="stated", methods=("cascade",))
     assert all(sc.n > 0 for sc in scores.values())
+
+
+def test_vehicle_calibration_sample_rate_families_sample_the_log_and_the_truth_alike():
+    """The ``sample rate`` families (session 38): a rate of 50-200 Hz, plain sampling keeps the 1 kHz values at the
+    returned index, the anti-alias FIR keeps a smooth channel and reduces the white gyro noise by about sqrt(step);
+    the other families' logs pass as they are; calibrate scores them against the truth at the same samples."""
+    import numpy as np
+    from benchmarks.bench_vehicle_calibration import _sampled, calibrate
+
+    from longprofile.vehicle import drive_scenario, simulate_drive
+
+    sim = simulate_drive(drive_scenario("paper", duration=4.0), seed=0)
+    log = sim.log
+    assert _sampled("own model", np.random.default_rng(0), log) == (log, slice(None))
+    for seed in range(6):
+        plain, i = _sampled("sample rate", np.random.default_rng(seed), log)
+        step = round(plain.dt / log.dt)
+        assert 5 <= step <= 20 and i.step == step and 0 <= i.start < step
+        np.testing.assert_array_equal(plain.yaw_rate, log.yaw_rate[i])
+        np.testing.assert_array_equal(plain.wheel_speeds, log.wheel_speeds[i])
+        filt, j = _sampled("sample rate, filtered", np.random.default_rng(seed), log)
+        assert j == i and filt.time.size == plain.time.size
+        np.testing.assert_allclose(filt.wheel_speeds, log.wheel_speeds[i], rtol=0.01)
+        noise = filt.yaw_rate - sim.truth.yaw_rate[i]
+        assert np.std(noise[5:-5]) < 2.0 * np.std(log.yaw_rate - sim.truth.yaw_rate) / np.sqrt(step)
+    scores = calibrate("sample rate", 1, duration=6.0, methods=("cascade",))
+    assert all(sc.n > 0 for sc in scores.values())

@@ -27,6 +27,10 @@ __all__ = [
     "constant_runs",
     "true_runs",
     "MISSING_PROFILE_HINT",
+    "time_seconds",
+    "check_time_order",
+    "parse_column_renames",
+    "renamed_columns",
 ]
 
 #: What a refusal of a missing profile sample written as a number (a logger's code, a held or zero value) says to do:
@@ -197,3 +201,197 @@ def constant_runs(x, z, min_length: float) -> list[tuple[int, int]]:
     same = np.isfinite(z[1:]) & (z[1:] == z[:-1])
     # steps i .. j equal: samples i .. j + 1
     return [(i, j + 1) for i, j in true_runs(same) if x[j + 1] - x[i] >= min_length]
+
+
+# ---------------------------------------------------------------------------- time columns of sampled logs
+
+#: An ISO 8601 date-time text (``2024-06-01T12:00:00.010``, ``2024-06-01 12:00:00Z``).
+_ISO_DATETIME = r"^\s*\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}"
+
+
+def _time_unit_row(frame, i: int) -> str:
+    """The texts of row ``i`` of ``frame`` (its cells that are not numbers), for the units-row message."""
+    import pandas as pd
+
+    row = frame.iloc[i]
+    texts = [str(v).strip() for v in row if isinstance(v, str) and pd.isna(pd.to_numeric(v, errors="coerce"))]
+    return ", ".join(repr(v) for v in list(dict.fromkeys(texts))[:6])
+
+
+def time_seconds(frame, column: str = "time", *, source: str = "log") -> tuple[np.ndarray, str | None]:
+    """A log's time column as float64 seconds, and the absolute start (ISO text) when it held date-times.
+
+    Numbers are returned as they are (float32 ones as the decimals they print as); ISO 8601 date-time texts and
+    datetime64 columns (a Parquet timestamp) become seconds from the first sample (ASSUMPTION: one clock; a mix of
+    times with and without a UTC offset is refused); blank cells are NaN (the caller's order check names them).
+
+    Raises
+    ------
+    InputFormatError
+        For a text that is neither a number nor a date-time (a units row under the header is named as such), or
+        float32 times too coarse for the sample step (epoch seconds in float32 step by 128 s).
+    """
+    import pandas as pd
+
+    from .errors import InputFormatError
+
+    col = frame[column]
+    if col.dtype.kind == "M":
+        return _seconds_from_first(pd.Series(col)), str(col.iloc[0])
+    if col.dtype.kind == "m":
+        return col.dt.total_seconds().to_numpy(float), None
+    if col.dtype.kind == "f" and col.dtype.itemsize < 8:
+        return _float32_seconds(col.to_numpy(), column, source), None
+    if col.dtype.kind in "iufb":
+        return col.to_numpy(float), None
+    num = pd.to_numeric(col, errors="coerce")
+    text = (col.notna() & num.isna()).to_numpy()
+    if not text.any():
+        return num.to_numpy(float), None
+    stripped = col.astype(str).str.strip()
+    iso = stripped.str.match(_ISO_DATETIME, na=False).to_numpy() | col.isna().to_numpy()
+    if iso.all():
+        mix = utc_offset_mix(col)
+        if mix is not None:
+            raise InputFormatError(f"{source}: column {column!r} mixes date-times with a UTC offset (row {mix[0]}: "
+                                   f"{col.iloc[mix[0]]!r}) and without (row {mix[1]}: {col.iloc[mix[1]]!r}); which "
+                                   "zone the others are in cannot be known: write them all in one form.")
+        try:
+            stamps = pd.to_datetime(col, format="ISO8601", utc=bool(mix is None and stripped.str.contains(
+                r"(?:[Zz]|[+-]\d{2}:?\d{2})$", regex=True, na=False).any()))
+        except (ValueError, TypeError) as exc:
+            raise InputFormatError(f"{source}: column {column!r} holds ISO 8601 date-times that cannot be read: "
+                                   f"{str(exc).splitlines()[0]}") from None
+        return _seconds_from_first(stamps), str(col.dropna().iloc[0]).strip()
+    i = int(np.flatnonzero(text)[0])
+    if i <= 1 and not text[i + 1:].any():
+        raise InputFormatError(f"{source}: row {i} (the {'first' if i == 0 else 'second'} under the header) holds "
+                               f"text ({_time_unit_row(frame, i)}): a units row? declare the units in the header "
+                               "(time [s], yaw_rate [deg/s]) or with --units, and remove the row.")
+    raise InputFormatError(f"{source}: column {column!r} holds {col.iloc[i]!r} at row {i}: neither a number of "
+                           "seconds nor an ISO 8601 date-time (2024-06-01T12:00:00.010).")
+
+
+def _seconds_from_first(stamps) -> np.ndarray:
+    """Seconds of datetime64 values from the first valid one (from the integer nanoseconds: no rounding)."""
+    ns = stamps.to_numpy(dtype="datetime64[ns]") if stamps.dt.tz is None else \
+        stamps.dt.tz_convert("UTC").dt.tz_localize(None).to_numpy(dtype="datetime64[ns]")
+    valid = ~np.isnat(ns)
+    out = np.full(ns.shape, np.nan)
+    if valid.any():
+        rel = (ns[valid] - ns[valid][0]).astype("int64")
+        out[valid] = rel // 1_000_000_000 + (rel % 1_000_000_000) * 1e-9
+    return out
+
+
+def _float32_seconds(values: np.ndarray, column: str, source: str) -> np.ndarray:
+    """float32 times as float64, each value as the decimal it prints as (0.01, not 0.00999999977: a logger's decimal
+    times of up to 7 digits come back exactly); refused when the float32 resolution at the largest time is over 0.1 %
+    of the sample step and those decimals are not uniformly spaced (epoch seconds in float32 step by 128 s)."""
+    from .errors import InputFormatError
+
+    t = values[np.isfinite(values)]
+    if t.size < 2:
+        return values.astype(float)
+    top = float(np.max(np.abs(t)))
+    resolution = float(np.spacing(np.float32(top)))
+    step = float(abs(float(t[-1]) - float(t[0])) / (t.size - 1))
+    decimals = np.array(values.astype(str), dtype=float)
+    d = np.diff(decimals[np.isfinite(decimals)])
+    if resolution > 1e-3 * step and (d.min() <= 0 or np.ptp(d) > 1e-3 * np.median(d)):  # not recovered as decimals
+        what = "epoch times" if top > 1e7 else "times"
+        raise InputFormatError(f"{source}: column {column!r} is float32: float32 {what} lose the samples' timing (at "
+                               f"{top:.7g} s a float32 steps by {resolution:g} s"
+                               f"{f', the rows are {step:.3g} s apart' if resolution < step else ''}): write the time "
+                               "as float64 (double).")
+    return decimals
+
+
+def check_time_order(t, *, source: str = "log", column: str = "time", rows=None, resample_hint: bool = False) -> None:
+    """Refuse a time column that is not finite and strictly increasing, naming the first bad row and the likely
+    cause: a blank, time stamps rounded to a coarse step (a spreadsheet's 6 significant digits on epoch seconds),
+    duplicated samples, a logger reset (the time goes back far) or rows out of order.
+
+    ``rows``: the row number of each sample (default 0, 1, ...); ``resample_hint``: the duplicate message also offers
+    ``--resample`` (the vehicle readers drop exact repeats when resampling).
+    """
+    from .errors import InputFormatError
+
+    t = np.asarray(t, float)
+    rows = np.arange(t.size) if rows is None else np.asarray(rows)
+    bad = ~np.isfinite(t)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputFormatError(f"{source}: column {column!r} has no time at row {rows[i]}"
+                               f"{f' (and {int(bad.sum()) - 1} more rows)' if bad.sum() > 1 else ''}: every sample "
+                               "needs its time; cut the rows without one.")
+    d = np.diff(t)
+    if d.size == 0 or np.all(d > 0):
+        return
+    zeros, ahead = int(np.sum(d == 0)), d[d > 0]
+    if zeros >= 0.3 * d.size and d.size >= 10:  # rounding is a many-row pattern; a few repeats are duplicates
+        steps = f"rounded to {float(np.median(ahead)):.4g} s steps" if ahead.size else "all the same"
+        hint = (" (epoch seconds saved with 6 significant digits, as a spreadsheet writes 1.71724E+09: save the "
+                "column as numbers with full precision)" if np.max(np.abs(t)) > 1e7 else
+                ": write the time with more digits")
+        raise InputFormatError(f"{source}: column {column!r} has {np.unique(t).size} distinct time(s) for {t.size} "
+                               f"rows: the time stamps are {steps}{hint}.")
+    k = int(np.flatnonzero(d <= 0)[0])
+    i, j = rows[k + 1], rows[k]
+    if d[k] == 0:
+        fix = "drop the repeated rows" + (", or --resample RATE (drops rows that repeat the one before exactly)"
+                                          if resample_hint else "")
+        raise InputFormatError(f"{source}: row {i} repeats the time of row {j} ({t[k]:.10g} s; {zeros} row(s) "
+                               f"repeat the time before them): duplicated samples: {fix}.")
+    step = float(np.median(ahead)) if ahead.size else 0.0
+    cause = ("a logger reset? split the file there and use each part" if -d[k] > 10 * step else
+             "rows out of order: sort the file by time")
+    raise InputFormatError(f"{source}: the time goes back from {t[k]:.10g} s to {t[k + 1]:.10g} s at row {i} "
+                           f"({cause}).")
+
+
+def parse_column_renames(texts, *, what: str = "column",
+                         example: str = "--rename VehSpd_kph=speed --rename YawRate_degps=yaw_rate_degps"
+                         ) -> dict[str, str]:
+    """``--rename OLD=NEW[,OLD=NEW...]`` (one text, or several: the option repeated) as ``{old: new}``; a malformed
+    pair, an old name given twice or two ``what`` (columns, tracks) renamed to one name (any letter case) is refused;
+    ``example`` is the usage the refusal of a malformed pair shows."""
+    if texts is None:
+        return {}
+    renames: dict[str, str] = {}
+    for text in [texts] if isinstance(texts, str) else texts:
+        for pair in (p.strip() for p in text.split(",") if p.strip()):
+            old, sep, new = (s.strip() for s in pair.partition("="))
+            if not sep or not old or not new:
+                raise InputError(f"--rename takes OLD=NEW pairs separated by commas, or the option repeated (e.g. "
+                                 f"{example}); got {pair!r}.")
+            if old.casefold() in (o.casefold() for o in renames):
+                raise InputError(f"--rename names the {what} {old!r} twice; rename each {what} once.")
+            renames[old] = new
+    news = [n.casefold() for n in renames.values()]
+    twice = next((n for n in renames.values() if news.count(n.casefold()) > 1), None)
+    if twice is not None:
+        raise InputError(f"--rename gives two {what}s the name {twice!r}; each {what} needs its own name.")
+    return renames
+
+
+def renamed_columns(frame, renames: dict[str, str], *, source: str = "log"):
+    """``frame`` with its columns renamed by ``renames`` ({old: new}; an old name matches a column exactly, else in
+    any letter case when only one column matches). An old name the file does not have, or a new name that another
+    column already holds, is refused naming the file's columns."""
+    if not renames:
+        return frame
+    columns = [str(c) for c in frame.columns]
+    mapping = {}
+    for old, new in renames.items():
+        found = [c for c in columns if c == old] or [c for c in columns if c.casefold() == old.casefold()]
+        if len(found) != 1:
+            why = "no column" if not found else f"{len(found)} columns in different letter cases ({found})"
+            raise InputError(f"--rename {old}={new}: {source} has {why} named {old!r}; its columns are {columns}.")
+        mapping[found[0]] = new
+    kept = {c.casefold(): c for c in columns if c not in mapping}
+    clash = next((n for n in mapping.values() if n.casefold() in kept), None)
+    if clash is not None:
+        raise InputError(f"--rename: {source} already has a column {kept[clash.casefold()]!r}; renaming another to "
+                         f"{clash!r} would give two columns one name: rename or drop that one too.")
+    return frame.rename(columns=mapping)

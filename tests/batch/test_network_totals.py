@@ -75,6 +75,35 @@ def test_gaps_give_the_measured_length_and_a_labelled_no_iri_share(tmp_path):
     assert "0.8 km" in page and "0.2 km unmeasured" in page and "no IRI" in page
 
 
+def test_a_dead_track_file_is_ok_and_its_length_unmeasured_not_rated_by_one_track(tmp_path):
+    """Session 38: a file whose right laser is dead (every elevation empty) is computed (the left track's IRI kept in
+    its rows, a warning in the manifest) and its length is unmeasured in the totals, in "no IRI" -- as is a segment
+    of a two-track file whose right track is measured under --min-valid: the left IRI alone is not its MRI."""
+    dead = _profile(tmp_path / "s" / "dead.csv", 500.0, seed=12)
+    d = pd.read_csv(dead)
+    d["right_mm"] = np.nan
+    d.to_csv(dead, index=False)
+    part = _profile(tmp_path / "s" / "part.csv", 500.0, seed=13)
+    d = pd.read_csv(part)
+    d.loc[(d.distance_m > 220.0) & (d.distance_m < 260.0), "right_mm"] = np.nan  # 200-300: right 60 % measured
+    d.to_csv(part, index=False)
+    files = [dead, part, _profile(tmp_path / "s" / "good.csv", 500.0, seed=14)]
+    run_batch(IRITask(gaps="restart"), files, tmp_path / "r", executor="serial")
+    res = read_results(tmp_path / "r")
+    m = res.manifest.set_index("route")
+    assert (m.status == "ok").all() and m.warning["dead"].startswith("track(s) 'right' have no measured run")
+    rows = res.segments.set_index(["route", "start_m"])
+    assert rows.loc["dead", "iri_left_m_per_km"].notna().all() and rows.loc["part", "iri_left_m_per_km"].notna().all()
+    s, page = _report(tmp_path / "r", tmp_path / "rep")
+    routes = s.routes.set_index("route")
+    assert routes.none["dead"] == 1.0 and np.isnan(routes.mean_iri["dead"])
+    assert routes.none["part"] == pytest.approx(0.2) and routes.none["good"] == 0.0
+    assert s.length == pytest.approx(1500.0, abs=1.0) and s.share["none"] == pytest.approx(600.0 / 1500.0, abs=1e-3)
+    # the unmeasured length is the dead file's 500 m and the part's 40 m of the right track (valid_fraction 0.6)
+    assert s.measured == pytest.approx(1500.0 - 500.0 - 40.0, abs=1.0)
+    assert "0.5 km unmeasured" in page and "Results to check (2)" in page  # the dead file and the gap
+
+
 def test_a_flagged_implausible_file_is_left_out_of_the_totals(tmp_path):
     files = [_profile(tmp_path / "s" / "metres.csv", 400.0, seed=5, scale_mm=1e-3),
              _profile(tmp_path / "s" / "ok.csv", 400.0, seed=6, gd=20e-6)]

@@ -1,6 +1,8 @@
 """``road iri``, ``road report`` and ``batch iri`` on profiles with gaps: refused by default naming ``--gaps restart``;
 with it, the IRI over the measured parts, one warning line, the valid length per segment (exit codes, one line)."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -110,3 +112,77 @@ def test_batch_iri_with_and_without_restart(gapped, tmp_path, capsys):
     res = read_results(tmp_path / "b")
     assert {"valid_length_left_m", "note"} <= set(res.segments.columns) and len(res.segments) == 12
     assert "2 gap(s) of missing elevations" in res.manifest["warning"].iloc[0]
+
+
+@pytest.fixture(scope="module")
+def dead(tmp_path_factory):
+    """The network probe's file: two tracks at 0.1 m over 500 m, the right laser dead (every elevation empty), and a
+    healthy two-track file beside it, as CSV in mm."""
+    folder = tmp_path_factory.mktemp("dead")
+    files = []
+    for name, seed, kill in (("dead", 4, True), ("good", 5, False)):
+        p = iso8608_profile(500.0, 0.1, "C", rng=seed, tracks=("left", "right"))
+        z = p.elevation * 1000.0
+        pd.DataFrame({"distance_m": p.distance, "left_mm": z[:, 0],
+                      "right_mm": np.nan if kill else z[:, 1]}).to_csv(folder / f"{name}.csv", index=False)
+        files.append(folder / f"{name}.csv")
+    return files
+
+
+@pytest.mark.parametrize("mode", [[], ["--mode", "continuous"], ["--mode", "overlapping", "--window", "50"],
+                                  ["--units", "us"]])
+def test_road_iri_reports_a_dead_track_in_one_warning_and_keeps_the_other(dead, mode, tmp_path, capsys):
+    f = dead[0]
+    out, alone = tmp_path / "iri.csv", tmp_path / "left.csv"
+    assert main(["road", "iri", str(f), "--gaps", "restart", *mode, "-o", str(out)]) == 0
+    cap = capsys.readouterr()
+    warnings = _lines(cap.err, "warning:")
+    assert len(warnings) == 1 and cap.err.count("warning:") == 1, cap.err
+    assert warnings[0].startswith("warning: track(s) 'right' have no measured run of at least the 11 m lead-in")
+    assert "check the sensor" in warnings[0] and "(--track left)" in warnings[0]
+    assert "right none; MRI none, HRI none" in cap.err
+    assert main(["road", "iri", str(f), "--gaps", "restart", *mode, "--track", "left", "-o", str(alone)]) == 0
+    frame, meta = read_report_table(out)
+    own, own_meta = read_report_table(alone)
+    for c in own.columns:  # the left track's rows: those of the left track processed alone, as written
+        if c not in ("valid_fraction", "note"):
+            pd.testing.assert_series_equal(frame[c], own[c])
+    unit = "in_per_mi" if "us" in mode else "m_per_km"
+    assert frame[[f"iri_right_{unit}", f"mri_{unit}", f"hri_{unit}"]].isna().all().all()
+    assert (frame["valid_fraction"] == 0).all() and frame["note"].str.contains("right 0.0%").all()
+    assert meta["section_iri_left"] == own_meta["section_iri_left"] and meta["gap_dead_tracks"] == "right"
+
+
+def test_a_file_without_any_usable_track_is_refused_in_one_line(dead, tmp_path, capsys):
+    for args in (["road", "iri", str(dead[0]), "--gaps", "restart", "--track", "right"],
+                 ["road", "report", str(dead[0]), "--gaps", "restart", "--track", "right", "-o", str(tmp_path / "r")]):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert len(_lines(err, "error:")) == 1 and "Traceback" not in err
+        assert "track 'right' has no measured run of at least the 11 m lead-in" in err
+    assert main(["road", "iri", str(dead[0])]) == 2  # the default is unchanged: a missing elevation is refused
+    err = capsys.readouterr().err
+    assert len(_lines(err, "error:")) == 1 and "track 'right' has a missing (NaN) elevation at station 0.000 m" in err
+
+
+def test_road_report_with_a_dead_track(dead, tmp_path, capsys):
+    out = tmp_path / "rep"
+    assert main(["road", "report", str(dead[0]), "--gaps", "restart", "-o", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert cap.err.count("warning:") == 1 and "track(s) 'right' have no measured run" in cap.err
+    page = (out / "index.html").read_text()
+    assert "IRI right<b>— (no IRI)</b>" in page and "MRI<b>— (no IRI)</b>" in page
+    assert not re.search(r"\bnan m/km", page, flags=re.IGNORECASE)  # it read "IRI right nan m/km"
+    assert pd.read_csv(out / "iso8608.csv")["track"].tolist() == ["left"]
+    assert "psd_left_m3" in pd.read_csv(out / "psd.csv").columns
+
+
+def test_batch_iri_counts_a_file_with_a_dead_track_as_ok_with_its_warning(dead, tmp_path, capsys):
+    assert main(["batch", "iri", *map(str, dead), "-o", str(tmp_path / "r"), "--scheduler", "serial",
+                 "--gaps", "restart"]) == 0
+    res = read_results(tmp_path / "r")
+    m = res.manifest.set_index("route")
+    assert (m["status"] == "ok").all()
+    assert m.loc["dead", "warning"].startswith("track(s) 'right' have no measured run") and m.loc["good", "warning"] == ""
+    seg = res.segments[res.segments.route == "dead"]
+    assert seg["iri_left_m_per_km"].notna().all() and seg["mri_m_per_km"].isna().all()

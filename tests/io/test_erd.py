@@ -193,6 +193,22 @@ def test_missing_samples_are_nan(tmp_path):
     assert np.isnan(p.elevation[0, 1]) and np.isnan(p.elevation[1, 0]) and p.elevation[2, 0] == 3e-3
 
 
+@pytest.mark.parametrize("name,prefix", [("f.txt", b""), ("F.TXT", b"\xef\xbb\xbf"), ("f.dat", b""), ("f", b"  ")])
+def test_an_erd_file_under_another_suffix_is_read_as_erd(tmp_path, name, prefix):
+    """ERD files are also distributed as .txt (read as CSV before: "header (ERDFILEV2.00) but no data rows")."""
+    f = _erd(tmp_path, BODY, name=name)
+    f.write_bytes(prefix + f.read_bytes())
+    p = read_profile(f)
+    assert p.tracks == ("left", "right")
+    np.testing.assert_array_equal(p.elevation * 1e3, [[1, -1], [2, -2], [3, -3], [4, -4]])
+
+
+def test_a_csv_named_txt_is_still_a_table(tmp_path):
+    f = tmp_path / "t.txt"
+    f.write_text("distance_m,left_mm\n0,1\n0.25,2\n0.5,3\n")
+    assert read_profile(f).tracks == ("left",)
+
+
 def test_crlf_header(tmp_path):
     f = _erd(tmp_path, BODY)
     f.write_bytes(f.read_bytes().replace(b"\n", b"\r\n"))

@@ -197,3 +197,21 @@ def test_a_hash_inside_a_field_is_text_unless_the_data_have_comment_lines(tmp_pa
     path.write_text("x_m,name,y_m\n1,a,2\n# a note among the data\n2,b,3\n")
     t = read_table(path)
     assert t["name"].tolist() == ["a", "b"] and t["y_m"].tolist() == [2, 3]
+
+
+def test_report_table_metadata_is_strict_json(tmp_path):
+    """A NaN in the metadata (a dead track's section IRI) is written as JSON null, not Python's NaN, in the CSV
+    header and in the Parquet metadata (other JSON readers refuse NaN)."""
+    import json
+
+    from longprofile.io import read_report_table, write_report_table
+
+    meta = {"section_iri_left": 1.5, "section_iri_right": float("nan"), "nested": {"x": [float("inf"), 2.0]}}
+    frame = pd.DataFrame({"start_m": [0.0], "iri_m_per_km": [1.0]})
+    for name in ("t.csv", "t.parquet"):
+        write_report_table(frame, tmp_path / name, meta)
+        _, back = read_report_table(tmp_path / name)
+        assert back == {"section_iri_left": 1.5, "section_iri_right": None, "nested": {"x": [None, 2.0]}}
+    for line in (tmp_path / "t.csv").read_text().splitlines():
+        if line.startswith("# "):
+            json.loads(line.split(": ", 1)[1], parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))

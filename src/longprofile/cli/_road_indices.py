@@ -45,9 +45,13 @@ def _print_section_iri(result, iri_unit: str, what: str) -> None:
     """The one-line summary of ``road iri`` and ``road report``: the section IRI of each track, with the MRI and HRI
     of two tracks (in/mi to the unit, m/km to 0.01, as agencies print them), then ``what`` was computed."""
     prec = 0 if iri_unit == "in/mi" else 2
-    summary = ", ".join(f"{t} {v:.{prec}f}" for t, v in zip(result.tracks, result.section_iri))
+
+    def num(v):  # a track without IRI (--gaps restart, a dead track): no number
+        return f"{v:.{prec}f}" if v == v else "none"
+
+    summary = ", ".join(f"{t} {num(v)}" for t, v in zip(result.tracks, result.section_iri))
     if result.section_mri is not None:
-        summary += f"; MRI {result.section_mri:.{prec}f}, HRI {result.section_hri:.{prec}f}"
+        summary += f"; MRI {num(result.section_mri)}, HRI {num(result.section_hri)}"
     console.print(f"section IRI ({iri_unit}): {summary} ({what})", markup=False, soft_wrap=True)
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from .._validation import parse_column_renames
 from ..errors import InputError
 from ._common import console, parse_tracks
 
@@ -41,23 +42,9 @@ def file_tracks(track: str | None, file: Path | None, *, verb: str = "analysing"
 
 def parse_renames(text: str | None) -> dict[str, str]:
     """``--rename OLD=NEW[,OLD=NEW...]`` as ``{old: new}`` (empty when not given); a malformed pair, an old name
-    given twice or two tracks renamed to one name is refused."""
-    if text is None:
-        return {}
-    renames: dict[str, str] = {}
-    for pair in (p.strip() for p in text.split(",") if p.strip()):
-        old, sep, new = (s.strip() for s in pair.partition("="))
-        if not sep or not old or not new:
-            raise InputError(f"--rename takes OLD=NEW pairs separated by commas (e.g. --rename elevation=left); got "
-                             f"{pair!r}.")
-        if old.casefold() in (o.casefold() for o in renames):
-            raise InputError(f"--rename names the track {old!r} twice ({text}); rename each track once.")
-        renames[old] = new
-    news = list(renames.values())
-    twice = next((n for n in news if news.count(n) > 1), None)
-    if twice is not None:
-        raise InputError(f"--rename gives two tracks the name {twice!r} ({text}); each track needs its own name.")
-    return renames
+    given twice or two tracks renamed to one name is refused (:func:`longprofile._validation.parse_column_renames`,
+    the vehicle commands' option)."""
+    return parse_column_renames(text, what="track", example="--rename elevation=left")
 
 
 def renamed(profile, renames: dict[str, str], *, source, strict: bool = True):

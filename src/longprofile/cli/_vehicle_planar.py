@@ -22,6 +22,20 @@ def _parse_poles(text: str):
     return poles
 
 
+#: ``--rename`` of ``vehicle slope``, ``vehicle vertical estimate`` and ``differentiate`` (the syntax of ``road
+#: convert --rename``, for columns; also repeatable).
+RENAME_COLUMNS = typer.Option(None, "--rename", help="Rename the file's columns, OLD=NEW[,OLD=NEW...] or the option "
+                              "repeated (e.g. --rename YawRate_degps=yaw_rate_degps --rename "
+                              "WhlSpd_FL_kph=wheel_speed_fl_kph): applied right after reading, before the units are "
+                              "read from the names (a new name may carry one: wheel_speed_fl_kph, 'yaw_rate "
+                              "\\[deg/s]'); an old name matches in any letter case (differentiate's --column takes the "
+                              "new name).")
+#: ``--fill`` of the vehicle readers.
+FILL = typer.Option(None, "--fill", help="hold: a blank cell of a channel takes the channel's last sample (a "
+                    "multi-rate export: wheel speeds at 50 Hz blank between the 100 Hz IMU rows); blanks of up to "
+                    "0.1 s, the first rows before every channel has a sample are dropped. Default: blanks refused.")
+
+
 def _vehicle(path: Path | None):
     from ..vehicle import default_vehicle, load_vehicle
 
@@ -83,7 +97,13 @@ def slope(
                                      "names every channel it matches; an explicit key wins) or in the header: "
                                      "'yaw_rate (deg/s)' or 'yaw_rate \\[deg/s]'; see docs/vehicle-slope.md."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
-                                          "(linear interpolation; gaps are refused)."),
+                                          "(linear interpolation; gaps are refused, and so is a rate above the "
+                                          "log's; rows that repeat the one before are dropped)."),
+    rename: list[str] | None = RENAME_COLUMNS,
+    fill: str | None = FILL,
+    steering_offset: float = typer.Option(0.0, "--steering-offset", help="Subtract this constant from the road-wheel "
+                                          "steering angle, rad (a steering sensor zeroed off-centre, as the "
+                                          "steering_offset check measures it on straight driving)."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
                                       "has no V_x measurement."),
     max_grade: float = typer.Option(0.10, "--max-grade", help="Warn where the estimated grade |tan(slope)| exceeds "
@@ -102,6 +122,7 @@ def slope(
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
     import math
 
+    from .._validation import parse_column_renames
     from ..io import read_table, write_table
     from ..vehicle import SlopeUncertainty, estimate_slope, parse_units, read_drive_log
 
@@ -109,12 +130,14 @@ def slope(
         from ..errors import InputError
 
         raise InputError(f"--max-grade must be a positive grade (0.10 = 10 %); got {max_grade!r}.")
+    renames = parse_column_renames(rename)
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     car = _vehicle(vehicle)
     uncertainty = SlopeUncertainty() if vehicle is None else SlopeUncertainty.from_car_file(vehicle)
     frame = read_table(log)
-    drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, source=str(log))
+    drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, rename=renames, fill=fill,
+                                   steering_offset=steering_offset, source=str(log))
     unchecked = [c.name for c in checks if c.ok is None]
     if unchecked:
         console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
@@ -136,13 +159,15 @@ def slope(
                       "of grade (the slope is corrected for both)")
     if est.sensor_calibration is not None:
         console.print(_calibration_line(est.sensor_calibration, est.time[-1] - est.time[0] + drive.dt))
-    for w in est.warnings(max_missing=max_missing, max_slope=math.atan(max_grade)):
+    for w in [c.warning for c in checks if c.warning] + list(est.warnings(max_missing=max_missing,
+                                                                          max_slope=math.atan(max_grade))):
         console.print(f"[yellow]warning: {w}[/yellow]")
     if plot is not None:
         from ..report import plot_slope_estimate
 
         # the true_* columns of a simulated log are overlaid; the truth is on the original time base
-        save_plot(plot, plot_slope_estimate, est, frame if resample is None else None, savefig={"dpi": 110},
+        overlay = resample is None and fill is None and renames == {}  # the truth is on the original rows
+        save_plot(plot, plot_slope_estimate, est, frame if overlay else None, savefig={"dpi": 110},
                   announce=True)
 
 

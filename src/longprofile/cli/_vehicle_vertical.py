@@ -8,6 +8,7 @@ import typer
 from rich.markup import escape
 
 from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_plot
+from ._vehicle_planar import FILL, RENAME_COLUMNS
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
                                 "thesis 003.", no_args_is_help=True)
@@ -115,7 +116,10 @@ def estimate(
                                      "it matches; an explicit key wins) or in the header: 'dz21_FL (mm)' or "
                                      "'dz21_FL \\[mm]'."),
     resample: float | None = typer.Option(None, "--resample", help="Resample a jittered log onto this rate, Hz "
-                                          "(linear interpolation; gaps are refused)."),
+                                          "(linear interpolation; gaps are refused, and so is a rate above the "
+                                          "log's; rows that repeat the one before are dropped)."),
+    rename: list[str] | None = RENAME_COLUMNS,
+    fill: str | None = FILL,
     profile: Path | None = typer.Option(None, "--profile", help="Also write the road profile under each wheel "
                                         "(fl, fr, rl, rr) with its chainage (.csv, .parquet or .erd); needs --speed."),
     speed: float | None = typer.Option(None, "--speed", help="Constant vehicle speed of the log, m/s (for --profile)."),
@@ -127,11 +131,13 @@ def estimate(
     overwrite: bool = OVERWRITE,
 ):
     """Estimate damper displacement/velocity, tyre load, body and wheel velocities from a sensor log."""
+    from .._validation import parse_column_renames
     from ..errors import InputError
     from ..io import read_table, write_table
     from ..vehicle import estimate_to_frame, estimate_vertical_log, parse_units, read_vertical_log
     from ._common import PROFILE_SUFFIXES
 
+    renames = parse_column_renames(rename)
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     params = _vertical_params(vehicle)
@@ -146,7 +152,10 @@ def estimate(
     frame = read_table(log)
     if chainage is None:
         chainage = float(frame["chainage_m"].iloc[0]) if "chainage_m" in frame.columns else 0.0
-    sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, source=str(log))
+    sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, rename=renames,
+                                        fill=fill, source=str(log))
+    if plot is None:
+        del frame  # only the figure reads the table again (its true_* columns): free it on a long log
     if sensors.damper_current is not None:
         # MagneRide log: the logged currents through the default nominal map (docs: "MagneRide car")
         console.print(f"log has current_* columns: actuator forces from the nominal MR map, evaluated at the "

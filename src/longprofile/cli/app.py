@@ -119,6 +119,36 @@ def _figure_helper(args) -> tuple[bool, tuple[str, ...]]:
     return os.environ.get("LONGPROFILE_FIGURES", "").lower() == "helper", ()
 
 
+#: What a command can do when its request does not fit in memory, by command words (session 38); any other command
+#: gets the size options it has among :data:`_SIZE_OPTIONS`, else "split the input".
+_MEMORY_HINTS = {
+    ("vehicle", "vertical", "estimate"): "split the log into shorter files (the estimate holds ~2 kB per sample, "
+                                         "~7 GB for an hour at 1 kHz); --profile also keeps the filter's covariance "
+                                         "histories, several times that: leave it out or split the log further",
+}
+_SIZE_OPTIONS = ("--length", "--duration", "--days", "--sampling-minutes")
+
+
+def _memory_hint(args) -> str:
+    """What to do when the command of ``args`` runs out of memory: its own hint, its size options or splitting."""
+    words = tuple(str(a) for a in args if not str(a).startswith("-"))
+    for command, hint in _MEMORY_HINTS.items():
+        if words[:len(command)] == command:
+            return hint
+    try:
+        cmd = typer.main.get_command(app)
+        for word in words:
+            sub = getattr(cmd, "commands", {}).get(word)
+            if sub is None:
+                break
+            cmd = sub
+        options = {o for p in getattr(cmd, "params", ()) for o in getattr(p, "opts", ())}
+    except Exception:  # the hint must never hide the memory error itself
+        options = set()
+    sizes = [o for o in _SIZE_OPTIONS if o in options]
+    return f"reduce its size ({', '.join(sizes)}) or split the input" if sizes else "split the input into smaller files"
+
+
 def _second_helper(args) -> bool:
     """Whether the figure helper forks a second one (:data:`_TWO_HELPER_COMMANDS`)."""
     words = tuple(str(a) for a in args if not str(a).startswith("-"))
@@ -152,9 +182,9 @@ def main(argv: list[str] | None = None) -> int:
         # ValueError "Maximum allowed size exceeded" beyond the address space; any other ValueError is a bug
         if not isinstance(exc, MemoryError) and "Maximum allowed size exceeded" not in str(exc):
             raise
-        console.print(f"[red]error:[/red] not enough memory for this request ({escape(str(exc))}); reduce its size "
-                      "(e.g. --length, --duration, --days, --sampling-minutes) or split the input.", highlight=False,
-                      soft_wrap=True)
+        hint = _memory_hint(sys.argv[1:] if argv is None else argv)
+        console.print(f"[red]error:[/red] not enough memory for this request ({escape(str(exc))}); {escape(hint)}.",
+                      highlight=False, soft_wrap=True)
         return 2
     except typer.Exit as exc:
         return exc.exit_code

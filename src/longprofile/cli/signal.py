@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, save_plot
+from ._vehicle_planar import RENAME_COLUMNS
 
 #: Time columns whose step is checked against --dt: t or time, in seconds unless a unit follows (t_ms, time [ms],
 #: Time (us)); any letter case.
@@ -26,22 +27,20 @@ def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
     silently), or, without ``dt``, the step of that column when it is uniform (within 0.1 % of its median)."""
     import numpy as np
 
-    from .._validation import time_resolution
+    from .._validation import check_time_order, time_resolution, time_seconds
     from ..errors import InputFormatError, UnitsError
 
     for name in frame.columns:
         scale = _time_scale(name)
         if scale is None or name == column:
             continue
-        t = _numeric(frame[name]) * scale
+        seconds, start = time_seconds(frame, name, source=str(file))  # numbers, ISO 8601 texts or datetime64
+        t = seconds * (1.0 if start is not None else scale)
         rows = np.flatnonzero(np.isfinite(t))
         step = np.diff(t[rows])
         increasing = step.size > 0 and bool(np.all(step > 0))
-        if not increasing and step.size:
-            i = rows[int(np.flatnonzero(step <= 0)[0]) + 1]
-            raise InputFormatError(f"{file}: column {name!r} does not increase from row to row (row {i}: {t[i]:g} s "
-                                   "after an earlier sample at or after it): the samples are out of order or repeated, "
-                                   "and their derivative would be wrong; sort the file by time and drop repeated rows.")
+        if not increasing and step.size:  # which: duplicated samples, a logger reset, rows out of order, rounding
+            check_time_order(t[rows], source=str(file), column=name, rows=rows)
         if not increasing:  # no two finite times
             if dt is None:
                 raise InputFormatError(f"{file}: column {name!r} has fewer than two finite times; the sample interval "
@@ -109,20 +108,29 @@ def differentiate(
                                  "'noise', the white-noise error only (the std before issue 13). docs/signal.md, "
                                  "Calibration."),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the signal and its derivative (PNG)."),
+    rename: list[str] | None = RENAME_COLUMNS,
     overwrite: bool = OVERWRITE,
 ):
     """Estimate the derivative of a noisy sampled signal and write value, derivative, derivative_std."""
     import pandas as pd
 
+    from .._validation import parse_column_renames, renamed_columns
+    from ..errors import InputError
     from ..io import read_table, write_table
     from ..signal import check_derivative_options, derivative
 
     options = dict(window=window, degree=degree, noise_std=noise_std, q_over_r=q_over_r,
                    smooth=True if smooth else None, steady_state=True if steady_state else None, std=std)
     check_derivative_options(method, options, flags=True)
+    renames = parse_column_renames(rename)
     out = check_output_path(output, file, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
-    frame = read_table(file, required=[column], numeric=[column])
+    # --column names the column after renaming (as road compare's --track names the new tracks)
+    gone = next((f"{o}={n}" for o, n in renames.items() if o.casefold() == column.casefold() and n != column), None)
+    if gone is not None:
+        raise InputError(f"--column {column}: --rename {gone} renames that column; --column takes the new name.")
+    read_as = {new: old for old, new in renames.items()}.get(column, column)
+    frame = renamed_columns(read_table(file, required=[read_as], numeric=[read_as]), renames, source=str(file))
     x = frame[column].to_numpy(dtype=float)
     dt = _sample_interval(file, frame, column, dt)
     with console.status(f"differentiating {x.size} samples ({method})..."):

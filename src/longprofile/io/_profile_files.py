@@ -14,13 +14,14 @@ __all__ = ["read_profile", "write_profile"]
 
 
 def read_profile(path, *, units: str | None = None, tracks=None, distance_column: str | None = None):
-    """Read a profile from CSV or Parquet (or ERD, by suffix ``.erd``).
+    """Read a profile from CSV or Parquet, or ERD (suffix ``.erd``, or a file of any other suffix whose first line
+    is the ERD identification ``ERDFILEV...``: ERD files named ``.txt``).
 
     Parameters
     ----------
     path : path-like
         ``.csv`` (``.txt`` is read as CSV; header row; ``#`` lines are comments), ``.parquet``, or ``.erd``
-        (:func:`longprofile.io.read_erd`).
+        (:func:`longprofile.io.read_erd`; also any non-Parquet file whose first line starts with ``ERDFILE``).
     units : {"m", "mm", "cm", "in", "ft"}, optional
         Unit of the elevation columns that do not carry one in their name. Never guessed: if a column has
         no unit and ``units`` is not given, :class:`UnitsError` is raised. If a column names its unit and
@@ -60,12 +61,25 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     """
     path = Path(path)
     _check_unique(path, tracks)
-    if path.suffix.lower() == ".erd":
+    if path.suffix.lower() == ".erd" or _looks_erd(path):
         profile = read_erd(path, units=units, tracks=tracks)
     else:
         profile = read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
     check_profile_plausible(profile, path)
     return profile
+
+
+def _looks_erd(path: Path) -> bool:
+    """The file, whatever its suffix (not Parquet), starts with the ERD identification line (``ERDFILEV2.00``; a
+    UTF-8 byte order mark and leading blanks allowed): ERD files are also distributed as ``.txt``."""
+    if path.suffix.lower() in (".parquet", ".pq"):
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(64)
+    except OSError:  # the table reader reports it
+        return False
+    return head.removeprefix(b"\xef\xbb\xbf").lstrip().upper().startswith(b"ERDFILE")
 
 
 def _check_unique(path: Path, tracks) -> None:

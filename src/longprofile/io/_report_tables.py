@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -24,7 +25,19 @@ def _metadata(frame: pd.DataFrame, metadata) -> dict:
         json.dumps(meta)
     except (TypeError, ValueError) as exc:
         raise InputError(f"metadata must be JSON-serialisable (numbers, strings, booleans, lists): {exc}") from None
-    return meta
+    return _finite(meta)
+
+
+def _finite(value):
+    """``value`` with every NaN or infinite float replaced by None: strict JSON (``null``; ``NaN`` is Python's
+    extension, which other JSON readers refuse), e.g. the section IRI of a dead track."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def _csv_header(meta: dict) -> str:

@@ -46,13 +46,14 @@ __all__ = ["SensorHealth", "assess_sensors", "SENSOR_STATUSES", "loo_residuals",
            "all_days_step_evidence", "flag_detached_all_days",
            "all_days_reversal_evidence", "flag_reversed_all_days", "shape_candidates", "SHAPE_RULES",
            "REVERSAL_Z_RULES", "WITNESS_RULES", "step_witness_z", "site_reversal_null", "REVERSAL_NULLS",
-           "record_length_factor", "REFERENCE_CHANGES", "UNUSABLE_STATUSES", "USER_EXCLUDED"]
+           "record_length_factor", "REFERENCE_CHANGES", "UNUSABLE_STATUSES", "USER_EXCLUDED", "flag_limit",
+           "n_flagged"]
 
 SENSOR_STATUSES = ("ok", "dead", "frozen", "late", "reversed", "drifting", "detached", "improbable", "excluded")
 #: Statuses of sensors whose record cannot enter the estimate, whatever the health tests say: no usable reading
 #: ("dead": none, stuck; "frozen": stuck from some day on) or none on the reference day ("late": installed, or first
-#: read, after it). The user's exclusions ("excluded") are not among them: they count as before wherever the health
-#: tests count their flags.
+#: read, after it). The user's exclusions ("excluded") are not among them, and are not counted either where the health
+#: tests count their flags (:func:`n_flagged`), nor among the sensors whose quarter they may flag (:func:`flag_limit`).
 UNUSABLE_STATUSES = ("dead", "frozen", "late")
 #: Status of a sensor the user excluded (``assess_sensors(exclude=...)``, ``rail settle --exclude``): not a health
 #: test's verdict, so the service raises no health alarm for it.
@@ -448,7 +449,8 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     exclude : iterable of int
         Sensors excluded by the user (status "excluded", :data:`USER_EXCLUDED`; detail "excluded by the user").
     max_flagged : int, optional
-        Stop after this many LOO exclusions (default: a quarter of the sensors).
+        Stop after this many LOO exclusions (default :func:`flag_limit`: a quarter of the sensors the tests examine,
+        i.e. all but the user's ``exclude``).
     fit : callable, optional
         ``fit(slopes_masked, sigma, rigidity, sigma_z) -> (sigma, rigidity)`` re-estimates the noise after each
         exclusion.
@@ -486,7 +488,7 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
     status, detail = _dead_sensors(slopes, raw_spread_deg, raw_day_spread_deg)
     for j in exclude:
         status[j], detail[j] = USER_EXCLUDED, "excluded by the user"
-    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
+    max_flagged = flag_limit(status) if max_flagged is None else max_flagged
     score = np.full(N, np.nan)
     rev = np.full(N, np.nan)
     llr = np.full(N, np.nan)
@@ -543,6 +545,26 @@ def assess_sensors(x, slopes, *, sigma, rigidity, sigma_z, raw_spread_deg=None, 
                           witness=None if witness is None else witness & (status == "ok"),
                           excluded_witness=excluded_witness, reversal_llr_scale=lf)
     return health, float(sigma), float(rigidity)
+
+
+def flag_limit(status) -> int:
+    """How many sensors the health tests may flag at most (``max_flagged``'s default): a quarter of the sensors they
+    examine, at least one.
+
+    The sensors examined are all but the user's exclusions (:data:`USER_EXCLUDED`): a dead, frozen or late sensor was
+    examined (and is not counted among the flags, :func:`n_flagged`); an excluded one was not, so excluding sensors one
+    knows are bad leaves the tests the same room to find the others (docs/rail.md, "Sensor health": the limit, an
+    assumption). Without exclusions, ``max(1, N // 4)`` as before.
+    """
+    status = np.asarray(status)
+    return max(1, int((status != USER_EXCLUDED).sum()) // 4)
+
+
+def n_flagged(status) -> int:
+    """How many sensors the health tests flagged as faulty: neither "ok", nor unusable (:data:`UNUSABLE_STATUSES`,
+    not counted toward :func:`flag_limit`), nor excluded by the user (:data:`USER_EXCLUDED`, never counted)."""
+    status = np.asarray(status)
+    return int(((status != "ok") & ~np.isin(status, UNUSABLE_STATUSES) & (status != USER_EXCLUDED)).sum())
 
 
 def _reversal_z(M, pred, z, k):
@@ -824,8 +846,8 @@ def flag_reversed_all_days(health: SensorHealth, evidence: ReversalEvidence, max
     of the z).
     The worst by the sum of the two log Bayes factors.
     One sensor at a time (the caller re-fits the noise model without it and asks again), and none once
-    ``max_flagged`` sensors (default a quarter; dead ones not counted, as in :func:`assess_sensors`) are excluded or
-    only 3 are left.
+    ``max_flagged`` sensors (default :func:`flag_limit`, a quarter of the sensors examined; dead ones and the user's
+    exclusions not counted, :func:`n_flagged`) are excluded or only 3 are left.
 
     Returns
     -------
@@ -878,13 +900,13 @@ def _null_text(evidence: ReversalEvidence) -> str:
 
 def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, max_flagged: int | None):
     """Flag the kept sensor of largest ``score`` among those that ``passes`` (both thresholds of an all-days test):
-    ``status_name`` and ``detail(j)``, excluded; none once ``max_flagged`` sensors (default a quarter; dead ones not
-    counted) are excluded or only 3 are left. Returns (health, index or None)."""
-    N = health.status.size
-    max_flagged = max(1, N // 4) if max_flagged is None else max_flagged
+    ``status_name`` and ``detail(j)``, excluded; none once ``max_flagged`` sensors (default :func:`flag_limit`; dead
+    ones and the user's exclusions not counted, :func:`n_flagged`) are excluded or only 3 are left. Returns (health,
+    index or None)."""
+    max_flagged = flag_limit(health.status) if max_flagged is None else max_flagged
     ok = ~np.asarray(health.excluded)
     cand = ok & passes
-    if not cand.any() or (~ok & ~np.isin(health.status, UNUSABLE_STATUSES)).sum() >= max_flagged or ok.sum() <= 3:
+    if not cand.any() or n_flagged(health.status) >= max_flagged or ok.sum() <= 3:
         return health, None
     j = int(np.argmax(np.where(cand, score, -np.inf)))
     status = np.array(health.status, dtype=object)

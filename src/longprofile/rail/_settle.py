@@ -27,7 +27,9 @@ from ._health import (
     all_days_step_evidence,
     assess_sensors,
     flag_detached_all_days,
+    flag_limit,
     flag_reversed_all_days,
+    n_flagged,
     shape_candidates,
     site_reversal_null,
 )
@@ -1497,8 +1499,9 @@ _EXCLUDED_WITNESS = ("sensor {sid} was excluded ({status}), but its departure fr
                      "would show it, seen by this sensor alone; if the track can step there, the settlement beyond "
                      "it is not what is printed: check with a levelling survey (--controls), or keep such sensors "
                      "with --witness-rule steps and widen the bands with --end-ambiguity mixture.")
-#: The warning when the health tests stopped at their limit (a quarter of the sensors, dead and user-excluded ones not
-#: counted; :func:`~longprofile.rail.assess_sensors`).
+#: The warning when the health tests stopped at their limit (a quarter of the sensors they examine, i.e. all but the
+#: user's exclusions; dead and user-excluded ones not counted among the flags: :func:`~longprofile.rail._health.flag_limit`,
+#: :func:`~longprofile.rail._health.n_flagged`).
 _HEALTH_CAPPED = ("the health tests stopped at their limit: {n} of {N} sensors excluded as faulty (a quarter). So many "
                   "independent faults are unlikely; a cause common to many sensors is likelier: a thermal response the "
                   "model does not follow (thermal model '{thermal}'; try --thermal lagged), angles in another unit or "
@@ -1511,10 +1514,9 @@ def _warn_if_health_capped(health, opt: SettlementSettings, warnings: list, dail
     if not opt.check_health:
         return
     status = np.asarray(health.status)
-    user = np.isin(np.asarray(health.sensor_ids), list(opt.exclude_sensors))
-    N = status.size
-    n = int(((status != "ok") & ~np.isin(status, UNUSABLE_STATUSES) & ~user).sum())
-    if n >= max(2, N // 4):
+    n = n_flagged(status)
+    if n >= max(2, flag_limit(status)):
+        N = int((status != USER_EXCLUDED).sum())  # the sensors the tests examined
         warnings.append(_HEALTH_CAPPED.format(n=n, N=N, thermal=opt.thermal if daily is None else daily.thermal))
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ._html import REPORT_FILES, img_tag, render, report_folder, write_csv, write_figures, write_text
+from ._layout import fixed_figure, fixed_grid
 from ._road import _CSS, _FAIR, _GOOD, _POOR, _condition, _figure, _table_html
 
 __all__ = ["write_network_report", "plot_network_routes", "plot_iri_histogram"]
@@ -23,6 +24,13 @@ _COLOURS = {"good": _GOOD, "fair": _FAIR, "poor": _POOR, "none": _NONE}
 #: Routes per condition-strip figure, and at most this many routes drawn (the worst, when there are more).
 ROUTES_PER_FIGURE = 40
 MAX_ROUTES_DRAWN = 200
+#: Condition order of the strips' colour codes (:func:`condition_spans`).
+CONDITIONS = ("good", "fair", "poor", "none")
+#: Bins per pixel of a figure's data area: the strips and the IRI lines are reduced to this resolution before
+#: drawing (a network of 1.3 million overlapping windows took 30 s to draw one rectangle per window, session 38).
+PIXEL_BINS = 2
+#: Condition codes in the order a tie in a bin is given (the worse first; "no segment", code 4, last).
+_TIE_ORDER = np.array([2, 1, 0, 3, 4])
 _EXTRA_CSS = """
 .card.bad{border-color:#c62828;background:#c6282815}td.err{text-align:left;font-family:ui-monospace,monospace;
 font-size:0.85em;white-space:normal;max-width:720px}th.l{text-align:left}td.path{text-align:left;word-break:break-all;max-width:380px}
@@ -52,7 +60,80 @@ def _legend_handles(limits, unit):
     return [Patch(color=_COLOURS[c], label=labels[c]) for c in ("good", "fair", "poor", "none")]
 
 
-def plot_network_routes(summary, routes, *, title: str = ""):
+def route_positions(segments) -> dict:
+    """Route -> row positions of its segments in ``segments`` (``NetworkSummary.segments``), ordered by start then end.
+
+    One pass over the table for all the routes drawn (selecting each route's rows by a comparison over the whole
+    table was routes x segments).
+    """
+    if not len(segments):
+        return {}
+    start, end = segments["start"].to_numpy(dtype=float), segments["end"].to_numpy(dtype=float)
+    out = {}
+    for route, pos in segments.groupby("route", sort=False).indices.items():
+        out[str(route)] = pos[np.lexsort((end[pos], start[pos]))]
+    return out
+
+
+def _data_bins(ax) -> int:
+    """Bins across the data area of ``ax``: PIXEL_BINS per pixel of the PNG (the figure's resolution)."""
+    return max(int(np.ceil(ax.get_window_extent().width * PIXEL_BINS)), 1)
+
+
+def condition_spans(start, end, code, lo, hi, bins):
+    """Rectangles of one route's condition strip: ``(x0, width, code)``, at most ``bins`` of them.
+
+    Parameters
+    ----------
+    start, end : ndarray
+        Segment (or window) stations, ordered by start then end.
+    code : ndarray of int
+        Condition of each segment: index into ``CONDITIONS`` (good, fair, poor, none).
+    lo, hi : float
+        Station range of the axis.
+    bins : int
+        Bins across the axis (a few per pixel).
+
+    Notes
+    -----
+    Each segment shows from its start to the next one's start (or its end, if sooner): what drawing the segments
+    in order, each over the one before, shows, and the stretch ``summarize_network`` counts for it. Consecutive
+    segments of one condition are one rectangle (the picture is unchanged, and the length drawn per condition is
+    the route's covered length per condition, ``routes.csv``: share x length). When a route still has more
+    rectangles than ``bins`` (a condition changing several times per pixel, where drawing every segment showed, per
+    pixel, whichever segment the renderer drew last), each bin takes the condition covering the most of its length
+    (or stays blank when most of it has no segment); ties go to the worse condition (poor, fair, good, then none).
+    At most ``bins`` rectangles; consecutive bins of one condition are one.
+    """
+    stop = np.minimum(end, np.append(start[1:], np.inf))
+    keep = stop > start
+    s, t, c = start[keep], stop[keep], code[keep]
+    if s.size == 0:
+        return s, s, c
+    first = np.flatnonzero(np.r_[True, (c[1:] != c[:-1]) | (s[1:] > t[:-1])])
+    last = np.r_[first[1:] - 1, s.size - 1]
+    s, t, c = s[first], t[last], c[first]
+    if s.size <= bins:
+        return s, t - s, c
+    edges = np.linspace(lo, hi, bins + 1)
+    widths = np.zeros((bins, len(CONDITIONS) + 1))  # length per condition in each bin, then the length without any
+    for k in range(len(CONDITIONS)):
+        m = c == k
+        if m.any():  # covered length of condition k up to each edge: linear inside its runs, flat between
+            w = t[m] - s[m]
+            cum = np.column_stack([np.cumsum(w) - w, np.cumsum(w)]).ravel()
+            widths[:, k] = np.diff(np.interp(edges, np.column_stack([s[m], t[m]]).ravel(), cum))
+    widths[:, -1] = np.diff(edges) - widths[:, :-1].sum(axis=1)
+    code = _TIE_ORDER[np.argmax(widths[:, _TIE_ORDER], axis=1)]
+    drawn = np.flatnonzero(code < len(CONDITIONS))
+    if drawn.size == 0:
+        return drawn.astype(float), drawn.astype(float), drawn
+    first = drawn[np.r_[True, (code[drawn[1:]] != code[drawn[:-1]]) | (np.diff(drawn) > 1)]]
+    last = np.r_[drawn[np.searchsorted(drawn, first[1:]) - 1], drawn[-1]]
+    return edges[first], edges[last + 1] - edges[first], code[first]
+
+
+def plot_network_routes(summary, routes, *, title: str = "", positions=None):
     """Condition strip chart: one row per route, each segment coloured good / fair / poor along its stations.
 
     Parameters
@@ -61,26 +142,47 @@ def plot_network_routes(summary, routes, *, title: str = ""):
     routes : sequence of str
         Routes to draw, top to bottom.
     title : str
+    positions : dict, optional
+        :func:`route_positions` of ``summary.segments`` (computed when not given).
 
     Returns
     -------
     matplotlib.figure.Figure
+        All the strips are one collection of rectangles, at most ``bins`` per route where ``bins`` is
+        :data:`PIXEL_BINS` per pixel of the data area (:func:`condition_spans`): a route of 10^5 windows costs
+        what a route of 10^3 does.
     """
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import to_rgba_array
+
     seg = summary.segments
-    fig = _figure(height=1.1 + 0.26 * max(len(routes), 1))
+    positions = route_positions(seg) if positions is None else positions
+    labels = [r if len(r) <= 34 else "…" + r[-33:] for r in routes]
+    # left margin for the route names (8 pt labels: ~0.068 in per character at most; they were cut at 0.85 in)
+    fig = fixed_figure(10.0, 1.1 + 0.26 * max(len(routes), 1), dpi=110,
+                       left=max(0.85, 0.2 + 0.068 * max(map(len, labels), default=0)))
     ax = fig.add_subplot()
-    lo, hi = np.inf, -np.inf
-    for row, route in enumerate(routes):
-        s = seg[seg["route"] == route]
-        if len(s) == 0:
-            continue
-        spans = list(zip(s["start"].to_numpy(), (s["end"] - s["start"]).to_numpy()))
-        ax.broken_barh(spans, (row - 0.38, 0.76), facecolors=[_COLOURS[c] for c in s["condition"]], linewidth=0)
-        lo, hi = min(lo, float(s["start"].min())), max(hi, float(s["end"].max()))
+    rows = [(row, positions[r]) for row, r in enumerate(routes) if len(positions.get(r, ()))]
+    start, end = seg["start"].to_numpy(dtype=float), seg["end"].to_numpy(dtype=float)
+    lo = min((float(start[p].min()) for _, p in rows), default=np.inf)
+    hi = max((float(end[p].max()) for _, p in rows), default=-np.inf)
+    condition = seg["condition"].to_numpy()
+    bins = _data_bins(ax)
+    verts, colours = [], []
+    palette = to_rgba_array([_COLOURS[c] for c in CONDITIONS])
+    for row, p in rows:
+        code = np.select([condition[p] == c for c in CONDITIONS[:-1]], range(len(CONDITIONS) - 1), len(CONDITIONS) - 1)
+        x0, w, c = condition_spans(start[p], end[p], code, lo, hi, bins)
+        y0, y1 = np.full(x0.size, row - 0.38), np.full(x0.size, row + 0.38)
+        verts.append(np.stack([np.column_stack([x0, y0]), np.column_stack([x0, y1]),
+                               np.column_stack([x0 + w, y1]), np.column_stack([x0 + w, y0])], axis=1))
+        colours.append(palette[c])
+    if verts:
+        ax.add_collection(PolyCollection(np.concatenate(verts), facecolors=np.concatenate(colours), linewidths=0))
     if np.isfinite(lo) and hi > lo:
         ax.set_xlim(lo, hi)
     ax.set_yticks(range(len(routes)))
-    ax.set_yticklabels([r if len(r) <= 34 else "…" + r[-33:] for r in routes], fontsize=8)
+    ax.set_yticklabels(labels, fontsize=8)
     ax.set_ylim(len(routes) - 0.5, -0.5)
     ax.set_xlabel(f"station [{summary.station_unit}]")
     ax.set_title(title or "Condition along each route", loc="left", fontsize=10)
@@ -91,23 +193,69 @@ def plot_network_routes(summary, routes, *, title: str = ""):
     return fig
 
 
-def plot_worst_routes(summary, routes):
-    """Segment IRI against station for a few routes (one panel each), with the condition bands."""
+def _first_per_bin(index, binof):
+    """The first of ``index`` (increasing) in each bin ``binof[index]``."""
+    b = binof[index]
+    return index[np.r_[True, b[1:] != b[:-1]]] if index.size else index
+
+
+def step_envelope(start, y, bins):
+    """Positions of the steps kept to draw a step line ``y`` (step k from ``start[k]``) at ``bins`` bins across its
+    range: in each bin its first and last step, its lowest and highest value, and where a gap (NaN) begins and
+    ends. At most ``6 * bins`` steps; all of them when there are no more than ``4 * bins``.
+
+    Each bin drawn from these keeps the vertical extent of the full line (lowest to highest value) and the values at
+    its edges, so at a bin narrower than a pixel the drawn line covers the same pixels (the min/max envelope used
+    for large time series); what is lost is the order of the values inside a bin.
+    """
+    n = y.size
+    if n <= 4 * bins:
+        return np.arange(n)
+    span = start[-1] - start[0]
+    binof = np.minimum(((start - start[0]) / (span if span > 0 else 1.0) * bins).astype(np.int64), bins - 1)
+    firsts = np.flatnonzero(np.r_[True, binof[1:] != binof[:-1]])
+    lasts = np.r_[firsts[1:] - 1, n - 1]
+    counts = np.diff(np.r_[firsts, n])
+    nan = np.isnan(y)
+    kept = [firsts, lasts]
+    for fill, reduce in ((np.inf, np.minimum), (-np.inf, np.maximum)):
+        v = np.where(nan, fill, y)
+        extreme = np.repeat(reduce.reduceat(v, firsts), counts)
+        kept.append(_first_per_bin(np.flatnonzero(v == extreme), binof))
+    edges = np.flatnonzero(nan[1:] != nan[:-1]) + 1
+    kept += [_first_per_bin(edges[nan[edges]], binof), _first_per_bin(edges[~nan[edges]], binof)]
+    return np.unique(np.concatenate(kept))
+
+
+def plot_worst_routes(summary, routes, *, positions=None):
+    """Segment IRI against station for a few routes (one panel each), with the condition bands.
+
+    Each route's step line is drawn from at most ``6 * bins`` of its segments (:func:`step_envelope`, ``bins`` =
+    :data:`PIXEL_BINS` per pixel of the panel): the same line at the figure's resolution.
+    """
+    from matplotlib.patches import StepPatch
+
     seg = summary.segments
+    positions = route_positions(seg) if positions is None else positions
     good, poor = summary.limits
     n = max(len(routes), 1)
     fig = _figure(height=0.6 + 1.55 * n)
-    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    # 0.55 in between panels: the tick labels of one panel and the route name over the next (they overlapped)
+    axes = fixed_grid(fig, n, 1, hspace=0.55)[:, 0]
     top = max(float(np.nanmax(seg["segment_iri"], initial=0.0)) if len(seg) else 0.0, poor) * 1.12
+    start, end = seg["start"].to_numpy(dtype=float), seg["end"].to_numpy(dtype=float)
+    iri = seg["segment_iri"].to_numpy(dtype=float)
     for ax, route in zip(axes, routes):
-        s = seg[seg["route"] == route]
-        x = np.append(s["start"].to_numpy(), s["end"].to_numpy()[-1:])
-        y = s["segment_iri"].to_numpy()
+        p = positions.get(route, np.zeros(0, dtype=np.int64))
         ax.axhspan(0, good, color=_GOOD, alpha=0.10, lw=0)
         ax.axhspan(good, poor, color=_FAIR, alpha=0.12, lw=0)
         ax.axhspan(poor, top, color=_POOR, alpha=0.10, lw=0)
-        if y.size:
-            ax.stairs(y, x, color="0.15", lw=1.2)
+        if p.size:
+            x = np.append(start[p], end[p][-1:])
+            keep = step_envelope(start[p], iri[p], _data_bins(ax))
+            # ax.stairs's limits update walks the path vertex by vertex in Python; both limits are set here
+            ax.add_artist(StepPatch(iri[p][keep], np.append(x[keep], x[-1]), baseline=0, fill=False,
+                                    edgecolor="0.15", lw=1.2))
             ax.set_xlim(x[0], x[-1])
         ax.set_ylim(0, top)
         ax.set_ylabel(summary.iri_unit, fontsize=8)
@@ -205,15 +353,17 @@ def _network_figures(summary):
     routes drawn: all up to MAX_ROUTES_DRAWN, by name."""
     routes = summary.routes
     drawn = sorted(routes["route"].head(MAX_ROUTES_DRAWN)) if len(routes) else []
+    positions = route_positions(summary.segments)
     figs = {}
     for k in range(0, len(drawn), ROUTES_PER_FIGURE):
         chunk = drawn[k:k + ROUTES_PER_FIGURE]
         name = f"routes-{k // ROUTES_PER_FIGURE + 1:02d}.png"
         label = (f" (routes {k + 1}–{k + len(chunk)} of {len(drawn)})" if len(drawn) > ROUTES_PER_FIGURE else "")
-        figs[name] = plot_network_routes(summary, chunk, title="Condition along each route" + label)
+        figs[name] = plot_network_routes(summary, chunk, title="Condition along each route" + label,
+                                         positions=positions)
     worst_routes = list(routes["route"].head(6)) if len(routes) else []
     if worst_routes:
-        figs["worst_routes.png"] = plot_worst_routes(summary, worst_routes)
+        figs["worst_routes.png"] = plot_worst_routes(summary, worst_routes, positions=positions)
     if len(summary.segments):
         figs["iri_histogram.png"] = plot_iri_histogram(summary)
     return figs, drawn

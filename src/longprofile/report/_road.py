@@ -283,7 +283,7 @@ def road_report_tables(analysis, *, reference=None, reference_label: str = "refe
         tables["psd.csv"] = psd_df
     if analysis.iso8608 is not None:
         tables["iso8608.csv"] = pd.DataFrame({
-            "track": analysis.profile.tracks,
+            "track": analysis.psd.tracks,  # the tracks with a PSD (a dead track, --gaps restart, has none)
             "gd_n0_w2_m3": [f.gd_n0 for f in analysis.iso8608],
             "class_w2": [f.road_class for f in analysis.iso8608],
             "gd_n0_free_m3": [f.gd_n0_free for f in analysis.iso8608],
@@ -330,17 +330,22 @@ def _report_figures(analysis) -> dict:
     return figs
 
 
+def _iri_text(v) -> str:
+    """A section IRI for a card: "—" for none (a track without a measured run, --gaps restart)."""
+    return f"{v:.2f} m/km" if np.isfinite(v) else "— (no IRI)"
+
+
 def _summary_cards(analysis, reference, reference_label, limits) -> list[str]:
     """The summary cards of the page: section IRI (and MRI/HRI), the reference, ISO 8608 classes, defects."""
     res, p = analysis.iri, analysis.profile
     cards = []
     for j, t in enumerate(res.tracks):
         v = float(res.section_iri[j])
-        cards.append(f'<div class="card"{_condition(v, limits)}>IRI {html.escape(t)}<b>{v:.2f} m/km</b>'
+        cards.append(f'<div class="card"{_condition(v, limits)}>IRI {html.escape(t)}<b>{_iri_text(v)}</b>'
                      f'<span class="small">{res.section_start:.1f}–{res.section_end:.1f} m</span></div>')
     if res.section_mri is not None:
-        cards.append(f'<div class="card"{_condition(res.section_mri, limits)}>MRI<b>{res.section_mri:.2f} m/km</b>'
-                     f'<span class="small">HRI {res.section_hri:.2f} m/km</span></div>')
+        cards.append(f'<div class="card"{_condition(res.section_mri, limits)}>MRI<b>{_iri_text(res.section_mri)}</b>'
+                     f'<span class="small">HRI {_iri_text(res.section_hri)}</span></div>')
     if reference is not None:
         for j, t in enumerate(reference.iri.tracks):
             v = float(reference.iri.section_iri[j])
@@ -348,7 +353,7 @@ def _summary_cards(analysis, reference, reference_label, limits) -> list[str]:
                          f'<span class="small">{html.escape(t)}</span></div>')
     if analysis.iso8608 is not None:
         for j, f in enumerate(analysis.iso8608):
-            cards.append(f'<div class="card">ISO 8608 {html.escape(p.tracks[j])}<b>class {f.road_class}</b>'
+            cards.append(f'<div class="card">ISO 8608 {html.escape(analysis.psd.tracks[j])}<b>class {f.road_class}</b>'
                          f'<span class="small">Gd(0.1) = {f.gd_n0 * 1e6:.0f}·10⁻⁶ m³ (w = 2)</span></div>')
     loc = analysis.localized
     n_def = len(loc.defects)

@@ -30,7 +30,7 @@ from ..errors import InputError, ShapeError
 from ._ekf import NonlinearStateSpaceModel, check_functions, check_model_steps, model_function_types, model_functions
 from ._ekf_kernels import model_eval
 from ._linalg_kernels import all_finite1, copy1, copy2, gather_block, joseph_entry, matmul_into
-from ._prepare import check_inputs, noise_terms
+from ._prepare import check_inputs, covariance_storage, noise_terms
 from ._results import FilterResult
 from ._status import COVARIANCE_NOT_FINITE, NOT_PD, OBSERVATION_NOT_FINITE, OK, TRANSITION_NOT_FINITE, raise_status
 
@@ -228,14 +228,16 @@ def _predict_all_uniform(P, Jf, Q, sidx, ns, Fb, Pb, AP):
 
 @njit
 def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, sidx, scount, oidx, ocount, store,
-                  mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, ns_uniform, no_uniform):
+                  mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, store_var, var, ns_uniform,
+                  no_uniform):
     """The lock-step loop of the local filters.
 
     The model enters as in :func:`._ekf_kernels.ekf_kernel`: separate functions (``fstep``, ``hstep``
     None; ``fjac``/``hjac`` None = finite differences) or fused in-place steps (the others None),
     evaluated through :func:`._ekf_kernels.model_eval`, with the model's ``params`` (None: none) after k. When every block has ``ns_uniform`` states and
     ``no_uniform`` observations (> 0; passed as numba literals, so the block loops have compile-time
-    trip counts and are unrolled), the uniform block routines are used.
+    trip counts and are unrolled), the uniform block routines are used. ``store_var``: the diagonal of each
+    filtered covariance is written to ``var[k]`` (a dummy otherwise).
     """
     T, m = y.shape
     n = x0.shape[0]
@@ -284,6 +286,9 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, 
         copy1(x, mean[k])
         if store:
             copy2(P, cov[k])
+        if store_var:
+            for i in range(n):
+                var[k, i] = P[i, i]
         if k < T - 1:
             xn = model_eval(f, fjac, fstep, params, x, uk, k, xw, x_next, Jf)
             if not (all_finite1(xn) and _blocks_finite(Jf, sidx, scount, sidx, scount)):
@@ -323,7 +328,7 @@ def _labels(name, labels, size):
 
 
 def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_blocks, obs_blocks, u=None,
-                                 store_covariances: bool = True) -> FilterResult:
+                                 store_covariances: bool | str = True) -> FilterResult:
     """Decentralised EKF: one local EKF per state block, coupled through the means (lock-step).
 
     Parameters
@@ -339,8 +344,12 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         Block label of each observation component: the local filter it corrects.
     u : (T, p) array_like, optional
         Known inputs, row k passed to f and h at step k.
-    store_covariances : bool
-        If False, the covariance fields and Jacobians of the result are None.
+    store_covariances : bool or "variances"
+        If False, the covariance fields and Jacobians of the result are None; ``"variances"``: the same, but the
+        diagonal of each filtered covariance is kept (``FilterResult.variance``, (T, n): O(T n) memory instead
+        of the O(T n^2) of the five covariance and Jacobian histories). The filtered numbers are the same in
+        all three modes (only what is copied out differs).
+
     Returns
     -------
     FilterResult
@@ -395,7 +404,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         oidx[b, :o_i.size], ocount[b] = o_i, o_i.size
     Q3, R3 = noise_terms(model.process_cov, model.obs_cov, T)
     U = np.zeros((T, 0)) if u is None else check_inputs(u, T)
-    store = bool(store_covariances)
+    store, store_var = covariance_storage(store_covariances)
     mean, pmean = np.empty((T, n)), np.empty((T, n))
     innov, ll_steps = np.empty((T, m)), np.zeros(T)
     if store:
@@ -405,10 +414,11 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
     state = np.zeros(2, np.int64)
+    var = np.empty((T, n) if store_var else (1, n))
     fns = model_functions(model)
     data = (model.kernel_params(), Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
             np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
-            cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state)
+            cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, store_var, var)
     # equal block sizes: passed as numba literals, the block loops get compile-time trip counts (unrolled)
     uniform = bool(np.all(scount == smax) and np.all(ocount == omax))
     sizes = (smax, omax) if uniform else (0, 0)
@@ -427,4 +437,5 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         mean=mean, cov=cov if store else None, pred_mean=pmean, pred_cov=pcov if store else None,
         innovation=innov, innovation_cov=icov if store else None, log_likelihood=float(ll_steps.sum()),
         log_likelihood_steps=ll_steps, n_observed=int(n_obs), method="block-ekf",
-        transition_jacobians=Fj[:T - 1] if store else None, observation_jacobians=Hj if store else None)
+        transition_jacobians=Fj[:T - 1] if store else None, observation_jacobians=Hj if store else None,
+        variance=var if store_var else None)

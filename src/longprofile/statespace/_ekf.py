@@ -17,7 +17,7 @@ from ._ekf_kernels import ekf_kernel
 from ._kalman import rts_smoother
 from ._linalg_kernels import FD_REL_STEP
 from ._model import StateSpaceModel
-from ._prepare import as_observation_batch, noise_terms, nonlinear_inputs
+from ._prepare import as_observation_batch, covariance_storage, noise_terms, nonlinear_inputs
 from ._results import FilterResult, SmootherResult
 from ._status import raise_status
 
@@ -375,17 +375,19 @@ def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
     return mean, cov, pmean, pcov, innov, icov, ll_steps, int(n_obs), Fj, Hj
 
 
-def _ekf_compiled(model, Q3, R3, y, u, store):
+def _ekf_compiled(model, Q3, R3, y, u, store, store_var=False):
     T, m = y.shape
     outputs = ekf_kernel_outputs(T, model.n_states, m, store)
-    data = (model.kernel_params(), Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
+    var = np.empty((T, model.n_states) if store_var else (1, model.n_states))
+    data = ((model.kernel_params(), Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
+            + (store_var, var))
     fns = model_functions(model)
     fn_types = model_function_types(model)
     if fn_types is None:  # jitted functions of another signature: loop compiled for their identity, per process
         n_obs = ekf_kernel(*fns, *data)
     else:
         n_obs = cached_ekf_kernel().compile(fn_types + tuple(typeof(a) for a in data))(*fns, *data)
-    return ekf_kernel_result(outputs, n_obs, store)
+    return ekf_kernel_result(outputs, n_obs, store) + (var if store_var else None,)
 
 
 # ---------------------------------------------------------------- loop typed by signature (cached on disk)
@@ -503,7 +505,7 @@ def _prepare(model, y, u):
 
 
 def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
-                           store_covariances: bool = True) -> FilterResult:
+                           store_covariances: bool | str = True) -> FilterResult:
     """Extended Kalman filter (first-order linearisation, Joseph-form update, NaN = missing).
 
     Parameters
@@ -515,9 +517,12 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
         H_k and R_k enter the update). A 3-D array is a batch of series.
     u : (T, p) or (B, T, p) array_like, optional
         Known inputs; row ``u[k]`` is passed to f and h at step k.
-    store_covariances : bool, default True
+    store_covariances : bool or "variances", default True
         If False, ``cov``, ``pred_cov``, ``innovation_cov`` and the Jacobians
-        are None (O(T n) memory); the smoother then cannot run.
+        are None (O(T n) memory); the smoother then cannot run. ``"variances"``:
+        the same, plus the diagonal of each filtered covariance
+        (``FilterResult.variance``, (T, n)); the filtered numbers are the same
+        in all three modes.
 
     Returns
     -------
@@ -548,7 +553,8 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
     u0 = U[0, 0] if U.shape[1] else np.zeros(0)
     check_functions(model, u0)
     check_model_steps(model, u0)
-    outs = [_ekf_compiled(model, Q3, R3, Y[b], U[b], store_covariances) for b in range(Y.shape[0])]
+    store, store_var = covariance_storage(store_covariances)
+    outs = [_ekf_compiled(model, Q3, R3, Y[b], U[b], store, store_var) for b in range(Y.shape[0])]
     if batched:
         def stack(i):
             return None if outs[0][i] is None else np.stack([o[i] for o in outs])
@@ -560,7 +566,7 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
         mean=stack(0), cov=stack(1), pred_mean=stack(2), pred_cov=stack(3), innovation=stack(4),
         innovation_cov=stack(5), log_likelihood=ll_steps.sum(axis=-1) if batched else float(ll_steps.sum()),
         log_likelihood_steps=ll_steps, n_observed=np.array([o[7] for o in outs]) if batched else outs[0][7],
-        method="ekf", transition_jacobians=stack(8), observation_jacobians=stack(9))
+        method="ekf", transition_jacobians=stack(8), observation_jacobians=stack(9), variance=stack(10))
 
 
 def extended_rts_smoother(model: NonlinearStateSpaceModel, filtered: FilterResult, *, u=None) -> SmootherResult:

@@ -132,8 +132,9 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
 
 @njit
 def ekf_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, store,
-               mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state):
-    """EKF over one series. ``store`` False: cov/pcov/icov/Fj/Hj are dummies and not written.
+               mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, store_var, var):
+    """EKF over one series. ``store`` False: cov/pcov/icov/Fj/Hj are dummies and not written; ``store_var``:
+    the diagonal of each filtered covariance is written to ``var[k]`` (a dummy otherwise).
 
     ``fstep``/``hstep`` None: the model is ``f``, ``h`` and the Jacobians (None = finite differences);
     otherwise the fused steps are called and ``f``, ``h``, ``fjac``, ``hjac`` are None. The Jacobian
@@ -187,6 +188,9 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, sto
         copy1(x, mean[k])
         if store:
             copy2(P, cov[k])
+        if store_var:
+            for i in range(n):
+                var[k, i] = P[i, i]
         if k < T - 1:
             xn = model_eval(f, fjac, fstep, params, x, uk, k, xw, x_next, Jf)
             if not all_finite2(Jf, n, n):

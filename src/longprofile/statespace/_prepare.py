@@ -14,10 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import as_float_array, require_symmetric_psd
-from ..errors import ShapeError
+from ..errors import InputError, ShapeError
 
 __all__ = ["as_observation_batch", "prepare_observations", "check_inputs", "linear_inputs", "prepare_inputs",
-           "nonlinear_inputs", "noise_terms"]
+           "nonlinear_inputs", "noise_terms", "covariance_storage"]
 
 
 def as_observation_batch(y, m: int) -> tuple[np.ndarray, bool]:
@@ -158,3 +158,16 @@ def series_covariances(model, n_batch: int, n_steps: int, given: dict) -> dict:
             a = a[:, None]
         out[name] = np.ascontiguousarray(a)
     return out
+
+
+def covariance_storage(store_covariances) -> tuple[bool, bool]:
+    """(store the covariances and Jacobians, store the filtered variances only) of an EKF's ``store_covariances``.
+
+    True: every covariance and Jacobian, O(T n^2) memory (what a smoother needs); False: means only;
+    ``"variances"``: means and the diagonal of the filtered covariances, O(T n).
+    """
+    if isinstance(store_covariances, str):
+        if store_covariances != "variances":
+            raise InputError(f"store_covariances must be True, False or 'variances'; got {store_covariances!r}.")
+        return False, True
+    return bool(store_covariances), False

@@ -39,6 +39,10 @@ class FilterResult:
         Number of observed scalar components that entered the likelihood.
     method : str
         Which algorithm produced the result (e.g. ``"joseph"``, ``"steady-state"``, ``"ekf"``).
+    variance : (T, n) ndarray or None
+        Diagonal of the filtered covariances, kept without them by ``store_covariances="variances"`` of
+        :func:`extended_kalman_filter` and :func:`block_extended_kalman_filter` (O(T n) memory instead of
+        O(T n^2)); None otherwise (take ``np.diagonal(cov, axis1=-2, axis2=-1)`` when ``cov`` is stored).
     """
 
     mean: np.ndarray
@@ -54,6 +58,7 @@ class FilterResult:
     # EKF only: the linearisations used at each step (F_k at the filtered mean, H_k at the predicted mean).
     transition_jacobians: np.ndarray | None = None
     observation_jacobians: np.ndarray | None = None
+    variance: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -45,8 +45,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import time_resolution
+from .._validation import check_time_order, renamed_columns, time_resolution, time_seconds, true_runs
 from ..errors import InputError, InputFormatError, UnitsError
+from ._steering import (
+                        STEERING_OFFSET_LIMIT,
+                        bicycle_yaw_gain,
+                        offset_problem,
+                        offset_warning,
+                        steering_from_wheel_angle,
+                        straight_steering_offset,
+                        wheel_angle_hint,
+)
 
 __all__ = ["UNIT_FACTORS", "LogCheck", "parse_units", "expand_unit_patterns", "split_unit_headers", "convert_units",
            "resample_log",
@@ -71,6 +80,7 @@ _QUANTITY_NAMES = {"time": "a time", "angle": "an angle", "rate": "an angular ra
                    "length": "a length", "current": "a current", "wheel": "a wheel speed"}
 
 _PLANAR_QUANTITY = {"time": "time", "steering_angle": "angle", "steer_fl": "angle", "steer_fr": "angle",
+                    "steering_wheel_angle": "angle",
                     "yaw_rate": "rate", "accel_x": "accel",
                     "accel_y": "accel", "wheel_speed_fl": "wheel", "wheel_speed_fr": "wheel",
                     "wheel_speed_rl": "wheel", "wheel_speed_rr": "wheel"}
@@ -104,8 +114,18 @@ def _with_aliases(frame, units, quantities: dict, aliases: dict, *, source: str)
 _HEADER = re.compile(r"^\s*(?P<name>[^\[\]()]*?)\s*(?:\[(?P<unit>[^\[\]]+)\]|\((?P<unit_p>[^()]+)\))\s*$")
 
 
+#: Other spellings of the units of :data:`UNIT_FACTORS` (after lower-casing and removing blanks): the loggers' own
+#: (kph, dps, 1/min) and the suffix forms, where ``_`` stands for ``/`` (``yaw_rate_deg_s``).
+_UNIT_ALIASES = {"kph": "km/h", "kmh": "km/h", "km_h": "km/h", "mps": "m/s", "m_s": "m/s", "m_s^2": "m/s^2",
+                 "m_s2": "m/s^2", "mps2": "m/s^2", "dps": "deg/s", "degps": "deg/s", "deg_s": "deg/s",
+                 "deg/sec": "deg/s", "°/s": "deg/s", "°": "deg", "degree": "deg", "degrees": "deg", "radps": "rad/s",
+                 "rad_s": "rad/s", "rad/sec": "rad/s", "1/min": "rpm", "u/min": "rpm", "min^-1": "rpm",
+                 "sec": "s", "msec": "ms"}
+
+
 def _norm_unit(u: str) -> str:
-    return u.strip().lower().replace(" ", "").replace("²", "^2").replace("µ", "u")
+    u = u.strip().lower().replace(" ", "").replace("²", "^2").replace("µ", "u")
+    return _UNIT_ALIASES.get(u, u)
 
 
 def parse_units(text: str | None) -> dict:
@@ -160,13 +180,29 @@ def expand_unit_patterns(units: dict | None, quantities: dict, *, source: str = 
 def _suffix_unit(name: str, quantities: dict):
     """(channel, unit) of a header ``<channel>_<unit>`` (``time_ms``, ``accel_x_g``, ``steering_angle_deg``: a
     channel of ``quantities`` in any letter case, then a unit of its quantity, :data:`UNIT_FACTORS`), else None."""
-    base, sep, unit = str(name).rpartition("_")
-    if not sep or str(name).casefold() in {ch.casefold() for ch in quantities}:
+    fold = str(name).casefold()
+    if fold in {ch.casefold() for ch in quantities}:
         return None
-    channel = next((ch for ch in quantities if ch.casefold() == base.casefold()), None)
-    if channel is None or _norm_unit(unit) not in UNIT_FACTORS.get(quantities[channel], {}):
-        return None
-    return channel, unit
+    for channel in sorted(quantities, key=len, reverse=True):  # the longest channel name first
+        unit = str(name)[len(channel) + 1:]
+        if fold.startswith(channel.casefold() + "_") and _norm_unit(unit) in UNIT_FACTORS.get(quantities[channel], {}):
+            return channel, unit
+    return None
+
+
+def _unknown_suffix_hints(columns, missing, quantities: dict) -> list[str]:
+    """For each missing channel, the columns named ``<channel>_<suffix>`` whose suffix is no unit of the channel's
+    quantity (``wheel_speed_fl_kmph``): what the user meant, and what to write instead."""
+    hints = []
+    for channel in missing:
+        q = quantities.get(channel)
+        for c in columns:
+            if q and str(c).casefold().startswith(channel.casefold() + "_"):
+                suffix = str(c)[len(channel) + 1:]
+                hints.append(f"column {str(c)!r} looks like {channel} with the unit suffix {suffix!r}, which is not "
+                             f"a unit of {_QUANTITY_NAMES[q]} ({', '.join(UNIT_FACTORS[q])}): rename it (--rename "
+                             f"{c}={channel}) and declare its unit (--units {channel}=...)")
+    return hints
 
 
 def split_unit_headers(frame, channels=()):
@@ -274,13 +310,21 @@ def resample_log(frame, rate: float | None = None, *, max_gap_steps: float = MAX
     """
     import pandas as pd
 
-    t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(float)
-    d = np.diff(t)
-    if t.size < 3 or not np.all(np.isfinite(t)) or np.any(d <= 0):
-        raise InputFormatError(f"{source}: cannot resample: 'time' must be finite and strictly increasing.")
     if rate is not None and not (math.isfinite(float(rate)) and float(rate) > 0):
         raise InputError(f"--resample rate must be a positive number of Hz; got {rate!r}.")
+    frame = _without_repeated_rows(frame, source)
+    t = pd.to_numeric(frame["time"], errors="coerce").to_numpy(float)
+    if t.size < 3:
+        raise InputFormatError(f"{source}: cannot resample: the log has {t.size} sample(s); it needs at least 3.")
+    check_time_order(t, source=source, rows=frame.index.to_numpy())
+    d = np.diff(t)
+    tick = 1.0 / _tick_rate(d, float(np.median(d)))  # the logger's own period (dropped samples do not move it)
     step = round(float((t[-1] - t[0]) / (t.size - 1)), 6) if rate is None else 1.0 / float(rate)
+    if step < tick * (1 - 1e-3):
+        raise InputError(f"{source}: --resample {1 / step:g} Hz is above the log's own {1 / tick:.6g} Hz (median step "
+                         f"{tick:.6g} s): upsampling by interpolation adds no information and makes the noise of "
+                         f"neighbouring samples alike, which the filters take as independent (overconfident stds); "
+                         f"resample at {1 / tick:.6g} Hz or below.")
     k = int(np.argmax(d))
     if d[k] > max_gap_steps * step:
         raise InputFormatError(f"{source}: the log has a gap of {d[k]:.4g} s at t = {t[k]:.6g} s (> {max_gap_steps:g} "
@@ -296,6 +340,33 @@ def resample_log(frame, rate: float | None = None, *, max_gap_steps: float = MAX
     return pd.DataFrame(cols)
 
 
+def _tick_rate(steps, median: float) -> float:
+    """The logger's rate, Hz, to 4 digits: the mean of the steps near the median step (the mean over all steps counts
+    dropped samples, 99 Hz for a 100 Hz logger that lost 1 %; the median alone follows the jitter, 999.654 Hz)."""
+    near = steps[np.abs(steps - median) < 0.5 * median]
+    return float(f"{1.0 / float(np.mean(near)):.4g}")
+
+
+def _without_repeated_rows(frame, source: str):
+    """``frame`` without the rows that repeat the row before exactly (time and every value: duplicated samples);
+    two rows at one time with different values are refused (which one is right cannot be known)."""
+    import pandas as pd
+
+    values = frame.apply(pd.to_numeric, errors="coerce").to_numpy(float)
+    t = values[:, list(frame.columns).index("time")]
+    same_time = np.r_[False, t[1:] == t[:-1]]
+    if not same_time.any():
+        return frame
+    equal = np.r_[False, np.all((values[1:] == values[:-1]) | (np.isnan(values[1:]) & np.isnan(values[:-1])), axis=1)]
+    differ = same_time & ~equal
+    if differ.any():
+        i = int(np.flatnonzero(differ)[0])
+        raise InputFormatError(f"{source}: rows {frame.index[i - 1]} and {frame.index[i]} have the same time "
+                               f"({t[i]:.10g} s) but other values: two samples at one time; keep the right one and "
+                               "drop the other.")
+    return frame[~same_time]
+
+
 def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", jitter_rtol: float = 1e-3) -> float:
     """Check the time base: increasing, uniform (else suggest ``--resample``), and fast enough; return dt (s).
 
@@ -303,9 +374,10 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
     message says so.
     """
     t = np.asarray(time, float)
+    if t.size < 3:
+        raise InputFormatError(f"{source}: the log has {t.size} sample(s); the filters need at least 3.")
+    check_time_order(t, source=source, resample_hint=True)
     d = np.diff(t)
-    if t.size < 3 or np.any(~np.isfinite(t)) or np.any(d <= 0):
-        raise InputFormatError(f"{source}: column 'time' must be finite and strictly increasing.")
     dt = float(np.median(d))
     if dt >= 0.5:
         raise UnitsError(f"{source}: column 'time': median step {dt:g} s ({1 / dt:.3g} Hz) is implausible for a vehicle "
@@ -318,10 +390,107 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
     if np.ptp(d) > jitter_rtol * dt + 1e-9 + time_resolution(t):  # Unix time stamps: not jitter
         raise InputFormatError(f"{source}: column 'time' is not uniformly sampled (steps {d.min():.6g} to {d.max():.6g} s, "
                                f"median {dt:.6g} s); the filters use a fixed step: resample it explicitly with "
-                               f"--resample {round((t.size - 1) / (t[-1] - t[0])):g} (Hz; linear interpolation, gaps refused).")
-    if 1.0 / dt < minimum:
+                               f"--resample {_tick_rate(d, dt):g} (Hz, the logger's tick, not counting dropped samples; "
+                               "linear interpolation, gaps refused).")
+    if 1.0 / dt < minimum * (1 - 1e-6):  # 500 Hz from 0.0020000000000000018 s steps is 500 Hz
         raise InputError(f"{source}: sample rate {1 / dt:.4g} Hz is below the {minimum:g} Hz that {what}.")
     return dt
+
+
+#: Longest run of blank cells that ``fill="hold"`` bridges, s: a channel logged at 10 Hz or faster (a longer run is a
+#: dropout, not a slower channel).
+MAX_HOLD = 0.1
+FILLS = ("hold",)
+
+
+def _prepared(frame, units, quantities: dict, aliases: dict, *, rename, fill, source: str, wheel_radius=None):
+    """The log with its columns renamed (``rename``), header units split, aliases read, the time in seconds (numbers,
+    ISO 8601 texts or datetime64), blanks held (``fill="hold"``) and the declared units converted to SI; with the
+    file's own column names (for the messages)."""
+    columns = [str(c) for c in frame.columns]
+    if fill is not None and fill not in FILLS:
+        raise InputError(f"--fill must be one of {list(FILLS)} (hold: each channel's last sample); got {fill!r}.")
+    frame = renamed_columns(frame, dict(rename or {}), source=source)
+    frame, declared = _with_aliases(frame, units, quantities, aliases, source=source)
+    if "time" in frame.columns:
+        t, start = time_seconds(frame, "time", source=source)
+        if start is not None and "time" in declared:
+            if _norm_unit(declared["time"]) != "s":
+                raise UnitsError(f"{source}: column 'time' holds date-times (from {start}), read as seconds from the "
+                                 f"first sample; the unit {declared['time']!r} declared for it does not apply: remove "
+                                 "it.")
+            declared.pop("time")
+        frame = frame.assign(time=t)
+        if fill == "hold":
+            frame = _hold_blanks(frame, [c for c in quantities if c in frame.columns and c != "time"], t, source)
+    frame = convert_units(frame, declared, quantities, wheel_radius=wheel_radius, source=source)
+    return frame, columns
+
+
+def _hold_blanks(frame, channels, t, source: str, max_hold: float = MAX_HOLD):
+    """Zero-order hold of the blank cells of each channel (a multi-rate export leaves the slower channels blank
+    between their samples): each blank takes the channel's last sample. ASSUMPTION: a blank is a sample the channel
+    did not send; the hold delays a channel by up to its own period. Runs longer than ``max_hold`` s and text cells
+    are refused; the first rows, before every channel's first sample (at most ``max_hold`` s), are dropped."""
+    import pandas as pd
+
+    held, first = {}, 0
+    for c in channels:
+        num = pd.to_numeric(frame[c], errors="coerce")
+        text = (frame[c].notna() & num.isna()).to_numpy()
+        if text.any():
+            i = int(np.flatnonzero(text)[0])
+            raise InputFormatError(f"{source}: column {c!r} holds {frame[c].iloc[i]!r} at row {frame.index[i]}: not a "
+                                   "number; --fill hold fills blank cells only.")
+        blank = num.isna().to_numpy()
+        if blank.all():
+            continue  # reported as a blank channel by the reader
+        lead = int(np.argmax(~blank))
+        first = max(first, lead)
+        for a, b in true_runs(blank[lead:]):
+            a, b = a + lead, b + lead
+            end = t[b + 1] if b + 1 < t.size else t[b]
+            if end - t[a - 1] > max_hold + 1e-9:
+                raise InputFormatError(f"{source}: column {c!r} is blank for {end - t[a - 1]:.4g} s from row "
+                                       f"{frame.index[a]} (t = {t[a]:.6g} s): longer than the {max_hold:g} s --fill "
+                                       "hold bridges (a dropout, not a slower channel); cut the log there.")
+        held[c] = num.ffill()
+    if first and t[first] - t[0] > max_hold + 1e-9:
+        raise InputFormatError(f"{source}: a channel starts {t[first] - t[0]:.4g} s after the first row (row "
+                               f"{frame.index[first]}): --fill hold has nothing to hold before it; cut the first "
+                               f"{t[first] - t[0]:.4g} s.")
+    return frame.assign(**held).iloc[first:] if held else frame
+
+
+def _missing_channels(frame, columns, need, quantities: dict, source: str, what: str) -> None:
+    """Refuse a log without the channels ``need``, naming them with their SI unit, the file's columns and any column
+    that looks like a missing channel with an unknown unit suffix."""
+    missing = [c for c in need if c not in frame.columns]
+    if not missing:
+        return
+    si = {"time": "s", "angle": "rad", "rate": "rad/s", "accel": "m/s^2", "length": "m", "current": "A",
+          "wheel": "rad/s"}
+    hints = "".join(f"; {h}" for h in _unknown_suffix_hints(columns, missing, quantities))
+    raise InputFormatError(f"{source}: missing channel(s) {', '.join(f'{c} ({si[quantities[c]]})' for c in missing)}; "
+                           f"{what}; the file has {columns}{hints}. Columns of other names: --rename OLD=NEW.")
+
+
+def _blank_channels(frame, channels, source: str) -> None:
+    """Refuse a blank or non-numeric cell in a channel, with its row, its share of the log and the remedies
+    (``--fill hold`` for a multi-rate export, whose slower channels are blank between their samples)."""
+    import pandas as pd
+
+    for c in channels:
+        bad = pd.to_numeric(frame[c], errors="coerce").isna().to_numpy()
+        if bad.any():
+            i, n = int(np.flatnonzero(bad)[0]), int(bad.sum())
+            fix = ("a multi-rate export (the slower channels blank between their samples)? --fill hold holds each "
+                   f"channel's last sample over blanks of up to {MAX_HOLD:g} s; else fill or cut the gap"
+                   if n >= 0.1 * bad.size else
+                   f"fill or cut the gap (--fill hold holds the last sample over blanks of up to {MAX_HOLD:g} s)")
+            raise InputFormatError(f"{source}: column {c!r} has a blank or non-numeric value at row {frame.index[i]} "
+                                   f"({n} of {bad.size} rows): {fix}; the estimators need every channel at every "
+                                   "sample.")
 
 
 # ------------------------------------------------------------------------------------------ planar logs
@@ -330,7 +499,9 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
 class LogCheck:
     """One redundancy check of a drive log: ``ratio`` of a channel to its prediction from other channels.
 
-    ``ok`` is None when the log did not excite the check enough (``samples`` below the minimum).
+    ``ok`` is None when the log did not excite the check enough (``samples`` below the minimum). ``steering_offset``
+    holds the median steering angle on straight driving (rad) in ``ratio``, ``expected`` its refusal limits;
+    ``warning`` is a passed check's caution for the user ("" if none).
     """
 
     name: str
@@ -338,6 +509,7 @@ class LogCheck:
     expected: tuple
     samples: int
     ok: bool | None
+    warning: str = ""
 
 
 def _slope_through_origin(x, y, mask, min_samples):
@@ -421,12 +593,23 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
                                    "accel_y of opposite sign (y to the right): negate accel_y": -1.0,
                                    "yaw_rate in deg/s (declare 'yaw_rate [deg/s]')": math.pi / 180}, (0.75, 1.3))
         problems.append(f"accel_y / (V_x yaw_rate) = {k2:.3g}, expected about 1 (eq. (11)): {hint}")
+    offset, n_straight = straight_steering_offset(delta, r, ay, vs, dt) if yaw_ok else (math.nan, 0)
+    ok_offset = None if math.isnan(offset) else bool(abs(offset) <= STEERING_OFFSET_LIMIT)
+    ratio = getattr(vehicle, "steering_ratio", None)
+    checks.append(LogCheck("steering_offset", offset, (-STEERING_OFFSET_LIMIT, STEERING_OFFSET_LIMIT), n_straight,
+                           ok_offset, offset_warning(offset, n_straight, dt, steer_name, ratio) if ok_offset else ""))
+    if ok_offset is False:
+        problems.append(offset_problem(offset, n_straight, dt, steer_name, ratio))
+    if ok_offset is not None:  # the bicycle check reads the angle less its offset (else it blames a steering wheel)
+        delta = delta - offset
     kin = vs * delta / L
     k3, n3 = _slope_through_origin(kin, r, moving & (np.abs(kin) > 0.03), min_n)
     ok3 = None if math.isnan(k3) else bool(0.3 <= k3 <= 1.3)
     checks.append(LogCheck("steering_vs_yaw_rate", k3, (0.3, 1.3), n3, ok3))
     if ok3 is False and yaw_ok:
-        problems.append(_steering_problem(k3, steer_name, wheel_steering is None))
+        turning = moving & (np.abs(kin) > 0.03)
+        gain = bicycle_yaw_gain(vehicle, float(np.median(vs[turning]))) if turning.any() else math.nan
+        problems.append(_steering_problem(k3, steer_name, wheel_steering is None, gain / k3, vehicle))
     dv = np.gradient(vs, dt)
     dv = _moving_average(dv, smooth)
     k4, n4 = _slope_through_origin(dv, ax, moving & (np.abs(dv) > 0.5), min_n)
@@ -466,8 +649,8 @@ def _range_problems(log, vehicle) -> list[str]:
     smax = float(np.max(np.abs(log.steering_angle)))
     if smax > 0.8:
         problems.append(f"steering_angle reaches {smax:.3g} rad ({math.degrees(smax):.0f} deg), beyond a road wheel's "
-                        "lock (~0.7 rad): a steering-WHEEL angle (divide by the steering ratio) or degrees "
-                        "('steering_angle [deg]')?")
+                        "lock (~0.7 rad): a steering-WHEEL angle? name the column steering_wheel_angle and set "
+                        "body.steering_ratio in the car file; or degrees ('steering_angle [deg]')?")
     rmax = float(np.max(np.abs(log.yaw_rate)))
     if rmax > 3.0:
         problems.append(f"yaw_rate reaches {rmax:.3g} rad/s (> 3 rad/s): deg/s? declare 'yaw_rate [deg/s]'")
@@ -500,14 +683,13 @@ def _yaw_rate_check(rw, r, moving, min_n, R, problems) -> LogCheck:
     return LogCheck("yaw_rate_vs_wheels", k1, (0.93, 1.07), n1, ok1)
 
 
-def _steering_problem(k3, steer_name, steering_angle_channel: bool) -> str:
+def _steering_problem(k3, steer_name, steering_angle_channel: bool, ratio_seen=math.nan, vehicle=None) -> str:
     """The failed ``steering_vs_yaw_rate`` check's message: sign, a steering-wheel angle or degrees, too small."""
     if k3 < 0:
         hint = (f"{steer_name} has the opposite sign of the turn: paper 001 wants it positive to the LEFT; "
                 f"negate {'steering_angle' if steering_angle_channel else 'steer_fl and steer_fr'}")
     elif k3 < 0.3:
-        hint = (f"{steer_name} is {1 / k3:.3g} times the road-wheel angle that explains the yaw rate: a "
-                "steering-WHEEL angle (divide by the steering ratio) or degrees ('steering_angle [deg]')")
+        hint = wheel_angle_hint(steer_name, 1 / k3, ratio_seen, vehicle)
     else:
         hint = f"{steer_name} too small: in mrad? or a steering ratio applied twice"
     return (f"yaw_rate / (V_x {steer_name} / wheelbase) = {k3:.3g}, expected 0.3..1.3 (bicycle "
@@ -583,7 +765,8 @@ def _likely_factor(ratio: float, candidates: dict, band=(0.9, 1.1)) -> str:
 
 
 def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float | None = None,
-                   check: bool = True, source: str = "log"):
+                   check: bool = True, rename: dict | None = None, fill: str | None = None,
+                   steering_offset: float = 0.0, source: str = "log"):
     """Build a :class:`DriveLog` from a table with declared units, explicit resampling and plausibility checks.
 
     Parameters
@@ -599,17 +782,34 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
         Resample onto this rate (Hz) by linear interpolation first (jittered time stamps).
     check : bool
         Run :func:`check_drive_log` (default True).
+    rename : dict, optional
+        {file's column: channel name} applied first (``--rename``; :func:`~longprofile._validation.renamed_columns`).
+    fill : {None, "hold"}
+        ``"hold"``: each channel's blank cells take its last sample (a multi-rate export), over up to
+        :data:`MAX_HOLD` s.
+    steering_offset : float
+        Subtracted from the road-wheel steering angles (rad; ``--steering-offset``): a steering sensor's zero error,
+        as the ``steering_offset`` check measures it. A ``steering_wheel_angle`` column (any angle unit) is divided
+        by ``vehicle.steering_ratio`` first.
 
     Returns
     -------
     (DriveLog, tuple of LogCheck)
     """
-    from .planar import DriveLog
+    from .planar import LOG_COLUMNS, DriveLog
+    from .planar._simulate import WHEEL_STEERING_COLUMNS
 
-    frame, declared = _with_aliases(frame, units, _PLANAR_QUANTITY, _PLANAR_ALIASES, source=source)
     radii = dict(zip(("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr"),
                      vehicle.wheel_radius_of_each.tolist()))
-    frame = convert_units(frame, declared, _PLANAR_QUANTITY, wheel_radius=radii, source=source)
+    frame, columns = _prepared(frame, units, _PLANAR_QUANTITY, _PLANAR_ALIASES, rename=rename, fill=fill,
+                               source=source, wheel_radius=radii)
+    # steering_wheel_angle / body.steering_ratio, less the stated --steering-offset
+    frame = steering_from_wheel_angle(frame, vehicle, offset=steering_offset, source=source)
+    steer = all(c in frame.columns for c in WHEEL_STEERING_COLUMNS)
+    need = [c for c in LOG_COLUMNS if not (steer and c == "steering_angle")]
+    _missing_channels(frame, columns, need, _PLANAR_QUANTITY, source,
+                      f"a drive log needs {list(LOG_COLUMNS)} (see docs/vehicle-slope.md)")
+    _blank_channels(frame, need[1:] + (list(WHEEL_STEERING_COLUMNS) if steer else []), source)  # time: its own check
     if "time" in frame.columns:
         if resample is not None:
             frame = resample_log(frame, resample, source=source)
@@ -641,10 +841,11 @@ VERTICAL_MIN_RATE = 500.0
 
 
 def read_vertical_log(frame, config: int | None = None, *, units: dict | None = None, resample: float | None = None,
-                      source: str = "log"):
+                      rename: dict | None = None, fill: str | None = None, source: str = "log"):
     """Build :class:`VerticalSensors` from a table with declared units, resampling, rate and range checks.
 
-    Returns (sensors, config). ``config`` None infers it from the columns (:func:`infer_vertical_config`).
+    Returns (sensors, config). ``config`` None infers it from the columns (:func:`infer_vertical_config`);
+    ``rename`` and ``fill`` as in :func:`read_drive_log`.
 
     Raises
     ------
@@ -660,10 +861,15 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
 
     from .vertical import sensors_from_frame
 
-    frame, declared = _with_aliases(frame, units, _VERTICAL_QUANTITY, _VERTICAL_ALIASES, source=source)
-    frame = convert_units(frame, declared, _VERTICAL_QUANTITY, source=source)
+    frame, columns = _prepared(frame, units, _VERTICAL_QUANTITY, _VERTICAL_ALIASES, rename=rename, fill=fill,
+                               source=source)
     if config is None:
         config = infer_vertical_config(frame.columns, source=source)
+    kinds = ("dz21",) + {2: ("body_accel",), 3: ("wheel_accel",)}.get(config, ())
+    need = ["time", "ax", "ay", "yaw_rate"] + [f"{k}_{c}" for k in kinds for c in _CORNERS]
+    if config in (1, 2, 3):  # another config is refused by sensors_from_frame
+        _missing_channels(frame, columns, need, _VERTICAL_QUANTITY, source, f"configuration {config} needs {need}")
+        _blank_channels(frame, need[1:], source)  # time: its own check
     if "time" in frame.columns:
         if resample is not None:
             frame = resample_log(frame, resample, source=source)

@@ -246,3 +246,91 @@ def test_sorel_partial_segments_against_the_no_gap_value(sorel):
     errors = np.abs(errors)
     # the figures of docs/road-indices.md ("Profiles with gaps"): median a few %, a third at most
     assert 0.01 < np.median(errors) < 0.1 and np.percentile(errors, 95) < 0.4
+
+
+# ---- a dead track (every elevation missing, or only runs shorter than the lead-in): reported, not fatal -----------
+
+def _dead(p, dead, blips):
+    """``p`` (two tracks) with track ``dead`` missing except ``blips`` ``(start, length)`` shorter than the lead-in."""
+    z = p.elevation.copy()
+    keep = np.zeros(p.distance.size, dtype=bool)
+    for a, g in blips:
+        keep |= (p.distance >= a) & (p.distance <= a + g)
+    z[~keep, dead] = np.nan
+    return Profile(distance=p.distance, elevation=z, tracks=p.tracks)
+
+
+@settings(max_examples=20, deadline=None)
+@given(dx=st.sampled_from([0.05, 0.1, 0.25]), seed=st.integers(0, 10_000), gaps=st.lists(
+           st.tuples(st.floats(0.0, 1.0), st.floats(0.1, 15.0)), max_size=2), dead=st.sampled_from([0, 1]),
+       blips=st.lists(st.tuples(st.floats(0.0, 230.0), st.floats(0.0, 9.0)), max_size=3),
+       mode=st.sampled_from(["fixed", "continuous", "overlapping"]), units=st.sampled_from(["si", "us"]))
+def test_the_live_track_of_a_profile_with_a_dead_track_is_that_track_alone(dx, seed, gaps, dead, blips, mode, units):
+    length = 240.0
+    p, pg = _gapped(length, dx, seed, [(a * length, g) for a, g in gaps], tracks=("left", "right"))
+    pg = _dead(pg, dead, blips)
+    live, name = 1 - dead, pg.tracks[1 - dead]
+    kw = dict(mode=mode, units=units, gaps="restart", interval=30.0 if units == "si" else 100.0)
+    if any(pg.distance[k] - pg.distance[i] >= 12.0 for i, k in _runs(pg.elevation[:, live])):
+        rep = iri_report(pg, **kw)
+    else:  # the live track has no run long enough either: refused in one line
+        with pytest.raises(InputError, match="none of the tracks 'left', 'right' has a measured run of at least"):
+            iri_report(pg, **kw)
+        return
+    alone = iri_report(pg, tracks=name, **kw)
+    np.testing.assert_array_equal(rep.iri[:, live], alone.iri[:, 0])  # bit for bit
+    np.testing.assert_array_equal(rep.valid_length[:, live], alone.valid_length[:, 0])
+    assert rep.section_iri[live] == alone.section_iri[0]
+    assert (rep.section_start, rep.section_end) == (alone.section_start, alone.section_end)
+    for key in ("moving_average_applied", "moving_average_reason", "method", f"section_iri_{name}"):
+        assert rep.metadata[key] == alone.metadata[key]
+    assert (rep.valid_length[:, dead] == 0).all() and (rep.hri_valid_length == 0).all()
+    assert np.isnan(rep.iri[:, dead]).all() and np.isnan(rep.mri).all() and np.isnan(rep.hri).all()
+    assert np.isnan(rep.section_iri[dead]) and np.isnan(rep.section_mri) and np.isnan(rep.section_hri)
+    frame = rep.to_frame()
+    assert (frame["valid_fraction"] == 0).all()
+    note = frame["note"].str
+    assert (note.startswith("no IRI: measured ") & note.contains(f"{pg.tracks[dead]} 0.0%,", regex=False)
+            & note.endswith("hri 0.0% (< 80%)")).all()
+    assert rep.gaps.dead == (pg.tracks[dead],) and rep.metadata["gap_dead_tracks"] == pg.tracks[dead]
+    note = rep.metadata["gap_note"]
+    assert note.startswith(f"track(s) '{pg.tracks[dead]}' have no measured run of at least the 11 m lead-in")
+    assert f"check the sensor, or analyse the other track(s) alone (--track {name})" in note
+    # the dead track's gaps and short runs are not counted as the live track's
+    assert rep.gaps.gaps == alone.gaps.gaps and rep.gaps.dropped == alone.gaps.dropped
+
+
+def test_a_dead_track_in_iri_localized_roughness_and_the_report_analysis():
+    p = iso8608_profile(400.0, 0.1, "C", rng=11, tracks=("left", "right"))
+    pg = _dead(p, 0, [])
+    res, alone = iri(pg, segment_length=50.0, gaps="restart"), iri(pg, segment_length=50.0, gaps="restart",
+                                                                   tracks="right")
+    np.testing.assert_array_equal(res.iri[:, 1], alone.iri[:, 0])
+    assert np.isnan(res.iri[:, 0]).all() and np.isnan(res.mri).all() and np.isnan(res.hri).all()
+    assert res.gaps.dead == ("left",) and res.gaps.without_iri == 0 and not res.gaps.gaps
+    loc = localized_roughness(pg, window=25.0, threshold=2.0, gaps="restart")
+    own = localized_roughness(pg, window=25.0, threshold=2.0, gaps="restart", tracks="right")
+    np.testing.assert_array_equal(loc.station, own.station)
+    np.testing.assert_array_equal(loc.continuous_iri[:, 1], own.continuous_iri[:, 0])
+    assert loc.tracks == ("left", "right", "MRI") and np.isnan(loc.continuous_iri[:, [0, 2]]).all()
+    assert {d.track for d in loc.defects} <= {"right"}
+    an = analyse_roughness(pg, segment_length=50.0, gaps="restart")
+    assert an.psd.tracks == ("right",) and len(an.iso8608) == 1
+    np.testing.assert_array_equal(an.psd.psd[:, 0], profile_psd(own_profile := Profile(
+        distance=p.distance, elevation=p.elevation[:, 1], tracks=("right",))).psd[:, 0])
+    assert own_profile.tracks == ("right",)
+    assert any(n.startswith("Gaps: track(s) 'left' have no measured run") for n in an.notes)
+    assert any("PSD and ISO 8608 class: track(s) left have no measured run" in n for n in an.notes)
+
+
+def test_no_track_with_a_run_long_enough_is_refused_in_one_line():
+    p = iso8608_profile(300.0, 0.1, "C", rng=12, tracks=("left", "right"))
+    both = _dead(_dead(p, 0, [(50.0, 8.0)]), 1, [])
+    with pytest.raises(InputError) as err:
+        iri_report(both, gaps="restart")
+    assert "none of the tracks 'left', 'right' has a measured run of at least the 11 m lead-in" in str(err.value)
+    assert "\n" not in str(err.value)
+    with pytest.raises(InputError, match=r"^track 'right' has no measured run of at least the 11 m lead-in"):
+        iri(_dead(p, 1, []), gaps="restart", tracks="right")
+    with pytest.raises(InputError, match="track 'right' has a missing \\(NaN\\) elevation.*--gaps restart"):
+        iri(_dead(p, 1, []))  # the default still refuses any missing elevation

@@ -62,7 +62,8 @@ def hill():
 
 def test_until_2026_12_06_pm_reproduces_the_morning_and_the_new_default_moves_only_the_joint_grade_band(hill):
     assert_same_fingerprint(fingerprint(slope_outputs(hill.log, SlopeUncertainty.until_2026_12_06_pm())), MORNING)
-    new = slope_outputs(hill.log, None)
+    # the default of then; the yaw rate's band changed after (session 38, SlopeUncertainty.until_2026_12_07)
+    new = slope_outputs(hill.log, SlopeUncertainty.until_2026_12_07())
     moved = "joint.slope_std"
     assert_same_fingerprint(fingerprint({k: v for k, v in new.items() if k != moved}),
                             {k: v for k, v in MORNING.items() if k != moved})
@@ -115,7 +116,8 @@ def test_grade_nis_floor_is_checked_and_defaults():
     assert SlopeUncertainty.noise_only().grade_floor == 1.0
     assert SlopeUncertainty.until_2026_12_06().grade_floor == 0.1
     assert SlopeUncertainty.until_2026_12_06_pm() == SlopeUncertainty(grade_nis_floor=None, unverified_accel_offset_std=None,
-                                                                    unverified_gyro_offset_std=None)
+                                                                    unverified_gyro_offset_std=None,
+                                                                    yaw_rate_from_gain=False)
     for bad in (0.0, -0.1, 1.5, float("nan"), True, "0.1"):
         with pytest.raises(InputError, match="grade_nis_floor"):
             SlopeUncertainty(grade_nis_floor=bad)

@@ -71,9 +71,10 @@ def test_invalid_value_in_file_names_the_file(tmp_path):
 def test_vehicle_is_a_dataclass_with_all_fields_in_toml():
     names = {f.name for f in dataclasses.fields(Vehicle)}
     text = default_vehicle().to_toml()
-    for name in names - {"name", "description"}:
+    for name in names - {"name", "description", "steering_ratio"}:  # steering_ratio: optional, written when set
         key = {"wheel_radius": "radius", "wheel_inertia": "inertia"}.get(name, name)
         assert f"{key} = " in text, name
+    assert "steering_ratio = 15.0" in default_vehicle().with_changes(steering_ratio=15.0).to_toml()
 
 
 def test_simulator_only_keys_may_be_omitted_for_estimation(tmp_path):

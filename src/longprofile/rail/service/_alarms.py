@@ -24,7 +24,21 @@ import pandas as pd
 from sqlalchemy import func, select, update
 
 from .. import CONTROL_CHECK_P, THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, USER_EXCLUDED, threshold_alarms
-from ._db import LEVELS, Alarm, Batch, Channel, Database, Logger, Outbox, Reading, Sensor, Site, Threshold, now_ts
+from ._db import (
+    LEVELS,
+    Alarm,
+    Audit,
+    Batch,
+    Channel,
+    Database,
+    Logger,
+    Outbox,
+    Reading,
+    Sensor,
+    Site,
+    Threshold,
+    now_ts,
+)
 
 __all__ = ["quantity_levels", "transition", "evaluate_no_data", "acknowledge", "deliver_outbox", "Notifier",
            "list_alarms", "health_level", "HEALTH_LEVELS", "ended_as"]
@@ -215,7 +229,7 @@ def evaluate_result(s, site: Site, res, run_id: int, probability: float) -> list
         lv = health_level(st)  # none for a sensor the user excluded: its open health alarm is withdrawn
         w = transition(s, site, "health", str(sid), lv, day=day, run_id=run_id, opened=opened,
                        message="" if lv is None else f"sensor {sid} {st}: {detail}",
-                       reason="excluded by the user (site setting exclude)" if st == USER_EXCLUDED else None)
+                       reason=EXCLUDED_REASON if st == USER_EXCLUDED else None)
         if w != "none":
             events.append(f"health:{sid}:{w}")
     w = _controls_alarm(s, site, res.control_check, day, run_id, opened)
@@ -252,14 +266,21 @@ def _inactive_with_open_alarms(s, site: Site) -> list[str]:
                                                          Alarm.quantity.in_(("health", "no_data")))))))
 
 
+#: ``cleared_reason`` of an open health or no-data alarm of a sensor the user excluded (site setting ``exclude``).
+EXCLUDED_REASON = "excluded by the user (site setting exclude)"
+
+
 def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
     """"No data from sensor X for N hours": against the clock, or the newest reading of the site (clock="data");
-    and "no data from logger L" when none of a logger's batches arrived for as long (:func:`_silent_loggers`).
+    and "no data from logger L" when none of a logger's batches arrived for as long (:func:`_silent_loggers`), or
+    when a logger registered (or given a new key) that long ago has sent nothing at all (:func:`_unheard_loggers`).
 
     A sensor that has not reported since it was registered gets the same ``no_data_hours`` of grace from its
     registration (against the wall clock) before the alarm; open alarms of inactive sensors are closed. A sensor
     whose newest reading came from a silent logger, and that was reporting when the logger fell silent, gets no
-    alarm of its own: the logger's alarm names it (one alarm, not one per sensor)."""
+    alarm of its own: the logger's alarm names it (one alarm, not one per sensor); so do the sensors of a site that
+    has received no reading at all when a logger of it was never heard from. A sensor the user excluded (site setting
+    ``exclude``) is expected to be silent: no alarm, and an open one is withdrawn (:data:`EXCLUDED_REASON`)."""
     swept = _inactive_with_open_alarms(s, site)
     events = [f"withdrawn:{sid}" for sid in swept] if close_sensor_alarms(s, site, swept, actor="service") else []
     # one index seek per sensor on the (sensor_pk, ts) key: a join grouped by sensor scanned every reading of
@@ -269,44 +290,45 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
            .order_by(Reading.ts.desc()).limit(1).scalar_subquery())
     rows = s.execute(select(Sensor.sensor_id, newest, Sensor.created_ts, via).where(Sensor.site_id == site.id,
                                                                                     Sensor.active.is_(True))).all()
+    excluded = set(site.settings.get("exclude") or [])
     last = {sid: t for sid, t, _, _ in rows}
     created = {sid: c for sid, _, c, _ in rows}
-    if not last:
-        return events
     seen = [t for t in last.values() if t is not None]
-    if site.clock == "data":
-        if not seen:
-            return events
-        ref = max(seen)
-    else:
-        ref = now_ts() if now is None else int(now)
     wall = now_ts() if now is None else int(now)
+    ref = max(seen) if site.clock == "data" and seen else wall  # nothing read yet: only registrations to go by
     limit = site.no_data_hours * 3600.0
     opened = open_alarms(s, site)
-    silent = _silent_loggers(s, site, ref, limit)
+    # clock=data with no reading of an active sensor: no data time to measure a logger's silence against
+    silent = _silent_loggers(s, site, ref, limit) if site.clock != "data" or seen else {}
+    silent.update(_unheard_loggers(s, site, wall, limit))
     covered = {sid: silent[lg][0] for sid, t, _, lg in rows
                if lg in silent and t is not None and (silent[lg][2] is None or silent[lg][2] - t <= limit)}
-    events += _logger_alarms(s, site, silent, covered, ref, opened)
+    unheard = sorted(name for name, _, _, heard in silent.values() if not heard)
+    if not seen and unheard:  # the site has received nothing: its loggers' alarm says it, not one per sensor
+        covered = {sid: ", ".join(unheard) for sid in last}
+    covered = {sid: lg for sid, lg in covered.items() if sid not in excluded}
+    events += _logger_alarms(s, site, silent, covered, opened)
     for sid, t in sorted(last.items()):
         new = t is None and created[sid] is not None and wall - created[sid] <= limit  # grace after registration
-        stale = not new and (t is None or ref - t > limit) and sid not in covered
+        stale = not new and (t is None or ref - t > limit) and sid not in covered and sid not in excluded
         lv = "alert" if stale else None
         msg = "" if not stale else (f"no data from sensor {sid} for {site.no_data_hours:g} h" if t is None else
                                     f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
                                     f"(limit {site.no_data_hours:g} h)")
+        reason = (EXCLUDED_REASON if sid in excluded else
+                  f"its logger {covered[sid]} is silent (logger alarm)" if sid in covered else None)
         w = transition(s, site, "no_data", sid, lv, value=None if t is None else (ref - t) / 3600.0,
-                       threshold=site.no_data_hours, message=msg, opened=opened,
-                       reason=f"its logger {covered[sid]} is silent (logger alarm)" if sid in covered else None)
+                       threshold=site.no_data_hours, message=msg, opened=opened, reason=reason)
         if w != "none":
             events.append(f"no_data:{sid}:{w}")
     return events
 
 
 def _silent_loggers(s, site: Site, ref: int, limit: float) -> dict:
-    """{logger pk: (name, hours silent, its newest reading's time)} of the site's active loggers none of whose batches
-    arrived for ``limit`` s before ``ref``: by the batches' arrival (clock="wall", ``ref`` the wall clock), or by
-    their newest reading (clock="data", ``ref`` the site's newest reading), as the sensor rule measures. A logger is
-    watched from its first batch (a logger registered but never heard from is not: its sensors' alarms say it)."""
+    """{logger pk: (name, hours silent, its newest reading's time, True)} of the site's active loggers none of whose
+    batches arrived for ``limit`` s before ``ref``: by the batches' arrival (clock="wall", ``ref`` the wall clock), or
+    by their newest reading (clock="data", ``ref`` the site's newest reading), as the sensor rule measures. A logger is
+    watched here from its first batch; one never heard from is :func:`_unheard_loggers`'."""
     # one index seek per logger (ix_batches_logger_*); a GROUP BY over the batches scanned a year's 157 000 of
     # them on every pass (51 ms, session 36)
     newest = {c: select(func.max(c)).where(Batch.logger_id == Logger.id).scalar_subquery()
@@ -317,26 +339,47 @@ def _silent_loggers(s, site: Site, ref: int, limit: float) -> dict:
     for pk, name, received, newest in rows:
         t = newest if site.clock == "data" else received
         if t is not None and ref - t > limit:
-            out[pk] = (name, (ref - t) / 3600.0, newest)
+            out[pk] = (name, (ref - t) / 3600.0, newest, True)
     return out
 
 
-def _logger_alarms(s, site: Site, silent: dict, covered: dict, ref: int, opened: dict) -> list[str]:
-    """Raise, refresh or clear the per-logger no-data alarms (quantity "logger", subject the logger's name)."""
+def _unheard_loggers(s, site: Site, wall: int, limit: float) -> dict:
+    """{logger pk: (name, hours since registered, None, False)} of the site's active loggers that never sent a batch
+    and were registered, or last given a new key, more than ``limit`` s before the wall clock ``wall``: the grace
+    period of a new sensor (:func:`evaluate_no_data`), on either clock. The registration is the audit trail's
+    ``logger`` ``create`` or ``rotate`` entry (the logger rows carry no time of their own); without one, the site's
+    creation."""
+    never = ~select(Batch.id).where(Batch.logger_id == Logger.id).exists()
+    rows = s.execute(select(Logger.id, Logger.name).where(Logger.site_id == site.id, Logger.active.is_(True),
+                                                          never)).all()
+    out = {}
+    for pk, name in rows:
+        since = s.scalar(select(func.max(Audit.ts)).where(Audit.site_id == site.id, Audit.entity == "logger",
+                                                          Audit.key == name, Audit.action.in_(("create", "rotate"))))
+        since = site.created_ts if since is None else since
+        if since is not None and wall - since > limit:
+            out[pk] = (name, (wall - since) / 3600.0, None, False)
+    return out
+
+
+def _logger_alarms(s, site: Site, silent: dict, covered: dict, opened: dict) -> list[str]:
+    """Raise, refresh or clear the per-logger no-data alarms (quantity "logger", subject the logger's name): of the
+    ``silent`` loggers (:func:`_silent_loggers`, :func:`_unheard_loggers`)."""
     events = []
-    names = {name for name, _, _ in silent.values()}
+    names = {name for name, _, _, _ in silent.values()}
     for a in list(opened.values()):
         if a.quantity == "logger" and a.subject not in names:
             active = s.scalar(select(Logger.active).where(Logger.site_id == site.id, Logger.name == a.subject))
             w = transition(s, site, "logger", a.subject, None, opened=opened,
                            reason=None if active else "the logger's key was revoked")
             events.append(f"logger:{a.subject}:{w}")
-    for name, hours, _ in sorted(silent.values()):
-        mine = sorted(sid for sid, lg in covered.items() if lg == name)
+    for name, hours, _, heard in sorted(silent.values()):
+        mine = sorted(sid for sid, lg in covered.items() if name in lg.split(", "))
         said = (f"; its {len(mine)} sensor(s) {', '.join(mine[:8])}{', ...' if len(mine) > 8 else ''} are silent "
                 "with it (no alarm of their own)") if mine else ""
-        msg = (f"no data from logger {name} for {hours:.1f} h (limit {site.no_data_hours:g} h){said}: check the "
-               "logger's power and connection")
+        never = "" if heard else ", nothing received since it was registered"
+        msg = (f"no data from logger {name} for {hours:.1f} h (limit {site.no_data_hours:g} h{never}){said}: check "
+               f"the logger's power and connection{'' if heard else ', and that it was given its API key'}")
         w = transition(s, site, "logger", name, "alert", value=hours, threshold=site.no_data_hours, message=msg,
                        opened=opened)
         if w != "none":

@@ -541,8 +541,8 @@ def threshold_row(quantity: str, level: str, value) -> dict:
     ``value_mm``, the same in mm (mm/day for the rate), as the user gave it (``rail site threshold``, the thresholds
     table's ``value_mm`` column); None values for a removed level."""
     unit, unit_mm = THRESHOLD_UNITS[quantity]
-    mm = None if value is None else float(f"{1e3 * value:.12g}")  # 0.0023 m -> 2.3 mm, not 2.3000000000000003
-    return {"quantity": quantity, "level": level, "value": value, "unit": unit, "value_mm": mm, "unit_mm": unit_mm}
+    return {"quantity": quantity, "level": level, "value": value, "unit": unit, "value_mm": _mm(value),
+            "unit_mm": unit_mm}
 
 
 def threshold_rows(thresholds: dict) -> list[dict]:
@@ -776,10 +776,35 @@ def audit_trail(db: Database, name: str | None = None, limit: int = 500, *, user
             q = q.where(Audit.site_id == _site(s, name).id)
         if users:
             q = q.where(Audit.site_id.is_(None), Audit.entity == "user")
-        return [{"ts": datetime.fromtimestamp(a.ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "actor": a.actor,
+        rows = [{"ts": datetime.fromtimestamp(a.ts, timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "actor": a.actor,
                  "entity": a.entity, "key": a.key, "action": a.action,
                  "old": None if a.old_json is None else json.loads(a.old_json),
                  "new": None if a.new_json is None else json.loads(a.new_json)} for a in s.scalars(q)]
+        ids = [int(r["key"]) for r in rows if r["entity"] == "alarm" and r["action"] == "update" and r["key"].isdigit()]
+        alarms = dict(s.execute(select(Alarm.id, Alarm.quantity).where(Alarm.id.in_(ids))).all()) if ids else {}
+        return [_audit_in_mm(r, alarms) for r in rows]
+
+
+def _mm(value):
+    """A stored value in m (m/day) in mm (mm/day): 0.0023 m -> 2.3 mm, not 2.3000000000000003; None stays None."""
+    return None if not isinstance(value, (int, float)) else float(f"{1e3 * value:.12g}")
+
+
+def _audit_in_mm(row: dict, alarm_quantity: dict) -> dict:
+    """An audit entry with its values in m (as stored) also in mm, as the rest of the CLI shows them: a threshold's
+    ``old`` / ``new`` (m, m/day for the rate) get ``old_mm``, ``new_mm``, ``unit`` and ``unit_mm``; a settlement,
+    rate or twist alarm's update (its threshold followed the site's) gets ``threshold_mm`` in ``old`` and ``new``,
+    and the units."""
+    if row["entity"] == "threshold" and row["key"].split(".")[0] in THRESHOLD_UNITS:
+        unit, unit_mm = THRESHOLD_UNITS[row["key"].split(".")[0]]
+        return {**row, "old_mm": _mm(row["old"]), "new_mm": _mm(row["new"]), "unit": unit, "unit_mm": unit_mm}
+    q = alarm_quantity.get(int(row["key"])) if row["entity"] == "alarm" and row["key"].isdigit() else None
+    if q in THRESHOLD_UNITS and row["action"] == "update":
+        unit, unit_mm = THRESHOLD_UNITS[q]
+        side = {k: v if not isinstance(v, dict) or "threshold" not in v else {**v, "threshold_mm": _mm(v["threshold"])}
+                for k, v in (("old", row["old"]), ("new", row["new"]))}
+        return {**row, **side, "unit": unit, "unit_mm": unit_mm}
+    return row
 
 
 # ----------------------------------------------------------------------------------------------- ingestion

@@ -11,6 +11,9 @@ computed as ProVAL and ASTM E1926 practice do, with these ASSUMPTIONS (docs/road
   first sample, its own moving-average decision, the quarter car initialised by the standard 11 m lead-in slope;
   so a run's rectified slope -- and the IRI of any interval inside it -- is that of the run written as its own file;
 * a run too short to initialise (shorter than the lead-in, or than it once smoothed) is dropped and named;
+* a track left without any run long enough (every elevation missing: a dead sensor) is a *dead track*: its
+  intervals get no IRI, nor the MRI and HRI, which need both tracks; the other tracks are computed exactly as if
+  analysed alone, and the profile is refused only when no track has a run long enough;
 * an interval's IRI is the rectified slope integrated over its measured parts divided by their length; an interval
   measured over less than ``min_valid`` of its length (default :data:`MIN_VALID_FRACTION`) gets NaN, with the
   reason in its ``note``;
@@ -166,11 +169,17 @@ class GapSummary:
     dropped : tuple of (str, float, float)
         Runs of measured samples too short to initialise the quarter car ``(track, first, last station)``.
     intervals, affected, without_iri : int
-        Reported intervals, those overlapping a gap or a dropped run, those with a NaN IRI (or HRI).
+        Reported intervals, those overlapping a gap or a dropped run, those with a NaN IRI (or HRI) -- of the tracks
+        that have a run long enough (the dead tracks' intervals all have none).
     min_valid : float
         Smallest measured fraction of an interval for its IRI to be reported.
     lead_in : float
         Initialisation length, m.
+    dead : tuple of str
+        Tracks without any measured run of at least the lead-in (no IRI at all; their gaps and runs are not in
+        ``gaps`` and ``dropped``).
+    live : tuple of str
+        The other tracks (those with an IRI), named in the message's hint when some are dead.
     """
 
     gaps: tuple[tuple[str, float, float], ...]
@@ -180,11 +189,13 @@ class GapSummary:
     without_iri: int
     min_valid: float
     lead_in: float
+    dead: tuple[str, ...] = ()
+    live: tuple[str, ...] = ()
 
     @property
     def any(self) -> bool:
-        """Whether the profile had a gap (or a run left out)."""
-        return bool(self.gaps or self.dropped)
+        """Whether the profile had a gap (or a run left out, or a dead track)."""
+        return bool(self.gaps or self.dropped or self.dead)
 
     @property
     def gap_length(self) -> float:
@@ -195,18 +206,22 @@ class GapSummary:
         """The summary as JSON scalars for a report's metadata (lengths in the report unit)."""
         return {"gaps": "restart", "min_valid": self.min_valid, "gap_count": len(self.gaps),
                 "gap_length": self.gap_length / metres_per_unit, "gap_intervals_affected": self.affected,
-                "gap_intervals_without_iri": self.without_iri, "gap_runs_dropped": len(self.dropped)}
+                "gap_intervals_without_iri": self.without_iri, "gap_runs_dropped": len(self.dropped),
+                "gap_dead_tracks": ",".join(self.dead)}
 
     def message(self, *, length_unit: str = "m", metres_per_unit: float = 1.0, what: str = "segment") -> str:
         """One sentence for the console and the report ("" without gaps)."""
         if not self.any:
             return ""
         f, lu = metres_per_unit, length_unit
-        text = ""
+        text = self._dead_text()
+        if not (self.gaps or self.dropped):
+            return text + "."
+        text += "; " if text else ""
         if self.gaps:
             tracks = sorted({t for g in self.gaps for t in g[0].split("+")})
             a, b = self.gaps[0][1:]
-            text = (f"{len(self.gaps)} gap(s) of missing elevations (track {', '.join(tracks)}), "
+            text += (f"{len(self.gaps)} gap(s) of missing elevations (track {', '.join(tracks)}), "
                     f"{self.gap_length / f:.6g} {lu} in all, the first {a / f:.3f}-{b / f:.3f} {lu}: ")
         text += (f"IRI over the measured parts, the quarter car restarted after each gap (--gaps restart); "
                  f"{self.affected} of {self.intervals} {what}(s) affected, {self.without_iri} without IRI (measured "
@@ -218,6 +233,16 @@ class GapSummary:
                      f"{a / f:.3f}-{b / f:.3f} {lu}{more})")
         return text + "."
 
+    def _dead_text(self) -> str:
+        """The clause naming the dead tracks ("" without)."""
+        if not self.dead:
+            return ""
+        names = ", ".join(repr(t) for t in self.dead)
+        other = f" (--track {','.join(self.live)})" if self.live else " (--track)"
+        return (f"track(s) {names} have no measured run of at least the {self.lead_in:g} m lead-in (every elevation "
+                f"missing: a dead sensor?): no IRI for them, nor MRI or HRI, which need both tracks; check the "
+                f"sensor, or analyse the other track(s) alone{other}")
+
 
 @dataclass(frozen=True, eq=False)
 class GappedSums:
@@ -225,7 +250,8 @@ class GappedSums:
 
     ``total`` (S, K) in m/km x m and ``length`` (S, K) in m per interval; ``section_total``, ``section_length`` (K,)
     over the whole profile; ``start``, ``end`` the first and last simulated station (m); ``spans`` and ``dropped``
-    ``(track, start, end)`` in m; the moving-average decision and the method of the runs."""
+    ``(track, start, end)`` in m; ``dead`` the tracks without any run long enough (all zero); the moving-average
+    decision and the method of the runs."""
 
     total: np.ndarray
     length: np.ndarray
@@ -238,6 +264,7 @@ class GappedSums:
     moving_average: bool
     moving_average_reason: str
     method: str
+    dead: tuple = ()
 
 
 def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stations, per_interval,
@@ -246,8 +273,9 @@ def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stat
     integrate its rectified slope per interval.
 
     ``per_interval(rectified_slope, inserted, tol) -> (total (S, k), length (S,))`` integrates one run (the
-    ``_segment_sums`` or ``_window_sums`` of :mod:`._iri`). A track without any run long enough is refused
-    (``required``), else left at zero length (its IRI NaN everywhere).
+    ``_segment_sums`` or ``_window_sums`` of :mod:`._iri`). A track without any run long enough (a *dead* track) is
+    left at zero length (its IRI NaN everywhere) and named in ``dead``; when no track has one the profile is refused
+    (``required``).
     """
     from ._iri import MAX_IRI_STEP_M
 
@@ -258,7 +286,7 @@ def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stat
     k_all = z.shape[1]
     total, length = np.zeros((n_intervals, k_all)), np.zeros((n_intervals, k_all))
     sec_total, sec_length = np.zeros(k_all), np.zeros(k_all)
-    spans, dropped, decisions, first, last = [], [], [], np.inf, -np.inf
+    spans, dropped, dead, decisions, first, last = [], [], [], [], np.inf, -np.inf
     for cols in groups.values():
         runs = valid_runs(x, missing[:, cols[0]], max_step=MAX_IRI_STEP_M)
         kept, short = run_slopes(x, z[:, cols], [names[c] for c in cols], runs, lead_in=lead_in,
@@ -267,10 +295,8 @@ def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stat
         group_spans = _spans(x, runs)
         spans += [(names[c], a, b) for c in cols for a, b in group_spans]
         dropped += [(names[c], float(x[i]), float(x[k])) for c in cols for i, k in short]
-        if not kept and required:
-            raise InputError(f"track(s) {', '.join(repr(names[c]) for c in cols)} have no measured run of at least "
-                             f"the {lead_in:g} m lead-in between their gaps: no IRI can be computed; choose other "
-                             "tracks (--track).")
+        if not kept:
+            dead += [names[c] for c in cols]
         for _i, _k, rs, mask, tol in kept:
             t, covered = per_interval(rs, mask, tol)
             total[:, cols] += t
@@ -279,6 +305,12 @@ def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stat
             sec_length[cols] += rs.step.sum()
             decisions.append((rs.moving_average, rs.moving_average_reason, rs.method))
             first, last = min(first, float(rs.station[0])), max(last, float(rs.station[-1]))
+    if required and len(dead) == k_all:
+        which = f"track {names[0]!r} has no" if k_all == 1 else f"none of the tracks {', '.join(map(repr, names))} has a"
+        raise InputError(f"{which} measured run of at least the {lead_in:g} m lead-in between the gaps (every elevation "
+                         "missing: a dead sensor?): no IRI can be computed; check the file, or choose other tracks "
+                         "(--track).")
+    dead = [n for n in names if n in dead]  # in the tracks' order
     applied = [d[0] for d in decisions]
     reason = decisions[0][1] if decisions else "no run long enough to compute"
     if len(set(applied)) > 1:
@@ -287,7 +319,7 @@ def gapped_sums(x, z, names, *, lead_in, moving_average, base_length, extra_stat
     method = "constant-step" if all(d[2] == "constant-step" for d in decisions) else "per-step"
     return GappedSums(total=total, length=length, section_total=sec_total, section_length=sec_length, start=first,
                       end=last, spans=tuple(spans), dropped=tuple(dropped), moving_average=any(applied),
-                      moving_average_reason=reason, method=method)
+                      moving_average_reason=reason, method=method, dead=tuple(dead))
 
 
 def valid_means(total, length, interval_length, min_valid: float) -> np.ndarray:
@@ -301,11 +333,14 @@ def valid_means(total, length, interval_length, min_valid: float) -> np.ndarray:
 
 
 def summarise(sums: GappedSums, starts_m, ends_m, values, min_valid: float, lead_in: float,
-              extra_dropped=()) -> GapSummary:
+              extra_dropped=(), tracks=()) -> GapSummary:
     """The :class:`GapSummary` of a gapped computation: the tracks' spans merged, intervals overlapping a span or a
-    dropped run (``extra_dropped``: the half-car's), intervals with a NaN in ``values`` (S, C)."""
-    gaps = tuple(_merge_spans(sums.spans))
-    dropped = tuple(sums.dropped) + tuple(extra_dropped)
+    dropped run (``extra_dropped``: the half-car's), intervals with a NaN in ``values`` (S, C) -- all of the tracks
+    with a run long enough (a dead track is named in ``dead``, its spans and its columns left out: ``values`` holds
+    the live tracks' columns only); ``tracks`` all the tracks' names."""
+    dead = set(sums.dead)
+    gaps = tuple(_merge_spans([s for s in sums.spans if s[0] not in dead]))
+    dropped = tuple(d for d in sums.dropped if d[0] not in dead) + tuple(extra_dropped)
     starts_m, ends_m = np.asarray(starts_m, float), np.asarray(ends_m, float)
     blank = [(a, b) for _, a, b in _merge_spans([(t, a, b) for t, a, b in gaps + dropped])]
     affected = np.zeros(starts_m.size, dtype=bool)
@@ -316,7 +351,8 @@ def summarise(sums: GappedSums, starts_m, ends_m, values, min_valid: float, lead
         affected[inside] = g0[idx[inside]] < ends_m[inside]
     without = int(np.count_nonzero(np.isnan(values).any(axis=1))) if values.size else 0
     return GapSummary(gaps=gaps, dropped=dropped, intervals=int(starts_m.size), affected=int(affected.sum()),
-                      without_iri=without, min_valid=float(min_valid), lead_in=float(lead_in))
+                      without_iri=without, min_valid=float(min_valid), lead_in=float(lead_in), dead=tuple(sums.dead),
+                      live=tuple(t for t in tracks if t not in dead))
 
 
 def gap_columns(valid, names, interval_length, min_valid: float, length_unit: str) -> dict:
@@ -368,7 +404,8 @@ def gapped_iri(x, z, names, *, lead_in, moving_average, base_length, extra_stati
     """IRI per interval ``[starts_m, ends_m]`` (m) of the tracks ``z`` (N, K; NaN in the gaps) over their measured
     runs (:func:`gapped_sums`), NaN where less than ``min_valid`` is measured; with two tracks the MRI (mean of the
     two IRI, NaN if either is) and the HRI (the half-car profile, missing where either track is, run the same way).
-    ``factor`` converts m/km to the report's IRI unit."""
+    ``factor`` converts m/km to the report's IRI unit. A dead track (no run long enough) has NaN everywhere, and so
+    have the MRI and HRI; the other tracks' values are those of the tracks analysed alone."""
     starts_m, ends_m = np.asarray(starts_m, float), np.asarray(ends_m, float)
     span = ends_m - starts_m
     run = dict(lead_in=lead_in, moving_average=moving_average, base_length=base_length,
@@ -379,7 +416,8 @@ def gapped_iri(x, z, names, *, lead_in, moving_average, base_length, extra_stati
         section = sums.section_total / sums.section_length * factor
     mri = hri = hri_valid = section_mri = section_hri = None
     extra_dropped: tuple = ()
-    every = values
+    live = [j for j, n in enumerate(names) if n not in sums.dead]
+    every = values[:, live]
     if z.shape[1] == 2:
         mri = values.mean(axis=1)
         section_mri = float(section.mean())
@@ -389,8 +427,9 @@ def gapped_iri(x, z, names, *, lead_in, moving_average, base_length, extra_stati
         section_hri = (float(half.section_total[0] / half.section_length[0] * factor) if half.section_length[0] > 0
                        else float("nan"))
         extra_dropped = tuple(d for d in half.dropped if not any(d[1] <= b and d[2] >= a for _, a, b in sums.dropped))
-        every = np.column_stack([values, hri])
-    summary = summarise(sums, starts_m, ends_m, every, min_valid, lead_in, extra_dropped)
+        if not sums.dead:
+            every = np.column_stack([values, hri])
+    summary = summarise(sums, starts_m, ends_m, every, min_valid, lead_in, extra_dropped, tuple(names))
     return GappedIRI(tracks=tuple(names), values=values, valid=sums.length, mri=mri, hri=hri, hri_valid=hri_valid,
                      section=section, section_mri=section_mri, section_hri=section_hri, start=sums.start, end=sums.end,
                      moving_average=sums.moving_average, moving_average_reason=sums.moving_average_reason,

@@ -47,6 +47,13 @@ class RoughnessAnalysis:
     notes: tuple[str, ...]
 
 
+def _tracks_of(profile: Profile, names) -> Profile:
+    """The profile reduced to the tracks ``names`` (in that order), with their std."""
+    return Profile(distance=profile.distance, elevation=np.column_stack([profile.track(t) for t in names]),
+                   tracks=names, std=None if profile.std is None else profile.std[:, [profile.tracks.index(t) for t in names]],
+                   name=profile.name)
+
+
 def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks=None, window: float = 25.0,
                       threshold: float = 2.7, bands: dict | None = None, band_segment_length: float = 200.0,
                       lead_in: float = 11.0, gaps: str = "refuse",
@@ -74,7 +81,8 @@ def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks
         own profile -- the IRI per segment over the measured parts (NaN below ``min_valid``, default 0.8, of the
         segment measured; :func:`~longprofile.road.iri`), the localised roughness in windows inside one run, the
         PSD from the Welch segments inside the runs; the waveband energies (a band-pass of the whole record) are
-        not computed. A note names the gaps.
+        not computed. A note names the gaps. A dead track (no measured run of the lead-in, :mod:`._gaps`) has no
+        IRI; the PSD and ISO 8608 fit are those of the other tracks (``psd.tracks``), with a note.
 
     Returns
     -------
@@ -86,9 +94,7 @@ def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks
     names = profile.tracks if tracks is None else ((tracks,) if isinstance(tracks, str) else tuple(tracks))
     if not names:
         raise InputError("tracks must name at least one track.")
-    sub = Profile(distance=profile.distance, elevation=np.column_stack([profile.track(t) for t in names]),
-                  tracks=names, std=None if profile.std is None else profile.std[:, [profile.tracks.index(t) for t in names]],
-                  name=profile.name)
+    sub = _tracks_of(profile, names)
     notes = []
     iri_res = iri(sub, segment_length=segment_length, lead_in=lead_in, gaps=gaps, min_valid=min_valid)
     if iri_res.gaps is not None and iri_res.gaps.any:
@@ -102,9 +108,14 @@ def analyse_roughness(profile: Profile, *, segment_length: float = 100.0, tracks
         notes.append("Stations are irregular: the PSD, ISO 8608 class and waveband energies need a constant step and "
                      "are not computed (interpolate onto a regular grid explicitly to get them).")
     else:
+        dead = iri_res.gaps.dead if iri_res.gaps is not None else ()
+        live = sub if not dead else _tracks_of(sub, tuple(t for t in names if t not in dead))
+        if dead:
+            notes.append(f"PSD and ISO 8608 class: track(s) {', '.join(dead)} have no measured run (computed for the "
+                         "other track(s) only).")
         try:
-            psd = profile_psd(sub, gaps=gaps)
-            fits = tuple(fit_iso8608(psd.wavenumber, psd.psd[:, k]) for k in range(len(names)))
+            psd = profile_psd(live, gaps=gaps)
+            fits = tuple(fit_iso8608(psd.wavenumber, psd.psd[:, k]) for k in range(len(psd.tracks)))
         except InputError as exc:
             notes.append(f"ISO 8608 fit not computed: {exc}")
             fits = None

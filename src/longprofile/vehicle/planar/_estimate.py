@@ -94,7 +94,9 @@ class SlopeUncertainty:
         10x (std 3.2x). 1 gives inflation only (the estimator before 2026-12-05; with ``grade_nis_floor=None``
         or 1 since 2026-12-06, else the joint grade still deflates). V_x, V_y and the cascade's
         slope are only inflated. Chosen among {0.25, 0.1, 0.03} on the calibration benchmark's tuning draws
-        (seed 1000). Since 2026-12-06 (afternoon) the joint grade has its own floor, ``grade_nis_floor``.
+        (seed 1000). Since 2026-12-06 (afternoon) the joint grade has its own floor, ``grade_nis_floor``; since
+        2026-12-07 the yaw rate's variance follows the filter's gain (``yaw_rate_from_gain``), and this floor applies
+        to it only with ``yaw_rate_from_gain=False``.
     grade_nis_floor : float or None
         Smallest NIS factor (V_x innovation) applied to the joint EKF's grade variance, in (0, 1] (0.01 since
         2026-12-06; None: ``nis_floor``, as before). The joint's V_x measurement std (0.01 m/s, chosen to filter the
@@ -131,6 +133,15 @@ class SlopeUncertainty:
         hypot(``radius_rel_std``, ``wheel_scale_prior_std`` / sqrt(2)), since each wheel's scale error holds the
         common rolling radius error too, which the calibration's yaw term r y_i carries; False:
         ``wheel_scale_prior_std`` alone.
+    yaw_rate_from_gain : bool
+        True (default since 2026-12-07): the yaw rate's variance is that of the EKF's actual update,
+        (1 - K)^2 P_pred + K^2 R (:func:`yaw_rate_variance`): K the filter's gain on the gyro innovation, R the gyro's
+        white-noise variance measured in the log (second differences, Gasser et al. 1986), P_pred the variance of
+        the prediction error, the windowed mean square of the gyro innovations less R. False: the filter's variance
+        scaled by the gyro's windowed NIS (down to ``nis_floor``), the estimator before, which held at 1 kHz only:
+        at a coarser step the process noise (``EKFTuning.yaw_accel_psd`` x dt) grows, K tends to 1 and the gyro's
+        own noise passes into r, while the NIS scales the variance down as if the gyro noise were overstated too
+        (yaw-rate coverage 92.6 / 84.5 / 77.1 / 67.7 % at 1000 / 200 / 100 / 50 Hz, session 38).
     unverified_accel_offset_std, unverified_gyro_offset_std : float or None
         When the sensor calibration finds the gyro or a wheel beyond its stated std (the condition of the sensor
         warnings: beyond ``SENSOR_ERROR_WARN`` x the stated std and 3 posterior stds), the log shows a sensor set
@@ -157,7 +168,8 @@ class SlopeUncertainty:
     ``SlopeUncertainty.noise_only()`` gives the filters' stds alone (the estimator before issue 13),
     ``SlopeUncertainty.until_2026_12_06()`` the defaults before the radius std and the residual overlap changed,
     ``SlopeUncertainty.until_2026_12_06_pm()`` those of that morning (before ``grade_nis_floor``),
-    ``SlopeUncertainty.until_2026_12_06_evening()`` those of that afternoon (before the unverified sensors).
+    ``SlopeUncertainty.until_2026_12_06_evening()`` those of that afternoon (before the unverified sensors),
+    ``SlopeUncertainty.until_2026_12_07()`` those before the yaw rate's band followed the filter's gain.
     """
 
     mass_rel_std: float = 0.05
@@ -178,6 +190,7 @@ class SlopeUncertainty:
     grade_nis_floor: float | None = 0.01
     unverified_accel_offset_std: float | None = 0.3
     unverified_gyro_offset_std: float | None = 1e-3
+    yaw_rate_from_gain: bool = True
 
     def __post_init__(self):
         for k in ("mass_rel_std", "force_rel_std", "radius_rel_std", "wheel_radius_rel_std", "gyro_bias_std",
@@ -196,7 +209,7 @@ class SlopeUncertainty:
             if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
                                       and v > 0):
                 raise InputError(f"{k} must be None or a finite number > 0; got {v!r}.")
-        for k in ("residual_overlap", "radius_in_calibration"):
+        for k in ("residual_overlap", "radius_in_calibration", "yaw_rate_from_gain"):
             if not isinstance(getattr(self, k), bool):
                 raise InputError(f"{k} must be True or False; got {getattr(self, k)!r}.")
 
@@ -205,7 +218,7 @@ class SlopeUncertainty:
         """No parameter terms and no NIS inflation: the filters' own stds."""
         return cls(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, nis_floor=1.0, tracking_lag=False, accel_gain_std=0.0,
                    accel_offset_std=0.0, gyro_offset_prior_std=0.0, wheel_scale_prior_std=0.0, grade_nis_floor=None,
-                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None, yaw_rate_from_gain=False)
 
     @classmethod
     def until_2026_12_06(cls) -> "SlopeUncertainty":
@@ -214,21 +227,28 @@ class SlopeUncertainty:
         prior of an axle's mean scale ``wheel_scale_prior_std`` alone (``radius_in_calibration=False``); reproduces
         that estimator's outputs."""
         return cls(radius_rel_std=0.005, residual_overlap=False, radius_in_calibration=False, grade_nis_floor=None,
-                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+                   unverified_accel_offset_std=None, unverified_gyro_offset_std=None, yaw_rate_from_gain=False)
 
     @classmethod
     def until_2026_12_06_pm(cls) -> "SlopeUncertainty":
         """The defaults of the morning of 2026-12-06 (issue 13, vehicle bands), before the joint grade got its own NIS
         floor: the grade variance floored at ``nis_floor`` (0.1, ``grade_nis_floor=None``); reproduces that
         estimator's outputs."""
-        return cls(grade_nis_floor=None, unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+        return cls(grade_nis_floor=None, unverified_accel_offset_std=None, unverified_gyro_offset_std=None,
+                   yaw_rate_from_gain=False)
 
     @classmethod
     def until_2026_12_06_evening(cls) -> "SlopeUncertainty":
         """The defaults of the afternoon of 2026-12-06 (issue 13, vehicle bands), before sensors found beyond their
         stated offsets made the accelerometer's and the gyro's offsets unverified (``unverified_accel_offset_std``,
         ``unverified_gyro_offset_std`` None); reproduces that estimator's outputs."""
-        return cls(unverified_accel_offset_std=None, unverified_gyro_offset_std=None)
+        return cls(unverified_accel_offset_std=None, unverified_gyro_offset_std=None, yaw_rate_from_gain=False)
+
+    @classmethod
+    def until_2026_12_07(cls) -> "SlopeUncertainty":
+        """The defaults before 2026-12-07 (session 38): the yaw rate's variance the filter's scaled by the gyro's
+        windowed NIS (``yaw_rate_from_gain=False``); reproduces that estimator's outputs."""
+        return cls(yaw_rate_from_gain=False)
 
     @classmethod
     def from_car_file(cls, path) -> "SlopeUncertainty":
@@ -535,8 +555,10 @@ def estimate_slope(log: DriveLog, vehicle: Vehicle | None = None, *, method: str
                                          gain, dt, lag, unverified)
     slope_std = np.sqrt(s_var / np.maximum(np.cos(slope) ** 2, 1e-12))
     gyro_std = unc.gyro_bias_std if cal is None else cal.gyro_offset_std
+    r_var = yaw_rate_variance(filtered, log.yaw_rate, n_win) if unc.yaw_rate_from_gain and n_win >= 2 \
+        else var[:, 2] * scale[:, 1]
     std = np.sqrt(np.column_stack([var[:, 0] * kappa[:, 0] + (unc.radius_rel_std * mean[:, 0]) ** 2,
-                                   var[:, 1] * kappa.max(axis=1), var[:, 2] * scale[:, 1] + gyro_std ** 2]))
+                                   var[:, 1] * kappa.max(axis=1), r_var + gyro_std ** 2]))
     return SlopeEstimate(time=log.time, vx=mean[:, 0].copy(), vy=mean[:, 1].copy(), yaw_rate=mean[:, 2].copy(),
                          vx_std=std[:, 0].copy(), vy_std=std[:, 1].copy(), yaw_rate_std=std[:, 2].copy(),
                          slope=slope, slope_std=slope_std, fx=fx, fy=fy, fx_std=fx_std, fy_std=fy_std,
@@ -689,6 +711,48 @@ def nis_inflation(innovation, innovation_cov, window: int, *, floor: float = 1.0
     out = np.column_stack([uniform_filter1d(np.ascontiguousarray(nis[:, j]), size=window, mode="nearest")
                            for j in range(nis.shape[1])])
     return np.maximum(out, floor)
+
+
+def yaw_rate_variance(filtered, gyro, window: int) -> np.ndarray:
+    r"""Variance (T,) of the EKF's yaw rate from its gain and the noise measured in the log (session 38).
+
+    The update r+ = r- + K nu (nu = gyro - r-, K the filter's gain on it, P-_rr / S_rr) leaves the error
+    e+ = (1 - K) e- + K v (e- the prediction error, v the gyro's noise), of variance
+
+    .. math::  \sigma_r^2 = (1 - K)^2 P + K^2 R,\qquad P = \max(\overline{\nu^2} - R, 0),
+
+    whatever the filter assumed for them: R, the variance of the gyro's white noise, is measured from the log's
+    second differences, mean((y[k-1] - 2 y[k] + y[k+1])^2) / 6 (Gasser, Sroka & Jennen-Steinmetz 1986, Biometrika
+    73(3), 625-633: the yaw rate's own curvature over 2 steps is negligible against the noise at 50 Hz or more),
+    and E[nu^2] = P + R gives the prediction error's variance P from the innovations' mean square over a centred
+    moving window of ``window`` samples (as :func:`nis_inflation`). Scaling the filter's variance by the NIS
+    instead assumes the prediction's and the gyro's variances are both off by the innovations' ratio: near enough
+    at 1 kHz, where K ~ 0.4 (coverage 89.7-93.8 % there), but at 50-200 Hz the process noise's growth over a step (Q = psd dt) drives K to
+    0.6-0.85 and most of the gyro's noise into r, which that scaling missed.
+
+    Parameters
+    ----------
+    filtered : FilterResult
+        The EKF's result (``pred_cov``, ``innovation``, ``innovation_cov``; the yaw rate is state 2 and measurement 1).
+    gyro : (T,) ndarray
+        The gyro readings the filter was given, rad/s.
+    window : int
+        Samples of the moving window (>= 2).
+
+    Returns
+    -------
+    (T,) ndarray
+        rad^2/s^2. Assumption: the gyro's noise is white at the log's rate (plain sampling of a white sensor noise,
+        or a sensor band-limited to the log's Nyquist frequency), and its offset is left to the calibration's term.
+    """
+    from scipy.ndimage import uniform_filter1d
+
+    gyro = np.asarray(gyro, dtype=float)
+    nu = filtered.innovation[:, 1]
+    K = filtered.pred_cov[:, 2, 2] / filtered.innovation_cov[:, 1, 1]
+    R = float(np.mean(np.square(np.diff(gyro, 2)))) / 6.0
+    ms = uniform_filter1d(np.nan_to_num(np.square(nu)), size=max(int(window), 2), mode="nearest")
+    return np.square(1.0 - K) * np.maximum(ms - R, 0.0) + np.square(K) * R
 
 
 def _force_corrected(vehicle, unc, force_correction, accel_x, mean, slope, s_var, res, gain, dt, lag, unverified):

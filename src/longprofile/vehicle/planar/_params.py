@@ -12,6 +12,7 @@ import numpy as np
 
 from ...errors import InputError, InputFormatError
 from .._car import read_car_file
+from ._plausibility import accepted_checks, check_plausible
 
 __all__ = ["Vehicle", "load_vehicle", "default_vehicle", "WHEELS", "GRAVITY", "SIMULATOR_ONLY", "PER_AXLE"]
 
@@ -32,7 +33,7 @@ _TOML_LAYOUT = {
     "body": {
         "mass": "mass", "yaw_inertia": "yaw_inertia", "cg_to_front_axle": "cg_to_front_axle",
         "cg_to_rear_axle": "cg_to_rear_axle", "track": "track", "cg_height": "cg_height",
-        "aero_longitudinal": "aero_longitudinal", "aero_lateral": "aero_lateral",
+        "aero_longitudinal": "aero_longitudinal", "aero_lateral": "aero_lateral", "steering_ratio": "steering_ratio",
     },
     "wheels": {
         "radius": "wheel_radius", "inertia": "wheel_inertia",
@@ -44,11 +45,14 @@ _TOML_LAYOUT = {
 }
 #: Keys only the simulator reads (wheel dynamics, brake balance); a description for estimation may omit them.
 SIMULATOR_ONLY = ("wheel_inertia", "brake_front_share")
+#: Keys a description may omit: the simulator-only ones and the steering ratio (needed only by a log that has a
+#: ``steering_wheel_angle`` column).
+_OPTIONAL = SIMULATOR_ONLY + ("steering_ratio",)
 _UNITS = {
     "mass": "kg", "yaw_inertia": "kg m^2", "cg_to_front_axle": "m", "cg_to_rear_axle": "m", "track": "m",
     "cg_height": "m", "aero_longitudinal": "N s^2/m^2", "aero_lateral": "N s^2/m^2", "wheel_radius": "m",
     "wheel_inertia": "kg m^2", "longitudinal_stiffness": "N", "cornering_stiffness": "N/rad",
-    "engine_brake_torque": "N m",
+    "engine_brake_torque": "N m", "steering_ratio": "",
 }
 
 
@@ -91,6 +95,10 @@ class Vehicle:
         driver brakes with the engine up to it and with the service brakes beyond.
     name, description : str
         Free labels.
+    steering_ratio : float or None
+        Steering-wheel angle / road-wheel angle (optional key ``body.steering_ratio``): a log's
+        ``steering_wheel_angle`` column is divided by it (:func:`~longprofile.vehicle.read_drive_log`). None: such a
+        column is refused.
 
     Notes
     -----
@@ -127,12 +135,14 @@ class Vehicle:
     engine_brake_torque: float = 300.0
     name: str = ""
     description: str = ""
+    steering_ratio: float | None = None
 
     def __post_init__(self):
         for key in PER_AXLE:
             object.__setattr__(self, key, _per_axle(key, getattr(self, key)))
-        for key in ("mass", "yaw_inertia", "cg_to_front_axle", "cg_to_rear_axle", "cg_height", "wheel_inertia"):
-            if key in SIMULATOR_ONLY and getattr(self, key) is None:
+        for key in ("mass", "yaw_inertia", "cg_to_front_axle", "cg_to_rear_axle", "cg_height", "wheel_inertia",
+                    "steering_ratio"):
+            if key in _OPTIONAL and getattr(self, key) is None:
                 continue
             _check_number(key, getattr(self, key), positive=True)
             object.__setattr__(self, key, float(getattr(self, key)))
@@ -272,10 +282,10 @@ def _check_number(name: str, value, *, positive: bool, unit: str | None = None) 
 def _from_mapping(data: dict, source: str) -> Vehicle:
     kwargs = {}
     for key in data:
-        if key not in _TOML_LAYOUT and key not in ("name", "description", "vertical", "tolerances"):
+        if key not in _TOML_LAYOUT and key not in ("name", "description", "vertical", "tolerances", "checks"):
             raise InputFormatError(f"{source}: unknown key {key!r}; expected the tables "
-                                   f"{sorted(_TOML_LAYOUT)}, the optional tables 'tolerances' and 'vertical' and "
-                                   "the keys 'name', 'description'.")
+                                   f"{sorted(_TOML_LAYOUT)}, the optional tables 'tolerances', 'vertical' and "
+                                   "'checks' and the keys 'name', 'description'.")
     for section, keys in _TOML_LAYOUT.items():
         table = data.get(section)
         if not isinstance(table, dict):
@@ -284,7 +294,7 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
             if key not in keys:
                 raise InputFormatError(f"{source}: unknown key {key!r} in table '{section}'; expected {sorted(keys)}.")
         for key, attr in keys.items():
-            if key not in table and attr in SIMULATOR_ONLY:
+            if key not in table and attr in _OPTIONAL:
                 kwargs[attr] = None
                 continue
             if key not in table:
@@ -293,14 +303,17 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
             kwargs[attr] = table[key]
     kwargs["name"] = str(data.get("name", ""))
     kwargs["description"] = str(data.get("description", ""))
+    accept = accepted_checks(data["checks"], source) if "checks" in data else ()
     try:
-        return Vehicle(**kwargs)
+        car = Vehicle(**kwargs)
     except InputError as exc:
         text = str(exc)
         attr = text.split(" ", 1)[0].split("[", 1)[0]
         where = next((f" (key '{section}.{key}')" for section, keys in _TOML_LAYOUT.items()
                       for key, a in keys.items() if a == attr), "")
         raise InputFormatError(f"{source}: {text.rstrip('.')}{where}.") from None
+    check_plausible(car, accept=accept, source=source)
+    return car
 
 
 def load_vehicle(path) -> Vehicle:
@@ -315,7 +328,10 @@ def load_vehicle(path) -> Vehicle:
         The per-axle keys ``body.track``, ``wheels.radius``, ``wheels.longitudinal_stiffness`` and
         ``wheels.cornering_stiffness`` take one number (both axles) or a ``[front, rear]`` pair. The optional
         tables ``[tolerances]`` (:meth:`~longprofile.vehicle.SlopeUncertainty.from_car_file`) and ``[vertical]``
-        (:func:`~longprofile.vehicle.load_vertical_params`) are read by those, not here.
+        (:func:`~longprofile.vehicle.load_vertical_params`) are read by those, not here. ``body.steering_ratio`` is
+        optional (a log's ``steering_wheel_angle`` is divided by it). The values must be plausible for a passenger
+        car or light truck (:func:`~longprofile.vehicle.planar._plausibility.implausible_values`); the optional table
+        ``[checks]`` with ``accept = ["body.mass", ...]`` names the keys and cross checks an exotic vehicle skips.
 
     Returns
     -------
@@ -326,8 +342,8 @@ def load_vehicle(path) -> Vehicle:
     InputError
         If the file does not exist.
     InputFormatError
-        If it is not valid TOML, misses a key, has an unknown key or an invalid value (the message
-        names the file, table and key).
+        If it is not valid TOML, misses a key, has an unknown key, an invalid value or an implausible one (the
+        message names the file, table and key; an implausible value also its range and the likely unit slip).
 
     Examples
     --------

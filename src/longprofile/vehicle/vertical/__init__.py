@@ -3,11 +3,18 @@
 Modules: ``_params`` (:class:`VerticalVehicleParams`, :class:`MRDamperParams`, the ``[vertical]`` table of a
 vehicle description), ``_model`` (7-DOF equations, corner-EKF functions and the EKF / linear model builders),
 ``_simulate`` (RK4 simulator, thesis tests, sensors), ``_estimate`` (corner EKFs, absolute velocities, RTS,
-linear KF), ``_evaluate`` (epsilon criterion, thesis Tables 4.4/4.5), ``_observability``, ``_road`` (the car as a
-profilometer; runs over a road profile). Figures: :mod:`longprofile.report`. Everything here is also exported by
+linear KF), ``_checks`` (gravity in the accelerometers, deflection sign), ``_evaluate`` (epsilon criterion,
+thesis Tables 4.4/4.5), ``_observability``, ``_road`` (the car as a profilometer; runs over a road profile). Figures: :mod:`longprofile.report`. Everything here is also exported by
 :mod:`longprofile.vehicle`.
 """
 
+from ._checks import (
+                      DEFLECTION_SIGN_LIMIT,
+                      VERTICAL_ACCEL_MEAN_LIMIT,
+                      VERTICAL_VELOCITY_CHANGE_LIMIT,
+                      check_vertical_accel_means,
+                      deflection_sign_correlation,
+)
 from ._estimate import (
                       MR_MAP_FORCE_ERROR,
                       VerticalStateEstimate,
@@ -92,4 +99,6 @@ __all__ = [
     "road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
     "estimate_vertical_log", "wheel_accelerometer_ratio", "WHEEL_ACCEL_RATIO_RANGE", "deflection_zero_check",
     "DeflectionZeroCheck", "DEFLECTION_OFFSET_LIMIT",
+    "check_vertical_accel_means", "VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT",
+    "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT",
 ]

@@ -237,7 +237,8 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
                              actuator_force=None, yaw_cutoff: float = 5.0,
                              accel_compensation: tuple[float, float] = (0.0, 0.0),
                              mr_map: MRDamperParams | None = None,
-                             mr_map_velocity: str = "displacement") -> VerticalStateEstimate:
+                             mr_map_velocity: str = "displacement",
+                             store_covariances: bool = True) -> VerticalStateEstimate:
     """Estimate damper displacement/velocity, tyre deflection/force, body and wheel velocities (thesis 003).
 
     Parameters
@@ -267,6 +268,12 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
         the thesis). ``"filter"``: the filter's own velocity state, the map being part of the model's
         transition and observation functions with its analytic slope in the Jacobians (thesis §1.2.4, §3.1;
         see docs/vehicle-vertical.md, "MagneRide car", for its stability).
+    store_covariances : bool
+        True (default): ``filtered`` keeps the engine's covariance and Jacobian histories, which
+        :func:`smooth_vertical_states` needs (~7.7 kB per sample in configurations 2 and 3: an hour at 1 kHz
+        is 28 GB). False: ``filtered`` keeps the filtered means only (no predictions, innovations or
+        covariances; ~0.13 kB per sample) and ``state_std`` comes from the filtered variances the engine keeps
+        alone (``store_covariances="variances"``); every estimated number is the same.
 
     Returns
     -------
@@ -304,16 +311,22 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
         y = np.hstack([y, sensors.body_accel])
     elif config == 3:
         y = np.hstack([y, sensors.wheel_accel])
+    store = True if store_covariances else "variances"
     if decentralised:
         res = block_extended_kalman_filter(model, np.ascontiguousarray(y), u=u, state_blocks=STATE_BLOCKS,
-                                           obs_blocks=np.tile(np.arange(4), y.shape[1] // 4))
+                                           obs_blocks=np.tile(np.arange(4), y.shape[1] // 4), store_covariances=store)
     else:
-        res = extended_kalman_filter(model, np.ascontiguousarray(y), u=u)
+        res = extended_kalman_filter(model, np.ascontiguousarray(y), u=u, store_covariances=store)
+    del y
     x = res.mean
     vel, disp = x[:, 0::4], x[:, 1::4]
     dist, tyre = x[:, 2::4], x[:, 3::4]
     body, wheel = absolute_velocities(sensors, disp, vel, u, params=p, accel_compensation=accel_compensation)
-    std = np.sqrt(np.maximum(np.diagonal(res.cov, axis1=1, axis2=2), 0.0)) if res.cov is not None else None
+    var = np.diagonal(res.cov, axis1=1, axis2=2) if res.cov is not None else res.variance
+    std = np.sqrt(np.maximum(var, 0.0))
+    if not store_covariances:  # means only: what the states are views of (an hour at 1 kHz: 0.7 GB less)
+        res = replace(res, pred_mean=None, innovation=None, log_likelihood_steps=None, variance=None)
+    del var
     return VerticalStateEstimate(
         time=sensors.time.copy(), suspension_deflection=disp, suspension_velocity=vel, vehicle_disturbance=dist,
         tyre_deflection=tyre, tyre_force=-p.tyre_stiffness * tyre, body_velocity=body, wheel_velocity=wheel,
@@ -500,6 +513,10 @@ def smooth_vertical_states(estimate: VerticalStateEstimate, *, params: VerticalV
 
     if not isinstance(estimate, VerticalStateEstimate):
         raise InputError(f"estimate must be a VerticalStateEstimate; got {type(estimate).__name__}.")
+    if getattr(estimate.filtered, "cov", None) is None:
+        raise InputError("smooth_vertical_states needs the filter's covariance histories; this estimate was made "
+                         "without them (estimate_vertical_log, or store_covariances=False): run "
+                         "estimate_vertical_states(..., store_covariances=True).")
     p = params or VerticalVehicleParams()
     dt = float(estimate.time[1] - estimate.time[0])
     model = vertical_ekf_model(estimate.config, dt, params=p, settings=settings)

@@ -18,6 +18,7 @@ from ..._jit import njit
 from ..._validation import require_positive
 from ...errors import InputError
 from ...statespace import filter_design, sos_filtfilt
+from ._checks import DEFLECTION_SIGN_LIMIT, check_vertical_accel_means, deflection_sign_correlation
 from ._estimate import VerticalStateEstimate
 from ._model import CKBAR, CORNER_NAMES, OPPOSITE, STAU, suspension_tensions, vertical_params_arrays
 from ._simulate import VerticalSensors, VerticalSimulation, vehicle_speed
@@ -350,11 +351,25 @@ class DeflectionZeroCheck:
         static ride height, within :data:`DEFLECTION_OFFSET_LIMIT` on the simulator).
     limit : float, m
         The offset beyond which :attr:`suspect` is True.
+    sign : (4,) ndarray or None
+        :func:`deflection_sign_correlation` of each channel (~+1 positive in extension, ~-1 inverted); None in
+        configuration 1 (session 38).
+    sign_source : {"wheel", "body"} or None
+        The accelerometers :attr:`sign` compares with.
     """
 
     mean: np.ndarray
     offset: np.ndarray
     limit: float = DEFLECTION_OFFSET_LIMIT
+    sign: np.ndarray | None = None
+    sign_source: str | None = None
+
+    @property
+    def inverted(self) -> np.ndarray:
+        """(4,) bool: channels whose sign correlation is below ``-DEFLECTION_SIGN_LIMIT`` (sign inverted?)."""
+        if self.sign is None:
+            return np.zeros(4, dtype=bool)
+        return np.asarray(self.sign) < -DEFLECTION_SIGN_LIMIT
 
     @property
     def expected_mean(self) -> np.ndarray:
@@ -363,17 +378,27 @@ class DeflectionZeroCheck:
 
     @property
     def suspect(self) -> bool:
-        """True when a sensor's offset exceeds :attr:`limit`."""
-        return bool(np.any(np.abs(self.offset) > self.limit))
+        """True when a sensor's offset exceeds :attr:`limit` or its sign looks inverted (:attr:`inverted`)."""
+        return bool(np.any(np.abs(self.offset) > self.limit) or np.any(self.inverted))
 
     def message(self) -> str:
-        """One line naming the suspect channels, their means, the means expected and what to do."""
-        bad = np.flatnonzero(np.abs(self.offset) > self.limit)
+        """One line naming the suspect channels, their means, the means expected and what to do; channels of
+        inverted sign are named as such instead (their offset is then the sign's doing)."""
+        flipped = self.inverted
+        bad = np.flatnonzero(flipped) if flipped.any() else np.flatnonzero(np.abs(self.offset) > self.limit)
         one = bad.size == 1
 
         def mm(values):
             return ", ".join(f"{1e3 * values[c]:+.1f}" for c in bad)
 
+        if flipped.any():
+            return (f"{', '.join(f'dz21_{CORNER_NAMES[c]}' for c in bad)}: sign inverted? "
+                    f"{'it moves' if one else 'they move'} against what the "
+                    f"{'body' if self.sign_source == 'body' else 'wheel'} accelerometers imply (correlation "
+                    f"{', '.join(f'{self.sign[c]:+.2f}' for c in bad)}; +1 when positive in extension, body minus "
+                    f"wheel; mean{'' if one else 's'} {mm(self.mean)} mm over the log, {mm(self.expected_mean)} mm "
+                    "expected from the suspension's force balance): negate "
+                    f"{'this column' if one else 'these columns'} (dz21 = Z2 - Z1, positive in extension)")
         return (f"{', '.join(f'dz21_{CORNER_NAMES[c]}' for c in bad)} {'does' if one else 'do'} not read zero at the "
                 f"static ride height: mean{'' if one else 's'} {mm(self.mean)} mm over the log, {mm(self.expected_mean)} "
                 f"mm expected from the suspension's force balance (offset{'' if one else 's'} {mm(self.offset)} mm); "
@@ -450,13 +475,15 @@ def deflection_zero_check(sensors: VerticalSensors, *, params: VerticalVehiclePa
         stiffness = np.diag(slope + corner[:, CKBAR])  # the anti-roll bar couples each left/right pair
         stiffness[np.arange(4), OPPOSITE] = -corner[:, CKBAR]
         offset = offset + np.linalg.solve(stiffness, force - target)
-    return DeflectionZeroCheck(mean=dz.mean(axis=0), offset=offset)
+    sign = deflection_sign_correlation(sensors, params=p, actuator_force=actuator_force)
+    source = "wheel" if sensors.wheel_accel is not None else "body" if sensors.body_accel is not None else None
+    return DeflectionZeroCheck(mean=dz.mean(axis=0), offset=offset, sign=sign, sign_source=source)
 
 
 def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
                           decentralised: bool = True, mr_map_velocity: str = "displacement",
                           speed: float | None = None, start: float = 0.0,
-                          segment_length: float = 100.0) -> VerticalLogEstimate:
+                          segment_length: float = 100.0, store_covariances: bool = False) -> VerticalLogEstimate:
     """Vertical states from a sensor log and (with ``speed``) the road profile and IRI under each wheel.
 
     A log with damper currents (MagneRide car) gets the actuator forces from the default nominal MR map
@@ -479,19 +506,31 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
         Chainage of the front axle at the first sample, m.
     segment_length : float
         IRI segment length, m.
+    store_covariances : bool
+        Keep the filter's covariance histories in ``estimate.filtered`` (for :func:`smooth_vertical_states`).
+        Default False: a log can be hours long and they take ~7.7 kB per sample (configurations 2 and 3); the
+        estimate (``state_std`` included) is the same either way. With ``speed`` they are kept whatever this
+        says: the road profile smooths the tyre deflection (:func:`wheel_profiles`).
 
     Returns
     -------
     VerticalLogEstimate
+
+    Raises
+    ------
+    UnitsError
+        Vertical accelerometers that still include gravity (:func:`check_vertical_accel_means`).
     """
     from ._estimate import estimate_vertical_states, nominal_mr_map
     from ._params import MRDamperParams
 
+    check_vertical_accel_means(sensors, source="sensors")
     mr_map = None
     if sensors.damper_current is not None:
         mr_map = nominal_mr_map(MRDamperParams())
     est = estimate_vertical_states(sensors, params=params, decentralised=decentralised, mr_map=mr_map,
-                                   mr_map_velocity=mr_map_velocity)
+                                   mr_map_velocity=mr_map_velocity,
+                                   store_covariances=store_covariances or speed is not None)
     checks = {"accelerometer_ratio": wheel_accelerometer_ratio(sensors),
               "deflection_check": deflection_zero_check(sensors, params=params, actuator_force=est.actuator_force)}
     if speed is None:

@@ -23,6 +23,7 @@ import pandas as pd
 from ..._jit import njit
 from ..._validation import as_float_array, require_positive, time_resolution
 from ...errors import InputError, ShapeError
+from ._checks import check_vertical_accel_means
 from ._model import CORNER_NAMES, CX, CY, mr_controlled_force, seven_dof_rhs, skyhook_current, vertical_params_arrays
 from ._params import SENSOR_CONFIGS, MRDamperParams, VerticalVehicleParams
 
@@ -585,7 +586,8 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
     """Rebuild :class:`VerticalSensors` of configuration ``config`` from a table written by :func:`sensors_to_frame`.
 
     Raises :class:`~longprofile.errors.InputFormatError` naming missing columns, a non-uniform time column
-    or non-finite values.
+    or non-finite values, :class:`~longprofile.errors.UnitsError` for vertical accelerometers that still include
+    gravity (:func:`check_vertical_accel_means`).
     """
     from ...errors import InputFormatError
 
@@ -628,9 +630,12 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
         current = np.column_stack([pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float) for c in cur_cols])
         if not np.all(np.isfinite(current)):
             raise InputFormatError(f"{source}: the current_* columns have a missing or non-numeric value.")
-    return VerticalSensors(config=int(config), time=t, displacement=stack("dz21"), ax=arr["ax"], ay=arr["ay"],
-                           yaw_rate=arr["yaw_rate"], body_accel=stack("body_accel") if config == 2 else None,
-                           wheel_accel=stack("wheel_accel") if config == 3 else None, dt=dt, damper_current=current)
+    sensors = VerticalSensors(config=int(config), time=t, displacement=stack("dz21"), ax=arr["ax"], ay=arr["ay"],
+                              yaw_rate=arr["yaw_rate"], body_accel=stack("body_accel") if config == 2 else None,
+                              wheel_accel=stack("wheel_accel") if config == 3 else None, dt=dt,
+                              damper_current=current)
+    check_vertical_accel_means(sensors, source=source)  # gravity left in the accelerometers (session 38)
+    return sensors
 
 
 _TESTS = ("road", "sweep", "track")

@@ -1,0 +1,180 @@
+"""Plausibility of a vertical sensor log from its redundant channels (session 38): gravity left in the vertical
+accelerometers, suspension deflections of the wrong sign.
+
+Both used to pass without a word: a body or wheel accelerometer logged with gravity (+9.81 m/s², as most IMUs and
+accelerometers log it) gave body-velocity RMS errors of 1-3 m/s (0.026 on the clean log), a deflection logged
+positive in compression turned the damper-velocity epsilon from 98.5 to -205 and the zero check's warning blamed
+the sensors' zero.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..._jit import njit
+from ...errors import UnitsError
+from ...statespace import filter_design, sos_filtfilt
+from ._model import CORNER_NAMES, CX, CY, SIP, SIR, SM, STAU, _pitch_moment, _roll_moment, suspension_tensions
+
+if TYPE_CHECKING:
+    from ._params import VerticalVehicleParams
+    from ._simulate import VerticalSensors
+
+__all__ = ["VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT", "check_vertical_accel_means",
+           "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT"]
+
+_G = 9.80665  # standard gravity, m/s^2
+
+#: A vertical accelerometer whose mean over the log exceeds this (m/s²) AND implies a vertical velocity change
+#: beyond :data:`VERTICAL_VELOCITY_CHANGE_LIMIT` is refused (:func:`check_vertical_accel_means`). On 150 clean
+#: simulated drives (classes A-E, 5-40 m/s, 0.2-60 s, road / track / sweep, both cars) the means of logs of 10 s or
+#: more stayed within 0.13 m/s² (the body accelerometers' mounting tilt on the track test): 0.5 leaves room for a
+#: real sensor's offset and catches gravity in g (mean 1) on logs longer than 10 s.
+VERTICAL_ACCEL_MEAN_LIMIT = 0.5
+#: Largest change of a corner's vertical velocity over a log, m/s: a grade change of 25 % at 40 m/s. A clean
+#: drive's accelerometer mean is that change over the log's length; the simulated drives reached 4.2 m/s.
+VERTICAL_VELOCITY_CHANGE_LIMIT = 10.0
+
+
+def _hint(means: np.ndarray, pattern: str) -> str:
+    m = float(np.median(means))
+    if 0.5 * _G <= abs(m) <= 1.5 * _G:
+        if m > 0:
+            return f"gravity is included: subtract {_G} m/s² (1 g) from these columns"
+        return (f"gravity is included and the axis points down: negate these columns, then subtract {_G} m/s² "
+                "(1 g)")
+    if 0.5 <= abs(m) <= 1.5:
+        return (f"in g with gravity included? subtract 1 g ({'' if m > 0 else 'after negating, '}the column then "
+                f"averages ~0) and declare the unit: --units '{pattern}=g'")
+    return "a sensor offset? subtract each column's reading at standstill (or its mean over the log)"
+
+
+def check_vertical_accel_means(sensors: VerticalSensors, *, source: str = "log") -> None:
+    """Refuse vertical accelerometers whose mean over the log is no car's: gravity included, or in g with gravity.
+
+    A corner's vertical acceleration, integrated over a log of ``T`` s, is the change of its vertical velocity,
+    bounded on a car (:data:`VERTICAL_VELOCITY_CHANGE_LIMIT`, ASSUMPTION: a grade change of at most 25 % at
+    40 m/s): so its mean is ~0 on a long log (at most 10 m/s / T), while an accelerometer that still includes
+    gravity averages ±9.81 m/s² (±1 in g). A ``body_accel_*`` or ``wheel_accel_*`` column is refused when
+    ``|mean| > VERTICAL_ACCEL_MEAN_LIMIT`` AND ``|mean| T > VERTICAL_VELOCITY_CHANGE_LIMIT``: gravity in m/s² on
+    logs longer than about 1 s, gravity in g on logs longer than 10 s. The thesis's model leaves the weight out (motions about the
+    static equilibrium, digest §2.2 hypothesis 1), so its filters take the accelerations with gravity removed.
+
+    Parameters
+    ----------
+    sensors : VerticalSensors
+        The log, accelerations in m/s² (after the declared units).
+    source : str
+        Name of the log in the message.
+
+    Raises
+    ------
+    UnitsError
+        One line naming the columns, their means and the fix (subtract 1 g, negate, declare g).
+    """
+    duration = sensors.time.size * sensors.dt
+    for prefix, acc in (("body_accel", sensors.body_accel), ("wheel_accel", sensors.wheel_accel)):
+        if acc is None:
+            continue
+        mean = np.mean(acc, axis=0)
+        bad = np.flatnonzero((np.abs(mean) > VERTICAL_ACCEL_MEAN_LIMIT)
+                             & (np.abs(mean) * duration > VERTICAL_VELOCITY_CHANGE_LIMIT))
+        if bad.size == 0:
+            continue
+        names = ", ".join(f"{prefix}_{CORNER_NAMES[c]}" for c in bad)
+        means = ", ".join(f"{mean[c]:+.2f}" for c in bad)
+        raise UnitsError(f"{source}: {names} average{'s' if bad.size == 1 else ''} {means} m/s² over the "
+                         f"{duration:.3g} s log; a car corner's vertical acceleration averages ~0 over a drive (this "
+                         f"would be a vertical speed change of {abs(mean[bad]).max() * duration:.3g} m/s): "
+                         f"{_hint(mean[bad], prefix + '_*')}")
+
+
+# ------------------------------------------------------------------------------------------- deflection sign
+
+#: A deflection channel whose :func:`deflection_sign_correlation` is below minus this is reported as of inverted
+#: sign. On 120 clean simulated drives (seed 11, classes A-E, 5-40 m/s, 2-40 s, road / track / sweep, both cars)
+#: the correlation stayed above +0.82 per corner in configuration 2 and above -0.11 in configuration 3 (near 0 on
+#: class A roads, where the wheel accelerometer's quantisation dominates the wheel hop); inverted, below -0.38 and
+#: +0.11 (session 38, docs/vehicle-vertical.md).
+DEFLECTION_SIGN_LIMIT = 0.3
+_BODY_BAND = (0.5, 8.0)  # Hz: body modes and the handling response, below the 35 Hz engine order
+_HOP_BAND = (8.0, 25.0)  # Hz: the wheel hop, where the wheel's acceleration is minus the deflection's
+
+
+@njit(cache=True)
+def _body_corner_accel(dz, dzdot, actuator, u, corner, scalars):
+    """Body-corner vertical accelerations the 7-DOF model's body equations give for the measured deflections and
+    a_x, a_y, psidd (the suspension tensions, anti-roll bars and handling moments of :func:`seven_dof_rhs`)."""
+    out = np.empty((dz.shape[0], 4))
+    force = np.empty(4)
+    ks = np.empty(4)
+    cd = np.empty(4)
+    for k in range(dz.shape[0]):
+        suspension_tensions(dz[k], dzdot[k], actuator[k], corner, scalars[STAU], force, ks, cd)
+        heave = 0.0
+        roll = _roll_moment(u[k, 1], u[k, 2], corner, scalars)
+        pitch = _pitch_moment(u[k, 0], corner, scalars)
+        for c in range(4):
+            heave -= force[c]
+            roll -= corner[c, CY] * force[c]
+            pitch += corner[c, CX] * force[c]
+        for c in range(4):
+            out[k, c] = heave / scalars[SM] + corner[c, CY] * roll / scalars[SIR] - corner[c, CX] * pitch / scalars[SIP]
+    return out
+
+
+def _correlation(a, b, band, dt):
+    sos = filter_design("butter", 2, list(band), btype="band", fs=1.0 / dt, output="sos")
+    a = sos_filtfilt(sos, a)
+    b = sos_filtfilt(sos, b)
+    a = a - a.mean(axis=0)
+    b = b - b.mean(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.sum(a * b, axis=0) / np.sqrt(np.sum(a * a, axis=0) * np.sum(b * b, axis=0))
+    return np.nan_to_num(r)
+
+
+def deflection_sign_correlation(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
+                                actuator_force=None) -> np.ndarray | None:
+    """Correlation of each suspension deflection with what the accelerometers imply: ~+1 when ``dz21_*`` is
+    positive in extension (body minus wheel, the thesis's convention), ~-1 when its sign is inverted.
+
+    Configuration 3: in the wheel hop (8-25 Hz) the body stands still, so the wheel's acceleration is minus the
+    deflection's second derivative (``dZ21 = Z2 - Z1``); the value is minus their correlation. Configuration 2:
+    the body-corner accelerations that the 7-DOF model's body equations (heave, roll, pitch; digest §2.3, §2.6) give for
+    the measured deflections, their damper velocities (50 Hz) and a_x, a_y, psidd, against the measured ones,
+    in 0.5-8 Hz. Both use only the sign of a relation the thesis's model holds exactly (ASSUMPTION: the car's
+    suspension pushes the body up when compressed); their size falls on a smooth road, where the sensors'
+    quantisation dominates.
+
+    Parameters
+    ----------
+    sensors : VerticalSensors
+    params : VerticalVehicleParams, optional
+        The car (default: thesis set), for configuration 2.
+    actuator_force : (T, 4) array_like, optional
+        The actuator forces the filter used, N (configuration 2; default 0).
+
+    Returns
+    -------
+    (4,) ndarray or None
+        FL, FR, RL, RR; None in configuration 1 (no accelerometer to compare with).
+    """
+    dz = np.ascontiguousarray(sensors.displacement, dtype=float)
+    if sensors.wheel_accel is not None:
+        second = np.gradient(np.gradient(dz, sensors.dt, axis=0), sensors.dt, axis=0)
+        return -_correlation(sensors.wheel_accel, second, _HOP_BAND, sensors.dt)
+    if sensors.body_accel is None:
+        return None
+    from ._estimate import damper_velocity_from_displacement, vertical_ekf_inputs
+    from ._model import vertical_params_arrays
+    from ._params import VerticalVehicleParams
+
+    corner, _, scalars = vertical_params_arrays(params or VerticalVehicleParams())
+    v = np.ascontiguousarray(damper_velocity_from_displacement(dz, sensors.dt, cutoff=50.0))
+    act = np.zeros_like(dz) if actuator_force is None else np.ascontiguousarray(actuator_force, dtype=float)
+    u = np.ascontiguousarray(vertical_ekf_inputs(sensors)[:, :3])
+    implied = _body_corner_accel(dz, v, act, u, corner, scalars)
+    return _correlation(sensors.body_accel, implied, _BODY_BAND, sensors.dt)
