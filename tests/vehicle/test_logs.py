@@ -385,3 +385,21 @@ def test_one_export_feeds_both_readers_accelerations_by_either_name(paper, verti
     # a log with both names keeps its own channel (the other column is ignored, as any unknown column)
     both, _ = read_vertical_log(vertical_frame.assign(accel_x=vertical_frame.ax + 1.0))
     np.testing.assert_array_equal(both.ax, sensors_ref.ax)
+
+
+@pytest.mark.parametrize("wheel", WHEELS)
+@pytest.mark.parametrize("fault", ["zero", "frozen", "slow"])
+def test_a_dead_wheel_speed_sensor_is_named(paper, wheel, fault):
+    """A wheel speed sensor that does not turn while the others do is named as such (it was blamed on staggered
+    tyres, "the front one is about 0.598 m", or on units)."""
+    bad = paper.copy()
+    bad[wheel] = {"zero": 0.0, "frozen": float(bad[wheel].iloc[0]), "slow": 0.05 * bad[wheel]}[fault]
+    with pytest.raises(InputFormatError, match=rf"{wheel} (stays at|reads below 10 %).*dead, disconnected or frozen"):
+        read_drive_log(bad, CAR)
+
+
+@pytest.mark.parametrize("scenario", ["paper", "hill", "low-mu"])
+def test_no_dead_wheel_on_clean_drives(scenario):
+    """Braking, wheel spin and locking on the built-in scenarios (low-mu included) are not a dead sensor."""
+    for seed in range(3):
+        check_drive_log(simulate_drive(scenario, seed=seed).log, CAR, raise_on_error=True)

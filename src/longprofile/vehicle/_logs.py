@@ -567,6 +567,9 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     dt = log.dt
     w = log.wheel_speeds
     v = R * 0.5 * (w[:, 2] + w[:, 3])
+    dead = _dead_wheels(log, vehicle)
+    if dead and raise_on_error:  # the ratios below would blame the car file or a unit for it
+        raise InputFormatError(f"{source}: " + "; ".join(dead) + ".")
     problems = _range_problems(log, vehicle)
     smooth = max(1, int(round(0.2 / dt)))  # 0.2 s moving average: the checks are about gains, not noise
     rw = _moving_average(R * (w[:, 3] - w[:, 2]) / Sb, smooth)
@@ -637,6 +640,30 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     if problems and raise_on_error:
         raise UnitsError(f"{source}: implausible channels (units or signs): " + "; ".join(problems) + ".")
     return tuple(checks)
+
+
+def _dead_wheels(log, vehicle) -> list[str]:
+    """The wheel speed channels that do not turn while the others do: over at least half of the time the other three
+    wheels' median R omega exceeds 3 m/s, the wheel reads below 10 % of it, or the same value throughout (a dead,
+    disconnected or frozen sensor; a wheel locked under braking does so for a fraction of a second, a spinning one
+    reads more, not less)."""
+    w = np.asarray(log.wheel_speeds, dtype=float)
+    speed = vehicle.wheel_radius_of_each * w
+    names = ("wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl", "wheel_speed_rr")
+    out = []
+    for i, name in enumerate(names):
+        others = np.median(np.delete(speed, i, axis=1), axis=1)
+        moving = others > 3.0
+        if moving.sum() < 2:
+            continue
+        slow = float(np.mean(np.abs(speed[moving, i]) < 0.1 * others[moving]))
+        stuck = bool(np.ptp(w[moving, i]) == 0.0)
+        if slow >= 0.5 or stuck:
+            what = (f"stays at {w[moving, i][0]:.4g} rad/s" if stuck else
+                    f"reads below 10 % of the other wheels' speed over {100 * slow:.0f} % of the time they turn")
+            out.append(f"{name} {what} while the other wheels turn (median {np.median(others[moving]):.3g} m/s): a "
+                       "dead, disconnected or frozen wheel speed sensor? check it (the estimator needs all four)")
+    return out
 
 
 def _range_problems(log, vehicle) -> list[str]:

@@ -286,21 +286,25 @@ def _from_mapping(data: dict, source: str) -> Vehicle:
             raise InputFormatError(f"{source}: unknown key {key!r}; expected the tables "
                                    f"{sorted(_TOML_LAYOUT)}, the optional tables 'tolerances', 'vertical' and "
                                    "'checks' and the keys 'name', 'description'.")
+    missing = []  # every missing table and key, named at once (one round trip, not one per key)
     for section, keys in _TOML_LAYOUT.items():
         table = data.get(section)
         if not isinstance(table, dict):
-            raise InputFormatError(f"{source}: missing table '{section}' with keys {sorted(keys)}.")
+            missing.append(f"table [{section}] (keys {', '.join(k for k, a in keys.items() if a not in _OPTIONAL)})")
+            continue
         for key in table:
             if key not in keys:
                 raise InputFormatError(f"{source}: unknown key {key!r} in table '{section}'; expected {sorted(keys)}.")
         for key, attr in keys.items():
             if key not in table and attr in _OPTIONAL:
                 kwargs[attr] = None
-                continue
-            if key not in table:
-                raise InputFormatError(f"{source}: missing key {key!r} in table '{section}' "
-                                       f"({_UNITS.get(attr, 'see docs/vehicle-slope.md')}).")
-            kwargs[attr] = table[key]
+            elif key not in table:
+                missing.append(f"{section}.{key} ({_UNITS.get(attr, 'see docs/vehicle-slope.md')})")
+            else:
+                kwargs[attr] = table[key]
+    if missing:
+        raise InputFormatError(f"{source}: missing {'; '.join(missing)}; add them (docs/vehicle-slope.md, \"Default car\", "
+                               "lists every key with its unit).")
     kwargs["name"] = str(data.get("name", ""))
     kwargs["description"] = str(data.get("description", ""))
     accept = accepted_checks(data["checks"], source) if "checks" in data else ()
