@@ -27,7 +27,8 @@ def test_differentiate_writes_the_library_result(tmp_path):
                                  "--degree", "2", "--window", "45", "-o", str(out), "--plot", str(png)])
     assert result.exit_code == 0, result.output
     table = pd.read_csv(out)
-    assert list(table.columns) == ["value", "derivative", "derivative_std"]
+    assert list(table.columns) == ["time_s", "value", "derivative", "derivative_std"]
+    np.testing.assert_array_equal(table["time_s"], np.arange(x.size) * 0.001)  # the file's time column, beside each row
     lib = derivative(x, 0.001, method="ml", window=45, degree=2)
     np.testing.assert_allclose(table["derivative"], lib.derivative, rtol=1e-12, equal_nan=True)
     np.testing.assert_allclose(table["derivative_std"], lib.derivative_std, rtol=1e-12, equal_nan=True)
@@ -107,7 +108,20 @@ def test_the_sample_interval_comes_from_a_time_column_named_with_its_unit(tmp_pa
                                  "--window", "45", "-o", str(out)])
     assert result.exit_code == 0, result.output
     lib = derivative(x, 0.001, method="ml", window=45, degree=2)
-    np.testing.assert_allclose(pd.read_csv(out)["derivative"], lib.derivative, rtol=1e-9, equal_nan=True)
+    table = pd.read_csv(out)
+    np.testing.assert_allclose(table["derivative"], lib.derivative, rtol=1e-9, equal_nan=True)
+    np.testing.assert_allclose(table["time_s"], np.arange(x.size) * 0.001, rtol=1e-12, atol=1e-12)  # in seconds
+
+
+def test_without_a_time_column_there_is_no_time_in_the_output(tmp_path):
+    src = tmp_path / "signal.csv"
+    x = _write_signal(src)
+    pd.read_csv(src).drop(columns="t").to_csv(src, index=False)
+    out = tmp_path / "out.csv"
+    result = runner.invoke(app, ["differentiate", str(src), "--column", "x", "--dt", "0.001", "--method", "ml",
+                                 "--degree", "2", "--window", "45", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert list(pd.read_csv(out).columns) == ["value", "derivative", "derivative_std"] and len(pd.read_csv(out)) == x.size
 
 
 def test_unix_time_stamps_at_10_khz_are_a_uniform_interval(tmp_path):

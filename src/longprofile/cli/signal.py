@@ -22,20 +22,30 @@ def _time_scale(name) -> float | None:
     return None if m is None else _TIME_UNITS[(m.group("u1") or m.group("u2") or m.group("u3") or "s").lower()]
 
 
-def _sample_interval(file: Path, frame, column: str, dt: float | None) -> float:
-    """The sample interval, s: ``dt`` checked against the file's own time column (a wrong dt scales the derivative
-    silently), or, without ``dt``, the step of that column when it is uniform (within 0.1 % of its median)."""
-    import numpy as np
-
-    from .._validation import check_time_order, time_resolution, time_seconds
-    from ..errors import InputFormatError, UnitsError
+def _time_axis(file: Path, frame, column: str):
+    """``(name, seconds)`` of the file's time column (the first column named as one, not the signal), or None."""
+    from .._validation import time_seconds
 
     for name in frame.columns:
         scale = _time_scale(name)
         if scale is None or name == column:
             continue
         seconds, start = time_seconds(frame, name, source=str(file))  # numbers, ISO 8601 texts or datetime64
-        t = seconds * (1.0 if start is not None else scale)
+        return name, seconds * (1.0 if start is not None else scale)
+    return None
+
+
+def _sample_interval(file: Path, axis, dt: float | None) -> float:
+    """The sample interval, s: ``dt`` checked against the file's own time column ``axis`` (:func:`_time_axis`; a
+    wrong dt scales the derivative silently), or, without ``dt``, the step of that column when it is uniform (within
+    0.1 % of its median)."""
+    import numpy as np
+
+    from .._validation import check_time_order, time_resolution
+    from ..errors import InputFormatError, UnitsError
+
+    if axis is not None:
+        name, t = axis
         rows = np.flatnonzero(np.isfinite(t))
         step = np.diff(t[rows])
         increasing = step.size > 0 and bool(np.all(step > 0))
@@ -88,8 +98,9 @@ def differentiate(
     column: str = typer.Option(..., "--column", "-c", help="Column holding the signal."),
     dt: float | None = typer.Option(None, "--dt", help="Sample interval, s (default: the constant step of the "
                                                           "file's time column: t or time, with a unit t_ms, time \\[ms])."),
-    output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): value, derivative, "
-                                                            "derivative_std (one row per input row; see --std)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Table to write (.csv or .parquet): time_s (when the file "
+                                                            "has a time column), value, derivative, derivative_std "
+                                                            "(one row per input row; see --std)."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
     window: int | None = typer.Option(None, "--window", "-w",
                                       help="N, past samples per estimate; required by ml and polyfit (e.g. 45)."),
@@ -132,10 +143,12 @@ def differentiate(
     read_as = {new: old for old, new in renames.items()}.get(column, column)
     frame = renamed_columns(read_table(file, required=[read_as], numeric=[read_as]), renames, source=str(file))
     x = frame[column].to_numpy(dtype=float)
-    dt = _sample_interval(file, frame, column, dt)
+    axis = _time_axis(file, frame, column)
+    dt = _sample_interval(file, axis, dt)
     with console.status(f"differentiating {x.size} samples ({method})..."):
         res = derivative(x, dt, method=method, order=order, **options)
-    write_table(pd.DataFrame({"value": res.value, "derivative": res.derivative,
+    table = {} if axis is None else {"time_s": axis[1]}  # the file's time, s, beside each row
+    write_table(pd.DataFrame({**table, "value": res.value, "derivative": res.derivative,
                               "derivative_std": res.derivative_std}), out)
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g}, "
                   f"derivative_std: {std})")
