@@ -117,19 +117,33 @@ def slope(
                                             "the gyro and each axle's left/right difference before the filters "
                                             "(docs/vehicle-slope.md, Calibration); "
                                             "--no-sensor-calibration: the log as it is."),
+    stops: str = typer.Option("refuse", "--stops", help="refuse (default): a log whose rear-wheel speed falls below "
+                              "2 m/s is refused; split: estimate each stretch at or above 2 m/s lasting at least 2 s "
+                              "on its own (filters restarted; about 1 s of start-up transient each) and leave the "
+                              "other rows empty (columns stretch, note; docs/vehicle-slope.md, Logs with stops)."),
+    start: float | None = typer.Option(None, "--start", help="Analyse only from this time, s (the log's own time)."),
+    end: float | None = typer.Option(None, "--end", help="Analyse only up to this time, s (the log's own time)."),
     overwrite: bool = OVERWRITE,
 ):
     """Estimate vehicle states, tyre forces and the road slope from a drive log."""
     import math
 
     from .._validation import parse_column_renames
+    from ..errors import InputError
     from ..io import read_table, write_table
-    from ..vehicle import SlopeUncertainty, estimate_slope, parse_units, read_drive_log
+    from ..vehicle import (
+        SlopeUncertainty,
+        drive_window,
+        estimate_slope,
+        estimate_slope_split,
+        parse_units,
+        read_drive_log,
+    )
 
     if not (math.isfinite(max_grade) and max_grade > 0):
-        from ..errors import InputError
-
         raise InputError(f"--max-grade must be a positive grade (0.10 = 10 %); got {max_grade!r}.")
+    if stops not in ("refuse", "split"):
+        raise InputError(f"--stops must be refuse or split; got {stops!r}.")
     renames = parse_column_renames(rename)
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
@@ -138,27 +152,23 @@ def slope(
     frame = read_table(log)
     drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, rename=renames, fill=fill,
                                    steering_offset=steering_offset, source=str(log))
+    drive = drive_window(drive, start, end)
     unchecked = [c.name for c in checks if c.ok is None]
     if unchecked:
         console.print(f"[yellow]not excited by this log, so not checked: {', '.join(unchecked)}[/yellow]")
     with console.status("estimating states and slope..."):
-        est = estimate_slope(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement,
-                             force_correction=force_correction, sensor_calibration=sensor_calibration,
-                             uncertainty=uncertainty)
+        run = estimate_slope if stops == "refuse" else estimate_slope_split
+        est = run(drive, car, method=method, poles=_parse_poles(poles), speed_measurement=speed_measurement,
+                  force_correction=force_correction, sensor_calibration=sensor_calibration, uncertainty=uncertainty)
     write_table(est.to_frame(), out)
     console.print(f"wrote {out} ({est.time.size} samples, method {method}, speed measurement {speed_measurement})")
     source = "the defaults" if uncertainty == SlopeUncertainty() else f"the \\[tolerances] of {vehicle}"
     console.print(f"the stds assume ({source}): {uncertainty.describe()}")
-    fit = est.force_fit
-    if fit is not None and fit.n_blocks == 0:
-        console.print("[yellow]log too short for the force check against the accelerometer (under 7 s): the slope "
-                      "is not corrected and its std uses the stated mass and tyre uncertainty[/yellow]")
-    elif fit is not None:
-        console.print(f"force model vs accelerometer ({fit.n_blocks} blocks of 1 s): relative error {100 * fit.beta:+.1f} "
-                      f"+- {100 * fit.beta_std:.1f} %, constant {100 * fit.offset:+.2f} +- {100 * fit.offset_std:.2f} % "
-                      "of grade (the slope is corrected for both)")
-    if est.sensor_calibration is not None:
-        console.print(_calibration_line(est.sensor_calibration, est.time[-1] - est.time[0] + drive.dt))
+    if stops == "refuse":
+        _print_fits(est, drive.dt)
+    else:
+        for k, ((a, b), part) in enumerate(zip(est.stretches, est.estimates), start=1):
+            _print_fits(part, drive.dt, prefix=f"stretch {k} ({est.time[a]:.6g} to {est.time[b - 1]:.6g} s): ")
     for w in [c.warning for c in checks if c.warning] + list(est.warnings(max_missing=max_missing,
                                                                           max_slope=math.atan(max_grade))):
         console.print(f"[yellow]warning: {w}[/yellow]")
@@ -166,9 +176,24 @@ def slope(
         from ..report import plot_slope_estimate
 
         # the true_* columns of a simulated log are overlaid; the truth is on the original time base
-        overlay = resample is None and fill is None and renames == {}  # the truth is on the original rows
+        overlay = resample is None and fill is None and renames == {} and start is None and end is None
         save_plot(plot, plot_slope_estimate, est, frame if overlay else None, savefig={"dpi": 110},
                   announce=True)
+
+
+def _print_fits(est, dt: float, prefix: str = "") -> None:
+    """Print the force check against the accelerometer and the sensor calibration of one estimate."""
+    fit = est.force_fit
+    if fit is not None and fit.n_blocks == 0:
+        console.print(f"[yellow]{prefix}log too short for the force check against the accelerometer (under 7 s): the "
+                      "slope is not corrected and its std uses the stated mass and tyre uncertainty[/yellow]")
+    elif fit is not None:
+        console.print(f"{prefix}force model vs accelerometer ({fit.n_blocks} blocks of 1 s): relative error "
+                      f"{100 * fit.beta:+.1f} +- {100 * fit.beta_std:.1f} %, constant {100 * fit.offset:+.2f} +- "
+                      f"{100 * fit.offset_std:.2f} % of grade (the slope is corrected for both)")
+    if est.sensor_calibration is not None:
+        line = _calibration_line(est.sensor_calibration, est.time[-1] - est.time[0] + dt)
+        console.print(line.replace("[yellow]", f"[yellow]{prefix}", 1) if line.startswith("[yellow]") else prefix + line)
 
 
 def _calibration_line(cal, duration: float) -> str:

@@ -20,6 +20,8 @@ planar_ekf_model      -- EKF model of eq. (20) on (V_x, V_y, r) (NonlinearStateS
 slope_ekf_model       -- augmented EKF model on (V_x, V_y, r, theta_r).
 slope_observer_matrices / slope_observer_gain -- longitudinal model (21) and its Luenberger gain.
 estimate_slope        -- states, tyre forces and slope from a DriveLog ("cascade" or "joint"); SlopeEstimate.
+estimate_slope_split  -- estimate_slope on each moving stretch of a log that stops; SplitSlopeEstimate,
+                         moving_stretches, drive_window (a time window of a log).
 SlopeUncertainty      -- the parameter uncertainty added to the printed stds; nis_inflation (innovation consistency).
 force_scale_fit       -- the drive's relative force error (mass, tyres) against the accelerometer; ForceScaleFit.
 calibrate_sensors     -- the gyro offset and the wheels' relative scale errors from the log; SensorCalibration,
@@ -72,7 +74,8 @@ _EXPORTS = {
                 "LOG_COLUMNS", "SCENARIOS", "DriveLog", "DriveScenario", "DriveTruth", "PlanarSimulation", "SensorSpec",
                 "drive_scenario", "simulate_drive", "missed_scenario_events", "ackermann_angles", "EKFTuning", "SlopeEstimate", "SlopeUncertainty",
                 "nis_inflation", "ForceScaleFit", "force_scale_fit", "SensorCalibration", "calibrate_sensors",
-                "CALIBRATION_MIN_BLOCKS", "estimate_slope", "planar_ekf_model",
+                "CALIBRATION_MIN_BLOCKS", "estimate_slope", "planar_ekf_model", "SplitSlopeEstimate", "estimate_slope_split",
+                "moving_stretches", "drive_window", "MIN_STRETCH_DURATION",
                 "planar_inputs", "planar_measurements", "slope_ekf_model", "slope_observer_gain",
                 "slope_observer_matrices", "SPEED_SOURCES", "SpeedReference", "speed_reference",),
     ".vertical": ("load_vertical_params", "CornerFilterSettings", "VerticalStateEstimate", "estimate_vertical_states",
@@ -100,6 +103,7 @@ __all__ = [
     "simulate_drive", "missed_scenario_events", "ackermann_angles", "LOG_COLUMNS",
     "EKFTuning", "SlopeEstimate", "SlopeUncertainty", "nis_inflation", "ForceScaleFit", "force_scale_fit",
     "SensorCalibration", "calibrate_sensors", "CALIBRATION_MIN_BLOCKS", "estimate_slope", "planar_ekf_model",
+    "SplitSlopeEstimate", "estimate_slope_split", "moving_stretches", "drive_window", "MIN_STRETCH_DURATION",
     "slope_ekf_model", "planar_inputs",
     "planar_measurements", "slope_observer_matrices", "slope_observer_gain",
     "speed_reference", "SpeedReference", "SPEED_SOURCES",

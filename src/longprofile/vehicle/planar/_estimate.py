@@ -640,7 +640,8 @@ def _rear_speed(log, vehicle) -> np.ndarray:
         k = int(np.argmax(slow))
         raise InputError(f"the rear-wheel speed is below {_MIN_SPEED:g} m/s at {int(slow.sum())} sample(s), first at "
                          f"t = {log.time[k]:g} s ({rear[k]:.3g} m/s); the planar model of paper 001 (slips of eq. "
-                         "(18)) is not valid near standstill: cut those parts of the log.")
+                         "(18)) is not valid near standstill: cut those parts of the log, or estimate each moving "
+                         "stretch on its own (estimate_slope_split; CLI: vehicle slope --stops split).")
     return rear
 
 
