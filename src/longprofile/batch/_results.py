@@ -41,6 +41,12 @@ class BatchResults:
     missing_inputs : tuple of str
         Manifest paths with results whose file no longer exists when the folder is read (deleted or renamed since:
         ``--resume`` keeps their rows).
+    last_run : int or None
+        Number of the last run (manifest column ``run``); None for folders written before session 38, whose rows are
+        all taken as seen by the last run (ASSUMPTION, docs/batch.md).
+    not_in_last_run : tuple of str
+        Manifest paths with results of existing files that the last run was not given (rows kept by ``--resume``
+        from an earlier run).
     """
 
     folder: Path
@@ -51,6 +57,8 @@ class BatchResults:
     n_inputs: int | None = None
     complete: bool | None = None
     missing_inputs: tuple = ()
+    last_run: int | None = None
+    not_in_last_run: tuple = ()
 
     def profile(self, route: str):
         """The per-sample table of one route (``reconstruct``: the reconstructed profile), as a DataFrame."""
@@ -94,9 +102,13 @@ def read_results(folder) -> BatchResults:
     else:
         segments = pd.DataFrame({"route": pd.Series(dtype=str), "file": pd.Series(dtype=str)})
     missing = tuple(str(p) for p in done["path"] if not Path(str(p)).exists())
+    last = info.get("run")  # None: a folder written before session 38, every row taken as seen by the last run
+    earlier = done["path"][done["run"] != last] if last is not None else done["path"][:0]
+    unseen = tuple(str(p) for p in earlier if str(p) not in missing)
     return BatchResults(folder=folder, task=info.get("task", ""), options=info.get("options", {}),
                         manifest=manifest, segments=segments, n_inputs=info.get("n_inputs"),
-                        complete=info.get("complete"), missing_inputs=missing)
+                        complete=info.get("complete"), missing_inputs=missing,
+                        last_run=None if last is None else int(last), not_in_last_run=unseen)
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,7 +131,7 @@ class NetworkSummary:
         (continuous / overlapping modes) of one condition are merged: ``start, end`` is the extent of the area, the
         IRI columns those of its peak window (``peak_start, peak_end``), ``windows`` how many windows it spans.
     failed, warnings : pandas.DataFrame
-        ``path, route, error`` of the files that failed; ``path, route, warning`` of flagged results.
+        ``path, route, error`` of the files that failed in the last run; ``path, route, warning`` of flagged results.
     excluded : pandas.DataFrame
         ``path, route, reason, length`` of the routes with results left out of the totals.
     value_columns : tuple of str
@@ -164,8 +176,10 @@ class NetworkSummary:
 
     @property
     def counts(self) -> dict:
-        """Files by manifest status (ok, skipped, error)."""
-        s = self.results.manifest["status"].value_counts()
+        """Files of the last run by manifest status (ok, skipped, error); every row for a folder written before
+        session 38 (no ``run`` column)."""
+        m, last = self.results.manifest, self.results.last_run
+        s = (m["status"] if last is None else m.loc[m["run"] == last, "status"]).value_counts()
         return {k: int(s.get(k, 0)) for k in ("ok", "skipped", "error")}
 
 
@@ -178,20 +192,24 @@ def _find(columns, pattern, what):
 
 
 def _left_out(results: BatchResults, seg, tracks, factor) -> dict:
-    """Route -> why its results are left out of the network totals: its file no longer exists, its IRI is
-    implausible (:func:`longprofile.road.iri_plausibility`, the check behind the manifest's warning), or its content
-    (sha256) is that of an earlier counted input (counted once)."""
+    """Route -> why its results are left out of the network totals: its file no longer exists, the last run was not
+    given it (a row kept by ``--resume`` from an earlier run), its IRI is implausible
+    (:func:`longprofile.road.iri_plausibility`, the check behind the manifest's warning), or its content (sha256) is
+    that of an earlier counted input (counted once)."""
     from ..road import iri_plausibility
 
     manifest = results.manifest
     done = manifest[manifest["status"].isin(["ok", "skipped"])].sort_values("path")
-    missing = set(results.missing_inputs)
+    missing, unseen = set(results.missing_inputs), set(results.not_in_last_run)
     reasons, first = {}, {}
     by_route = {r: g for r, g in seg.groupby("route", sort=False)} if len(seg) and tracks else {}
     for row in done.itertuples():
         route = str(row.route)
         if str(row.path) in missing:
             reasons[route] = "file no longer exists (results kept by --resume)"
+            continue
+        if str(row.path) in unseen:
+            reasons[route] = f"not in the last run (run {int(row.run)} of {results.last_run}; results kept by --resume)"
             continue
         g = by_route.get(route)
         note = iri_plausibility(g[tracks].to_numpy(dtype=float) / factor, what="segment IRI") if g is not None else ""
@@ -278,7 +296,8 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
 
     Lengths are lengths covered: overlapping windows (continuous / overlapping modes) count once, each window for
     the stretch up to the next window's start. The totals (length, shares, mean, worst areas) leave out the routes of
-    :func:`_left_out` (file gone, implausible IRI, duplicate content); they stay listed in ``routes``.
+    :func:`_left_out` (file gone, not given to the last run, implausible IRI, duplicate content); they stay listed
+    in ``routes``.
     """
     import numpy as np
     import pandas as pd
@@ -287,7 +306,8 @@ def summarize_network(results: BatchResults, *, limits_m_per_km=None, n_worst: i
         from ..report import IRI_CONDITION_LIMITS as limits_m_per_km
     seg = results.segments  # read only (a copy of a million rows cost 0.2 s)
     manifest = results.manifest
-    failed = manifest.loc[manifest["status"] == "error", ["path", "route", "error"]].reset_index(drop=True)
+    last = manifest["run"] == results.last_run if results.last_run is not None else True  # failures of the last run
+    failed = manifest.loc[(manifest["status"] == "error") & last, ["path", "route", "error"]].reset_index(drop=True)
     flagged = manifest.loc[(manifest["warning"].fillna("") != ""), ["path", "route", "warning"]].reset_index(drop=True)
     values = [c for c in seg.columns if _VALUE.match(str(c))]
     tracks = [c for c in values if _VALUE.match(str(c)).group("kind") == "iri"]

@@ -64,6 +64,8 @@ MANIFEST_COLUMNS = {
     "longprofile_version": ("string", "version that computed the row"),
     "finished_utc": ("string", "when the file was processed (ISO 8601, UTC)"),
     "metadata": ("string", "JSON facts from the task (IRI report metadata, fitted q and r...)"),
+    "run": ("int64", "the run that last listed the file among its inputs (1 for a folder's first run, then one more "
+                     "per `batch` command on the folder; the last run's number is ``run`` in the metadata)"),
 }
 
 
@@ -271,7 +273,11 @@ def _write_error(path, exc: OSError) -> OutputError:
 
 
 def read_manifest(folder) -> tuple:
-    """The manifest of a results folder: ``(DataFrame, info)`` with info = task, options, options_hash, version.
+    """The manifest of a results folder: ``(DataFrame, info)`` with info = task, options, options_hash, version,
+    n_inputs, complete and ``run`` (the last run's number; absent before session 38).
+
+    A manifest written before session 38 has no ``run`` column nor ``run`` in its metadata: ASSUMPTION (docs/batch.md)
+    every row was seen by the last run (as it was counted before): the column is filled with 0, the next run is 1.
 
     Raises :class:`InputError` when the folder has no manifest, :class:`InputFormatError` when it is damaged.
     """
@@ -287,7 +293,10 @@ def read_manifest(folder) -> tuple:
     except Exception as exc:
         raise InputFormatError(f"{path} cannot be read ({error_message(exc)}); the folder is damaged: rerun the "
                                "batch with --overwrite.") from None
-    return table.to_pandas(), info
+    frame = table.to_pandas()
+    if "run" not in frame.columns:  # written before session 38: every row taken as seen by the last run
+        frame["run"] = int(info.get("run", 0))
+    return frame, info
 
 
 class _Manifest:
@@ -315,13 +324,13 @@ class _Manifest:
         self._last = now
 
 
-def _row(path, route, status, *, task, opts_hash, version, error="", warning="", digest="", size=0,
+def _row(path, route, status, *, task, opts_hash, version, run, error="", warning="", digest="", size=0,
          seconds=float("nan"), rows=0, metadata=None) -> dict:
     return {"path": path, "route": route, "status": status, "error": error, "warning": warning, "sha256": digest,
             "size_bytes": int(size), "seconds": float(seconds), "rows": int(rows), "task": task,
             "options_hash": opts_hash, "longprofile_version": version,
             "finished_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "metadata": json.dumps(metadata or {}, sort_keys=True, default=_json_default)}
+            "metadata": json.dumps(metadata or {}, sort_keys=True, default=_json_default), "run": int(run)}
 
 
 def _json_default(v):
@@ -518,18 +527,19 @@ def _locked_run(task, inputs, out, executor, workers, resume, overwrite, on_star
                              "needs the same task and options: run with those of the results, pass --overwrite to "
                              "replace them, or choose another output folder.")
         rows = {r["path"]: r for r in old.to_dict("records")}
+        run = int(info.get("run", 0)) + 1
     else:
-        rows = {}
+        rows, run = {}, 1
     job = _Job(task)
     _warm_checked(job)  # bad options fail here, once, before anything is written
     with ExitStack() as stack:
         ex = stack.enter_context(open_executor(executor, workers, warm=job)) if isinstance(executor, str) else executor
-        summary = _run(job, inputs, out, rows, ex, resume=resume, overwrite=overwrite, on_start=on_start,
+        summary = _run(job, inputs, out, rows, ex, run=run, resume=resume, overwrite=overwrite, on_start=on_start,
                        on_result=on_result, t0=t0)
     return summary
 
 
-def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_result, t0) -> BatchSummary:
+def _run(job, inputs, out, rows, executor, *, run, resume, overwrite, on_start, on_result, t0) -> BatchSummary:
     from .. import __version__
 
     task = job.task
@@ -544,15 +554,20 @@ def _run(job, inputs, out, rows, executor, *, resume, overwrite, on_start, on_re
     except OSError as exc:
         raise OutputError(f"cannot prepare the output folder {out}: {exc.strerror or exc}; choose another folder.") from None
     # n_inputs and complete: a report on an interrupted run says so (it said "195 / 195 done" of 211; session 35)
+    # run: which rows the last run listed (the report counts only those; session 38: rows kept by --resume of files
+    # not given again were counted). A known input's row is stamped now, whether it is then computed, skipped or fails
     info = {"task": name, "options": opts, "options_hash": opts_hash, "version": __version__,
-            "n_inputs": len(inputs), "complete": False}
+            "n_inputs": len(inputs), "complete": False, "run": run}
+    for p in inputs:
+        if str(p) in rows:
+            rows[str(p)] = dict(rows[str(p)], run=run)
     manifest = _Manifest(out, info, rows)
     manifest.flush(force=True)  # the folder is a results folder from now on (resumable even if killed now)
     routes = _assign_routes(inputs, rows)
     if on_start is not None:
         on_start(len(inputs))
 
-    common = dict(task=name, opts_hash=opts_hash, version=__version__)
+    common = dict(task=name, opts_hash=opts_hash, version=__version__, run=run)
     todo: list[int] = []
     n_skipped = 0
     for i, p in enumerate(inputs):

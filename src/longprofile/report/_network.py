@@ -378,7 +378,7 @@ def _length_text(summary, length) -> str:
 def _network_cards(summary) -> list[str]:
     """The summary cards of the page: files, measured length, mean segment IRI, condition shares."""
     counts, routes = summary.counts, summary.routes
-    n_files = len(summary.results.manifest)
+    n_files = sum(counts.values())  # rows of the last run (rows kept from earlier runs are in the "left out" card)
     good, poor = summary.limits
     unit = summary.iri_unit
     counted = summary.segments["counted"] if "counted" in summary.segments else None
@@ -465,13 +465,17 @@ def _page_context(summary, tables, figs, images, drawn, title) -> dict:
 
 
 def _unseen_note(summary) -> str:
-    """A sentence when the manifest holds more inputs with results than the last run was given (rows kept by
-    ``--resume`` of files not given again): the manifest does not record which, so only the count is known."""
+    """A sentence when a manifest written before session 38 (no ``run`` column: which run saw each row is unknown)
+    holds more inputs with results than the last run was given (rows kept by ``--resume`` of files not given again):
+    only the count is known. Newer manifests list such rows as "not in the last run"
+    (:func:`longprofile.batch.summarize_network`)."""
     res = summary.results
+    if getattr(res, "last_run", None) is not None:
+        return ""
     done = int(res.manifest["status"].isin(["ok", "skipped"]).sum())
     gone = len(res.missing_inputs)
     if res.n_inputs is None or done - gone <= res.n_inputs:
         return ""
     return (f"The manifest holds results of {done - gone - res.n_inputs} more existing file(s) than the last run was "
-            "given (rows kept by --resume from earlier runs); the manifest does not record which, so they are "
-            "counted.")
+            "given (rows kept by --resume from earlier runs); this folder was written before the manifest recorded "
+            "which run saw each file, so they are counted.")
