@@ -359,6 +359,44 @@ def a_dead_sensor(path, cmd, rng):
     _save(f, path)
 
 
+def gravity_in_the_accelerometers(path, cmd, rng):
+    """The vertical accelerometers logged with gravity (+1 g: many IMUs do; session 38, a probe: body velocity 1-3 m/s
+    off without a message)."""
+    f = _frame(path)
+    for c in [c for c in f.columns if c.lower().startswith(("wheel_accel", "body_accel"))]:
+        f[c] = (pd.to_numeric(f[c]) + 9.80665).map(repr)
+    _save(f, path)
+
+
+def a_dead_wheel_speed_sensor(path, cmd, rng):
+    """One wheel speed channel at 0 (session 38, a probe: blamed on staggered tyres)."""
+    f = _frame(path)
+    f[rng.choice([c for c in f.columns if c.startswith("wheel_speed_")])] = "0"
+    _save(f, path)
+
+
+def a_time_reset(path, cmd, rng):
+    """The logger's clock restarts from 0 mid-file (session 38, a probe: "must be strictly increasing", no row)."""
+    f = _frame(path)
+    t = pd.to_numeric(f[cmd.time]).to_numpy()
+    k = 2 + _pick(rng, len(t) - 4)
+    f[cmd.time] = np.r_[t[:k], t[k:] - t[k]]
+    f[cmd.time] = f[cmd.time].map(repr)
+    _save(f, path)
+
+
+def a_car_value_in_another_unit(path, cmd, rng):
+    """A car-file value in another unit: mass in tonnes, cg height in mm, cornering stiffness per degree (session 38,
+    a probe: accepted silently, V_y band coverage 13-17 %)."""
+    import re
+
+    key, scale = rng.choice([("mass", 1e-3), ("cg_height", 1e3), ("cornering_stiffness", np.pi / 180)])
+    text, n = re.subn(rf"(?m)^{key} = ([0-9.eE+-]+)", lambda m: f"{key} = {float(m.group(1)) * scale!r}",
+                      path.read_text(), count=1)
+    assert n == 1, f"no {key} in {path}"
+    path.write_text(text)
+
+
 #: mutation -> applies to a command when the predicate holds
 def _table(c: Command) -> bool:
     return not c.as_is and not c.target.endswith(".toml")
@@ -399,6 +437,10 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "a stray reading years before": (a_stray_reading_years_before, lambda c: c.name == "rail settle (readings)"),
     "a dropout coded -9999": (a_dropout_coded_9999, lambda c: _general(c) and c.key == "distance_m"),
     "a dead height sensor": (a_dead_sensor, lambda c: c.name in ("road acceptance", "road compare (a run)")),
+    "gravity in the accelerometers": (gravity_in_the_accelerometers, lambda c: c.name == "vehicle vertical estimate"),
+    "a dead wheel speed sensor": (a_dead_wheel_speed_sensor, lambda c: _table(c) and c.name.startswith("vehicle slope")),
+    "a time reset": (a_time_reset, lambda c: _table(c) and c.time is not None),
+    "a car value in another unit": (a_car_value_in_another_unit, lambda c: c.target.endswith(".toml")),
 }
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
