@@ -12,6 +12,7 @@ import threading
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 from sqlalchemy import func, select
@@ -27,21 +28,31 @@ SERVER = ("import typer; from longprofile.cli._rail_serve import register; app =
           "app()")
 
 
-def start(db_url, port, log):
-    with open(log, "ab") as err:
-        p = subprocess.Popen([sys.executable, "-c", SERVER, "serve", "--db", db_url, "--port", str(port),
-                              "--tick", "0.2"], stdout=subprocess.DEVNULL, stderr=err,
-                             env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
-    for _ in range(300):
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/healthz", timeout=1):
-                return p
-        except OSError:
+def start(db_url, log, port=None):
+    """The server on ``port`` (a free one when None), and the port: another process may take a port between
+    ``free_port`` and the bind (the other xdist worker's server did once, CI 2026-12-07), so a failed bind on a port
+    this function chose is retried on a new one (at most 5 times)."""
+    for _ in range(5):
+        chosen = free_port() if port is None else port
+        with open(log, "ab") as err:
+            p = subprocess.Popen([sys.executable, "-c", SERVER, "serve", "--db", db_url, "--port", str(chosen),
+                                  "--tick", "0.2"], stdout=subprocess.DEVNULL, stderr=err,
+                                 env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+        for _ in range(300):
             if p.poll() is not None:
-                raise RuntimeError(open(log).read()[-2000:])
-            time.sleep(0.1)
-    p.kill()
-    raise RuntimeError("server did not start")
+                break
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{chosen}/healthz", timeout=1):
+                    return p, chosen
+            except OSError:  # not listening yet (or another process's server answering 404: then the bind fails)
+                time.sleep(0.1)
+        else:
+            p.kill()
+            raise RuntimeError("server did not start")
+        text = Path(log).read_text()[-2000:]
+        if port is not None or "address already in use" not in text:
+            raise RuntimeError(text)
+    raise RuntimeError(f"no free port after 5 tries: {text}")
 
 
 def post(port, key, rows):
@@ -63,8 +74,7 @@ def test_kill9_loses_no_acknowledged_reading_and_no_notification(site, db_url, t
         st = s.scalar(select(Site).where(Site.name == "mitt"))
         for i in range(30):
             transition(s, st, "health", f"S{i + 1}", "action", message="test")
-    port = free_port()
-    proc = start(db_url, port, tmp_path / "server.log")
+    proc, port = start(db_url, tmp_path / "server.log")
     acked = {}
     lock = threading.Lock()
 
@@ -94,7 +104,7 @@ def test_kill9_loses_no_acknowledged_reading_and_no_notification(site, db_url, t
     n_acked = len(acked)
     assert 2000 <= n_acked < len(rows), "the kill must land mid-burst"
     # restart on the same database: every acknowledged reading is there exactly once
-    proc = start(db_url, port, tmp_path / "server.log")
+    proc, port = start(db_url, tmp_path / "server.log", port)
     try:
         with db.read() as s:
             stored = {(sid, ts): a for sid, ts, a in s.execute(
