@@ -632,9 +632,14 @@ def _slope_settings(log, vehicle, method, speed_measurement, tuning, uncertainty
     return vehicle, tuning, unc
 
 
+def rear_wheel_speed(log, vehicle) -> np.ndarray:
+    """The mean rear-wheel speed R (omega_rl + omega_rr) / 2, m/s (the speed the standstill limit is tested on)."""
+    return 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+
+
 def _rear_speed(log, vehicle) -> np.ndarray:
-    """The mean rear-wheel speed R (omega_rl + omega_rr) / 2, m/s, checked to stay above _MIN_SPEED."""
-    rear = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
+    """:func:`rear_wheel_speed`, checked to stay above _MIN_SPEED."""
+    rear = rear_wheel_speed(log, vehicle)
     slow = rear < _MIN_SPEED
     if slow.any():
         k = int(np.argmax(slow))

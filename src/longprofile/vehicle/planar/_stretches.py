@@ -15,8 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._validation import true_runs
 from ...errors import InputError
-from ._estimate import _MIN_SPEED, estimate_slope
+from ._estimate import _MIN_SPEED, estimate_slope, rear_wheel_speed
 from ._params import default_vehicle
 from ._simulate import DriveLog
 
@@ -66,10 +67,7 @@ def moving_stretches(log: DriveLog, vehicle=None, *, min_duration: float = MIN_S
     vehicle = default_vehicle() if vehicle is None else vehicle
     if not (isinstance(min_duration, (int, float)) and math.isfinite(min_duration) and min_duration >= 0):
         raise InputError(f"min_duration must be a finite number of seconds >= 0; got {min_duration!r}.")
-    rear = 0.5 * vehicle.wheel_radii[1] * (log.wheel_speeds[:, 2] + log.wheel_speeds[:, 3])
-    moving = np.concatenate([[False], rear >= _MIN_SPEED, [False]])
-    edges = np.flatnonzero(np.diff(moving.astype(np.int8)))
-    runs = list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+    runs = [(a, b + 1) for a, b in true_runs(rear_wheel_speed(log, vehicle) >= _MIN_SPEED)]  # stop exclusive
     dt = log.dt
     long_enough = [(a, b) for a, b in runs if b - a >= 3 and (b - a) * dt >= min_duration * (1 - 1e-9)]
     return long_enough, [r for r in runs if r not in long_enough]

@@ -16,7 +16,7 @@ import numpy as np
 from ..._jit import njit
 from ...errors import UnitsError
 from ...statespace import filter_design, sos_filtfilt
-from ._model import CORNER_NAMES, CX, CY, SIP, SIR, SM, STAU, _pitch_moment, _roll_moment, suspension_tensions
+from ._model import CORNER_NAMES, STAU, _body_accel, suspension_tensions
 
 if TYPE_CHECKING:
     from ._params import VerticalVehicleParams
@@ -104,24 +104,19 @@ _HOP_BAND = (8.0, 25.0)  # Hz: the wheel hop, where the wheel's acceleration is 
 
 
 @njit(cache=True)
-def _body_corner_accel(dz, dzdot, actuator, u, corner, scalars):
-    """Body-corner vertical accelerations the 7-DOF model's body equations give for the measured deflections and
-    a_x, a_y, psidd (the suspension tensions, anti-roll bars and handling moments of :func:`seven_dof_rhs`)."""
+def _body_corner_accel(dz, dzdot, actuator, u, corner, coupling, tau):
+    """Body-corner vertical accelerations the model's body equations give for the measured deflections and a_x, a_y,
+    psidd: the filters' own corner acceleration (:func:`_body_accel`, the suspension tensions through the heave, roll
+    and pitch coupling, without the model-error state)."""
     out = np.empty((dz.shape[0], 4))
     force = np.empty(4)
     ks = np.empty(4)
     cd = np.empty(4)
+    no_error = np.zeros(16)
     for k in range(dz.shape[0]):
-        suspension_tensions(dz[k], dzdot[k], actuator[k], corner, scalars[STAU], force, ks, cd)
-        heave = 0.0
-        roll = _roll_moment(u[k, 1], u[k, 2], corner, scalars)
-        pitch = _pitch_moment(u[k, 0], corner, scalars)
+        suspension_tensions(dz[k], dzdot[k], actuator[k], corner, tau, force, ks, cd)
         for c in range(4):
-            heave -= force[c]
-            roll -= corner[c, CY] * force[c]
-            pitch += corner[c, CX] * force[c]
-        for c in range(4):
-            out[k, c] = heave / scalars[SM] + corner[c, CY] * roll / scalars[SIR] - corner[c, CX] * pitch / scalars[SIP]
+            out[k, c] = _body_accel(no_error, u[k], corner, coupling, force, c)
     return out
 
 
@@ -172,9 +167,9 @@ def deflection_sign_correlation(sensors: VerticalSensors, *, params: VerticalVeh
     from ._model import vertical_params_arrays
     from ._params import VerticalVehicleParams
 
-    corner, _, scalars = vertical_params_arrays(params or VerticalVehicleParams())
+    corner, coupling, scalars = vertical_params_arrays(params or VerticalVehicleParams())
     v = np.ascontiguousarray(damper_velocity_from_displacement(dz, sensors.dt, cutoff=50.0))
     act = np.zeros_like(dz) if actuator_force is None else np.ascontiguousarray(actuator_force, dtype=float)
     u = np.ascontiguousarray(vertical_ekf_inputs(sensors)[:, :3])
-    implied = _body_corner_accel(dz, v, act, u, corner, scalars)
+    implied = _body_corner_accel(dz, v, act, u, corner, coupling, scalars[STAU])
     return _correlation(sensors.body_accel, implied, _BODY_BAND, sensors.dt)
