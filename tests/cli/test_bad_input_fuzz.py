@@ -53,11 +53,19 @@ def make_inputs(folder: Path) -> Path:
          "-o", str(folder / "vlog.csv")],
         ["rail", "simulate", "--preset", "mittersheim-like", "--days", "6", "-o", str(folder / "site")],
         ["road", "simulate", "--profile", "crenels", "--length", "120", "-o", str(folder / "bench.csv")],
-        ["road", "convert", str(folder / "profile.csv"), str(folder / "ref.csv")],
+        # the reference of `road compare`: another recording of the same road (new noise), reconstructed (the
+        # profile itself again is refused since session 39)
+        ["road", "simulate", "--road-class", "C", "--length", "200", "--road-seed", "1", "--seed", "2", "-o",
+         str(folder / "rec2.csv")],
+        ["road", "reconstruct", str(folder / "rec2.csv"), "-o", str(folder / "ref.csv")],
     ]
     for argv in run:
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
             assert main(argv) == 0, argv
+    # the cases edit profile.csv as a spreadsheet would, its header on line 1: the `#` provenance lines `road
+    # reconstruct` writes before it (session 39) are left out here
+    profile = folder / "profile.csv"
+    profile.write_text("".join(ln for ln in profile.read_text().splitlines(True) if not ln.startswith("#")))
     t = np.arange(2000) * 1e-3
     pd.DataFrame(dict(time=t, x=np.sin(2 * np.pi * 2 * t))).to_csv(folder / "sig.csv", index=False)
     from longprofile.vehicle import default_vehicle
@@ -135,6 +143,18 @@ COMMANDS = [
     Command("road convert onto a hard link of its input", "profile.csv",
             lambda d: ["road", "convert", str(d / "profile.csv"), str(d / "link.csv"), "--overwrite"],
             key="distance_m", value="elevation_m", as_is=True),
+    # session 39 (a track engineer's probe): the thresholds file, and options written the way users write them
+    Command("rail settle --thresholds", "site/thresholds.csv",
+            lambda d: [*_settle(d), "--thresholds", str(d / "site/thresholds.csv")], key="", value="value_mm"),
+    Command("rail settle --quiet-day 08/12/2019 (day/month)", "site/readings.csv",
+            lambda d: [*_settle(d), "--quiet-day", "08/12/2019"], key="timestamp", value="angle_deg", as_is=True),
+    Command("rail settle --quiet-day outside the record", "site/readings.csv",
+            lambda d: [*_settle(d), "--quiet-day", "2018-01-01"], key="timestamp", value="angle_deg", as_is=True),
+    Command("rail settle --alarm-probability 50 (a percentage)", "site/readings.csv",
+            lambda d: [*_settle(d), "--alarm-probability", "50"], key="timestamp", value="angle_deg", as_is=True),
+    Command("rail settle --settlement-threshold-mm 0.01 (metres as mm)", "site/readings.csv",
+            lambda d: [*_settle(d), "--settlement-threshold-mm", "0.01"], key="timestamp", value="angle_deg",
+            as_is=True),
 ]
 
 
@@ -352,6 +372,48 @@ def a_dropout_coded_9999(path, cmd, rng):
     _save(f, path)
 
 
+def a_blank_line(path, cmd, rng):
+    """An empty line among the data (a logger's empty record; session 39, a probe: "distance must be finite; 1
+    non-finite value(s), first at index (5000,)", no file, no line)."""
+    head, rows = _rows(path.read_text())
+    i = _pick(rng, len(rows))
+    path.write_text("\n".join([head, *rows[:i], "", *rows[i:]]) + "\n")
+
+
+def a_stop(path, cmd, rng):
+    """The trailer stopped: one station logged on 20 rows (session 39, a probe: "distance[20001] = 1000.0 <=
+    distance[20000] = 1000.0", no line, no cause)."""
+    f = _frame(path)
+    i = _pick(rng, len(f))
+    _save(pd.concat([f.iloc[: i + 1], *[f.iloc[i: i + 1]] * 20, f.iloc[i + 1:]]), path)
+
+
+def km_rounded(path, cmd, rng):
+    """Stations exported in km to 4 decimals (0.1 m, coarser than the 0.05 m samples; session 39, a probe)."""
+    f = _frame(path)
+    f[cmd.key] = (12.3 + pd.to_numeric(f[cmd.key]) / 1000).round(4).map(repr)
+    _save(f.rename(columns={cmd.key: "chainage_km"}), path)
+
+
+def metres_under_a_mm_label(path, cmd, rng):
+    """An APL signal in metres under an mm label (session 39, a probe: a profile 1000 times too small, q 2.4e-12)."""
+    _save(_frame(path).rename(columns={cmd.metre: cmd.metre[:-2] + "_mm"}), path)
+
+
+def micrometres(path, cmd, rng):
+    """The value column in micrometres, a unit the package does not convert (session 39, a probe: read as metres)."""
+    f = _frame(path)
+    f[cmd.value] = (pd.to_numeric(f[cmd.value]) * 1e6).map(repr)
+    _save(f.rename(columns={cmd.value: cmd.value.rsplit("_", 1)[0] + "_um"}), path)
+
+
+def a_vendor_station_name(path, cmd, rng):
+    """The station column named as a vendor's software does (session 39, a probe: "missing column(s)
+    ['distance_m']", no names it takes)."""
+    name = rng.choice(["PR_m", "DIST (m)", "abscisse_m", "PK [km]"])
+    _save(_frame(path).rename(columns={cmd.key: name}), path)
+
+
 def a_dead_sensor(path, cmd, rng):
     """Every elevation 0 (a dead height sensor; session 36, a probe: paid the acceptance bonus on every lot)."""
     f = _frame(path)
@@ -397,13 +459,54 @@ def a_car_value_in_another_unit(path, cmd, rng):
     path.write_text(text)
 
 
+def thresholds_in_metres(path, cmd, rng):
+    """Settlement thresholds written in metres under value_mm (0.010 for 10 mm; session 39, a probe: 4540 alarms, no
+    word; a rate or a twist of a few mm in metres fell below the old floor of 0.01 mm and was refused already)."""
+    f = _frame(path)
+    f = f[f["quantity"] == "settlement"]
+    f[cmd.value] = (pd.to_numeric(f[cmd.value]) / 1000.0).map(repr)
+    _save(f, path)
+
+
+def an_unknown_angle_unit(path, cmd, rng):
+    """An angle column declaring a unit the reader does not convert (gon; session 39: arcsec, mm/m, µrad and % were
+    refused as a missing angle_deg column, now read; an unknown one is named)."""
+    _save(_frame(path).rename(columns={"angle_deg": "angle (gon)"}), path)
+
+
+def spring_local_times(path, cmd, rng):
+    """Loggers in local time (Europe/Paris) across the spring clock change, no --timezone (session 39, a probe:
+    accepted silently while the autumn change was refused)."""
+    f = _frame(path)
+    t = pd.to_datetime(f["timestamp"])
+    t = t + (pd.Timestamp("2020-03-27") - t.min().normalize())
+    local = t.dt.tz_localize("UTC").dt.tz_convert("Europe/Paris").dt.tz_localize(None)
+    f["timestamp"] = local.dt.strftime("%Y-%m-%d %H:%M:%S")
+    _save(f, path)
+
+
+def a_conflicting_duplicate(path, cmd, rng):
+    """A reading repeated at the same sensor and time with another angle (exact repeats are dropped with a warning)."""
+    f = _frame(path)
+    i = _pick(rng, len(f))
+    row = f.iloc[i: i + 1].copy()
+    row[cmd.value] = (pd.to_numeric(row[cmd.value]) + 0.01).map(repr)
+    _save(pd.concat([f.iloc[: i + 1], row, f.iloc[i + 1:]]), path)
+
+
+def no_temperature_column(path, cmd, rng):
+    """An angles-only logger's export without --thermal none (the refusal names --thermal none; with it, it runs)."""
+    _save(_frame(path).drop(columns=["temperature_c"]), path)
+
+
 #: mutation -> applies to a command when the predicate holds
 def _table(c: Command) -> bool:
     return not c.as_is and not c.target.endswith(".toml")
 
 
 def _general(c: Command) -> bool:
-    return _table(c) and not c.name.startswith(("rail settle (survey z)", "vehicle slope (steering"))
+    return _table(c) and not c.name.startswith(("rail settle (survey z)", "vehicle slope (steering",
+                                                 "rail settle --thresholds"))
 
 
 MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
@@ -436,11 +539,23 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "times with and without a UTC offset": (offsets_on_some_times, lambda c: c.name == "rail settle (readings)"),
     "a stray reading years before": (a_stray_reading_years_before, lambda c: c.name == "rail settle (readings)"),
     "a dropout coded -9999": (a_dropout_coded_9999, lambda c: _general(c) and c.key == "distance_m"),
+    "a blank line among the data": (a_blank_line, lambda c: _general(c) and c.key == "distance_m"),
+    "a stop (one station on 20 rows)": (a_stop, lambda c: _general(c) and c.key == "distance_m"),
+    "stations in km to 4 decimals": (km_rounded, lambda c: _general(c) and c.key == "distance_m"),
+    "metres under a mm label": (metres_under_a_mm_label, lambda c: c.name == "road reconstruct"),
+    "micrometres": (micrometres, lambda c: _general(c) and c.key == "distance_m"),
+    "a vendor's station name": (a_vendor_station_name,
+                                lambda c: _general(c) and c.key == "distance_m" and c.name != "road identify"),
     "a dead height sensor": (a_dead_sensor, lambda c: c.name in ("road acceptance", "road compare (a run)")),
     "gravity in the accelerometers": (gravity_in_the_accelerometers, lambda c: c.name == "vehicle vertical estimate"),
     "a dead wheel speed sensor": (a_dead_wheel_speed_sensor, lambda c: _table(c) and c.name.startswith("vehicle slope")),
     "a time reset": (a_time_reset, lambda c: _table(c) and c.time is not None),
     "a car value in another unit": (a_car_value_in_another_unit, lambda c: c.target.endswith(".toml")),
+    "thresholds in metres under value_mm": (thresholds_in_metres, lambda c: c.name == "rail settle --thresholds"),
+    "an angle unit not known": (an_unknown_angle_unit, lambda c: c.name == "rail settle (readings)"),
+    "local times across the spring change": (spring_local_times, lambda c: c.name == "rail settle (readings)"),
+    "a reading repeated with another value": (a_conflicting_duplicate, lambda c: c.name == "rail settle (readings)"),
+    "no temperature column": (no_temperature_column, lambda c: c.name == "rail settle (readings)"),
 }
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
@@ -454,7 +569,17 @@ WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
           ("rail settle (survey)", "descending keys"): "not in order of x_m",
           ("rail settle (readings)", "a day without any temperature"): "without a usable daily angle on any sensor",
           ("rail settle (readings)", "a channel written NAN"): "had an angle but no usable temperature",
-          ("rail settle (readings)", "a stray reading years before"): "is the reference day"}
+          ("rail settle (readings)", "a stray reading years before"): "is the reference day",
+          # a row repeated exactly is an overlapping download: dropped, counted in a warning (session 39)
+          ("rail settle (readings)", "duplicate row"): "repeated exactly",
+          # rows cut from an APL recording's grid are its missing samples, bridged (as empty cells are; session 39)
+          ("road reconstruct", "rows missing (a gap)"): "absent from the"}
+
+
+#: Mutations whose refusal must also name the broken file (session 39: an APL recording's stations were refused as
+#: "distance must be finite; ... first at index (5000,)", with neither the file nor its line).
+NAMES_THE_FILE = {"a blank line among the data", "a stop (one station on 20 rows)", "stations in km to 4 decimals",
+                  "metres under a mm label", "micrometres", "a vendor's station name"}
 
 
 # ---- running and classifying ---------------------------------------------------------------------------------
@@ -488,7 +613,9 @@ def run_case(valid: Path, work: Path, cmd: Command, mutation: str) -> tuple[str,
         warned = phrase is not None and any(ln.startswith("warning:") and phrase in ln for ln in text.splitlines())
         return ("warned" if warned else "silent"), text
     errors = [ln for ln in text.splitlines() if ln.startswith("error:")]
-    if code == 2 and len(errors) == 1 and "Traceback" not in text and not written:
+    named = mutation not in NAMES_THE_FILE or any(Path(cmd.target).name in ln for ln in text.splitlines()
+                                                  if ln.startswith("error:"))
+    if code == 2 and len(errors) == 1 and "Traceback" not in text and not written and named:
         return "clear", errors[0]
     return "unclear", f"exit {code}; written {written}; {text}"
 

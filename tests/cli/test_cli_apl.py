@@ -34,7 +34,7 @@ def test_simulate_then_reconstruct_three_methods(tmp_path):
             args += ["--q", "2e-6", "--r", "1e-8"]
         r = _run(args)
         assert r.exit_code == 0, r.output
-        prof = pd.read_csv(out)
+        prof = pd.read_csv(out, comment="#")
         assert list(prof.columns) == ["distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m"]
         assert np.isfinite(prof["elevation_m"]).all()
     assert (tmp_path / "p.png").stat().st_size > 1000
@@ -60,7 +60,7 @@ def test_reconstruct_bad_inputs_are_one_line_errors(tmp_path, capsys):
     assert "missing" in capsys.readouterr().err
     # the Kalman methods bridge the gap (documented), with a larger posterior std there
     assert main(["road", "reconstruct", str(gap), "--q", "2e-6", "--r", "1e-8", "-o", out]) == 0
-    prof = pd.read_csv(out)
+    prof = pd.read_csv(out, comment="#")
     assert prof["raw_std_m"][110] > prof["raw_std_m"][90]
 
 
@@ -84,7 +84,7 @@ def test_identify_writes_a_model_loadable_by_reconstruct(tmp_path):
     r = _run(["road", "reconstruct", str(rec), "--model", str(model), "--q", "2e-6", "--r", "1e-8",
               "-o", str(tmp_path / "p.csv")])
     assert r.exit_code == 0, r.output
-    # a model identified for another spacing is refused
+    # a --dx the record's stations do not have is refused (a model of another dx is re-discretised: test_resample_model)
     assert main(["road", "reconstruct", str(rec), "--model", str(model), "--dx", "0.15", "-o",
                  str(tmp_path / "q.csv")]) == 2
 
@@ -123,3 +123,34 @@ def test_an_apl_recording_takes_its_stations_in_any_length_unit(tmp_path, statio
     a, b = pd.read_csv(ref, comment="#"), pd.read_csv(out, comment="#")
     np.testing.assert_allclose(b["distance_m"], a["distance_m"], rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(b["elevation_m"], a["elevation_m"], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_reconstructed_profile_records_how_it_was_made(tmp_path, suffix):
+    """Provenance of a `road reconstruct` output (probe finding 10): speed, dx, method, model, q, r, high-pass,
+    source as `#` lines / Parquet metadata, as IRI tables carry them; every profile reader reads the file as before."""
+    from longprofile.io import read_profile, read_report_table, read_table
+
+    rec = tmp_path / "rec.csv"
+    assert _run(["road", "simulate", "-o", str(rec), "--length", "200", "--seed", "2"]).exit_code == 0
+    out = tmp_path / f"p{suffix}"
+    r = _run(["road", "reconstruct", str(rec), "--method", "fixed-lag", "--r", "1e-8", "--q", "2e-6",
+              "--highpass-wavelength", "80", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    frame, meta = read_report_table(out)
+    assert meta["source"] == str(rec) and meta["column"] == "apl_m" and meta["command"] == "road reconstruct"
+    assert meta["speed_m_per_s"] == 20.0 and meta["dx_m"] == 0.05 and meta["method"] == "fixed-lag"
+    assert meta["q_m2"] == 2e-6 and meta["r_m2"] == 1e-8 and meta["q_r"] == "given"
+    assert meta["highpass_wavelength_m"] == 80.0 and meta["lag_m"] > 0 and meta["model"].startswith("paper 000")
+    assert meta["software"].startswith("longprofile ")
+    if suffix == ".csv":
+        lines = out.read_text().splitlines()
+        assert lines[0].startswith("# software: ") and lines[len(meta)] == "distance_m,elevation_m,std_m,raw_m,raw_std_m"
+    plain = tmp_path / f"plain{suffix}"
+    table = read_table(out)
+    table.to_csv(plain, index=False) if suffix == ".csv" else table.to_parquet(plain, index=False)
+    assert list(table.columns) == ["distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m"]
+    a, b = read_profile(out), read_profile(plain)
+    assert a.tracks == ("elevation",) and np.array_equal(a.elevation, b.elevation) and np.array_equal(a.std, b.std)
+    iri = [_run(["road", "iri", str(f), "--segment", "50"]) for f in (out, plain)]
+    assert iri[0].exit_code == 0 and iri[0].output.splitlines()[-3:] == iri[1].output.splitlines()[-3:]

@@ -23,7 +23,7 @@ def reconstructed(tmp_path_factory):
 
 
 def test_reconstruct_writes_the_elevation_track_as_erd(reconstructed):
-    table = pd.read_csv(reconstructed / "p.csv")
+    table = pd.read_csv(reconstructed / "p.csv", comment="#")
     erd = read_erd(reconstructed / "p.erd")
     assert erd.tracks == ("elevation",)
     header = (reconstructed / "p.erd").read_text().splitlines()[:7]

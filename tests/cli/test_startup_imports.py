@@ -81,8 +81,10 @@ def test_road_simulate_loads_no_scipy_signal_matplotlib_or_service(tmp_path, mon
 
 
 def test_road_compare_loads_no_scipy_signal_or_service(profile_csv, tmp_path):
-    run = tmp_path / "run.csv"
-    run.write_text(profile_csv.read_text())
+    run = tmp_path / "run.csv"  # another run of the same road (a copy of the reference is refused: issue 13)
+    x = np.arange(0.0, 300.0, 0.25)
+    run.write_text("distance_m,elevation_m\n" + "\n".join(f"{d:.6f},{1e-3 * np.sin(d / 3.0) + 1e-5 * np.cos(d):.9f}"
+                                                           for d in x) + "\n")
     found = _heavy_imports(["road", "compare", str(profile_csv), str(run), "-o", str(tmp_path / "cmp")], tmp_path)
     # the cross-correlation is scipy.fft's (scipy.signal's import is ~0.4 s, issue 12)
     assert found <= {"pandas", "pyarrow", "numba"}, found
@@ -127,6 +129,16 @@ def test_road_reconstruct_with_a_warm_design_cache_loads_no_scipy_signal(apl_rec
     found = _warm_then_modules(["road", "reconstruct", str(apl_recording), "--method", method, "-o",
                                 str(tmp_path / "p{n}.erd")], tmp_path)
     assert "scipy.signal" not in found and "scipy.stats" not in found, found
+
+
+@pytest.mark.parametrize("method", ["smoother", "filter", "fixed-lag"])
+def test_road_reconstruct_fitting_q_and_r_loads_no_scipy_optimize(apl_recording, tmp_path, method):
+    # the q/r likelihood search is the package's own Brent minimiser (road/apl/_minimize.py): scipy.optimize's
+    # import was 0.18-0.28 s CPU of every method (2026-12-07). With a warm design cache (scipy.signal, which a cold
+    # one needs for the filter designs, imports scipy.optimize itself); --plot draws with matplotlib alone
+    found = _warm_then_modules(["road", "reconstruct", str(apl_recording), "--method", method, "-o",
+                                str(tmp_path / "p{n}.csv"), "--plot", str(tmp_path / "p{n}.png")], tmp_path)
+    assert "scipy.optimize" not in found, found
 
 
 def test_vehicle_vertical_commands_with_a_warm_design_cache_load_no_scipy_signal(tmp_path, design_cache):

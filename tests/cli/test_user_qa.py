@@ -109,7 +109,7 @@ def test_reconstruct_converts_a_column_named_in_mm(recording, tmp_path):
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
     assert main(["road", "reconstruct", str(recording), "--method", "double", "-o", str(a)]) == 0
     assert main(["road", "reconstruct", str(mm), "--column", "apl_mm", "--method", "double", "-o", str(b)]) == 0
-    np.testing.assert_allclose(pd.read_csv(b)["elevation_m"], pd.read_csv(a)["elevation_m"], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(pd.read_csv(b, comment="#")["elevation_m"], pd.read_csv(a, comment="#")["elevation_m"], rtol=1e-9, atol=1e-12)
 
 
 def test_reconstruct_refuses_millimetres_in_a_metre_column(recording, tmp_path, capsys):

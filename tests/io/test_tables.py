@@ -215,3 +215,19 @@ def test_report_table_metadata_is_strict_json(tmp_path):
     for line in (tmp_path / "t.csv").read_text().splitlines():
         if line.startswith("# "):
             json.loads(line.split(": ", 1)[1], parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+
+
+@pytest.mark.parametrize("name", ["t.csv", "t.parquet"])
+def test_write_table_metadata_reads_back_and_is_skipped_by_read_table(tmp_path, name):
+    """``write_table(..., metadata=)``: `#` lines / Parquet metadata (as write_report_table), with a text column
+    (the pandas writer) and without (the pyarrow writer); read_table returns the same frame as without them."""
+    from longprofile.io import read_report_table, read_table, write_table
+
+    meta = {"source": "a#1.csv", "q_m2": 2e-6, "none": None, "list": [1, "x"]}
+    for df in (pd.DataFrame({"x_m": [0.0, 0.5], "z_m": [1.5, float("nan")]}),
+               pd.DataFrame({"x_m": [0.0, 0.5], "name": ["NA", "PK#12"]})):
+        write_table(df, tmp_path / name, metadata=meta)
+        frame, got = read_report_table(tmp_path / name)
+        assert got == meta
+        write_table(df, tmp_path / f"plain_{name}")
+        pd.testing.assert_frame_equal(read_table(tmp_path / name), read_table(tmp_path / f"plain_{name}"))

@@ -110,7 +110,7 @@ def test_option_flags_reach_the_settings(site_dir, tmp_path, monkeypatch, capsys
     assert seen == [value, "off"]
     code = main(base + [flag, bad, "-o", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
-    assert code == 2 and f"{attr} must be one of" in err and len(err.strip().splitlines()) == 1
+    assert code == 2 and f"{flag} {bad}: not known; use one of off, {value}" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
 
 

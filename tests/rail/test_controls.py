@@ -71,6 +71,32 @@ def test_the_check_is_the_chi_squared_test_and_names_the_worst_point():
         check_controls(t, p=0.0)
 
 
+@settings(max_examples=30, deadline=None)
+@given(offset_mm=st.floats(15.0, 500.0), sign=st.sampled_from([-1.0, 1.0]), seed=st.integers(0, 2**31 - 1))
+def test_controls_on_another_datum_are_named_as_an_offset_before_the_other_causes(offset_mm, sign, seed):
+    """Every point off by the same amount (controls on another benchmark; a user's probe, session 39: +0.3 m was
+    reported as "a span end that moved"): the warning names the offset first and how to remove it."""
+    noise = np.random.default_rng(seed).normal(0.0, 2.0, 9)  # the levelling's own noise, mm
+    c = check_controls(_table(sign * offset_mm + noise))
+    assert c.disagree and len(c.offsets) == 1
+    date, off, spread = c.offsets[0]
+    assert date == "2024-03-03" and off == pytest.approx(1e-3 * (sign * offset_mm + noise.mean()), abs=1e-9)
+    msg = c.message()
+    assert "Same offset at every point" in msg and "another datum or benchmark" in msg
+    assert msg.index("another datum") < msg.index("a span end that moved")
+
+
+def test_a_moved_end_or_a_step_is_not_called_an_offset():
+    cx = np.arange(0.0, 20.01, 2.5)
+    step = np.where(cx > 10.0, -20.0, 0.0)  # a step at a joint: half the span lowered
+    tilt = -20.0 * cx / 20.0  # the far end moved
+    single = np.zeros(9)
+    single[4] = -20.0
+    for mm in (step, tilt, single):
+        c = check_controls(_table(mm))
+        assert c.disagree and c.offsets == () and "Same offset" not in c.message()
+
+
 @settings(max_examples=20, deadline=None)
 @given(n=st.integers(3, 60), seed=st.integers(0, 2**31 - 1))
 def test_false_alarm_rate_of_agreeing_controls_is_the_level(n, seed):

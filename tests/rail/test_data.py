@@ -45,8 +45,9 @@ def test_unknown_sensor_ids_are_an_error(small):
 
 
 def test_duplicate_timestamps_are_an_error(small):
-    r = pd.concat([small.readings, small.readings.iloc[[10]]], ignore_index=True)
-    with pytest.raises(InputError, match="duplicate reading for sensor") as one:
+    r = pd.concat([small.readings, small.readings.iloc[[10]].assign(angle_deg=lambda d: d.angle_deg + 0.01)],
+                  ignore_index=True)
+    with pytest.raises(InputError, match="two different readings for sensor") as one:
         validate_site(small.sensors, r, small.survey)
     assert "daylight-saving" not in str(one.value)
     # a logger in local time when the clock goes back: every sensor repeats the hour 02:00-03:00

@@ -17,9 +17,10 @@ EXPECTED = {
     "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval", "MaxSettlement",
     "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
-    "check_threshold", "THRESHOLD_RANGE_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds",
+    "check_threshold", "THRESHOLD_RANGE_M", "THRESHOLD_FLOORS_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds",
     "threshold_alarms", "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
     "lag_variance_ratio", "LAG_AUTO_RATIO",
+    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
 }
 
 

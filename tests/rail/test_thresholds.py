@@ -76,7 +76,7 @@ def test_thresholds_table_is_read_in_mm_and_checked(tmp_path):
     assert read_rail_thresholds(f) == {"settlement": {"alert": 0.01, "alarm": 0.02}, "rate": {"alert": 0.002},
                                        "twist": {"action": 0.004}}
     for text, msg in [("quantity,level,value_mm\nsettlement,alert,10\nsettlement,alert,12\n", "given twice"),
-                      ("quantity,level,value_mm\nsettlement,alert,0.001\n", "not plausible"),
+                      ("quantity,level,value_mm\nsettlement,alert,0.001\n", "metres under value_mm"),
                       ("quantity,level,value\nsettlement,alert,10\n", "value_mm"),
                       ("quantity,level,value_mm,note\nsettlement,alert,10,x\n", "unknown column"),
                       ("quantity,level,value_mm\nsettlement,alert,abc\n", "value_mm"),

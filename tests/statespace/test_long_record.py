@@ -70,12 +70,47 @@ def test_not_converged_flag_and_bounded_exact_start():
     assert not s.converged and s.n_exact == 32
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 4), m=st.integers(1, 2),
+       radius=st.floats(0.3, 0.97), exact_chunk=st.integers(8, 64), chunk=st.integers(5, 80),
+       gaps=st.lists(st.tuples(st.integers(0, 599), st.integers(1, 40)), min_size=1, max_size=4))
+def test_gaps_are_bridged_as_by_the_exact_filter_and_smoother(seed, n, m, radius, exact_chunk, chunk, gaps):
+    """Missing samples anywhere (in the exact start, in the constant-gain part, at the end): the means and the
+    likelihood of kalman_filter/rts_smoother on the same record with the same gaps."""
+    model = _random_model(seed, n, m, radius)
+    _x, y = simulate(model, 600, rng=seed)
+    for a, length in gaps:
+        y[a:a + length] = np.nan
+    exact_f = kalman_filter(model, y)
+    exact_s = rts_smoother(model, exact_f)
+    kw = dict(tol=1e-13, chunk_size=chunk, exact_chunk=exact_chunk)
+    f = long_record_filter(model, y, **kw)
+    s = long_record_smoother(model, y, **kw)
+    scale = np.abs(exact_s.mean).max()
+    np.testing.assert_allclose(f.mean, exact_f.mean, atol=1e-9 * scale, rtol=0)
+    np.testing.assert_allclose(s.mean, exact_s.mean, atol=1e-9 * scale, rtol=0)
+    assert s.log_likelihood == pytest.approx(exact_f.log_likelihood, rel=1e-10, abs=1e-8)
+    assert s.n_observed == exact_f.n_observed
+
+
+def test_a_gap_after_the_switch_hands_back_to_the_exact_filter():
+    """A gap in the constant-gain part: the exact filter bridges it and the constant gain takes over again."""
+    model = _random_model(1, 3, 1, 0.9)
+    _x, y = simulate(model, 5000, rng=2)
+    y[2500:2540] = np.nan
+    y[4000] = np.nan
+    s = long_record_smoother(model, y, exact_chunk=50, chunk_size=333)
+    assert s.converged and 0 < s.n_exact < 2500 and 41 <= s.n_bridged < 2500
+    exact = rts_smoother(model, kalman_filter(model, y)).mean
+    np.testing.assert_allclose(s.mean, exact, atol=1e-7 * np.abs(exact).max())
+
+
 def test_refusals():
+    y = np.ones((100, 2))
+    y[5, 0] = np.nan
+    with pytest.raises(InputError, match="in part only"):
+        long_record_smoother(_random_model(0, 2, 2, 0.5), y)
     model = _random_model(0, 2, 1, 0.5)
-    y = np.ones(100)
-    y[5] = np.nan
-    with pytest.raises(InputError, match="missing"):
-        long_record_smoother(model, y)
     walk = StateSpaceModel([[1.0, 0.0], [0.0, 0.5]], [[0.0, 1.0]], np.eye(2), [[1.0]], [0.0, 0.0], np.eye(2))
     with pytest.raises(NotDetectableError):
         long_record_smoother(walk, np.ones(100))

@@ -244,8 +244,12 @@ class ReconstructTask:
 
     Parameters
     ----------
-    speed : float
-        Towing speed, m/s. dx : float -- spacing, m (must match the files' ``distance_m``).
+    speed : float or None
+        Towing speed, m/s; None (default): each file's speed column, else 20 m/s, as ``road reconstruct`` without
+        ``--speed`` (:func:`longprofile.road.apl.towing_speed`: a given speed off a file's speed column by more
+        than the tolerance fails that file; samples towed off the model's speed get NaN std and a warning).
+    dx : float
+        Spacing, m (must match the files' ``distance_m``).
     method : str
         ``"smoother"`` (default), ``"fixed-lag"``, ``"double"`` or ``"filter"``.
     column : str
@@ -256,7 +260,7 @@ class ReconstructTask:
         The IRI report (fixed segments) of the reconstruction, as :class:`IRITask`.
     """
 
-    speed: float = 20.0
+    speed: float | None = None
     dx: float = 0.05
     method: str = "smoother"
     column: str = "apl_m"
@@ -279,7 +283,7 @@ class ReconstructTask:
         _check_units(self.units)
         if self.interval is None:
             object.__setattr__(self, "interval", _UNITS[self.units][4])
-        for key in ("speed", "dx", "interval", "lead_in"):
+        for key in ("dx", "interval", "lead_in") + (() if self.speed is None else ("speed",)):
             object.__setattr__(self, key, _finite_positive(key, getattr(self, key)))
         for key in ("q", "r", "correlation_length", "highpass_wavelength", "lag", "start"):
             object.__setattr__(self, key, _optional_float(key, getattr(self, key)))
@@ -295,37 +299,57 @@ class ReconstructTask:
                        lead_in=self.lead_in)
 
     def __call__(self, path) -> TaskOutput:
-        from ..io import read_apl_signal
+        from ..io import read_apl_record
+        from ..road.apl import towing_speed
 
-        return self.analyse(read_apl_signal(path, column=self.column))
+        record = read_apl_record(path, column=self.column, dx=self.dx)
+        recording = record.recording
+        towing, check = towing_speed(recording.signal.distance, record.speed, self.speed, dx=self.dx,
+                                     label=str(path))
+        notes = [*record.notes, towing.note] if towing.note else list(record.notes)
+        if recording.absent:
+            first, last, _ = recording.absent[0]
+            notes.append(f"{sum(k for *_, k in recording.absent)} station(s) absent from the record's grid (the "
+                         f"first {first:.3f} .. {last:.3f} m) read as missing samples, bridged")
+        out = self.analyse(recording.signal, speed=towing.speed, speed_check=check)
+        if not notes:
+            return out
+        note = "; ".join(notes)
+        return dataclasses.replace(out, warning=f"{out.warning}; {note}" if out.warning else note)
 
-    def analyse(self, signal) -> TaskOutput:
-        """The task on an APL signal :class:`~longprofile.road.Profile` already in memory."""
+    def analyse(self, signal, *, speed: float | None = None, speed_check=None) -> TaskOutput:
+        """The task on an APL signal :class:`~longprofile.road.Profile` already in memory, towed at ``speed`` (m/s;
+        default the task's, else 20 m/s); ``speed_check`` (:func:`longprofile.road.apl.check_speed_samples`) NaNs
+        the std of the samples towed off it."""
         import numpy as np
 
         from ..road import Profile
-        from ..road.apl import apl_model, reconstruct_profile
+        from ..road.apl import DEFAULT_TOWING_SPEED, apl_model, reconstruct_profile, without_off_speed_std
 
-        rec = reconstruct_profile(signal, apl_model(self.speed, self.dx), method=self.method, q=self.q, r=self.r,
+        speed = speed if speed is not None else (self.speed or DEFAULT_TOWING_SPEED)
+        rec = reconstruct_profile(signal, apl_model(speed, self.dx), method=self.method, q=self.q, r=self.r,
                                   input_model=self.input_model, correlation_length=self.correlation_length,
                                   highpass_wavelength=self.highpass_wavelength, lag_m=self.lag)
+        if speed_check is not None:
+            rec = without_off_speed_std(rec, speed_check)
         profile = Profile(rec.profile.distance, rec.profile.elevation, tracks=("elevation",), name=signal.name)
         iri_out = self.iri_task.analyse(profile)
         meta = dict(iri_out.metadata, method=rec.method, q_m2=rec.q, r_m2=rec.r, input_model=rec.input_model,
-                    lag_m=rec.lag_m, n_samples=signal.n_samples,
+                    lag_m=rec.lag_m, speed_m_per_s=speed, n_samples=signal.n_samples,
                     n_missing=int(np.isnan(signal.elevation[:, 0]).sum()))
-        return TaskOutput(segments=iri_out.segments, profile=rec.to_frame(), metadata=meta,
-                          warning=iri_out.warning)
+        off_speed = None if speed_check is None else speed_check.warning
+        warning = "; ".join(w for w in (iri_out.warning, off_speed) if w) or None
+        return TaskOutput(segments=iri_out.segments, profile=rec.to_frame(), metadata=meta, warning=warning)
 
     def warm(self) -> None:
         """Reconstruct a short simulated recording once (compiles or loads the kernels; checks the options)."""
-        from ..io import read_apl_signal  # noqa: F401  (imports of __call__, paid here)
+        from ..io import read_apl_recording  # noqa: F401  (imports of __call__, paid here)
         from ..road import Profile
-        from ..road.apl import apl_model, simulate_apl_recording
+        from ..road.apl import DEFAULT_TOWING_SPEED, apl_model, simulate_apl_recording
 
         span = self.interval * _UNITS[self.units][1]
         length = max(1.5 * (self.highpass_wavelength or 0.0), 250.0 * self.dx, 2.0 * (self.lead_in + span) + 1.0)
-        rec = simulate_apl_recording("iso8608", apl_model(self.speed, self.dx), length=length, road_class="B",
+        rec = simulate_apl_recording("iso8608", apl_model(self.speed or DEFAULT_TOWING_SPEED, self.dx), length=length, road_class="B",
                                      noise_fraction=0.02, rng=0)
         task = self if self.start is None else dataclasses.replace(self, start=None)
         task.analyse(Profile(rec.distance, rec.signal, name="warm-up"))

@@ -68,7 +68,10 @@ def reconstruct_command(
                                 help="Profile to write: .csv/.parquet table with distance_m, elevation_m, std_m, raw_m, "
                                      "raw_std_m; or .erd (ProVAL/UMTRI text) with the elevation track only, in mm "
                                      "(the std and raw columns go to CSV/Parquet only)."),
-    speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
+    speed: float = typer.Option(None, "--speed", help="Towing speed, m/s. Default: the file's speed column (speed_kmh, "
+                                "'Speed \\[km/h]', speed_m_s: its median over moving samples, matched to a calibrated "
+                                "model), else 20 m/s (paper 000's 72 km/h). A --speed more than 1 % (0.25 % at 6 m/s) "
+                                "off the file's is refused."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's stations)."),
     method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
@@ -100,29 +103,47 @@ def reconstruct_command(
 ):
     """Reconstruct the road profile from an APL signal (smoother, Kalman filter, double filtering or fixed lag)."""
     import numpy as np
+    from rich.markup import escape
 
     from ..errors import InputError
-    from ..io import read_apl_signal, write_erd, write_table
-    from ..road.apl import SHORT_WAVE_OPTIONS, InstrumentUncertainty, detrend_profile, reconstruct_recording
+    from ..io import read_apl_record, write_erd, write_table
+    from ..road.apl import (
+        SHORT_WAVE_OPTIONS,
+        InstrumentUncertainty,
+        detrend_profile,
+        load_model,
+        reconstruct_recording,
+        towing_speed,
+        without_off_speed_std,
+    )
 
     uncertainty = None if instrument_uncertainty is None else InstrumentUncertainty.parse(instrument_uncertainty)
     if short_waves is not None and short_waves not in SHORT_WAVE_OPTIONS:
         raise InputError(f"--short-waves must be one of {', '.join(SHORT_WAVE_OPTIONS)}; got {short_waves!r}.")
     out = check_output_path(output, file, suffixes=PROFILE_SUFFIXES, overwrite=overwrite)
     png = check_plot_path(plot, file, out, overwrite=overwrite)
-    signal = read_apl_signal(file, column=column)
+    record = read_apl_record(file, column=column, dx=dx)
+    recording, signal = record.recording, record.recording.signal
+    model_speed = None if model is None or speed is not None or record.speed is None else load_model(model).speed
+    towing, speed_check = towing_speed(signal.distance, record.speed, speed, dx=dx, model_speed=model_speed,
+                                       label=str(file))
+    speed = towing.speed
+    for note in (*record.notes, towing.note) if towing.note else record.notes:
+        console.print(f"[cyan]note:[/cyan] {escape(note)}")
     with progress() as bar:
         task = bar.add_task(f"reconstruct ({method})", total=1)
         rec = reconstruct_recording(signal, speed=speed, dx=dx, model_file=model, source=str(file), method=method,
                                     q=q, r=r, input_model=input_model, correlation_length=correlation_length,
                                     highpass_wavelength=highpass, lag_m=lag,
                                     instrument_uncertainty=uncertainty, short_waves=short_waves)
+        if speed_check is not None:
+            rec = without_off_speed_std(rec, speed_check)
         bar.advance(task)
     if Path(output).suffix.lower() == ".erd":
         write_erd(rec.to_profile(name=f"{method} reconstruction of {Path(file).name}"),
                   out, units="mm")
     else:
-        write_table(rec.to_frame(), out)
+        write_table(rec.to_frame(), out, metadata=_provenance(file, column, speed, dx, model, rec, q, r))
     if plot is not None:
         from ..report import plot_reconstructions  # matplotlib only when a plot is asked for
 
@@ -141,9 +162,25 @@ def reconstruct_command(
         console.print(f"[yellow]warning:[/yellow] {warning}")
     n_missing = int(np.isnan(signal.elevation[:, 0]).sum())
     if n_missing:
+        if recording.absent:
+            console.print(f"[yellow]warning:[/yellow] {_absent_stations(recording.absent)}")
         console.print(f"[yellow]note:[/yellow] {n_missing} missing (NaN) sample(s) in {column!r} were bridged by the "
-                      f"{method}; {'raw_std_m includes' if rec.profile.std is None else 'std_m and raw_std_m include'} "
-                      "the larger uncertainty there.")
+                      f"{method}; {_gap_columns(rec)} the larger uncertainty there.")
+
+
+def _gap_columns(rec) -> str:
+    """Which output columns carry the larger uncertainty in the gaps (no ``raw_std`` on the long-record smoother)."""
+    cols = [c for c, v in (("std_m", rec.profile.std), ("raw_std_m", rec.raw_std)) if v is not None]
+    return " and ".join(cols) + (" includes" if len(cols) == 1 else " include")
+
+
+def _absent_stations(absent) -> str:
+    """What a recording's stations absent from its grid became (``APLSignalFile.absent``), for a warning."""
+    first, last, n = absent[0]
+    total = sum(k for _, _, k in absent)
+    return (f"{total} station(s) absent from the record's grid ({len(absent)} gap(s), the first {first:.3f} .. "
+            f"{last:.3f} m, {n} sample(s): rows a logger dropped?) are read as missing samples, bridged by the "
+            "reconstruction; if rows were cut on purpose, reconstruct each part on its own.")
 
 
 def identify_command(
@@ -156,7 +193,8 @@ def identify_command(
     input_column: str = typer.Option("u", "--input-column", help="Column of the input table."),
     output_column: str = typer.Option("y", "--output-column", help="Column of the output table."),
     speed: float = typer.Option(20.0, "--speed", help="Towing speed the model is for, m/s."),
-    dx: float = typer.Option(0.05, "--dx", help="Spacing the model is for, m (dt = dx / speed)."),
+    dx: float = typer.Option(0.05, "--dx", help="Spacing the model is for, m (dt = dx / speed; a bench file's "
+                             "time stamps, e.g. time_s, must be dt apart: a 7.5 ms bench at 20 m/s is --dx 0.15)."),
     plot: Path = typer.Option(None, "--plot", help="Also draw measured vs simulated output and the step response."),
     overwrite: bool = OVERWRITE,
 ):
@@ -168,8 +206,8 @@ def identify_command(
     check_identification_structure(structure, flag="--structure")  # before reading the files
     model_path = check_output_path(model_out, input, output_file, suffixes=(".json",), overwrite=overwrite)
     png = check_plot_path(plot, input, output_file, model_path, overwrite=overwrite)
-    u = _bench_column(read_sampled_column, input, input_column, "--input-column", dx)
-    y = _bench_column(read_sampled_column, output_file, output_column, "--output-column", dx)
+    u = _bench_column(read_sampled_column, input, input_column, "--input-column", dx, speed)
+    y = _bench_column(read_sampled_column, output_file, output_column, "--output-column", dx, speed)
     na, nb, nk = orders
     dt = dx / speed
     with progress() as bar:
@@ -185,16 +223,44 @@ def identify_command(
     sys.stdout.flush()
 
 
-def _bench_column(reader, path, column: str, flag: str, dx: float):
-    """``reader(path, column, dx=dx)``; a missing column's refusal names the option that chooses it."""
+def _bench_column(reader, path, column: str, flag: str, dx: float, speed: float):
+    """``reader(path, column, dx=dx, speed=speed)``; a missing column's refusal names the option that chooses it."""
     from ..errors import InputFormatError
 
     try:
-        return reader(path, column, dx=dx)
+        return reader(path, column, dx=dx, speed=speed)
     except InputFormatError as exc:
         if "missing column" not in str(exc):
             raise
         raise InputFormatError(f"{str(exc).rstrip('.')}; choose the column with {flag} NAME.") from None
+
+
+def _provenance(file, column: str, speed: float, dx: float, model, rec, q, r) -> dict:
+    """How a ``road reconstruct`` profile was made, for its ``#`` lines (CSV) or Parquet metadata (read back by
+    ``longprofile.io.read_report_table``; every profile reader skips them)."""
+    from .. import __version__
+
+    smoothed = rec.method in ("smoother", "fixed-lag")
+    return {
+        "software": f"longprofile {__version__}",
+        "command": "road reconstruct",
+        "source": str(file),
+        "column": column,
+        "speed_m_per_s": speed,
+        "dx_m": dx,
+        "model": "paper 000 eq. (1), Table 1" if model is None else str(model),
+        "method": rec.method,
+        "input_model": rec.input_model,
+        "correlation_length_m": rec.correlation_length,
+        "q_m2": rec.q,
+        "r_m2": rec.r,
+        "q_r": None if rec.q is None else ("given" if q is not None and r is not None else "maximum likelihood"),
+        "highpass_wavelength_m": rec.highpass_wavelength,
+        "lag_m": rec.lag_m,
+        "short_waves": ("record" if rec.road_spectrum is not None else "prior") if smoothed else None,
+        "instrument_uncertainty": None if rec.instrument_uncertainty is None else str(rec.instrument_uncertainty),
+        "warnings": list(rec.warnings),
+    }
 
 
 def register(app: typer.Typer) -> None:

@@ -52,6 +52,7 @@ def compare_command(
     tracks = parse_tracks(track)
     renames = parse_renames(rename)
     ref, *profiles = _read_profiles(inputs, tracks, renames, elevation_unit)
+    _refuse_repeated(inputs, [ref, *profiles])
     thresholds = {k: v for k, v in (("repeatability", repeatability), ("accuracy", accuracy)) if v is not None}
     from ..road.smoothness import MIN_REFERENCE_COVERAGE
 
@@ -91,6 +92,31 @@ def _read_profiles(files, tracks, renames: dict, elevation_unit):
         raise InputError(f"--rename {unused[0]}={renames[unused[0]]}: no file has the track {unused[0]!r}; their "
                          f"tracks are {sorted(found.values())}.")
     return profiles
+
+
+def _refuse_repeated(files, profiles) -> None:
+    """Refuse a run that is the reference (or an earlier run) again: the same file, or the same stations and
+    elevations (a copy, another format): a profile compared with itself scores 1.000 whatever the profiler."""
+    import os
+
+    import numpy as np
+
+    from ..errors import InputError
+
+    for j in range(1, len(files)):
+        for i in range(j):
+            try:
+                same_file = os.path.samefile(files[i], files[j])
+            except OSError:
+                same_file = False
+            a, b = profiles[i], profiles[j]
+            if not same_file and not (np.array_equal(a.distance, b.distance) and a.elevation.shape == b.elevation.shape
+                                      and np.array_equal(a.elevation, b.elevation, equal_nan=True)):
+                continue
+            what = "the reference" if i == 0 else f"run {files[i]}"
+            how = "the same file" if same_file else "the same stations and elevations"
+            raise InputError(f"run {files[j]} is {what} again ({how}): a profile compared with itself scores 1.000 "
+                             "whatever the profiler; pass the runs of the profiler under test, each once.")
 
 
 def register(app: typer.Typer) -> None:

@@ -41,7 +41,7 @@ def convert_command(
     profile = read_profile(file, units=input_units, tracks=file_tracks(track, file, verb="converting"))
     profile = renamed(profile, renames, source=file)
     if spacing is not None:
-        profile = _resampled(profile, spacing)
+        profile = _resampled(profile, spacing, file)
     write_profile(profile, out, units=units)
     if plot is not None:
         from ..report import draw, plot_profile  # matplotlib only when drawing (in the figure helper if one runs)
@@ -57,14 +57,40 @@ def convert_command(
                       "CSV or Parquet to keep them.", markup=False)
 
 
-def _resampled(profile, spacing: float):
+def _resampled(profile, spacing: float, source=None):
     """``profile`` linearly resampled onto a grid of ``spacing`` m from its first station (its std is not kept)."""
     from ..road import resample_profile
 
+    _refuse_apl_dropout(profile, spacing, source)
     if profile.std is not None:
         console.print("note: --spacing resamples the elevations only; the standard deviation columns are not "
                       "written.", markup=False)
     return resample_profile(profile, spacing)
+
+
+#: The longest station step an APL signal track (``apl``) is resampled across, in new samples: more is a dropout,
+#: which linear interpolation would turn into a straight signal that ``road reconstruct`` reads as measured.
+APL_MAX_INTERPOLATED_STEP = 2
+
+
+def _refuse_apl_dropout(profile, spacing: float, source=None) -> None:
+    """Refuse ``--spacing`` on an APL signal track whose stations leave a hole longer than
+    :data:`APL_MAX_INTERPOLATED_STEP` new samples (a profile's track is interpolated, as documented)."""
+    import numpy as np
+
+    from ..errors import InputError
+
+    if not any(str(t).lower() == "apl" for t in profile.tracks) or profile.n_samples < 2:
+        return
+    step = np.diff(profile.distance)
+    i = int(np.argmax(step))
+    if step[i] > APL_MAX_INTERPOLATED_STEP * spacing * (1 + 1e-9):
+        x = profile.distance
+        raise InputError(f"{source or profile.name or 'the file'}: the APL signal has no sample between stations {x[i]:g} and "
+                         f"{x[i + 1]:g} m ({step[i]:g} m): --spacing would interpolate the signal across that "
+                         "dropout, and road reconstruct would take it as measured; give the file to road reconstruct "
+                         "as it is (stations absent from its grid are read as missing samples) or write the "
+                         "missing samples as empty cells.")
 
 
 def register(app: typer.Typer) -> None:

@@ -104,6 +104,11 @@ def slope(
     steering_offset: float = typer.Option(0.0, "--steering-offset", help="Subtract this constant from the road-wheel "
                                           "steering angle, rad (a steering sensor zeroed off-centre, as the "
                                           "steering_offset check measures it on straight driving)."),
+    accept_check: str | None = typer.Option(None, "--accept-check", help="Go on, with a warning, past these checks "
+                                            "of the log against the car file (comma-separated): steering_gain (the yaw "
+                                            "rate against the steering angle and the car's understeer), axle_order "
+                                            "(front and rear wheel speeds told apart by the driven axle's slip); "
+                                            "docs/vehicle-slope.md."),
     max_missing: float = typer.Option(0.05, "--max-missing", help="Warn when more than this share of the samples "
                                       "has no V_x measurement."),
     max_grade: float = typer.Option(0.10, "--max-grade", help="Warn where the estimated grade |tan(slope)| exceeds "
@@ -151,7 +156,8 @@ def slope(
     uncertainty = SlopeUncertainty() if vehicle is None else SlopeUncertainty.from_car_file(vehicle)
     frame = read_table(log)
     drive, checks = read_drive_log(frame, car, units=parse_units(units), resample=resample, rename=renames, fill=fill,
-                                   steering_offset=steering_offset, source=str(log))
+                                   steering_offset=steering_offset, source=str(log),
+                                   accept=[a.strip() for a in (accept_check or "").split(",") if a.strip()])
     drive = drive_window(drive, start, end)
     unchecked = [c.name for c in checks if c.ok is None]
     if unchecked:

@@ -141,7 +141,8 @@ def reconstruct_command(
     scheduler: str = typer.Option("processes", "--scheduler", help=_SCHEDULER_HELP),
     resume: bool = typer.Option(False, "--resume", help=_RESUME_HELP),
     overwrite: bool = typer.Option(False, "--overwrite", help=_OVERWRITE_HELP),
-    speed: float = typer.Option(20.0, "--speed", help="Towing speed, m/s."),
+    speed: float = typer.Option(None, "--speed", help="Towing speed, m/s. Default: each file's speed column, else "
+                                "20 m/s (as `road reconstruct`)."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the files' distance_m)."),
     method: str = typer.Option("smoother", "--method", help="smoother, fixed-lag, double or filter (as `road "
                                                             "reconstruct`)."),

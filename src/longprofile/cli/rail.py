@@ -16,6 +16,7 @@ from ._common import (
     console,
     progress,
 )
+from ._rail_events import EVENTS_OPTION, read_site_with_events
 
 rail_app = typer.Typer(help="Rail track settlement from sleeper inclinometers, with confidence bands (paper 004).",
                        no_args_is_help=True)
@@ -78,6 +79,17 @@ TIMEZONE_HELP = ("IANA zone of the loggers' clocks (e.g. Europe/Paris) when the 
                  "are UTC.")
 
 
+#: ``rail settle --sigma-deg``'s help (a datasheet's ±0.05° was typed there: a user's probe, session 39).
+_SIGMA_HELP = ("Std of the day-to-day change of a daily-median angle, deg (default: estimated from the data; about 8e-4 "
+               "on the simulated presets). Not a datasheet accuracy (±0.05°) nor the paper's single-reading 5e-3: "
+               "values outside 1e-5..1e-2, or 10 times from the data's own noise, are refused.")
+#: ``rail settle --thresholds``'s help ("twist" named for what it is: a user's probe, session 39).
+_THRESHOLDS_HELP = ("Graded thresholds table: quantity (settlement, rate, twist), level (alert, action, alarm), value_mm "
+                    "(mm; mm/day for the rate), as the monitoring service takes them. Without any threshold nothing is "
+                    "tested. 'twist' is the difference of neighbouring sensors' changes over their own spacing, not "
+                    "EN 13848 twist (cross-level over a fixed base): no standard twist limit applies to it.")
+
+
 @rail_app.command("settle")
 def settle_command(
     sensors: Path = typer.Option(..., "--sensors", help="Sensors table: sensor_id, x_m [, z_m] (CSV/Parquet)."),
@@ -93,7 +105,7 @@ def settle_command(
     thermal: str = typer.Option("auto", "--thermal",
                                 help="auto (the lagged model where the readings show a thermal lag, else linear), "
                                      "linear (paper §3), lagged (first-order lag) or none."),
-    sigma_deg: float = typer.Option(None, "--sigma-deg", help="Std of daily angle changes, deg (default: estimated)."),
+    sigma_deg: float = typer.Option(None, "--sigma-deg", help=_SIGMA_HELP),
     rigidity: Optional[float] = typer.Option(
         None, "--rigidity",
         help="Rigidity r of the settlement prior, m^-2 (the paper uses 1e-8). Default: prior and r fitted by "
@@ -115,6 +127,7 @@ def settle_command(
                                                "--no-temperature-fill leaves it out (docs/rail.md)."),
     timezone: str = typer.Option(None, "--timezone", help=TIMEZONE_HELP),
     exclude: list[str] = typer.Option([], "--exclude", help="Sensor id to exclude (repeatable)."),
+    events: Path = EVENTS_OPTION,
     quiet_day: list[str] = typer.Option([], "--quiet-day", help="A day without works (YYYY-MM-DD, repeatable): "
                                                                    "the thermal fit then uses only these days."),
     no_health: bool = typer.Option(False, "--no-health-check", help="Only exclude dead sensors."),
@@ -123,10 +136,7 @@ def settle_command(
                                  help="Estimate each day on its own (docs/rail.md step 9; the live service's model "
                                       "above 40 000 sensor-days) instead of all days in one posterior (the default, "
                                       "step 10: sensor drift correlated over the days)."),
-    thresholds: Path = typer.Option(None, "--thresholds",
-                                    help="Graded thresholds table: quantity (settlement, rate, twist), level (alert, "
-                                         "action, alarm), value_mm (mm; mm/day for the rate), as the monitoring "
-                                         "service takes them. Without any threshold nothing is tested."),
+    thresholds: Path = typer.Option(None, "--thresholds", help=_THRESHOLDS_HELP),
     threshold_mm: float = typer.Option(None, "--settlement-threshold-mm", help="Alarm on |altitude change|, mm."),
     rate_mm: float = typer.Option(None, "--rate-threshold-mm-per-day", help="Alarm on |daily rate|, mm/day."),
     alarm_probability: float = typer.Option(0.5, "--alarm-probability", help="Report exceedance probabilities >= this."),
@@ -153,35 +163,31 @@ def settle_command(
     """Altitude change of the track, day by day, with 90 % bands, sensor health and alarms."""
     import numpy as np
 
-    from ..errors import InputError
-    from ..io import read_rail_site, read_rail_thresholds, write_table
+    from ..io import read_rail_thresholds, write_table
     from ..rail import SettlementSettings, estimate_settlement
 
-    inputs = (sensors, readings, survey, controls, thresholds)
-    # check every output path before the computation, so a bad path fails at once and writes nothing
-    out = check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
-    png = check_plot_path(plot, *inputs, overwrite=overwrite)
-    if report is not None:
-        from ..report import REPORT_FILES
-
-        check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"],
-                            others={"-o": output, "--plot": plot})
-    if thresholds is not None and (threshold_mm is not None or rate_mm is not None):
-        raise InputError("give either --thresholds FILE or --settlement-threshold-mm / --rate-threshold-mm-per-day, "
-                         "not both.")
+    inputs = (sensors, readings, survey, controls, thresholds, events)
+    out, png = _check_settle_outputs(output, plot, report, inputs, overwrite)
+    quiet = _check_settle_options({
+        "--thermal": thermal, "--sigma-deg": sigma_deg, "--rigidity": rigidity, "--sigma-z": sigma_z,
+        "--sigma-a": sigma_a, "--angle-unit": angle_unit, "--settlement-threshold-mm": threshold_mm,
+        "--rate-threshold-mm-per-day": rate_mm, "--alarm-probability": alarm_probability, "--thresholds": thresholds,
+        "--end-ambiguity": end_ambiguity, "--witness-rule": witness_rule, "--quiet-day": quiet_day})
     graded = None if thresholds is None else read_rail_thresholds(thresholds)
-    site = read_rail_site(sensors, readings, survey, controls, angle_unit=angle_unit, check_units=check_units,
-                          temperature_fill=temperature_fill, timezone=timezone)
+    site, declared = read_site_with_events(events, sensors, readings, survey, controls, angle_unit=angle_unit,
+                                           check_units=check_units, temperature_fill=temperature_fill,
+                                           timezone=timezone, require_temperature=thermal != "none")
+    _check_quiet_days_in_record(quiet, site)
     settings = SettlementSettings(
         thermal=thermal, sigma=None if sigma_deg is None else float(np.deg2rad(sigma_deg)),
         rigidity=rigidity, sigma_z=sigma_z, sigma_a=sigma_a,
-        quiet_days=quiet_day or None, check_health=not no_health, exclude_sensors=tuple(exclude),
+        quiet_days=quiet or None, check_health=not no_health, exclude_sensors=tuple(exclude),
         use_affine_correction=affine, joint_days=not per_day,
         settlement_threshold_m=None if threshold_mm is None else threshold_mm * 1e-3,
         rate_threshold_m_per_day=None if rate_mm is None else rate_mm * 1e-3, thresholds=graded,
         alarm_probability=alarm_probability, n_monte_carlo=n_monte_carlo, rng=seed,
         max_settlement_interval="band" if max_band else "draws", end_ambiguity=end_ambiguity,
-        witness_rule=witness_rule)
+        witness_rule=witness_rule, events=declared)
     with progress() as bar:
         task = bar.add_task("settlement", total=1)
         res = estimate_settlement(site, settings=settings)
@@ -199,6 +205,97 @@ def settle_command(
     if plotted is not None:
         plotted.result()
     _print_settle_summary(res, output)
+
+
+#: ``rail settle`` options with a fixed set of values.
+_SETTLE_CHOICES = {"--thermal": ("auto", "linear", "lagged", "none"), "--angle-unit": ("deg", "rad"),
+                   "--end-ambiguity": ("off", "mixture"), "--witness-rule": ("off", "steps", "steps-ends")}
+
+
+def _check_settle_outputs(output, plot, report, inputs, overwrite: bool):
+    """(the -o path, the --plot path) of ``rail settle``, every output checked before the computation, so a bad path
+    fails at once and writes nothing."""
+    out = check_output_path(output, *inputs, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
+    png = check_plot_path(plot, *inputs, overwrite=overwrite)
+    if report is not None:
+        from ..report import REPORT_FILES
+
+        check_output_folder(report, *inputs, overwrite=overwrite, what="--report", writes=REPORT_FILES["rail"],
+                            others={"-o": output, "--plot": plot})
+    return out, png
+
+
+def _check_settle_options(options: dict) -> list:
+    """Refuse a ``rail settle`` option value in the command line's own terms (the option's name, the value as typed,
+    mm and deg), before any file is read; return the ``--quiet-day`` dates."""
+    from ..errors import InputError
+    from ..rail import THRESHOLD_FLOORS_M, THRESHOLD_RANGE_M
+
+    if options["--thresholds"] is not None and (options["--settlement-threshold-mm"] is not None
+                                                or options["--rate-threshold-mm-per-day"] is not None):
+        raise InputError("give either --thresholds FILE or --settlement-threshold-mm / --rate-threshold-mm-per-day, "
+                         "not both.")
+    for name, choices in _SETTLE_CHOICES.items():
+        if options[name] not in choices:
+            raise InputError(f"{name} {options[name]}: not known; use one of {', '.join(choices)}.")
+    for name in ("--sigma-deg", "--rigidity", "--sigma-z", "--sigma-a"):
+        v = options[name]
+        if v is not None and not (v > 0 and v < float("inf")):
+            raise InputError(f"{name} {v:g}: must be a number > 0 (leave it out for the default).")
+    p = options["--alarm-probability"]
+    if not 0 < p <= 1:
+        hint = f" (a percentage? {p:g} % is {p / 100:g})" if 1 < p <= 100 else ""
+        raise InputError(f"--alarm-probability {p:g}: must be a probability in (0, 1], e.g. 0.5{hint}.")
+    for name, kind in (("--settlement-threshold-mm", "settlement"), ("--rate-threshold-mm-per-day", "rate")):
+        v, per = options[name], "/day" if kind == "rate" else ""
+        if v is None:
+            continue
+        lo, hi = 1e3 * THRESHOLD_FLOORS_M[kind], 1e3 * THRESHOLD_RANGE_M[1]
+        if not (v > 0 and v < float("inf")):
+            raise InputError(f"{name} {v:g}: must be a number > 0 (mm{per}).")
+        if v < lo:
+            raise InputError(f"{name} {v:g}: below {lo:g} mm{per}, the smallest plausible {kind} limit (track limits "
+                             "are mm to tens of mm, rates 0.5-5 mm/day; the estimate's own error is ~0.1 mm): metres "
+                             f"given as mm? Give the limit in mm{per} ({'2 for 2 mm/day' if per else '10 for 10 mm'}).")
+        if v > hi:
+            raise InputError(f"{name} {v:g}: above {hi:g} mm{per}, beyond any track limit: micrometres or another "
+                             f"unit? Give the limit in mm{per}.")
+    return _quiet_days(options["--quiet-day"])
+
+
+def _quiet_days(days: list[str]) -> list:
+    """The ``--quiet-day`` values as dates; each must be written YYYY-MM-DD (08/12/2019 is day/month or month/day)."""
+    import datetime as dt
+    import re
+
+    from ..errors import InputError
+
+    out = []
+    for text in days:
+        try:
+            if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", text.strip()):
+                raise ValueError
+            out.append(dt.date.fromisoformat(text.strip()))
+        except ValueError:
+            hint = " (day/month or month/day?)" if "/" in text or "." in text else ""
+            raise InputError(f"--quiet-day {text}: not a date written YYYY-MM-DD{hint}; write e.g. "
+                             "--quiet-day 2019-12-08.") from None
+    return out
+
+
+def _check_quiet_days_in_record(days: list, site) -> None:
+    """Refuse a ``--quiet-day`` outside the readings' days (the thermal fit would have no day to use)."""
+    if not days or not len(site.readings):
+        return
+    from ..errors import InputError
+
+    t = site.readings["timestamp"]
+    first, last = t.min().date(), t.max().date()
+    out = [d for d in days if not first <= d <= last]
+    if out:
+        raise InputError(f"--quiet-day {out[0].isoformat()}: outside the record ({first.isoformat()} to "
+                         f"{last.isoformat()}, UTC days); give days of the record (the thermal fit uses only those "
+                         "days), or leave --quiet-day out.")
 
 
 def _print_settle_summary(res, output: Path) -> None:

@@ -3,12 +3,14 @@
 Profile -- a longitudinal profile (stations in m, elevations in m, one column per track); also
            ``longprofile.road.Profile``.
 unit_factor -- metres per length unit (m, mm, cm, km, in, ft, mi); UnitsError for anything else.
+speed_factor -- m/s per speed unit (m/s, km/h, mph, ft/s; SPEED_UNITS).
 LENGTH_UNITS -- the table behind it.
 MAX_ABS_ELEVATION_M -- no elevation on Earth is beyond it (a value that is: another unit).
 MISSING_TEXT -- the texts read as an empty cell ("NAN", "#N/A", "null", ...; any letter case).
 """
 
 from ._profile import Profile
-from ._units import LENGTH_UNITS, MAX_ABS_ELEVATION_M, MISSING_TEXT, unit_factor
+from ._units import LENGTH_UNITS, MAX_ABS_ELEVATION_M, MISSING_TEXT, SPEED_UNITS, speed_factor, unit_factor
 
-__all__ = ["Profile", "unit_factor", "LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT"]
+__all__ = ["Profile", "unit_factor", "LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT", "SPEED_UNITS",
+           "speed_factor"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import UnitsError
 
-__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT", "unit_factor"]
+__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT", "SPEED_UNITS", "speed_factor", "unit_factor"]
 
 #: Length units understood in file headers, with their value in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
@@ -25,6 +25,31 @@ def unit_factor(unit: str, *, what: str = "elevation") -> float:
     if key not in LENGTH_UNITS:
         raise UnitsError(f"unknown {what} unit {unit!r}; use one of {sorted(LENGTH_UNITS)}.")
     return LENGTH_UNITS[key]
+
+
+#: Speed units understood in file headers (a towing speed column: ``speed_kmh``, ``Speed [km/h]``), in m/s: the
+#: length units above per second or per hour.
+SPEED_UNITS = {"m/s": LENGTH_UNITS["m"], "km/h": LENGTH_UNITS["km"] / 3600.0, "mph": LENGTH_UNITS["mi"] / 3600.0,
+               "ft/s": LENGTH_UNITS["ft"]}
+#: Other spellings of :data:`SPEED_UNITS` (lower case, blanks removed; ``_`` stands for ``/`` in a suffix).
+_SPEED_ALIASES = {"m_s": "m/s", "mps": "m/s", "kmh": "km/h", "km_h": "km/h", "kph": "km/h", "mi/h": "mph",
+                  "ft_s": "ft/s", "fps": "ft/s"}
+
+
+def speed_factor(unit: str) -> float:
+    """Metres per second per ``unit`` (m/s, km/h, mph, ft/s and their spellings kmh, kph, km_h, m_s, mps, fps);
+    :class:`UnitsError` for anything else.
+
+    Examples
+    --------
+    >>> round(speed_factor("km/h") * 72.0, 9)
+    20.0
+    """
+    key = str(unit).strip().lower().replace(" ", "")
+    key = _SPEED_ALIASES.get(key, key)
+    if key not in SPEED_UNITS:
+        raise UnitsError(f"unknown speed unit {unit!r}; use one of {sorted(SPEED_UNITS)}.")
+    return SPEED_UNITS[key]
 
 
 #: Texts read as an empty cell where a value may be missing, in any letter case: what loggers and spreadsheets write

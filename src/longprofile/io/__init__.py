@@ -4,7 +4,11 @@ read_table   -- read a CSV or Parquet table with required/numeric column checks.
 write_table  -- write a table as CSV or Parquet by suffix.
 read_profile -- read a road profile (CSV/Parquet with unit-suffixed columns, or ERD); units never guessed.
 read_apl_signal -- read an APL recording (distance_m + signal column, unit checked) as a Profile.
+read_apl_recording -- the same with the stations absent from its grid (filled as missing samples): APLSignalFile.
 read_sampled_column -- one column of a table sampled dx apart (stations checked), m.
+read_apl_record -- an APL record with its towing speed (distance- or time-sampled), as road reconstruct reads it.
+read_apl_speed -- an APL recording's towing speed column (speed_kmh, 'Speed [km/h]'), m/s; find_speed_column.
+read_time_sampled_apl -- a time-sampled APL record (time, speed) taken at every dx of distance, stops removed.
 is_reconstruct_output -- whether a table is a `road reconstruct` output (one profile track, 'elevation').
 is_simulated_recording -- whether a table is a `road simulate` recording (one profile track, 'true'; apl_m is the
                       trailer's raw signal, not a profile).
@@ -22,6 +26,10 @@ read_rail_thresholds -- read graded alarm thresholds (quantity, level, value_mm)
 from .._lazy import lazy_namespace
 
 _EXPORTS = {
+    "._apl_speed": (
+        "SpeedColumn", "TimeSampledRecording", "find_speed_column", "read_apl_speed", "read_time_sampled_apl",
+        "APLRecord", "read_apl_record",
+    ),
     "._atomic": (
         "atomic_path", "atomic_write_bytes", "save_figure",
     ),
@@ -33,6 +41,7 @@ _EXPORTS = {
     ),
     "._profiles": (
         "is_reconstruct_output", "is_simulated_recording", "read_apl_signal", "read_sampled_column",
+        "read_apl_recording", "APLSignalFile",
     ),
     "._rail": (
         "read_rail_site", "read_rail_table", "read_rail_thresholds",
@@ -46,8 +55,10 @@ _EXPORTS = {
 }
 
 __all__ = ["read_table", "write_table", "read_profile", "write_profile", "read_erd", "write_erd",
-           "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "is_reconstruct_output",
+           "write_report_table", "read_report_table", "read_apl_signal", "read_sampled_column", "read_apl_recording",
+           "APLSignalFile", "is_reconstruct_output",
            "is_simulated_recording", "atomic_path", "atomic_write_bytes", "save_figure", "read_rail_site",
-           "read_rail_table", "read_rail_thresholds"]
+           "read_rail_table", "read_rail_thresholds", "SpeedColumn", "find_speed_column", "read_apl_speed",
+           "TimeSampledRecording", "read_time_sampled_apl", "APLRecord", "read_apl_record"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

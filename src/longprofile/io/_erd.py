@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validation import MISSING_PROFILE_HINT
 from ..core import Profile, unit_factor
 from ..errors import InputError, InputFormatError, OutputError, UnitsError
 from ._atomic import atomic_path
@@ -302,10 +303,17 @@ def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str
     if values is None:
         values = _parse_body_slow(path, raw, start, end_line + 1, nchan, npts).reshape(npts, nchan)
     x = (x0 + dx * np.arange(npts)) * xfactor
-    check_missing_codes(path, x, values[:, keep], [names[k] for k in keep], [chan_units[k] for k in keep], factors)
+    check_missing_codes(path, x, values[:, keep], [names[k] for k in keep], [chan_units[k] for k in keep], factors,
+                        hint=_ERD_MISSING_HINT)
     data = values[:, keep] * factors
     title = keys.get("TITLE", "").strip() or path.stem
     return Profile(distance=x, elevation=data, tracks=tuple(names[k] for k in keep), name=title)
+
+
+#: What a refusal of a missing-value code in an ERD file says to do: ERD has no cells to leave empty; its missing
+#: sample is the text ``nan``.
+_ERD_MISSING_HINT = ("write nan in place of each missing value (an ERD file's missing sample), then "
+                     + MISSING_PROFILE_HINT.split(", then ", 1)[1])
 
 
 def _spelled(unit: str) -> str:

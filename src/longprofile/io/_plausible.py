@@ -77,12 +77,14 @@ def check_profile_plausible(profile, source) -> None:
                              f"road: {cause}.")
 
 
-def check_missing_codes(source, x, raw, tracks, units, factors) -> None:
+def check_missing_codes(source, x, raw, tracks, units, factors, *, hint: str = MISSING_PROFILE_HINT,
+                        what: str = "track") -> None:
     """Refuse elevations that are a logger's missing-value code in the file's unit (module notes), with the station.
 
     ``x`` stations (m, N), ``raw`` (N, K) the elevations as written, ``tracks``/``units``/``factors`` (m per unit)
-    of each column. Raises :class:`~longprofile.errors.InputFormatError` naming the track, the value, its stations
-    and what to write instead (:data:`longprofile._validation.MISSING_PROFILE_HINT`).
+    of each column. Raises :class:`~longprofile.errors.InputFormatError` naming the ``what`` (track, column), the
+    value, its stations and what to write instead: ``hint`` (default
+    :data:`longprofile._validation.MISSING_PROFILE_HINT`; an APL recording's and an ERD file's say it their way).
     """
     raw = np.asarray(raw, dtype=float).reshape(len(x), -1)
     for j, track in enumerate(tracks):
@@ -94,9 +96,9 @@ def check_missing_codes(source, x, raw, tracks, units, factors) -> None:
         for i, k in true_runs(code):
             if _stands_apart(x, z, other, i, k):
                 more = f" to {x[k]:.3f} m ({k - i + 1} samples)" if k > i else ""
-                raise InputFormatError(f"{source}: track {track!r} holds {raw[i, j]:g} {units[j]} at station "
+                raise InputFormatError(f"{source}: {what} {track!r} holds {raw[i, j]:g} {units[j]} at station "
                                        f"{x[i]:.3f} m{more}: a logger's code for a missing value? "
-                                       f"{MISSING_PROFILE_HINT[0].upper()}{MISSING_PROFILE_HINT[1:]}.")
+                                       f"{hint[0].upper()}{hint[1:]}.")
 
 
 def _stands_apart(x, z, other, i, k) -> bool:

@@ -8,7 +8,7 @@ from ..core import unit_factor
 from ..errors import InputError
 from ._erd import read_erd, write_erd
 from ._plausible import check_profile_plausible
-from ._profiles import read_profile_table, write_profile_table
+from ._profiles import read_profile_table, refuse_erd_apl_signal, write_profile_table
 
 __all__ = ["read_profile", "write_profile"]
 
@@ -63,6 +63,7 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
     _check_unique(path, tracks)
     if path.suffix.lower() == ".erd" or _looks_erd(path):
         profile = read_erd(path, units=units, tracks=tracks)
+        refuse_erd_apl_signal(path, profile.tracks, chosen=tracks is not None)  # as a table's apl_<unit>
     else:
         profile = read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
     check_profile_plausible(profile, path)

@@ -5,10 +5,18 @@ from __future__ import annotations
 import re
 
 import numpy as np
+import pandas as pd
 
 from ..core import LENGTH_UNITS
 from ..errors import InputError, InputFormatError, UnitsError
-from ..rail import THRESHOLD_LEVELS, THRESHOLD_QUANTITIES, SiteData, check_thresholds, validate_site
+from ..rail import (
+    THRESHOLD_FLOORS_M,
+    THRESHOLD_LEVELS,
+    THRESHOLD_QUANTITIES,
+    SiteData,
+    check_thresholds,
+    validate_site,
+)
 from ._tables import check_columns, read_table
 
 __all__ = ["read_rail_site", "read_rail_table", "read_rail_thresholds"]
@@ -19,7 +27,8 @@ THRESHOLD_COLUMNS = ("quantity", "level", "value_mm")
 
 
 def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit: str = "deg",
-                   check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None) -> SiteData:
+                   check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None,
+                   require_temperature: bool = True) -> SiteData:
     """Read the site tables from CSV/Parquet files (:func:`read_table`) and validate them.
 
     Parameters
@@ -28,52 +37,128 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
         Required tables.
     survey, controls : path-like, optional
         Initial survey (required unless the sensors table has ``z_m``) and control surveys.
-    angle_unit, check_units, temperature_fill, timezone
-        See :func:`longprofile.rail.validate_site`.
+    angle_unit, check_units, temperature_fill, timezone, require_temperature
+        See :func:`longprofile.rail.validate_site` (``require_temperature=False``: the readings may lack a
+        temperature column, for ``thermal="none"``).
 
     Returns
     -------
     SiteData
     """
     s = read_rail_table(sensors, "sensors")
-    r = read_rail_table(readings, "readings", angle_unit=angle_unit)
+    r = read_rail_table(readings, "readings", angle_unit=angle_unit, require_temperature=require_temperature)
     sv = None if survey is None else read_rail_table(survey, "survey")
     ct = None if controls is None else read_rail_table(controls, "controls")
     return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units,
-                         temperature_fill=temperature_fill, timezone=timezone)
+                         temperature_fill=temperature_fill, timezone=timezone,
+                         require_temperature=require_temperature)
 
 
-def read_rail_table(path, kind: str, *, angle_unit: str = "deg"):
+def read_rail_table(path, kind: str, *, angle_unit: str = "deg", require_temperature: bool = True):
     """One table of a rail site (``kind``: sensors, readings, survey or controls) with its columns under their
     canonical names (:data:`longprofile.rail.SiteData.TABLE_COLUMNS`), as ``rail settle`` and ``rail site`` read it.
 
-    A column may be named in any letter case or declare another unit, converted here: ``x_mm``, ``x [ft]`` (any
-    length unit), ``angle_rad``, ``angle (mrad)``, ``temperature_f``, ``temperature [K]``. A declared angle unit
-    is the unit: ``angle_unit`` (the unit of a plain ``angle_deg`` column, see
-    :func:`longprofile.rail.validate_site`) must then be left at "deg".
+    A column may be named in any letter case, with blanks for underscores (``Sensor ID``), or declare another unit,
+    converted here: ``x_mm``, ``x [ft]`` (any length unit), ``angle_rad``, ``angle (arcsec)``, ``tilt_mm_per_m``
+    (mm/m and % are gradients: the angle is their arctangent), ``angle [µrad]``, ``temperature_f``,
+    ``Temperature [°C]``, ``Temp_C``, ``temperature [K]`` (:data:`ANGLE_UNITS`, :data:`TEMPERATURE_UNITS`). A
+    declared angle unit is the unit: ``angle_unit`` (the unit of a plain ``angle_deg`` column, see
+    :func:`longprofile.rail.validate_site`) must then be left at "deg". Readings with the date and the time of day in
+    two columns (``date``, ``time``: a spreadsheet's export) get them joined into ``timestamp``. A station written
+    in km+m (``12+345.600``, a railway chainage), in ``x_m`` or in a ``chainage`` / ``station`` column, is read as
+    metres (12345.6 m). ``require_temperature=False``: a readings table without a temperature column is taken (its
+    ``temperature_c`` empty; for ``thermal="none"``).
 
     Raises
     ------
     InputFormatError
-        Missing columns, non-numeric values in a converted column, two angle columns.
+        Missing columns (named with the file's own headers), non-numeric values in a converted column, two angle
+        columns.
     UnitsError
-        A declared angle unit together with ``angle_unit`` other than "deg".
+        A declared angle unit together with ``angle_unit`` other than "deg"; a unit not known.
     """
     if kind not in SiteData.TABLE_COLUMNS:
         raise InputError(f"unknown rail table {kind!r}; use one of {sorted(SiteData.TABLE_COLUMNS)}.")
-    table = read_table(path, text=("sensor_id",))
-    if kind == "readings" and "angle_deg" not in table.columns and any(_declared(str(c), "angle")
-                                                                     for c in table.columns):
-        table = _angle_in_degrees(table, path, angle_unit)
+    table = read_table(path, text=("sensor_id", "sensor id", "sensor-id"))
+    headers = [str(c) for c in table.columns]
+    table = table.rename(columns=_spaced_names(table.columns, SiteData.TABLE_COLUMNS[kind]))
+    required = SiteData.TABLE_COLUMNS[kind]
     if kind == "readings":
+        table = _joined_date_time(table, path)
+        if "angle_deg" not in table.columns and any(_declared(str(c), "angle", path) for c in table.columns):
+            table = _angle_in_degrees(table, path, angle_unit)
         _refuse_wide_readings(table, path)
-    return _canonical_columns(table, path, SiteData.TABLE_COLUMNS[kind])
+        if not require_temperature:
+            required = tuple(c for c in required if c != "temperature_c")
+    if "x_m" in required:
+        table = _chainage(table, path)
+    table = _canonical_columns(table, path, required, headers)
+    if kind == "readings" and "temperature_c" not in table.columns:
+        table = table.assign(temperature_c=np.nan)  # no temperature column: require_temperature=False
+    return table
+
+
+def _spaced_names(columns, canonical) -> dict:
+    """Renames of headers that are a canonical name with blanks or hyphens for its underscores (``Sensor ID``,
+    ``sensor-id``), when the canonical name itself is absent."""
+    present = {str(c) for c in columns}
+    out = {}
+    for c in columns:
+        key = re.sub(r"[\s\-]+", "_", str(c).strip()).lower()
+        if key != str(c) and key in canonical and key not in present:
+            out[c] = key
+    return out
+
+
+def _joined_date_time(table, path):
+    """Readings with the date and the time of day in two columns (``date`` and ``time``, any letter case: a
+    spreadsheet's export) and no ``timestamp``: one ``timestamp`` column, ``date`` + ``T`` + ``time``."""
+    names = {str(c).strip().lower(): c for c in table.columns}
+    if "timestamp" in names or "date" not in names or "time" not in names:
+        return table
+    d, t = table[names["date"]], table[names["time"]]
+    if d.isna().any() or t.isna().any():
+        k = int(np.flatnonzero((d.isna() | t.isna()).to_numpy())[0])
+        raise InputFormatError(f"{path}: row {k} (CSV line {k + 2}): the date or the time is empty; every reading "
+                               "needs both.")
+    stamp = d.astype(str).str.strip() + "T" + t.astype(str).str.strip()
+    return table.drop(columns=[names["date"], names["time"]]).assign(timestamp=stamp)
+
+
+#: A railway chainage in km+m: ``12+345.600`` is 12 345.6 m.
+_KM_PLUS_M = re.compile(r"^\s*(\d+)\+(\d{1,3}(?:\.\d*)?)\s*$")
+
+
+def _chainage(table, path):
+    """The station as ``x_m``: a ``chainage`` or ``station`` column (no unit in its name: metres, or km+m) when there
+    is no x column, and km+m values (``12+345.600``) read as metres; a column mixing km+m and other text refused."""
+    names = {str(c).strip().lower(): c for c in table.columns}
+    has_x = any(_declared(str(c), "length", path) and str(c).strip().lower().startswith("x") for c in table.columns)
+    if "x_m" not in names and not has_x:
+        alias = [names[n] for n in ("chainage", "station", "chainage_m", "station_m") if n in names]
+        if len(alias) == 1:
+            table = table.rename(columns={alias[0]: "x_m"})
+            names["x_m"] = "x_m"
+    col = names.get("x_m")
+    if col is None or pd.api.types.is_numeric_dtype(table[col]):
+        return table
+    text = table[col].astype(str)
+    parts = text.str.extract(_KM_PLUS_M)
+    plus = parts[0].notna()
+    if not plus.any():
+        return table
+    if not plus.all():
+        k = int(np.flatnonzero(~plus.to_numpy())[0])
+        raise InputFormatError(f"{path}: row {k} (CSV line {k + 2}): station {text.iloc[k]!r} is not in km+m like the "
+                               f"other rows ({text[plus].iloc[0]!r}); write every station as km+m or in metres.")
+    metres = 1e3 * parts[0].astype(float) + parts[1].astype(float)
+    return table.drop(columns=[col]).assign(x_m=metres.to_numpy())
 
 
 def _refuse_wide_readings(table, path) -> None:
     """A readings table with one column per sensor (a logger's export) gets a refusal that says how to reshape it."""
     names = [str(c).strip().lower() for c in table.columns]
-    if len(names) < 4 or any(n.startswith(("sensor", "angle", "temperature")) for n in names):
+    if len(names) < 4 or any(n.startswith(("sensor", "angle", "temperature", "tilt", "temp")) for n in names):
         return  # a long table, maybe with a misnamed column: the missing-column message names it
     others = [c for c in table.columns if str(c).strip().lower() not in ("timestamp", "time", "date")]
     if len(others) >= 3:
@@ -84,60 +169,108 @@ def _refuse_wide_readings(table, path) -> None:
             "var_name='sensor_id', value_name='angle_deg'), and the same for the temperatures, then merge).")
 
 
-#: Units a site table may declare in a column name instead of the canonical one (x_mm for x_m, angle_rad or
-#: angle_mrad for angle_deg, temperature_f for temperature_c): quantity -> {unit: conversion to the canonical unit}.
+#: Angle units a readings column may declare (``angle_<unit>``, ``angle [<unit>]``, ``tilt (<unit>)``), to degrees.
+#: mm/m and % are gradients (the tangent of the angle: 1000 tan and 100 tan), read through the arctangent.
+ANGLE_UNITS = {
+    "deg": lambda v: v, "mdeg": lambda v: v * 1e-3, "rad": np.rad2deg, "mrad": lambda v: np.rad2deg(v * 1e-3),
+    "urad": lambda v: np.rad2deg(v * 1e-6), "arcmin": lambda v: v / 60.0, "arcsec": lambda v: v / 3600.0,
+    "mm/m": lambda v: np.rad2deg(np.arctan(v * 1e-3)), "%": lambda v: np.rad2deg(np.arctan(v * 1e-2)),
+}
+#: Temperature units (``temperature_f``, ``Temperature [°C]``, ``Temp_C``, ``temperature (degC)``), to °C.
+TEMPERATURE_UNITS = {"c": lambda v: v, "f": lambda v: (v - 32.0) * (5.0 / 9.0), "k": lambda v: v - 273.15}
+#: Units a site table may declare in a column name instead of the canonical one (x_mm for x_m, angle_rad for
+#: angle_deg, temperature_f for temperature_c): quantity -> {unit: conversion to the canonical unit}.
 _CONVERSIONS = {
     "length": {u: (lambda v, f=LENGTH_UNITS[u]: v * f) for u in LENGTH_UNITS},
-    "angle": {"deg": lambda v: v, "rad": np.rad2deg, "mrad": lambda v: np.rad2deg(v * 1e-3)},
-    "temperature": {"c": lambda v: v, "f": lambda v: (v - 32.0) * (5.0 / 9.0), "k": lambda v: v - 273.15},
+    "angle": ANGLE_UNITS,
+    "temperature": TEMPERATURE_UNITS,
 }
+#: Other spellings of the units (after lower case, µ/μ -> u, blanks removed).
+_UNIT_ALIASES = {
+    "degree": "deg", "degrees": "deg", "°": "deg", "millideg": "mdeg", "radian": "rad", "radians": "rad",
+    "microrad": "urad", "arcsecond": "arcsec", "arcseconds": "arcsec", '"': "arcsec", "″": "arcsec",
+    "arcminute": "arcmin", "'": "arcmin", "mm_per_m": "mm/m", "mmperm": "mm/m", "mm_m": "mm/m", "‰": "mm/m",
+    "permille": "mm/m", "percent": "%", "pct": "%",
+    "°c": "c", "degc": "c", "deg_c": "c", "celsius": "c", "°f": "f", "degf": "f", "deg_f": "f", "fahrenheit": "f",
+    "kelvin": "k",
+}
+#: Column bases: the canonical one of each name a table may use, and its quantity.
+_BASES = {"x": "x", "z": "z", "angle": "angle", "tilt": "angle", "inclination": "angle", "temperature": "temperature",
+          "temp": "temperature"}
 _QUANTITY = {"x": "length", "z": "length", "angle": "angle", "temperature": "temperature"}
-_NAME = re.compile(r"^(?P<base>[a-z]+?)(?:_(?P<u1>\w+)|\s*\[(?P<u2>[^\]]+)\]|\s*\((?P<u3>[^)]+)\))$", re.IGNORECASE)
+_NAME = re.compile(r"^(?P<base>[a-z]+?)(?:_(?P<u1>\S+)|\s*\[(?P<u2>[^\]]+)\]|\s*\((?P<u3>[^)]+)\))$", re.IGNORECASE)
 
 
-def _declared(name: str, quantity: str) -> tuple[str, str] | None:
-    """(base, unit) of a column named ``base_unit``, ``base [unit]`` or ``base (unit)`` whose base has ``quantity``
-    and whose unit is one of it; None otherwise."""
+def _unit(text: str) -> str:
+    """A declared unit in its canonical spelling (:data:`_UNIT_ALIASES`)."""
+    key = text.strip().lower().replace("µ", "u").replace("μ", "u").replace(" ", "")
+    return _UNIT_ALIASES.get(key, key)
+
+
+def _declared(name: str, quantity: str, path=None) -> tuple[str, str] | None:
+    """(canonical base, unit) of a column named ``base_unit``, ``base [unit]`` or ``base (unit)`` whose base has
+    ``quantity`` and whose unit is one of it; None otherwise. With ``path``, an angle or temperature column whose unit
+    is not known is refused (UnitsError naming the known ones)."""
     m = _NAME.match(name.strip())
     if m is None:
         return None
-    base, unit = m.group("base").lower(), (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower()
-    return (base, unit) if _QUANTITY.get(base) == quantity and unit in _CONVERSIONS[quantity] else None
+    base = _BASES.get(m.group("base").lower())
+    unit = _unit(m.group("u1") or m.group("u2") or m.group("u3"))
+    if base is None or _QUANTITY[base] != quantity:
+        return None
+    if unit in _CONVERSIONS[quantity]:
+        return base, unit
+    if path is not None and quantity in ("angle", "temperature"):
+        raise UnitsError(f"{path}: column {name!r}: unit {unit!r} not known; known: "
+                         f"{', '.join(_CONVERSIONS[quantity])}.")
+    return None
 
 
-def _canonical_columns(df, path, required):
+def _canonical_columns(df, path, required, headers):
     """``df`` with each required column found under its canonical name: in any letter case, or declared with another
-    unit (x_mm, ``x [ft]``, temperature_f: converted)."""
+    unit (x_mm, ``x [ft]``, temperature_f: converted); a missing one named with the file's own ``headers``."""
     for col in required:  # the canonical units (m, deg, °C) are the conversions' targets
         base = col.partition("_")[0]
         quantity = _QUANTITY.get(base)
         if quantity in (None, "angle") or col in df.columns:
             continue
-        found = [c for c in df.columns if (_declared(str(c), quantity) or ("",))[0] == base]
+        found = [c for c in df.columns if (_declared(str(c), quantity, path if quantity == "temperature" else None)
+                                           or ("",))[0] == base]
         if len(found) == 1:
             values = check_columns(df[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
             converted = _CONVERSIONS[quantity][_declared(str(found[0]), quantity)[1]](values)
             df = df.drop(columns=found).assign(**{col: converted})
+    folded = {str(c).casefold() for c in df.columns}
+    missing = [c for c in required if c.casefold() not in folded]
+    if missing:
+        hint = (" (an angles-only logger? thermal='none', CLI --thermal none, needs no temperature)"
+                if "temperature_c" in missing else "")
+        raise InputFormatError(f"{path}: missing column(s) {missing}{hint}; the file's columns are {headers}. "
+                               f"Name them {list(required)} (a unit may be declared: x_mm, angle (arcsec), "
+                               "temperature [°F]).")
     return check_columns(df, path, required=required)
 
 
 def _angle_in_degrees(r, path, angle_unit: str):
-    """The readings with their declared angle column (angle_rad, angle_mrad, ``angle [rad]``) as angle_deg."""
+    """The readings with their declared angle column (angle_rad, ``angle (arcsec)``, tilt_mm_per_m) as angle_deg."""
     found = [c for c in r.columns if _declared(str(c), "angle")]
     if len(found) != 1:
-        raise InputFormatError(f"{path}: give the angle once, in one column (angle_deg, angle_rad or angle_mrad); "
+        raise InputFormatError(f"{path}: give the angle once, in one column (angle_deg, angle_rad, angle (arcsec)...); "
                                f"the file has {found}.")
     unit = _declared(str(found[0]), "angle")[1]
     if angle_unit != "deg":
         raise UnitsError(f"{path}: column {found[0]!r} declares its unit ({unit}); leave out --angle-unit "
                          f"{angle_unit} (angle_unit=...), which is for a plain angle_deg column.")
     values = check_columns(r[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
-    return r.drop(columns=found).assign(angle_deg=_CONVERSIONS["angle"][unit](values))
+    return r.drop(columns=found).assign(angle_deg=ANGLE_UNITS[unit](values))
 
 
 def read_rail_thresholds(path) -> dict:
     """Read a thresholds table: columns ``quantity`` (settlement, rate, twist), ``level`` (alert, action, alarm) and
     ``value_mm`` (mm; mm/day for the rate), one row per quantity and level.
+
+    Column names and the quantities and levels may be in any letter case; the value column may declare another
+    length unit (``value_m``, ``value_cm``, ``value (mm)``, ``Value [in]``; m/day, cm/day... for the rate), converted.
 
     Returns
     -------
@@ -147,26 +280,49 @@ def read_rail_thresholds(path) -> dict:
     Raises
     ------
     InputFormatError
-        Missing or unknown columns, an unknown quantity or level, a quantity and level given twice, a value that
-        is not a plausible threshold (:func:`longprofile.rail.check_threshold`), or levels not growing.
+        Missing or unknown columns, an unknown quantity or level, a quantity and level given twice, a value below
+        the quantity's smallest plausible limit (:data:`longprofile.rail.THRESHOLD_FLOORS_M`: metres under
+        value_mm?) or not a plausible threshold (:func:`longprofile.rail.check_threshold`), or levels not growing.
     """
-    t = read_table(path, required=THRESHOLD_COLUMNS, numeric=("value_mm",))
-    extra = sorted(set(map(str, t.columns)) - set(THRESHOLD_COLUMNS))
-    if extra:
-        raise InputFormatError(f"{path}: unknown column(s) {extra}; a thresholds table has {list(THRESHOLD_COLUMNS)}.")
+    t = read_table(path)
+    t, value, unit = _threshold_columns(t, path)
     out: dict = {}
-    for i, (q, lv, v) in enumerate(zip(t["quantity"].astype(str).str.strip(), t["level"].astype(str).str.strip(),
-                                       t["value_mm"])):
+    for i, (q, lv, v) in enumerate(zip(t["quantity"].astype(str).str.strip().str.lower(),
+                                       t["level"].astype(str).str.strip().str.lower(), t[value])):
         where = f"{path}: row {i + 1}"
         if q not in THRESHOLD_QUANTITIES or lv not in THRESHOLD_LEVELS:
             raise InputFormatError(f"{where}: quantity {q!r} / level {lv!r}; use {', '.join(THRESHOLD_QUANTITIES)} "
                                    f"and {', '.join(THRESHOLD_LEVELS)}.")
         if lv in out.get(q, {}):
             raise InputFormatError(f"{where}: {q} {lv} is given twice.")
-        out.setdefault(q, {})[lv] = float(v) * 1e-3
+        out.setdefault(q, {})[lv] = metres = float(v) * LENGTH_UNITS[unit]
+        floor, per = THRESHOLD_FLOORS_M[q], "/day" if q == "rate" else ""
+        if metres < floor and metres > 0:
+            why = ("metres under value_mm? Write the values in mm (10 for 10 mm) or name the column value_m"
+                   if unit == "mm" else f"is the column {value!r} in another unit than {unit}{per}?")
+            raise InputFormatError(f"{where}: {q} {lv} {float(v):g} {unit}{per} is below {floor * 1e3:g} mm{per}, the "
+                                   f"smallest plausible {q} limit (track limits are mm to tens of mm, rates 0.5-5 "
+                                   f"mm/day; the estimate's own error is ~0.1 mm): {why}.")
     if not out:
         raise InputFormatError(f"{path}: no thresholds (one row per quantity and level: {list(THRESHOLD_COLUMNS)}).")
     try:
         return check_thresholds(out)
     except InputError as exc:  # the library's message, with the file named
         raise InputFormatError(f"{path}: {exc}") from None
+
+
+def _threshold_columns(t, path):
+    """(table with quantity and level found in any letter case and the value column numeric, the value column's name,
+    its length unit): ``value_mm`` or ``value`` with another length unit declared (value_m, ``value (cm)``)."""
+    values = [c for c in t.columns if (m := _NAME.match(str(c).strip())) is not None and m.group("base").lower()
+              == "value" and (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower() in LENGTH_UNITS]
+    t = check_columns(t, path, required=THRESHOLD_COLUMNS[:2])
+    if len(values) != 1:
+        raise InputFormatError(f"{path}: {'no' if not values else 'more than one'} value column (value_mm, or value "
+                               f"with its unit: value_m, 'value (cm)'); the file has {[str(c) for c in t.columns]}.")
+    extra = sorted(set(map(str, t.columns)) - {*THRESHOLD_COLUMNS[:2], str(values[0])})
+    if extra:
+        raise InputFormatError(f"{path}: unknown column(s) {extra}; a thresholds table has {list(THRESHOLD_COLUMNS)}.")
+    m = _NAME.match(str(values[0]).strip())
+    unit = (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower()
+    return check_columns(t, path, numeric=[values[0]]), values[0], unit

@@ -17,7 +17,8 @@ __all__ = ["METADATA_KEY", "write_report_table", "read_report_table"]
 METADATA_KEY = "longprofile"
 
 
-def _metadata(frame: pd.DataFrame, metadata) -> dict:
+def report_metadata(frame: pd.DataFrame, metadata) -> dict:
+    """``metadata`` (default: ``frame.attrs["longprofile"]``) checked to be a JSON-serialisable dict, NaN as None."""
     meta = frame.attrs.get(METADATA_KEY, {}) if metadata is None else metadata
     if not isinstance(meta, dict):
         raise InputError(f"metadata must be a dict of names to values; got {type(meta).__name__}.")
@@ -40,7 +41,8 @@ def _finite(value):
     return value
 
 
-def _csv_header(meta: dict) -> str:
+def csv_metadata_lines(meta: dict) -> str:
+    """The ``# key: <JSON value>`` lines of ``meta`` (one per entry, each ending with a newline)."""
     return "".join(f"# {key}: {json.dumps(value)}\n" for key, value in meta.items())
 
 
@@ -67,9 +69,9 @@ def write_report_table(frame: pd.DataFrame, path, metadata: dict | None = None) 
     ``pandas.read_csv(comment="#")`` skip them). Parquet: the dict as JSON under the schema metadata key
     ``b"longprofile"``, beside pandas' own metadata.
     """
-    meta = _metadata(frame, metadata)
+    meta = report_metadata(frame, metadata)
     if hasattr(path, "write"):
-        path.write(_csv_header(meta))
+        path.write(csv_metadata_lines(meta))
         frame.to_csv(path, index=False)
         return None
     path = Path(path)
@@ -78,7 +80,7 @@ def write_report_table(frame: pd.DataFrame, path, metadata: dict | None = None) 
         raise OutputError(f"{path}: unknown table format {path.suffix!r}; use .csv or .parquet.")
     if suffix == ".csv":
         with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
-            fh.write(_csv_header(meta))
+            fh.write(csv_metadata_lines(meta))
             frame.to_csv(fh, index=False)
         return path
     import pyarrow as pa

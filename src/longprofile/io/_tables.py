@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import mmap
 import os
 import re
@@ -281,7 +282,7 @@ def _match_case(df: pd.DataFrame, required) -> pd.DataFrame:
     return df.rename(columns=rename) if rename else df
 
 
-def write_table(df: pd.DataFrame, path) -> Path:
+def write_table(df: pd.DataFrame, path, *, metadata: dict | None = None) -> Path:
     """Write ``df`` as CSV or Parquet according to the suffix of ``path``; return the path.
 
     Parameters
@@ -291,6 +292,11 @@ def write_table(df: pd.DataFrame, path) -> Path:
     path : path-like
         ``.csv`` or ``.parquet`` (``.pq``). Any other suffix (``.txt`` included: it would be ambiguous) is
         refused before anything is written.
+    metadata : dict, optional
+        JSON-serialisable provenance (e.g. how a profile was made), written as
+        :func:`longprofile.io.write_report_table` writes it: one ``# key: <JSON value>`` line per entry before a
+        CSV header, or JSON under the Parquet schema metadata key ``b"longprofile"``. Every table reader skips it;
+        :func:`longprofile.io.read_report_table` returns it.
 
     Raises
     ------
@@ -310,12 +316,25 @@ def write_table(df: pd.DataFrame, path) -> Path:
     if fmt is None:
         raise OutputError(f"{path}: unknown table format {path.suffix!r} for writing; use .csv or .parquet "
                           f"(e.g. {path.with_suffix('.csv')}).")
+    if metadata:
+        from ._report_tables import METADATA_KEY, csv_metadata_lines, report_metadata
+
+        metadata = report_metadata(df, metadata)
     try:
         with atomic_path(path) as tmp:  # an existing file is replaced only once the new one is complete
-            if fmt == "parquet":
+            if fmt == "parquet" and metadata:
+                import pyarrow as pa
+                import pyarrow.parquet as pq
+
+                table = pa.Table.from_pandas(df, preserve_index=False)
+                merged = {**(table.schema.metadata or {}), METADATA_KEY.encode(): json.dumps(metadata).encode()}
+                pq.write_table(table.replace_schema_metadata(merged), tmp)
+            elif fmt == "parquet":
                 df.to_parquet(tmp, index=False)
-            elif not _write_numeric_csv(df, tmp):
-                df.to_csv(tmp, index=False)
+            elif not _write_numeric_csv(df, tmp, csv_metadata_lines(metadata) if metadata else ""):
+                with open(tmp, "w", encoding="utf-8", newline="") as fh:
+                    fh.write(csv_metadata_lines(metadata) if metadata else "")
+                    df.to_csv(fh, index=False)
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}.") from None
     return path
@@ -352,8 +371,9 @@ def _arrow_column(values: np.ndarray):
     return pa.array(values, from_pandas=True)
 
 
-def _write_numeric_csv(df: pd.DataFrame, path: Path) -> bool:
-    """Write an all-numeric frame with pyarrow's CSV writer (header by the csv module); False if not numeric."""
+def _write_numeric_csv(df: pd.DataFrame, path: Path, prefix: str = "") -> bool:
+    """Write an all-numeric frame with pyarrow's CSV writer (header by the csv module, after ``prefix``, e.g. the
+    ``#`` metadata lines); False if not numeric."""
     import csv
     import io
 
@@ -364,7 +384,8 @@ def _write_numeric_csv(df: pd.DataFrame, path: Path) -> bool:
     if columns is None or (len(columns) == 1 and columns[0].dtype.kind == "f" and np.isnan(columns[0]).any()):
         return False  # one column with NaN: an empty cell would be a blank line, which pandas writes as ""
     names = [str(c) for c in df.columns]
-    header = io.StringIO()
+    header = io.StringIO(prefix)
+    header.seek(0, io.SEEK_END)
     csv.writer(header, lineterminator="\n").writerow(names)
     table = pa.Table.from_arrays([_arrow_column(v) for v in columns], names=[f"c{j}" for j in range(len(names))])
     with open(path, "wb") as fh:

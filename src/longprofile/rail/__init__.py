@@ -62,7 +62,8 @@ settlement_alarms           -- threshold exceedances with station, date and prob
 compare_controls            -- control surveys against the estimate (standardised differences);
 check_controls              -- do they agree? chi-squared test at CONTROL_CHECK_P, ControlCheck (a warning when
                                they do not).
-check_threshold             -- a plausible alarm threshold (THRESHOLD_RANGE_M: 0.01 mm to 1 m), else InputError.
+check_threshold             -- a plausible alarm threshold (THRESHOLD_FLOORS_M per quantity: 0.5 mm, 0.05 mm/day;
+                               THRESHOLD_RANGE_M up to 1 m), else InputError.
 threshold_alarms            -- every level (alert, action, alarm) of settlement, rate and twist thresholds tested.
 check_thresholds            -- a validated {quantity: {level: value}} (THRESHOLD_QUANTITIES, THRESHOLD_LEVELS).
 fit_change_prior            -- maximum-likelihood prior (order and r) of the settlement profile;
@@ -72,6 +73,9 @@ estimate_settlement         -- the whole job, readings to settlement, bands, hea
 estimate_settlement_from_daily -- the same from daily angles already computed (e.g. from cached DayStatistics).
 SettlementSettings          -- its options (frozen, validated once): ``estimate_settlement(site, settings=...)``.
 SettlementResult            -- its result (``to_table()`` for the long output table).
+find_reinstallations        -- sensors resuming after a gap with a new mounting offset; Rebaselines is its result.
+check_events                -- the events table (re-installed / replaced sensors), checked.
+apply_replacements          -- a replacing sensor's readings merged into the replaced one's series.
 """
 
 from .._lazy import lazy_namespace
@@ -87,6 +91,7 @@ _EXPORTS = {
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors", "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
+    "._reinstall": ("Rebaselines", "find_reinstallations", "check_events", "apply_replacements"),
     "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
                    "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
                    "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
@@ -94,7 +99,7 @@ _EXPORTS = {
                  "estimate_settlement", "estimate_settlement_from_daily", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
     "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time", "check_threshold",
-                   "THRESHOLD_RANGE_M"),
+                   "THRESHOLD_RANGE_M", "THRESHOLD_FLOORS_M"),
     "._thresholds": ("THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms"),
     "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
                   "day_statistics", "first_order_response", "statistics_window", "lag_variance_ratio", "LAG_AUTO_RATIO"),
@@ -112,11 +117,12 @@ __all__ = [
     "max_settlement_monte_carlo", "affine_correction", "assess_sensors", "SensorHealth",
     "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED",
     "smooth_through_time", "TemporalSettlement", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
-    "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms", "estimate_settlement", "SettlementResult",
+    "THRESHOLD_FLOORS_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms", "estimate_settlement", "SettlementResult",
     "SettlementSettings", "fit_change_prior", "ChangePriorFit", "segment_prior_weights", "max_settlement_interval",
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
     "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P", "lag_variance_ratio", "LAG_AUTO_RATIO",
+    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

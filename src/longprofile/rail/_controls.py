@@ -26,7 +26,8 @@ import pandas as pd
 from ..errors import InputError
 from ._rigidity import DEFAULT_SIGMA_A, Z90
 
-__all__ = ["ControlCheck", "compare_controls", "check_controls", "unmatched_controls", "CONTROL_CHECK_P"]
+__all__ = ["ControlCheck", "compare_controls", "check_controls", "common_offsets", "unmatched_controls",
+           "CONTROL_CHECK_P", "OFFSET_SHARE", "OFFSET_MIN_POINTS", "OFFSET_MIN_RATIO"]
 
 #: The control surveys disagree with the estimate when the chi-squared test of their standardised differences has a
 #: p-value below this (module docstring).
@@ -53,6 +54,9 @@ class ControlCheck:
         ``p_value`` below ``CONTROL_CHECK_P``.
     worst : tuple
         (date, x_m, control minus estimate in m, z) of the point of largest |z|.
+    offsets : tuple of (date, offset_m, spread_m)
+        The surveys whose disagreement is one offset shared by all their points (:func:`common_offsets`): the
+        weighted mean of control minus estimate and the RMS of the differences around it, m; empty otherwise.
     """
 
     n_points: int
@@ -61,16 +65,26 @@ class ControlCheck:
     p_value: float
     disagree: bool
     worst: tuple
+    offsets: tuple = ()
 
     def message(self) -> str:
         """The warning printed when the surveys disagree (empty when they agree)."""
         if not self.disagree:
             return ""
         date, x, diff, z = self.worst
-        return (f"the control surveys disagree with the estimate: {self.n_outside} of {self.n_points} control points "
+        head = (f"the control surveys disagree with the estimate: {self.n_outside} of {self.n_points} control points "
                 f"outside the 90 % band (about {max(1, round(0.1 * self.n_points))} expected), chi-squared "
                 f"{self.chi2:.3g} on {self.n_points} points (p = {self.p_value:.1e}); the largest difference is "
-                f"{1e3 * diff:+.1f} mm at x = {x:g} m on {date} ({z:+.1f} std). The estimate's assumptions do not "
+                f"{1e3 * diff:+.1f} mm at x = {x:g} m on {date} ({z:+.1f} std). ")
+        offset = ""
+        if self.offsets:
+            shown = ", ".join(f"{1e3 * c:+.1f} mm on {d} (spread {1e3 * s:.1f} mm)" for d, c, s in self.offsets[:3])
+            more = f" and {len(self.offsets) - 3} more survey(s)" if len(self.offsets) > 3 else ""
+            offset = (f"Same offset at every point of a survey: {shown}{more}. Controls levelled on another datum or "
+                      "benchmark than the initial survey? Subtract the offset from their z_m (or re-reference them to "
+                      "the initial survey's benchmark) and run again; if the benchmark is the same, the whole span "
+                      "moved, its ends too. Otherwise, ")
+        return (head + offset + ("the" if offset else "The") + " estimate's assumptions do not "
                 "hold here: a span end that moved, or a step seen by one or two sensors and excluded as a fault "
                 "(docs/rail.md, \"Control surveys\"); trust the controls, look at the report's control figure, and "
                 "extend the instrumented span beyond the works or try --end-ambiguity mixture.")
@@ -173,4 +187,49 @@ def check_controls(table: pd.DataFrame | None, *, p: float = CONTROL_CHECK_P) ->
     row = table.iloc[k]
     worst = (str(row["date"]), float(row["x_m"]), float(row["dz_control_m"] - row["dz_estimate_m"]), float(z[k]))
     return ControlCheck(n_points=int(z.size), n_outside=int((~table["inside_90"].to_numpy(bool)).sum()), chi2=stat,
-                        p_value=pv, disagree=pv < p, worst=worst)
+                        p_value=pv, disagree=pv < p, worst=worst, offsets=common_offsets(table, p=p) if pv < p else ())
+
+
+#: A survey's disagreement is "one offset" when removing its weighted mean difference leaves at most this share of its
+#: chi-squared (or a chi-squared the test accepts): :func:`common_offsets`.
+OFFSET_SHARE = 0.05
+#: Fewest points of a survey for :func:`common_offsets` to call its disagreement an offset.
+OFFSET_MIN_POINTS = 3
+#: ... and the offset must be at least this many times the RMS of the points about it: on transitions and tilts with
+#: 2 mm levelling (calibration seeds 300-319) offsets of 0.55-1.7 times their scatter passed the other criteria.
+OFFSET_MIN_RATIO = 3.0
+
+
+def common_offsets(table: pd.DataFrame, *, p: float = CONTROL_CHECK_P) -> tuple:
+    """The surveys (dates) of :func:`compare_controls`' table that disagree with the estimate by one offset shared by
+    all their points: controls levelled on another datum or benchmark than the initial survey (a user's probe,
+    session 39: +0.3 m on every point was reported as "a span end that moved").
+
+    A date with at least :data:`OFFSET_MIN_POINTS` points whose chi-squared fails the test at ``p`` is an offset when
+    the differences minus their weighted mean c (weights 1 / (std_m^2 + 2 sigma_a^2), recovered from z) pass it
+    (n - 1 degrees of freedom) or keep at most :data:`OFFSET_SHARE` of its chi-squared, and when |c| is at least
+    :data:`OFFSET_MIN_RATIO` times the RMS of the differences about it. A moved end leaves a difference that grows
+    along the span, a step one beyond a station: neither is removed by one constant much larger than what is left.
+
+    Returns
+    -------
+    tuple of (date, offset_m, spread_m)
+        c and the RMS of the differences around it, m, for each such date; empty when there is none.
+    """
+    from scipy.special import chdtrc
+
+    out = []
+    for date, g in table.groupby("date", sort=True):
+        d, z = (g["dz_control_m"] - g["dz_estimate_m"]).to_numpy(float), g["z"].to_numpy(float)
+        if d.size < OFFSET_MIN_POINTS or chdtrc(d.size, float(np.sum(z**2))) >= p:
+            continue
+        scale = np.abs(np.divide(d, z, out=np.full(d.shape, np.nan), where=z != 0))
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, np.nanmedian(scale))
+        w = 1.0 / scale**2
+        c = float(np.sum(w * d) / np.sum(w))
+        rest = float(np.sum(w * (d - c) ** 2))
+        spread = float(np.sqrt(np.mean((d - c) ** 2)))
+        if abs(c) >= OFFSET_MIN_RATIO * spread and (chdtrc(d.size - 1, rest) >= p
+                                                    or rest <= OFFSET_SHARE * float(np.sum(z**2))):
+            out.append((str(date), c, spread))
+    return tuple(out)

@@ -281,6 +281,66 @@ def _clock_change_hint(r: pd.DataFrame, dups) -> str:
             "stamps in UTC.")
 
 
+def _drop_exact_duplicates(r: pd.DataFrame, warnings: list) -> pd.DataFrame:
+    """``r`` without the rows that repeat another exactly (sensor, time, angle and temperature: overlapping downloads
+    of a logger), with a warning counting them; readings that differ at one sensor and time are left for the
+    caller to refuse."""
+    same = r.duplicated(["sensor_id", "timestamp", "angle_deg", "temperature_c"])
+    if not same.any():
+        return r
+    ids = sorted(set(r["sensor_id"][same]))
+    warnings.append(f"{int(same.sum())} reading(s) repeated exactly (same sensor, time, angle and temperature: "
+                    f"overlapping downloads?) were dropped, on {len(ids)} sensor(s) (e.g. {ids[:3]}).")
+    return r[~same.to_numpy()].reset_index(drop=True)
+
+
+#: :func:`_spring_forward`: a jump of one hour more than a sensor's usual interval, within this tolerance, s.
+_SPRING_TOLERANCE_S = 60.0
+
+
+def _spring_forward(r: pd.DataFrame) -> None:
+    """Refuse naive times that look like local times across the spring clock change: more than half of the sensors
+    (with readings on both sides) jump by their usual interval plus one hour at the same time, the last reading
+    before the jump between 00:00 and 04:00 of a Sunday (the day of the change in Europe, North America and
+    Australia). The autumn change shows as repeated times (:func:`_clock_change_hint`)."""
+    if len(r) < 3:
+        return
+    t = r["timestamp"]
+    gap = t.groupby(r["sensor_id"], sort=False).diff().dt.total_seconds()
+    usual = gap.groupby(r["sensor_id"], sort=False).transform("median")
+    jump = (np.abs(gap - usual - 3600.0) <= _SPRING_TOLERANCE_S).to_numpy()
+    if not jump.any():
+        return
+    before = (t - pd.to_timedelta(gap, unit="s"))[jump]
+    early = ((before.dt.day_of_week == 6) & (before.dt.hour < 4)).to_numpy()
+    if not early.any():
+        return
+    at = t[jump][early]
+    when = at.mode().iloc[0]
+    sensors = r["sensor_id"][jump][early][at == when].nunique()
+    spans = r.groupby("sensor_id", sort=False)["timestamp"].agg(["min", "max"])
+    across = int(((spans["min"] < when) & (spans["max"] >= when)).sum())
+    if sensors > 0.5 * across:
+        raise InputFormatError(
+            f"readings table: {sensors} of {across} sensors jump by one hour more than their interval at {when} (early "
+            "on a Sunday: clocks go forward): loggers in local time? Give their zone (timezone='Europe/Paris'; CLI: "
+            "--timezone), or the time stamps in UTC (timezone='UTC', --timezone UTC, if they are and the hour is a "
+            "gap).")
+
+
+def _constant_temperature(readings: pd.DataFrame, warnings: list) -> pd.DataFrame:
+    """``readings`` with one constant temperature (0 degC) when it has no ``temperature_c`` column or an empty one
+    (``require_temperature=False``, :func:`validate_site`); unchanged otherwise."""
+    if "temperature_c" in readings.columns:
+        t = readings["temperature_c"]
+        text = t.astype(str).str.strip().str.lower()
+        if not (t.isna() | text.isin(["", *MISSING_TEXT])).all():
+            return readings
+    warnings.append("the readings have no temperature: the angles are used as read (no thermal correction) and the "
+                    "noise model has no temperature term.")
+    return readings.assign(temperature_c=0.0)
+
+
 def fill_temperature(readings: pd.DataFrame, sensors: pd.DataFrame, *,
                      neighbours: int = TEMPERATURE_NEIGHBOURS) -> tuple[pd.DataFrame, dict[str, int], dict[str, int]]:
     """Readings whose angle has no temperature, or a stuck one, given the median temperature of their nearest
@@ -513,7 +573,8 @@ def _temperature_less(r: pd.DataFrame) -> str:
 
 def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.DataFrame | None = None,
                   controls: pd.DataFrame | None = None, *, angle_unit: str = "deg",
-                  check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None) -> SiteData:
+                  check_units: bool = True, temperature_fill: bool = True, timezone: str | None = None,
+                  require_temperature: bool = True) -> SiteData:
     """Validate the four tables of a site and return a :class:`SiteData`.
 
     Parameters
@@ -538,7 +599,13 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
         IANA zone (``Europe/Paris``) of the loggers' clocks: reading times without a UTC offset are local times of
         it, converted to UTC (default: they are UTC). The hour the clock shows twice in autumn is read in each
         sensor's order (:func:`_local_times`); a time it skips in spring is refused. Times with an offset are
-        instants whatever this says.
+        instants whatever this says. Without it, naive times that jump by one hour more than their interval in most
+        sensors at once, early on a Sunday (:func:`_spring_forward`), are refused as local times: pass the zone, or
+        "UTC" when they really are UTC.
+    require_temperature : bool, default True
+        False (for ``thermal="none"``, an angles-only logger): a readings table without a ``temperature_c`` column,
+        or with that column empty in every row, is taken, its temperature set to one constant (0 °C): the angles are
+        used as read and the noise model has no temperature term (docs/rail.md, "Angles-only loggers").
 
     Returns
     -------
@@ -558,6 +625,8 @@ def validate_site(sensors: pd.DataFrame, readings: pd.DataFrame, survey: pd.Data
     if angle_unit not in ("deg", "rad"):
         raise UnitsError(f"angle_unit must be 'deg' or 'rad'; got {angle_unit!r}.")
     s = _valid_sensors(sensors)
+    if not require_temperature:
+        readings = _constant_temperature(readings, warnings)
     r = _valid_readings(readings, s, angle_unit, check_units, warnings, temperature_fill, timezone)
     sv = _valid_survey(survey, s, warnings, check_units)
     ct = _valid_controls(controls, s, sv, warnings)
@@ -612,12 +681,16 @@ def _valid_readings(readings: pd.DataFrame, s: pd.DataFrame, angle_unit: str, ch
     if unknown:
         raise InputError(f"readings table: {len(unknown)} sensor id(s) not in the sensors table, e.g. "
                          f"{unknown[:5]}; add them to the sensors table (with their station) or remove their readings.")
+    r = _drop_exact_duplicates(r, warnings)
     dups = r.duplicated(["sensor_id", "timestamp"])
     if dups.any():
         i = int(np.nonzero(dups.to_numpy())[0][0])
-        raise InputError(f"readings table, {_row(i)}: duplicate reading for sensor {r['sensor_id'][i]!r} at "
-                         f"{r['timestamp'][i]}; keep one reading per sensor and timestamp."
-                         + _clock_change_hint(r, dups))
+        first = r[(r["sensor_id"] == r["sensor_id"][i]) & (r["timestamp"] == r["timestamp"][i])].iloc[0]
+        raise InputError(f"readings table, {_row(i)}: two different readings for sensor {r['sensor_id'][i]!r} at "
+                         f"{r['timestamp'][i]} (angle {first['angle_deg']:g} and {r['angle_deg'][i]:g} deg); keep "
+                         "one reading per sensor and timestamp." + _clock_change_hint(r, dups))
+    if timezone is None:
+        _spring_forward(r)
     back = (r.groupby("sensor_id", sort=False)["timestamp"].diff() < pd.Timedelta(0)).to_numpy()
     if back.any():
         bad = sorted(set(r["sensor_id"].to_numpy()[back]))

@@ -14,6 +14,7 @@ from .._validation import require_positive
 from ..errors import InputError
 from ._controls import ControlCheck, check_controls, compare_controls, unmatched_controls
 from ._data import SiteData
+from ._given_sigma import check_sigma_range, compare_with_estimate
 from ._health import (
     FROZEN_MIN_READINGS,
     REVERSAL_NULLS,
@@ -47,6 +48,7 @@ from ._joint import (
     day_noise_covariance,
     joint_posterior,
 )
+from ._reinstall import REINSTALL_MODES, condition_on_unknowns, offset_columns, reinstall_stage
 from ._rigidity import (
     DEFAULT_RIGIDITY,
     DEFAULT_SIGMA_A,
@@ -186,16 +188,27 @@ class SettlementResult:
     noise_day_cov: np.ndarray | None = None
     control_check: ControlCheck | None = None
 
+    def measured(self) -> np.ndarray:
+        """(D, N) bool: did this sensor's daily angle of this day enter the estimate? False on the days without one
+        (a logger outage: the value there is the model's inference from the sensor's other days and its
+        neighbours, with a band to match) and on every day of an excluded sensor (its station is estimated from
+        its neighbours)."""
+        seen = np.isfinite(np.asarray(self.daily.change_deg, float))
+        if seen.shape != self.dz.shape:  # daily angles of other days than the result's (not from estimate_settlement)
+            return np.broadcast_to(~np.asarray(self.health.excluded, bool), self.dz.shape).copy()
+        return seen & ~np.asarray(self.health.excluded, bool)[None, :]
+
     def to_table(self) -> pd.DataFrame:
-        """Long table, one row per day and sensor: date, sensor_id, x_m, status, dz_m, dz_std_m (posterior),
-        dz_lower90_m, dz_upper90_m, dz_noise_std_m, smoothed_dz_m, smoothed_std_m, rate_m_per_day,
-        rate_std_m_per_day."""
+        """Long table, one row per day and sensor: date, sensor_id, x_m, status, measured (:meth:`measured`),
+        dz_m, dz_std_m (posterior), dz_lower90_m, dz_upper90_m, dz_noise_std_m, smoothed_dz_m, smoothed_std_m,
+        rate_m_per_day, rate_std_m_per_day."""
         D, N = self.dz.shape
         out = pd.DataFrame({
             "date": np.repeat(pd.DatetimeIndex(self.days).strftime("%Y-%m-%d").to_numpy(), N),
             "sensor_id": np.tile(self.sensor_ids, D),
             "x_m": np.tile(self.x, D),
             "status": np.tile(self.health.status, D),
+            "measured": self.measured().ravel(),
             "dz_m": self.dz.ravel(),
             "dz_std_m": self.dz_std.ravel(),
             "dz_lower90_m": (self.dz - Z90 * self.dz_std).ravel(),
@@ -275,12 +288,7 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
                          f"daily angle (at least 5 needed) over {D} day(s) (at least 2); the others are dead or "
                          "excluded. Check the warnings on dead sensors, or give the daily noise std "
                          "(error_model='white' or sigma=...; CLI --sigma-deg).")
-    r = _neighbour_residuals(xs, Ms)
-    with np.errstate(invalid="ignore"):
-        mad = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
-        kept = np.where(np.abs(r) <= 5.0 * mad, r, np.nan)
-    n = np.isfinite(kept).sum(axis=1)
-    v = np.where(n >= 3, np.nansum(kept**2, axis=1) / np.maximum(n, 1), np.nan)
+    v = day_noise_variances(xs, Ms)
     t = np.arange(D, dtype=float) if day_offsets is None else np.asarray(day_offsets, float)
     cols = [np.ones(D), t]
     if temperature_change is not None:
@@ -288,16 +296,31 @@ def daily_noise_sigma(x, slopes, *, day_offsets=None, temperature_change=None, f
         cols.append(dT**2)
     A = np.column_stack(cols)
     use = np.isfinite(v) & (np.arange(D) >= 1) & (v > 0)
+    if use.sum() == 1:  # one change day (a 2-day campaign): its own level, no growth to fit (docs/rail.md)
+        return np.full(D, np.sqrt(max(float(v[use][0]), max(floor, 1e-12) ** 2)))
     if use.sum() < 2:
-        raise InputError(f"too few days with a measurable noise ({int(use.sum())} after the reference day; at least 2 "
-                         "needed to fit its growth over the days): a longer record, or give the daily noise std "
-                         "(error_model='white' or sigma=...; CLI --sigma-deg).")
+        raise InputError("no day after the reference day with a measurable noise (its sensors' departures from "
+                         "their neighbours): give the daily noise std (sigma=... rad; CLI --sigma-deg DEG, about "
+                         "8e-4 deg on the simulated presets), or a longer record.")
     # weights ~ 1/v_d: the per-day variances are chi-square-like, their spread grows with their level
     w = 1.0 / np.maximum(v[use], 1e-300)
     coef, _ = nnls(A[use] * w[:, None], v[use] * w)
     fitted = A @ coef
     fitted[0] = fitted[1] if D > 1 else fitted[0]
     return np.sqrt(np.maximum(fitted, max(floor, 1e-12) ** 2))
+
+
+def day_noise_variances(x, slopes) -> np.ndarray:
+    """(D,) robust variance of each day's slope-change errors from the sensors' departures from the line through their
+    two neighbours (scaled to unit noise; departures beyond 5 MAD, a bowl's curvature, set aside); NaN on a day with
+    fewer than 3 departures. The per-day values of :func:`daily_noise_sigma`."""
+    r = _neighbour_residuals(np.asarray(x, float), np.asarray(slopes, float))
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a day without any departure: its MAD is NaN
+        mad = 1.4826 * np.nanmedian(np.abs(r), axis=1, keepdims=True)
+        kept = np.where(np.abs(r) <= 5.0 * mad, r, np.nan)
+    n = np.isfinite(kept).sum(axis=1)
+    return np.where(n >= 3, np.nansum(kept**2, axis=1) / np.maximum(n, 1), np.nan)
 
 
 #: Bounds of a sensor's noise variance relative to the site's (:func:`sensor_noise_factors`): f^2 in [1/4, 16].
@@ -1235,6 +1258,14 @@ class SettlementSettings:
         hourly for 90 / 180 / 365 days (seeds 300-339) healthy sensors flagged 369 -> 163 of 9537, reversed sensors
         found 100 -> 96 of 120; on the benchmark's 28-day families one status changed, a false alarm fewer
         (docs/rail.md, "Sensor health, step 18").
+    reinstallations : {"detect", "off"}, default "detect"
+        "detect": a sensor whose daily angle resumes after a gap in its readings with a jump its neighbours do not
+        show over the same days (:func:`~longprofile.rail._reinstall.find_reinstallations`, a new mounting offset after
+        maintenance) is re-baselined: its angle change across the gap is treated as unknown, with a warning naming it
+        (docs/rail.md, "Re-installed sensors"). "off": every series is taken as continuous (the rule until session 39).
+    events : pandas.DataFrame or None, default None
+        Declared re-installations and replacements (:func:`~longprofile.rail._reinstall.check_events`; columns
+        sensor_id, date, event, new_id): each starts a new reference of the sensor's series on its date.
     """
 
     thermal: str = "auto"
@@ -1270,6 +1301,8 @@ class SettlementSettings:
     end_ambiguity: str = "off"
     witness_rule: str = "off"
     reversal_null: str = "site"
+    reinstallations: str = "detect"
+    events: Any = None
 
     @classmethod
     def until_2026_12_06(cls, **options) -> "SettlementSettings":
@@ -1279,16 +1312,19 @@ class SettlementSettings:
         the all-days anchors of the same day, sessions 27 and 28) and the reversal z on its own
         (``reversal_z_rule="alone"``, the default until step 16 of the same day) and the paper's linear thermal model
         (``thermal="linear"``, the default until session 29 of the same day) and the model's null for the reversal
-        tests (``reversal_null="model"``, the rule until session 31); reproduces that estimator's outputs.
+        tests (``reversal_null="model"``, the rule until session 31) and every series taken as continuous
+        (``reinstallations="off"``, the rule until session 39); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"thermal": "linear", "max_settlement_interval": "band", "health_end_anchor": "fixed",
                       "settlement_end_anchor": "fixed",
                       "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
-                      "reversal_null": "model", **options})
+                      "reversal_null": "model", "reinstallations": "off", **options})
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
         require_positive("sigma_a", self.sigma_a)
+        if self.sigma is not None:  # a datasheet's ±0.05° is no daily-median noise (_given_sigma)
+            object.__setattr__(self, "sigma", check_sigma_range(self.sigma))
         if self.error_model not in ERROR_MODELS:
             raise InputError(f"error_model must be one of {ERROR_MODELS}; got {self.error_model!r}.")
         if self.penalty_order is not None and self.penalty_order not in PENALTY_ORDERS:
@@ -1305,7 +1341,8 @@ class SettlementSettings:
         for name, choices in (("max_settlement_interval", MAX_SETTLEMENT_INTERVALS), ("shape_rule", SHAPE_RULES),
                               ("health_end_anchor", HEALTH_END_ANCHORS), ("reversal_z_rule", REVERSAL_Z_RULES),
                               ("settlement_end_anchor", SETTLEMENT_END_ANCHORS), ("end_ambiguity", END_AMBIGUITIES),
-                              ("witness_rule", WITNESS_RULES), ("reversal_null", REVERSAL_NULLS)):
+                              ("witness_rule", WITNESS_RULES), ("reversal_null", REVERSAL_NULLS),
+                              ("reinstallations", REINSTALL_MODES)):
             if getattr(self, name) not in choices:
                 raise InputError(f"{name} must be one of {choices}; got {getattr(self, name)!r}.")
         object.__setattr__(self, "exclude_sensors", tuple(self.exclude_sensors))
@@ -1360,7 +1397,16 @@ def _daily_stage(daily: DailyAngles, opt: SettlementSettings, warnings: list) ->
     if n_out:
         warnings.append(f"{n_out} outlier reading(s) set aside (> {8:g} robust std from their running median), "
                         f"most on {ids[int(np.argmax(daily.n_outliers))]} ({int(daily.n_outliers.max())}).")
+    if daily.days.size == 2 and opt.sigma is None:
+        warnings.append(_TWO_DAYS)
     return daily
+
+
+#: The warning of a 2-day record (:func:`daily_noise_sigma` with one change day; docs/rail.md, "A user's probe").
+_TWO_DAYS = ("a 2-day record: one change, whose noise is that day's scatter of the sensors about their neighbours (no "
+             "growth over the days can be fitted, and the health tests see one change per sensor); on 2-day cuts of "
+             "the simulated presets the 90 % band covered 92.5 % (mittersheim-like) and 95.6 % (farebersviller-like) "
+             "of the true settlement; each further day adds to what the noise and the health tests rest on.")
 
 
 def _partial_first_days(daily: DailyAngles, warnings: list) -> DailyAngles:
@@ -1392,6 +1438,24 @@ def _slope_changes(site: SiteData, daily: DailyAngles, opt: SettlementSettings):
     change = np.deg2rad(daily.change_deg)
     slopes = np.tan(theta0[None, :] + change) - np.tan(theta0)[None, :]
     return initial, slopes
+
+
+def _check_given_sigma(x, slopes, opt: SettlementSettings, warnings: list) -> None:
+    """A given ``sigma`` against the data's noise, the median over the days after the first of
+    :func:`day_noise_variances` of every sensor with a daily angle (robust to a settlement, unlike the day-to-day
+    differences on a short record with works: 2e-3 instead of 8e-4 deg on a 3-day cut of mittersheim-like)
+    (:func:`~longprofile.rail._given_sigma.compare_with_estimate`: a warning, or InputError when far off); nothing
+    when none was given or fewer than 5 sensors have an angle."""
+    if opt.sigma is None:
+        return
+    ok = np.isfinite(slopes).any(axis=0)
+    v = day_noise_variances(x[ok], slopes[1:, ok]) if ok.sum() >= 5 else np.array([np.nan])
+    if not np.isfinite(v).any():  # too few sensors: only the plausible range was checked (SettlementSettings)
+        return
+    estimate = float(np.sqrt(np.nanmedian(v)))
+    if estimate > 0 and (message := compare_with_estimate(opt.sigma, estimate, source="the sensors' departures "
+                                                          "from their neighbours, median over the days")):
+        warnings.append(message)
 
 
 def _anchor_fitter(x, daily: DailyAngles, opt: SettlementSettings):
@@ -1503,7 +1567,7 @@ _EXCLUDED_WITNESS = ("sensor {sid} was excluded ({status}), but its departure fr
 #: user's exclusions; dead and user-excluded ones not counted among the flags: :func:`~longprofile.rail._health.flag_limit`,
 #: :func:`~longprofile.rail._health.n_flagged`).
 _HEALTH_CAPPED = ("the health tests stopped at their limit: {n} of {N} sensors excluded as faulty (a quarter). So many "
-                  "independent faults are unlikely; a cause common to many sensors is likelier: a thermal response the "
+                  "independent faults are unlikely; a cause common to many sensors is likelier: {given}a thermal response the "
                   "model does not follow (thermal model '{thermal}'; try --thermal lagged), angles in another unit or "
                   "sign convention, or a settlement the instrumented span does not contain. Check the excluded sensors "
                   "before trusting the result (docs/rail.md, \"Sensor health\").")
@@ -1517,7 +1581,10 @@ def _warn_if_health_capped(health, opt: SettlementSettings, warnings: list, dail
     n = n_flagged(status)
     if n >= max(2, flag_limit(status)):
         N = int((status != USER_EXCLUDED).sum())  # the sensors the tests examined
-        warnings.append(_HEALTH_CAPPED.format(n=n, N=N, thermal=opt.thermal if daily is None else daily.thermal))
+        given = ("" if opt.sigma is None else f"the noise std given (sigma = {np.rad2deg(opt.sigma):.3g} deg, CLI "
+                 "--sigma-deg), if far from the data's noise (leave it out to estimate it), ")
+        warnings.append(_HEALTH_CAPPED.format(n=n, N=N, thermal=opt.thermal if daily is None else daily.thermal,
+                                              given=given))
 
 
 def _noise_stage(daily: DailyAngles, x, M, days, opt: SettlementSettings):
@@ -1672,6 +1739,37 @@ MISSING_DAY_IMPUTATIONS = 8
 MISSING_DAY_MAX = 3000
 
 
+def _missing_summary(ids, days, M, limit: int = 4) -> str:
+    """The sensor-days without a daily angle of the kept sensors (those with some), compactly: neighbouring sensors
+    missing on the same days share one entry, e.g. "S30-S45 on 2019-12-05..09; S3 on 2019-12-11" (at most ``limit``
+    entries, then how many more)."""
+    miss = np.isnan(np.asarray(M, float))
+    part = miss.any(axis=0) & ~miss.all(axis=0)
+    dates = pd.DatetimeIndex(days)
+
+    def runs(col):  # the sensor's missing days as "first..last" runs of consecutive rows
+        d = np.flatnonzero(col)
+        cut = np.flatnonzero(np.diff(d) > 1)
+        out = []
+        for a, b in zip(np.r_[d[0], d[cut + 1]], np.r_[d[cut], d[-1]]):
+            first, last = dates[a], dates[b]
+            out.append(f"{first:%Y-%m-%d}" if a == b else
+                       f"{first:%Y-%m-%d}..{last:%d}" if (first.year, first.month) == (last.year, last.month)
+                       else f"{first:%Y-%m-%d}..{last:%Y-%m-%d}")
+        return ", ".join(out)
+
+    groups = []  # [first sensor, last sensor, runs] of neighbouring partly-missing sensors with the same runs
+    for j in np.flatnonzero(part):  # (sensors without any daily angle, i.e. excluded, between them do not part them)
+        r = runs(miss[:, j])
+        if groups and groups[-1][2] == r and miss[:, groups[-1][1] + 1:j].all():
+            groups[-1][1] = j
+        else:
+            groups.append([j, j, r])
+    text = [f"{ids[a]}{'' if a == b else '-' + str(ids[b])} on {r}" for a, b, r in groups[:limit]]
+    more = f"; and {len(groups) - limit} more sensor group(s)" if len(groups) > limit else ""
+    return "; ".join(text) + more
+
+
 def _fill_missing_days(M, t):
     """Slope changes with a sensor's missing days (not all of them) filled by linear interpolation over the days
     (flat beyond its first and last): (filled (D, N), number of sensor-days filled)."""
@@ -1696,14 +1794,15 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     observed = np.asarray(M, float)
     M, n_filled = _fill_missing_days(M, t)
     exact = n_filled <= MISSING_DAY_MAX
+    where = _missing_summary(daily.sensor_ids, days, observed) if n_filled else ""
     if n_filled and exact:
-        warnings.append(f"{n_filled} sensor-day(s) without a daily angle: the all-days model's noise and prior were "
-                        "fitted without them, and its settlement and bands treat them as missing (docs/rail.md, "
-                        "\"Logger outages\").")
+        warnings.append(f"{n_filled} sensor-day(s) without a daily angle ({where}): the all-days model's noise and "
+                        "prior were fitted without them, and its settlement and bands treat them as missing; the "
+                        "output's 'measured' column marks them (docs/rail.md, \"Logger outages\").")
     elif n_filled:
-        warnings.append(f"{n_filled} sensor-day(s) without a daily angle were filled by linear interpolation over the "
-                        "days of their sensor and counted as measured (too many to treat as missing): the bands on and "
-                        "after those days are too narrow (docs/rail.md, \"Logger outages\").")
+        warnings.append(f"{n_filled} sensor-day(s) without a daily angle ({where}) were filled by linear interpolation "
+                        "over the days of their sensor and counted as measured (too many to treat as missing): the "
+                        "bands on and after those days are too narrow (docs/rail.md, \"Logger outages\").")
     seen = observed if n_filled else None
     noise, prior, weights, jp = _joint_fit(x, M, t, daily, sig, factors, opt, seen)
     for _ in range(JOINT_FACTOR_REFITS if factors is not None else 0):
@@ -1716,10 +1815,11 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     modes = jp.modes
     post = {k: getattr(jp, k) for k in ("z_mean", "z_std", "slope_mean", "slope_std", "noise_std")}
     rate_std, imputed = jp.rate_std, None
-    if n_filled and exact:
+    if n_filled and exact or daily.rebaselined is not None:
         # a child stream: the maximum settlement's draws start from opt.rng itself, and must not reuse these numbers
         post, rate_std, imputed = _impute_missing(x, observed, M, jp, noise.cov, prior.penalty_order, factors, weights,
-                                                  sz, np.random.default_rng(opt.rng).spawn(1)[0])
+                                                  sz, np.random.default_rng(opt.rng).spawn(1)[0],
+                                                  segments=daily.rebaselined)
     rate = np.full(M.shape, np.nan)
     rate[1:] = np.diff(post["z_mean"], axis=0)
     smoothed = TemporalSettlement(mean=post["z_mean"], std=post["z_std"], rate=rate, rate_std=rate_std,
@@ -1732,7 +1832,7 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
 
 
 def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights, sigma_z, rng,
-                    n_records: int = MISSING_DAY_IMPUTATIONS):
+                    n_records: int = MISSING_DAY_IMPUTATIONS, segments=None):
     r"""The all-days posterior with the sensor-days that have no daily angle treated as missing (beyond paper 004).
 
     The modes of :func:`~longprofile.rail._joint.joint_posterior` need every kept sensor on every day, so a missing
@@ -1773,42 +1873,18 @@ def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights,
                                sensor_factors=factors, sigma_z=sigma_z, segment_weights=weights)
 
     def precision_times(data, fitted):  # Sigma_e^{-1} (data - fitted), sensor by sensor over the days
-        out = np.linalg.solve(noise_cov, np.nan_to_num(data - fitted)) / f2[None, :]
-        return out[days, cols]
+        return np.linalg.solve(noise_cov, np.nan_to_num(data - fitted)) / f2[None, :]
 
     m0 = np.where(missing, 0.0, np.where(kept[None, :], obs, np.nan))
-    lam_o = precision_times(m0, posterior(m0).slope_mean[1:])
-    lam = np.empty((days.size, days.size))
-    for c, (d, i) in enumerate(zip(days, cols)):  # Lambda_JJ, a column per missing entry (its unit response)
-        unit = base.copy()
-        unit[d, i] = 1.0
-        lam[:, c] = precision_times(unit, posterior(unit).slope_mean[1:])
-    cov = np.linalg.inv(0.5 * (lam + lam.T))
-    cov = 0.5 * (cov + cov.T)
-    m_star = -cov @ lam_o
-    w, V = np.linalg.eigh(cov)
-    root = V * np.sqrt(np.clip(w, 0.0, None))  # cov = root root^T
-    done = m0.copy()
-    done[days, cols] = m_star
-    mean = posterior(done)  # H m*: the posterior mean given the observed days
-    # diag(H_J cov H_J^T) = sum_k (H_J root_k)^2, each H_J root_k the posterior mean of root_k put at the entries
-    add = {"z": np.zeros_like(mean.z_mean), "slope": np.zeros_like(mean.z_mean), "rate": np.zeros_like(obs)}
-    for k in np.flatnonzero(np.any(root != 0.0, axis=0)):
-        v = base.copy()
-        v[days, cols] = root[:, k]
-        r = posterior(v)
-        add["z"] += r.z_mean**2
-        add["slope"] += r.slope_mean**2
-        add["rate"] += np.diff(r.z_mean, axis=0) ** 2
+    columns = [(np.array([d]), np.array([i])) for d, i in zip(days, cols)]  # a missing entry: an unknown of its own
+    if segments is not None:  # a new reference's offset (re-installed sensor): one unknown on its observed days
+        columns += offset_columns(segments, np.isnan(obs) | ~kept[None, :])
+    mean, add, records = condition_on_unknowns(posterior, precision_times, m0, columns, base, rng, n_records,
+                                               jp.modes.to_modes)
     post = {"z_mean": mean.z_mean, "slope_mean": mean.slope_mean, "noise_std": jp.noise_std,
             "z_std": np.sqrt(jp.z_std**2 + add["z"]), "slope_std": np.sqrt(jp.slope_std**2 + add["slope"])}
     rate_std = np.vstack([jp.rate_std[:1], np.sqrt(jp.rate_std[1:] ** 2 + add["rate"])])
-    records = []
-    for _ in range(n_records):
-        done = np.where(kept[None, :], obs, np.nan)
-        done[days, cols] = m_star + root @ rng.standard_normal(root.shape[1])
-        records.append(jp.modes.to_modes @ done)
-    return post, rate_std, np.stack(records)
+    return post, rate_std, records
 
 
 #: The warning of a site whose end anchors the all-days likelihood loosened (``settlement_end_anchor="all-days"``).
@@ -2123,8 +2199,10 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
     if daily.temperature_mean_c is None:
         raise InputError("the daily angles carry no site-mean daily temperature (temperature_mean_c).")
     daily = _daily_stage(daily, opt, warnings)
+    daily = reinstall_stage(x, ids, daily, opt.reinstallations, opt.events, warnings)
     days = daily.days
     initial, slopes = _slope_changes(site, daily, opt)
+    _check_given_sigma(x, slopes, opt, warnings)
     health, M, health_sz = _health_stage(x, ids, slopes, daily, opt, warnings)
     sig, sig_days, drift, factors = _noise_stage(daily, x, M, days, opt)
     joint = _joint_stage(x, M, days, daily, sig, factors, opt, warnings, health_sz) if drift else None

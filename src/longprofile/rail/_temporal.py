@@ -26,7 +26,7 @@ from ..errors import InputError
 from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
 
 __all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
-           "PROCESS_STD_GRID"]
+           "THRESHOLD_FLOORS_M", "PROCESS_STD_GRID"]
 
 #: Candidate day-to-day settlement std q, m/day.
 PROCESS_STD_GRID = (2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
@@ -162,15 +162,22 @@ def _prob_abs_exceeds(mean, std, thr):
     return ndtr((-thr - mean) / std) + ndtr((mean - thr) / std)
 
 
-#: Plausible alarm thresholds on |altitude change| (m) and |daily rate| (m/day): a value outside is taken as a unit
-#: mistake (mm given as m or the reverse) and refused. Track thresholds are typically 2-50 mm and 1-5 mm/day.
-THRESHOLD_RANGE_M = (1e-5, 1.0)
+#: The smallest plausible alarm threshold of each quantity, m (m/day for the rate). ASSUMPTION (docs/rail.md, "Alarm
+#: thresholds"): track limits on settlement and twist are millimetres to tens of millimetres (graded limits near works
+#: start at a few mm; a twist limit of 1 in 300 over 3 m is 10 mm), rate limits 0.5-5 mm/day (1 mm/week is 0.14
+#: mm/day); the estimate's own error is ~0.1-0.3 mm RMS, so a limit below 0.5 mm would alarm on noise. The same limits
+#: in metres read as millimetres (0.010 under value_mm: 0.01 mm; 0.003 m/day: 0.003 mm/day) fall 10 times or more
+#: below these floors and are refused as a unit mistake.
+THRESHOLD_FLOORS_M = {"settlement": 5e-4, "twist": 5e-4, "rate": 5e-5}
+#: Plausible alarm thresholds (m, m/day for the rate): from the smallest of :data:`THRESHOLD_FLOORS_M` (each quantity
+#: has its own) to 1 m; a value outside is taken as a unit mistake (mm given as m or the reverse) and refused.
+THRESHOLD_RANGE_M = (min(THRESHOLD_FLOORS_M.values()), 1.0)
 
 
 def check_threshold(value, kind: str = "settlement") -> float:
     """``value`` as a float when it is a plausible threshold of ``kind`` ("settlement", "rate" or "twist"), m or
-    m/day; :class:`~longprofile.errors.InputError` otherwise (not finite, not > 0, outside
-    :data:`THRESHOLD_RANGE_M`)."""
+    m/day; :class:`~longprofile.errors.InputError` otherwise (not finite, not > 0, below the kind's
+    :data:`THRESHOLD_FLOORS_M` or above 1 m)."""
     unit = "m/day" if kind == "rate" else "m"
     try:
         v = float(value)
@@ -178,10 +185,12 @@ def check_threshold(value, kind: str = "settlement") -> float:
         raise InputError(f"the {kind} threshold must be a number in {unit}; got {value!r}.") from None
     if not v > 0 or not np.isfinite(v):
         raise InputError(f"the {kind} threshold must be > 0 {unit}; got {value!r}.")
-    lo, hi = THRESHOLD_RANGE_M
+    lo, hi = THRESHOLD_FLOORS_M.get(kind, THRESHOLD_RANGE_M[0]), THRESHOLD_RANGE_M[1]
     if not lo <= v <= hi:
-        raise InputError(f"a {kind} threshold of {v:g} {unit} is not plausible ({lo * 1e3:g} mm to {hi:g} m): a unit "
-                         "mistake? (the library and the service API take m, the command line mm).")
+        per = "/day" if kind == "rate" else ""
+        raise InputError(f"a {kind} threshold of {v:g} {unit} ({v * 1e3:g} mm{per}) is not plausible ({lo * 1e3:g} "
+                         f"mm{per} to {hi:g} m{per}): a unit mistake? (the library and the service API take m, the "
+                         "command line and thresholds files mm).")
     return v
 
 

@@ -107,6 +107,9 @@ class DailyAngles:
     lag_variance_ratio : float or None
         With ``thermal="auto"``: the median over sensors of :func:`lag_variance_ratio`, which chose the model
         (lagged below ``LAG_AUTO_RATIO``); None otherwise.
+    rebaselined : (D, N) int ndarray or None
+        0 where a sensor's change refers to its first day, k + 1 from its k-th new reference on (a re-installed or
+        replaced sensor, :func:`~longprofile.rail._reinstall.rebaseline_daily`); None: no new reference.
     """
 
     days: np.ndarray
@@ -125,6 +128,7 @@ class DailyAngles:
     raw_day_spread_deg: np.ndarray | None = None
     temperature_mean_c: np.ndarray | None = None
     lag_variance_ratio: float | None = None
+    rebaselined: np.ndarray | None = None
     #: A day holding less than this share of the median day's readings is a partial day (the first such days are left
     #: out by :func:`~longprofile.rail.estimate_settlement`; a partial last day is named by ``rail settle``).
     PARTIAL_DAY_SHARE: ClassVar[float] = 0.5
@@ -140,7 +144,7 @@ class DailyAngles:
         m = np.asarray(mask, bool)
         per_day = {f: getattr(self, f)[m] for f in ("days", "angle_deg", "n_readings")}
         per_day["change_deg"] = _changes(per_day["angle_deg"])
-        per_day.update({f: getattr(self, f)[m] for f in ("raw_day_spread_deg", "temperature_mean_c")
+        per_day.update({f: getattr(self, f)[m] for f in ("raw_day_spread_deg", "temperature_mean_c", "rebaselined")
                         if getattr(self, f) is not None})
         return replace(self, **per_day)
 
@@ -871,8 +875,8 @@ def _require_temperatures(readings) -> None:
         raise InputError("readings: no reading has both an angle and a temperature (temperature_c is empty in every "
                          "row: no temperature channel, or every one failed). The thermal correction (paper 004 §3) "
                          "needs the sensors' temperature: put a temperature record of the rail (or the air) in "
-                         "temperature_c. Without any, put one constant value there and pass thermal='none' (CLI "
-                         "--thermal none): no thermal correction.")
+                         "temperature_c. Without any, pass thermal='none' (CLI --thermal none; validate_site with "
+                         "require_temperature=False): no thermal correction.")
 
 
 def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: float = 5.0,

@@ -6,9 +6,10 @@ quantity is tested with :func:`~longprofile.rail.settlement_alarms` (exceedance 
 of |value| over the threshold >= ``min_probability``): ``rail settle --thresholds FILE`` and the monitoring
 service (``rail.service``, which decides the open level of the newest day) call the same function.
 
-Twist-like: the difference of the altitude changes of neighbouring sensors (not a cant/twist over a fixed base,
-which needs two rails), with the std of independent errors, sqrt(s_i^2 + s_j^2): the neighbours' errors are
-positively correlated, so this overstates the std (conservative on the mean, optimistic on the band).
+Twist-like: the difference of the altitude changes of neighbouring sensors over their own, irregular spacing (not
+the twist of EN 13848-1, a difference of cross-level over a fixed base, which needs both rails: a standard twist limit
+does not apply to it; docs/rail.md, step 9), with the std of independent errors, sqrt(s_i^2 + s_j^2): the neighbours'
+errors are positively correlated, so this overstates the std (conservative on the mean, optimistic on the band).
 """
 
 from __future__ import annotations

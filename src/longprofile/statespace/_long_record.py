@@ -10,6 +10,13 @@ chunk from its checkpoint and continues the RTS recursion from the smoothed mean
 chunking changes nothing. Working memory is O(chunk_size n) for the constant-gain part and O(E n^2) for an
 exact start of E samples, plus the requested output columns; the means equal those of :func:`kalman_filter` /
 :func:`rts_smoother` to round-off (and to ``tol`` in the gains at the switch).
+
+Missing samples (NaN rows) are bridged exactly: at the first missing sample of a stretch the constant-gain filter
+hands its predicted mean, with the stationary predicted covariance it has (to ``tol``), back to the exact
+time-varying filter, which runs through the gap(s), chunk by chunk, until a complete chunk finds its covariance
+stationary again; the smoother then runs the exact RTS pass over those chunks. The answer is that of
+:func:`kalman_filter` / :func:`rts_smoother` on the whole record with its gaps, to ``tol``, and the working memory
+stays O(chunk).
 """
 
 from __future__ import annotations
@@ -64,7 +71,11 @@ class LongRecordResult:
     n_exact : int
         Number of first samples filtered with the exact time-varying gains.
     converged : bool
-        Whether the exact start reached the stationary covariance (to ``tol``) before ``max_exact`` (or the end).
+        Whether the exact start reached the stationary covariance (to ``tol``) before ``max_exact`` (or the end),
+        and so did every exact stretch around missing samples (before ``max_exact`` samples or the end).
+    n_bridged : int
+        Number of samples after the start filtered with the exact gains because of missing samples (the gaps and
+        the re-convergence after each); 0 for a complete record.
     """
 
     mean: np.ndarray | None
@@ -75,14 +86,20 @@ class LongRecordResult:
     n_observed: int
     n_exact: int
     converged: bool
+    n_bridged: int = 0
 
 
 def _checked(model, y, states, chunk_size, what):
     if model.input_transition is not None or model.input_observation is not None:
         raise InputError(f"{what} does not take known inputs (B, D); fold them into the offsets or use kalman_filter.")
-    Y, batched, U, terms = _prepare(model, y, None, what)
+    Y, batched, U, terms = _prepare(model, y, None, what, allow_nan=True)
     if batched:
         raise InputError(f"{what} runs one series at a time; got a batch of {Y.shape[0]}.")
+    nan = np.isnan(Y[0])
+    if (nan.any(axis=1) != nan.all(axis=1)).any():
+        first = int(np.flatnonzero(nan.any(axis=1) != nan.all(axis=1))[0])
+        raise InputError(f"{what} bridges samples missing entirely (every component NaN); the observation at index "
+                         f"{first} is missing in part only: use kalman_filter / rts_smoother.")
     n = model.n_states
     if states is None:
         idx = tuple(range(n))
@@ -98,7 +115,11 @@ def _checked(model, y, states, chunk_size, what):
 
 
 def _exact_sums(e, S):
-    """Sums of e' S^-1 e and of log det S over the steps of an exact filter."""
+    """Sums of e' S^-1 e and of log det S over the observed steps of an exact filter (rows entirely observed or
+    entirely missing, :func:`_checked`)."""
+    seen = ~np.isnan(e[:, 0])
+    if not seen.all():
+        e, S = e[seen], S[seen]
     if S.shape[-1] == 1:
         s = S[:, 0, 0]
         return float(np.sum(e[:, 0] * e[:, 0] / s)), float(np.sum(np.log(s)))
@@ -107,20 +128,25 @@ def _exact_sums(e, S):
 
 
 class _Forward:
-    """The exact chunked start, then the chunked constant-gain pass with checkpoints (one forward sweep)."""
+    """The exact chunked start, then the chunked constant-gain pass with checkpoints, handing over to the exact filter
+    around missing samples (one forward sweep)."""
 
     def __init__(self, model, Y, U, terms, tol, chunk_size, exact_chunk, max_exact):
         self.model, self.Y, self.U, self.terms, self.chunk = model, Y, U, terms, chunk_size
         self.tol, self.exact_chunk, self.max_exact = float(tol), int(exact_chunk), int(max_exact)
         self.ss = steady_state_gain(model)
+        self.missing = np.isnan(Y).any(axis=1)
         T, m = Y.shape
-        self.n_obs = T * m
+        self.n_obs = int(T * m - np.isnan(Y).sum())
         self.const = m * np.log(2 * np.pi) + float(np.linalg.slogdet(self.ss.innovation_cov)[1])
+        self.scale = max(float(np.abs(self.ss.pred_cov).max()), np.finfo(float).tiny)
         self.quad = 0.0
         self.logdet = 0.0
-        self.exact_chunks = []  # (a, b, prior mean, prior cov) of each exact chunk
-        self.starts, self.checkpoints = [], []
+        # (a, b, prior mean, prior cov) of each chunk in record order; prior cov None for a constant-gain chunk,
+        # whose prior mean is its checkpoint (the predicted mean at a)
+        self.pieces = []
         self.E = 0
+        self.n_bridged = 0
         self.converged = False
 
     def _predict(self, mean, cov=None):
@@ -143,19 +169,19 @@ class _Forward:
     def exact_model(self, m0, P0):
         return replace(self.model, initial_mean=m0, initial_cov=P0)
 
-    def forward(self, on_chunk=None):
-        """One sweep; ``on_chunk(a, b, filtered means)`` sees every chunk in order."""
+    def _exact_run(self, a, m0, P0, chunk, on_chunk):
+        """The exact filter chunk by chunk from a (prior m0, P0) until a complete chunk (full length, no missing
+        sample) leaves the predicted covariance stationary to ``tol``, or ``max_exact`` samples, or the end.
+        Returns (end, predicted mean and covariance there, converged)."""
         T = self.Y.shape[0]
-        scale = max(float(np.abs(self.ss.pred_cov).max()), np.finfo(float).tiny)
         # distance of the Riccati iterate to its limit from its change over one exact chunk: the iterate contracts
         # like rho^2 per step (rho from the DARE solution, accurate enough for this estimate)
-        decay = float(self.ss.closed_loop_radius) ** (2 * self.exact_chunk)
-        m0, P0 = self.model.initial_mean, self.model.initial_cov
-        a = 0
+        decay = float(self.ss.closed_loop_radius) ** (2 * chunk)
+        start = a
         while a < T:
-            b = min(a + self.exact_chunk, T)
+            b = min(a + chunk, T)
             res, Pf = kalman_filter_final_cov(self.model if a == 0 else self.exact_model(m0, P0), self.Y[a:b])
-            self.exact_chunks.append((a, b, m0, P0))
+            self.pieces.append((a, b, m0, P0))
             q, ld = _exact_sums(res.innovation, res.innovation_cov)
             self.quad += q
             self.logdet += ld
@@ -163,27 +189,53 @@ class _Forward:
                 on_chunk(a, b, res.mean)
             P_before = P0
             m0, P0 = self._predict(res.mean[-1], Pf)
+            complete = b - a == chunk and not self.missing[a:b].any()
             a = b
-            change = float(np.abs(P0 - P_before).max()) / scale
-            self.converged = b - self.exact_chunks[-1][0] == self.exact_chunk and change / max(1.0 - decay, 1e-300) <= self.tol
-            if self.converged or a >= self.max_exact:
+            change = float(np.abs(P0 - P_before).max()) / self.scale
+            if complete and change / max(1.0 - decay, 1e-300) <= self.tol:
+                return a, m0, P0, True
+            if a - start >= self.max_exact:
                 break
+        return a, m0, P0, False
+
+    def _gap_chunk(self):
+        """Chunk of the exact stretches around missing samples: about a quarter of the samples the Riccati iterate
+        needs to contract by ``tol`` (rho^2 per step), a power of 2 in [512, exact_chunk]."""
+        rho = min(float(self.ss.closed_loop_radius), 1.0 - 1e-12)
+        k = np.log(self.tol) / (2.0 * np.log(rho)) / 4.0 if rho > 0 else 1.0
+        return int(min(max(2 ** int(np.ceil(np.log2(max(k, 1.0)))), 512), self.exact_chunk))
+
+    def forward(self, on_chunk=None):
+        """One sweep; ``on_chunk(a, b, filtered means)`` sees every chunk in order."""
+        T = self.Y.shape[0]
+        a, x0, P0, self.converged = self._exact_run(0, self.model.initial_mean, self.model.initial_cov,
+                                                    self.exact_chunk, on_chunk)
         self.E = a
         if a < T:
             # the constant gain is the one of the converged iterate itself: the DARE solution of a filter whose
             # closed loop is close to 1 can be a few 1e-7 off (error ~ residual / (1 - rho^2))
             self.ss = gain_from_pred_cov(self.model, P0)
             self.const = self.Y.shape[1] * np.log(2 * np.pi) + float(np.linalg.slogdet(self.ss.innovation_cov)[1])
-        x0 = m0
-        self.logdet += (T - a) * float(np.linalg.slogdet(self.ss.innovation_cov)[1])
-        for a in range(self.E, T, self.chunk):
-            b = min(a + self.chunk, T)
-            self.starts.append(a)
-            self.checkpoints.append(x0)
-            mean, quad, x0 = self.run_chunk(a, b, x0)
-            self.quad += quad
-            if on_chunk is not None:
-                on_chunk(a, b, mean)
+        logdet_ss = float(np.linalg.slogdet(self.ss.innovation_cov)[1])
+        gaps = np.flatnonzero(self.missing)
+        gap_chunk = self._gap_chunk()
+        while a < T:
+            i = int(np.searchsorted(gaps, a))
+            g = int(gaps[i]) if i < gaps.size else T
+            for s in range(a, g, self.chunk):
+                b = min(s + self.chunk, g)
+                self.pieces.append((s, b, x0, None))
+                mean, quad, x0 = self.run_chunk(s, b, x0)
+                self.quad += quad
+                self.logdet += (b - s) * logdet_ss
+                if on_chunk is not None:
+                    on_chunk(s, b, mean)
+            if g < T:  # a missing sample: the exact filter from the stationary prediction, until re-converged
+                a, x0, _P, done = self._exact_run(g, x0, self.ss.pred_cov, gap_chunk, on_chunk)
+                self.n_bridged += a - g
+                self.converged = self.converged and (done or a >= T)
+            else:
+                a = T
 
     @property
     def log_likelihood(self):
@@ -193,13 +245,15 @@ class _Forward:
 def _result(fw, mean, idx):
     return LongRecordResult(mean=mean, states=idx, log_likelihood=float(fw.log_likelihood),
                             quadratic_form=float(fw.quad), log_det_sum=float(fw.logdet), n_observed=int(fw.n_obs),
-                            n_exact=int(fw.E), converged=bool(fw.converged))
+                            n_exact=int(fw.E), converged=bool(fw.converged), n_bridged=int(fw.n_bridged))
 
 
 _COMMON_PARAMETERS = """model : StateSpaceModel
         Time-invariant, detectable (a stationary Kalman filter exists), without known inputs, R > 0.
     y : (T,) or (T, m) array_like
-        Observations, complete (no NaN).
+        Observations; a row of NaN is a missing sample, bridged by the exact filter (module docstring): the answer
+        is that of :func:`kalman_filter` / :func:`rts_smoother` with the same gaps. A row missing in part only is
+        refused.
     tol : float
         The exact time-varying filter runs, chunk by chunk, until its predicted covariance is within ``tol``
         (max-abs, relative) of its limit, estimated from its change over a chunk; the constant gain of that
@@ -228,7 +282,7 @@ def _forward(model, y, states, tol, chunk_size, exact_chunk, max_exact, what):
 @_with_common_parameters
 def long_record_log_likelihood(model: StateSpaceModel, y, *, tol: float = 1e-7, chunk_size: int = DEFAULT_CHUNK,
                                exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
-    """Exact Gaussian log-likelihood of a complete record of any length in bounded memory (``mean`` is None).
+    """Exact Gaussian log-likelihood of a record of any length in bounded memory (``mean`` is None).
 
     Parameters
     ----------
@@ -248,7 +302,7 @@ def long_record_log_likelihood(model: StateSpaceModel, y, *, tol: float = 1e-7, 
 @_with_common_parameters
 def long_record_filter(model: StateSpaceModel, y, *, states=None, tol: float = 1e-7, chunk_size: int = DEFAULT_CHUNK,
                        exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
-    """Kalman filter of a complete record of any length: exact start, constant gain once converged.
+    """Kalman filter of a record of any length: exact start, constant gain once converged, exact around gaps.
 
     Parameters
     ----------
@@ -266,7 +320,7 @@ def long_record_filter(model: StateSpaceModel, y, *, states=None, tol: float = 1
     NotDetectableError
         No stationary filter exists (:func:`steady_state_gain`); use :func:`chunked_kalman_filter`.
     InputError
-        NaN in y, a batch, known inputs, bad ``states``.
+        A row of y missing in part only, a batch, known inputs, bad ``states``.
     """
     fw, idx = _forward(model, y, states, tol, chunk_size, exact_chunk, max_exact, "long_record_filter")
     out = np.empty((fw.Y.shape[0], len(idx)))
@@ -289,7 +343,7 @@ def _with_terminal(filt, x_smoothed, pred_mean, pred_cov):
 @_with_common_parameters
 def long_record_smoother(model: StateSpaceModel, y, *, states=None, tol: float = 1e-7,
                          chunk_size: int = DEFAULT_CHUNK, exact_chunk: int = EXACT_CHUNK, max_exact: int = MAX_EXACT) -> LongRecordResult:
-    """Fixed-interval (RTS) smoother of a complete record of any length in bounded working memory.
+    """Fixed-interval (RTS) smoother of a record of any length (gaps bridged) in bounded working memory.
 
     Parameters
     ----------
@@ -313,16 +367,20 @@ def long_record_smoother(model: StateSpaceModel, y, *, states=None, tol: float =
     3. Backward over the exact part, last chunk first: the chunk's exact filter is re-run with covariances,
        extended by the next chunk's first prediction with the smoothed mean there, and :func:`rts_smoother`
        gives the exact time-varying RTS means.
+    4. Missing samples: at the first missing sample after the start the constant-gain filter hands its predicted
+       mean and the stationary predicted covariance to the exact filter, which runs chunk by chunk (chunks of about
+       a quarter of the samples the Riccati iterate needs to contract by ``tol``) until a complete chunk leaves the
+       covariance stationary again; steps 2-3 then treat those chunks as exact chunks.
     About two filter passes and one smoother pass; the means equal :func:`rts_smoother` on the whole record to
-    round-off (and to ``tol`` in the gains at the switch).
+    round-off (and to ``tol`` in the gains at the switches).
     """
     fw, idx = _forward(model, y, states, tol, chunk_size, exact_chunk, max_exact, "long_record_smoother")
     fw.forward()
     Y, U = fw.Y, fw.U
     T, n = Y.shape[0], model.n_states
     out = np.empty((T, len(idx)))
-    xs_next = pm_next = pc_next = None  # smoothed mean and prediction at the start of the chunk to the right
-    if fw.starts:
+    xs_next = pm_next = None  # smoothed mean and predicted mean at the start of the chunk to the right
+    if any(P0 is None for *_r, P0 in fw.pieces):
         G = _smoother_gain(model, fw.ss)
         B, _D, c, _d = fw.terms
         I_GF = np.ascontiguousarray(np.eye(n) - G @ model.transition)
@@ -330,9 +388,9 @@ def long_record_smoother(model: StateSpaceModel, y, *, states=None, tol: float =
         Gc = np.ascontiguousarray(G @ c)
         G = np.ascontiguousarray(G)
         buf = np.empty((fw.chunk + 1, n))
-        for a, x0 in zip(reversed(fw.starts), reversed(fw.checkpoints)):
-            b = min(a + fw.chunk, T)
-            mean, _q, _x = fw.run_chunk(a, b, x0)
+    for a, b, m0, P0 in reversed(fw.pieces):
+        if P0 is None:  # constant gain: the filter re-run from its checkpoint, then the constant-gain RTS pass
+            mean, _q, _x = fw.run_chunk(a, b, m0)
             k = b - a
             span = buf[:k + (xs_next is not None)]
             span[:k] = mean
@@ -340,9 +398,8 @@ def long_record_smoother(model: StateSpaceModel, y, *, states=None, tol: float =
                 span[k] = xs_next
             smooth_kernel(I_GF, G, GB, Gc, U[a:a + span.shape[0]], span, span)
             out[a:b] = span[:k][:, idx]
-            xs_next = span[0].copy()
-        pm_next = fw.checkpoints[0]
-    for a, b, m0, P0 in reversed(fw.exact_chunks):
+            xs_next, pm_next = span[0].copy(), m0
+            continue
         filt = kalman_filter(model if a == 0 else fw.exact_model(m0, P0), Y[a:b])
         if xs_next is None:  # the last chunk of the record
             sm = rts_smoother(model, filt).mean

@@ -340,11 +340,11 @@ def _gain(model, gain):
     return gain
 
 
-def _prepare(model, y, u, what):
+def _prepare(model, y, u, what, allow_nan=False):
     _require_time_invariant(model, what)
     Y, batched = prepare_observations(model, y)
     nb, T, m = Y.shape
-    if np.isnan(Y).any():
+    if not allow_nan and np.isnan(Y).any():
         idx = tuple(int(i) for i in np.argwhere(np.isnan(Y))[0])
         raise InputError(f"{what} needs complete data: y has {int(np.isnan(Y).sum())} missing (NaN) value(s), "
                          f"first at index {idx if batched else idx[1:]}. A constant gain is not optimal across "

@@ -18,6 +18,9 @@ Redundancies used (planar model of paper 001, eq. (11) and (18), body axes x for
   ratio gyro / (V_x delta / L) lies in (0, 1.3] for an understeering car; negative is an opposite steering
   sign, below 0.3 a steering-WHEEL angle (or degrees);
 * longitudinal acceleration vs dV_x/dt (eq. (11), the grade only offsets it), expected about 1.
+* against the car file (:mod:`._consistency`): the yaw rate on steady turns against the steady-state bicycle model
+  with the car's understeer (``steering_gain``: a wrong steering ratio), and the front/rear wheel speed ratio against
+  the tractive force, which only the driven axle's slip moves (``axle_order``: front and rear columns swapped).
 
 With the measured front road-wheel angles ``steer_fl``, ``steer_fr`` (both), the steering check uses their mean
 (what the model steers by), and three more checks compare the steer channels (the ratios in turns, where one
@@ -47,6 +50,7 @@ import numpy as np
 
 from .._validation import check_time_order, renamed_columns, time_resolution, time_seconds, true_runs
 from ..errors import InputError, InputFormatError, UnitsError
+from ._consistency import AXLE_SWAPPED, axle_message, axle_order, gain_message, gain_verdict, steering_gain
 from ._steering import (
                         STEERING_OFFSET_LIMIT,
                         bicycle_yaw_gain,
@@ -536,7 +540,7 @@ def _moving_average(x, n):
     return out
 
 
-def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool = True) -> tuple:
+def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool = True, accept=()) -> tuple:
     """Plausibility of a drive log's units and signs from its redundant channels (see the module notes).
 
     Parameters
@@ -547,12 +551,15 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
         R, S_b, L of the car.
     raise_on_error : bool
         Raise on a failed check (default), else only return the checks.
+    accept : iterable of str
+        Names of :data:`ACCEPTABLE_CHECKS` whose failure is printed as a warning instead (``--accept-check``).
 
     Returns
     -------
     tuple of LogCheck
         ``yaw_rate_vs_wheels``, ``accel_y_vs_vx_r``, ``steering_vs_yaw_rate``, ``accel_x_vs_dvx``,
-        ``front_vs_rear_wheel_speed`` (the car file's front/rear rolling radii on steady straight driving); with the
+        ``front_vs_rear_wheel_speed`` (the car file's front/rear rolling radii on steady straight driving),
+        ``steering_gain`` and ``axle_order`` (the car file's understeer and driven axle, :mod:`._consistency`); with the
         ``steer_fl``, ``steer_fr`` channels (``log.wheel_steering``) also ``steer_fr_vs_steer_fl``,
         ``steer_difference_vs_ackermann`` and ``steering_angle_vs_steer_mean`` (see the module notes).
 
@@ -584,6 +591,11 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
     delta = _moving_average(steer, smooth)
     min_n = max(3, int(round(0.5 / dt)))  # half a second of turning (or accelerating)
     moving = vs > 3.0
+    accept = _accepted(accept)
+    axle = _axle_order_check(log, vehicle, (delta, vs, ay, ax), smooth, accept)
+    swapped = axle.ok is False and "axle_order" not in accept
+    if swapped and raise_on_error and not problems:  # alone: the ratios below would blame a unit or the car file
+        raise InputFormatError(f"{source}: {axle_message(axle.ratio, vehicle)}.")
     checks = [_yaw_rate_check(rw, r, moving, min_n, R, problems)]
     ok1 = checks[0].ok
     vr = vs * r
@@ -613,6 +625,8 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
         turning = moving & (np.abs(kin) > 0.03)
         gain = bicycle_yaw_gain(vehicle, float(np.median(vs[turning]))) if turning.any() else math.nan
         problems.append(_steering_problem(k3, steer_name, wheel_steering is None, gain / k3, vehicle))
+    checks.append(_steering_gain_check(vehicle, (delta, r, vs, ay), dt, steer_name, yaw_ok and ok3 is not False,
+                                       accept, problems))
     dv = np.gradient(vs, dt)
     dv = _moving_average(dv, smooth)
     k4, n4 = _slope_through_origin(dv, ax, moving & (np.abs(dv) > 0.5), min_n)
@@ -635,11 +649,50 @@ def check_drive_log(log, vehicle, *, source: str = "log", raise_on_error: bool =
                         f"the tyres' slip (0.97..1.03): the vehicle file's wheels.radius {Rf:.4g} / {R:.4g} m (front / "
                         f"rear) does not match this car; staggered tyres? if the rear radius is right, the front one "
                         f"is about {Rf / k8:.4g} m (wheels.radius = [front, rear])")
+    checks.append(axle)
+    if swapped:
+        problems.append(axle_message(axle.ratio, vehicle))
     if wheel_steering is not None:
         checks.extend(_wheel_steering_checks(log, vehicle, smooth, min_n, moving, problems))
     if problems and raise_on_error:
         raise UnitsError(f"{source}: implausible channels (units or signs): " + "; ".join(problems) + ".")
     return tuple(checks)
+
+
+#: The checks of a log against the car file that ``accept`` (``--accept-check``) turns into warnings.
+ACCEPTABLE_CHECKS = ("steering_gain", "axle_order")
+
+
+def _accepted(accept) -> tuple:
+    accept = (accept,) if isinstance(accept, str) else tuple(accept)
+    unknown = [a for a in accept if a not in ACCEPTABLE_CHECKS]
+    if unknown:
+        raise InputError(f"--accept-check names {unknown}; the checks it can accept are {list(ACCEPTABLE_CHECKS)}.")
+    return accept
+
+
+def _steering_gain_check(vehicle, smoothed, dt, steer_name, steering_ok, accept, problems) -> LogCheck:
+    """``steering_gain`` (:mod:`._consistency`); a refusal not in ``accept`` is appended to ``problems``, a warning
+    (or an accepted refusal) is the check's warning. No check without steering excitation, and none when the cruder
+    ``steering_vs_yaw_rate`` or the gyro already failed."""
+    delta, r, vs, ay = smoothed
+    gain, n, speed = steering_gain(delta, r, vs, ay, dt, vehicle) if steering_ok else (math.nan, 0, math.nan)
+    ok, warn, band = gain_verdict(gain, speed, vehicle)
+    text = gain_message(gain, speed, steer_name, vehicle, ok is False) if warn else ""
+    if ok is False and "steering_gain" not in accept:
+        problems.append(text)
+    return LogCheck("steering_gain", gain, band, n, ok, text if ok or "steering_gain" in accept else "")
+
+
+def _axle_order_check(log, vehicle, smoothed, smooth, accept) -> LogCheck:
+    """``axle_order`` (:mod:`._consistency`): the front and rear wheel-speed columns told apart by the driven axle's
+    slip; an accepted failure's line is the check's warning."""
+    delta, vs, ay, ax = smoothed
+    w = np.column_stack([_moving_average(log.wheel_speeds[:, j], smooth) for j in range(4)])
+    q, n = axle_order(w, ax, ay, delta, vs, log.dt, vehicle)
+    ok = None if math.isnan(q) else bool(q >= AXLE_SWAPPED)
+    text = axle_message(q, vehicle) if ok is False and "axle_order" in accept else ""
+    return LogCheck("axle_order", q, (AXLE_SWAPPED, math.inf), n, ok, text)
 
 
 def _dead_wheels(log, vehicle) -> list[str]:
@@ -795,7 +848,7 @@ def _likely_factor(ratio: float, candidates: dict, band=(0.9, 1.1)) -> str:
 
 def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float | None = None,
                    check: bool = True, rename: dict | None = None, fill: str | None = None,
-                   steering_offset: float = 0.0, source: str = "log"):
+                   steering_offset: float = 0.0, accept=(), source: str = "log"):
     """Build a :class:`DriveLog` from a table with declared units, explicit resampling and plausibility checks.
 
     Parameters
@@ -820,6 +873,8 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
         Subtracted from the road-wheel steering angles (rad; ``--steering-offset``): a steering sensor's zero error,
         as the ``steering_offset`` check measures it. A ``steering_wheel_angle`` column (any angle unit) is divided
         by ``vehicle.steering_ratio`` first.
+    accept : iterable of str
+        Checks of :data:`ACCEPTABLE_CHECKS` whose failure is a warning, not a refusal (``--accept-check``).
 
     Returns
     -------
@@ -848,7 +903,7 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
                           what="the planar EKF of eq. (20) needs (explicit Euler step; ABS logs run at 100 Hz to 1 kHz)",
                           source=source, jitter_rtol=1e-6)
     log = DriveLog.from_frame(frame, source=source)
-    checks = check_drive_log(log, vehicle, source=source) if check else ()
+    checks = check_drive_log(log, vehicle, source=source, accept=accept) if check else ()
     return log, checks
 
 

@@ -130,8 +130,13 @@ def test_gaps_are_bridged_with_larger_uncertainty(road):
     assert rec.raw_std[3020] > rec.raw_std[2900]
     with pytest.raises(InputError, match="missing"):
         reconstruct_profile(yg, m, method="double")
-    with pytest.raises(InputError, match="missing"):
-        reconstruct_profile(yg, m, q=q, r=r, stationary=True, input_model="ar1", correlation_length=500.0)
+    # the long-record path bridges them too (finding 5, session 39: it refused them), with the exact path's profile
+    kw = dict(q=q, r=r, input_model="ar1", correlation_length=500.0)
+    lr = reconstruct_profile(yg, m, stationary=True, **kw).profile.elevation
+    ex = reconstruct_profile(yg, m, stationary=False, **kw).profile.elevation
+    assert np.abs(lr - ex).max() < 1e-6 * np.std(ex)
+    with pytest.raises(InputError, match="use the smoother"):  # the fixed-lag's long-record path does not
+        reconstruct_profile(yg, m, method="fixed-lag", q=q, r=r, stationary=True)
 
 
 def test_input_errors(road):

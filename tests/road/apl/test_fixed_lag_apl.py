@@ -100,7 +100,7 @@ def test_cli_fixed_lag(tmp_path, capsys):
                             "--q", "2e-6", "--r", "1e-8", "--plot", str(tmp_path / "p.png")])
     assert r.exit_code == 0, r.output
     assert "latency 20 m = 1.00 s" in " ".join(r.output.split())
-    prof = pd.read_csv(out)
+    prof = pd.read_csv(out, comment="#")
     assert list(prof.columns) == ["distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m"]
     assert np.isfinite(prof["raw_m"]).all() and (tmp_path / "p.png").stat().st_size > 1000
     assert main(["road", "reconstruct", str(rec), "--method", "smoother", "--lag", "20", "-o", str(out),

@@ -88,5 +88,49 @@ def test_readme_main_path_on_a_10_km_record(tmp_path, capsys):
                  "-o", str(prof)]) == 0
     import pandas as pd
 
-    out = pd.read_csv(prof)
+    out = pd.read_csv(prof, comment="#")
     assert len(out) == 200_001 and np.isfinite(out["elevation_m"]).all()
+
+
+def test_gaps_in_a_long_record_are_bridged_as_by_the_exact_smoother(long_record):
+    """Finding 5: a record of more than LONG_RECORD_SAMPLES with dropouts (in the exact start, after the switch to
+    the constant gain, a 20 m one) reconstructs by default on the long-record path and gives the exact smoother's
+    profile (measured: max |difference| <= 6.4e-9 m, 4.7e-7 of the RMS, docs/road-apl.md) and the same std."""
+    m = apl_model(20.0, DX)
+    y = long_record.signal.copy()
+    for a, length in [(30_000, 20), (180_000, 40), (200_000, 400)]:
+        y[a:a + length] = np.nan
+    kw = dict(q=2.4e-6, r=7.8e-8)
+    long_ = reconstruct_profile(y, m, **kw)  # default: > LONG_RECORD_SAMPLES -> long-record path
+    exact = reconstruct_profile(y, m, stationary=False, **kw)
+    assert long_.raw_std is None and exact.raw_std is not None
+    e_l, e_s = long_.profile.elevation[:, 0], exact.profile.elevation[:, 0]
+    assert np.abs(e_l - e_s).max() < 1e-6 * np.std(e_s)
+    np.testing.assert_array_equal(long_.profile.std, exact.profile.std)
+    std = long_.profile.std[:, 0]
+    assert std[200_200] > 3 * std[100_000]  # the std grows inside the 20 m gap
+
+
+def test_cli_reconstructs_a_long_record_with_a_gap(tmp_path, monkeypatch, capsys):
+    """`road reconstruct` on a record above the long-record threshold (lowered here to keep the test short) with a
+    dropout: exit 0 (was 'error: ... needs it complete'), std_m finite and larger in the gap."""
+    import pandas as pd
+
+    from longprofile.road.apl import _deconvolution
+
+    monkeypatch.setattr(_deconvolution, "LONG_RECORD_SAMPLES", 20_000)
+    rec, prof = tmp_path / "rec.parquet", tmp_path / "profile.parquet"
+    assert main(["road", "simulate", "--road-class", "C", "--length", "1500", "-o", str(rec)]) == 0
+    table = pd.read_parquet(rec)
+    table.loc[15_000:15_039, "apl_m"] = np.nan
+    table.to_parquet(rec)
+    capsys.readouterr()
+    assert main(["road", "reconstruct", str(rec), "-o", str(prof)]) == 0
+    note = " ".join(capsys.readouterr().err.split())
+    assert "40 missing (NaN) sample(s)" in note and "std_m includes the larger uncertainty" in note  # no raw_std_m
+    out = pd.read_parquet(prof)
+    assert np.isfinite(out["elevation_m"]).all() and np.isfinite(out["std_m"]).all()
+    assert out["std_m"][15_020] > 2 * out["std_m"][5_000]
+    # the fixed-lag's long-record path still needs a complete record: one line that says what to do
+    assert main(["road", "reconstruct", str(rec), "--method", "fixed-lag", "-o", str(tmp_path / "fl.parquet")]) == 2
+    assert "use the smoother" in " ".join(capsys.readouterr().err.split())

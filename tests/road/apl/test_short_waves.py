@@ -282,10 +282,10 @@ def test_cli_short_waves(tmp_path, capsys):
     for option in ("record", "prior"):
         out = tmp_path / f"{option}.csv"
         assert main(["road", "reconstruct", str(rec), "-o", str(out), "--short-waves", option]) == 0
-        std[option] = pd.read_csv(out)["std_m"].to_numpy()
+        std[option] = pd.read_csv(out, comment="#")["std_m"].to_numpy()
     default = tmp_path / "default.csv"
     assert main(["road", "reconstruct", str(rec), "-o", str(default)]) == 0
-    np.testing.assert_array_equal(pd.read_csv(default)["std_m"].to_numpy(), std["record"])
+    np.testing.assert_array_equal(pd.read_csv(default, comment="#")["std_m"].to_numpy(), std["record"])
     assert np.all(std["record"] < std["prior"])
     capsys.readouterr()
     assert main(["road", "reconstruct", str(rec), "-o", str(tmp_path / "x.csv"), "--short-waves", "white"]) == 2

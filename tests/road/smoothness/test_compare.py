@@ -280,3 +280,30 @@ def test_track_names_that_differ_only_in_case_are_the_same_track(long_profile):
     upper = [replace(runs[0], tracks=("Left",)), replace(runs[1], tracks=("LEFT",))]
     res = certify_profiler(ref, upper)
     assert res.passed and list(res.accuracy) == ["left"]
+
+
+def test_road_compare_refuses_the_reference_again_as_a_run(long_profile, tmp_path, capsys):
+    """The probe's `road compare prof1.csv prof1.csv` printed accuracy 1.000 and PASS: the reference given again as
+    a run (the same path, a hard link, a copy in another format) or a run given twice is refused in one line."""
+    import os
+
+    from longprofile.cli.app import main
+    from longprofile.io import write_profile
+
+    x, z = long_profile.distance[:4000], long_profile.elevation[:4000]
+    ref = write_profile(Profile(distance=x, elevation=z, tracks=("left",)), tmp_path / "ref.csv", units="mm")
+    os.link(ref, tmp_path / "link.csv")
+    copy = write_profile(Profile(distance=x, elevation=z, tracks=("left",)), tmp_path / "copy.parquet", units="mm")
+    rng = np.random.default_rng(3)
+    run = write_profile(Profile(distance=x, elevation=z + rng.normal(0, 1e-4, z.shape), tracks=("left",)),
+                        tmp_path / "run.csv", units="mm")
+    for runs, what in (([ref], "the reference again (the same file)"),
+                       ([run, tmp_path / "link.csv"], "the reference again (the same file)"),
+                       ([copy], "the reference again (the same stations and elevations)"),
+                       ([run, run], f"run {run} again (the same file)")):
+        out = tmp_path / "cmp"
+        assert main(["road", "compare", str(ref), *map(str, runs), "-o", str(out)]) == 2
+        err = capsys.readouterr().err.replace("\n", " ")
+        assert err.count("error:") == 1 and what in err and "1.000" in err, err
+        assert not out.exists()
+    assert main(["road", "compare", str(ref), str(run), "-o", str(tmp_path / "ok")]) == 0

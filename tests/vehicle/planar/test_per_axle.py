@@ -400,7 +400,8 @@ def test_consistent_steer_channels_pass_the_three_steer_checks(ackermann_drive):
     # a log without the steer channels has the axle-speed checks only, none of the steer ones
     _, checks = read_drive_log(frame.drop(columns=["steer_fl", "steer_fr"]), CAR)
     assert [c.name for c in checks] == ["yaw_rate_vs_wheels", "accel_y_vs_vx_r", "steering_offset",
-                                        "steering_vs_yaw_rate", "accel_x_vs_dvx", "front_vs_rear_wheel_speed"]
+                                        "steering_vs_yaw_rate", "steering_gain", "accel_x_vs_dvx",
+                                        "front_vs_rear_wheel_speed", "axle_order"]
 
 
 STEER_MISTAKES = [

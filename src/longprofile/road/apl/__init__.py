@@ -8,6 +8,12 @@ apl_model_from_polynomials -- an instrument from B/A coefficients (e.g. an ident
 apl_model_from_dict        -- rebuild a model saved with APLModel.to_dict (``road identify`` JSON).
 load_model, save_model     -- read (checked against a record's speed and dx) / write a ``road identify`` JSON file.
 reconstruct_recording      -- ``road reconstruct`` in one call: model for (speed, dx) or a model file, spacing checked.
+towing_speed               -- the speed a record is reconstructed at and its samples towed off it (the CLI's and batch's).
+choose_towing_speed        -- the speed to reconstruct at, from --speed and the record's speed column (recording_speed,
+                              speed_tolerance: a mismatch beyond it is refused); check_speed_samples flags the
+                              samples off it, without_off_speed_std NaNs their std; trailer_at_speed re-discretises.
+resample_model             -- an identified model re-discretised for another step (zero-order hold, z = exp(s dt));
+                              reconstruct_recording uses it for a model file of another dx or speed.
 identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4);
                               check_identification_structure validates its structure option.
 APLModel, TrailerPoles, TABLE1_CONFIGURATIONS, RC_TIME_CONSTANT, PAPER_IDENTIFIED_MODELS
@@ -67,8 +73,16 @@ _EXPORTS = {
         "TrailerPoles", "apl_filter", "apl_model", "apl_model_from_dict", "apl_model_from_polynomials",
         "apl_response", "frequency_response", "paper_identified_model", "passband",
     ),
+    "._resample": (
+        "MAX_POLE_FRACTION", "resample_model",
+    ),
     "._short_waves": (
         "SHORT_WAVE_OPTIONS", "RoadSpectrumRatio", "estimate_road_spectrum_ratio",
+    ),
+    "._speed": (
+        "DEFAULT_TOWING_SPEED", "SPEED_TOLERANCE", "SPEED_TOLERANCES", "STOP_SPEED", "SpeedCheck", "TowingSpeed",
+        "check_speed_samples", "choose_towing_speed", "recording_speed", "speed_range", "speed_tolerance",
+        "trailer_at_speed", "without_off_speed_std", "towing_speed",
     ),
     "._synthetic": (
         "SYNTHETIC_PROFILES", "APLRecording", "bump_profile", "crenel_profile", "simulate_apl_recording",
@@ -92,7 +106,9 @@ __all__ = [
     "load_model", "save_model", "identify_trailer", "IDENTIFICATION_STRUCTURES", "check_identification_structure",
     "reconstruct_recording", "InstrumentUncertainty", "INSTRUMENT_ERROR_WINDOW_M", "instrument_error_variance",
     "instrument_parameters", "perturbed_instrument", "SHORT_WAVE_OPTIONS", "RoadSpectrumRatio",
-    "estimate_road_spectrum_ratio",
+    "estimate_road_spectrum_ratio", "DEFAULT_TOWING_SPEED", "SPEED_TOLERANCE", "SPEED_TOLERANCES", "STOP_SPEED",
+    "SpeedCheck", "TowingSpeed", "check_speed_samples", "choose_towing_speed", "recording_speed", "speed_tolerance",
+    "trailer_at_speed", "without_off_speed_std", "towing_speed", "speed_range", "resample_model", "MAX_POLE_FRACTION",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import linalg, optimize
+from scipy import linalg
 
 from ..._validation import as_float_array, require_positive
 from ...core import Profile
@@ -30,6 +30,7 @@ from ...statespace import (
 from ._double_filter import double_filter
 from ._gap_uncertainty import gap_error_variance
 from ._instrument_uncertainty import InstrumentUncertainty, instrument_error_variance
+from ._minimize import minimize_bounded
 from ._model import APLModel, _check_profile_spacing
 from ._short_waves import SHORT_WAVE_OPTIONS, RoadSpectrumRatio, estimate_road_spectrum_ratio, record_error_std
 
@@ -502,9 +503,9 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     stationary : bool
         Use the long-record likelihood (:func:`longprofile.statespace.long_record_log_likelihood`: exact
         start, constant gain once converged, O(chunk) memory) on the detectable form of the model
-        (:func:`increment_deconvolution_model` for the Wiener model of an instrument with a zero at 1); needs
-        a complete signal. It equals the exact likelihood to round-off. Default False: the exact time-varying
-        filter (NaN allowed).
+        (:func:`increment_deconvolution_model` for the Wiener model of an instrument with a zero at 1); NaN
+        samples are bridged by the exact filter. It equals the exact likelihood to round-off. Default False: the
+        exact time-varying filter (NaN allowed).
 
     Returns
     -------
@@ -524,8 +525,8 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     (r_hat = mean of e_k^2 / s_k over the innovations of the r = 1 filter) and only log10(q / r)
     is searched: a 13-point grid over ``bounds_log10_ratio`` brackets the optimum (on the first
     ``GRID_SAMPLES`` (32 768) samples of a longer record, with the bracket widened until the whole record's
-    optimum is strictly inside it), then a bounded scalar minimisation on the whole record (each ratio
-    evaluated once: the optimum's likelihood is not recomputed). This replaces
+    optimum is strictly inside it), then a bounded scalar minimisation (Brent 1973, ch. 5; xatol 1e-3) on the
+    whole record (each ratio evaluated once: the optimum's likelihood is not recomputed). This replaces
     the paper's hand tuning (§5.3, q = 10 or 100 with r = 1).
     """
     y = as_float_array("signal", signal_, ndim=1)
@@ -558,7 +559,7 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     ia, ib = max(i - 1, 0), min(i + 1, grid.size - 1)
     while True:
         a, b = grid[ia], grid[ib]
-        res = optimize.minimize_scalar(neg, bounds=(a, b), method="bounded", options={"xatol": 1e-3})
+        res = minimize_bounded(neg, a, b, xatol=1e-3)  # Brent 1973; not scipy.optimize (start-up, issue 12)
         t = float(res.x)
         widen_lo = ia > 0 and t - a < 0.01
         widen_hi = ib < grid.size - 1 and b - t < 0.01
@@ -830,13 +831,15 @@ def reconstruct_profile(signal_, instrument: APLModel, *, method: str = "smoothe
         Shortest accepted record, m (default: one highpass_wavelength, and at least 200 samples).
     stationary : bool or None
         True: the long-record path — exact start, constant gains once the filter has converged, chunked
-        (:func:`longprofile.statespace.long_record_smoother`; O(chunk) working memory, no NaN), on the
+        (:func:`longprofile.statespace.long_record_smoother`; O(chunk) working memory; NaN samples bridged by
+        the exact filter and smoother, which take over around each gap until the gains are stationary again), on the
         detectable form of the model (:func:`increment_deconvolution_model` for the Wiener model of an
         instrument with a zero at 1); the causal ``"filter"`` runs the exact filter in chunks
         (:func:`longprofile.statespace.chunked_kalman_filter`). False: exact time-varying filter/RTS smoother
         with per-sample covariances (O(T n^2) memory, NaN bridged). None (default): the long-record path
-        above LONG_RECORD_SAMPLES (200 000) samples. Both paths give the same profile (to round-off) and work
-        with the same models; only ``raw_std`` differs (None on the long-record smoother path).
+        above LONG_RECORD_SAMPLES (200 000) samples. Both paths give the same profile (to round-off, with or
+        without gaps) and work with the same models; only ``raw_std`` differs (None on the long-record smoother
+        path). ``"fixed-lag"`` on the long-record path needs a complete signal (refused otherwise).
     lag_m : float, optional
         ``"fixed-lag"`` only: latency, m (rounded to whole samples; 0 = the filter). Default: the longer of
         :func:`default_fixed_lag` (4 pendulum time constants: 83 m, 4.2 s at 20 m/s) and
@@ -980,7 +983,7 @@ def _reconstruct_double(run: _Run) -> Reconstruction:
     if np.isnan(y).any():
         raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s); double filtering needs "
                          "a continuous record: cut it at the gaps, or use the smoother (--method smoother; it bridges "
-                         f"gaps in records of up to {LONG_RECORD_SAMPLES} samples).")
+                         "gaps in records of any length).")
     raw = double_filter(y, run.instrument)
     prof = Profile(run.distance, detrend_profile(raw, run.dx, highpass_wavelength=run.highpass_wavelength),
                    name=f"double-filtered {run.name}".strip())
@@ -1191,13 +1194,12 @@ def _reconstruct_kalman(run: _Run, q, r, stationary: bool | None) -> Reconstruct
         raise InputError("give both q and r (m^2), or neither to estimate them by maximum likelihood.")
     if stationary is None:
         stationary = y.size > LONG_RECORD_SAMPLES
-    if stationary and np.isnan(y).any():
+    if stationary and run.method == "fixed-lag" and np.isnan(y).any():
         first = int(np.flatnonzero(np.isnan(y))[0])
         raise InputError(f"the signal has {int(np.isnan(y).sum())} missing sample(s), the first at "
-                         f"{run.distance[first]:.3f} m; a record of more than {LONG_RECORD_SAMPLES} samples is "
-                         "reconstructed by the long-record path, which needs it complete: cut the record at the gap(s) "
-                         "and reconstruct each part (in Python, reconstruct_profile(..., stationary=False) bridges "
-                         "them with the exact filter, at a higher cost).")
+                         f"{run.distance[first]:.3f} m; the fixed-lag reconstruction of a record of more than "
+                         f"{LONG_RECORD_SAMPLES} samples needs it complete: use the smoother (--method smoother, which "
+                         "bridges gaps in records of any length), or cut the record at the gap(s).")
     q, r, fit = _noise_variances(run, q, r, stationary)
     mean, cov, lag_m, elevation = _kalman_estimate(run, q, r, stationary)
     std = None

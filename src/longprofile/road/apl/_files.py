@@ -47,7 +47,8 @@ def load_model(path, *, speed: float | None = None, dx: float | None = None) -> 
     model = apl_model_from_dict(data.get("model", data) if isinstance(data, dict) else data)
     if dx is not None and model.dx is not None and abs(model.dx - dx) > 1e-9 * dx:
         raise UnitsError(f"{path} was identified for dx = {model.dx:g} m; this record uses --dx {dx:g} m. "
-                         "Identify the trailer at this spacing.")
+                         "Identify the trailer at this spacing, or re-discretise the model "
+                         "(longprofile.road.apl.resample_model; road reconstruct --model does it).")
     if speed is not None and model.speed is not None and abs(model.speed - speed) > 1e-9 * speed:
         raise UnitsError(f"{path} was identified for {model.speed:g} m/s; this record uses --speed {speed:g}.")
     if speed is not None and dx is not None:

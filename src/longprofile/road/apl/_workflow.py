@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from ...core import Profile
-from ...errors import InputError, UnitsError
+from ...errors import InputError, ModelError, UnitsError
 from ._deconvolution import Reconstruction, reconstruct_profile
 from ._files import load_model
 from ._model import TABLE1_CONFIGURATIONS, _table_key, apl_model
+from ._resample import resample_model
 
 __all__ = ["reconstruct_recording"]
 
@@ -51,8 +54,36 @@ def reconstruct_recording(signal: Profile, *, speed: float, dx: float, model_fil
         raise UnitsError(f"{label}: the samples are {spacing:g} m apart but --dx is {dx:g} m.")
     if model_file is None and _table_key(speed, dx) is None:
         _refuse_uncalibrated(label, speed, dx)
-    instrument = apl_model(speed, dx) if model_file is None else load_model(model_file, speed=speed, dx=dx)
-    return reconstruct_profile(signal, instrument, **options)
+    if model_file is None:
+        return reconstruct_profile(signal, apl_model(speed, dx), **options)
+    instrument, note = _model_for_record(model_file, speed, dx)
+    rec = reconstruct_profile(signal, instrument, **options)
+    return rec if note is None else dataclasses.replace(rec, warnings=(note, *rec.warnings))
+
+
+def _model_for_record(model_file, speed: float, dx: float):
+    """The model of ``model_file`` for a record at (speed, dx): as saved when identified at this speed and dx
+    (:func:`load_model` checks them), else re-discretised at dt = dx / speed (:func:`resample_model`), with the
+    note saying so; (model, note or None)."""
+    saved = load_model(model_file)
+    same = [v is None or abs(v - w) <= 1e-9 * w for v, w in ((saved.speed, speed), (saved.dx, dx))]
+    if all(same) and abs(saved.dt - dx / speed) <= 1e-9 * saved.dt:
+        return load_model(model_file, speed=speed, dx=dx), None
+    try:
+        model = resample_model(saved, dx / speed, speed=speed, dx=dx)
+    except ModelError as exc:
+        raise UnitsError(f"{model_file} was identified at dt = {saved.dt:.6g} s{_at(saved)}; this record is sampled "
+                         f"at --dx {dx:g} m / --speed {speed:g} m/s = {dx / speed:.6g} s and the model cannot be "
+                         f"re-discretised: {exc}") from None
+    return model, (f"{model_file} was identified at dt = {saved.dt:.6g} s{_at(saved)}; re-discretised for this "
+                   f"record's dt = {dx / speed:.6g} s (--dx {dx:g} m / --speed {speed:g} m/s) through its "
+                   "continuous-time form (zero-order hold, poles z = exp(s dt)). Assumption: the trailer's dynamics "
+                   "in time do not depend on the towing speed (docs/road-apl.md).")
+
+
+def _at(model) -> str:
+    """`` (dx 0.15 m at 20 m/s)`` for a model that states them, else ``""``."""
+    return "" if model.dx is None or model.speed is None else f" (dx {model.dx:g} m at {model.speed:g} m/s)"
 
 
 def _refuse_uncalibrated(label, speed: float, dx: float) -> None:
