@@ -96,12 +96,14 @@ def test_one_change_day_gets_its_own_noise_level(sigma, seed):
     day's departures from the neighbours, here iid N(0, sigma) on a smooth 15 mm bowl (the oracle; the bowl alone
     departs by 1.3e-6 rad rms)."""
     rng = np.random.default_rng(seed)
-    x = np.cumsum(rng.uniform(2.5, 3.5, 80))
+    x = np.cumsum(rng.uniform(2.5, 3.5, 320))
     bowl = np.gradient(-15e-3 * np.exp(-0.5 * ((x - x.mean()) / 30.0) ** 2), x)
     slopes = np.vstack([np.zeros(x.size), bowl + rng.normal(0.0, sigma, x.size)])
     got = daily_noise_sigma(x, slopes)
     assert got.shape == (2,) and got[0] == got[1]
-    assert got[1] == pytest.approx(sigma, rel=0.3)  # 78 departures: their std's sampling error is ~8 %
+    # 318 departures: the estimate's sampling spread is 5.4 % (1500 seeds: ratio 0.82-1.19), so 0.3 is 5.5 std;
+    # with 78 departures (CI's derandomized run found 1.31) the spread is 11 %, too wide for this tolerance
+    assert got[1] == pytest.approx(sigma, rel=0.3)
 
 
 def test_a_2_day_campaign_is_estimated(short_site):
