@@ -156,6 +156,16 @@ def test_an_unknown_angle_unit_is_named_with_the_known_ones(tmp_path):
         read_rail_table(f, "readings")
 
 
+@pytest.mark.parametrize("axes", [("angle_x", "angle_y"), ("Angle [X]", "Angle [Y]"), ("tilt_1", "tilt_2")])
+def test_a_biaxial_loggers_axes_are_named_as_such(tmp_path, axes):
+    """A biaxial inclinometer's two axes (angle_x, angle_y) got "unit 'x' not known" only: the message now says what
+    they are and which one to keep (the probe's leftover, session 39)."""
+    f = tmp_path / "r.csv"
+    f.write_text(f"timestamp,sensor_id,{axes[0]},{axes[1]},temperature_c\n2019-11-18 00:00,S1,0.1,0.2,5\n")
+    with pytest.raises(UnitsError, match=r"one axis of a biaxial inclinometer: keep the axis along the track"):
+        read_rail_table(f, "readings")
+
+
 # ---- 13: temperature headers; the missing-column message in the file's own words ---------------------------------
 
 @pytest.mark.parametrize(("header", "scale", "offset"), [

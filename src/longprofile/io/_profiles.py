@@ -379,8 +379,8 @@ def read_apl_recording(path, *, column: str = "apl_m", distance_column: str | No
 
 
 #: What a refusal of a missing-value code in an APL signal says to do.
-_APL_MISSING_HINT = ("write the missing samples as empty cells (NaN): `road reconstruct` bridges them (smoother, "
-                     "filter, fixed-lag; its std_m grows there)")
+_APL_MISSING_HINT = ("write the missing samples as empty cells (NaN): `road reconstruct` bridges them (smoother and "
+                     "filter at any length, fixed-lag up to 200 000 samples; its std_m grows there)")
 #: The RMS an APL signal has, m: a recording outside is refused as a unit mistake (docs/file-formats.md §3).
 #: Measured (``road simulate``, ISO 8608 class A, the smoothest, 20 seeds, 100 m to 1 km, every Table 1
 #: configuration): 1.84 mm at least (6 m/s, 100 m), 3.6 mm at most; the floor is 18 times below. The ceiling: a

@@ -221,8 +221,13 @@ def _declared(name: str, quantity: str, path=None) -> tuple[str, str] | None:
     if unit in _CONVERSIONS[quantity]:
         return base, unit
     if path is not None and quantity in ("angle", "temperature"):
+        axis = ""
+        if base == "angle" and unit in ("x", "y", "z", "1", "2", "a", "b", "long", "lat", "trans"):  # a biaxial sensor
+            axis = (f"; {name!r} looks like one axis of a biaxial inclinometer: keep the axis along the track (the "
+                    "sleeper's rotation in the vertical plane of the rail) as angle_deg (or angle_<unit>) and leave "
+                    "the other out")
         raise UnitsError(f"{path}: column {name!r}: unit {unit!r} not known; known: "
-                         f"{', '.join(_CONVERSIONS[quantity])}.")
+                         f"{', '.join(_CONVERSIONS[quantity])}{axis}.")
     return None
 
 
