@@ -169,7 +169,7 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
     from .._validation import check_time_order, true_runs
     from ..core import Profile, unit_factor
     from ..errors import InputFormatError
-    from ._profiles import _header_names
+    from ._profiles import _header_names, _signal_column, apl_signal_values
 
     path = Path(path)
     names = [str(c) for c in _header_names(path)]
@@ -178,14 +178,13 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
         return None
     speed_col = find_speed_column(names, source=str(path))
     station = next((c for c in names if _length_column(c, _STATION_NAMES)), None)
-    same = [c for c in names if _length_column(c, (_length_column(column)[0],))]
-    signal_col = column if column in names or len(same) != 1 else same[0]
     if speed_col is None:
         if station is None:
             raise InputFormatError(f"{path}: a time-sampled record ({timed[0]!r}) without a speed column nor a distance "
                                    "column: add the towing speed (speed_kmh or 'Speed [km/h]') or the distance "
                                    "(distance_m) of each sample.")
         return None
+    signal_col = _signal_column(path, names, column)
     table = read_table(path, required=[c for c in (timed[0], speed_col[0], signal_col, station) if c],
                        numeric=[c for c in (timed[0], speed_col[0], signal_col, station) if c])
     x_file = None if station is None else table[station].to_numpy(float) * unit_factor(_length_column(station)[1],
@@ -199,8 +198,7 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
         raise InputFormatError(f"{path}: column {speed_col[0]!r} has empty cells; every sample of a time-sampled "
                                "record needs its speed.")
     x = x_file if x_file is not None else np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
-    unit = _length_column(signal_col)[1]
-    y = table[signal_col].to_numpy(float) * (1.0 if unit is None else unit_factor(unit))
+    y = apl_signal_values(path, x, table[signal_col].to_numpy(float), signal_col)  # the recording readers' checks
     moving = v > stop_speed
     if not moving.any():
         raise InputFormatError(f"{path}: the trailer never moves faster than {stop_speed:g} m/s: nothing to sample.")

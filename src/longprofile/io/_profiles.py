@@ -368,14 +368,21 @@ def read_apl_recording(path, *, column: str = "apl_m", distance_column: str | No
     written = _numeric_column(path, df, station, line)
     x = written * unit_factor(_split(str(station))[1], what="distance")
     _check_stations(path, station, written, x, line)
-    raw = _numeric_column(path, df, column, line)
-    unit = _split(column)[1] or "m"
-    factor = unit_factor(unit)
-    check_missing_codes(path, x, raw[:, None], [column], [unit], [factor], hint=_APL_MISSING_HINT, what="column")
-    values = raw * factor
-    _check_signal_size(path, column, unit, values)
+    values = apl_signal_values(path, x, _numeric_column(path, df, column, line), column)
     x, values, absent = _on_grid(x, values)
     return APLSignalFile(Profile(x, values, name=path.stem), absent)
+
+
+def apl_signal_values(path, x, raw, column: str) -> np.ndarray:
+    """An APL signal column as written (``raw``, at stations ``x`` in m) in metres, refused as the recording readers
+    refuse it: a logger's missing-value code (its stations named), an RMS outside :data:`APL_SIGNAL_RMS_RANGE`."""
+    unit = _split(column)[1] or "m"
+    factor = unit_factor(unit)
+    check_missing_codes(path, x, np.asarray(raw, float)[:, None], [column], [unit], [factor], hint=_APL_MISSING_HINT,
+                        what="column")
+    values = np.asarray(raw, float) * factor
+    _check_signal_size(path, column, unit, values)
+    return values
 
 
 #: What a refusal of a missing-value code in an APL signal says to do.

@@ -233,6 +233,22 @@ def test_a_time_sampled_record_sampled_coarser_than_dx_is_refused(tmp_path, caps
     assert "without a speed column nor a distance" in capsys.readouterr().err.replace("\n", " ")
 
 
+def test_a_time_sampled_record_gets_the_recording_readers_signal_checks(tmp_path, capsys):
+    """A time-sampled file is read by its own path: a logger's -9999 in its signal (interpolated as road before the
+    mend) and metres under apl_mm are refused as in a distance-sampled recording."""
+    df, _ = _plain(tmp_path)
+    timed = pd.DataFrame({"time_s": df["distance_m"] / 20.0, "speed_kmh": 72.0, "apl_mm": df["apl_m"] * 1e3})
+    timed.loc[100:120, "apl_mm"] = -9999.0
+    timed.to_csv(tmp_path / "codes.csv", index=False)
+    assert main(["road", "reconstruct", str(tmp_path / "codes.csv"), "-o", str(tmp_path / "c.csv")]) == 2
+    assert "-9999" in capsys.readouterr().err
+    timed["apl_mm"] = df["apl_m"]  # metres under a millimetre label
+    timed.to_csv(tmp_path / "m_as_mm.csv", index=False)
+    assert main(["road", "reconstruct", str(tmp_path / "m_as_mm.csv"), "-o", str(tmp_path / "c.csv")]) == 2
+    assert "apl_m" in capsys.readouterr().err
+    assert not (tmp_path / "c.csv").exists()
+
+
 def test_the_probes_stop_record_is_right_where_it_is_vouched_for(tmp_path):
     """The probe's simulator (mk_speed.py: the 20 m/s model run at dt = 2.5 ms on the road at x(t)), decelerating at
     2 m/s^2 to a 10 s stop and back: before, dropping the stopped rows gave 6 mm of error over 700-1100 m with no
