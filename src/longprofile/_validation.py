@@ -29,6 +29,8 @@ __all__ = [
     "MISSING_PROFILE_HINT",
     "time_seconds",
     "check_time_order",
+    "rounded_time_stamps",
+    "uniform_time_step",
     "parse_column_renames",
     "renamed_columns",
 ]
@@ -338,6 +340,13 @@ def check_time_order(t, *, source: str = "log", column: str = "time", rows=None,
                                f"rows: the time stamps are {steps}{hint}.")
     k = int(np.flatnonzero(d <= 0)[0])
     i, j = rows[k + 1], rows[k]
+    quantum = rounded_time_stamps(t) if zeros == int(np.sum(d <= 0)) else None
+    if quantum is not None:  # a logger faster than its stamps' resolution: the repeats are real samples
+        mean = float((t[-1] - t[0]) / (t.size - 1))
+        raise InputFormatError(f"{source}: column {column!r} repeats a time on {zeros} rows (row {i}: {t[k]:.10g} s) "
+                               f"because its time stamps are rounded to {quantum:.4g} s while the rows are {mean:.6g} s "
+                               f"apart ({1 / mean:.6g} Hz): write the time with more digits; the repeated rows are "
+                               "samples, do not drop them.")
     if d[k] == 0:
         fix = "drop the repeated rows" + (", or --resample RATE (drops rows that repeat the one before exactly)"
                                           if resample_hint else "")
@@ -348,6 +357,78 @@ def check_time_order(t, *, source: str = "log", column: str = "time", rows=None,
              "rows out of order: sort the file by time")
     raise InputFormatError(f"{source}: the time goes back from {t[k]:.10g} s to {t[k + 1]:.10g} s at row {i} "
                            f"({cause}).")
+
+
+def rounded_time_stamps(t) -> float | None:
+    """The rounding step q of time stamps that are a uniform grid rounded to q, coarser than their float resolution
+    (a 1024 Hz logger writing whole milliseconds: steps of 0 and 1 ms; whole microseconds: 976 and 977 us); None
+    when they are not.
+
+    ASSUMPTION (the test): the steps take two or three values, consecutive multiples of q; the stamps stay within
+    1.25 q (peak to peak) of their least-squares straight line (rounding keeps them within q; duplicated rows or a
+    dropped sample shift every later stamp by a whole step, which a line through the record cannot follow); and at
+    least 3 steps differ from the most common one (one or two repeats are duplicates, not a pattern).
+    """
+    t = np.asarray(t, float)
+    if t.size < 8 or not np.all(np.isfinite(t)):
+        return None
+    d = np.diff(t)
+    tol = max(time_resolution(t), 1e-12 * float(np.max(np.abs(d))))
+    values = np.unique(d)
+    centres = [float(v[0]) for v in np.split(values, np.flatnonzero(np.diff(values) > 4 * tol) + 1)]
+    if not 2 <= len(centres) <= 3:
+        return None
+    q = centres[1] - centres[0]
+    if q <= 8 * tol or (len(centres) == 3 and abs(centres[2] - centres[1] - q) > 4 * tol):
+        return None
+    counts = [int(np.sum(np.abs(d - c) <= 4 * tol)) for c in centres]
+    if d.size - max(counts) < 3:
+        return None
+    k = np.arange(t.size, dtype=float)
+    slope, offset = np.polyfit(k, t - t[0], 1)
+    if np.ptp(t - t[0] - (offset + slope * k)) > 1.25 * q + 4 * tol:
+        return None
+    return float(f"{q:.6g}")
+
+
+def uniform_time_step(t, *, source: str = "log", column: str = "time", rows=None, rtol: float = 1e-3,
+                      max_gap_steps: float = 3.0, gap_fix: str = "cut the record at the gap and use each part",
+                      rounded_fix: str = "write the time with more digits",
+                      jitter_fix: str = "resample it onto a uniform time base") -> float:
+    """The constant step of a time column (s: the mean step end to end), or a refusal saying why there is none.
+
+    One rule for every command that needs a uniform time base (``differentiate``, the vehicle logs' readers):
+
+    * the time must be finite and increasing (:func:`check_time_order`, which names rounded stamps, duplicated
+      rows, a logger reset or rows out of order);
+    * a step over ``max_gap_steps`` times the median step is a gap (lost samples): refused with its length and time;
+    * every step within ``rtol`` of the mean step, plus the float resolution of the stamps (:func:`time_resolution`:
+      Unix time stamps' rounding is not jitter); otherwise refused as stamps rounded too coarsely
+      (:func:`rounded_time_stamps`) or as jitter.
+
+    ``gap_fix``, ``rounded_fix`` and ``jitter_fix`` end the three messages with the caller's remedy.
+    """
+    from .errors import InputFormatError
+
+    t = np.asarray(t, float)
+    check_time_order(t, source=source, column=column, rows=rows)
+    rows = np.arange(t.size) if rows is None else np.asarray(rows)
+    d = np.diff(t)
+    median = float(np.median(d))
+    k = int(np.argmax(d))
+    if d[k] > max_gap_steps * median:
+        raise InputFormatError(f"{source}: column {column!r} has a gap of {d[k]:.6g} s after t = {t[k]:.6g} s (row "
+                               f"{rows[k]}; the median step is {median:.6g} s): samples are missing there: {gap_fix}.")
+    mean = float((t[-1] - t[0]) / (t.size - 1))
+    if np.max(np.abs(d - mean)) <= rtol * mean + time_resolution(t):
+        return mean
+    quantum = rounded_time_stamps(t)
+    if quantum is not None:
+        raise InputFormatError(f"{source}: column {column!r} has time stamps rounded to {quantum:.4g} s (steps "
+                               f"{d.min():.6g} to {d.max():.6g} s), coarser than {rtol:.2%} of its step ({mean:.6g} s, "
+                               f"{1 / mean:.6g} Hz): {rounded_fix}.")
+    raise InputFormatError(f"{source}: column {column!r} is not uniformly sampled (steps {d.min():.6g} to "
+                           f"{d.max():.6g} s, median {median:.6g} s): {jitter_fix}.")
 
 
 def parse_column_renames(texts, *, what: str = "column",

@@ -58,8 +58,9 @@ def test_convert_spacing_resamples_irregular_stations_for_erd(tmp_path, capsys):
 @pytest.mark.parametrize("content,match", [
     (b"Project: I-95 resurfacing\ndistance_m,left_mm,right_mm\n0,1,2\n0.025,1,2\n",
      "line 1 looks like a title, not a header ('Project: I-95 resurfacing'): the column names seem to be on line 2"),
-    (b"distance_m,left_mm\n0.05,1\n0.025,2\n0,3\n", "decrease (0.05 .. 0); they must increase in the driving "
-                                                     "direction: if the file lists the run backwards, reverse its rows"),
+    # stations decreasing throughout are read since session 40 (a southbound lane: tests/cli/test_profile_file_probe.py);
+    # a step back among increasing ones is still refused at its line
+    (b"distance_m,left_mm\n0.05,1\n0.075,2\n0.06,3\n", "line 4: station 0.06 is not greater than the previous one"),
 ])
 def test_csv_refusals_are_one_line(tmp_path, capsys, content, match):
     f = tmp_path / "x.csv"

@@ -130,17 +130,17 @@ def test_a_one_column_file_and_numbers_are_not_titles(tmp_path):
     assert "title" not in str(err.value)
 
 
-def test_stations_listed_backwards_are_refused_with_the_way_out(tmp_path):
+def test_stations_counting_down_are_read_as_the_distance_travelled(tmp_path):
+    # before session 40 refused ("reverse its rows..."): a southbound lane's stations count down in the direction of
+    # travel; the rows are read in their order, the first at distance 0 (tests/io/test_profile_file_variants.py)
     p = _profile()
     f = tmp_path / "back.csv"
     write_profile(p, f, units="mm")
     lines = f.read_text().splitlines()
     f.write_text("\n".join([lines[0], *reversed(lines[1:])]) + "\n")
-    with pytest.raises(InputFormatError, match=r"stations in column 'distance_m' decrease \(109.975 .. 100\); they "
-                                               r"must increase in the driving direction: if the file lists the run "
-                                               r"backwards, reverse its rows; if the run was driven the other way, "
-                                               r"give the distances from its start"):
-        read_profile(f)
+    back = read_profile(f)
+    np.testing.assert_allclose(back.distance, p.distance[-1] - p.distance[::-1], atol=1e-9)
+    np.testing.assert_allclose(back.elevation, p.elevation[::-1], atol=1e-12)
     # a single step back is still named by its line
     g = tmp_path / "step.csv"
     g.write_text("distance_m,left_mm\n0,1\n0.025,2\n0.02,3\n0.05,4\n")

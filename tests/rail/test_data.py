@@ -272,13 +272,16 @@ def test_an_angle_unit_contradicting_the_header_is_refused(small, tmp_path):
 
 
 def test_a_wide_readings_table_is_refused_with_how_to_reshape_it(small, tmp_path):
-    """A logger's export with one column per sensor: the refusal says it looks wide and how to make it long; a long
-    table with a misnamed column keeps the missing-column message."""
+    """A logger's export with one column per sensor whose columns are not the sensors' ids: the refusal says it looks
+    wide, how to name its columns and how to make it long (with the sensors' ids and angles only: the temperature is
+    asked for, tests/rail/test_wide_readings.py); a long table with a misnamed column keeps the missing-column
+    message."""
     small.sensors.to_csv(tmp_path / "s.csv", index=False)
     small.survey.to_csv(tmp_path / "v.csv", index=False)
-    small.readings.pivot(index="timestamp", columns="sensor_id", values="angle_deg").reset_index().to_csv(
-        tmp_path / "r.csv", index=False)
-    with pytest.raises(InputFormatError, match=r"one column per sensor \(a wide table\)\?.*melt"):
+    small.readings.pivot(index="timestamp", columns="sensor_id", values="angle_deg").add_prefix("ch_").reset_index(
+    ).to_csv(tmp_path / "r.csv", index=False)
+    with pytest.raises(InputFormatError, match=r"one column per sensor \(a wide table\)\? Name each column after a "
+                                               r"sensor id.*melt"):
         read_rail_site(tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "v.csv")
     small.readings.rename(columns={"sensor_id": "sensor"}).to_csv(tmp_path / "r.csv", index=False)
     with pytest.raises(InputFormatError, match=r"missing column\(s\) \['sensor_id'\]"):

@@ -20,7 +20,7 @@ EXPECTED = {
     "check_threshold", "THRESHOLD_RANGE_M", "THRESHOLD_FLOORS_M", "THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds",
     "threshold_alarms", "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P",
     "lag_variance_ratio", "LAG_AUTO_RATIO",
-    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
+    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements", "site_with_events",
 }
 
 

@@ -27,7 +27,7 @@ def test_differentiate_writes_the_library_result(tmp_path):
                                  "--degree", "2", "--window", "45", "-o", str(out), "--plot", str(png)])
     assert result.exit_code == 0, result.output
     table = pd.read_csv(out)
-    assert list(table.columns) == ["time_s", "value", "derivative", "derivative_std"]
+    assert list(table.columns) == ["time_s", "value", "derivative", "derivative_std", "settled"]
     np.testing.assert_array_equal(table["time_s"], np.arange(x.size) * 0.001)  # the file's time column, beside each row
     lib = derivative(x, 0.001, method="ml", window=45, degree=2)
     np.testing.assert_allclose(table["derivative"], lib.derivative, rtol=1e-12, equal_nan=True)
@@ -121,7 +121,8 @@ def test_without_a_time_column_there_is_no_time_in_the_output(tmp_path):
     result = runner.invoke(app, ["differentiate", str(src), "--column", "x", "--dt", "0.001", "--method", "ml",
                                  "--degree", "2", "--window", "45", "-o", str(out)])
     assert result.exit_code == 0, result.output
-    assert list(pd.read_csv(out).columns) == ["value", "derivative", "derivative_std"] and len(pd.read_csv(out)) == x.size
+    assert list(pd.read_csv(out).columns) == ["value", "derivative", "derivative_std", "settled"]
+    assert len(pd.read_csv(out)) == x.size
 
 
 def test_unix_time_stamps_at_10_khz_are_a_uniform_interval(tmp_path):

@@ -8,7 +8,7 @@ EXPECTED = {
     "kalman_differentiator_model", "plot_derivative", "ml_coefficients", "ml_coefficients_float",
     "ml_model_variance", "polyfit_coefficients", "polyfit_coefficients_float", "backward_difference_coefficients",
     "backward_difference_coefficients_float", "power_sum", "variance_gain", "static_gain", "frequency_response",
-    "polynomial_bias",
+    "polynomial_bias", "model_check", "ModelCheck",
 }
 
 

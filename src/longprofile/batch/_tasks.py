@@ -300,18 +300,20 @@ class ReconstructTask:
 
     def __call__(self, path) -> TaskOutput:
         from ..io import read_apl_record
-        from ..road.apl import towing_speed
+        from ..road.apl import reconstruct_towed
 
         record = read_apl_record(path, column=self.column, dx=self.dx)
         recording = record.recording
-        towing, check = towing_speed(recording.signal.distance, record.speed, self.speed, dx=self.dx,
-                                     label=str(path))
-        notes = [*record.notes, towing.note] if towing.note else list(record.notes)
+        towed = reconstruct_towed(recording.signal, record.speed, dx=self.dx, speed=self.speed, source=str(path),
+                                  time_samples=record.time_samples, **self._reconstruction_options())
+        notes = [*record.notes, *towed.notes]
         if recording.absent:
             first, last, _ = recording.absent[0]
             notes.append(f"{sum(k for *_, k in recording.absent)} station(s) absent from the record's grid (the "
                          f"first {first:.3f} .. {last:.3f} m) read as missing samples, bridged")
-        out = self.analyse(recording.signal, speed=towing.speed, speed_check=check)
+        check = None if towed.varying else towed.speed_check
+        out = self._output(recording.signal, towed.reconstruction, towed.towing.speed,
+                           None if check is None else check.warning)
         if not notes:
             return out
         note = "; ".join(notes)
@@ -321,23 +323,34 @@ class ReconstructTask:
         """The task on an APL signal :class:`~longprofile.road.Profile` already in memory, towed at ``speed`` (m/s;
         default the task's, else 20 m/s); ``speed_check`` (:func:`longprofile.road.apl.check_speed_samples`) NaNs
         the std of the samples towed off it."""
-        import numpy as np
-
-        from ..road import Profile
         from ..road.apl import DEFAULT_TOWING_SPEED, apl_model, reconstruct_profile, without_off_speed_std
 
         speed = speed if speed is not None else (self.speed or DEFAULT_TOWING_SPEED)
-        rec = reconstruct_profile(signal, apl_model(speed, self.dx), method=self.method, q=self.q, r=self.r,
-                                  input_model=self.input_model, correlation_length=self.correlation_length,
-                                  highpass_wavelength=self.highpass_wavelength, lag_m=self.lag)
+        rec = reconstruct_profile(signal, apl_model(speed, self.dx), **self._reconstruction_options())
         if speed_check is not None:
             rec = without_off_speed_std(rec, speed_check)
+        return self._output(signal, rec, speed, None if speed_check is None else speed_check.warning)
+
+    def _reconstruction_options(self) -> dict:
+        """The task's options as :func:`longprofile.road.apl.reconstruct_profile` takes them."""
+        return dict(method=self.method, q=self.q, r=self.r, input_model=self.input_model,
+                    correlation_length=self.correlation_length, highpass_wavelength=self.highpass_wavelength,
+                    lag_m=self.lag)
+
+    def _output(self, signal, rec, speed: float, off_speed: str | None) -> TaskOutput:
+        """The IRI report of reconstruction ``rec`` of ``signal`` and its profile table (``off_speed``: the warning
+        of the stations towed off the model's speed, or None)."""
+        import numpy as np
+
+        from ..road import Profile
+
         profile = Profile(rec.profile.distance, rec.profile.elevation, tracks=("elevation",), name=signal.name)
         iri_out = self.iri_task.analyse(profile)
         meta = dict(iri_out.metadata, method=rec.method, q_m2=rec.q, r_m2=rec.r, input_model=rec.input_model,
                     lag_m=rec.lag_m, speed_m_per_s=speed, n_samples=signal.n_samples,
                     n_missing=int(np.isnan(signal.elevation[:, 0]).sum()))
-        off_speed = None if speed_check is None else speed_check.warning
+        if rec.speed_range is not None:
+            meta["speed_min_median_max_m_per_s"] = list(rec.speed_range)
         warning = "; ".join(w for w in (iri_out.warning, off_speed) if w) or None
         return TaskOutput(segments=iri_out.segments, profile=rec.to_frame(), metadata=meta, warning=warning)
 

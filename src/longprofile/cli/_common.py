@@ -86,6 +86,21 @@ def check_output_path(output: Path, *inputs: Path | None, suffixes: tuple[str, .
     return out
 
 
+def check_distinct_outputs(outputs: dict) -> None:
+    """Refuse two outputs of one command at the same path (``{"-o": out, "--profile": prof, "--plot": png}``; None
+    entries skipped): the second write would replace the first, whose result is lost. Call it before any work."""
+    seen: dict[Path, str] = {}
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        key = Path(path).resolve()
+        if key in seen:
+            raise OutputError(f"{option} {path} is the same file as the {seen[key]} output: the command writes both "
+                              f"and the second would replace the first; give {option} another path.")
+        seen[key] = option
+    return None
+
+
 def check_output_folder(output: Path, *inputs: Path | None, overwrite: bool = False, what: str = "output",
                         writes=(), hint: str | None = None, others: dict | None = None) -> Path:
     """Check an output *folder* before any work (:func:`longprofile.report.report_folder`, nothing created).

@@ -3,8 +3,6 @@ sensors"; docs/file-formats.md, "Events table")."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import typer
 
 #: ``rail settle --events FILE``.
@@ -17,23 +15,17 @@ EVENTS_OPTION = typer.Option(None, "--events",
 def read_site_with_events(events, sensors, readings, survey, controls, **options):
     """The site of ``rail settle`` and its checked events table (None without ``--events``).
 
-    With a replacement (event ``replaced_by``) the sensors and readings tables are read, the replacing sensor's
-    readings are merged into the replaced one's series (``rail.apply_replacements``), then the site is validated; the
-    merges are named in the site's warnings. ``options``: those of :func:`longprofile.io.read_rail_site`.
+    With a replacement (event ``replaced_by``) the replacing sensor's readings are merged into the replaced one's
+    series before the site is validated, the merges named in the site's warnings
+    (:func:`longprofile.rail.site_with_events`, what the monitoring service calls too). ``options``: those of
+    :func:`longprofile.io.read_rail_site`.
     """
-    from ..io import read_rail_site, read_rail_table, read_table
-    from ..rail import apply_replacements, check_events, validate_site
+    from ..io import read_rail_events, read_rail_site, read_rail_tables
+    from ..rail import site_with_events
 
     if events is None:
         return read_rail_site(sensors, readings, survey, controls, **options), None
-    ev = check_events(read_table(events, required=("sensor_id", "date", "event"), text=("sensor_id", "new_id")))
-    if not (ev["event"] == "replaced_by").any():
-        return read_rail_site(sensors, readings, survey, controls, **options), ev
-    s = read_rail_table(sensors, "sensors")
-    r = read_rail_table(readings, "readings", angle_unit=options.get("angle_unit", "deg"),
-                        require_temperature=options.get("require_temperature", True))
-    sv = None if survey is None else read_rail_table(survey, "survey")
-    ct = None if controls is None else read_rail_table(controls, "controls")
-    s, r, notes = apply_replacements(s, r, ev)
-    site = validate_site(s, r, sv, ct, **options)
-    return replace(site, warnings=tuple(site.warnings) + tuple(notes)), ev
+    ev = read_rail_events(events)
+    tables = read_rail_tables(sensors, readings, survey, controls, angle_unit=options.get("angle_unit", "deg"),
+                              require_temperature=options.get("require_temperature", True))
+    return site_with_events(*tables, ev, **options)

@@ -17,8 +17,8 @@ from ._common import console
 
 __all__ = ["register", "site_app"]
 
-site_app = typer.Typer(help="Manage monitored sites: sensors, survey, control surveys, thresholds, loggers, channels, "
-                            "users, audit.",
+site_app = typer.Typer(help="Manage monitored sites: sensors, survey, control surveys, sensor events, thresholds, "
+                            "loggers, channels, users, audit.",
                        no_args_is_help=True)
 
 DB_OPT = typer.Option(..., "--db", help="Database URL: sqlite:///site.db or postgresql://user@host:port/db.")
@@ -277,6 +277,33 @@ def site_controls(name: str = typer.Argument(...),
     _print(_service.put_controls(_db(db), _actor(actor), name, _rows(file, "controls", text=("date",))))
 
 
+@site_app.command("events")
+def site_events(name: str = typer.Argument(...),
+                file: Path = typer.Option(None, "--file", help="events table (sensor_id, date, event, new_id), as "
+                                                               "rail settle --events reads it; each (sensor, date) in "
+                                                               "it is created or replaced."),
+                delete: str = typer.Option(None, "--delete", help="Remove the event of this sensor id (with --date) "
+                                                                  "instead."),
+                date: str = typer.Option(None, "--date", help="The date (YYYY-MM-DD) of the event to --delete."),
+                db: str = DB_OPT, actor: str = ACTOR_OPT):
+    """Declare re-installed sensors (a new mounting offset after maintenance) and sensors replaced by a new id, used
+    by every recompute as rail settle --events uses them; without --file or --delete, list them."""
+    from ..errors import InputError
+    from ..io import read_rail_events
+    from ..rail import service as _service
+
+    if file is not None and delete is not None or (delete is None) != (date is None):
+        raise InputError("give --file events.csv, or --delete SENSOR_ID --date YYYY-MM-DD, or neither (to list).")
+    if delete is not None:
+        _print(_service.delete_event(_db(db, existing=True), _actor(actor), name, delete, date))
+    elif file is not None:
+        ev = read_rail_events(file)  # as rail settle --events reads it
+        rows = ev.assign(date=ev["date"].dt.strftime("%Y-%m-%d")).to_dict("records")
+        _print(_service.put_events(_db(db), _actor(actor), name, rows))
+    else:
+        _print(_service.get_events(_db(db, existing=True), name))
+
+
 @site_app.command("threshold", context_settings={"ignore_unknown_options": True})  # "-5" is a value, not an option
 def site_threshold(name: str = typer.Argument(...),
                    quantity: str = typer.Argument(..., help="settlement, rate or twist."),
@@ -418,19 +445,22 @@ def site_ingest(name: str = typer.Argument(...), file: Path = typer.Option(..., 
                     "deg", "--angle-unit", help="Unit of a plain angle_deg column: deg or rad (a header such as "
                                                 "angle_rad declares its own; leave this out then)."),
                 actor: str = ACTOR_OPT):
-    """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes; audited)."""
+    """Store a readings table directly (same rules as the API: idempotent, revisions, per-row outcomes; audited). The
+    table may be wide (a logger's export: one column per sensor of the site, as rail settle --readings reads it)."""
     from ..errors import InputFormatError
     from ..io import read_rail_table
     from ..rail import READING_COLUMNS
     from ..rail import service as _service
 
-    t = read_rail_table(file, "readings", angle_unit=angle_unit)  # as rail settle reads it
+    database = _db(db)
+    ids = [x["sensor_id"] for x in _service.get_site(database, name)["sensors"]]
+    t = read_rail_table(file, "readings", angle_unit=angle_unit, sensor_ids=ids)  # as rail settle reads it
     wrong = sorted(set(map(str, t.columns)) ^ set(READING_COLUMNS))
     if wrong:  # the whole file would be rejected row by row: say it once, store nothing
         raise InputFormatError(f"{file}: the columns are {list(map(str, t.columns))}; a readings table has exactly "
                                f"{list(READING_COLUMNS)} (as for rail settle).")
     t["timestamp"] = t["timestamp"].astype(str)
-    res = _service.ingest(_db(db), name, t.to_dict("records"), angle_unit=angle_unit, actor=_actor(actor),
+    res = _service.ingest(database, name, t.to_dict("records"), angle_unit=angle_unit, actor=_actor(actor),
                           source=Path(file).name)
     _print({k: v for k, v in res.as_dict().items() if k != "rows"})
     rejected = [r for r in res.rows if r["outcome"] == "rejected"]

@@ -7,8 +7,12 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
+from ..errors import OutputError
 from ._common import OVERWRITE, check_output_folder, console
 from ._road_tracks import file_tracks
+
+#: Suffixes of a file, not a folder: ``-o report.html`` is refused (it made a folder named report.html).
+FILE_SUFFIXES = (".html", ".htm", ".csv", ".json", ".pdf", ".png", ".svg", ".txt", ".parquet", ".zip", ".xlsx")
 
 _FILE_HELP = "Profile file (CSV/Parquet with distance_m and <track>_<unit> columns, or ERD)."
 
@@ -38,9 +42,13 @@ def acceptance_command(
     from ..road import default_spec, read_spec, simulate_grinding, smoothness_acceptance
 
     out = Path(output)
-    check_output_folder(out, file, spec, overwrite=overwrite, writes=REPORT_FILES["acceptance"],
-                        hint=f"the report needs a folder, e.g. -o {out.with_suffix('')}_acceptance/.")
+    hint = f"the report needs a folder, e.g. -o {out.with_suffix('')}_acceptance/."
+    if out.suffix.lower() in FILE_SUFFIXES and not out.is_dir():
+        raise OutputError(f"-o {output}: the acceptance report is a folder (index.html, figures, tables), not a "
+                          f"{out.suffix} file; {hint}")
     s = read_spec(spec) if spec is not None else default_spec()
+    inputs = (file, spec) + ((Path(s.events),) if s.events else ())  # the events table is an input too
+    check_output_folder(out, *inputs, overwrite=overwrite, writes=REPORT_FILES["acceptance"], hint=hint)
     profile = read_profile(file, units=elevation_unit, tracks=file_tracks(track, file))
     result = smoothness_acceptance(profile, s, check_units=check_units)
     ground = []  # the grinding runs inside the report, once the figures that do not need it are queued (drawn by
@@ -48,11 +56,11 @@ def acceptance_command(
 
     def grinding():
         if grind and (s.grind_threshold or s.localized_threshold):
-            ground.append(simulate_grinding(profile, s, acceptance=result))
+            ground.append(simulate_grinding(profile, result.spec, acceptance=result))  # zones as clipped
         return ground[0] if ground else None
 
     files = write_acceptance_report(result, out, grinding=grinding, title=f"Smoothness acceptance: {file.name}",
-                                    inputs=(file, spec), overwrite=overwrite, ground_profile=True)
+                                    inputs=inputs, overwrite=overwrite, ground_profile=True)
     _print_summary(result, ground[0] if ground else None)
     console.print(f"report: {files[0]} ({len(files)} files)", markup=False)
 
@@ -63,10 +71,8 @@ def _print_summary(result, grinding) -> None:
     console.print(result.lots_text(), markup=False, soft_wrap=True)
     for w in result.warnings:
         console.print(f"[yellow]warning:[/yellow] {escape(w)}", highlight=False, soft_wrap=True)
-    pay = result.pay_text()
-    if pay is not None:
-        console.print(f"pay: {pay}" + (" -- CHECK THE WARNING(S) ABOVE BEFORE PAYING" if result.warnings else ""),
-                      markup=False, soft_wrap=True)
+    check = " -- CHECK THE WARNING(S) ABOVE BEFORE PAYING" if result.warnings and result.spec.pay_schedule else ""
+    console.print(f"pay: {result.pay_text()}{check}", markup=False, soft_wrap=True)
     console.print(result.localized_text() + ("" if grinding is None else "; " + grinding.summary()), markup=False,
                   soft_wrap=True)
 

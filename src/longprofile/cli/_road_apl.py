@@ -71,7 +71,8 @@ def reconstruct_command(
     speed: float = typer.Option(None, "--speed", help="Towing speed, m/s. Default: the file's speed column (speed_kmh, "
                                 "'Speed \\[km/h]', speed_m_s: its median over moving samples, matched to a calibrated "
                                 "model), else 20 m/s (paper 000's 72 km/h). A --speed more than 1 % (0.25 % at 6 m/s) "
-                                "off the file's is refused."),
+                                "off the file's is refused. A speed column that varies beyond that tolerance: the "
+                                "trailer is re-discretised at each station's speed (smoother or filter)."),
     dx: float = typer.Option(0.05, "--dx", help="Spacing, m (must match the file's stations)."),
     method: str = typer.Option("smoother", "--method", help="smoother (best, offline), fixed-lag (real time, constant latency), double (paper §3), or filter (the paper's causal Kalman filter: poor in the 1-50 m band, see docs/road-apl.md)."),
     model: Path = typer.Option(None, "--model", help="Identified model JSON (from `road identify`) instead of Table 1."),
@@ -111,10 +112,7 @@ def reconstruct_command(
         SHORT_WAVE_OPTIONS,
         InstrumentUncertainty,
         detrend_profile,
-        load_model,
-        reconstruct_recording,
-        towing_speed,
-        without_off_speed_std,
+        reconstruct_towed,
     )
 
     uncertainty = None if instrument_uncertainty is None else InstrumentUncertainty.parse(instrument_uncertainty)
@@ -124,21 +122,19 @@ def reconstruct_command(
     png = check_plot_path(plot, file, out, overwrite=overwrite)
     record = read_apl_record(file, column=column, dx=dx)
     recording, signal = record.recording, record.recording.signal
-    model_speed = None if model is None or speed is not None or record.speed is None else load_model(model).speed
-    towing, speed_check = towing_speed(signal.distance, record.speed, speed, dx=dx, model_speed=model_speed,
-                                       label=str(file))
-    speed = towing.speed
-    for note in (*record.notes, towing.note) if towing.note else record.notes:
+    for note in record.notes:
         console.print(f"[cyan]note:[/cyan] {escape(note)}")
     with progress() as bar:
         task = bar.add_task(f"reconstruct ({method})", total=1)
-        rec = reconstruct_recording(signal, speed=speed, dx=dx, model_file=model, source=str(file), method=method,
-                                    q=q, r=r, input_model=input_model, correlation_length=correlation_length,
-                                    highpass_wavelength=highpass, lag_m=lag,
-                                    instrument_uncertainty=uncertainty, short_waves=short_waves)
-        if speed_check is not None:
-            rec = without_off_speed_std(rec, speed_check)
+        towed = reconstruct_towed(signal, record.speed, dx=dx, speed=speed, model_file=model, source=str(file),
+                                  time_samples=record.time_samples,
+                                  method=method, q=q, r=r, input_model=input_model,
+                                  correlation_length=correlation_length, highpass_wavelength=highpass, lag_m=lag,
+                                  instrument_uncertainty=uncertainty, short_waves=short_waves)
+        rec, speed = towed.reconstruction, towed.towing.speed
         bar.advance(task)
+    for note in towed.notes:
+        console.print(f"[cyan]note:[/cyan] {escape(note)}")
     if Path(output).suffix.lower() == ".erd":
         write_erd(rec.to_profile(name=f"{method} reconstruction of {Path(file).name}"),
                   out, units="mm")
@@ -160,7 +156,7 @@ def reconstruct_command(
     console.print(f"reconstructed {signal.n_samples} samples by {method}{extra} -> {output}")
     for warning in rec.warnings:
         console.print(f"[yellow]warning:[/yellow] {warning}")
-    n_missing = int(np.isnan(signal.elevation[:, 0]).sum())
+    n_missing = 0 if towed.in_time else int(np.isnan(signal.elevation[:, 0]).sum())  # in time: none is missing
     if n_missing:
         if recording.absent:
             console.print(f"[yellow]warning:[/yellow] {_absent_stations(recording.absent)}")
@@ -241,12 +237,17 @@ def _provenance(file, column: str, speed: float, dx: float, model, rec, q, r) ->
     from .. import __version__
 
     smoothed = rec.method in ("smoother", "fixed-lag")
+    varying = {} if rec.speed_range is None else {
+        "towing_speed": "varying: the trailer re-discretised at each station's speed (docs/road-apl.md, 'Varying "
+                        "towing speed')",
+        "speed_min_median_max_m_per_s": list(rec.speed_range)}
     return {
         "software": f"longprofile {__version__}",
         "command": "road reconstruct",
         "source": str(file),
         "column": column,
         "speed_m_per_s": speed,
+        **varying,
         "dx_m": dx,
         "model": "paper 000 eq. (1), Table 1" if model is None else str(model),
         "method": rec.method,

@@ -17,6 +17,9 @@ def convert_command(
                                             "regular stations and elevations only; std columns are not kept)."),
     units: str = typer.Option(None, "--units", help="Elevation unit written: m, mm, cm, in, ft (default: mm for "
                                                     "ERD, m for CSV/Parquet)."),
+    distance_unit: str = typer.Option("m", "--distance-unit", help="Station unit written: m (default), ft, km, mi "
+                                      "(distance_ft in CSV/Parquet; XUNITS feet in ERD: with --units in, the US "
+                                      "file ProVAL writes)."),
     input_units: str = typer.Option(None, "--elevation-unit", "--input-units",
                                     help="Elevation unit of input columns that do not give one (m, mm, cm, in, ft), as "
                                          "in `road iri`; never guessed."),
@@ -37,12 +40,13 @@ def convert_command(
     erd = out.suffix.lower() == ".erd"
     units = units or ("mm" if erd else "m")
     unit_factor(units)
+    unit_factor(distance_unit, what="distance")
     renames = parse_renames(rename)
     profile = read_profile(file, units=input_units, tracks=file_tracks(track, file, verb="converting"))
     profile = renamed(profile, renames, source=file)
     if spacing is not None:
         profile = _resampled(profile, spacing, file)
-    write_profile(profile, out, units=units)
+    write_profile(profile, out, units=units, distance_units=distance_unit)
     if plot is not None:
         from ..report import draw, plot_profile  # matplotlib only when drawing (in the figure helper if one runs)
 

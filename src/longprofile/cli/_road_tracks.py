@@ -21,6 +21,8 @@ def file_tracks(track: str | None, file: Path | None, *, verb: str = "analysing"
     """The tracks to read from ``file``: ``--track`` when given; else the one profile of a ``road reconstruct``
     output (``elevation``) or of a ``road simulate`` recording (``true``; its ``apl_m`` is the trailer's raw
     signal), each with a note on the console naming what is read; else None (every track)."""
+    if file is not None:
+        _note_backward_stations(file)
     if track is not None:
         return parse_tracks(track)
     if file is None:
@@ -38,6 +40,22 @@ def file_tracks(track: str | None, file: Path | None, *, verb: str = "analysing"
                       f"{file} -o profile.csv` gives the profile the trailer measured).", markup=False, soft_wrap=True)
         return ["true"]
     return None
+
+
+def _note_backward_stations(file: Path) -> None:
+    """A warning on the console when ``file``'s stations decrease throughout: read in the order of its rows (the
+    direction of travel) as the distance travelled from its first station (docs/file-formats.md)."""
+    from ..io import backward_stations
+
+    found = backward_stations(file)
+    if found:
+        column, first, last = found
+        console.print(f"warning: {file}: the stations in {column!r} decrease ({first:g} .. {last:g}): a run driven "
+                      "against the stationing (e.g. a southbound lane); read in the order of the rows, the direction "
+                      f"of travel, as the distance travelled from station {first:g} (distance = {first:g} - "
+                      "station): stations in the results are distances from the start; reverse the rows first if "
+                      "the file lists the run backwards.", markup=False,
+                      soft_wrap=True)
 
 
 def parse_renames(text: str | None) -> dict[str, str]:

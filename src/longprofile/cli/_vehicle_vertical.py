@@ -7,7 +7,16 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from ._common import OVERWRITE, TABLE_SUFFIXES, check_output_path, check_plot_path, console, progress, save_plot
+from ._common import (
+    OVERWRITE,
+    TABLE_SUFFIXES,
+    check_distinct_outputs,
+    check_output_path,
+    check_plot_path,
+    console,
+    progress,
+    save_plot,
+)
 from ._vehicle_planar import FILL, RENAME_COLUMNS
 
 vertical_app = typer.Typer(help="Vertical (suspension) states: 7-DOF car simulator and the per-corner EKFs of "
@@ -47,6 +56,23 @@ _VEHICLE_HELP = ("Vehicle description (TOML): its \\[vertical] table (fields of 
                  "the thesis car if omitted.")
 
 
+def _check_simulated_range(sensors, test: str, road_class: str, speed: float, road) -> None:
+    """Refuse to write a run whose suspension deflection leaves the sensors' span, which `estimate` refuses (as a log
+    in mm read as m): a class H road at speed drives the simulated car through its bump stops (not modelled)."""
+    import numpy as np
+
+    from ..errors import InputError
+    from ..vehicle.vertical import DEFLECTION_RANGE
+
+    dmax = float(np.max(np.abs(sensors.displacement)))  # what `estimate` reads
+    if dmax > DEFLECTION_RANGE:
+        what = f"--road {road}" if road is not None else f"test {test}, road class {road_class}"
+        raise InputError(f"{what} at {speed:g} m/s drives the suspension to {dmax:.4g} m, beyond the "
+                         f"{DEFLECTION_RANGE:g} m span of its deflection sensors (a real car is on its bump stops, "
+                         "which the model has not): `estimate` would refuse the log; lower --speed or choose a "
+                         "smoother road.")
+
+
 @vertical_app.command("simulate")
 def simulate(
     output: Path = typer.Option(..., "--output", "-o", help="Sensor log to write (.csv or .parquet)."),
@@ -71,6 +97,7 @@ def simulate(
     from ..io import read_profile, write_table
     from ..vehicle import profile_run, sensors_to_frame, vertical_test_run
 
+    check_distinct_outputs({"-o": output, "--plot": plot})
     out = check_output_path(output, road, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, road, vehicle, out, overwrite=overwrite)
     mr = _car_damper(car)
@@ -84,6 +111,7 @@ def simulate(
         else:
             sim, sensors = vertical_test_run(config, test=test, road_class=road_class, speed=speed,
                                              duration=duration, seed=seed, mr_damper=mr, params=params)
+    _check_simulated_range(sensors, test, road_class, speed, road)
     frame = sensors_to_frame(sensors, sim)
     if road is not None:  # `estimate --profile` places the road under the wheels by it
         frame["chainage_m"] = run.front_chainage
@@ -108,7 +136,7 @@ def estimate(
                                       "inferred from the columns (wheel_accel_* -> 3, body_accel_* -> 2, else 1)."),
     centralised: bool = typer.Option(False, "--centralised/--per-corner",
                                      help="Centralised full-car EKF instead of the thesis's four corner EKFs."),
-    mr_map_velocity: str = typer.Option("displacement", "--mr-map-velocity", help=_MR_VELOCITY_HELP),
+    mr_map_velocity: str | None = typer.Option(None, "--mr-map-velocity", help=_MR_VELOCITY_HELP),
     plot: Path | None = typer.Option(None, "--plot", help="Also draw the estimated states (PNG); the truth is "
                                                           "overlaid when the log has true_* columns."),
     units: str | None = typer.Option(None, "--units", help="Units of columns that are not SI, e.g. "
@@ -128,6 +156,11 @@ def estimate(
                                    "writes it, else 0)."),
     segment: float = typer.Option(100.0, "--segment", help="IRI segment length for --profile, m."),
     vehicle: Path | None = typer.Option(None, "--vehicle", help=_VEHICLE_HELP),
+    accept_check: str | None = typer.Option(None, "--accept-check", help="Go on, with a warning, past these checks "
+                                            "of the log (comma-separated): sensor_sign (a deflection or accelerometer "
+                                            "of inverted sign), wheel_accel_unit (wheel accelerometers in g), "
+                                            "corner_order (deflections of swapped corners), lateral_axis (ay to the "
+                                            "right or in g); docs/vehicle-vertical.md."),
     overwrite: bool = OVERWRITE,
 ):
     """Estimate damper displacement/velocity, tyre load, body and wheel velocities from a sensor log."""
@@ -138,22 +171,34 @@ def estimate(
     from ._common import PROFILE_SUFFIXES
 
     renames = parse_column_renames(rename)
+    iri_path = None if profile is None else Path(profile).with_name(Path(profile).stem + "_iri.csv")
+    check_distinct_outputs({"-o": output, "--profile": profile, "--profile's IRI table": iri_path, "--plot": plot})
     out = check_output_path(output, log, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, log, vehicle, out, overwrite=overwrite)
     params = _vertical_params(vehicle)
     iri_out = None
     if profile is not None:
         check_output_path(profile, log, out, suffixes=PROFILE_SUFFIXES, overwrite=overwrite, what="--profile")
-        iri_out = check_output_path(Path(profile).with_name(Path(profile).stem + "_iri.csv"), log, out,
+        iri_out = check_output_path(iri_path, log, out,
                                     overwrite=overwrite, what="IRI table")
         if speed is None or not speed > 0:
             raise InputError("--profile needs --speed (the constant speed of the log, m/s): stations are speed x time.")
-    mr_map_velocity = _mr_map_velocity(mr_map_velocity)
+    elif speed is not None:
+        raise InputError("--speed is used with --profile only (the stations of the road under the wheels); the states "
+                         "do not need it: drop --speed, or add --profile ROAD.csv.")
+    given_map_velocity = mr_map_velocity is not None
+    mr_map_velocity = _mr_map_velocity("displacement" if mr_map_velocity is None else mr_map_velocity)
     frame = read_table(log)
     if chainage is None:
         chainage = float(frame["chainage_m"].iloc[0]) if "chainage_m" in frame.columns else 0.0
+    notes: list[str] = []
     sensors, config = read_vertical_log(frame, config, units=parse_units(units), resample=resample, rename=renames,
-                                        fill=fill, source=str(log))
+                                        fill=fill, source=str(log), notes=notes)
+    if given_map_velocity and sensors.damper_current is None:
+        raise InputError(f"--mr-map-velocity sets the MagneRide map's damper velocity; {log} has no current_FL..RR "
+                         "columns (a passive car): drop the option.")
+    for text in notes:
+        console.print(f"[yellow]note: {escape(text)}[/yellow]")
     if plot is None:
         del frame  # only the figure reads the table again (its true_* columns): free it on a long log
     if sensors.damper_current is not None:
@@ -163,7 +208,8 @@ def estimate(
     with console.status("running the corner EKFs..."):
         result = estimate_vertical_log(sensors, params=params, decentralised=not centralised,
                                        mr_map_velocity=mr_map_velocity, speed=speed if profile is not None else None,
-                                       start=chainage, segment_length=segment)
+                                       start=chainage, segment_length=segment, source=str(log),
+                                       accept=[a.strip() for a in (accept_check or "").split(",") if a.strip()])
     est = result.estimate
     write_table(estimate_to_frame(est), out)
     console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
@@ -215,6 +261,7 @@ def tables(
     from ..io import write_table
     from ..vehicle import reproduce_thesis_tables
 
+    check_distinct_outputs({"-o": output, "--plot": plot})
     out = check_output_path(output, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, out, overwrite=overwrite)
     mr_map_velocity = _mr_map_velocity(mr_map_velocity)

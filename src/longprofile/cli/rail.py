@@ -85,16 +85,19 @@ _SIGMA_HELP = ("Std of the day-to-day change of a daily-median angle, deg (defau
                "values outside 1e-5..1e-2, or 10 times from the data's own noise, are refused.")
 #: ``rail settle --thresholds``'s help ("twist" named for what it is: a user's probe, session 39).
 _THRESHOLDS_HELP = ("Graded thresholds table: quantity (settlement, rate, twist), level (alert, action, alarm), value_mm "
-                    "(mm; mm/day for the rate), as the monitoring service takes them. Without any threshold nothing is "
-                    "tested. 'twist' is the difference of neighbouring sensors' changes over their own spacing, not "
-                    "EN 13848 twist (cross-level over a fixed base): no standard twist limit applies to it.")
+                    "(mm; mm/day for the rate; or value_mm_per_day for the rate rows), as the monitoring service "
+                    "takes them. Without any threshold nothing is tested. 'twist' is the difference of neighbouring "
+                    "sensors' changes over their own spacing, not EN 13848 twist (cross-level over a fixed base): no "
+                    "standard twist limit applies to it.")
 
 
 @rail_app.command("settle")
 def settle_command(
     sensors: Path = typer.Option(..., "--sensors", help="Sensors table: sensor_id, x_m [, z_m] (CSV/Parquet)."),
     readings: Path = typer.Option(..., "--readings",
-                                  help="Readings table: timestamp, sensor_id, angle_deg, temperature_c."),
+                                  help="Readings table: timestamp, sensor_id, angle_deg, temperature_c; or a "
+                                       "logger's wide export, one column per sensor id (S01_angle_deg, "
+                                       "S01_temperature_c, ...)."),
     survey: Path = typer.Option(None, "--survey", help="Initial survey: x_m, z_m (any grid covering the sensors)."),
     controls: Path = typer.Option(None, "--controls", help="Control surveys: date, x_m, z_m."),
     output: Path = typer.Option(..., "--output", "-o", help="Settlement table (.csv/.parquet), one row per day and "

@@ -4,10 +4,39 @@ from __future__ import annotations
 
 from ..errors import UnitsError
 
-__all__ = ["LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT", "SPEED_UNITS", "speed_factor", "unit_factor"]
+__all__ = ["LENGTH_UNITS", "LENGTH_SPELLINGS", "UNCONVERTED_LENGTH_UNITS", "MAX_ABS_ELEVATION_M", "MISSING_TEXT",
+           "SPEED_UNITS", "length_unit", "speed_factor", "unit_factor"]
 
 #: Length units understood in file headers, with their value in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "km": 1e3, "in": 0.0254, "ft": 0.3048, "mi": 1609.344}
+#: Spelled-out names of :data:`LENGTH_UNITS` (lower case) that files write for them: ERD headers (``UNITSNAM inches``,
+#: ``XUNITS feet``, as ProVAL writes them) and table column names (``LWP (inches)``, ``Distance (feet)``).
+LENGTH_SPELLINGS = {
+    **dict.fromkeys(("inch", "inches"), "in"), **dict.fromkeys(("foot", "feet"), "ft"),
+    **dict.fromkeys(("millimeter", "millimeters", "millimetre", "millimetres"), "mm"),
+    **dict.fromkeys(("centimeter", "centimeters", "centimetre", "centimetres"), "cm"),
+    **dict.fromkeys(("meter", "meters", "metre", "metres"), "m"),
+    **dict.fromkeys(("kilometer", "kilometers", "kilometre", "kilometres"), "km"),
+    **dict.fromkeys(("mile", "miles"), "mi"),
+}
+#: Length units a header may give that this package does not convert (lower case): a column or channel so named is
+#: refused naming its unit, never read as another unit.
+UNCONVERTED_LENGTH_UNITS = ("um", "µm", "μm", "micron", "microns", "microm", "micrometer", "micrometers",
+                            "micrometre", "micrometres", "nm", "dm", "mil", "mils", "thou", "yd")
+
+
+def length_unit(text: str) -> str | None:
+    """The :data:`LENGTH_UNITS` key a header's unit text stands for (``mm``, ``MM``, ``inches``, ``Feet``), else None.
+
+    Examples
+    --------
+    >>> length_unit("Inches"), length_unit("ft"), length_unit("furlong")
+    ('in', 'ft', None)
+    """
+    key = str(text).strip().lower()
+    return key if key in LENGTH_UNITS else LENGTH_SPELLINGS.get(key)
+
+
 #: No elevation or altitude on Earth is beyond this, m (terrain spans -430 m to 8 849 m): a value that is was given in
 #: another unit (millimetres under a metre label). Shared by the road profile readers and the rail site tables.
 MAX_ABS_ELEVATION_M = 10_000.0

@@ -118,11 +118,15 @@ class TimeSampledRecording:
         The speed at each of those stations, m/s.
     notes : tuple of str
         What was done: the distance's origin, the stops removed (distance and time of each).
+    samples : tuple of three (N,) ndarrays
+        The file's own samples from the first moving one to the last, stops included: time (s), distance (m, the
+        stations' scale) and signal (m) -- for a reconstruction at the file's time step.
     """
 
     signal: object
     speed: SpeedColumn
     notes: tuple
+    samples: tuple = ()
 
 
 _STATION_NAMES = ("distance", "station", "chainage", "x")
@@ -155,7 +159,9 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
 
     ASSUMPTION (docs/road-apl.md, "Time-sampled records"): the distance is the station column when there is one,
     else the cumulative trapezoidal integral of the speed; the samples slower than ``stop_speed`` (m/s: stops) are
-    removed (their ranges are named in ``notes``); the signal between the moving samples is linear in distance, which
+    removed (their ranges are named in ``notes``) and the stations passed meanwhile are missing samples whose speed is
+    the mean speed across the stop (distance over duration: a varying-speed reconstruction lets the trailer settle
+    for the stop's duration); the signal between the moving samples is linear in distance, which
     is refused when they are more than 1.5 dx apart (the short waves would be invented).
 
     Raises
@@ -204,8 +210,10 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
         raise InputFormatError(f"{path}: the trailer never moves faster than {stop_speed:g} m/s: nothing to sample.")
     stops = [(x[a], t[a], t[b]) for a, b in true_runs(~moving)]
     kept = np.flatnonzero(moving)
+    rows = slice(kept[0], kept[-1] + 1)  # from the first moving sample to the last, stops inside kept
+    samples = (t[rows], x[rows], y[rows])
     across = np.diff(kept) > 1  # a stop between these two moving samples
-    x, y, v = x[moving], y[moving], v[moving]
+    x, y, v, t = x[moving], y[moving], v[moving], t[moving]
     step = np.diff(x)
     if np.any(step <= 0):
         i = int(np.flatnonzero(step <= 0)[0])
@@ -219,16 +227,20 @@ def read_time_sampled_apl(path, *, column: str = "apl_m", dx: float, stop_speed:
                                "or give a larger --dx.")
     grid = x[0] + dx * np.arange(int(np.floor((x[-1] - x[0]) / dx + 1e-6)) + 1)
     signal = np.interp(grid, x, y)
-    for i in np.flatnonzero(across):  # the stations passed while stopping and starting: missing samples
-        signal[(grid > x[i]) & (grid < x[i + 1])] = np.nan
+    speed = np.interp(grid, x, v)
+    for i in np.flatnonzero(across):  # the stations passed while stopping and starting: missing samples, at the
+        inside = (grid > x[i]) & (grid < x[i + 1])  # mean speed across the stop (its duration: the trailer settles)
+        signal[inside] = np.nan
+        speed[inside] = (x[i + 1] - x[i]) / (t[i + 1] - t[i])
     notes = [f"time-sampled record: {t.size} samples taken at every {dx:g} m of distance ("
              + (f"column {station!r}" if station else f"integral of {speed_col[0]!r}") + f"): {grid.size} samples"]
     if stops:
         shown = ", ".join(f"at {s[0]:.1f} m for {s[2] - s[1]:.3g} s" for s in stops[:5])
         notes.append(f"{len(stops)} stop(s) below {3.6 * stop_speed:g} km/h removed ({shown}"
-                     f"{' ...' if len(stops) > 5 else ''}); the stations passed below that speed are missing samples")
-    speed = SpeedColumn(speed_col[0], speed_col[1], np.interp(grid, x, v))
-    return TimeSampledRecording(Profile(grid, signal, name=path.stem), speed, tuple(notes))
+                     f"{' ...' if len(stops) > 5 else ''}); the stations passed below that speed are missing samples "
+                     "(estimated from the stop's samples when the record is reconstructed at its time step)")
+    speed = SpeedColumn(speed_col[0], speed_col[1], speed)
+    return TimeSampledRecording(Profile(grid, signal, name=path.stem), speed, tuple(notes), samples)
 
 
 @dataclass(frozen=True)
@@ -243,11 +255,15 @@ class APLRecord:
         The record's towing speed at each station, m/s (None: the file has no speed column).
     notes : tuple of str
         How a time-sampled record was placed at every dx (empty otherwise).
+    time_samples : tuple or None
+        A time-sampled record's own samples (:attr:`TimeSampledRecording.samples`); None for a record sampled in
+        distance.
     """
 
     recording: object
     speed: SpeedColumn | None
     notes: tuple = ()
+    time_samples: tuple | None = None
 
 
 def read_apl_record(path, *, column: str = "apl_m", dx: float) -> APLRecord:
@@ -272,7 +288,7 @@ def read_apl_record(path, *, column: str = "apl_m", dx: float) -> APLRecord:
 
     timed = read_time_sampled_apl(path, column=column, dx=dx)
     if timed is not None:
-        return APLRecord(APLSignalFile(timed.signal), timed.speed, tuple(timed.notes))
+        return APLRecord(APLSignalFile(timed.signal), timed.speed, tuple(timed.notes), timed.samples)
     recording = read_apl_recording(path, column=column)
     speed = read_apl_speed(path)
     return APLRecord(recording, None if speed is None else _on_stations(path, speed, recording))

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .._validation import MISSING_PROFILE_HINT
-from ..core import Profile, unit_factor
+from ..core import Profile, length_unit, unit_factor
 from ..errors import InputError, InputFormatError, OutputError, UnitsError
 from ._atomic import atomic_path
 from ._plausible import check_missing_codes
@@ -45,16 +45,6 @@ _END = re.compile(rb"^[ \t]*END[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
 _EMPTY_FIELD = re.compile(rb",[ \t]*,|^[ \t]*,", re.MULTILINE)
 #: Text a body cell may hold for a missing sample.
 _NAN_TOKENS = ["nan", "NaN", "NAN", "-nan", "+nan"]
-#: Spelled-out unit names other tools (ProVAL among them) write in UNITSNAM/XUNITS, any letter case, and the unit
-#: each one is.
-_UNIT_SPELLINGS = {
-    **dict.fromkeys(("inch", "inches"), "in"), **dict.fromkeys(("foot", "feet"), "ft"),
-    **dict.fromkeys(("millimeter", "millimeters", "millimetre", "millimetres"), "mm"),
-    **dict.fromkeys(("centimeter", "centimeters", "centimetre", "centimetres"), "cm"),
-    **dict.fromkeys(("meter", "meters", "metre", "metres"), "m"),
-    **dict.fromkeys(("kilometer", "kilometers", "kilometre", "kilometres"), "km"),
-    **dict.fromkeys(("mile", "miles"), "mi"),
-}
 #: The spellings for a refusal, grouped by unit.
 _SPELLED_NAMES = ("inch(es), foot/feet, millimeter(s)/millimetre(s), centimeter(s)/centimetre(s), meter(s)/metre(s), "
                   "kilometer(s)/kilometre(s), mile(s) (any letter case)")
@@ -207,12 +197,35 @@ def _parse_body_slow(path: Path, raw: bytes, start: int, first_line: int, nchan:
             except ValueError:
                 raise InputFormatError(f"{path}: line {lineno}: {t!r} is not a number.") from None
         if len(values) > expected:
+            _refuse_decimal_commas(path, raw, start, first_line, expected)
             raise InputFormatError(f"{path}: line {lineno}: more values than NCHAN x NPTS = {nchan} x {npts} = "
                                    f"{expected} announced on line 2.")
     if len(values) != expected:
+        _refuse_decimal_commas(path, raw, start, first_line, expected)
         raise InputFormatError(f"{path}: the data have {len(values)} values; line 2 announces NCHAN x NPTS = "
                                f"{nchan} x {npts} = {expected}.")
     return np.asarray(values, dtype=np.float64)
+
+
+#: A number written with a decimal comma (``0,7866``, ``-12,5``): digits on both sides of the comma.
+_DECIMAL_COMMA = re.compile(rb"(?<![\d.,])-?\d+,\d+(?![\d.,])")
+
+
+def _refuse_decimal_commas(path: Path, raw: bytes, start: int, first_line: int, expected: int) -> None:
+    """Refuse a body written with decimal commas (``0,7866 0,3635``: a spreadsheet in a decimal-comma locale), which
+    gives the wrong count of values: when it holds no decimal point and reading each comma as one gives exactly
+    NCHAN x NPTS values, the file line of the first such number is named. Nothing is read on a guess."""
+    body = raw[start:]
+    if b"." in body or b"," not in body:
+        return
+    m = _DECIMAL_COMMA.search(body)
+    if m is None or len(body.replace(b",", b".").split()) != expected:
+        return
+    line = first_line + body.count(b"\n", 0, m.start())
+    text = body[body.rfind(b"\n", 0, m.start()) + 1:].split(b"\n", 1)[0].decode("utf-8", "replace").strip()
+    raise InputFormatError(f"{path}: line {line}: the data are written with decimal commas ({text!r}); ERD numbers "
+                           "take decimal points: export the file again with decimal points (or replace each comma "
+                           "of the data lines by a point).")
 
 
 def read_erd(path, *, units: str | None = None, tracks=None, distance_units: str | None = None):
@@ -317,8 +330,9 @@ _ERD_MISSING_HINT = ("write nan in place of each missing value (an ERD file's mi
 
 
 def _spelled(unit: str) -> str:
-    """The short name of a spelled-out unit (``inches``, ``Metres`` -> ``in``, ``m``); any other text unchanged."""
-    return _UNIT_SPELLINGS.get(unit.strip().lower(), unit.strip())
+    """The short name of a unit, spelled out or not (``inches``, ``Metres``, ``MM`` -> ``in``, ``m``, ``mm``:
+    :func:`longprofile.core.length_unit`, the table the CSV column names are read with); any other text unchanged."""
+    return length_unit(unit) or unit.strip()
 
 
 def _unit(path: Path, unit: str, key: str, what: str) -> float:
@@ -356,19 +370,25 @@ def _decimals(factor: float) -> int:
     return max(0, math.ceil(math.log10(factor / _RESOLUTION) - 1e-9))
 
 
-def _shortest_step(x0: float, x1: float, n: int) -> float:
+def _shortest_step(x0: float, x1: float, n: int, tolerance: float = 1e-9) -> float:
     """The step from ``x0`` to ``x1`` in ``n - 1`` steps, with the fewest significant digits that still lands on
-    ``x1`` within 1e-9 m (0.025, not the 0.02499999999999858 that the subtraction gives)."""
+    ``x1`` within ``tolerance`` (1e-9 m in the stations' unit; 0.025, not the 0.02499999999999858 that the
+    subtraction gives)."""
     exact = (x1 - x0) / (n - 1)
     for digits in range(1, 17):
         dx = float(f"{exact:.{digits}g}")
-        if abs(x0 + dx * (n - 1) - x1) <= 1e-9:
+        if abs(x0 + dx * (n - 1) - x1) <= tolerance:
             return dx
     return exact
 
 
-def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> Path:
-    """Write a regularly spaced profile as a text ERD file (stations in m, elevations in ``units``).
+#: How :func:`write_erd` names a unit in UNITSNAM/XUNITS: inches and feet spelled out, as ProVAL writes its US files
+#: (``UNITSNAM inches``, ``XUNITS feet``); the others by their short name.
+_WRITTEN_NAMES = {"in": "inches", "ft": "feet"}
+
+
+def write_erd(profile, path, *, units: str = "mm", title: str | None = None, distance_units: str = "m") -> Path:
+    """Write a regularly spaced profile as a text ERD file (stations in ``distance_units``, elevations in ``units``).
 
     Parameters
     ----------
@@ -380,6 +400,9 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
         Elevation unit of the file (m, mm, cm, in, ft...; ProVAL and LTPP use mm or in).
     title : str, optional
         ``TITLE`` line (default: the profile name).
+    distance_units : str
+        Unit of the stations, DX and X0 (``XUNITS``): m (default) or ft for a US file (with ``units="in"``: the
+        ``UNITSNAM inches`` / ``XUNITS feet`` a ProVAL US file has), km, mi...
 
     Returns
     -------
@@ -387,9 +410,10 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
 
     Notes
     -----
-    Read back by :func:`read_erd`, stations are identical to 1e-9 m and elevations to half the printed
-    resolution: 1e-7 m, i.e. 4 decimals in mm, 7 in m, 6 in inches (error <= 5e-8 m). DX and X0 are written
-    in their shortest exact form (``repr``). Track names of up to 8 characters fill the 8-character
+    Read back by :func:`read_erd`, stations are identical to 1e-9 m (in feet: to the float round-off of the
+    conversion, 1e-9 m over 100 km) and elevations to half the printed resolution: 1e-7 m, i.e. 4 decimals in mm, 7
+    in m, 6 in inches (error <= 5e-8 m). DX and X0 are written in ``distance_units`` in their shortest exact form
+    (``repr``); inches and feet are written spelled out (``inches``, ``feet``), as ProVAL writes them. Track names of up to 8 characters fill the 8-character
     ``SHORTNAM`` fields; longer names are written blank-separated (read back whole by :func:`read_erd`; other
     readers may cut them at 8 characters). NaN elevations are written ``nan``. The body is formatted by
     pyarrow's CSV writer (values rounded to the decimals first, then printed in their shortest form).
@@ -405,23 +429,26 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
 
     path = Path(path)
     factor = unit_factor(units)
+    xfactor = unit_factor(distance_units, what="distance")
     x = profile.distance
     n, k = profile.elevation.shape
     if n < 2:
         raise InputError("an ERD file needs at least 2 samples (the step DX is implied by them).")
-    x0 = float(x[0])
-    dx = _shortest_step(x0, float(x[-1]), n)
-    deviation = np.abs(x - (x0 + dx * np.arange(n)))
+    x0 = float(x[0]) / xfactor
+    dx = _shortest_step(x0, float(x[-1]) / xfactor, n, 1e-9 / xfactor)
+    deviation = np.abs(x - (x0 + dx * np.arange(n)) * xfactor)
     worst = int(np.argmax(deviation))
     if deviation[worst] > _STATION_TOLERANCE:
         raise InputError(f"ERD files store a constant station step; this profile is irregular (station "
-                         f"{x[worst]:.6f} m is {deviation[worst]:.3g} m off the grid X0 + i DX, DX = {dx:.9g} m). "
+                         f"{x[worst]:.6f} m is {deviation[worst]:.3g} m off the grid X0 + i DX, DX = "
+                         f"{dx * xfactor:.9g} m). "
                          "Write it as CSV or Parquet instead, or resample it (`road convert --spacing DX`, "
                          "longprofile.road.resample_profile).")
     for t in profile.tracks:
         if not t or any(c.isspace() for c in t):
             raise InputError(f"track name {t!r} cannot be an ERD channel name (empty or with blanks); rename the "
-                             "track.")
+                             f"track (road convert --rename '{t}={_channel_name(t)}'; a library call: "
+                             "Profile(..., tracks=...)).")
     names = "".join(f"{t:<8}" for t in profile.tracks)
     if any(len(t) > 8 for t in profile.tracks):
         names = " ".join(f"{t:<8}" for t in profile.tracks)
@@ -431,8 +458,8 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
         f"{k:>6},{n:>10},{-1:>6},{1:>6},{5:>6},{dx!r:>24},{x0!r:>24},",
         f"TITLE   {name}",
         "SHORTNAM" + names,
-        "UNITSNAM" + "".join(f"{units:<8}" for _ in profile.tracks),
-        "XUNITS  m",
+        "UNITSNAM" + "".join(f"{_WRITTEN_NAMES.get(length_unit(units), units):<8}" for _ in profile.tracks),
+        f"XUNITS  {_WRITTEN_NAMES.get(length_unit(distance_units), distance_units)}",
         "END",
         "",
     ])
@@ -445,3 +472,10 @@ def write_erd(profile, path, *, units: str = "mm", title: str | None = None) -> 
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}.") from None
     return path
+
+
+def _channel_name(track: str) -> str:
+    """A channel name for a track name holding blanks, for a refusal's example: its first word in lower case
+    (``Left Elevation`` -> ``left``), ``ch1`` when it has none."""
+    words = str(track).split()
+    return words[0].lower() if words else "ch1"

@@ -48,7 +48,8 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
         metre label; ``io._plausible`` gives the limits).
     InputFormatError
         Unreadable file, no station column, non-numeric cell, stations not strictly increasing (the message
-        names the line; stations decreasing throughout get the way out), a standard-deviation column without its
+        names the line); stations decreasing throughout are a run driven against the stationing (a southbound lane),
+        read in the order of the rows as the distance travelled from the first station (docs/file-formats.md), a standard-deviation column without its
         track, a last row cut short, title lines above the header.
     InputError
         A track asked for twice in ``tracks`` (any letter case); an APL trailer's raw signal as a track: ``apl``
@@ -57,17 +58,28 @@ def read_profile(path, *, units: str | None = None, tracks=None, distance_column
 
     Notes
     -----
-    Column naming: ``<name>_<unit>`` or ``<name> [<unit>]``, e.g. ``distance_m, left_mm, right_mm``.
+    Column naming: ``<name>_<unit>``, ``<name> [<unit>]`` or ``<name> (<unit>)``, e.g. ``distance_m, left_mm,
+    right_mm``; the unit short or spelled out as in ERD headers (``LWP (inches)``, ``Distance (feet)``:
+    :func:`longprofile.core.length_unit`). A CSV separated by ``;`` or tabs is read when its decimal mark is
+    unambiguous (docs/file-formats.md §2).
     """
     path = Path(path)
     _check_unique(path, tracks)
-    if path.suffix.lower() == ".erd" or _looks_erd(path):
+    erd = path.suffix.lower() == ".erd" or _looks_erd(path)
+    if not erd and path.suffix.lower() not in _TABLE_SUFFIXES and path.is_file():
+        raise InputError(f"{path}: unknown profile format {path.suffix!r}; use .csv (.txt), .parquet or .erd (an ERD "
+                         "file is read whatever its suffix when its first line is ERDFILEV2.00).")
+    if erd:
         profile = read_erd(path, units=units, tracks=tracks)
         refuse_erd_apl_signal(path, profile.tracks, chosen=tracks is not None)  # as a table's apl_<unit>
     else:
         profile = read_profile_table(path, units=units, tracks=tracks, distance_column=distance_column)
     check_profile_plausible(profile, path)
     return profile
+
+
+#: Suffixes of the table profiles :func:`read_profile` reads (``io._tables``).
+_TABLE_SUFFIXES = (".csv", ".txt", ".parquet", ".pq")
 
 
 def _looks_erd(path: Path) -> bool:
@@ -92,7 +104,7 @@ def _check_unique(path: Path, tracks) -> None:
                          "once.")
 
 
-def write_profile(profile, path, *, units: str = "m") -> Path:
+def write_profile(profile, path, *, units: str = "m", distance_units: str = "m") -> Path:
     """Write a profile as CSV, Parquet or ERD (by suffix) with its units in the header.
 
     Parameters
@@ -102,6 +114,9 @@ def write_profile(profile, path, *, units: str = "m") -> Path:
         ``.csv``, ``.parquet`` or ``.erd``; any other suffix raises :class:`OutputError`.
     units : str
         Elevation unit written (m, mm, cm, in, ft...).
+    distance_units : str
+        Station unit written (m, ft, km, mi...): ``distance_<unit>`` in CSV/Parquet, ``XUNITS`` in ERD (``feet``
+        with inches elevations: a ProVAL US file).
 
     Returns
     -------
@@ -109,13 +124,14 @@ def write_profile(profile, path, *, units: str = "m") -> Path:
 
     Notes
     -----
-    CSV/Parquet columns: ``distance_m``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the
+    CSV/Parquet columns: ``distance_<distance_units>``, ``<track>_<units>`` per track, ``<track>_std_<units>`` when the
     profile has a standard deviation (read back by :func:`read_profile` to the same float64 values). ERD
     (:func:`longprofile.io.write_erd`) holds regular stations and elevations only: the standard deviation is
     not written.
     """
     path = Path(path)
     unit_factor(units)
+    unit_factor(distance_units, what="distance")
     if path.suffix.lower() == ".erd":
-        return write_erd(profile, path, units=units)
-    return write_profile_table(profile, path, units=units)
+        return write_erd(profile, path, units=units, distance_units=distance_units)
+    return write_profile_table(profile, path, units=units, distance_units=distance_units)

@@ -10,12 +10,13 @@ import numpy as np
 import pandas as pd
 
 from .._validation import true_runs
-from ..core import LENGTH_UNITS, Profile, unit_factor
+from ..core import LENGTH_UNITS, UNCONVERTED_LENGTH_UNITS, Profile, length_unit, unit_factor
 from ..errors import InputError, InputFormatError, UnitsError
 from ._plausible import check_missing_codes
 from ._tables import read_table, write_table
 
 __all__ = ["read_profile_table", "write_profile_table", "read_apl_signal", "read_apl_recording", "APLSignalFile",
+           "backward_stations",
            "read_sampled_column",
            "RECONSTRUCT_COLUMNS", "RECORDING_COLUMNS", "is_reconstruct_output", "is_simulated_recording"]
 
@@ -25,9 +26,6 @@ RECONSTRUCT_COLUMNS = ("distance_m", "elevation_m", "std_m", "raw_m", "raw_std_m
 RECORDING_COLUMNS = ("distance_m", "true_m", "apl_m")
 
 _DISTANCE_NAMES = ("distance", "station", "chainage", "x")
-#: ``name_unit``, ``name [unit]`` or ``name (unit)`` (the last as spreadsheets and ProVAL-style exports write it)
-_SUFFIX = re.compile(r"^(?P<base>.+?)(?:_(?P<u1>m|mm|cm|km|in|ft|mi)|\s*\[(?P<u2>m|mm|cm|km|in|ft|mi)\]"
-                     r"|\s*\((?P<u3>m|mm|cm|km|in|ft|mi)\))$", re.IGNORECASE)
 
 
 def _with_rows(df: pd.DataFrame, path: Path) -> pd.DataFrame:
@@ -46,25 +44,43 @@ def _without_empty_tail(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _split(column: str) -> tuple[str, str | None]:
-    m = _SUFFIX.match(column.strip())
-    if m:
-        return m.group("base"), (m.group("u1") or m.group("u2") or m.group("u3")).lower()
-    return column.strip(), None
+    """(base name, unit) of a column named ``name_unit``, ``name [unit]`` or ``name (unit)`` (the last as
+    spreadsheets and ProVAL-style exports write it), the unit a :data:`longprofile.core.LENGTH_UNITS` key, short or
+    spelled out as in ERD headers (``LWP (inches)``, ``Distance (feet)``, ``left_MM``:
+    :func:`longprofile.core.length_unit`); (name, None) when the name gives none."""
+    m = _ANY_SUFFIX.match(column.strip())
+    unit = m and length_unit(m.group("u1") or m.group("u2") or m.group("u3"))
+    return (m.group("base").strip(), unit) if unit else (column.strip(), None)
 
 
 def _elevation_unit(path, column, unit, units, *, chosen: bool):
     """(column, unit) of an elevation column: its declared unit, else ``units``; refused without either, or when the
     two differ."""
     if unit is None:
+        _refuse_unconverted(path, column)
         if units is None:
             hint = "" if chosen else " If it is not a track, choose the tracks with --track (e.g. --track left,right)."
+            m = _ANY_SUFFIX.match(column.strip())
+            named = (f"'{m.group('base').strip()} [mm]' ({m.group(0)[len(m.group('base')):].strip()!r} is no unit "
+                     f"read: {', '.join(LENGTH_UNITS)} or spelled out, e.g. inches, feet)"
+                     if m and not m.group("u1") else f"{column}_mm")
             raise UnitsError(f"{path}: column {column!r} does not give its elevation unit; pass --elevation-unit m|mm "
-                             f"(units=...) or name the column e.g. {column}_mm. Units are never guessed.{hint}")
-        return column, units
-    if units is not None and unit != units.lower():
+                             f"(units=...) or name the column e.g. {named}. Units are never guessed.{hint}")
+        return column, length_unit(units) or units
+    if units is not None and unit != (length_unit(units) or units.lower()):
         raise UnitsError(f"{path}: column {column!r} is in {unit} but units={units!r} was given; remove the option "
                          "or fix the header.")
     return column, unit
+
+
+def _refuse_unconverted(path, column) -> None:
+    """Refuse a column whose name gives a length unit this package does not convert (``LWP (µm)``): named, never
+    read in another unit."""
+    unit = _unconverted(str(column))
+    if unit:
+        raise UnitsError(f"{path}: column {column!r} is in {unit!r}, a unit this package does not convert (it reads "
+                         f"{', '.join(LENGTH_UNITS)}, or spelled out: inches, feet...): convert the column to mm or m "
+                         "and name it so (e.g. left_mm); it is never read in another unit.")
 
 
 def _line_namer(path: Path):
@@ -98,6 +114,7 @@ def _station_column(path: Path, df: pd.DataFrame, parsed: dict, distance_column)
     elif distance_column not in df.columns:
         raise InputFormatError(f"{path}: no column {distance_column!r}; the file has {list(df.columns)}.")
     if parsed[distance_column][1] is None:
+        _refuse_unconverted(path, distance_column)
         first = str(df[distance_column].iloc[0]).strip() if len(df) else ""
         below = (f" (the row under the header holds {first!r}: a unit there is not read; put it in the header, "
                  f"e.g. '{distance_column} [{first}]', and delete that row)" if first.lower() in LENGTH_UNITS else "")
@@ -124,6 +141,56 @@ def _check_stations(path: Path, column, written, x, line) -> None:
                                f"{written[i - 1]:g}; stations must increase strictly{_repeat_cause(step, i)}.")
 
 
+def _runs_backwards(x) -> bool:
+    """Whether stations ``x`` decrease throughout (every step < 0, none empty): a run driven against the stationing
+    (a southbound lane whose stations count down), which :func:`read_profile_table` reads in the order of its rows,
+    the direction of travel, as the distance travelled from the first row (docs/file-formats.md, ASSUMPTION)."""
+    x = np.asarray(x, float)
+    return x.size > 1 and not np.isnan(x).any() and bool(np.all(np.diff(x) < 0))
+
+
+def backward_stations(path) -> tuple[str, float, float] | None:
+    """(station column, first station, last station, as written) of a CSV/Parquet profile whose stations decrease
+    throughout, which :func:`longprofile.io.read_profile` reads as the distance travelled from the first row (the
+    CLI notes it); None for any other file, or one that cannot be read (its reader reports the problem).
+
+    Only the first two data rows are read unless they decrease (then the station column)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".csv", ".txt", ".parquet", ".pq") or not path.is_file():
+        return None
+    if path.suffix.lower() in (".csv", ".txt") and not _first_steps_decrease(path):
+        return None
+    try:
+        df = _without_empty_tail(read_table(path, dialect=True))
+        column = _station_column(path, df, {c: _split(str(c)) for c in df.columns}, None)
+        x = pd.to_numeric(df[column], errors="coerce").to_numpy(float)
+    except Exception:  # the reader reports it
+        return None
+    return (str(column), float(x[0]), float(x[-1])) if _runs_backwards(x) else None
+
+
+def _first_steps_decrease(path: Path) -> bool:
+    """Whether the first cell of the first two data rows of a CSV decreases (a cheap look before a full read): the
+    station column is usually first; any doubt gives True (then the full read decides)."""
+    rows = []
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for line in fh:
+            text = line.strip().lstrip("\ufeff")
+            if text and not text.startswith("#"):
+                rows.append(text)
+            if len(rows) == 3:
+                break
+    if len(rows) < 3:
+        return False
+    sep = "," if "," in rows[0] else "\t" if "\t" in rows[0] else ";"
+    try:
+        first, second = (float(r.split(sep)[0].replace(",", ".")) for r in rows[1:])
+    except ValueError:
+        return True
+    station_first = _split(rows[0].split(sep)[0].strip().strip('"'))[0].lower() in _DISTANCE_NAMES
+    return second < first or not station_first
+
+
 def _repeat_cause(step, i: int) -> str:
     """The likely cause of station ``i`` repeating the previous one: a stop (one run of repeats: keep one row) or
     stations rounded coarser than the sampling (repeats at many places); "" when it is smaller."""
@@ -145,7 +212,7 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     path = Path(path)
     if units is not None:
         unit_factor(units)
-    df = _with_rows(_without_empty_tail(read_table(path)), path)
+    df = _with_rows(_without_empty_tail(read_table(path, dialect=True)), path)
     fmt_line = _line_namer(path)
     parsed = {c: _split(str(c)) for c in df.columns}
     distance_column = _station_column(path, df, parsed, distance_column)
@@ -192,6 +259,8 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     for c in used:
         df[c] = _numeric_column(path, df, c, fmt_line)
     x = df[distance_column].to_numpy() * unit_factor(dunit, what="distance")
+    if _runs_backwards(x):  # a run driven against the stationing: distance travelled from its first row
+        x = x[0] - x
     _check_stations(path, distance_column, df[distance_column].to_numpy(), x, fmt_line)
     raw = np.column_stack([df[columns[t][0]].to_numpy() for t in names])
     factors = [unit_factor(columns[t][1]) for t in names]
@@ -207,10 +276,10 @@ def read_profile_table(path: Path, *, units: str | None = None, tracks=None, dis
     return Profile(distance=x, elevation=z, tracks=tuple(names), std=std, name=path.stem)
 
 
-def write_profile_table(profile, path: Path, *, units: str = "m") -> Path:
+def write_profile_table(profile, path: Path, *, units: str = "m", distance_units: str = "m") -> Path:
     """CSV/Parquet body of :func:`longprofile.io.write_profile` (same parameters and returns)."""
     factor = unit_factor(units)
-    cols = {"distance_m": profile.distance}
+    cols = {f"distance_{distance_units}": profile.distance / unit_factor(distance_units, what="distance")}
     for j, t in enumerate(profile.tracks):
         cols[f"{t}_{units}"] = profile.elevation[:, j] / factor
     if profile.std is not None:
@@ -361,7 +430,7 @@ def read_apl_recording(path, *, column: str = "apl_m", distance_column: str | No
     observation as such).
     """
     path = Path(path)
-    df = _with_rows(_without_empty_tail(read_table(path)), path)
+    df = _with_rows(_without_empty_tail(read_table(path, dialect=True)), path)
     line = _line_namer(path)
     station = _station_column(path, df, {c: _split(str(c)) for c in df.columns}, distance_column)
     column = _signal_column(path, [str(c) for c in df.columns], column)
@@ -395,7 +464,7 @@ _APL_MISSING_HINT = ("write the missing samples as empty cells (NaN): `road reco
 APL_SIGNAL_RMS_RANGE = (1e-4, 1.0)
 #: Length units a header may give that this package does not convert (:data:`longprofile.core.LENGTH_UNITS`): a
 #: signal column so named is refused, never read as metres.
-_UNCONVERTED_UNITS = ("um", "µm", "μm", "micron", "microns", "microm", "nm", "dm", "mil", "mils", "thou", "yd")
+_UNCONVERTED_UNITS = UNCONVERTED_LENGTH_UNITS
 #: Any suffix a column name may carry a unit in: ``_unit``, `` [unit]``, `` (unit)``.
 _ANY_SUFFIX = re.compile(r"^(?P<base>.+?)(?:_(?P<u1>[^\W_]+)|\s*\[(?P<u2>[^\]]+)\]|\s*\((?P<u3>[^)]+)\))$")
 

@@ -19,7 +19,7 @@ from ..rail import (
 )
 from ._tables import check_columns, read_table
 
-__all__ = ["read_rail_site", "read_rail_table", "read_rail_thresholds"]
+__all__ = ["read_rail_events", "read_rail_site", "read_rail_table", "read_rail_tables", "read_rail_thresholds"]
 
 #: Columns of a thresholds table (``rail settle --thresholds``): one row per quantity and level, value in mm
 #: (mm/day for the rate), as ``rail site threshold`` takes them.
@@ -45,16 +45,45 @@ def read_rail_site(sensors, readings, survey=None, controls=None, *, angle_unit:
     -------
     SiteData
     """
+    tables = read_rail_tables(sensors, readings, survey, controls, angle_unit=angle_unit,
+                              require_temperature=require_temperature)
+    return validate_site(*tables, angle_unit=angle_unit, check_units=check_units, temperature_fill=temperature_fill,
+                         timezone=timezone, require_temperature=require_temperature)
+
+
+def read_rail_tables(sensors, readings, survey=None, controls=None, *, angle_unit: str = "deg",
+                     require_temperature: bool = True) -> tuple:
+    """(sensors, readings, survey, controls) tables of a site read by :func:`read_rail_table`, not yet validated
+    (survey and controls None when not given); the readings may be wide (one column per sensor of the sensors
+    table)."""
     s = read_rail_table(sensors, "sensors")
-    r = read_rail_table(readings, "readings", angle_unit=angle_unit, require_temperature=require_temperature)
+    r = read_rail_table(readings, "readings", angle_unit=angle_unit, require_temperature=require_temperature,
+                        sensor_ids=s["sensor_id"].astype(str).tolist())
     sv = None if survey is None else read_rail_table(survey, "survey")
     ct = None if controls is None else read_rail_table(controls, "controls")
-    return validate_site(s, r, sv, ct, angle_unit=angle_unit, check_units=check_units,
-                         temperature_fill=temperature_fill, timezone=timezone,
-                         require_temperature=require_temperature)
+    return s, r, sv, ct
 
 
-def read_rail_table(path, kind: str, *, angle_unit: str = "deg", require_temperature: bool = True):
+def read_rail_events(path):
+    """The events table of ``rail settle --events`` and ``rail site events`` (sensor_id, date, event, new_id),
+    checked by :func:`longprofile.rail.check_events` (docs/file-formats.md, "Rail events table").
+
+    Raises
+    ------
+    InputFormatError
+        One line naming the file, and the row and what is wrong.
+    """
+    from ..rail import check_events
+
+    table = read_table(path, required=("sensor_id", "date", "event"), text=("sensor_id", "new_id"))
+    try:
+        return check_events(table)
+    except InputError as exc:
+        raise InputFormatError(f"{path}: {exc}") from None
+
+
+def read_rail_table(path, kind: str, *, angle_unit: str = "deg", require_temperature: bool = True,
+                    sensor_ids=None):
     """One table of a rail site (``kind``: sensors, readings, survey or controls) with its columns under their
     canonical names (:data:`longprofile.rail.SiteData.TABLE_COLUMNS`), as ``rail settle`` and ``rail site`` read it.
 
@@ -67,7 +96,10 @@ def read_rail_table(path, kind: str, *, angle_unit: str = "deg", require_tempera
     two columns (``date``, ``time``: a spreadsheet's export) get them joined into ``timestamp``. A station written
     in km+m (``12+345.600``, a railway chainage), in ``x_m`` or in a ``chainage`` / ``station`` column, is read as
     metres (12345.6 m). ``require_temperature=False``: a readings table without a temperature column is taken (its
-    ``temperature_c`` empty; for ``thermal="none"``).
+    ``temperature_c`` empty; for ``thermal="none"``). With ``sensor_ids`` (those of the sensors table) a wide readings
+    table (a logger's export: a time column and one or two columns per sensor, ``S01`` or ``S01_angle_deg`` and
+    ``S01 Temp [°C]``, the sensor's id then the column's name as above) is read as the long table it holds
+    (:func:`_wide_readings`), then checked as a long one.
 
     Raises
     ------
@@ -87,6 +119,8 @@ def read_rail_table(path, kind: str, *, angle_unit: str = "deg", require_tempera
         table = _joined_date_time(table, path)
         if "angle_deg" not in table.columns and any(_declared(str(c), "angle", path) for c in table.columns):
             table = _angle_in_degrees(table, path, angle_unit)
+        if sensor_ids is not None and "sensor_id" not in {str(c).casefold() for c in table.columns}:
+            table = _wide_readings(table, path, sensor_ids, require_temperature, angle_unit)
         _refuse_wide_readings(table, path)
         if not require_temperature:
             required = tuple(c for c in required if c != "temperature_c")
@@ -164,9 +198,91 @@ def _refuse_wide_readings(table, path) -> None:
     if len(others) >= 3:
         raise InputFormatError(
             f"{path}: no sensor_id column, and {len(others)} other columns ({[str(c) for c in others[:4]]}, ...): one "
-            "column per sensor (a wide table)? The readings table is long: one row per reading with the columns "
-            "timestamp, sensor_id, angle_deg, temperature_c (e.g. pandas: angles.melt(id_vars='timestamp', "
+            "column per sensor (a wide table)? Name each column after a sensor id of the sensors table (S01, or "
+            "S01_angle_deg and S01_temperature_c) and it is read as it is; or make it long, one row per reading with "
+            "the columns timestamp, sensor_id, angle_deg, temperature_c (e.g. pandas: angles.melt(id_vars='timestamp', "
             "var_name='sensor_id', value_name='angle_deg'), and the same for the temperatures, then merge).")
+
+
+#: Names of the time column of a wide readings table (any letter case).
+_WIDE_TIME = ("timestamp", "time", "datetime", "date_time")
+
+
+def _wide_sensor_column(name: str, ids, path) -> tuple[str, str, str | None] | None:
+    """(sensor id, quantity "angle" or "temperature", declared unit or None) of a wide readings column: a sensor's id
+    alone (its angle), or followed by a blank, '_', '-' or '.' and an angle or temperature column name
+    (``angle_deg``, ``Temp [°C]``, ``tilt``; :func:`_declared`, whose unknown units are refused); None otherwise."""
+    text = name.strip()
+    for sid in ids:  # the longest ids first: S1_2 before S1
+        if text == sid:
+            return sid, "angle", None
+        if not text.startswith(sid) or not re.match(r"[\s_.\-]", text[len(sid):]):
+            continue
+        rest = re.sub(r"^[\s_.\-]+", "", text[len(sid):])
+        for quantity in ("angle", "temperature"):
+            if (_BASES.get(rest.lower()) and _QUANTITY[_BASES[rest.lower()]] == quantity):
+                return sid, quantity, None
+            try:
+                declared = _declared(rest, quantity, path)
+            except UnitsError as exc:  # named as the file names the column
+                raise UnitsError(str(exc).replace(f"column {rest!r}", f"column {name!r}", 1)) from None
+            if declared is not None:
+                return sid, quantity, declared[1]
+    return None
+
+
+def _wide_readings(table, path, sensor_ids, require_temperature: bool, angle_unit: str):
+    """A wide readings table (one row per time, one angle and maybe one temperature column per sensor, named after
+    the sensors table's ids) as the long table (timestamp, sensor_id, angle_deg, temperature_c), each column converted
+    from its declared unit (:data:`ANGLE_UNITS`, :data:`TEMPERATURE_UNITS`; a plain angle is in ``angle_unit``, which
+    must then be "deg" if any column declares its unit, as for a long table).
+    A table none of whose columns names a sensor is returned as is (a long table: its own checks). A sensor's pair
+    of cells both empty is no reading. Refused, one line: a column naming no sensor, a sensor's angle (or
+    temperature) in two columns, a temperature without an angle, several time columns, and no temperature column at
+    all when the temperature is required."""
+    ids = sorted(map(str, sensor_ids), key=len, reverse=True)
+    columns = [str(c) for c in table.columns]
+    times = [c for c in columns if c.strip().lower() in _WIDE_TIME]
+    parsed = {c: _wide_sensor_column(c, ids, path) for c in columns if c not in times}
+    if not any(parsed.values()):
+        return table
+    where = f"{path}: a wide readings table (one column per sensor)"
+    if len(times) != 1:
+        raise InputFormatError(f"{where} needs one time column (timestamp); it has {times or 'none'}.")
+    bad = [c for c, v in parsed.items() if v is None]
+    if bad:
+        raise InputFormatError(f"{where}: column(s) {bad[:4]} name no sensor of the sensors table; name each column "
+                               "after a sensor id, alone (its angle in deg) or with the angle or the temperature "
+                               "and its unit (S01_angle_deg, 'S01 Temp [°C]'), or leave the column out.")
+    found: dict = {}
+    for c, (sid, quantity, unit) in parsed.items():
+        if (sid, quantity) in found:
+            raise InputFormatError(f"{where}: sensor {sid}'s {quantity} is in two columns, {found[sid, quantity][0]!r} "
+                                   f"and {c!r}; keep one.")
+        found[sid, quantity] = (c, unit)
+    lone = sorted(sid for sid, q in found if q == "temperature" and (sid, "angle") not in found)
+    if lone:
+        raise InputFormatError(f"{where}: sensor(s) {lone[:4]} have a temperature column and no angle column.")
+    if require_temperature and not any(q == "temperature" for _, q in found):
+        raise InputFormatError(f"{where} with angle columns only: add each sensor's temperature (S01_temperature_c), "
+                               "or switch the thermal correction off (--thermal none; thermal='none').")
+    for (_, quantity), (c, unit) in found.items():
+        if quantity == "angle" and unit is not None:  # a plain column is in angle_unit, a declared one in its own
+            _check_angle_unit(path, c, unit, angle_unit)
+    values = {}
+    for (sid, quantity), (c, unit) in found.items():
+        v = check_columns(table[[c]].copy(), path, numeric=[c])[c].to_numpy(float)
+        values[sid, quantity] = v if unit is None else _CONVERSIONS[quantity][unit](v)
+    stamp = table[[c for c in table.columns if str(c) == times[0]][0]].to_numpy()
+    sids = [sid for sid in map(str, sensor_ids) if (sid, "angle") in found]  # the sensors table's order
+    nan = np.full(len(table), np.nan)
+    angle = np.column_stack([values[sid, "angle"] for sid in sids])
+    temp = np.column_stack([values.get((sid, "temperature"), nan) for sid in sids])
+    keep = (np.isfinite(angle) | np.isfinite(temp)).ravel()  # row-major: each time's sensors together
+    long = pd.DataFrame({"timestamp": np.repeat(stamp, len(sids)), "sensor_id": np.tile(np.array(sids, object),
+                                                                                        len(table)),
+                         "angle_deg": angle.ravel(), "temperature_c": temp.ravel()})
+    return long[keep].reset_index(drop=True)
 
 
 #: Angle units a readings column may declare (``angle_<unit>``, ``angle [<unit>]``, ``tilt (<unit>)``), to degrees.
@@ -263,11 +379,16 @@ def _angle_in_degrees(r, path, angle_unit: str):
         raise InputFormatError(f"{path}: give the angle once, in one column (angle_deg, angle_rad, angle (arcsec)...); "
                                f"the file has {found}.")
     unit = _declared(str(found[0]), "angle")[1]
-    if angle_unit != "deg":
-        raise UnitsError(f"{path}: column {found[0]!r} declares its unit ({unit}); leave out --angle-unit "
-                         f"{angle_unit} (angle_unit=...), which is for a plain angle_deg column.")
+    _check_angle_unit(path, found[0], unit, angle_unit)
     values = check_columns(r[[found[0]]], path, numeric=[found[0]])[found[0]].to_numpy(float)
     return r.drop(columns=found).assign(angle_deg=ANGLE_UNITS[unit](values))
+
+
+def _check_angle_unit(path, column, unit: str, angle_unit: str) -> None:
+    """Refuse ``angle_unit`` (the unit of a plain angle column) other than "deg" with a column declaring its unit."""
+    if angle_unit != "deg":
+        raise UnitsError(f"{path}: column {column!r} declares its unit ({unit}); leave out --angle-unit "
+                         f"{angle_unit} (angle_unit=...), which is for a plain angle_deg column.")
 
 
 def read_rail_thresholds(path) -> dict:
@@ -275,7 +396,10 @@ def read_rail_thresholds(path) -> dict:
     ``value_mm`` (mm; mm/day for the rate), one row per quantity and level.
 
     Column names and the quantities and levels may be in any letter case; the value column may declare another
-    length unit (``value_m``, ``value_cm``, ``value (mm)``, ``Value [in]``; m/day, cm/day... for the rate), converted.
+    length unit (``value_m``, ``value_cm``, ``value (mm)``, ``Value [in]``), converted. The rate rows may instead
+    give their value in a column with a per-day unit (``value_mm_per_day``, ``value (mm/day)``, ``value_mm/day``,
+    ``value [cm/d]``), alone or next to the length column (then each row fills one of the two); a settlement or twist
+    value there is refused (those are lengths).
 
     Returns
     -------
@@ -287,19 +411,21 @@ def read_rail_thresholds(path) -> dict:
     InputFormatError
         Missing or unknown columns, an unknown quantity or level, a quantity and level given twice, a value below
         the quantity's smallest plausible limit (:data:`longprofile.rail.THRESHOLD_FLOORS_M`: metres under
-        value_mm?) or not a plausible threshold (:func:`longprofile.rail.check_threshold`), or levels not growing.
+        value_mm?) or not a plausible threshold (:func:`longprofile.rail.check_threshold`), or levels not growing,
+        a settlement or twist value in a per-day column, a row with a value in both columns.
     """
     t = read_table(path)
-    t, value, unit = _threshold_columns(t, path)
+    t, columns = _threshold_columns(t, path)
     out: dict = {}
-    for i, (q, lv, v) in enumerate(zip(t["quantity"].astype(str).str.strip().str.lower(),
-                                       t["level"].astype(str).str.strip().str.lower(), t[value])):
+    for i, (q, lv) in enumerate(zip(t["quantity"].astype(str).str.strip().str.lower(),
+                                    t["level"].astype(str).str.strip().str.lower())):
         where = f"{path}: row {i + 1}"
         if q not in THRESHOLD_QUANTITIES or lv not in THRESHOLD_LEVELS:
             raise InputFormatError(f"{where}: quantity {q!r} / level {lv!r}; use {', '.join(THRESHOLD_QUANTITIES)} "
                                    f"and {', '.join(THRESHOLD_LEVELS)}.")
         if lv in out.get(q, {}):
             raise InputFormatError(f"{where}: {q} {lv} is given twice.")
+        value, unit, v = _threshold_value(t, i, q, columns, where)
         out.setdefault(q, {})[lv] = metres = float(v) * LENGTH_UNITS[unit]
         floor, per = THRESHOLD_FLOORS_M[q], "/day" if q == "rate" else ""
         if metres < floor and metres > 0:
@@ -316,18 +442,59 @@ def read_rail_thresholds(path) -> dict:
         raise InputFormatError(f"{path}: {exc}") from None
 
 
-def _threshold_columns(t, path):
-    """(table with quantity and level found in any letter case and the value column numeric, the value column's name,
-    its length unit): ``value_mm`` or ``value`` with another length unit declared (value_m, ``value (cm)``)."""
-    values = [c for c in t.columns if (m := _NAME.match(str(c).strip())) is not None and m.group("base").lower()
-              == "value" and (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower() in LENGTH_UNITS]
-    t = check_columns(t, path, required=THRESHOLD_COLUMNS[:2])
-    if len(values) != 1:
-        raise InputFormatError(f"{path}: {'no' if not values else 'more than one'} value column (value_mm, or value "
-                               f"with its unit: value_m, 'value (cm)'); the file has {[str(c) for c in t.columns]}.")
-    extra = sorted(set(map(str, t.columns)) - {*THRESHOLD_COLUMNS[:2], str(values[0])})
-    if extra:
-        raise InputFormatError(f"{path}: unknown column(s) {extra}; a thresholds table has {list(THRESHOLD_COLUMNS)}.")
-    m = _NAME.match(str(values[0]).strip())
+#: The value columns a thresholds table may have, as the refusals list them.
+_THRESHOLD_VALUE_COLUMNS = ("value_mm (mm; mm/day on rate rows), or value with its length unit: value_m, "
+                            "'value (cm)', 'Value [in]'; for rate rows also a per-day unit: value_mm_per_day, "
+                            "'value (mm/day)', value_m/day")
+#: A per-day unit declared in a value column's name: ``mm/day``, ``mm_per_day``, ``mm/d``, ``mm per day``.
+_PER_DAY = re.compile(r"^(?P<length>[a-z]+)(?:/|_per_|_per|per)(?:day|d)$")
+
+
+def _value_unit(name) -> tuple[str, bool] | None:
+    """(length unit, per day) of a thresholds table's value column (``value_mm``, ``value (cm)``,
+    ``value_mm_per_day``, ``value (mm/day)``); None for another column."""
+    m = _NAME.match(str(name).strip())
+    if m is None or m.group("base").lower() != "value":
+        return None
     unit = (m.group("u1") or m.group("u2") or m.group("u3")).strip().lower()
-    return check_columns(t, path, numeric=[values[0]]), values[0], unit
+    if unit in LENGTH_UNITS:
+        return unit, False
+    day = _PER_DAY.match(re.sub(r"\s+", "_", re.sub(r"\s*/\s*", "/", unit)))
+    if day is not None and day.group("length") in LENGTH_UNITS:
+        return day.group("length"), True
+    return None
+
+
+def _threshold_columns(t, path):
+    """(table with quantity and level found in any letter case and the value columns numeric, {False: the length
+    value column, True: the per-day one} (one of them or both), see :func:`_value_unit`)."""
+    found: dict = {}
+    for c in t.columns:
+        unit = _value_unit(c)
+        if unit is not None:
+            found.setdefault(unit[1], []).append(c)
+    t = check_columns(t, path, required=THRESHOLD_COLUMNS[:2])
+    if not found or any(len(v) > 1 for v in found.values()):
+        raise InputFormatError(f"{path}: {'no' if not found else 'more than one'} value column; accepted: "
+                               f"{_THRESHOLD_VALUE_COLUMNS}; the file has {[str(c) for c in t.columns]}.")
+    columns = {k: v[0] for k, v in found.items()}
+    extra = sorted(set(map(str, t.columns)) - {*THRESHOLD_COLUMNS[:2], *map(str, columns.values())})
+    if extra:
+        raise InputFormatError(f"{path}: unknown column(s) {extra}; a thresholds table has {list(THRESHOLD_COLUMNS)} "
+                               f"(value columns accepted: {_THRESHOLD_VALUE_COLUMNS}).")
+    return check_columns(t, path, numeric=list(columns.values())), columns
+
+
+def _threshold_value(t, i: int, quantity: str, columns: dict, where: str):
+    """(column, length unit, value) of row ``i``: the per-day column's value for a rate row that has one, else the
+    length column's; a settlement or twist value in the per-day column, or a row with both, refused."""
+    per_day = columns.get(True)
+    given = per_day is not None and not np.isnan(t[per_day].iloc[i])
+    if given and quantity != "rate":
+        raise InputFormatError(f"{where}: a {quantity} threshold is a length, not a rate: give it in "
+                               f"{columns.get(False, 'value_mm')!r}, not in {str(per_day)!r}.")
+    if given and False in columns and not np.isnan(t[columns[False]].iloc[i]):
+        raise InputFormatError(f"{where}: a value in both {str(columns[False])!r} and {str(per_day)!r}; give it in "
+                               "one of them.")
+    col = per_day if given or False not in columns else columns[False]
+    return str(col), _value_unit(col)[0], t[col].iloc[i]

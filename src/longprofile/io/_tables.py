@@ -39,14 +39,16 @@ def _format_of(path: Path) -> str:
     return fmt
 
 
-def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
+def _read_csv(path: Path, text_columns: Iterable[str] = (), dialect: bool = False) -> pd.DataFrame:
     """CSV with ``#`` comments, where an empty line inside the data is a row of missing values.
 
     pandas skips blank lines by default, which silently shifts every later sample of a one-column file with
     missing values (a logger or a spreadsheet writes an empty cell there as an empty line). Blank lines before
     the header and after the last data line are ignored; a last row of empty cells (``,,``, or ``""`` in a
     one-column file) is a row of missing values and is kept. Columns named in ``text_columns`` (any letter case) are
-    read as written: ``007`` stays ``007`` and ``NA`` is a name; only an empty cell is missing there.
+    read as written: ``007`` stays ``007`` and ``NA`` is a name; only an empty cell is missing there. With
+    ``dialect``, a header separated by ``;`` or tabs is read so when its decimal mark is unambiguous
+    (:func:`_dialect`); without, it is refused.
     """
     leading, header, header_line = None, "", 0
     with open(path, encoding="utf-8", errors="replace") as fh:
@@ -60,17 +62,17 @@ def _read_csv(path: Path, text_columns: Iterable[str] = ()) -> pd.DataFrame:
     # "#" starts a comment line; within a line it is text (a sensor "PK#12") unless the data have comment lines too
     comments = ({"comment": "#", "skiprows": leading or 0} if _comment_lines_after(path, header_line) else
                 {"comment": None, "skiprows": header_line})
-    _check_separator(path, header)
-    _check_title_lines(path, header_line)
+    sep, decimal = _dialect(path, header, header_line) if dialect else (_check_separator(path, header) or ",", ".")
+    _check_title_lines(path, header_line, sep=sep)
     wanted = {t.lower() for t in text_columns}
-    names = [n.strip() for n in next(csv.reader([header], skipinitialspace=True))] if wanted else []
+    names = [n.strip() for n in next(csv.reader([header], skipinitialspace=True, delimiter=sep))] if wanted else []
     as_text = [n for n in names if n.lower() in wanted]
     kw = {"na_values": _MISSING_VARIANTS}  # with pandas' own: "NAN" (Campbell loggers), "NONE", "Null"...
     if as_text:
         kw = {"dtype": dict.fromkeys(as_text, str), "keep_default_na": False,
               "na_values": {n: [""] if n in as_text else [*_PANDAS_MISSING, *_MISSING_VARIANTS] for n in names}}
-    df = pd.read_csv(path, skipinitialspace=True, skip_blank_lines=False, **comments, **kw)
-    _check_last_row(path, df.shape[1])
+    df = pd.read_csv(path, skipinitialspace=True, skip_blank_lines=False, sep=sep, decimal=decimal, **comments, **kw)
+    _check_last_row(path, df.shape[1], sep=sep)
     trailing = _trailing_blank_lines(path)
     if trailing:
         filled = df.notna().any(axis=1).to_numpy()
@@ -109,7 +111,36 @@ def _check_separator(path: Path, header: str) -> None:
                                    "as comma-separated values with decimal points (e.g. 0.25, not 0,25).")
 
 
-def _check_title_lines(path: Path, header_line: int, *, scan: int = 50) -> None:
+def _dialect(path: Path, header: str, header_line: int) -> tuple[str, str]:
+    """(separator, decimal mark) of a CSV whose header line is ``header`` (line ``header_line``, 0-based).
+
+    A header with a comma is comma-separated with decimal points, as before. A header separated by tabs or by ``;``
+    (a spreadsheet's export in a decimal-comma locale, a profiler's tab-separated text) is read so when its data
+    lines (``#`` comments aside) settle the decimal mark: commas and no point anywhere, decimal commas; points and
+    no comma, decimal points; neither, whole numbers. Data holding both (``1.234,5``, or ``0.5;1,5``) are refused:
+    the mark would be a guess. ASSUMPTION (docs/file-formats.md): in such a file a ``.`` is a decimal point, never
+    a thousands separator (profile exports write none).
+    """
+    if "," in header or not (";" in header or "\t" in header):
+        return ",", "."
+    if ";" in header and "\t" in header:
+        raise InputFormatError(f"{path}: the header {header!r} holds both ';' and tabs: the separator cannot be told; "
+                               "save the file as comma-separated values with decimal points.")
+    sep, name = ("\t", "tab") if "\t" in header else (";", "';'")
+    with open(path, "rb") as fh:
+        body = fh.read()
+    for _ in range(header_line + 1):
+        body = body[body.find(b"\n") + 1:] if b"\n" in body else b""
+    if b"#" in body:
+        body = re.sub(rb"(?m)^[ \t]*#.*$", b"", body)
+    if b"." in body and b"," in body:
+        raise InputFormatError(f"{path}: the file is separated by {name} and its values hold both '.' and ',': the "
+                               "decimal mark cannot be told; save it as comma-separated values with decimal points "
+                               "(e.g. 0.25, not 0,25).")
+    return sep, ("," if b"," in body else ".")
+
+
+def _check_title_lines(path: Path, header_line: int, *, scan: int = 50, sep: str = ",") -> None:
     """Refuse title lines above the header (an export's preamble, ``Project: I-95 resurfacing``, then the column names).
 
     Within the first ``scan`` text lines from line ``header_line`` (0-based; comments and blank lines skipped): the
@@ -123,7 +154,7 @@ def _check_title_lines(path: Path, header_line: int, *, scan: int = 50) -> None:
             text = line.strip().lstrip("\ufeff")
             if i < header_line or not text or text.startswith("#"):
                 continue
-            rows.append((i + 1, next(csv.reader([text], skipinitialspace=True), [])))
+            rows.append((i + 1, next(csv.reader([text], skipinitialspace=True, delimiter=sep), [])))
             if len(rows) >= scan:
                 break
     widths = [len(fields) for _, fields in rows]
@@ -155,12 +186,13 @@ def _tail(path: Path, size: int = 65536) -> tuple[int, bytes]:
         return start, fh.read()
 
 
-def _check_last_row(path: Path, n_columns: int) -> None:
+def _check_last_row(path: Path, n_columns: int, *, sep: str = ",") -> None:
     """Refuse a last data row with fewer fields than the header: a file cut while copying or logging.
 
     pandas fills the missing fields of a short row with NaN, which a reader would then bridge as a gap (or
     take the part of a number that survived as a value). A last row of empty cells (``,,``) has all its
-    fields and is a row of missing values, not a cut.
+    fields and is a row of missing values, not a cut. A last line of text holding no number (``End of data``) is
+    an export's footer, refused as such (ASSUMPTION: never skipped; the user deletes it).
     """
     import csv
 
@@ -172,10 +204,14 @@ def _check_last_row(path: Path, n_columns: int) -> None:
     if len(data) < 2:
         return
     last = lines[data[-1]].decode("utf-8", errors="replace").rstrip("\r")
-    fields = next(csv.reader([last], skipinitialspace=True), [])
+    fields = next(csv.reader([last], skipinitialspace=True, delimiter=sep), [])
     if len(fields) < n_columns:
         with open(path, "rb") as fh:
             before = fh.read(start).count(b"\n")
+        if not any(_is_number(f.replace(",", ".")) or not f.strip() for f in fields):
+            raise InputFormatError(f"{path}: line {before + data[-1] + 1} (the last) is text, not data "
+                                   f"({last.strip()[:60]!r}): a footer the export wrote? delete that line (or start "
+                                   "it with #).")
         raise InputFormatError(f"{path}: line {before + data[-1] + 1} (the last) has {len(fields)} of the header's "
                                f"{n_columns} fields: the file looks cut short (an interrupted copy or logger); remove "
                                "that line or export the file again.")
@@ -197,7 +233,8 @@ def _trailing_blank_lines(path: Path) -> int:
     return count
 
 
-def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (), text: Iterable[str] = ()) -> pd.DataFrame:
+def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (), text: Iterable[str] = (),
+               dialect: bool = False) -> pd.DataFrame:
     """Read a CSV or Parquet table.
 
     Parameters
@@ -213,6 +250,9 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
     text : iterable of str
         Columns of names or ids (any letter case), read from a CSV as written: ``007`` is not 7 and ``NA`` is not
         missing; only an empty cell is.
+    dialect : bool
+        Read a CSV separated by ``;`` or tabs when its decimal mark is unambiguous (:func:`_dialect`: the profile
+        readers); False refuses such a header, saying how to save the file.
 
     Raises
     ------
@@ -227,7 +267,7 @@ def read_table(path, *, required: Iterable[str] = (), numeric: Iterable[str] = (
     if path.is_file() and path.stat().st_size == 0:
         raise InputFormatError(f"{path}: the file is empty; expected a header row and one row per sample.")
     try:
-        df = _read_csv(path, text) if fmt == "csv" else pd.read_parquet(path)
+        df = _read_csv(path, text, dialect) if fmt == "csv" else pd.read_parquet(path)
     except InputFormatError:
         raise
     except UnicodeDecodeError:

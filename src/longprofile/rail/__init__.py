@@ -76,6 +76,8 @@ SettlementResult            -- its result (``to_table()`` for the long output ta
 find_reinstallations        -- sensors resuming after a gap with a new mounting offset; Rebaselines is its result.
 check_events                -- the events table (re-installed / replaced sensors), checked.
 apply_replacements          -- a replacing sensor's readings merged into the replaced one's series.
+site_with_events            -- the site validated with its declared events (rail settle --events, the
+                               monitoring service).
 """
 
 from .._lazy import lazy_namespace
@@ -91,7 +93,8 @@ _EXPORTS = {
     "._deprecated": ("read_site",),
     "._health": ("SensorHealth", "assess_sensors", "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
-    "._reinstall": ("Rebaselines", "find_reinstallations", "check_events", "apply_replacements"),
+    "._reinstall": ("Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
+                    "site_with_events"),
     "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
                    "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
                    "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
@@ -122,7 +125,7 @@ __all__ = [
     "MaxSettlement", "day_statistics", "DayStatistics", "daily_angles_from_statistics", "estimate_settlement_from_daily",
     "statistics_window", "DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE",
     "compare_controls", "check_controls", "ControlCheck", "CONTROL_CHECK_P", "lag_variance_ratio", "LAG_AUTO_RATIO",
-    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
+    "Rebaselines", "find_reinstallations", "check_events", "apply_replacements", "site_with_events",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -450,3 +450,35 @@ def apply_replacements(sensors: pd.DataFrame, readings: pd.DataFrame, events) ->
                      f"{int((new & after).sum())} reading(s) of {row.new_id} continue {row.sensor_id}'s series with a "
                      f"new reference{moved}")
     return s.reset_index(drop=True), r[~drop].reset_index(drop=True), notes
+
+
+def site_with_events(sensors, readings, survey=None, controls=None, events=None, **options):
+    """The site of ``rail settle --events`` and of the monitoring service: the tables validated
+    (:func:`~longprofile.rail.validate_site`) after each declared replacement is merged (:func:`apply_replacements`),
+    with one warning per merge, and the events checked (:func:`check_events`).
+
+    Parameters
+    ----------
+    sensors, readings, survey, controls : DataFrame or None
+        The site's tables, as :func:`~longprofile.rail.validate_site` takes them.
+    events : DataFrame or None
+        The events table (sensor_id, date, event, new_id); None: no event.
+    **options
+        Those of :func:`~longprofile.rail.validate_site`.
+
+    Returns
+    -------
+    site : SiteData
+    events : DataFrame or None
+        The checked events (``events`` of :class:`~longprofile.rail.SettlementSettings`), None without.
+    """
+    from ._data import validate_site
+
+    if events is None:
+        return validate_site(sensors, readings, survey, controls, **options), None
+    ev = check_events(events)
+    notes: list = []
+    if (ev["event"] == "replaced_by").any():
+        sensors, readings, notes = apply_replacements(sensors, readings, ev)
+    site = validate_site(sensors, readings, survey, controls, **options)
+    return (replace(site, warnings=tuple(site.warnings) + tuple(notes)) if notes else site), ev

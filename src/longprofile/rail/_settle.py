@@ -1729,11 +1729,16 @@ class _JointFit:
     end_weight: float = 0.0  # the second hypothesis' weight (_end_mixture)
     end_sigma_z: float | None = None  # its end-anchor std
     imputed_mode_slopes: np.ndarray | None = None  # (n, D-1, N) the modes' data of completed records (_impute_missing)
+    timing_shift: np.ndarray | None = None  # (D, N) the outages' timing differences (_outage_timing_shift)
+    timing_group: np.ndarray | None = None  # (D, N) int: the outage span of each shifted entry, -1 elsewhere
 
 
 #: Records completed by draws of the missing sensor-days (:func:`_impute_missing`) among which the maximum
 #: settlement's Monte Carlo draws are shared (docs/rail.md, "Logger outages").
 MISSING_DAY_IMPUTATIONS = 8
+#: A read neighbour's change across an outage, in its band's stds, above which its timing is evidence of the
+#: outage sensors' (:func:`_outage_timing_shift`; docs/rail.md, "Logger outages: the timing of the change").
+TIMING_MIN_CHANGE = 2.0
 #: Most missing sensor-days treated as missing (:func:`_impute_missing`: 2 |J| + 2 posterior calls and a |J| x |J|
 #: matrix, 72 MB at this count); beyond, they stay interpolated, with a warning.
 MISSING_DAY_MAX = 3000
@@ -1820,6 +1825,11 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
         post, rate_std, imputed = _impute_missing(x, observed, M, jp, noise.cov, prior.penalty_order, factors, weights,
                                                   sz, np.random.default_rng(opt.rng).spawn(1)[0],
                                                   segments=daily.rebaselined)
+    shift = group = None
+    if n_filled and exact:  # the outages' timing (docs/rail.md, "Logger outages: the timing of the change")
+        shift, group = _outage_timing_shift(x, post["z_mean"], post["z_std"], observed, M)
+        z_std, rate_std = _with_timing_shift(post["z_std"], rate_std, shift)
+        post = {**post, "z_std": z_std}
     rate = np.full(M.shape, np.nan)
     rate[1:] = np.diff(post["z_mean"], axis=0)
     smoothed = TemporalSettlement(mean=post["z_mean"], std=post["z_std"], rate=rate, rate_std=rate_std,
@@ -1828,7 +1838,78 @@ def _joint_stage(x, M, days, daily: DailyAngles, sig, factors, opt: SettlementSe
     sig_days = np.r_[sig_days[0], sig_days]
     return _JointFit(noise=noise, prior=prior, modes=modes, weights=weights, mode_slopes=jp.mode_slopes, post=post,
                      smoothed=smoothed, sigma=float(np.median(sig_days[1:])), sigma_by_day=sig_days, factors=factors,
-                     sigma_z=sz, imputed_mode_slopes=imputed)
+                     sigma_z=sz, imputed_mode_slopes=imputed, timing_shift=shift, timing_group=group)
+
+
+def _missing_runs(col):
+    """(first, last) rows of each run of consecutive True entries of a boolean column."""
+    d = np.flatnonzero(col)
+    if d.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(d) > 1)
+    return list(zip(np.r_[d[0], d[cut + 1]].tolist(), np.r_[d[cut], d[-1]].tolist()))
+
+
+def _with_timing_shift(z_std, rate_std, shift):
+    """(z std, rate std) of the all-days posterior widened by the outages' timing shift delta
+    (:func:`_outage_timing_shift`): the band of the mixture "mean +/- delta" (both timings), about the unchanged mean,
+    sqrt(z_std^2 + delta^2) and, for the daily rate, sqrt(rate_std^2 + (delta_t - delta_{t-1})^2) (row 0 stays NaN)."""
+    shift = np.asarray(shift, float)
+    return (np.sqrt(np.asarray(z_std, float) ** 2 + shift**2),
+            np.sqrt(np.asarray(rate_std, float) ** 2 + np.diff(shift, axis=0, prepend=np.nan) ** 2))
+
+
+def _outage_timing_shift(x, z_mean, z_std, observed, filled):
+    r"""The difference, on each missing sensor-day, between the all-days mean and the mean the nearest read
+    sensors' timing gives (beyond paper 004; docs/rail.md, "Logger outages: the timing of the change").
+
+    For a kept sensor j (``filled`` finite) unread on days a+1..b-1 (``observed`` NaN) and read on days a >= 0 and
+    b <= D-1, the all-days posterior (:func:`_impute_missing`) observes its change Delta = z_b - z_a and shares it
+    among the unread days as its Gaussian increments allow: a ramp, whatever the track did. Its nearest kept sensors
+    k on each side read on every day a..b changed by Delta_k, reaching the fractions
+    c_k(t) = clip((z_k(t) - z_k(a)) / Delta_k, 0, 1) by day t (a step on a work day: 0, then 1). Those whose change is
+    clearly more than its band, |Delta_k| > :data:`TIMING_MIN_CHANGE` * hypot(std_k(a), std_k(b)), give the timing
+    C = sum_k |Delta_k| c_k / sum_k |Delta_k| and the alternative mean z_a + Delta C(t); the result is
+
+    .. math:: \delta_j(t) = z_a + \Delta\, C(t) - z_t
+
+    (0 outside the runs, on a run that starts on day 0 or reaches the last day, and where no neighbour changed that
+    clearly). The printed mean stays z_t; the band holds both timings (:func:`_with_timing_shift`), and the maximum
+    settlement's draws are shifted by +/- delta, one sign per draw and outage span (:func:`_joint_max_settlement`).
+
+    Returns
+    -------
+    shift : (D, N) ndarray
+    group : (D, N) int ndarray
+        The index of each shifted entry's span (its first and last unread days), -1 elsewhere.
+    """
+    z, sd = np.asarray(z_mean, float), np.asarray(z_std, float)
+    kept = np.isfinite(np.asarray(filled, float)).all(axis=0)
+    miss = np.isnan(np.asarray(observed, float)) & kept[None, :]
+    x = np.asarray(x, float)
+    D, N = z.shape
+    shift = np.zeros((D, N))
+    group = np.full((D, N), -1)
+    spans: dict = {}
+    for j in np.flatnonzero(miss.any(axis=0) & kept):
+        for first, last in _missing_runs(miss[:, j]):
+            a, b = first - 1, last + 1
+            if a < 0 or b >= D:
+                continue
+            ok = kept & ~miss[a:b + 1].any(axis=0)
+            left, right = np.flatnonzero(ok & (x < x[j])), np.flatnonzero(ok & (x > x[j]))
+            near = ([left[np.argmax(x[left])]] if left.size else []) + ([right[np.argmin(x[right])]] if right.size
+                                                                          else [])
+            change = np.array([z[b, k] - z[a, k] for k in near])
+            spread = np.array([np.hypot(sd[a, k], sd[b, k]) for k in near])
+            use = np.abs(change) > TIMING_MIN_CHANGE * spread
+            if not use.any():
+                continue
+            frac = np.array([np.clip((z[first:b, k] - z[a, k]) / c, 0.0, 1.0) for k, c in zip(near, change)])[use]
+            timing = np.abs(change[use]) @ frac / np.abs(change[use]).sum()
+            shift[first:b, j] = z[a, j] + (z[b, j] - z[a, j]) * timing - z[first:b, j]
+            group[first:b, j] = spans.setdefault((first, last), len(spans))
+    return shift, group
 
 
 def _impute_missing(x, observed, filled, jp, noise_cov, order, factors, weights, sigma_z, rng,
@@ -2036,6 +2117,10 @@ def _joint_max_settlement(x, joint: _JointFit, order, factors, opt: SettlementSe
         pick = np.flatnonzero(gen.random(S) < joint.end_weight)
         end, sign = gen.integers(0, 2, pick.size), gen.choice([-1.0, 1.0], pick.size)
         z[pick] += sign[:, None, None] * joint.end_shift[end][:, 1:]
+    if joint.timing_shift is not None:  # the outages' two timings (_outage_timing_shift): +/- delta, one sign per span
+        for g in range(int(joint.timing_group.max()) + 1):
+            sel = joint.timing_group[1:] == g
+            z[:, sel] += gen.choice([-1.0, 1.0], S)[:, None] * joint.timing_shift[1:][sel][None, :]
     ms = max_settlement_from_draws(z, joint.post["z_mean"][1:], joint.post["z_std"][1:], level=0.9,
                                    interval=opt.max_settlement_interval)
     out[:, 0] = 0.0

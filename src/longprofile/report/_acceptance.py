@@ -276,24 +276,24 @@ def _sentence(text: str, capital: bool = True) -> str:
     return html.escape((text[:1].upper() if capital else text[:1]) + text[1:] + ("" if text.endswith(".") else "."))
 
 
-def _grinding_context(grinding) -> dict | None:
-    """The grinding section of the page: target, verdict (bold when not achieved), model, grind list (HTML)."""
+def _grinding_context(grinding, spec) -> dict | None:
+    """The grinding section of the page: target, verdict (bold when not achieved), model, grind list (HTML, its
+    columns named with their units as in grinds.csv)."""
     if grinding is None:
         return None
     line = _sentence(grinding.summary())
     return {"threshold": f"{grinding.threshold:g}", "verdict": line if grinding.achieved else f"<b>{line}</b>",
             "model": html.escape(grinding.metadata["model"]),
-            "table": _table(grinding.grinds) if len(grinding.grinds) else ""}
+            "table": _table(spec.with_unit_names(grinding.grinds)) if len(grinding.grinds) else ""}
 
 
 def _page_context(result, grinding, tables: list[str], images: dict, title: str | None) -> dict:
-    """Everything ``templates/acceptance_report.html`` shows: escaped text, numbers as shown, HTML tables, the
-    figures as ``<img>`` tags by file name."""
+    """Everything ``templates/acceptance_report.html`` shows: escaped text, numbers as shown, HTML tables (columns
+    named with their units, as the CSVs), the figures as ``<img>`` tags by file name."""
     spec, ps = result.spec, result.pay_summary
-    pay = result.pay_text()
-    if pay is not None:
-        pay = _sentence(pay, capital=False)
-        pay = f"<b>{pay}</b>" if ps["lots_corrective_work"] or result.warnings else pay
+    pay = _sentence(result.pay_text(), capital=False)
+    if spec.pay_schedule and (ps["lots_corrective_work"] or result.warnings):
+        pay = f"<b>{pay}</b>"
     return dict(name=html.escape(title or "Smoothness acceptance"), lu=spec.length_unit, iu=spec.iri_unit,
                 warnings=[_sentence(w) for w in result.warnings], lots_text=_sentence(result.lots_text()),
                 localized=_sentence(result.localized_text()),
@@ -301,9 +301,9 @@ def _page_context(result, grinding, tables: list[str], images: dict, title: str 
                 threshold=("" if spec.localized_threshold is None else f"{spec.localized_threshold:g}"),
                 n_exclusions=len(spec.exclusions),
                 ma_reason=html.escape(str(result.metadata.get("moving_average_reason", ""))), pay=pay,
-                img={n: img_tag(images, n, n) for n in images}, lots_table=_table(result.lots),
-                defects_table=_table(result.defects), grinding=_grinding_context(grinding),
-                histogram_table=_table(result.histogram), tables=tables)
+                img={n: img_tag(images, n, n) for n in images}, lots_table=_table(spec.with_unit_names(result.lots)),
+                defects_table=_table(spec.with_unit_names(result.defects)), grinding=_grinding_context(grinding, spec),
+                histogram_table=_table(spec.with_unit_names(result.histogram)), tables=tables)
 
 
 def plot_certification(result, comparisons, path) -> Path:

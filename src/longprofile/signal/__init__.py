@@ -14,6 +14,8 @@ check_derivative_options     -- validate a method's options once (unknown method
                                 missing required ones, with a hint); returns the keyword arguments.
 StreamingDerivative          -- O(1)-per-sample streaming estimator fed block by block.
 estimate_noise_std           -- robust white-noise std from high-order differences (MAD).
+model_check                  -- lack-of-fit check: is the window (q/r) short enough for derivative_std to hold?
+ModelCheck                   -- its result (residual ratio, unexplained share, adequate).
 kalman_differentiator_model  -- StateSpaceModel of the Kalman differentiator.
 plot_derivative              -- deprecated alias of ``longprofile.report.plot_derivative`` (figures live in report).
 
@@ -46,6 +48,7 @@ _EXPORTS = {
     "._derivative": ("DERIVATIVE_METHODS", "DerivativeMethod", "DerivativeResult", "check_derivative_options",
                      "derivative", "derivative_backward", "derivative_kalman", "derivative_ml", "derivative_polyfit",
                      "estimate_noise_std", "kalman_differentiator_model"),
+    "._adequacy": ("ModelCheck", "model_check"),
     "._deprecated": ("plot_derivative",),
     "._streaming": ("StreamingDerivative",),
 }
@@ -63,6 +66,8 @@ __all__ = [
     "check_derivative_options",
     "StreamingDerivative",
     "estimate_noise_std",
+    "model_check",
+    "ModelCheck",
     "kalman_differentiator_model",
     "plot_derivative",
     "ml_coefficients",

@@ -14,7 +14,14 @@ from .._validation import as_float_array, require_positive
 from ..errors import InputError, ShapeError
 from . import _coefficients as _coef
 from ._kernels import moment_filter_kernel
-from ._total_std import bias_variance, check_std, kalman_bias_scale, kalman_impulse_gains, kalman_time_scale
+from ._total_std import (
+    _SPAN,
+    bias_variance,
+    check_std,
+    kalman_bias_scale,
+    kalman_impulse_gains,
+    kalman_time_scale,
+)
 
 __all__ = [
     "DerivativeResult",
@@ -57,7 +64,9 @@ class DerivativeResult:
     method : str
         The registry name of the estimator.
     params : dict
-        Every setting used, including the ``noise_std`` (given or estimated).
+        Every setting used, including the ``noise_std`` (given or estimated), and ``settled`` = (first, stop): the
+        samples whose ``derivative_std`` has settled (outside: the estimator's start-up, the smoother's ends, where
+        the band under-covers; docs/signal.md, assumption 3).
     """
 
     value: np.ndarray
@@ -300,7 +309,26 @@ def _fir_result(arr, dt, axis, window, degree, order, value_design, deriv_design
                             derivative=_from_series(deriv, moved_shape, axis),
                             derivative_std=_from_series(std, moved_shape, axis), method=method,
                             params=dict(params, order=order, noise_std=noise_param,
-                                        variance_gain=gain, implementation=implementation))
+                                        variance_gain=gain, implementation=implementation,
+                                        settled=_settled_fir(arr.shape[axis], window, degree, std_option)))
+
+
+def _settled_fir(n: int, window: int, degree: int, std_option: str) -> tuple[int, int]:
+    """(first, stop) samples whose derivative_std is settled: the first full window on (std="noise"); for "total"
+    also the trailing moving mean of the bias term full (its 4 (N + 1) samples after the companion's first)."""
+    if std_option != "total":
+        return min(window, n), n
+    wide = max(window, degree + 1)
+    return min(wide + max(int(np.ceil(_SPAN * (window + 1))), 1) - 1, n), n
+
+
+def _settled_kalman(n: int, dt: float, q_over_r: float, degree: int, smooth: bool) -> tuple[int, int]:
+    """(first, stop) samples whose derivative_std is settled: outside the start-up of the filter (its moving mean of
+    the bias term, 4 time scales, full) and, for the smoother, outside half of that span at each end."""
+    width = max(int(np.ceil(_SPAN * kalman_time_scale(dt, q_over_r, degree))), 1)
+    if smooth:
+        return min(width // 2, n), max(n - (width - width // 2) + 1, 0)
+    return min(width - 1, n), n
 
 
 # --------------------------------------------------------------------------- estimators
@@ -594,6 +622,10 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
                          f"measurement variance); got {noise_std!r} (or an estimate of 0: constant or "
                          "quantised data; give noise_std explicitly).")
     series, moved_shape = _to_series(arr, axis)
+    if steady_state and not np.isfinite(series).all():
+        k = int(np.flatnonzero(~np.isfinite(series).all(axis=0))[0])
+        raise InputError(f"x has a missing sample (NaN) at sample {k} along axis {axis}: the steady-state filter "
+                         "cannot skip one; use steady_state=False (the time-varying filter treats it as missing).")
     ns_series = np.ascontiguousarray(np.broadcast_to(ns, moved_shape[:-1])).reshape(-1)
     value = np.empty_like(series)
     deriv = np.empty_like(series)
@@ -610,7 +642,8 @@ def derivative_kalman(x, dt, *, q_over_r: float, degree: int = 2, order: int = 1
         value=_from_series(value, moved_shape, axis), derivative=_from_series(deriv, moved_shape, axis),
         derivative_std=_from_series(std, moved_shape, axis), method="kalman",
         params={"q_over_r": q_over_r, "degree": degree, "order": order, "noise_std": noise_param,
-                "smooth": bool(smooth), "steady_state": bool(steady_state), "std": std_option})
+                "smooth": bool(smooth), "steady_state": bool(steady_state), "std": std_option,
+                "settled": _settled_kalman(arr.shape[axis], dt, q_over_r, degree, bool(smooth))})
 
 
 def _kalman_block(block, q_over_r, level, *, dt, degree, order, smooth, steady_state):
@@ -647,8 +680,9 @@ def _kalman_total_var(series, deriv, post_std, q_over_r, ns_series, *, dt, degre
     """Total error variance (B, T) of the Kalman derivative: white-noise part plus a plug-in squared bias.
 
     The model's posterior variance holds the noise part and the model's own (random-jerk) bias; the latter is
-    replaced by the plug-in one: the posterior variance is scaled by (noise variance / posterior variance) of the
-    converged filter, and the squared bias is estimated from the difference with a companion filter, the same model
+    replaced by the plug-in one: the converged filter's (posterior variance - white-noise variance) is subtracted
+    from the posterior variance (whose excess over its converged value, at the start-up and the smoother's ends,
+    is kept), and the squared bias is estimated from the difference with a companion filter, the same model
     with q/r x ``_KALMAN_SPEEDUP``^(2 degree + 2) (time scale that many times shorter), whose noise variance is
     noise_std^2 x the sum of squares of its impulse response, and scaled by :func:`._total_std.kalman_bias_scale`
     (the bias the companion keeps).
@@ -666,8 +700,12 @@ def _kalman_total_var(series, deriv, post_std, q_over_r, ns_series, *, dt, degre
         kalman_differentiator_model(dt, q_over_r=q_over_r, degree=degree),
         kalman_differentiator_model(dt, q_over_r=fast_q, degree=degree), order, smooth, scale)
     bias2 = bias_variance(deriv - fast, ns_series ** 2 * delta_gain, scale, centred=smooth)
-    return post_std * post_std * min(1.0, noise_gain / post_gain) + bias2 * kalman_bias_scale(degree, order,
-                                                                                                smooth) ** 2
+    # the converged posterior's random-jerk part, post_gain - noise_gain (x r), is replaced by the plug-in bias; the
+    # posterior's excess over its converged value (the start-up of the filter, both ends of the smoother: few data)
+    # is kept whole (scaling it by noise_gain / post_gain covered 52 % on the filter's first 100 samples)
+    model_part = ns_series ** 2 * max(0.0, post_gain - noise_gain)
+    noise_var = np.maximum(post_std * post_std - model_part[:, None], 0.0)
+    return noise_var + bias2 * kalman_bias_scale(degree, order, smooth) ** 2
 
 
 # --------------------------------------------------------------------------- registry

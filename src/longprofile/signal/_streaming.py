@@ -66,11 +66,20 @@ class StreamingDerivative:
     [nan, nan, nan, nan, 2.0, 2.0, 2.0, 2.0]
     """
 
-    def __init__(self, dt: float, *, window: int, degree: int = 2, order: int = 1, method: str = "ml",
-                 refresh: int | None = None):
+    def __init__(self, dt: float, *, window: int | None = None, degree: int = 2, order: int = 1, method: str = "ml",
+                 refresh: int | None = None, **others):
+        if others:
+            hint = (" (the Kalman differentiator is batch only: derivative(x, dt, method='kalman', ...))"
+                    if method == "kalman" or "q_over_r" in others else "")
+            raise InputError(f"StreamingDerivative does not take {', '.join(sorted(others))}; it takes dt, window, "
+                             f"degree, order, method ({', '.join(sorted(_DESIGNS))}) and refresh{hint}.")
+        if window is None:
+            raise InputError("StreamingDerivative needs window=N (past samples per estimate), e.g. window=45.")
         self.dt = require_positive("dt", dt)
         if method not in _DESIGNS:
-            raise InputError(f"method must be one of {sorted(_DESIGNS)} for streaming; got {method!r}.")
+            batch = " (the Kalman differentiator is batch only: derivative(x, dt, method='kalman', ...))"
+            raise InputError(f"method must be one of {sorted(_DESIGNS)} for streaming; got {method!r}"
+                             f"{batch if method == 'kalman' else ''}.")
         window, degree, _ = _coef._check_design(window, degree, 1)
         order = _coef._check_int("order", order, 1)
         if order > degree:
@@ -83,6 +92,7 @@ class StreamingDerivative:
         self.refresh = _coef._check_int("refresh", refresh, 1)
         self.window, self.degree, self.order, self.method = window, degree, order, method
         h0, c = _DESIGNS[method](window, degree, order)
+        self._taps = _coef._float_taps(h0, c, window)
         scale = self.dt ** order
         self._c = np.array([[float(cj) / scale for cj in c]])
         self._h0 = np.array([float(h0) / scale])
@@ -91,6 +101,13 @@ class StreamingDerivative:
         self._npow = np.array([float(window) ** i for i in range(degree + 1)])
         self._n_channels: int | None = None
         self._vector = False
+
+    @property
+    def noise_gain(self) -> float:
+        """sqrt(sum h^2) / dt**order: times the white-noise std of the samples, the std of every derivative estimate
+        (the batch estimators' ``std="noise"``, the same taps). The total std of the batch estimators (their default,
+        with the plug-in bias of a degree-(d+1) companion over 4 windows) is not streamed."""
+        return float(np.sqrt(float(_coef.variance_gain(self._taps)))) / self.dt ** self.order
 
     def reset(self) -> None:
         """Forget the past: the next sample starts a new stream."""

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_time_order, renamed_columns, time_resolution, time_seconds, true_runs
+from .._validation import check_time_order, renamed_columns, time_seconds, true_runs, uniform_time_step
 from ..errors import InputError, InputFormatError, UnitsError
 from ._consistency import AXLE_SWAPPED, axle_message, axle_order, gain_message, gain_verdict, steering_gain
 from ._steering import (
@@ -72,7 +72,7 @@ UNIT_FACTORS = {
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6},
     "angle": {"rad": 1.0, "deg": math.pi / 180.0, "mrad": 1e-3},
     "rate": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0},
-    "accel": {"m/s^2": 1.0, "m/s2": 1.0, "g": GRAVITY},
+    "accel": {"m/s^2": 1.0, "m/s2": 1.0, "mm/s^2": 1e-3, "mm/s2": 1e-3, "g": GRAVITY},
     "length": {"m": 1.0, "mm": 1e-3, "cm": 1e-2},
     "current": {"a": 1.0, "ma": 1e-3},
     # wheel speeds may also be logged as the wheel's translational speed R omega (needs the rolling radius)
@@ -100,9 +100,10 @@ _PLANAR_ALIASES = {"ax": "accel_x", "ay": "accel_y"}
 _VERTICAL_ALIASES = {"accel_x": "ax", "accel_y": "ay"}
 
 
-def _with_aliases(frame, units, quantities: dict, aliases: dict, *, source: str):
+def _with_aliases(frame, units, quantities: dict, aliases: dict, *, source: str, strict: bool = False):
     """``frame`` with its header units split and its alias columns renamed to the channels, and the declared units
-    ({channel: unit}, header then ``units``, pattern keys expanded) keyed by channel."""
+    ({channel: unit}, header then ``units``, pattern keys expanded) keyed by channel. With ``strict`` (vertical logs),
+    a ``units`` entry that contradicts a header's unit is refused (else it overrides it)."""
     extended = {**quantities, **{a: quantities[c] for a, c in aliases.items()}}
     frame, declared = split_unit_headers(frame, extended)
     rename = {a: c for a, c in aliases.items() if a in frame.columns and c not in frame.columns}
@@ -110,7 +111,13 @@ def _with_aliases(frame, units, quantities: dict, aliases: dict, *, source: str)
         frame = frame.rename(columns=rename)
         declared = {rename.get(k, k): v for k, v in declared.items()}
     given = {(aliases.get(k, k) if isinstance(k, str) else k): v for k, v in dict(units or {}).items()}
-    declared.update(expand_unit_patterns(given, quantities, source=source))
+    given = expand_unit_patterns(given, quantities, source=source)
+    clash = [c for c, u in given.items() if strict and c in declared and _norm_unit(declared[c]) != _norm_unit(u)]
+    if clash:
+        c = clash[0]
+        raise UnitsError(f"{source}: column {c!r} is headed in {declared[c]} but --units says {given[c]}: which is it? "
+                         f"Drop the --units entry (the header is read) or correct the header.")
+    declared.update(given)
     return frame, declared
 
 
@@ -371,11 +378,13 @@ def _without_repeated_rows(frame, source: str):
     return frame[~same_time]
 
 
-def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", jitter_rtol: float = 1e-3) -> float:
+def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", jitter_rtol: float = 1e-3,
+                      maximum: float | None = None) -> float:
     """Check the time base: increasing, uniform (else suggest ``--resample``), and fast enough; return dt (s).
 
     A median step of 0.5 s or more in a vehicle log is almost always milliseconds read as seconds, and the
-    message says so.
+    message says so. With ``maximum`` (Hz), a faster rate is refused too: a time in ms declared (or read) as
+    seconds' thousandths, e.g. ``--units time=ms`` on a log in s, gives a 1 MHz log.
     """
     t = np.asarray(time, float)
     if t.size < 3:
@@ -386,16 +395,18 @@ def check_sample_rate(time, *, minimum: float, what: str, source: str = "log", j
     if dt >= 0.5:
         raise UnitsError(f"{source}: column 'time': median step {dt:g} s ({1 / dt:.3g} Hz) is implausible for a vehicle "
                          "log; if the time is in milliseconds declare it: header 'time [ms]' or --units time=ms.")
-    if d.max() > MAX_GAP_STEPS * dt:  # a gap, not jitter: --resample would refuse it too
-        k = int(np.argmax(d))
-        raise InputFormatError(f"{source}: column 'time' has a gap of {d[k]:.6g} s after t = {t[k]:.6g} s (the median "
-                               f"step is {dt:.6g} s): the filters need a continuous log; cut the log at the gap and "
-                               "estimate each part.")
-    if np.ptp(d) > jitter_rtol * dt + 1e-9 + time_resolution(t):  # Unix time stamps: not jitter
-        raise InputFormatError(f"{source}: column 'time' is not uniformly sampled (steps {d.min():.6g} to {d.max():.6g} s, "
-                               f"median {dt:.6g} s); the filters use a fixed step: resample it explicitly with "
-                               f"--resample {_tick_rate(d, dt):g} (Hz, the logger's tick, not counting dropped samples; "
-                               "linear interpolation, gaps refused).")
+    # one rule with differentiate (longprofile._validation.uniform_time_step): a gap, stamps rounded too coarsely
+    # (1024 Hz in whole ms), jitter; the mean step (whole-us stamps at 1024 Hz, 976/977 us, are uniform to 0.05 %)
+    dt = uniform_time_step(t, source=source, max_gap_steps=MAX_GAP_STEPS,
+                           gap_fix="the filters need a continuous log; cut the log at the gap and estimate each part",
+                           rounded_fix="write the time with more digits",
+                           jitter_fix=f"the filters use a fixed step: resample it explicitly with --resample "
+                                      f"{_tick_rate(d, dt):g} (Hz, the logger's tick, not counting dropped samples; "
+                                      "linear interpolation, gaps refused)")
+    if maximum is not None and 1.0 / dt > maximum:
+        raise UnitsError(f"{source}: column 'time': sample rate {1 / dt:.4g} Hz (median step {dt:.3g} s) is beyond the "
+                         f"{maximum:g} Hz of a vehicle logger: a time unit mistake (time in s declared as ms, or in ks)?"
+                         " declare the unit the column really has (header 'time [s]', 'time [ms]' or --units time=...).")
     if 1.0 / dt < minimum * (1 - 1e-6):  # 500 Hz from 0.0020000000000000018 s steps is 500 Hz
         raise InputError(f"{source}: sample rate {1 / dt:.4g} Hz is below the {minimum:g} Hz that {what}.")
     return dt
@@ -407,7 +418,8 @@ MAX_HOLD = 0.1
 FILLS = ("hold",)
 
 
-def _prepared(frame, units, quantities: dict, aliases: dict, *, rename, fill, source: str, wheel_radius=None):
+def _prepared(frame, units, quantities: dict, aliases: dict, *, rename, fill, source: str, wheel_radius=None,
+              strict: bool = False):
     """The log with its columns renamed (``rename``), header units split, aliases read, the time in seconds (numbers,
     ISO 8601 texts or datetime64), blanks held (``fill="hold"``) and the declared units converted to SI; with the
     file's own column names (for the messages)."""
@@ -415,7 +427,7 @@ def _prepared(frame, units, quantities: dict, aliases: dict, *, rename, fill, so
     if fill is not None and fill not in FILLS:
         raise InputError(f"--fill must be one of {list(FILLS)} (hold: each channel's last sample); got {fill!r}.")
     frame = renamed_columns(frame, dict(rename or {}), source=source)
-    frame, declared = _with_aliases(frame, units, quantities, aliases, source=source)
+    frame, declared = _with_aliases(frame, units, quantities, aliases, source=source, strict=strict)
     if "time" in frame.columns:
         t, start = time_seconds(frame, "time", source=source)
         if start is not None and "time" in declared:
@@ -909,9 +921,36 @@ def read_drive_log(frame, vehicle, *, units: dict | None = None, resample: float
 
 # ------------------------------------------------------------------------------------------ vertical logs
 
+def _partial_sets(cols) -> list[tuple[str, list[str], list[str]]]:
+    """(prefix, corners present, corners missing) of each corner channel group present at some corners only."""
+    out = []
+    for prefix in ("wheel_accel", "body_accel", "current"):
+        have = [c for c in _CORNERS if f"{prefix}_{c}" in cols]
+        if 0 < len(have) < 4:
+            out.append((prefix, have, [c for c in _CORNERS if c not in have]))
+    return out
+
+
 def infer_vertical_config(columns, *, source: str = "log") -> int:
-    """Sensor configuration (thesis 003) from the columns: 3 with wheel_accel_*, 2 with body_accel_*, else 1."""
+    """Sensor configuration (thesis 003) from the columns: 3 with wheel_accel_*, 2 with body_accel_*, else 1.
+
+    Raises
+    ------
+    InputError
+        Both body_accel_* and wheel_accel_* columns, or accelerometers at some corners only (one channel lost:
+        the configuration the user means is not known; a silent configuration 1 dropped the other three); the
+        message names the missing channels and ``--config``.
+    """
     cols = set(map(str, columns))
+    for prefix, have, missing in _partial_sets(cols):
+        if prefix == "current":
+            continue
+        cfg, alt, alt_prefix = (3, 2, "body_accel") if prefix == "wheel_accel" else (2, 3, "wheel_accel")
+        other = alt if all(f"{alt_prefix}_{c}" in cols for c in _CORNERS) else 1
+        raise InputError(f"{source}: the log has {', '.join(f'{prefix}_{c}' for c in have)} but no "
+                         f"{', '.join(f'{prefix}_{c}' for c in missing)}: configuration {cfg} needs all four; add the "
+                         f"missing channel(s), or say which configuration to run: --config {other} ignores the "
+                         f"{prefix}_* columns.")
     wheel = all(f"wheel_accel_{c}" in cols for c in _CORNERS)
     body = all(f"body_accel_{c}" in cols for c in _CORNERS)
     if wheel and body:
@@ -920,35 +959,78 @@ def infer_vertical_config(columns, *, source: str = "log") -> int:
     return 3 if wheel else 2 if body else 1
 
 
+def _ignored_channels(cols, config: int) -> list[str]:
+    """The accelerometer columns that configuration ``config`` does not read."""
+    used = {2: "body_accel", 3: "wheel_accel"}.get(config)
+    return [f"{p}_{c}" for p in ("body_accel", "wheel_accel") if p != used for c in _CORNERS if f"{p}_{c}" in cols]
+
+
 #: Lowest sample rate accepted by the vertical estimators (the thesis's filters run at Te = 1 ms).
 VERTICAL_MIN_RATE = 500.0
+#: Highest sample rate a vertical log is believed to have, Hz (suspension loggers run at 0.1-10 kHz): beyond it the
+#: time column's unit is wrong (session 40: ``--units time=ms`` on a log in s gave a 1 MHz log, a 1 us step and a
+#: tyre-load RMS error of 1.15 kN instead of 0.20 kN).
+VERTICAL_MAX_RATE = 100_000.0
+#: Largest damper current of a MagneRide log accepted, A: automotive MR coils are driven 0-5 A
+#: (``MRDamperParams.max_current``); twice that leaves room for another car and still refuses mA (5000).
+MAX_DAMPER_CURRENT = 10.0
+#: Most negative damper current accepted, A (a current driver's offset; the map reads negative currents as 0).
+MIN_DAMPER_CURRENT = -0.5
+
+
+def _check_currents(current, source: str) -> None:
+    """Refuse damper currents out of an MR coil's range: in mA (beyond :data:`MAX_DAMPER_CURRENT`), or negative."""
+    if current is None:
+        return
+    top, low = np.max(current, axis=0), np.min(current, axis=0)
+    if np.any(top > MAX_DAMPER_CURRENT):
+        bad = [f"current_{c}" for c, v in zip(_CORNERS, top) if v > MAX_DAMPER_CURRENT]
+        raise UnitsError(f"{source}: {', '.join(bad)} reach{'es' if len(bad) == 1 else ''} {float(np.max(top)):.4g} A "
+                         f"(> {MAX_DAMPER_CURRENT:g} A; MR dampers are driven 0-5 A): in mA? declare it: --units "
+                         "'current_*=mA' (or head each column as 'current_FL [mA]').")
+    if np.any(low < MIN_DAMPER_CURRENT):
+        bad = [f"current_{c}" for c, v in zip(_CORNERS, low) if v < MIN_DAMPER_CURRENT]
+        raise UnitsError(f"{source}: {', '.join(bad)} go{'es' if len(bad) == 1 else ''} down to "
+                         f"{float(np.min(low)):.4g} A: an MR coil's current is >= 0 (the map reads it as 0, no force): "
+                         "a sign or an offset of the current sensor? negate the column or subtract its zero reading.")
 
 
 def read_vertical_log(frame, config: int | None = None, *, units: dict | None = None, resample: float | None = None,
-                      rename: dict | None = None, fill: str | None = None, source: str = "log"):
+                      rename: dict | None = None, fill: str | None = None, source: str = "log",
+                      notes: list | None = None):
     """Build :class:`VerticalSensors` from a table with declared units, resampling, rate and range checks.
 
     Returns (sensors, config). ``config`` None infers it from the columns (:func:`infer_vertical_config`);
-    ``rename`` and ``fill`` as in :func:`read_drive_log`.
+    ``rename`` and ``fill`` as in :func:`read_drive_log`. ``notes``, a list, receives one line per accelerometer
+    group that an explicit ``config`` leaves out (``--config 1`` on a configuration-3 log).
 
     Raises
     ------
     UnitsError
-        For a suspension deflection beyond +-0.3 m (the sensor range: a log in mm read as m), or an
-        accelerometer beyond 50 g.
+        For a suspension deflection beyond +-0.3 m (the sensor range: a log in mm read as m), an
+        accelerometer beyond 50 g, a sample rate beyond :data:`VERTICAL_MAX_RATE` (a time unit mistake), damper
+        currents beyond :data:`MAX_DAMPER_CURRENT` (mA) or negative.
     InputError
         Below :data:`VERTICAL_MIN_RATE` Hz: the corner EKFs' coloured noises (tau = 10 ms for the tyre
         deflection, thesis 003 section 4.3) and the 13 Hz wheel hop are not resolved by explicit Euler at
-        Te >= 2 ms.
+        Te >= 2 ms. Accelerometers or damper currents at some corners only (:func:`infer_vertical_config`).
     """
     import pandas as pd
 
-    from .vertical import sensors_from_frame
+    from .vertical import DEFLECTION_RANGE, sensors_from_frame
 
     frame, columns = _prepared(frame, units, _VERTICAL_QUANTITY, _VERTICAL_ALIASES, rename=rename, fill=fill,
-                               source=source)
+                               source=source, strict=True)
+    cols = set(map(str, frame.columns))
+    for prefix, have, missing in _partial_sets(cols):
+        if prefix == "current":  # a MagneRide log: without one current the filter's actuator forces are all wrong
+            raise InputError(f"{source}: the log has {', '.join(f'current_{c}' for c in have)} but no "
+                             f"{', '.join(f'current_{c}' for c in missing)}: a MagneRide log needs the current of "
+                             "each damper (the MR map's force); add the missing channel(s).")
     if config is None:
         config = infer_vertical_config(frame.columns, source=source)
+    elif notes is not None and _ignored_channels(cols, config):
+        notes.append(f"--config {config} ignores the log's {', '.join(_ignored_channels(cols, config))}")
     kinds = ("dz21",) + {2: ("body_accel",), 3: ("wheel_accel",)}.get(config, ())
     need = ["time", "ax", "ay", "yaw_rate"] + [f"{k}_{c}" for k in kinds for c in _CORNERS]
     if config in (1, 2, 3):  # another config is refused by sensors_from_frame
@@ -958,16 +1040,22 @@ def read_vertical_log(frame, config: int | None = None, *, units: dict | None = 
         if resample is not None:
             frame = resample_log(frame, resample, source=source)
         check_sample_rate(pd.to_numeric(frame["time"], errors="coerce").to_numpy(float), minimum=VERTICAL_MIN_RATE,
-                          what="the corner EKFs of thesis 003 need (tuned for Te = 1 ms)", source=source)
+                          what="the corner EKFs of thesis 003 need (tuned for Te = 1 ms)", source=source,
+                          maximum=VERTICAL_MAX_RATE)
     sensors = sensors_from_frame(frame, config, source=source)
     dmax = float(np.max(np.abs(sensors.displacement)))
-    if dmax > 0.3:
-        raise UnitsError(f"{source}: dz21_*: suspension deflection reaches {dmax:.4g} m (> 0.3 m, the sensor range): "
-                         "in mm? declare it: --units 'dz21_*=mm' (or head each column as 'dz21_FL [mm]')")
+    if dmax > DEFLECTION_RANGE:
+        raise UnitsError(f"{source}: dz21_*: suspension deflection reaches {dmax:.4g} m (> {DEFLECTION_RANGE:g} m, the "
+                         "sensor range): in mm? declare it: --units 'dz21_*=mm' (or head each column as 'dz21_FL [mm]')")
     for name, a in (("body_accel_*", sensors.body_accel), ("wheel_accel_*", sensors.wheel_accel)):
         if a is not None and float(np.max(np.abs(a))) > 50 * GRAVITY:
             raise UnitsError(f"{source}: {name} exceeds 50 g: check its unit.")
     for name in ("ax", "ay"):
         if float(np.max(np.abs(getattr(sensors, name)))) > 20.0:
             raise UnitsError(f"{source}: {name} exceeds 20 m/s^2 (2 g): check its unit.")
+    rmax = float(np.max(np.abs(sensors.yaw_rate)))
+    if rmax > 3.0:  # the drive log's bound (_range_problems)
+        raise UnitsError(f"{source}: yaw_rate reaches {rmax:.3g} rad/s (> 3 rad/s): deg/s? declare it: --units "
+                         "yaw_rate=deg/s (or head the column 'yaw_rate [deg/s]').")
+    _check_currents(sensors.damper_current, source)
     return sensors, int(config)

@@ -109,15 +109,19 @@ def test_zone_outside_profile_and_mri_needs_two_tracks():
     x = np.arange(0, 300.0, 0.05)
     prof = Profile(distance=x, elevation=1e-3 * np.sin(x))
     with pytest.raises(InputError, match="outside the profile"):
-        smoothness_acceptance(prof, spec_from_dict({"index": "iri", "exclusions": {"zones": [[250, 400]]}}))
+        smoothness_acceptance(prof, spec_from_dict({"index": "iri", "exclusions": {"zones": [[350, 400]]}}))
     with pytest.raises(InputError, match="MRI needs exactly two tracks"):
         smoothness_acceptance(prof, spec_from_dict({"index": "mri"}))
     # the default index is "auto": the IRI for one track (MRI for two), resolved in the result
     assert smoothness_acceptance(prof, default_spec()).spec.index == "iri"
-    # a lot or window shorter than 10 samples is a unit mistake (1e-9 ft asked for a 7 TiB array of lots)
+    # a lot or window out of any plausible range is a unit mistake (1e-9 ft asked for a 7 TiB array of lots)
     for spec in ({"index": "iri", "lot": {"length": 1e-9}}, {"index": "iri", "localized": {"window": 0.1}}):
-        with pytest.raises(InputError, match="shorter than 10 samples"):
-            smoothness_acceptance(prof, spec_from_dict(spec))
+        with pytest.raises(UnitsError, match="outside the plausible"):
+            spec_from_dict(spec)
+    # a window shorter than 10 samples of a coarse profile (1 m): not a statement
+    coarse = Profile(distance=np.arange(0, 300.0, 1.0), elevation=1e-3 * np.sin(np.arange(0, 300.0, 1.0)))
+    with pytest.raises(InputError, match="shorter than 10 samples"):
+        smoothness_acceptance(coarse, spec_from_dict({"index": "iri"}))
 
 
 def _cli():

@@ -76,7 +76,9 @@ def test_clean_drives_pass_however_short_or_rough(road_class, speed, duration, t
 def test_deflections_of_inverted_sign_are_named_as_such(config):
     _, sensors = vertical_test_run(config, test="road", road_class="C", speed=20.0, duration=6.0, seed=3)
     assert estimate_vertical_log(sensors).warnings() == []
-    flipped = estimate_vertical_log(replace(sensors, displacement=-sensors.displacement))
+    with pytest.raises(UnitsError, match=r"sign inverted\? .*--accept-check sensor_sign"):  # session 40: refused
+        estimate_vertical_log(replace(sensors, displacement=-sensors.displacement))
+    flipped = estimate_vertical_log(replace(sensors, displacement=-sensors.displacement), accept=("sensor_sign",))
     check = flipped.deflection_check
     assert check.inverted.all() and np.all(check.sign < -0.5)
     (line,) = flipped.warnings()
@@ -89,18 +91,21 @@ def test_one_corner_of_inverted_sign_is_the_one_named():
     _, sensors = vertical_test_run(2, test="road", road_class="C", speed=20.0, duration=6.0, seed=4)
     dz = sensors.displacement.copy()
     dz[:, 1] *= -1
-    (line,) = estimate_vertical_log(replace(sensors, displacement=dz)).warnings()
+    (line,) = estimate_vertical_log(replace(sensors, displacement=dz), accept="sensor_sign").warnings()
     assert line.startswith("dz21_FR: sign inverted? it moves against") and "negate this column" in line
 
 
-def test_the_command_warns_about_a_deflection_logged_positive_in_compression(tmp_path):
+def test_the_command_refuses_a_deflection_logged_positive_in_compression(tmp_path, capsys):
     sim, sensors = vertical_test_run(3, test="road", road_class="C", speed=20.0, duration=5.0, seed=0)
     frame = sensors_to_frame(sensors, sim)
     dz = [f"dz21_{c}" for c in CORNERS]
     frame[dz] = -frame[dz]
     frame.to_csv(tmp_path / "v.csv", index=False)
-    res = _estimate(tmp_path / "v.csv", tmp_path / "s.csv")
-    assert res.exit_code == 0, res.output
-    text = " ".join(res.output.split())
-    assert "warning: dz21_FL, dz21_FR, dz21_RL, dz21_RR: sign inverted?" in text
-    assert "not read zero" not in text
+    capsys.readouterr()
+    # session 40: correlation < -0.9 is refused, not warned
+    assert main(["vehicle", "vertical", "estimate", str(tmp_path / "v.csv"), "-o", str(tmp_path / "s.csv")]) == 2
+    captured = capsys.readouterr()
+    text = " ".join((captured.out + captured.err).split())
+    assert "error:" in text and "dz21_FL, dz21_FR, dz21_RL, dz21_RR: sign inverted?" in text
+    assert "not read zero" not in text and "--accept-check sensor_sign" in text
+    assert not (tmp_path / "s.csv").exists()

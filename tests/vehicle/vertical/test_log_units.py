@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from longprofile.errors import InputFormatError
+from longprofile.errors import InputFormatError, UnitsError
 from longprofile.vehicle.vertical import (
     WHEEL_ACCEL_RATIO_RANGE,
     estimate_vertical_log,
@@ -29,7 +29,9 @@ def test_wheel_accelerations_in_g_are_named_and_si_are_not(log):
     lo, hi = WHEEL_ACCEL_RATIO_RANGE
     assert lo <= wheel_accelerometer_ratio(si) <= hi
     assert wheel_accelerometer_ratio(sensors_from_frame(g, 3)) < lo
-    res = estimate_vertical_log(sensors_from_frame(g, 3))
+    with pytest.raises(UnitsError, match=r"accelerations in g\? .*--accept-check wheel_accel_unit"):
+        estimate_vertical_log(sensors_from_frame(g, 3))  # session 40: refused, no longer a warning
+    res = estimate_vertical_log(sensors_from_frame(g, 3), accept=["wheel_accel_unit"])
     assert any("accelerations in g" in w for w in res.warnings())
 
 

@@ -6,6 +6,7 @@ Importing this package imports nothing of the extra; the modules do:
 _db         -- SQLAlchemy 2 models, ``Database(url)`` (SQLite WAL or PostgreSQL, Alembic migrations at start-up).
 _core       -- sites, sensors, survey, control surveys, thresholds, loggers (keys revoked, rotated), channels, users
                (audited) and ``ingest``.
+_events     -- declared re-installations and replacements of sensors (the events table of rail settle --events).
 _recompute  -- ``recompute(db, site)``: stored readings -> ``estimate_settlement`` -> versioned run and results.
 _alarms     -- alarm levels (``threshold_alarms``), lifecycle, "no data", notification outbox and delivery.
 _auth       -- password hashes, signed login cookies, CSRF tokens, roles.
@@ -24,6 +25,7 @@ _EXPORTS = {
     "._core": ("add_channel", "remove_channel", "channel_status", "add_logger", "add_user", "user_exists", "audit_trail", "create_site", "delete_controls", "get_controls",
                "get_site", "ingest", "list_sites", "put_controls", "put_sensors", "put_survey", "revoke_logger",
                "rotate_logger", "set_threshold", "replace_thresholds", "threshold_rows", "update_site"),
+    "._events": ("put_events", "delete_event", "get_events"),
     "._recompute": ("recompute",),
     "._alarms": ("Notifier", "list_alarms"),
     "._web": ("create_app",),

@@ -268,6 +268,8 @@ def _inactive_with_open_alarms(s, site: Site) -> list[str]:
 
 #: ``cleared_reason`` of an open health or no-data alarm of a sensor the user excluded (site setting ``exclude``).
 EXCLUDED_REASON = "excluded by the user (site setting exclude)"
+#: ... and of a no-data alarm of a sensor declared replaced (rail site events): its series goes on under the new id.
+REPLACED_REASON = "replaced by another sensor (rail site events): its series goes on under the new id"
 
 
 def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
@@ -290,7 +292,8 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
            .order_by(Reading.ts.desc()).limit(1).scalar_subquery())
     rows = s.execute(select(Sensor.sensor_id, newest, Sensor.created_ts, via).where(Sensor.site_id == site.id,
                                                                                     Sensor.active.is_(True))).all()
-    excluded = set(site.settings.get("exclude") or [])
+    replaced = _replaced(s, site)
+    excluded = set(site.settings.get("exclude") or []) | replaced
     last = {sid: t for sid, t, _, _ in rows}
     created = {sid: c for sid, _, c, _ in rows}
     seen = [t for t in last.values() if t is not None]
@@ -315,13 +318,20 @@ def evaluate_no_data(s, site: Site, now: int | None = None) -> list[str]:
         msg = "" if not stale else (f"no data from sensor {sid} for {site.no_data_hours:g} h" if t is None else
                                     f"no data from sensor {sid} for {(ref - t) / 3600:.1f} h "
                                     f"(limit {site.no_data_hours:g} h)")
-        reason = (EXCLUDED_REASON if sid in excluded else
+        reason = (REPLACED_REASON if sid in replaced else EXCLUDED_REASON if sid in excluded else
                   f"its logger {covered[sid]} is silent (logger alarm)" if sid in covered else None)
         w = transition(s, site, "no_data", sid, lv, value=None if t is None else (ref - t) / 3600.0,
                        threshold=site.no_data_hours, message=msg, opened=opened, reason=reason)
         if w != "none":
             events.append(f"no_data:{sid}:{w}")
     return events
+
+
+def _replaced(s, site: Site) -> set:
+    """Sensors replaced by another (rail site events): silent from the replacement on, expected."""
+    from ._events import replaced_ids
+
+    return replaced_ids(s, site)
 
 
 def _silent_loggers(s, site: Site, ref: int, limit: float) -> dict:

@@ -267,16 +267,20 @@ def _clean_sensor_rows(rows) -> dict:
 def _check_active_stations(s, site: Site) -> None:
     """Refuse two active sensors at one station (an inactive sensor does not hold its station: a replacement), and
     active sensors that ``validate_site`` (what every run calls) would refuse with the site's survey."""
+    from ._events import replacing_ids
     from ._recompute import load_site_tables
 
     sensors, survey = load_site_tables(s, site)
+    # a sensor declared as replacing another (rail site events) continues its series at its station
+    sensors = sensors[~sensors["sensor_id"].isin(replacing_ids(s, site))].reset_index(drop=True)
     x = sensors["x_m"].to_numpy(float)
     same = np.nonzero(np.diff(x) <= 0)[0]
     if same.size:
         i = int(same[0])
         raise InputError(f"sensors {sensors['sensor_id'][i]!r} and {sensors['sensor_id'][i + 1]!r} would both be active "
                          f"at station x = {x[i]:g} m; each active sensor needs its own station (to replace a sensor, "
-                         "make the old one inactive, \"active\": false, in the same request or before).")
+                         "make the old one inactive, \"active\": false, in the same request or before; or declare the "
+                         "replacement first, rail site events, to continue the old one's series).")
     if survey is not None and len(sensors) >= 3:
         empty = pd.DataFrame({c: pd.Series(dtype=object) for c in READING_COLUMNS})
         validate_site(sensors, empty, survey)  # e.g. a sensor outside the survey: every run would fail
@@ -837,7 +841,9 @@ def parse_batch(body: bytes, content_type: str | None, *, required=("timestamp",
         names = [n.strip() for n in reader.fieldnames]
         missing = [c for c in required if c not in names]
         if missing:
-            raise InputFormatError(f"CSV batch: missing column(s) {missing}; expected {list(expected)}.")
+            wide = ("; one column per sensor (a logger's wide export)? The API takes one row per reading (its outcome "
+                    "is per row); load a wide file with rail site ingest SITE --file" if key == "readings" else "")
+            raise InputFormatError(f"CSV batch: missing column(s) {missing}; expected {list(expected)}{wide}.")
         reader.fieldnames = names
         try:
             rows = [dict(r) for r in reader]

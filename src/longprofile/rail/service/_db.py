@@ -106,6 +106,19 @@ class ControlPoint(Base):
     z_m: Mapped[float] = mapped_column(Float)
 
 
+class SensorEvent(Base):
+    """A declared re-installation (``event`` "reinstalled") or replacement ("replaced_by" ``new_id``) of a sensor on
+    ``date`` (``YYYY-MM-DD``, UTC): a row of the events table of ``rail settle --events``."""
+    __tablename__ = "sensor_events"
+    __table_args__ = (UniqueConstraint("site_id", "sensor_id", "date", name="uq_event_site_sensor_date"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    site_id: Mapped[int] = mapped_column(ForeignKey("sites.id"), index=True)
+    sensor_id: Mapped[str] = mapped_column(String(64))
+    date: Mapped[str] = mapped_column(String(10))
+    event: Mapped[str] = mapped_column(String(16))
+    new_id: Mapped[str] = mapped_column(String(64), default="")
+
+
 class Threshold(Base):
     __tablename__ = "thresholds"
     __table_args__ = (UniqueConstraint("site_id", "quantity", "level", name="uq_threshold"),)

@@ -38,8 +38,8 @@ from .. import (
     estimate_settlement,
     estimate_settlement_from_daily,
     fill_temperature,
+    site_with_events,
     statistics_window,
-    validate_site,
 )
 from ._alarms import evaluate_no_data, evaluate_result, thresholds_of
 from ._db import (
@@ -57,6 +57,7 @@ from ._db import (
     SurveyPoint,
     now_ts,
 )
+from ._events import events_table
 
 __all__ = ["recompute", "check_settings", "latest_run", "load_site_data", "load_site_tables", "controls_table",
            "temperature_channel_days",
@@ -613,12 +614,14 @@ def service_joint_days(settings: dict, n_sensors: int, n_days: int) -> bool:
     return model == "all-days"
 
 
-def _settings_hash(site, sensors, survey, thresholds, settings, controls=None) -> str:
+def _settings_hash(site, sensors, survey, thresholds, settings, controls=None, events=None) -> str:
     what = {"settings": settings, "sensors": sensors.to_dict("list"),
             "survey": None if survey is None else survey.to_dict("list"), "thresholds": thresholds,
             "baseline": [site.baseline_start_ts, site.baseline_end_ts]}
     if controls is not None:  # absent without controls: the hash of a site without them is unchanged
         what["controls"] = controls.to_dict("list")
+    if events is not None:  # likewise
+        what["events"] = events.to_dict("list")
     blob = json.dumps(what, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
@@ -655,6 +658,32 @@ def _failed_or_waiting(exc: Exception) -> str:
     return "waiting" if any(w in str(exc) for w in WAITING_MESSAGES) else "failed"
 
 
+def _has_replacement(events) -> bool:
+    return events is not None and bool((events["event"] == "replaced_by").any())
+
+
+def _estimate(site: Site, settings: dict, sensors, readings, survey, controls, events, stats):
+    """The run's ``SettlementResult``: the tables validated with the declared events
+    (:func:`longprofile.rail.site_with_events`, as ``rail settle --events``), then ``estimate_settlement_from_daily``
+    on the cached statistics (``stats``), or ``estimate_settlement`` on every reading (the lagged and "auto" thermal
+    models, and a site with a declared replacement, whose merged series has no cached statistics)."""
+    # the units were checked batch by batch at ingestion (where ?check_units=false may have waived them)
+    sitedata, events = site_with_events(sensors, readings, survey, controls, events, check_units=False)
+    if _has_replacement(events):
+        stats = None
+    days = readings["timestamp"].dt.normalize().unique() if stats is None else stats.days
+    options = dict(
+        thermal=settings["thermal"], quiet_days=_quiet_days(site, days),
+        sigma=None if settings["sigma_deg"] is None else float(np.deg2rad(settings["sigma_deg"])),
+        rigidity=settings["rigidity"], exclude_sensors=tuple(settings["exclude"]),
+        n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]),
+        joint_days=service_joint_days(settings, len(sitedata.sensor_ids), len(days)), events=events)
+    if stats is not None:
+        sitedata = _with_record_warnings(sitedata, stats)
+        return estimate_settlement_from_daily(sitedata, daily_angles_from_statistics(stats), **options)
+    return estimate_settlement(sitedata, **options)
+
+
 def recompute(db: Database, name: str, *, force: bool = False, actor: str | None = None) -> dict:
     """Recompute a site when its data or settings changed since the last run (``force``: always; with ``actor``,
     the person who asked, audited with the run's id and outcome).
@@ -671,22 +700,24 @@ def recompute(db: Database, name: str, *, force: bool = False, actor: str | None
         thresholds = thresholds_of(s, site)
         sens = _active_sensors(s, site)
         sensors, survey, controls = _sensor_table(sens), _survey_table(s, site), controls_table(s, site)
+        events = events_table(s, site, active={r[1] for r in sens})
         last = latest_run(s, site, ok_only=False)
         site_id = site.id
-        shash = _settings_hash(site, sensors, survey, thresholds, settings, controls)
+        shash = _settings_hash(site, sensors, survey, thresholds, settings, controls, events)
         if (not force and last is not None and last.data_version == version and last.settings_hash == shash
                 and last.code_version == __version__):
             return {"run_id": last.id, "status": "unchanged", "message": "", "events": [],
                     "seconds": time.perf_counter() - t0}
         # linear / no thermal model: per-day statistics cached in day_stats, only the changed days from raw;
         # the lagged model fits its lag over the whole record, and "auto" (rail settle's default) chooses between
-        # the two from it: every reading, every run
+        # the two from it: every reading, every run; so does a site with a declared replacement (the replacing
+        # sensor's readings join the replaced one's series before the daily statistics, as in rail settle --events)
         cached = settings["thermal"] in ("linear", "none")
         stats = first_day = rebuilt = cache_rows = None
-        if cached:
+        if cached:  # the cache follows the raw readings in every case
             stats, readings, first_day, rebuilt, cache_rows = cached_statistics(
                 s, site, sens, settings["thermal"], dirty_from, db.memo)
-        else:
+        if not cached or _has_replacement(events):
             _, readings, _ = load_site_data(s, site)
     t_load = time.perf_counter() - t0
     if stats is not None:
@@ -698,21 +729,7 @@ def recompute(db: Database, name: str, *, force: bool = False, actor: str | None
         last_ts = {k: int(v.value // 10**9) for k, v in readings.groupby("sensor_id")["timestamp"].max().items()}
     status, message, res = "ok", "", None
     try:
-        # the units were checked batch by batch at ingestion (where ?check_units=false may have waived them)
-        sitedata = validate_site(sensors, readings, survey, controls, check_units=False)
-        days = readings["timestamp"].dt.normalize().unique() if stats is None else stats.days
-        quiet = _quiet_days(site, days)
-        options = dict(
-            thermal=settings["thermal"], quiet_days=quiet,
-            sigma=None if settings["sigma_deg"] is None else float(np.deg2rad(settings["sigma_deg"])),
-            rigidity=settings["rigidity"], exclude_sensors=tuple(settings["exclude"]),
-            n_monte_carlo=int(settings["n_monte_carlo"]), alarm_probability=float(settings["alarm_probability"]),
-            joint_days=service_joint_days(settings, len(sensors), len(days)))
-        if stats is not None:
-            sitedata = _with_record_warnings(sitedata, stats)
-            res = estimate_settlement_from_daily(sitedata, daily_angles_from_statistics(stats), **options)
-        else:
-            res = estimate_settlement(sitedata, **options)
+        res = _estimate(site, settings, sensors, readings, survey, controls, events, stats)
     except LongprofileError as exc:
         status = _failed_or_waiting(exc)
         message = str(exc)

@@ -27,6 +27,7 @@ from . import _core as core
 from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, health_level, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
 from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site, Threshold
+from ._events import EVENT_COLUMNS, delete_event, get_events, put_events
 from ._recompute import latest_run, recompute, sensor_daily_statistics, temperature_channel_days
 
 __all__ = ["create_app", "ServiceWorker"]
@@ -411,6 +412,29 @@ def _add_error_handlers(app: FastAPI, ctx: _App):
         return JSONResponse({"detail": "internal error"}, status_code=500)
 
 
+def _add_event_routes(app: FastAPI, ctx: _App):
+    """Declared re-installations and replacements of sensors (``rail site events``): list, put, delete."""
+    db, person, site_name = ctx.db, ctx.person, ctx.site_name
+
+    @app.get("/api/v1/sites/{site}/events")
+    def api_get_events(site: str, request: Request):
+        person(request)
+        return get_events(db, site_name(site))
+
+    @app.put("/api/v1/sites/{site}/events")
+    async def api_events(site: str, request: Request):
+        user = person(request, "engineer")
+        rows = await ctx.table_rows(request, EVENT_COLUMNS, required=EVENT_COLUMNS[:3], key="events")
+        return await run_in_threadpool(lambda: put_events(db, user[0], site_name(site), rows))
+
+    @app.delete("/api/v1/sites/{site}/events/{sensor}/{date}")
+    def api_delete_event(site: str, sensor: str, date: str, request: Request):
+        user = person(request, "engineer")
+        if not DAY_RE.match(date) or not core.SENSOR_RE.match(sensor):
+            raise core.NotFound("no such event.")
+        return delete_event(db, user[0], site_name(site), sensor, date)
+
+
 def _add_site_api_routes(app: FastAPI, ctx: _App):
     """Ingestion and the site configuration API: readings, sites, sensors, survey, thresholds, loggers."""
     db, person, site_name, json_body = ctx.db, ctx.person, ctx.site_name, ctx.json_body
@@ -687,7 +711,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
         warnings = [] if run is None else json.loads(run.warnings_json or "[]")  # what `rail settle` prints
         return ctx.render(request, "site.html", site=st, run=ctx.run_info(run), last_any=last_any, days=days, day=d,
                           alarms=alarms, health=health, controls=controls, has_thresholds=has_thresholds,
-                          warnings=warnings, channels=channels,
+                          warnings=warnings, channels=channels, events=get_events(db, st.name),
                           can_ack=role_at_least(page_user(request)[1], "engineer"))
 
     @app.get("/sites/{site}/sensors/{sensor}", response_class=HTMLResponse)
@@ -798,6 +822,7 @@ def create_app(db: Database | str, *, notifier: Notifier | None = None, backgrou
     app.state.db, app.state.worker, app.state.notifier, app.state.ctx = db, ctx.worker, notifier, ctx
     _add_error_handlers(app, ctx)
     _add_site_api_routes(app, ctx)
+    _add_event_routes(app, ctx)
     _add_channel_routes(app, ctx)
     _add_result_api_routes(app, ctx)
     _add_auth_routes(app, ctx)

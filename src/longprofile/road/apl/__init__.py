@@ -14,6 +14,7 @@ choose_towing_speed        -- the speed to reconstruct at, from --speed and the 
                               samples off it, without_off_speed_std NaNs their std; trailer_at_speed re-discretises.
 resample_model             -- an identified model re-discretised for another step (zero-order hold, z = exp(s dt));
                               reconstruct_recording uses it for a model file of another dx or speed.
+step_transitions           -- the same step by step (A_k = exp(A_c dt_k)): a record towed at a varying speed.
 identify_trailer           -- OE or ARMAX identification from bench records, as an APLModel (§4);
                               check_identification_structure validates its structure option.
 APLModel, TrailerPoles, TABLE1_CONFIGURATIONS, RC_TIME_CONSTANT, PAPER_IDENTIFIED_MODELS
@@ -35,6 +36,11 @@ fixed_lag_error_std        -- the same for the fixed-lag estimate (its steady-st
 InstrumentUncertainty      -- declared 1-sigma of the trailer's frequencies and gain, added to the printed std
                               (instrument_error_variance, perturbed_instrument, instrument_parameters; issue 13).
 detrend_profile            -- remove what the APL cannot see (quadratic + zero-phase high-pass).
+reconstruct_varying_speed  -- smoother / filter of a record towed at a varying speed (varying_speed_model: one
+                              transition per station, station_steps; q, r by ML with the time-varying model);
+                              reconstruct_time_sampled: a time-sampled record at its own time step.
+reconstruct_towed          -- ``road reconstruct`` / ``batch reconstruct``: the towing speed from the file, then the
+                              constant-speed or the varying-speed reconstruction (TowedReconstruction).
 
 Synthetic profiles with truth
 -----------------------------
@@ -74,7 +80,7 @@ _EXPORTS = {
         "apl_response", "frequency_response", "paper_identified_model", "passband",
     ),
     "._resample": (
-        "MAX_POLE_FRACTION", "resample_model",
+        "MAX_POLE_FRACTION", "resample_model", "step_transitions",
     ),
     "._short_waves": (
         "SHORT_WAVE_OPTIONS", "RoadSpectrumRatio", "estimate_road_spectrum_ratio",
@@ -88,8 +94,12 @@ _EXPORTS = {
         "SYNTHETIC_PROFILES", "APLRecording", "bump_profile", "crenel_profile", "simulate_apl_recording",
         "sine_arcs_profile", "speed_hump_profile", "white_noise_profile",
     ),
+    "._varying_speed": (
+        "STD_SPEED_STEP", "VARYING_SPEED_METHODS", "reconstruct_time_sampled", "reconstruct_varying_speed",
+        "station_steps", "varying_speed_model",
+    ),
     "._workflow": (
-        "reconstruct_recording",
+        "TowedReconstruction", "reconstruct_recording", "reconstruct_towed",
     ),
 }
 
@@ -109,6 +119,8 @@ __all__ = [
     "estimate_road_spectrum_ratio", "DEFAULT_TOWING_SPEED", "SPEED_TOLERANCE", "SPEED_TOLERANCES", "STOP_SPEED",
     "SpeedCheck", "TowingSpeed", "check_speed_samples", "choose_towing_speed", "recording_speed", "speed_tolerance",
     "trailer_at_speed", "without_off_speed_std", "towing_speed", "speed_range", "resample_model", "MAX_POLE_FRACTION",
+    "step_transitions", "STD_SPEED_STEP", "VARYING_SPEED_METHODS", "reconstruct_varying_speed", "station_steps",
+    "varying_speed_model", "TowedReconstruction", "reconstruct_towed", "reconstruct_time_sampled",
 ]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

@@ -466,16 +466,24 @@ class NoiseFit:
     converged: bool
 
 
-def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx, stationary):
+def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length, dx, stationary, steps=None,
+                     distance_steps=None):
     lam = 10.0 ** log10_ratio
-    if stationary:
+    if steps is not None:  # a varying towing speed: one transition per step (engine's time-varying model)
+        from ._varying_speed import varying_speed_model
+
+        model = varying_speed_model(instrument, steps[:y.size - 1], lam, 1.0, input_model=input_model,
+                                    correlation_length=correlation_length, dx=dx,
+                                    distance_steps=None if distance_steps is None else distance_steps[:y.size - 1])
+    elif stationary:
         model, _ = _long_record_model(instrument, lam, 1.0, input_model, correlation_length, dx)
         res = long_record_log_likelihood(model, y)
         r_hat = res.quadratic_form / res.n_observed
         ll = -0.5 * (res.n_observed * (np.log(2 * np.pi * r_hat) + 1.0) + res.log_det_sum)
         return float(ll), float(r_hat)
-    model = apl_deconvolution_model(instrument, lam, 1.0, input_model=input_model,
-                                    correlation_length=correlation_length, dx=dx)
+    else:
+        model = apl_deconvolution_model(instrument, lam, 1.0, input_model=input_model,
+                                        correlation_length=correlation_length, dx=dx)
     res = kalman_filter(model, y)
     obs = ~np.isnan(res.innovation[:, 0])
     e = res.innovation[obs, 0]
@@ -488,7 +496,8 @@ def _concentrated_ll(instrument, y, log10_ratio, input_model, correlation_length
 
 def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wiener",
                         correlation_length: float | None = None, dx: float | None = None,
-                        bounds_log10_ratio: tuple[float, float] = (-8.0, 4.0), stationary: bool = False) -> NoiseFit:
+                        bounds_log10_ratio: tuple[float, float] = (-8.0, 4.0), stationary: bool = False,
+                        steps=None, distance_steps=None) -> NoiseFit:
     """Estimate q and r by maximum likelihood (prediction-error decomposition of the Kalman filter).
 
     Parameters
@@ -506,6 +515,14 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
         (:func:`increment_deconvolution_model` for the Wiener model of an instrument with a zero at 1); NaN
         samples are bridged by the exact filter. It equals the exact likelihood to round-off. Default False: the
         exact time-varying filter (NaN allowed).
+    steps : (T-1,) array_like, optional
+        A record towed at a varying speed: the duration of each step between stations, s
+        (:func:`station_steps`); the likelihood is then that of :func:`varying_speed_model` (the instrument
+        re-discretised at every step), with the exact filter (``stationary`` must be False). Default None: the
+        instrument at its own step throughout.
+    distance_steps : (T-1,) array_like, optional
+        With ``steps``, a record sampled in time: the distance of each step in stations
+        (:func:`varying_speed_model`).
 
     Returns
     -------
@@ -530,6 +547,10 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
     the paper's hand tuning (§5.3, q = 10 or 100 with r = 1).
     """
     y = as_float_array("signal", signal_, ndim=1)
+    if steps is not None:
+        steps = as_float_array("steps", steps, ndim=1, allow_nan=False)
+        if steps.size != y.size - 1 or stationary:
+            raise InputError(f"steps needs T - 1 = {y.size - 1} durations (got {steps.size}) and stationary=False.")
     lo, hi = bounds_log10_ratio
     count = [0]
     whole = {}  # log10 ratio -> (log-likelihood, r_hat) on the whole record
@@ -540,7 +561,8 @@ def fit_noise_variances(signal_, instrument: APLModel, *, input_model: str = "wi
             return -whole[t][0]
         count[0] += 1
         try:
-            ll_r = _concentrated_ll(instrument, data, t, input_model, correlation_length, dx, stationary)
+            ll_r = _concentrated_ll(instrument, data, t, input_model, correlation_length, dx, stationary, steps,
+                                    distance_steps)
         except NotDetectableError:
             # the Riccati equation is numerically unsolvable at this extreme ratio: treat it as infeasible
             return np.inf
@@ -744,6 +766,9 @@ class Reconstruction:
         under (``short_waves="record"``); None: the model's own spectrum.
     warnings : tuple of str
         What the caller should know about the printed std (e.g. :func:`fixed_lag_calibration_warning`).
+    speed_range : (float, float, float) or None
+        A record towed at a varying speed (:func:`reconstruct_varying_speed`): the slowest, median and fastest speed
+        of its stations, m/s, at which the instrument was re-discretised; None: one speed (the instrument's).
     std_noise_fit : NoiseFit or None
         ``"fixed-lag"`` with ``short_waves="record"`` only: when the record's noise check fails on the fixed-lag's own
         AR(1) fit, the fit of paper 000's Wiener model (eq. 7) whose r (and, when that r passes the check, the road
@@ -766,6 +791,7 @@ class Reconstruction:
     road_spectrum: RoadSpectrumRatio | None = None
     warnings: tuple[str, ...] = ()
     std_noise_fit: NoiseFit | None = None
+    speed_range: tuple | None = None
 
     def to_frame(self):
         """The ``road reconstruct`` table: ``distance_m, elevation_m, std_m, raw_m, raw_std_m`` (NaN where a std

@@ -58,7 +58,7 @@ def gap_windows(missing: np.ndarray, margin: int) -> list[tuple[int, int]]:
 
 def gap_error_variance(missing: np.ndarray, model: StateSpaceModel, estimate: Callable[[np.ndarray], np.ndarray],
                        detrend: Callable[[np.ndarray], np.ndarray], margin: int, *, n_draws: int = GAP_DRAWS,
-                       rng=0) -> np.ndarray | None:
+                       rng=0, window_model: Callable[[int, int], StateSpaceModel] | None = None) -> np.ndarray | None:
     """Per-sample variance (m^2) that the missing samples add to the error of the detrended estimate.
 
     Parameters
@@ -77,6 +77,10 @@ def gap_error_variance(missing: np.ndarray, model: StateSpaceModel, estimate: Ca
         Monte Carlo draws per cluster of gaps.
     rng : int or numpy.random.Generator
         Seed of the draws (fixed by default: the same record gives the same std).
+    window_model : callable, optional
+        ``window_model(lo, hi)`` -> the model of samples [lo, hi) of a time-varying ``model`` (a record towed at a
+        varying speed): the draws of a window come from it and ``estimate`` is called as ``estimate(Y, model)``.
+        Default None: ``model`` for every window, ``estimate(Y)``.
 
     Returns
     -------
@@ -90,17 +94,21 @@ def gap_error_variance(missing: np.ndarray, model: StateSpaceModel, estimate: Ca
     out = np.zeros(missing.size)
     for lo, hi in windows:
         tw = hi - lo
+        wmodel = model if window_model is None else window_model(lo, hi)
+
+        def run(Y, wmodel=wmodel):
+            return estimate(Y) if window_model is None else estimate(Y, wmodel)
         # draws in chunks: the estimates of a chunk hold (chunk, tw, n) means (about 40 MB at most per chunk)
         chunk = int(max(1, min(n_draws, 5e6 // max(1, tw * model.n_states))))
         excess = np.zeros(tw)
         for start in range(0, n_draws, chunk):
-            draws = [simulate(model, tw, rng=gen) for _ in range(min(chunk, n_draws - start))]
+            draws = [simulate(wmodel, tw, rng=gen) for _ in range(min(chunk, n_draws - start))]
             truth = np.stack([x[:, -1] for x, _ in draws])
             complete = np.stack([y for _, y in draws])
             gapped = complete.copy()
             gapped[:, missing[lo:hi]] = np.nan
-            e_gap = detrend((truth - estimate(gapped)).T)
-            e_full = detrend((truth - estimate(complete)).T)
+            e_gap = detrend((truth - run(gapped)).T)
+            e_full = detrend((truth - run(complete)).T)
             excess += np.sum(e_gap ** 2 - e_full ** 2, axis=1)
         out[lo:hi] = np.maximum(excess / n_draws, 0.0)
     return out

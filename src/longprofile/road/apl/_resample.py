@@ -10,7 +10,7 @@ from ..._validation import require_positive
 from ...errors import ModelError
 from ._model import APLModel
 
-__all__ = ["MAX_POLE_FRACTION", "resample_model"]
+__all__ = ["MAX_POLE_FRACTION", "resample_model", "step_transitions"]
 
 #: Largest pole frequency |angle(p)| / pi (a fraction of the Nyquist frequency) at the model's step and at the new
 #: one: beyond it the samples do not resolve the dynamics and the continuous-time form is not determined.
@@ -51,17 +51,29 @@ def resample_model(model: APLModel, dt: float, *, speed: float | None = None, dx
     dynamics in time do not depend on the speed (Table 1 of paper 000 shows 19-25 Hz damper frequencies across its
     configurations: within that spread, not better).
     """
-    from scipy import linalg, signal
+    dt = require_positive("dt", dt)
+    _check_resolved(model, dt / model.dt)
+    return _rediscretised(model, dt, speed=speed, dx=dx)
 
+
+def _realisation(model: APLModel):
+    """(A, B, C, D) of ``model`` without its delay; for a delay of 1 sample the strictly proper form (A, B, C A^-1, 0)
+    of H = z^-1 G (G(0) = 0: a zero at the origin), whose C is the output of the continuous state at the sample."""
     from ._deconvolution import instrument_state_space
 
-    dt = require_positive("dt", dt)
-    ratio = dt / model.dt
-    _check_resolved(model, ratio)
     A, B, C, D = instrument_state_space(dataclasses.replace(model, delay=0))
-    if model.delay == 1:  # H = z^-1 G, strictly proper: (A, B, C A^-1, 0) since G(0) = 0 (a zero at the origin)
+    if model.delay == 1:
         C = np.linalg.solve(A.T, C.T).T
         D = np.zeros_like(D)
+    return A, B, C, D
+
+
+def _rediscretised(model: APLModel, dt: float, *, speed: float | None = None, dx: float | None = None) -> APLModel:
+    """:func:`resample_model` without its checks (``model`` resolved at its own step; the new step may be coarse)."""
+    from scipy import linalg, signal
+
+    ratio = dt / model.dt
+    A, B, C, D = _realisation(model)
     A2 = linalg.fractional_matrix_power(A, ratio)
     if np.abs(np.imag(A2)).max(initial=0.0) > 1e-9 * max(1.0, np.abs(A2).max()):
         raise ModelError("the model's state matrix has no real power (a pole on the negative real axis).")
@@ -99,3 +111,51 @@ def _check_resolved(model: APLModel, ratio: float) -> None:
                          f"{model.dt * max(1.0, ratio):.6g} s: its samples do not resolve the dynamics (a pole on the "
                          "negative real axis is a sampling artefact, with no continuous-time form); identify the "
                          "trailer with fewer poles (e.g. road identify --orders 4 4 1) or at the record's step.")
+
+
+def step_transitions(model: APLModel, dt) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The trailer's state-space matrices over steps of different durations (a record towed at a varying speed).
+
+    Parameters
+    ----------
+    model : APLModel
+        A discrete instrument resolved at its own step (delay 0 or 1; :func:`resample_model`'s conditions at its step).
+    dt : (K,) array_like
+        Duration of each step, s (> 0).
+
+    Returns
+    -------
+    A : (K, n, n) ndarray
+        A_k = A^(dt_k / T) = exp(A_c dt_k): the continuous-time form of ``model`` over each step, by the eigenvalues
+        of A (its poles, raised to dt_k / T on the principal branch, as :func:`resample_model` does).
+    B : (K, n, 1) ndarray
+        B_k = (A_k - I)(A - I)^-1 B (zero-order hold over the step: the road held at the step's first station).
+    C : (1, n) ndarray, D : (1, 1) ndarray
+        Constant (the strictly proper form for a delay of 1 sample, :func:`resample_model`).
+
+    Notes
+    -----
+    The steady state per unit level, (I - A_k)^-1 B_k = (I - A)^-1 B, is the same at every step, so a zero of the
+    instrument at z = 1 (paper 000 eq. 1 has three) stays exact at every step. ASSUMPTION (as
+    :func:`resample_model`): the trailer's dynamics in time do not depend on the towing speed.
+
+    Raises
+    ------
+    ModelError
+        ``model`` unresolved at its own step (:func:`resample_model`), or its poles repeated (eigenvectors
+        ill-conditioned: condition number above 1e8).
+    """
+    _check_resolved(model, 1.0)
+    dt = np.asarray(dt, dtype=float).reshape(-1)
+    if np.any(~np.isfinite(dt) | (dt <= 0)):
+        raise ModelError("every step of a record needs a finite, positive duration dt.")
+    A, B, C, D = _realisation(model)
+    lam, V = np.linalg.eig(A)
+    if np.linalg.cond(V) > 1e8:
+        raise ModelError(f"{model.name or 'the model'} has repeated poles: its steps cannot be re-discretised one by "
+                         "one (identify it with distinct poles).")
+    powers = np.exp(np.log(lam.astype(complex))[None, :] * (dt / model.dt)[:, None])  # exp(s dt_k), principal branch
+    Ak = np.real(np.einsum("ij,kj,jl->kil", V, powers, np.linalg.inv(V)))
+    eye = np.eye(A.shape[0])
+    Bk = (Ak - eye) @ np.linalg.solve(A - eye, B)
+    return Ak, Bk, C, D

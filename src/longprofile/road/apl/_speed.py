@@ -109,20 +109,21 @@ def choose_towing_speed(file_speed: float | None, given: float | None, *, dx: fl
     Returns
     -------
     TowingSpeed
-        ``given`` when it is given; else the Table 1 (or model file) speed within ``tolerance`` of the file's; else
+        ``given`` when it is given; else the Table 1 (or model file) speed within ``tolerance`` of the file's; else,
+        for a varying speed (``speed_range`` wider than the smallest tolerance), the calibrated speed nearest the
+        file's (in ratio): the trailer re-discretised at each station's speed (:func:`reconstruct_towed`); else
         :data:`DEFAULT_TOWING_SPEED` when the record has no speed column.
 
     Raises
     ------
     InputError
-        ``given`` and the file's speed differ by more than ``tolerance``; no --speed and the file's speed is within
-        ``tolerance`` of no calibrated model (Table 1 at this dx, or the model file).
+        ``given`` and the file's speed differ by more than ``tolerance``; no --speed and a constant file speed
+        within ``tolerance`` of no calibrated model (Table 1 at this dx, or the model file).
     """
     where = f"the median of its column {column!r} over moving samples"
     varies = speed_range is not None and speed_range[1] / speed_range[0] - 1.0 > min(SPEED_TOLERANCES.values())
     if varies:
-        where += (f"; it varies from {3.6 * speed_range[0]:.3g} to {3.6 * speed_range[1]:.3g} km/h (5-95 %): the "
-                  "reconstruction assumes a constant towing speed")
+        where += f"; it varies from {3.6 * speed_range[0]:.3g} to {3.6 * speed_range[1]:.3g} km/h (5-95 %)"
     if file_speed is None:
         if given is not None:
             return TowingSpeed(float(given), None, "option")
@@ -133,7 +134,9 @@ def choose_towing_speed(file_speed: float | None, given: float | None, *, dx: fl
         if abs(off) > tolerance:
             raise InputError(f"{label}: --speed is {given:g} m/s but the record was towed at {_kmh(file_speed)} "
                              f"({where}; {100 * off:+.3g} %, more than the {100 * tolerance:g} % a reconstruction "
-                             f"tolerates): " + ("reconstruct separately the parts of the record towed at a constant speed." if varies else
+                             f"tolerates): " + ("leave out --speed: a record whose speed varies is reconstructed at "
+                             "the speed of each station (docs/road-apl.md, 'Varying towing speed'), or correct the "
+                             "column if it is wrong." if varies else
                              f"leave out --speed to use the file's speed (or give --speed {file_speed:.4g}), or correct "
                              "the column if it is wrong."))
         return TowingSpeed(float(given), file_speed, "option",
@@ -147,12 +150,15 @@ def choose_towing_speed(file_speed: float | None, given: float | None, *, dx: fl
     if near:
         return TowingSpeed(near[0], file_speed, "file", f"towing speed from the file: {_kmh(file_speed)} ({where}) "
                            f"-> the model for {near[0]:g} m/s")
+    if varies and candidates:  # reconstructed at each station's speed: the trailer calibrated nearest the median
+        base = min(candidates, key=lambda v: abs(np.log(file_speed / v)))
+        return TowingSpeed(base, file_speed, "file", f"towing speed from the file: {_kmh(file_speed)} ({where}) "
+                           f"-> the trailer calibrated at {base:g} m/s, re-discretised at each station's speed")
     what = (f"the model file is for {model_speed:g} m/s" if model_speed is not None else
             f"paper 000's Table 1 calibrates the trailer at dx {dx:g} m only for "
             f"{', '.join(f'{v:g}' for v in candidates) or 'no speed'} m/s")
     tol = ", ".join(f"{100 * t:g} % at {v:g} m/s" for v, t in tolerances.items())
-    fix = ("reconstruct separately the parts of the record towed at a calibrated speed" if varies else
-           f"identify the trailer at {file_speed:.3g} m/s (longprofile road identify ... --speed {file_speed:.3g} "
+    fix = (f"identify the trailer at {file_speed:.3g} m/s (longprofile road identify ... --speed {file_speed:.3g} "
            f"--dx {dx:g} -o model.json) and pass --model model.json")
     raise InputError(f"{label}: the record was towed at {_kmh(file_speed)} ({where}) but {what} (tolerance {tol}): "
                      f"{fix}.")

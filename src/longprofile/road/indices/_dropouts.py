@@ -47,7 +47,7 @@ def dropout_message(runs, *, length_unit: str = "m", metres_per_unit: float = 1.
     f = metres_per_unit
     more = f" ({len(runs) - 1} more run(s) in the profile)" if len(runs) > 1 else ""
     return (f"track {track!r} holds one exact elevation ({value * 1e3:.6g} mm) from station {a / f:.3f} to "
-            f"{b / f:.3f} {length_unit} ({(b - a) / f:.3g} {length_unit}){more}: a dropout written as a value "
+            f"{b / f:.3f} {length_unit} ({(b - a) / f:.1f} {length_unit}){more}: a dropout written as a value "
             f"(a sensor zeroed or held)? No measured profile repeats one elevation over {MIN_DROPOUT_RUN_M:g} m. "
             f"{MISSING_PROFILE_HINT[0].upper()}{MISSING_PROFILE_HINT[1:]}.")
 

@@ -70,6 +70,15 @@ class AcceptanceSpec(ReportUnits):
         A lot with less than this share of its length outside the exclusions gets no pay factor (default 0.5); the
         section's remainder after the whole lots is a lot of its own when at least this share of a lot, else it is
         merged into the previous lot (:func:`lot_bounds`).
+    lot_start : float or None
+        A station the lot limits are aligned to (``[lot] start``; default: the first station of the profile): the
+        limits are ``lot_start + k * lot_length``; the stretch before the first limit inside the profile is a lot of
+        its own or merged into the next, by the rule of the last remainder (:func:`lot_bounds`).
+    events : str or None
+        The exclusion events file the zones were read from (``[exclusions] events``, resolved): an input of the
+        acceptance, never overwritten by a report.
+    notes : tuple of str
+        What reading the spec noticed (an events file without a row): added to the acceptance's warnings.
     """
 
     units: str = "si"
@@ -85,6 +94,9 @@ class AcceptanceSpec(ReportUnits):
     grinder_length: float = 4 * _FT
     grind_max_depth: float = 10.0
     min_lot_fraction: float = 0.5
+    lot_start: float | None = None
+    events: str | None = None
+    notes: tuple = ()
 
     @property
     def depth_factor(self) -> float:
@@ -111,15 +123,76 @@ _IRI_COLUMNS = ("mri", "index", "peak", "peak_before", "peak_after", "low", "hig
 _DEPTH_COLUMNS = ("max_depth", "mean_depth")
 
 
-#: TOML layout of a spec file: section -> key -> AcceptanceSpec field (top-level keys under "").
+#: TOML layout of a spec file: section -> key -> AcceptanceSpec field (top-level keys under ""; the top-level
+#: ``index`` is the same setting as ``[lot] index``, kept for the specs written before it moved to [lot]).
 _SPEC_KEYS = {
     "": {"units": "units", "index": "index"},
-    "lot": {"length": "lot_length", "index": "index", "min_fraction": "min_lot_fraction"},
+    "lot": {"length": "lot_length", "index": "index", "min_fraction": "min_lot_fraction", "start": "lot_start"},
     "localized": {"window": "localized_window", "threshold": "localized_threshold", "step": "localized_step"},
-    "exclusions": {"zones": "exclusions", "events": None},
+    "exclusions": {"zones": "exclusions", "events": "events"},
     "pay": {"schedule": "pay_schedule", "histogram_bin": "histogram_bin"},
     "grinding": {"threshold": "grind_threshold", "grinder_length": "grinder_length", "max_depth": "grind_max_depth"},
 }
+
+#: The TOML type each spec key takes, with an example of the expected form (a typed spec: a value of another type
+#: is refused in one line naming the key, what was given and this form).
+_SPEC_TYPES = {
+    ("", "units"): ("text", '"si"'), ("", "index"): ("text", '"mri"'),
+    ("lot", "length"): ("number", "100"), ("lot", "index"): ("text", '"mri"'),
+    ("lot", "min_fraction"): ("number", "0.5"), ("lot", "start"): ("number", "1200"),
+    ("localized", "window"): ("number", "7.62"), ("localized", "threshold"): ("number", "2.5"),
+    ("localized", "step"): ("number", "0.25"),
+    ("exclusions", "zones"): ("pairs", "[[1000, 1150]]"), ("exclusions", "events"): ("path", '"events.csv"'),
+    ("pay", "schedule"): ("pairs", "[[0.95, 1.05], [1.2, 1.0], [1.9, 0.9]]"), ("pay", "histogram_bin"): ("number", "0.2"),
+    ("grinding", "threshold"): ("number", "2.5"), ("grinding", "grinder_length"): ("number", "1.22"),
+    ("grinding", "max_depth"): ("number", "10"),
+}
+#: The spec key of each AcceptanceSpec field, as a message names it (``[lot] length``).
+_FIELD_KEYS = {f: (k if sec == "" else f"[{sec}] {k}") for sec, keys in reversed(list(_SPEC_KEYS.items()))
+               for k, f in keys.items() if f is not None}
+_TYPE_FORMS = {"number": "a number", "text": "a quoted text", "path": "a quoted file name",
+               "pairs": "a list of [a, b] pairs of numbers"}
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(float(value)))
+
+
+def _is_pairs(value) -> bool:
+    return isinstance(value, list) and all(isinstance(r, list) and len(r) == 2 and all(map(_is_number, r))
+                                           for r in value)
+
+
+def _toml_text(value, limit: int = 60) -> str:
+    """``value`` as it reads in a TOML file (``true``, ``"2.5"``, ``[1.0, 1.05]``), cut to ``limit`` characters."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, str):
+        text = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    elif isinstance(value, list):
+        text = "[" + ", ".join(_toml_text(v, limit) for v in value) + "]"
+    elif isinstance(value, dict):
+        text = "{" + ", ".join(f"{k} = {_toml_text(v, limit)}" for k, v in value.items()) + "}"
+    else:
+        text = str(value)
+    text = " ".join(text.split())  # one line whatever the value holds
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _typed(section: str, key: str, value, source: str):
+    """``value`` of a spec key checked against :data:`_SPEC_TYPES` (numbers as float, pairs as tuples of floats)."""
+    kind, example = _SPEC_TYPES[(section, key)]
+    ok = {"number": _is_number, "text": lambda v: isinstance(v, str),
+          "path": lambda v: isinstance(v, str) and bool(v.strip()), "pairs": _is_pairs}[kind](value)
+    if not ok:
+        where = key if section == "" else f"[{section}] {key}"
+        raise InputError(f"{source}: {where} = {_toml_text(value)} is not {_TYPE_FORMS[kind]}; expected e.g. "
+                         f"{key} = {example}.")
+    if kind == "number":
+        return float(value)
+    if kind == "pairs":
+        return tuple((float(a), float(b)) for a, b in value)
+    return value
 
 
 def default_spec(units: str = "si") -> AcceptanceSpec:
@@ -138,13 +211,37 @@ def _units(units) -> str:
     return key
 
 
+def _spec_values(data: dict, source: str) -> dict:
+    """The spec's settings by AcceptanceSpec field, each of its type (:data:`_SPEC_TYPES`); an unknown key, a
+    section that is not a table or a value of another type is refused in one line naming it."""
+    for key, value in data.items():
+        if key not in _SPEC_KEYS[""] and key not in _SPEC_KEYS:
+            known = sorted(set(_SPEC_KEYS[""]) | (set(_SPEC_KEYS) - {""}))
+            raise InputError(f"{source}: unknown key {key!r}; known: {known}.")
+        if key in _SPEC_KEYS and key != "" and not isinstance(value, dict):
+            raise InputError(f"{source}: {key!r} must be a table ([{key}]); got {key} = {_toml_text(value)}.")
+    values: dict = {}
+    for section, keys in _SPEC_KEYS.items():
+        table = {k: v for k, v in data.items() if k in keys} if section == "" else data.get(section, {})
+        for key, value in table.items():
+            if key not in keys:
+                raise InputError(f"{source}: unknown key {section}.{key!r}; known in [{section}]: {sorted(keys)}.")
+            field_name, typed = keys[key], _typed(section, key, value, source)
+            if field_name in values and values[field_name] != typed:  # index = at the top and in [lot]
+                raise InputError(f"{source}: index given twice ({values[field_name]!r} at the top, {typed!r} in "
+                                 "[lot]); keep [lot] index only.")
+            values[field_name] = typed
+    return values
+
+
 def spec_from_dict(data: dict, *, base_dir: Path | None = None, source: str = "spec") -> AcceptanceSpec:
-    """Build a spec from a TOML-like dict; every unknown key is an error naming it.
+    """Build a spec from a TOML-like dict; every unknown key, and every value of the wrong type, is an error naming
+    it (:data:`_SPEC_TYPES`).
 
     Layout::
 
         units = "us"                      # si | us
-        [lot]       length = 528, index = "mri", min_fraction = 0.5
+        [lot]       length = 528, index = "mri", min_fraction = 0.5, start = 1200
         [localized] window = 25, threshold = 160, step = 1
         [exclusions] zones = [[1000, 1150]], events = "events.csv"   # CSV columns start, end
         [pay]       schedule = [[45, 1.05], [60, 1.0], [75, 0.95], [90, 0.9]], histogram_bin = 10
@@ -152,90 +249,177 @@ def spec_from_dict(data: dict, *, base_dir: Path | None = None, source: str = "s
     """
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a table of settings.")
-    for key, value in data.items():
-        if key not in _SPEC_KEYS[""] and key not in _SPEC_KEYS:
-            known = sorted(set(_SPEC_KEYS[""]) | (set(_SPEC_KEYS) - {""}))
-            raise InputError(f"{source}: unknown key {key!r}; known: {known}.")
-        if key in _SPEC_KEYS and key != "" and not isinstance(value, dict):
-            raise InputError(f"{source}: {key!r} must be a table ([{key}]).")
-    units = _units(data.get("units", "si"))
-    spec = default_spec(units)
-    values: dict = {}
-    for section, keys in _SPEC_KEYS.items():
-        if section == "":
-            continue
-        for key, value in data.get(section, {}).items():
-            if key not in keys:
-                raise InputError(f"{source}: unknown key {section}.{key!r}; known in [{section}]: {sorted(keys)}.")
-            if keys[key] is not None:
-                values[keys[key]] = value
-    if "index" in data:
-        values.setdefault("index", data["index"])
-    zones = [tuple(map(float, z)) for z in values.pop("exclusions", [])]
-    events = data.get("exclusions", {}).get("events")
-    if events is not None:
-        path = Path(events)
+    values = _spec_values(data, source)
+    try:
+        units = _units(values.pop("units", "si"))
+    except UnitsError as exc:
+        raise UnitsError(f"{source}: {exc}") from None
+    zones = list(values.pop("exclusions", ()))
+    notes = []
+    if "events" in values:
+        path = Path(values["events"])
         if not path.is_absolute() and base_dir is not None:
             path = base_dir / path
-        zones += read_exclusion_events(path, units=units)
+        events, note = _exclusion_events(path, units=units)
+        zones += events
+        notes += [note] if note else []
+        values["events"] = str(path)
     values["exclusions"] = tuple(zones)
-    if "pay_schedule" in values:
-        values["pay_schedule"] = tuple(tuple(map(float, r)) for r in values["pay_schedule"])
-    spec = replace(spec, **values)
-    return validate_spec(spec)
+    spec = replace(default_spec(units), **values, notes=tuple(notes))
+    return validate_spec(spec, source=source)
 
 
 def read_exclusion_events(path, *, units: str = "si") -> list[tuple[float, float]]:
     """Exclusion zones from a CSV event file with columns ``start`` and ``end`` (the spec's length unit), or
-    ``start_m, end_m`` / ``start_ft, end_ft`` (converted)."""
+    ``start_m, end_m`` / ``start_ft, end_ft`` (converted); one pair of columns only (two are ambiguous)."""
+    return _exclusion_events(path, units=units)[0]
+
+
+def _exclusion_events(path, *, units: str) -> tuple[list[tuple[float, float]], str | None]:
+    """:func:`read_exclusion_events` and a warning for an events file without a row (None otherwise); every refusal
+    names the file (and the row: 1 is the header line)."""
     path = Path(path)
     try:
-        frame = pd.read_csv(path, comment="#")
-    except (OSError, pd.errors.ParserError) as exc:
-        raise InputFormatError(f"exclusion events {path}: cannot read ({exc}).") from None
-    cols = {c.strip().lower(): c for c in frame.columns}
-    factor = 1.0
+        frame = pd.read_csv(path, comment="#", skip_blank_lines=True)
+    except pd.errors.EmptyDataError:
+        return [], f"exclusion events {path}: the file is empty: no zone is excluded from it"
+    except (OSError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise InputFormatError(f"exclusion events {path}: cannot read ({' '.join(str(exc).split())}).") from None
+    cols = {str(c).strip().lower(): c for c in frame.columns}
     scale = REPORT_UNITS[units]["metres_per_unit"]
-    for s, e, f in (("start", "end", 1.0), ("start_m", "end_m", 1.0 / scale), ("start_ft", "end_ft", _FT / scale)):
-        if s in cols and e in cols:
-            factor = f
-            break
-    else:
+    pairs = [(s, e, f) for s, e, f in (("start", "end", 1.0), ("start_m", "end_m", 1.0 / scale),
+                                       ("start_ft", "end_ft", _FT / scale)) if s in cols and e in cols]
+    if not pairs:
+        semi = " (a ';'-separated file? write it with commas)" if any(";" in str(c) for c in frame.columns) else ""
         raise InputFormatError(f"exclusion events {path}: need columns start,end (or start_m,end_m / "
-                               f"start_ft,end_ft); got {list(frame.columns)}.")
-    a = pd.to_numeric(frame[cols[s]], errors="coerce").to_numpy() * factor
-    b = pd.to_numeric(frame[cols[e]], errors="coerce").to_numpy() * factor
-    if np.isnan(a).any() or np.isnan(b).any():
-        raise InputFormatError(f"exclusion events {path}: non-numeric start/end on row "
-                               f"{int(np.flatnonzero(np.isnan(a) | np.isnan(b))[0]) + 2}.")
-    return list(zip(a.tolist(), b.tolist()))
+                               f"start_ft,end_ft); got {list(frame.columns)}{semi}.")
+    if len(pairs) > 1:
+        raise InputFormatError(f"exclusion events {path}: columns {', '.join(f'{s},{e}' for s, e, _ in pairs)} "
+                               "are ambiguous: keep one pair (the unit in the names: start_m,end_m or "
+                               "start_ft,end_ft).")
+    s, e, factor = pairs[0]
+    if frame.empty:
+        return [], f"exclusion events {path}: no row under the header: no zone is excluded from it"
+    a = pd.to_numeric(frame[cols[s]], errors="coerce").to_numpy(dtype=float) * factor
+    b = pd.to_numeric(frame[cols[e]], errors="coerce").to_numpy(dtype=float) * factor
+    bad = ~(np.isfinite(a) & np.isfinite(b))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputFormatError(f"exclusion events {path}, row {i + 2}: {s}, {e} = {frame[cols[s]].iloc[i]!r}, "
+                               f"{frame[cols[e]].iloc[i]!r} are not both numbers.")
+    back = np.flatnonzero(b <= a)
+    if back.size:
+        i = int(back[0])
+        raise InputFormatError(f"exclusion events {path}, row {i + 2}: {e} {frame[cols[e]].iloc[i]} is not after "
+                               f"{s} {frame[cols[s]].iloc[i]}: an excluded stretch needs end > start.")
+    return list(zip(a.tolist(), b.tolist())), None
 
 
-def validate_spec(spec: AcceptanceSpec) -> AcceptanceSpec:
-    """Check values (positive lengths, ordered schedule, ordered zones); return the spec."""
+#: Plausible range of the spec's lengths, depths and bins once converted (m; depths in mm; IRI bins in m/km), with
+#: what each is. Outside it the value is in the other unit system (``window = 25`` in an SI spec meant 25 ft,
+#: ``max_depth = 5`` in a US spec is 127 mm) or a typo. ASSUMPTION (longprofile's choices, no standard gives them):
+#: a localized window of 2-20 m (25 ft = 7.62 m, ProVAL's default; 0.01 mi = 16.1 m), lots of 10 m-10 km, a
+#: grinder frame of 0.5-10 m, a grind depth limit of 1-50 mm, a histogram bin of 0.01-5 m/km.
+SPEC_VALUE_RANGES = {
+    "lot_length": ("[lot] length", "lot length", (10.0, 10000.0), "length"),
+    "localized_window": ("[localized] window", "localized roughness window", (2.0, 20.0), "length"),
+    "grinder_length": ("[grinding] grinder_length", "grinder frame", (0.5, 10.0), "length"),
+    "grind_max_depth": ("[grinding] max_depth", "grind depth limit", (1.0, 50.0), "depth"),
+    "histogram_bin": ("[pay] histogram_bin", "histogram bin", (0.01, 5.0), "iri"),
+}
+
+
+#: Largest station magnitude ``[lot] start`` takes, spec unit (10 000 km in metres): beyond it a value is no station.
+MAX_STATION = 1e7
+
+
+def _unit_facts(kind: str, units: str) -> tuple[str, float]:
+    """(unit name, base units per spec unit) of a length (m), depth (mm) or IRI (m/km) in ``units``."""
+    if kind == "length":
+        return REPORT_UNITS[units]["length_unit"], REPORT_UNITS[units]["metres_per_unit"]
+    if kind == "depth":
+        return ("mm", 1.0) if units == "si" else ("in", 25.4)
+    return REPORT_UNITS[units]["iri_unit"], 1.0 / REPORT_UNITS[units]["iri_per_m_per_km"]
+
+
+def _check_ranges(spec: AcceptanceSpec, source: str) -> None:
+    """Refuse a length, depth or bin outside :data:`SPEC_VALUE_RANGES`, saying the spec's unit and what the value
+    would be in the other unit system."""
+    other = "us" if spec.units == "si" else "si"
+    for name, (where, what, (lo, hi), kind) in SPEC_VALUE_RANGES.items():
+        value = getattr(spec, name)
+        if value is None:
+            continue
+        unit, factor = _unit_facts(kind, spec.units)
+        base = {"length": "m", "depth": "mm", "iri": "m/km"}[kind]
+        if lo <= value * factor <= hi:
+            continue
+        other_unit, other_factor = _unit_facts(kind, other)
+        shown = f"{value:g} {unit}" + ("" if factor == 1.0 else f" = {value * factor:.4g} {base}")
+        meant = (f"if you meant {value:g} {other_unit}, write {value * other_factor / factor:.4g}; else fix the value"
+                 if lo <= value * other_factor <= hi else "fix the value")
+        raise UnitsError(f"{source}: {where} = {value:g}: {shown} is outside the plausible {lo:g}-{hi:g} {base} of a "
+                         f"{what}; the spec is in {spec.units.upper()} units ({unit}): {meant}.")
+
+
+def _numeric_fields(spec: AcceptanceSpec, source: str) -> None:
+    """Refuse a bool, a text or another non-number where a spec field needs a number (a spec built in Python)."""
+    for name in ("lot_length", "localized_window", "grinder_length", "grind_max_depth", "min_lot_fraction",
+                 "localized_threshold", "localized_step", "histogram_bin", "grind_threshold", "lot_start"):
+        value = getattr(spec, name)
+        if value is not None and not _is_number(value):
+            raise InputError(f"{source}: {_FIELD_KEYS[name]} = {_toml_text(value)} is not a number.")
+    for name in ("exclusions", "pay_schedule"):
+        rows = [list(r) if isinstance(r, (tuple, list)) else r for r in getattr(spec, name)]
+        if not _is_pairs(rows):
+            raise InputError(f"{source}: {_FIELD_KEYS[name]} = {_toml_text(rows)} is not {_TYPE_FORMS['pairs']}.")
+
+
+def validate_spec(spec: AcceptanceSpec, source: str = "spec") -> AcceptanceSpec:
+    """Check values (numbers where numbers are needed, positive and plausible lengths, ordered schedule whose factor
+    does not grow with roughness, ordered zones); return the spec."""
     if spec.index not in ("auto", "mri", "iri"):
-        raise InputError(f"lot index must be 'auto', 'mri' or 'iri'; got {spec.index!r}.")
-    for name in ("lot_length", "localized_window", "grinder_length", "grind_max_depth"):
-        require_positive(f"{name} ({spec.length_unit})", getattr(spec, name))
-    for name in ("localized_threshold", "localized_step", "histogram_bin", "grind_threshold"):
+        raise InputError(f"{source}: [lot] index must be 'auto', 'mri' or 'iri'; got {spec.index!r}.")
+    _numeric_fields(spec, source)
+    for name in ("lot_length", "localized_window", "grinder_length", "grind_max_depth", "localized_threshold",
+                 "localized_step", "histogram_bin", "grind_threshold"):
         if getattr(spec, name) is not None:
-            require_positive(name, getattr(spec, name))
+            require_positive(f"{source}: {_FIELD_KEYS[name]}", getattr(spec, name))
     if not 0.0 <= spec.min_lot_fraction <= 1.0:
-        raise InputError(f"lot min_fraction must be within 0..1; got {spec.min_lot_fraction}.")
+        raise InputError(f"{source}: [lot] min_fraction must be within 0..1; got {spec.min_lot_fraction}.")
+    _check_ranges(spec, source)
+    if spec.lot_start is not None and abs(spec.lot_start) > MAX_STATION:
+        raise InputError(f"{source}: [lot] start = {spec.lot_start:g} {spec.length_unit} is not a station (beyond "
+                         f"+-{MAX_STATION:g} {spec.length_unit}); give the station the lots are aligned to, e.g. 0.")
+    if spec.localized_step is not None and spec.localized_step > spec.localized_window:
+        raise InputError(f"{source}: [localized] step = {spec.localized_step:g} {spec.length_unit} is longer than "
+                         f"the window ({spec.localized_window:g} {spec.length_unit}): the windows would leave "
+                         "stretches unassessed; use step <= window.")
     for a, b in spec.exclusions:
-        if not (np.isfinite(a) and np.isfinite(b) and b > a):
-            raise InputError(f"exclusion zone [{a}, {b}] must have end > start.")
-    limits = [r[0] for r in spec.pay_schedule]
-    if any(len(r) != 2 for r in spec.pay_schedule):
-        raise InputError("pay schedule rows must be [upper IRI limit, pay factor].")
-    if limits != sorted(limits) or len(set(limits)) != len(limits):
-        raise InputError(f"pay schedule limits must increase strictly; got {limits}.")
+        if not b > a:
+            raise InputError(f"{source}: [exclusions] zones: zone [{a:g}, {b:g}] must have end > start.")
+    _check_schedule(spec, source)
     _check_iri_values(spec)
+    return spec
+
+
+def _check_schedule(spec: AcceptanceSpec, source: str) -> None:
+    """Rows ``[limit, factor]`` with strictly increasing limits, factors within 0-:data:`PAY_FACTOR_MAX` that do not
+    grow with the limit (a rougher lot is never paid more)."""
+    limits = [r[0] for r in spec.pay_schedule]
+    if limits != sorted(limits) or len(set(limits)) != len(limits):
+        raise InputError(f"{source}: [pay] schedule limits must increase strictly; got {limits}.")
     for limit, factor in spec.pay_schedule:
         if not 0.0 <= factor <= PAY_FACTOR_MAX:
-            raise InputError(f"pay factor {factor:g} (limit {limit:g}) is outside 0-{PAY_FACTOR_MAX:g}: a factor "
+            raise InputError(f"{source}: [pay] schedule: pay factor {factor:g} (limit {limit:g}) is outside "
+                             f"0-{PAY_FACTOR_MAX:g}: a factor "
                              "multiplies the lot's price (1.05 for a 5 % bonus); is it a percentage?")
-    return spec
+    rows = spec.pay_schedule
+    for (l0, f0), (l1, f1) in zip(rows, rows[1:]):
+        if f1 > f0:
+            raise InputError(f"{source}: [pay] schedule pays more for a rougher lot ({f0:g} up to {l0:g}, {f1:g} up "
+                             f"to {l1:g} {spec.iri_unit}): the factors must not increase with the limit; are the "
+                             "columns swapped ([limit, factor]) or the rows out of order?")
 
 
 #: Plausible range of an IRI/MRI threshold or pay limit, m/km: from below the smoothest new pavement (~0.5 m/km)
@@ -320,34 +504,56 @@ class AcceptanceResult:
         elif last["rule"] == "merged":
             text += (f" ({span}, takes the {last['remainder']:.6g} {lu} remainder, shorter than "
                      f"{self.spec.min_lot_fraction:g} lot: {last['end'] - last['start']:.6g} {lu})")
+        first = ps.get("first_lot", {"rule": "none"})
+        if first["rule"] != "none":
+            how = "a lot of its own" if first["rule"] == "own" else "merged into the next lot"
+            text += (f"; lots aligned to station {self.spec.lot_start:g} {lu} ([lot] start): the "
+                     f"{first['part']:.6g} {lu} before the first limit is {how}")
+        elif self.spec.lot_start is not None:
+            text += f"; lots aligned to station {self.spec.lot_start:g} {lu} ([lot] start)"
         if ps["excluded_length"] > 0:
             text += (f"; {ps['excluded_length']:.6g} {lu} in {len(_merge(self.spec.exclusions))} exclusion zone(s) "
                      "not evaluated")
-        return text
+        return text + f"; lot index: {self.index_text()}"
+
+    def index_text(self) -> str:
+        """Which tracks make the lot index: ``MRI of left and right``, ``IRI of left``, ``worst IRI of left, right,
+        centre``."""
+        tracks = list(self.metadata.get("index_tracks", self.tracks))
+        if self.spec.index == "mri":
+            return f"MRI of {tracks[0]} and {tracks[1]}"
+        if len(tracks) == 1:
+            return f"IRI of {tracks[0]}"
+        return f"worst IRI of {', '.join(tracks)}"
 
     def pay_text(self) -> str | None:
         """The pay in one sentence: mean factor of the paid lots, lots needing corrective work, lots not rated
-        (None without a pay schedule)."""
+        ("not assessed ..." without a pay schedule, or with an empty one)."""
         ps, spec = self.pay_summary, self.spec
         if not spec.pay_schedule:
-            return None
+            return "not assessed (no [pay] schedule in the spec)"
         parts = ["no lot earns a pay factor" if ps["mean_pay_factor"] is None else
                  f"mean pay factor {ps['mean_pay_factor']:.4f} over {ps['lots_with_pay']} paid lot(s)"]
         if ps["lots_corrective_work"]:
             parts.append(f"{ps['lots_corrective_work']} lot(s) NEED CORRECTIVE WORK ({spec.index.upper()} above the "
                          f"last pay limit {spec.pay_schedule[-1][0]:g} {spec.iri_unit}): no pay")
         if ps["lots_not_rated"]:
-            parts.append(f"{ps['lots_not_rated']} lot(s) not rated (less than {spec.min_lot_fraction:g} of their "
-                         "length outside the exclusions): no pay")
+            why = ("wholly excluded" if spec.min_lot_fraction == 0 else
+                   f"less than {spec.min_lot_fraction:g} of their length outside the exclusions")
+            parts.append(f"{ps['lots_not_rated']} lot(s) not rated ({why}): no pay")
         return "; ".join(parts)
 
     def localized_text(self) -> str:
-        """The localized roughness in one sentence, or that it was not assessed (no threshold)."""
+        """The localized roughness in one sentence (with the stretches at the ends no window covers), or that it was
+        not assessed (no threshold)."""
         ps, spec = self.pay_summary, self.spec
         if ps["localized_defects"] is None:
             return "localized roughness not assessed (no threshold in the spec: [localized] threshold)"
+        ends = " and ".join(f"{a:.6g}-{b:.6g}" for a, b in ps.get("localized_unassessed", []))
+        ends = (f"; not assessed at the profile's ends (no whole window centred there: half a window and the "
+                f"moving average's half base): {ends} {spec.length_unit}" if ends else "")
         return (f"{ps['localized_defects']} localized roughness area(s) above {spec.localized_threshold:g} "
-                f"{spec.iri_unit} ({ps['localized_defect_length']:.6g} {spec.length_unit})")
+                f"{spec.iri_unit} ({ps['localized_defect_length']:.6g} {spec.length_unit}){ends}")
 
 
 def _cumulative(rs):
@@ -373,9 +579,16 @@ def _merge(zones):
 
 
 def resolve_index(spec: AcceptanceSpec, tracks) -> AcceptanceSpec:
-    """``spec`` with ``index = "auto"`` resolved for the profile's ``tracks``: MRI for two tracks, IRI otherwise (the
-    rule of the lots, the localized index and the grinding alike); an MRI asked of other than two tracks is an
-    error."""
+    """``spec`` with ``index = "auto"`` resolved for the profile's ``tracks``: MRI for two tracks, the IRI of one
+    track (the rule of the lots, the localized index and the grinding alike); an MRI asked of other than two tracks,
+    and ``"auto"`` on more than two tracks (which two make the MRI?), are errors. ``index = "iri"`` on several
+    tracks rates on the worst of them."""
+    tracks = tuple(tracks)
+    if spec.index == "auto" and len(tracks) > 2:
+        raise InputError(f"the profile has {len(tracks)} tracks {list(tracks)}: the lot index is the MRI of two "
+                         f"tracks or the IRI of one; choose them (road acceptance --track {tracks[0]},{tracks[1]} for "
+                         f"the MRI, --track {tracks[-1]} for one track's IRI), or set [lot] index = \"iri\" to rate "
+                         "each lot on its worst track.")
     if spec.index == "auto":
         spec = replace(spec, index="mri" if len(tracks) == 2 else "iri")
     if spec.index == "mri" and len(tracks) != 2:
@@ -423,12 +636,27 @@ def _localized_values(st: np.ndarray, cum: np.ndarray, centres: np.ndarray, spec
     return vals
 
 
-def _check_zones(spec: AcceptanceSpec, x0: float, x1: float):
+def _clip_zones(spec: AcceptanceSpec, x0: float, x1: float) -> tuple[AcceptanceSpec, list[str]]:
+    """The spec with its exclusion zones clipped to the profile ``x0 .. x1`` (spec unit), and a warning per zone
+    clipped naming the part left out (a bridge at the project's end often runs past it); a zone wholly outside the
+    profile, or zones covering all of it, are refused."""
     tol = 1e-6 * max(1.0, abs(x1))
+    lu, zones, notes = spec.length_unit, [], []
     for a, b in spec.exclusions:
-        if a < x0 - tol or b > x1 + tol:
-            raise InputError(f"exclusion zone [{a:g}, {b:g}] {spec.length_unit} lies outside the profile "
-                             f"({x0:g} .. {x1:g} {spec.length_unit}).")
+        if b <= x0 + tol or a >= x1 - tol:
+            raise InputError(f"exclusion zone [{a:g}, {b:g}] {lu} lies outside the profile ({x0:g} .. {x1:g} {lu}): "
+                             "a station typed wrong, or a zone of another profile?")
+        ca, cb = max(a, x0), min(b, x1)
+        cut = [f"{p:g}-{q:g}" for p, q in ((a, ca), (cb, b)) if q - p > tol]
+        if cut:
+            notes.append(f"exclusion zone [{a:g}, {b:g}] {lu} runs past the profile ({x0:g} .. {x1:g} {lu}): clipped "
+                         f"to [{ca:g}, {cb:g}] (the part {' and '.join(cut)} {lu} is not in the profile)")
+        zones.append((ca, cb))
+    merged = _merge(zones)
+    if merged and merged[0][0] <= x0 + tol and merged[0][1] >= x1 - tol:
+        raise InputError(f"the exclusion zone(s) cover the whole profile ({x0:g} .. {x1:g} {lu}): nothing is left to "
+                         "assess; exclude only the stretches that are not to be paid.")
+    return replace(spec, exclusions=tuple(zones)), notes
 
 
 def pay_factor(value: float, schedule) -> float:
@@ -442,30 +670,44 @@ def pay_factor(value: float, schedule) -> float:
 
 
 def lot_bounds(x0: float, x1: float, spec: AcceptanceSpec) -> tuple[np.ndarray, dict]:
-    """Lot limits from the first station ``x0`` to the last ``x1`` (spec unit) and the last lot's rule.
+    """Lot limits from the first station ``x0`` to the last ``x1`` (spec unit) and the rule of the end lots.
 
-    Whole lots of ``lot_length`` from ``x0``; the remainder is a (shorter) lot of its own when it is at least
-    ``min_lot_fraction`` of a lot, else it is merged into the previous lot (ASSUMPTION, the common agency rule;
-    0.5 by default: a remainder of at least half a lot is its own lot). So the lots cover the whole section.
-    Returns ``(bounds, {"rule": "none" | "own" | "merged", "remainder": length})``; a section shorter than
-    ``min_lot_fraction`` of a lot is refused (:class:`InputError`).
+    Whole lots of ``lot_length`` from ``x0``, or on the grid ``lot_start + k * lot_length`` when the spec gives
+    ``[lot] start`` (lots on the project's stationing: a profile from 1234.5 m with start 1200 has the limits 1300,
+    1400, ...); a part shorter than a lot at an end (the remainder after the last limit, the stretch before the first
+    one) is a (shorter) lot of its own when it is at least ``min_lot_fraction`` of a lot, else it is merged into its
+    neighbour (ASSUMPTION, the common agency rule; 0.5 by default: a remainder of at least half a lot is its own
+    lot). So the lots cover the whole section. Returns ``(bounds, {"rule": "none" | "own" | "merged", "remainder":
+    length, "first_rule": ..., "first_part": length})`` (``first_rule`` "none" without a part before the first
+    limit); a section shorter than ``min_lot_fraction`` of a lot is refused (:class:`InputError`).
     """
     lot, lu = spec.lot_length, spec.length_unit
-    n = int(np.floor((x1 - x0) / lot + 1e-9))
-    rest = (x1 - x0) - n * lot
     tiny = 1e-6 * lot  # float noise of the stations, not a remainder
-    bounds = x0 + lot * np.arange(n + 1)
-    if rest <= tiny and n >= 1:
-        bounds[-1] = x1
-        return bounds, {"rule": "none", "remainder": 0.0}
-    if rest >= spec.min_lot_fraction * lot - tiny:
-        return np.append(bounds, x1), {"rule": "own", "remainder": float(rest)}
-    if n < 1:
+    origin = x0 if spec.lot_start is None else float(spec.lot_start)
+    k0 = np.ceil((x0 + tiny - origin) / lot)
+    n = int(np.floor((x1 - tiny - origin) / lot) - k0) + 1
+    if n > 10 * (x1 - x0) / lot + 1e6:  # a spec not validated (lots are 10 m or more: SPEC_VALUE_RANGES)
+        raise InputError(f"[lot] length {lot:g} {lu} makes over a million lots: a unit mistake?")
+    grid = origin + lot * (k0 + np.arange(max(n, 0)))
+    bounds = np.concatenate([[x0], grid[(grid > x0 + tiny) & (grid < x1 - tiny)], [x1]])
+    short = spec.min_lot_fraction * lot - tiny
+    rest = bounds[-1] - bounds[-2]
+    if len(bounds) == 2 and rest < short:
         raise InputError(f"the profile ({x1 - x0:.2f} {lu}) is shorter than the shortest lot the spec makes "
                          f"({spec.min_lot_fraction:g} of a {lot:g} {lu} lot, [lot] min_fraction): set a shorter "
                          "[lot] length or a smaller min_fraction.")
-    bounds[-1] = x1
-    return bounds, {"rule": "merged", "remainder": float(rest)}
+    info = {"rule": "none" if rest >= lot - 2 * tiny else ("own" if rest >= short else "merged"),
+            "remainder": 0.0 if rest >= lot - 2 * tiny else float(rest)}
+    if info["rule"] == "merged":
+        bounds = np.delete(bounds, -2)
+    head = bounds[1] - bounds[0]
+    info["first_rule"], info["first_part"] = "none", 0.0
+    if spec.lot_start is not None and head < lot - 2 * tiny:
+        info["first_part"] = float(head)
+        info["first_rule"] = "own" if head >= short or len(bounds) == 2 else "merged"
+        if info["first_rule"] == "merged":
+            bounds = np.delete(bounds, 1)
+    return bounds, info
 
 
 def acceptance_slope(profile: Profile, spec: AcceptanceSpec, *, tracks=None):
@@ -492,6 +734,9 @@ def acceptance_slope(profile: Profile, spec: AcceptanceSpec, *, tracks=None):
     parts = [(i, k) for i, k in valid_runs(x, missing) if not any(a <= x[i] and x[k] <= b for a, b in zones)]
     for i, k in parts:
         _check_steps(x[i:k + 1])  # a station step over 1 m inside a part is refused, as without gaps
+    if not parts:  # every measured stretch lies in a zone (the zones cover all but missing samples)
+        raise InputError(f"no measured stretch of the profile lies outside the exclusion zones "
+                         f"({x[0] / scale:g} .. {x[-1] / scale:g} {spec.length_unit}): nothing is left to assess.")
     runs, short = run_slopes(x, z, names, parts, lead_in=11.0, moving_average=None, base_length=0.25)
     if short:  # the golden car's lead-in: a shorter part cannot be initialised
         i, k = short[0]
@@ -505,6 +750,13 @@ def _refuse_gap(x, z, names, i, k, spec) -> None:
     """Refuse the missing samples ``i .. k`` outside the exclusion zones: the gap, and the zone that covers it."""
     scale, lu = spec.metres_per_unit, spec.length_unit
     track = names[int(np.flatnonzero(np.isnan(z[i]))[0])]
+    empty = [t for j, t in enumerate(names) if np.isnan(z[:, j]).all()]
+    if empty:
+        rest = [t for t in names if t not in empty]
+        use = (f"leave it out: road acceptance --track {','.join(rest)} (tracks={rest!r} in Python; the lot index is "
+               f"then {'the IRI of ' + rest[0] if len(rest) == 1 else 'of ' + ', '.join(rest)})" if rest else
+               "the file has no elevation: check the columns and the file")
+        raise InputError(f"track(s) {empty} have no elevation at all (every sample missing, NaN): {use}.")
     lo, hi = x[max(i - 1, 0)] / scale, x[min(k + 1, x.size - 1)] / scale
     raise InputError(f"track {track!r} has missing (NaN) elevations from station {x[i] / scale:.3f} to "
                      f"{x[k] / scale:.3f} {lu} ({k - i + 1} sample(s)) outside the exclusion zones; the IRI needs a "
@@ -639,13 +891,23 @@ def _histogram(lots, spec) -> pd.DataFrame:
     width = spec.histogram_bin or (10.0 if spec.units == "us" else 0.2)
     finite = index[np.isfinite(index)]
     top = max(width, float(np.ceil((finite.max() if finite.size else width) / width + 1e-9) * width))
-    edges = np.arange(0.0, top + width / 2, width)
+    decimals = len(f"{width:.10f}".rstrip("0").split(".")[1])  # the bin's decimals: 0.6, not 0.6000000000000001
+    edges = np.round(np.arange(0.0, top + width / 2, width), decimals)
     counts, _ = np.histogram(finite, bins=edges)
     lens, _ = np.histogram(finite, bins=edges, weights=lots["included_length"].to_numpy()[np.isfinite(index)])
     return pd.DataFrame({"low": edges[:-1], "high": edges[1:], "lots": counts, "length": lens})
 
 
-def _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible) -> dict:
+def _unassessed_ends(localized, x0u, x1u) -> list[list[float]]:
+    """The stretches at the profile's ends with no localized window centred on them (half a window, and the
+    moving average's half base), spec unit."""
+    centres = localized["station"].to_numpy(dtype=float)
+    if not centres.size:
+        return [[float(x0u), float(x1u)]]
+    return [[float(a), float(b)] for a, b in ((x0u, centres[0]), (centres[-1], x1u)) if b - a > 1e-9]
+
+
+def _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible, unassessed) -> dict:
     """The pay summary: lots with pay, needing corrective work (index above the schedule), not rated (too much
     excluded); length-weighted mean pay factor; the section, its last lot and excluded length; the defects."""
     pf, index = lots["pay_factor"].to_numpy(dtype=float), lots["index"].to_numpy(dtype=float)
@@ -661,11 +923,14 @@ def _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible) -> dic
             "lots_not_rated": int((~np.isfinite(index)).sum()) if scheduled else None,
             "mean_pay_factor": mean_pf,
             "section": {"start": float(x0u), "end": float(x1u), "length": float(x1u - x0u)},
+            "first_lot": {"rule": last.pop("first_rule"), "part": last.pop("first_part"),
+                          "start": float(lots["start"].iloc[0]), "end": float(lots["end"].iloc[0])},
             "last_lot": {**last, "start": float(end["start"]), "end": float(end["end"])},
             "evaluated_length": float(weights.sum()),
             "excluded_length": float(sum(zb - za for za, zb in zones)),
             "implausible_lots": implausible,
             "localized_defects": len(defects) if assessed else None,
+            "localized_unassessed": unassessed,
             "localized_defect_length": float(defects["length"].sum()) if assessed else None}
 
 
@@ -717,7 +982,7 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     scale, lu = spec.metres_per_unit, spec.length_unit
     x = profile.distance
     x0u, x1u = x[0] / scale, x[-1] / scale
-    _check_zones(spec, x0u, x1u)
+    spec, zone_notes = _clip_zones(spec, x0u, x1u)
     step = float(np.median(np.diff(x))) if x.size > 1 else 0.0
     for what, value in (("lot length", spec.lot_length), ("localized window", spec.localized_window)):
         if value * scale < 10.0 * step:  # e.g. 1e-9 ft: a trillion lots (a 7 TiB array), not a statement
@@ -727,16 +992,17 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     zones = _merge(spec.exclusions)
     rs = acceptance_slope(profile, spec, tracks=tracks)  # no inserted limits: keeps the fast constant-step run
     spec = resolve_index(spec, rs.tracks)
-    warnings = _check_dropouts(profile, spec, rs.tracks, check_units)
+    warnings = list(spec.notes) + zone_notes + _check_dropouts(profile, spec, rs.tracks, check_units)
     st, cum = _cumulative(rs)
     lots, lot_iri_m, section_m = _lot_table(st, cum, bounds_u, zones, spec, rs.tracks)
     plausible_warnings, implausible = _check_plausible(lots, lot_iri_m, section_m, spec, check_units)
     localized, defects = _localized_table(profile, spec, rs)
-    summary = _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible)
+    summary = _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible,
+                           _unassessed_ends(localized, x0u, x1u))
     meta = {"standard": "ASTM E1926 IRI (golden car, 80 km/h); MRI mean of two tracks; continuous IRI as ProVAL SAM",
             "units": spec.units, "length_unit": lu, "iri_unit": spec.iri_unit,
             "moving_average": bool(rs.moving_average), "moving_average_reason": rs.moving_average_reason,
-            "first_station": float(x0u), "last_station": float(x1u),
+            "first_station": float(x0u), "last_station": float(x1u), "index_tracks": list(rs.tracks),
             "section_iri_m_per_km": {t: (float(v) if np.isfinite(v) else None) for t, v in zip(rs.tracks, section_m)}}
     return AcceptanceResult(lots=lots, localized=localized, defects=defects, histogram=_histogram(lots, spec),
                             pay_summary=summary, spec=spec, tracks=rs.tracks, metadata=meta,

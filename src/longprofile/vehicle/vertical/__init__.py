@@ -10,10 +10,15 @@ thesis Tables 4.4/4.5), ``_observability``, ``_road`` (the car as a profilometer
 
 from ._checks import (
                       DEFLECTION_SIGN_LIMIT,
+                      ROLL_RATIO_RANGE,
+                      SIGN_REFUSAL_LIMIT,
                       VERTICAL_ACCEL_MEAN_LIMIT,
                       VERTICAL_VELOCITY_CHANGE_LIMIT,
                       check_vertical_accel_means,
+                      corner_order_problem,
                       deflection_sign_correlation,
+                      hop_correlation_matrix,
+                      lateral_roll_ratio,
 )
 from ._estimate import (
                       MR_MAP_FORCE_ERROR,
@@ -59,6 +64,7 @@ from ._params import (
 )
 from ._road import (
                       DEFLECTION_OFFSET_LIMIT,
+                      VERTICAL_ACCEPTABLE_CHECKS,
                       WHEEL_ACCEL_RATIO_RANGE,
                       DeflectionZeroCheck,
                       VerticalLogEstimate,
@@ -71,6 +77,7 @@ from ._road import (
                       wheel_profiles,
 )
 from ._simulate import (
+                      DEFLECTION_RANGE,
                       VerticalSensors,
                       VerticalSimulation,
                       bench_sweep_road,
@@ -100,5 +107,7 @@ __all__ = [
     "estimate_vertical_log", "wheel_accelerometer_ratio", "WHEEL_ACCEL_RATIO_RANGE", "deflection_zero_check",
     "DeflectionZeroCheck", "DEFLECTION_OFFSET_LIMIT",
     "check_vertical_accel_means", "VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT",
-    "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT",
+    "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT", "DEFLECTION_RANGE",
+    "SIGN_REFUSAL_LIMIT", "hop_correlation_matrix", "corner_order_problem", "lateral_roll_ratio", "ROLL_RATIO_RANGE",
+    "VERTICAL_ACCEPTABLE_CHECKS",
 ]

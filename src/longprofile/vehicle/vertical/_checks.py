@@ -23,7 +23,8 @@ if TYPE_CHECKING:
     from ._simulate import VerticalSensors
 
 __all__ = ["VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT", "check_vertical_accel_means",
-           "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT"]
+           "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT", "SIGN_REFUSAL_LIMIT", "hop_correlation_matrix",
+           "corner_order_problem", "lateral_roll_ratio", "ROLL_RATIO_RANGE"]
 
 _G = 9.80665  # standard gravity, m/s^2
 
@@ -159,8 +160,7 @@ def deflection_sign_correlation(sensors: VerticalSensors, *, params: VerticalVeh
     """
     dz = np.ascontiguousarray(sensors.displacement, dtype=float)
     if sensors.wheel_accel is not None:
-        second = np.gradient(np.gradient(dz, sensors.dt, axis=0), sensors.dt, axis=0)
-        return -_correlation(sensors.wheel_accel, second, _HOP_BAND, sensors.dt)
+        return np.diagonal(hop_correlation_matrix(sensors)).copy()
     if sensors.body_accel is None:
         return None
     from ._estimate import damper_velocity_from_displacement, vertical_ekf_inputs
@@ -173,3 +173,116 @@ def deflection_sign_correlation(sensors: VerticalSensors, *, params: VerticalVeh
     u = np.ascontiguousarray(vertical_ekf_inputs(sensors)[:, :3])
     implied = _body_corner_accel(dz, v, act, u, corner, coupling, scalars[STAU])
     return _correlation(sensors.body_accel, implied, _BODY_BAND, sensors.dt)
+
+
+#: A sign correlation below minus this refuses the log (``estimate_vertical_log``; ``accept=("sensor_sign",)`` makes it
+#: a warning): the evidence is overwhelming (clean drives stay above -0.11, see :data:`DEFLECTION_SIGN_LIMIT`).
+SIGN_REFUSAL_LIMIT = 0.9
+
+
+def _hop_band(sensors: VerticalSensors):
+    """Minus each deflection's second derivative and each wheel accelerometer in the wheel hop (8-25 Hz, 2nd-order
+    Butterworth, zero phase), means removed: (T, 4) and (T, 4)."""
+    dt = sensors.dt
+    dz = np.ascontiguousarray(sensors.displacement, dtype=float)
+    second = np.gradient(np.gradient(dz, dt, axis=0), dt, axis=0)
+    sos = filter_design("butter", 2, list(_HOP_BAND), btype="band", fs=1.0 / dt, output="sos")
+    a = -sos_filtfilt(sos, second)
+    b = sos_filtfilt(sos, np.asarray(sensors.wheel_accel, dtype=float))
+    return a - a.mean(axis=0), b - b.mean(axis=0)
+
+
+def _cross_correlation(a, b):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = (a.T @ b) / np.sqrt(np.outer(np.sum(a * a, axis=0), np.sum(b * b, axis=0)))
+    return np.nan_to_num(r)
+
+
+def hop_correlation_matrix(sensors: VerticalSensors) -> np.ndarray | None:
+    """(4, 4) correlation, in the wheel hop (8-25 Hz), of minus each corner's deflection second derivative (row:
+    ``dz21_*``) with each wheel accelerometer (column: ``wheel_accel_*``).
+
+    In the hop band the body stands still, so ``d²dZ21/dt² = Z2dd - Z1dd ≈ -Z1dd``: the diagonal is ~+1 (its own
+    wheel; the sign check, :func:`deflection_sign_correlation`), the off-diagonal terms ~0 on a road (each wheel
+    hops on its own path). None without wheel accelerometers.
+    """
+    if sensors.wheel_accel is None:
+        return None
+    return _cross_correlation(*_hop_band(sensors))
+
+
+#: :func:`corner_order_problem`: a deflection column is of another corner when its |correlation| with that corner's
+#: wheel accelerometer exceeds ``HIGH`` and its own by ``MARGIN``, the two wheels hopping apart (their accelerometers'
+#: correlation below ``DISTINCT``: a 4-poster heave sweep drives all four alike and cannot tell them apart). On the
+#: 49 clean configuration-3 drives of session 40 (seeds 41, 42; docs/vehicle-vertical.md) the largest excess of
+#: another corner's correlation over the own one was +0.09 (the rule needs +0.4).
+CORNER_ORDER_HIGH = 0.5
+CORNER_ORDER_MARGIN = 0.4
+CORNER_ORDER_DISTINCT = 0.5
+
+
+def corner_order_problem(sensors: VerticalSensors) -> str | None:
+    """One line naming the deflection columns that move with another corner's wheel accelerometer (swapped corners,
+    e.g. FL and FR), or None (no wheel accelerometers, or every column matches its own wheel)."""
+    if sensors.wheel_accel is None:
+        return None
+    a, b = _hop_band(sensors)
+    m, acc = _cross_correlation(a, b), np.abs(_cross_correlation(b, b))
+    wrong = []
+    for i in range(4):
+        j = int(np.argmax(np.abs(m[i])))
+        if (j != i and abs(m[i, j]) > CORNER_ORDER_HIGH and abs(m[i, j]) - abs(m[i, i]) > CORNER_ORDER_MARGIN
+                and acc[i, j] < CORNER_ORDER_DISTINCT):
+            wrong.append(f"dz21_{CORNER_NAMES[i]} moves with wheel_accel_{CORNER_NAMES[j]} (correlation "
+                         f"{m[i, j]:+.2f} in the wheel hop, {m[i, i]:+.2f} with its own wheel)")
+    if not wrong:
+        return None
+    return ("; ".join(wrong) + ": deflection (or wheel accelerometer) columns of swapped corners? the wheel hop "
+            "(8-25 Hz) of each corner's deflection is its own wheel's acceleration: rename the columns to their "
+            "corners (--rename OLD=NEW)")
+
+
+#: Band of :func:`lateral_roll_ratio` that passes: about 1 for a_y in m/s² with y to the left and the filter's car
+#: (a car with other anti-roll bars shifts it); ~10 for a_y in g, ~-1 for y to the right. On 24 clean simulated
+#: track tests with turning (session 40, 90 drives, seeds 41, 42; docs/vehicle-vertical.md) it stayed in 0.42-1.23 (the
+#: lowest on class E roads at 20-35 m/s, whose roll the model's flat road lacks).
+ROLL_RATIO_RANGE = (0.1, 4.0)
+#: :func:`lateral_roll_ratio` runs where the low-passed |yaw rate| exceeds this, rad/s (turns; independent of a_y's
+#: unit and sign).
+_ROLL_YAW_RATE = 0.05
+_ROLL_CUTOFF = 1.0  # Hz: the handling response to the driver, below the body modes
+
+
+def lateral_roll_ratio(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None):
+    """Measured roll deflection over the one the model gives for the logged a_x, a_y and yaw rate: ~1.
+
+    ``roll = dz21_FL - dz21_FR + dz21_RL - dz21_RR`` (left minus right, both axles), 1 Hz zero-phase low-pass; the
+    model's is the flat-road handling response to the log's a_x, a_y, psidd (the filters' own model, digest §2.3: in
+    a left turn, a_y > 0, the body rolls right and the left suspension extends). Least squares through the origin on
+    the samples where the low-passed |yaw rate| exceeds 0.05 rad/s (turns, whatever a_y's unit or sign). The filters
+    take a_y as a known input: a lateral axis to the right (a_y and yaw rate negated) gives ~-1, a_y in g ~10.
+    ASSUMPTION: the car's roll stiffness is the filter's within the band :data:`ROLL_RATIO_RANGE`; the deflections'
+    own sign is checked by :func:`deflection_sign_correlation`.
+
+    Returns
+    -------
+    (float, int)
+        The ratio (nan when not excited: less than 1 s of turning) and the number of samples it used.
+    """
+    from ._estimate import _handling_response, vertical_ekf_inputs
+    from ._params import VerticalVehicleParams
+
+    dt = sensors.dt
+    if sensors.time.size < 64:
+        return float("nan"), 0
+    sos = filter_design("butter", 2, _ROLL_CUTOFF, btype="low", fs=1.0 / dt, output="sos")
+    turning = np.abs(sos_filtfilt(sos, np.asarray(sensors.yaw_rate, dtype=float))) > _ROLL_YAW_RATE
+    n = int(turning.sum())
+    if n * dt < 1.0:
+        return float("nan"), n
+    _, hdz, _, _ = _handling_response(vertical_ekf_inputs(sensors), params or VerticalVehicleParams(), dt)
+    weights = np.array([1.0, -1.0, 1.0, -1.0])
+    measured = sos_filtfilt(sos, np.asarray(sensors.displacement, dtype=float) @ weights)[turning]
+    model = sos_filtfilt(sos, np.asarray(hdz, dtype=float) @ weights)[turning]
+    den = float(np.dot(model, model))
+    return (float(np.dot(model, measured) / den) if den > 0 else float("inf")), n

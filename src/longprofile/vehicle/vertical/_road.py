@@ -9,7 +9,7 @@ velocities). Stations are ``V t``: the car must drive at a known constant speed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,7 +18,15 @@ from ..._jit import njit
 from ..._validation import require_positive
 from ...errors import InputError
 from ...statespace import filter_design, sos_filtfilt
-from ._checks import DEFLECTION_SIGN_LIMIT, check_vertical_accel_means, deflection_sign_correlation
+from ._checks import (
+    DEFLECTION_SIGN_LIMIT,
+    ROLL_RATIO_RANGE,
+    SIGN_REFUSAL_LIMIT,
+    check_vertical_accel_means,
+    corner_order_problem,
+    deflection_sign_correlation,
+    lateral_roll_ratio,
+)
 from ._estimate import VerticalStateEstimate
 from ._model import CKBAR, CORNER_NAMES, OPPOSITE, STAU, suspension_tensions, vertical_params_arrays
 from ._simulate import VerticalSensors, VerticalSimulation, vehicle_speed
@@ -29,7 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = ["road_profile_from_suspension", "wheel_profiles", "VerticalRun", "profile_run", "VerticalLogEstimate",
            "WHEEL_ACCEL_RATIO_RANGE", "wheel_accelerometer_ratio", "DeflectionZeroCheck", "deflection_zero_check",
-           "DEFLECTION_OFFSET_LIMIT", "estimate_vertical_log"]
+           "DEFLECTION_OFFSET_LIMIT", "estimate_vertical_log", "VERTICAL_ACCEPTABLE_CHECKS"]
 
 
 def _integrate(a, dt):
@@ -269,6 +277,10 @@ class VerticalLogEstimate:
         :func:`wheel_accelerometer_ratio` of the log (configuration 3), else None.
     deflection_check : DeflectionZeroCheck or None
         :func:`deflection_zero_check` of the log (None on a log shorter than ``DEFLECTION_CHECK_MIN_DURATION``).
+    corner_order : str or None
+        :func:`corner_order_problem` of the log (configuration 3): deflections of swapped corners, else None.
+    roll_ratio : float
+        :func:`lateral_roll_ratio` of the log (nan without 1 s of turning).
     """
 
     estimate: VerticalStateEstimate
@@ -277,6 +289,8 @@ class VerticalLogEstimate:
     iri: IRIResult | None = None
     accelerometer_ratio: float | None = None
     deflection_check: DeflectionZeroCheck | None = None
+    corner_order: str | None = None
+    roll_ratio: float = float("nan")
 
     def warnings(self) -> list[str]:
         """What a user should know before trusting this result (strings; empty when nothing).
@@ -290,13 +304,7 @@ class VerticalLogEstimate:
         out = []
         if self.deflection_check is not None and self.deflection_check.suspect:
             out.append(self.deflection_check.message())
-        lo, hi = WHEEL_ACCEL_RATIO_RANGE
-        if self.accelerometer_ratio is not None and not lo <= self.accelerometer_ratio <= hi:
-            out.append(f"the wheel accelerometers' 8-25 Hz content is {self.accelerometer_ratio:.2g} times the second "
-                       "derivative of the suspension deflections (about 1 when both are in SI units, 0.25-1 on a "
-                       "smooth road): "
-                       + ("accelerations in g? Declare them: --units 'wheel_accel_*=g'."
-                          if self.accelerometer_ratio < lo else "accelerations or deflections in another unit?"))
+        out.extend(text for _, text in _log_problems(self.accelerometer_ratio, self.corner_order, self.roll_ratio))
         if self.profile is not None and self.estimate.config != 3:
             out.append(f"configuration {self.estimate.config}: the road profile and IRI underestimate the IRI by "
                        "8-20 % (wheel motion from the reconstructed velocity); configuration 3 (wheel "
@@ -356,6 +364,10 @@ class DeflectionZeroCheck:
         configuration 1 (session 38).
     sign_source : {"wheel", "body"} or None
         The accelerometers :attr:`sign` compares with.
+    flipped_offset : (4,) ndarray or None, m
+        The offsets the force balance gives with the :attr:`inverted` channels negated (of the negated channels;
+        None when no channel is inverted): which
+        of the two, deflection or accelerometer, has the wrong sign (:attr:`sign_culprit`).
     """
 
     mean: np.ndarray
@@ -363,6 +375,26 @@ class DeflectionZeroCheck:
     limit: float = DEFLECTION_OFFSET_LIMIT
     sign: np.ndarray | None = None
     sign_source: str | None = None
+    flipped_offset: np.ndarray | None = None
+
+    @property
+    def sign_culprit(self) -> str | None:
+        """Which sensor of the :attr:`inverted` channels has the wrong sign: ``"deflection"`` (the force balance fits
+        the negated deflections, not the logged ones), ``"accelerometer"`` (it fits the logged deflections: their
+        means agree with it, so the accelerometers moving against them are inverted), ``"either"`` (both or neither
+        fit: a smooth road's mean deflection is too small to tell), None when no channel is inverted. The
+        deflection's second derivative is the body's minus the wheel's acceleration (dZ21 = Z2 - Z1): the
+        correlation only says that one of the two signs is wrong."""
+        bad = self.inverted
+        if not bad.any():
+            return None
+        logged = bool(np.all(np.abs(self.offset[bad]) <= self.limit))
+        flipped = self.flipped_offset is not None and bool(np.all(np.abs(self.flipped_offset[bad]) <= self.limit))
+        if flipped and not logged:
+            return "deflection"
+        if logged and not flipped:
+            return "accelerometer"
+        return "either"
 
     @property
     def inverted(self) -> np.ndarray:
@@ -381,6 +413,24 @@ class DeflectionZeroCheck:
         """True when a sensor's offset exceeds :attr:`limit` or its sign looks inverted (:attr:`inverted`)."""
         return bool(np.any(np.abs(self.offset) > self.limit) or np.any(self.inverted))
 
+    def _accelerometer_message(self, bad, mm) -> str:
+        """:meth:`message` when the accelerometers are (or may be) the inverted ones."""
+        kind = "body_accel" if self.sign_source == "body" else "wheel_accel"
+        acc = ", ".join(f"{kind}_{CORNER_NAMES[c]}" for c in bad)
+        dz = ", ".join(f"dz21_{CORNER_NAMES[c]}" for c in bad)
+        one = bad.size == 1
+        how = (f"correlation {', '.join(f'{self.sign[c]:+.2f}' for c in bad)}, +1 when both are right: d²dz21/dt² = "
+               "body minus wheel acceleration")
+        if self.sign_culprit == "accelerometer":
+            return (f"{acc}: sign inverted (z down?)? {dz} move{'s' if one else ''} against {'it' if one else 'them'} "
+                    f"({how}), but the deflection mean{'' if one else 's'} {mm(self.mean)} mm agree{'s' if one else ''}"
+                    f" with the suspension's force balance ({mm(self.expected_mean)} mm expected), so the "
+                    f"deflections are right: negate {acc} (z up)")
+        return (f"{dz} or {acc}: one of the two has an inverted sign ({how}); on this log the suspension's force "
+                f"balance cannot tell which (zero offset{'' if one else 's'} {mm(self.offset)} mm with the deflections "
+                f"as logged, {mm(self.flipped_offset)} mm negated; within {1e3 * self.limit:g} mm fits): check each "
+                "sensor's axis (dz21 positive in extension, accelerometers z up) and negate the wrong one")
+
     def message(self) -> str:
         """One line naming the suspect channels, their means, the means expected and what to do; channels of
         inverted sign are named as such instead (their offset is then the sign's doing)."""
@@ -391,6 +441,8 @@ class DeflectionZeroCheck:
         def mm(values):
             return ", ".join(f"{1e3 * values[c]:+.1f}" for c in bad)
 
+        if flipped.any() and self.sign_culprit != "deflection":
+            return self._accelerometer_message(bad, mm)
         if flipped.any():
             return (f"{', '.join(f'dz21_{CORNER_NAMES[c]}' for c in bad)}: sign inverted? "
                     f"{'it moves' if one else 'they move'} against what the "
@@ -469,21 +521,91 @@ def deflection_zero_check(sensors: VerticalSensors, *, params: VerticalVehiclePa
     target, _ = _mean_tensions(np.ascontiguousarray(hdz), np.ascontiguousarray(hdzd), np.zeros_like(dz), corner,
                                scalars[STAU], np.zeros(4))
     v = np.ascontiguousarray(v)
+    offset = _balance_offset(dz, v, act, corner, scalars[STAU], target)
+    sign = deflection_sign_correlation(sensors, params=p, actuator_force=actuator_force)
+    source = "wheel" if sensors.wheel_accel is not None else "body" if sensors.body_accel is not None else None
+    check = DeflectionZeroCheck(mean=dz.mean(axis=0), offset=offset, sign=sign, sign_source=source)
+    if check.inverted.any():  # which sensor is wrong: the force balance of the deflections negated
+        flip = np.where(check.inverted, -1.0, 1.0)
+        flipped = _balance_offset(np.ascontiguousarray(dz * flip), np.ascontiguousarray(v * flip), act, corner,
+                                  scalars[STAU], target)
+        check = replace(check, flipped_offset=flipped)
+    return check
+
+
+def _balance_offset(dz, v, act, corner, tau, target) -> np.ndarray:
+    """The zero offset of each deflection sensor that makes the mean suspension tensions equal ``target``: Newton on
+    the progressive springs (k dZ (1 + beta dZ^4)), which stiffen far from rest, and the anti-roll bars."""
     offset = np.zeros(4)
-    for _ in range(3):  # Newton on the offset: the progressive springs (k dZ (1 + beta dZ^4)) stiffen far from rest
-        force, slope = _mean_tensions(dz, v, act, corner, scalars[STAU], offset)
+    for _ in range(3):
+        force, slope = _mean_tensions(dz, v, act, corner, tau, offset)
         stiffness = np.diag(slope + corner[:, CKBAR])  # the anti-roll bar couples each left/right pair
         stiffness[np.arange(4), OPPOSITE] = -corner[:, CKBAR]
         offset = offset + np.linalg.solve(stiffness, force - target)
-    sign = deflection_sign_correlation(sensors, params=p, actuator_force=actuator_force)
-    source = "wheel" if sensors.wheel_accel is not None else "body" if sensors.body_accel is not None else None
-    return DeflectionZeroCheck(mean=dz.mean(axis=0), offset=offset, sign=sign, sign_source=source)
+    return offset
+
+
+#: The checks of a vertical log that ``accept`` (the CLI's ``--accept-check``) turns from refusals into warnings.
+VERTICAL_ACCEPTABLE_CHECKS = ("sensor_sign", "wheel_accel_unit", "corner_order", "lateral_axis")
+
+
+def _log_problems(ratio, swap, roll) -> list[tuple[str, str]]:
+    """(check name, one line) of the failed checks that need no filter run: the wheel accelerometers' unit
+    (:func:`wheel_accelerometer_ratio`), the corners' order (:func:`corner_order_problem`) and the lateral axis
+    (:func:`lateral_roll_ratio`); a ratio above the unit band stays a warning (``""`` name)."""
+    out = []
+    lo, hi = WHEEL_ACCEL_RATIO_RANGE
+    if ratio is not None and not lo <= ratio <= hi:
+        out.append(("wheel_accel_unit" if ratio < lo else "",
+                    f"the wheel accelerometers' 8-25 Hz content is {ratio:.2g} times the second derivative of the "
+                    "suspension deflections (about 1 when both are in SI units, 0.25-1 on a smooth road): "
+                    + ("accelerations in g? Declare them: --units 'wheel_accel_*=g'"
+                       if ratio < lo else "accelerations or deflections in another unit?")))
+    if swap:
+        out.append(("corner_order", swap))
+    lo, hi = ROLL_RATIO_RANGE
+    if not np.isnan(roll) and not lo <= roll <= hi:
+        if roll < 0:
+            hint = ("a lateral axis to the RIGHT (SAE, z down)? the filters want y to the left: negate ay and "
+                    "yaw_rate")
+        elif roll > hi and 0.5 * GRAVITY_RATIO <= roll <= 2.0 * GRAVITY_RATIO:
+            hint = "ay in g? declare it: --units ay=g (or head the column 'ay [g]')"
+        else:
+            hint = "ay in another unit, or a car whose roll stiffness is not the filter's (--vehicle)?"
+        out.append(("lateral_axis", f"in the turns the measured body roll (dz21 left minus right) is {roll:.3g} times "
+                    f"the roll the model gives for the logged ay and yaw_rate (about 1, {lo:g}..{hi:g} passes; y to "
+                    f"the left, a left turn rolls the body right): {hint}"))
+    return out
+
+
+#: What a_y logged in g makes :func:`lateral_roll_ratio` (1 / g in m/s² per g).
+GRAVITY_RATIO = 9.80665
+
+
+def _refuse(problems, accept, source: str) -> None:
+    """Raise one UnitsError for the problems whose check is not in ``accept`` (each with its opt-out)."""
+    from ...errors import UnitsError
+
+    refused = [f"{text} (--accept-check {name} goes on with a warning)" for name, text in problems
+               if name and name not in accept]
+    if refused:
+        raise UnitsError(f"{source}: " + "; ".join(refused) + ".")
+
+
+def _accepted(accept) -> tuple:
+    accept = (accept,) if isinstance(accept, str) else tuple(accept or ())
+    unknown = [a for a in accept if a not in VERTICAL_ACCEPTABLE_CHECKS]
+    if unknown:
+        raise InputError(f"--accept-check names {unknown}; the checks of a vertical log it can accept are "
+                         f"{list(VERTICAL_ACCEPTABLE_CHECKS)}.")
+    return accept
 
 
 def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
                           decentralised: bool = True, mr_map_velocity: str = "displacement",
                           speed: float | None = None, start: float = 0.0,
-                          segment_length: float = 100.0, store_covariances: bool = False) -> VerticalLogEstimate:
+                          segment_length: float = 100.0, store_covariances: bool = False, accept=(),
+                          source: str = "sensors") -> VerticalLogEstimate:
     """Vertical states from a sensor log and (with ``speed``) the road profile and IRI under each wheel.
 
     A log with damper currents (MagneRide car) gets the actuator forces from the default nominal MR map
@@ -511,6 +633,11 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
         Default False: a log can be hours long and they take ~7.7 kB per sample (configurations 2 and 3); the
         estimate (``state_std`` included) is the same either way. With ``speed`` they are kept whatever this
         says: the road profile smooths the tyre deflection (:func:`wheel_profiles`).
+    accept : iterable of str
+        Checks of :data:`VERTICAL_ACCEPTABLE_CHECKS` whose failure is a warning (:meth:`VerticalLogEstimate.warnings`)
+        instead of a refusal (the CLI's ``--accept-check``).
+    source : str
+        Name of the log in the messages.
 
     Returns
     -------
@@ -519,20 +646,30 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
     Raises
     ------
     UnitsError
-        Vertical accelerometers that still include gravity (:func:`check_vertical_accel_means`).
+        Vertical accelerometers that still include gravity (:func:`check_vertical_accel_means`). Unless accepted:
+        wheel accelerometers in g (``wheel_accel_unit``: :func:`wheel_accelerometer_ratio` below
+        ``WHEEL_ACCEL_RATIO_RANGE``), deflection columns of swapped corners (``corner_order``), a lateral axis to
+        the right or a_y in g (``lateral_axis``), a sign correlation below ``-SIGN_REFUSAL_LIMIT``
+        (``sensor_sign``, naming the deflections or the accelerometers, :attr:`DeflectionZeroCheck.sign_culprit`).
     """
     from ._estimate import estimate_vertical_states, nominal_mr_map
     from ._params import MRDamperParams
 
-    check_vertical_accel_means(sensors, source="sensors")
+    accept = _accepted(accept)
+    check_vertical_accel_means(sensors, source=source)
+    ratio, swap = wheel_accelerometer_ratio(sensors), corner_order_problem(sensors)
+    roll, _ = lateral_roll_ratio(sensors, params=params)
+    _refuse(_log_problems(ratio, swap, roll), accept, source)  # before the filters run
     mr_map = None
     if sensors.damper_current is not None:
         mr_map = nominal_mr_map(MRDamperParams())
     est = estimate_vertical_states(sensors, params=params, decentralised=decentralised, mr_map=mr_map,
                                    mr_map_velocity=mr_map_velocity,
                                    store_covariances=store_covariances or speed is not None)
-    checks = {"accelerometer_ratio": wheel_accelerometer_ratio(sensors),
-              "deflection_check": deflection_zero_check(sensors, params=params, actuator_force=est.actuator_force)}
+    zero = deflection_zero_check(sensors, params=params, actuator_force=est.actuator_force)
+    if zero is not None and zero.inverted.any() and float(np.min(zero.sign)) < -SIGN_REFUSAL_LIMIT:
+        _refuse([("sensor_sign", zero.message())], accept, source)
+    checks = {"accelerometer_ratio": ratio, "deflection_check": zero, "corner_order": swap, "roll_ratio": roll}
     if speed is None:
         return VerticalLogEstimate(estimate=est, mr_map=mr_map, **checks)
     from ...road import iri

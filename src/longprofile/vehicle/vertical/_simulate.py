@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from ..._jit import njit
-from ..._validation import as_float_array, require_positive, time_resolution
+from ..._validation import as_float_array, require_positive, uniform_time_step
 from ...errors import InputError, ShapeError
 from ._checks import check_vertical_accel_means
 from ._model import CORNER_NAMES, CX, CY, mr_controlled_force, seven_dof_rhs, skyhook_current, vertical_params_arrays
@@ -41,6 +41,7 @@ def vehicle_speed(speed) -> float:
 
 
 __all__ = [
+    "DEFLECTION_RANGE",
     "VerticalSimulation",
     "VerticalSensors",
     "simulate_vertical",
@@ -477,6 +478,10 @@ def steering_sine_manoeuvre(dt: float = 1e-3, *, duration: float = 20.0, speed: 
 
 # ------------------------------------------------------------------------------------------------ sensors
 
+#: Largest |suspension deflection| a vertical log may hold, m: the deflection sensors' 0.3 m span (thesis §4.3.2).
+#: ``read_vertical_log`` refuses more (a log in mm read as m) and ``vehicle vertical simulate`` refuses to write a run
+#: that exceeds it (the bump stops of a real car; class H roads at speed), so the two agree (session 40).
+DEFLECTION_RANGE = 0.3
 _DISP_STEP = 0.3 / 1024            # 10 bit over 0.3 m (thesis §4.3.2): 2.9e-4 m
 _BODY_STEP = 4.0 / 1024 / 1.0 * 9.81   # 10 bit over 4 V, 1 V/g -> 0.038 m/s^2
 _WHEEL_STEP = 4.0 / 1024 / 0.08 * 9.81  # 10 bit over 4 V, 80 mV/g -> 0.48 m/s^2
@@ -614,12 +619,9 @@ def sensors_from_frame(df: pd.DataFrame, config: int, *, source: str = "table") 
     t = arr["time"]
     if t.shape[0] < 3:
         raise InputFormatError(f"{source}: need at least 3 samples; got {t.shape[0]}.")
-    d = np.diff(t)
-    dt = float(np.median(d))
-    if dt <= 0 or not np.allclose(d, dt, rtol=1e-3, atol=1e-9 + time_resolution(t)):
-        raise InputFormatError(f"{source}: column 'time' must be uniformly increasing (constant sample period); "
-                               f"steps range {d.min():g}..{d.max():g} s.")
-    dt = float((t[-1] - t[0]) / (t.shape[0] - 1))  # end to end: Unix time stamps round each step by +-2.4e-7 s
+    # the rule of the log readers and differentiate (a gap, rounded stamps, jitter refused); the mean step end to end
+    dt = uniform_time_step(t, source=source, gap_fix="the filters need a continuous log; cut it at the gap",
+                           jitter_fix="the filters use a fixed step: resample it (read_vertical_log(resample=...))")
 
     def stack(prefix):
         return np.column_stack([arr[f"{prefix}_{n}"] for n in CORNER_NAMES])
