@@ -25,7 +25,7 @@ def test_inches_under_an_mm_option_are_refused_not_read_ten_times_too_small(tmp_
         f"{float(x) / 0.3048!r},{float(z) / 0.0254!r},{float(z) / 0.0254!r}\n" for x, z in zip(p.distance, p.elevation[:, 0])))
     assert main(["road", "iri", str(f), "--elevation-unit", "mm"]) == 2
     err = _err(capsys)
-    assert "column 'LWP (inches)' is in in but units='mm' was given" in err and ")_mm" not in err
+    assert "column 'LWP (inches)' is in 'in' by its header but the unit 'mm' was given" in err and ")_mm" not in err
     assert main(["road", "iri", str(f), "-o", str(tmp_path / "us_iri.csv")]) == 0
     assert main(["road", "iri", str(tmp_path / "si.csv" if write_profile(p, tmp_path / "si.csv") else ""),
                  "-o", str(tmp_path / "si_iri.csv")]) == 0

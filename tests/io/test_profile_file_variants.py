@@ -52,7 +52,7 @@ def test_a_unit_spelled_in_a_header_reads_as_its_short_name(tmp_path, seed, xuni
     # the same unit given as the option is no contradiction; another one is
     assert read_profile(tmp_path / "p.csv", units=zunit.upper() if zunit != "m" else "m").n_samples == 50
     other = "mm" if zunit != "mm" else "in"
-    with pytest.raises(UnitsError, match=f"is in {zunit} but units={other!r} was given"):
+    with pytest.raises(UnitsError, match=f"is in {zunit!r} by its header but the unit {other!r} was given"):
         read_profile(tmp_path / "p.csv", units=other)
 
 

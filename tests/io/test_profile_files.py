@@ -55,7 +55,7 @@ def test_units_are_never_guessed(tmp_path):
     np.testing.assert_allclose(read_profile(f, units="mm").elevation[:, 0], [1.5e-3, 1.7e-3])
     g = tmp_path / "q.csv"
     g.write_text("distance_m,left [mm]\n0,1.5\n0.25,1.7\n")
-    with pytest.raises(UnitsError, match="is in mm but units='m'"):
+    with pytest.raises(UnitsError, match="is in 'mm' by its header but the unit 'm'"):
         read_profile(g, units="m")
     h = tmp_path / "r.csv"
     h.write_text("distance,left_mm\n0,1.5\n0.25,1.7\n")

@@ -68,8 +68,8 @@ def _elevation_unit(path, column, unit, units, *, chosen: bool):
                              f"(units=...) or name the column e.g. {named}. Units are never guessed.{hint}")
         return column, length_unit(units) or units
     if units is not None and unit != (length_unit(units) or units.lower()):
-        raise UnitsError(f"{path}: column {column!r} is in {unit} but units={units!r} was given; remove the option "
-                         "or fix the header.")
+        raise UnitsError(f"{path}: column {column!r} is in {unit!r} by its header but the unit {units!r} was given "
+                         "(--elevation-unit, units=); remove the option or fix the header.")
     return column, unit
 
 
