@@ -114,6 +114,13 @@ class CoverageScore:
     def pit_shares(self):
         return self.pit / max(self.pit.sum(), 1)
 
+    def detail(self) -> str:
+        """The calibration rows' detail: target, per-draw spread, RMS z, PIT deciles and sample count."""
+        byd = 100 * np.array(self.by_draw)
+        return (f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / max {byd.max():.0f} %; "
+                f"RMS z {self.rms_z:.2f}; PIT deciles {' '.join(f'{100 * p:.0f}' for p in self.pit_shares)} %; "
+                f"n = {self.n}")
+
 
 def cli_wall_time(args: list[str], outputs: list[Path], *, repeat: int, warm: bool = True) -> tuple[float, float]:
     """Best wall time (s) of ``longprofile *args -o outputs[k]`` in a fresh process, and the load average before.

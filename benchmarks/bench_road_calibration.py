@@ -176,12 +176,9 @@ def run(quick: bool) -> list[BenchRow]:
                 rows.append(BenchRow(AREA, f"{family}: {key} 90 % coverage", float("nan"), "%",
                                      detail="not printed (NaN column): no interval to check"))
                 continue
-            byd = 100 * np.array(sc.by_draw)
             rows.append(BenchRow(AREA, f"{family}: {key} 90 % coverage", 100 * sc.coverage, "%",
                                  target=None if quick else 85.0, target_max=None if quick else 95.0,
-                                 detail=f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / "
-                                        f"max {byd.max():.0f} %; RMS z {sc.rms_z:.2f}; PIT deciles "
-                                        f"{' '.join(f'{100 * p:.0f}' for p in sc.pit_shares)} %; n = {sc.n}"))
+                                 detail=sc.detail()))
         rows.append(BenchRow(AREA, f"{family}: detrended elevation RMS error, smoother / fixed-lag",
                              out["rms_mm"]["smoother"], "mm", higher_is_better=False,
                              detail=f"fixed-lag {out['rms_mm']['fixed-lag']:.3f} mm (median over draws); "

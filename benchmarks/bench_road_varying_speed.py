@@ -147,12 +147,8 @@ def run(quick: bool) -> list[BenchRow]:
     for member in members:
         t0 = time.perf_counter()
         sc, rms, varying = score(member, draws, length)
-        byd = 100 * np.array(sc.by_draw)
         rows.append(BenchRow(AREA, f"{member}: smoother std_m 90 % coverage", 100 * sc.coverage, "%",
-                             target=None if quick else 85.0, target_max=None if quick else 95.0,
-                             detail=f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / "
-                                    f"max {byd.max():.0f} %; RMS z {sc.rms_z:.2f}; PIT deciles "
-                                    f"{' '.join(f'{100 * p:.0f}' for p in sc.pit_shares)} %; n = {sc.n}"))
+                             target=None if quick else 85.0, target_max=None if quick else 95.0, detail=sc.detail()))
         rows.append(BenchRow(AREA, f"{member}: detrended elevation RMS error", float(np.median(rms)), "mm",
                              higher_is_better=False,
                              detail=f"median over draws; min {rms.min():.3f} / max {rms.max():.3f} mm; {varying} of "

@@ -212,12 +212,8 @@ def _std_options():
 
 
 def _row(family, label, s, sc, draws, elapsed, quick) -> BenchRow:
-    byd = 100 * np.array(sc.by_draw)
-    pit = 100 * sc.pit_shares
     peer = s != "default"
     return BenchRow(AREA, f"{family}: {label} derivative_std 90 % coverage" + (f", std={s!r}" if peer else ""),
                     100 * sc.coverage, "%", target=None if quick or peer else 85.0,
                     target_max=None if quick or peer else 95.0,
-                    detail=f"target 85-95 %; per draw min {byd.min():.0f} / median {np.median(byd):.0f} / max "
-                           f"{byd.max():.0f} %; RMS z {sc.rms_z:.2f}; PIT deciles "
-                           f"{' '.join(f'{p:.0f}' for p in pit)} %; n = {sc.n}; {draws} draws, {elapsed:.1f} s")
+                    detail=f"{sc.detail()}; {draws} draws, {elapsed:.1f} s")
