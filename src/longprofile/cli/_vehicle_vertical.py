@@ -97,7 +97,6 @@ def simulate(
     from ..io import read_profile, write_table
     from ..vehicle import profile_run, sensors_to_frame, vertical_test_run
 
-    check_distinct_outputs({"-o": output, "--plot": plot})
     out = check_output_path(output, road, vehicle, suffixes=TABLE_SUFFIXES, overwrite=overwrite)
     check_plot_path(plot, road, vehicle, out, overwrite=overwrite)
     mr = _car_damper(car)
