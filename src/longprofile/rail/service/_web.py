@@ -20,6 +20,7 @@ from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Resp
 from jinja2 import Environment, FileSystemLoader, select_autoescape
 from sqlalchemy import func, select
 from starlette.concurrency import run_in_threadpool
+from starlette.requests import ClientDisconnect
 
 from ... import __version__
 from ...errors import InputError, LongprofileError
@@ -406,6 +407,13 @@ def _add_error_handlers(app: FastAPI, ctx: _App):
     @app.exception_handler(LongprofileError)
     async def _lp(request, exc):
         return JSONResponse({"detail": str(exc)}, status_code=422)
+
+    @app.exception_handler(ClientDisconnect)
+    async def _gone(request, exc):
+        """The client went away before its request body arrived (a logger stopped mid-batch, the demo's replay at a
+        SIGTERM): nothing was read or stored, and there is no one to answer; not an error of the service (the
+        catch-all below would log it with a traceback)."""
+        return Response(status_code=400)
 
     @app.exception_handler(Exception)
     async def _any(request, exc):
