@@ -233,7 +233,7 @@ def site_list(db: str = DB_OPT):
 @site_app.command("show")
 def site_show(name: str = typer.Argument(...), db: str = DB_OPT):
     """Print a site: fields, sensors, survey, thresholds (m, rate m/day; threshold_rows: with their units and in mm),
-    loggers, channels."""
+    loggers, channels, declared sensor events (re-installations, replacements)."""
     from ..rail import service as _service
 
     _print(_service.get_site(_db(db, existing=True), name))

@@ -212,3 +212,22 @@ def test_an_open_no_data_alarm_of_a_sensor_declared_replaced_is_withdrawn_saying
         evaluate_no_data(s, _site(s, "mitt"))
     (a,) = [a for a in list_alarms(db, "mitt") if a["quantity"] == "no_data"]
     assert a["state"] == "cleared" and a["cleared_reason"] == REPLACED_REASON
+
+
+def test_site_show_and_the_sensor_page_list_the_declared_events(site, monkeypatch):
+    """`rail site show` (and GET /api/v1/sites/{site}) carries the site's events; a sensor's page lists its own
+    (its re-installation; a replaced sensor's and its successor's replacement), not the others'."""
+    db, _, r = site
+    put_events(db, "t", "mitt", [{"sensor_id": "S05", "date": "2019-11-21", "event": "reinstalled"},
+                                 {"sensor_id": "S07", "date": "2019-11-22", "event": "replaced_by", "new_id": "S07B"}])
+    shown = json.loads(_cli(db, monkeypatch)("show", "mitt").stdout)
+    assert shown["events"] == [{"sensor_id": "S05", "date": "2019-11-21", "event": "reinstalled", "new_id": ""},
+                               {"sensor_id": "S07", "date": "2019-11-22", "event": "replaced_by", "new_id": "S07B"}]
+    _core.ingest(db, "mitt", r.to_dict("records"))
+    _core.add_user(db, "t", "v1", "v1-password", "viewer")
+    client = TestClient(create_app(db, background=False))
+    login(client, "v1", "v1-password")
+    page = client.get("/sites/mitt/sensors/S07").text
+    assert 'id="event-table"' in page and "S07B" in page and "2019-11-21" not in page
+    assert "2019-11-21" in client.get("/sites/mitt/sensors/S05").text
+    assert 'id="event-table"' not in client.get("/sites/mitt/sensors/S09").text

@@ -61,6 +61,7 @@ from ._db import (
     User,
     now_ts,
 )
+from ._events import events_of
 
 __all__ = ["create_site", "update_site", "get_site", "list_sites", "put_sensors", "put_survey", "put_controls",
            "delete_controls", "get_controls", "set_threshold", "threshold_row", "threshold_rows", "add_logger",
@@ -218,6 +219,7 @@ def get_site(db: Database, name: str) -> dict:
                                               .distinct().order_by(ControlPoint.date)))
         out["channels"] = [{"kind": c.kind, "target": c.target} for c in
                            s.scalars(select(Channel).where(Channel.site_id == site.id))]
+        out["events"] = events_of(s, site)
     return out
 
 

@@ -11,7 +11,7 @@ from ...errors import InputError
 from .. import apply_replacements, check_events
 from ._db import Database, Sensor, SensorEvent, Site
 
-__all__ = ["put_events", "delete_event", "get_events", "events_table", "replacing_ids", "replaced_ids"]
+__all__ = ["put_events", "delete_event", "get_events", "events_of", "events_table", "replacing_ids", "replaced_ids"]
 
 #: Columns of the events table (``rail settle --events``).
 EVENT_COLUMNS = ("sensor_id", "date", "event", "new_id")
@@ -126,11 +126,16 @@ def delete_event(db: Database, actor: str, name: str, sensor_id: str, date: str)
     return {"deleted": f"{sensor_id}@{date}"}
 
 
+def events_of(s, site: Site, sensor_id: str | None = None) -> list[dict]:
+    """The site's declared events, by date: [{sensor_id, date, event, new_id}]; with ``sensor_id``, those of that
+    sensor (its re-installations, its replacement, and the replacement it continues)."""
+    return [{"sensor_id": sid, "date": d, "event": ev, "new_id": new}
+            for (sid, d), (ev, new) in _stored(s, site).items() if sensor_id is None or sensor_id in (sid, new)]
+
+
 def get_events(db: Database, name: str) -> list[dict]:
     """The site's declared events, by date: [{sensor_id, date, event, new_id}]."""
     from ._core import _site
 
     with db.read() as s:
-        site = _site(s, name)
-        return [{"sensor_id": sid, "date": d, "event": ev, "new_id": new}
-                for (sid, d), (ev, new) in _stored(s, site).items()]
+        return events_of(s, _site(s, name))

@@ -28,7 +28,7 @@ from . import _core as core
 from ._alarms import Notifier, acknowledge, deliver_outbox, evaluate_no_data, health_level, list_alarms
 from ._auth import PRE_COOKIE, SESSION_COOKIE, SessionSigner, role_at_least
 from ._db import LEVELS, Alarm, Database, HealthRow, Reading, ResultRow, Site, Threshold
-from ._events import EVENT_COLUMNS, delete_event, get_events, put_events
+from ._events import EVENT_COLUMNS, delete_event, events_of, get_events, put_events
 from ._recompute import latest_run, recompute, sensor_daily_statistics, temperature_channel_days
 
 __all__ = ["create_app", "ServiceWorker"]
@@ -738,6 +738,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
             last = None if pk is None else s.scalar(select(func.max(Reading.ts)).where(Reading.sensor_pk == pk))
             channel = None if pk is None else temperature_channel_days(s, st, pk)
             state = _sensor_state(s, st, row)
+            events = events_of(s, st, sensor)
         if h is None and not n:
             raise core.NotFound("unknown sensor.")
         lent = None
@@ -746,7 +747,7 @@ def _add_page_routes(app: FastAPI, ctx: _App):
                         empty_days=int((channel["n_no_temperature"] > 0).sum()),
                         constant_days=int(channel["constant_temperature"].sum()))
         return ctx.render(request, "sensor.html", site=st, sensor=sensor, health=h, n_readings=n,
-                          run=ctx.run_info(run), lent=lent, last_reading=_iso(last), state=state)
+                          run=ctx.run_info(run), lent=lent, last_reading=_iso(last), state=state, events=events)
 
     @app.post("/sites/{site}/alarms/{alarm_id}/ack")
     async def ack_form(request: Request, site: str, alarm_id: int):
