@@ -146,3 +146,37 @@ def test_login_see_site_alarm_appears_and_is_acknowledged(site, browser, tmp_pat
         _shot(drv, tmp_path, "rail-service-sensor-temperature.png")
     a = [x for x in list_alarms(db, "mitt") if x["quantity"] == "settlement"][0]
     assert (a["state"], a["ack_by"], a["ack_comment"]) == ("acknowledged", "eng1", "track crew informed")
+
+
+def test_a_sensors_page_lists_its_declared_events(site, browser, tmp_path):
+    """The event table of a re-installed sensor's page, as a viewer sees it in Chromium (screenshot
+    rail-service-sensor-events.png); a sensor without events has none."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as ec
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    from longprofile.rail.service._events import put_events
+    from longprofile.rail.service._recompute import recompute
+
+    db, _, r = site
+    _core.add_user(db, "t", "v1", "v1-password", "viewer")
+    put_events(db, "t", "mitt", [{"sensor_id": "S30", "date": "2019-11-21", "event": "reinstalled"}])
+    _core.ingest(db, "mitt", r.to_dict("records"))
+    assert recompute(db, "mitt")["status"] == "ok"
+    with ServerThread(db, background=False) as srv:
+        drv = browser
+        drv.get(srv.url + "/login")
+        drv.find_element(By.ID, "username").send_keys("v1")
+        drv.find_element(By.ID, "password").send_keys("v1-password")
+        drv.find_element(By.ID, "login").click()
+        wait = WebDriverWait(drv, 30)
+        wait.until(ec.presence_of_element_located((By.ID, "sites")))
+        drv.get(srv.url + "/sites/mitt/sensors/S30")
+        table = wait.until(ec.visibility_of_element_located((By.ID, "event-table")))
+        assert "2019-11-21" in table.text and "reinstalled" in table.text
+        wait.until(lambda d: d.execute_script("var i = document.getElementById('series'); "
+                                              "return i !== null && i.complete && i.naturalWidth > 500"))
+        _shot(drv, tmp_path, "rail-service-sensor-events.png")
+        drv.get(srv.url + "/sites/mitt/sensors/S31")
+        wait.until(ec.presence_of_element_located((By.ID, "series")))
+        assert not drv.find_elements(By.ID, "event-table")

@@ -119,3 +119,22 @@ def test_a_failed_or_stuck_temperature_channel_is_said_on_the_sensor_page(site, 
     assert client.get("/sites/mitt/sensors/S20/series.png").status_code == 200
     labels = [t.get_text() for t in seen[-1].axes[2].get_legend().get_texts()]
     assert any("empty or constant: the neighbours'" in lab for lab in labels)
+
+
+def test_the_sensor_figure_marks_its_declared_events(site, monkeypatch):
+    """A re-installed sensor's series has a dashed line at its event's day on each panel, labelled; another
+    sensor's has none."""
+    from longprofile.rail.service._events import put_events
+
+    db, _, r = site
+    put_events(db, "t", "mitt", [{"sensor_id": "S20", "date": "2019-11-22", "event": "reinstalled"}])
+    _core.ingest(db, "mitt", r.to_dict("records"))
+    assert recompute(db, "mitt")["status"] == "ok"
+    client, seen = _viewer_seeing_figures(db, monkeypatch)
+    assert client.get("/sites/mitt/sensors/S20/series.png").status_code == 200
+    for ax in seen[-1].axes:
+        assert [pd.Timestamp(ln.get_xdata()[0]) for ln in ax.lines if ln.get_linestyle() == "--"] == [
+            pd.Timestamp("2019-11-22")]
+    assert "re-installed" in [t.get_text() for t in seen[-1].axes[0].texts]
+    assert client.get("/sites/mitt/sensors/S21/series.png").status_code == 200
+    assert not [ln for ln in seen[-1].axes[0].lines if ln.get_linestyle() == "--"]

@@ -162,9 +162,11 @@ def profile_png(rows: pd.DataFrame, alarms: list[dict], title: str) -> bytes:
     return _fig_png(fig)
 
 
-def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str) -> bytes:
+def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str, events=()) -> bytes:
     """The sensor page's figure: altitude change with its 90 % band (the run's results), then the day's median
-    raw and thermally corrected angle and the mean temperature (``sensor_daily_statistics``), on one time axis."""
+    raw and thermally corrected angle and the mean temperature (``sensor_daily_statistics``), on one time axis;
+    ``events`` (``events_of`` rows: the sensor's declared re-installations and replacements) as dashed lines at the
+    start of their day."""
     z90 = 1.6448536269514722
     fig = _figure(10, 7.5)
     fig.subplots_adjust(left=0.08, right=0.99, bottom=0.09, top=0.95, hspace=0.12)
@@ -195,6 +197,13 @@ def sensor_png(rows: pd.DataFrame, daily: pd.DataFrame, title: str) -> bytes:
                   label="own channel empty or constant: the neighbours' (+ its offset)")
     ax_t.set_ylabel("temperature (°C)")
     ax_t.legend(fontsize=7)
+    for e in events:
+        when = pd.Timestamp(e["date"])
+        for a in (ax, ax_a, ax_t):
+            a.axvline(when, color="0.3", ls="--", lw=0.9)
+        what = "re-installed" if e["event"] == "reinstalled" else f"{e['sensor_id']} replaced by {e['new_id']}"
+        ax.annotate(what, (when, 1.0), xycoords=("data", "axes fraction"), xytext=(3, -10),
+                    textcoords="offset points", fontsize=7, color="0.3")
     for label in ax_t.get_xticklabels():
         label.set_rotation(30)
         label.set_ha("right")
@@ -801,9 +810,10 @@ def _add_figure_routes(app: FastAPI, ctx: _App):
                 if not rows:
                     raise core.NotFound("unknown sensor.")
                 daily = sensor_daily_statistics(s, s.get(Site, st.id), sensor)
+                events = events_of(s, s.get(Site, st.id), sensor)
             df = pd.DataFrame(rows, columns=["day", "dz_m", "dz_std_m", "smoothed_dz_m", "smoothed_std_m"])
             return sensor_png(df, daily, f"{st.name} / {sensor}: altitude change at the sensor (90 % band), "
-                                         "angle and temperature")
+                                         "angle and temperature", events)
 
         return Response(ctx.png_cache.get_or(("sensor", run.id, sensor), make), media_type="image/png")
 
