@@ -8,6 +8,7 @@ IRI_CONDITION_LIMITS -- default good/poor IRI limits, m/km (FHWA).
 plot_profile -- figure of a profile's tracks along the road (envelope for long profiles).
 write_network_report -- network report over a batch results folder (routes, IRI histogram, worst segments, failures).
 write_acceptance_report -- smoothness acceptance page: lots, localized roughness map, grind list, histogram.
+plot_index_report -- Ride Number, straightedge, Profile Index or faulting (an IndexReport) in its units.
 plot_certification -- cross-correlation against offset of profiler runs vs the reference (R 56 practice).
 write_compare_report -- `road compare` output: runs.csv, pairs.csv, summary.json (and correlation.png).
 report_folder, REPORT_FILES -- the one output-folder check (inputs never overwritten), and the files each report writes.
@@ -35,6 +36,7 @@ _EXPORTS = {
     "._html": ("REPORT_FILES", "report_folder",),
     "._network": ("write_network_report",),
     "._profile_plot": ("plot_profile",),
+    "._proval": ("plot_index_report",),
     "._render": ("current_renderer", "draw", "figure_renderer", "save_plot", "use_renderer",),
     "._rail": ("plot_settlement", "plot_true_settlement", "write_rail_report",),
     "._road": ("IRI_CONDITION_LIMITS", "plot_iri", "plot_iri_report", "road_report_figures", "road_report_tables",
@@ -46,7 +48,7 @@ _EXPORTS = {
 }
 
 __all__ = ["write_road_report", "plot_iri", "plot_iri_report", "IRI_CONDITION_LIMITS", "plot_profile"]
-__all__ += ["write_network_report"]
+__all__ += ["write_network_report", "plot_index_report"]
 __all__ += ["write_acceptance_report", "plot_certification", "write_compare_report"]
 __all__ += ["report_folder", "REPORT_FILES"]
 __all__ += ["plot_recording", "plot_reconstructions", "plot_identification", "plot_frequency_response",

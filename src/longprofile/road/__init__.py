@@ -26,6 +26,8 @@ ride_number -- Ride Number (ASTM E1489) from a quarter-car Profile Index (RideNu
 rolling_straightedge -- rolling straightedge deviation and defects (StraightedgeResult).
 profilograph_trace, profilograph_index -- California profilograph simulation and Profile Index (CT 526).
 joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASHTO R 36 practice).
+ride_number_report, straightedge_report, profile_index_report, faulting_report -- those four as agencies report
+    them, SI or US units (IndexReport; the `road ride-number`, `straightedge`, `profile-index`, `faulting` commands).
 compare_profiles, certify_profiler -- Karamihas cross-correlation with offset search; R 56 certification.
 resample_profile -- explicit linear resampling onto a regular grid.
 smoothness_acceptance, read_spec, default_spec -- lots, localized roughness, exclusions, pay (AcceptanceResult).
@@ -52,6 +54,7 @@ __all__ += ["ride_number", "RideNumberResult", "rolling_straightedge", "Straight
             "FaultingResult", "find_joints", "step_statistic", "compare_profiles", "ProfileComparison", "certify_profiler", "CertificationResult",
             "R56_THRESHOLDS", "resample_profile", "smoothness_acceptance", "AcceptanceResult", "AcceptanceSpec",
             "read_spec", "default_spec", "simulate_grinding", "GrindingResult"]
+__all__ += ["ride_number_report", "straightedge_report", "profile_index_report", "faulting_report", "IndexReport"]
 
 _SUBPACKAGES = ("apl", "indices", "smoothness")
 _APL_NAMES = ("apl_model", "apl_response", "double_filter", "reconstruct_profile", "Reconstruction")

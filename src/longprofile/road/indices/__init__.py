@@ -18,6 +18,9 @@ ride_number -- Ride Number (ASTM E1489) from a quarter-car Profile Index (RideNu
 rolling_straightedge -- rolling straightedge deviation and defects (StraightedgeResult).
 profilograph_trace, profilograph_index -- California profilograph simulation and Profile Index (CT 526).
 joint_faulting, find_joints, step_statistic -- joint faulting from profile (AASHTO R 36 practice).
+ride_number_report, straightedge_report, profile_index_report, faulting_report -- those four as agencies report
+    them (per segment, defects, joints), SI or US units (IndexReport: what the `road ride-number`, `road
+    straightedge`, `road profile-index` and `road faulting` commands write); INDEX_DEFAULTS, INDEX_VALUE_RANGES.
 """
 
 from ..._lazy import lazy_namespace
@@ -43,6 +46,10 @@ _EXPORTS = {
     "._profilograph": (
         "ProfileIndexResult", "ProfilographTrace", "profilograph_index", "profilograph_trace",
     ),
+    "._proval": (
+        "INDEX_DEFAULTS", "INDEX_VALUE_RANGES", "IndexReport", "faulting_report", "profile_index_report",
+        "ride_number_report", "straightedge_report",
+    ),
     "._ride_number": (
         "RideNumberResult", "ride_number",
     ),
@@ -67,6 +74,7 @@ __all__ = ["iso8608_profile",
     "ISO8608_CLASSES", "ISO8608_BAND", "analyse_roughness", "RoughnessAnalysis",
     "ride_number", "RideNumberResult", "rolling_straightedge", "StraightedgeResult", "StraightedgeDefect",
     "profilograph_trace", "ProfilographTrace", "profilograph_index", "ProfileIndexResult", "joint_faulting",
-    "FaultingResult", "find_joints", "step_statistic"]
+    "FaultingResult", "find_joints", "step_statistic", "ride_number_report", "straightedge_report",
+    "profile_index_report", "faulting_report", "IndexReport", "INDEX_DEFAULTS", "INDEX_VALUE_RANGES"]
 
 __getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, __all__)

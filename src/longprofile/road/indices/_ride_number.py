@@ -14,7 +14,7 @@ from ...core import Profile
 from ...errors import InputError
 from ...statespace import linear_recursion
 
-__all__ = ["RN_CAR", "RN_SPEED", "RideNumberResult", "ride_number", "ride_number_filter"]
+__all__ = ["RN_CAR", "RN_SPEED", "RideNumberResult", "ride_number", "ride_number_filter", "rn_from_pi"]
 
 #: Quarter-car parameters of the Ride Number filter (per unit sprung mass: tyre k1 and suspension k2 in 1/s^2,
 #: damping c in 1/s, mass ratio mu). ASSUMPTION: recalled from the NCHRP 1-23 / ASTM E1489 algorithm as
@@ -53,6 +53,12 @@ class RideNumberResult:
     track_ride_number: np.ndarray
     tracks: tuple[str, ...]
     metadata: dict = field(default_factory=dict)
+
+
+def rn_from_pi(pi):
+    """Ride Number of a Profile Index (m/m): ``RN = 5 exp(-160 PI)`` (ASTM E1489 Eq 1 as recalled; ASSUMPTION, see
+    docs/road-acceptance.md). A float for a float, an array for an array."""
+    return _RN_SCALE * np.exp(-_RN_RATE * pi)
 
 
 def _car_matrices(car: dict, dx: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -169,6 +175,6 @@ def ride_number(profile: Profile, *, tracks=None, car: dict | None = None, speed
     meta = {"standard": "ASTM E1489-08 (Ride Number); constants recalled, see docs/road-acceptance.md",
             "car": dict(RN_CAR if car is None else car), "speed_m_per_s": float(speed), "lead_in_m": float(lead_in),
             "moving_average_applied": bool(applied), "formula": "RN = 5 exp(-160 PI), PI = RMS(zs' - zu') in m/m"}
-    return RideNumberResult(ride_number=float(_RN_SCALE * np.exp(-_RN_RATE * pi_all)), profile_index=pi,
-                            combined_profile_index=pi_all, track_ride_number=_RN_SCALE * np.exp(-_RN_RATE * pi),
+    return RideNumberResult(ride_number=float(rn_from_pi(pi_all)), profile_index=pi,
+                            combined_profile_index=pi_all, track_ride_number=rn_from_pi(pi),
                             tracks=names, metadata=meta)
