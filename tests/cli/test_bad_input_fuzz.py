@@ -52,6 +52,8 @@ def make_inputs(folder: Path) -> Path:
         ["vehicle", "simulate", "--scenario", "paper", "--duration", "10", "-o", str(folder / "plog.csv")],
         ["vehicle", "vertical", "simulate", "--config", "3", "--road-class", "C", "--speed", "20", "--duration", "2",
          "-o", str(folder / "vlog.csv")],
+        ["vehicle", "vertical", "simulate", "--config", "2", "--road-class", "C", "--speed", "20", "--duration", "2",
+         "-o", str(folder / "vlog2.csv")],
         ["rail", "simulate", "--preset", "mittersheim-like", "--days", "6", "-o", str(folder / "site")],
         ["road", "simulate", "--profile", "crenels", "--length", "120", "-o", str(folder / "bench.csv")],
         # the reference of `road compare`: another recording of the same road (new noise), reconstructed (the
@@ -72,6 +74,7 @@ def make_inputs(folder: Path) -> Path:
     from longprofile.vehicle import default_vehicle
 
     (folder / "car.toml").write_text(default_vehicle().to_toml())
+    (folder / "localized.toml").write_text("[localized]\nthreshold = 20\n")  # the valid profile peaks at 13.6 m/km
     return folder
 
 
@@ -100,6 +103,11 @@ def _settle(d: Path) -> list:
 COMMANDS = [
     Command("road iri", "profile.csv", lambda d: ["road", "iri", str(d / "profile.csv"), "-o", str(d / "out.csv")],
             key="distance_m", value="elevation_m", metre="elevation_m"),
+    # session 41: ProVAL's other analyses on the command line
+    *[Command(f"road {name}", "profile.csv", lambda d, name=name: ["road", name, str(d / "profile.csv"), "-o",
+                                                                   str(d / "out.csv")],
+              key="distance_m", value="elevation_m", metre="elevation_m")
+      for name in ("ride-number", "straightedge", "profile-index", "faulting")],
     Command("road reconstruct", "rec.csv",
             lambda d: ["road", "reconstruct", str(d / "rec.csv"), "-o", str(d / "out.csv")],
             key="distance_m", value="apl_m", metre="apl_m"),
@@ -123,6 +131,20 @@ COMMANDS = [
     Command("vehicle vertical estimate", "vlog.csv",
             lambda d: ["vehicle", "vertical", "estimate", str(d / "vlog.csv"), "--config", "3", "-o", str(d / "out.csv")],
             key="time", value="dz21_FL", metre="dz21_FL", time="time"),
+    # session 41 (issue 13 §2): body accelerometers in g, a deflection sensor of half gain (configuration 2)
+    Command("vehicle vertical estimate (config 2)", "vlog2.csv",
+            lambda d: ["vehicle", "vertical", "estimate", str(d / "vlog2.csv"), "--config", "2", "-o",
+                       str(d / "out.csv")],
+            key="time", value="dz21_FL", accel=tuple(f"body_accel_{c}" for c in ("FL", "FR", "RL", "RR"))),
+    Command("road acceptance (localized roughness)", "profile.csv",
+            lambda d: ["road", "acceptance", str(d / "profile.csv"), "--spec", str(d / "localized.toml"), "-o",
+                       str(d / "out")],
+            key="distance_m", value="elevation_m"),
+    *[Command(f"differentiate {' '.join(extra)} (a window spanning the 2 Hz sine)", "sig.csv",
+              lambda d, extra=extra: ["differentiate", str(d / "sig.csv"), "--column", "x", "--dt", "0.001", *extra,
+                                      "-o", str(d / "out.csv")],
+              key="time", value="x", as_is=True)
+      for extra in (("-w", "1000", "-d", "2"), ("-w", "1000", "-d", "2", "--order", "2"))],
     Command("rail settle (readings)", "site/readings.csv",
             lambda d: ["rail", "settle", "--sensors", str(d / "site/sensors.csv"), "--readings",
                        str(d / "site/readings.csv"), "--survey", str(d / "site/survey.csv"), "-o", str(d / "out.csv")],
@@ -495,6 +517,24 @@ def a_conflicting_duplicate(path, cmd, rng):
     _save(pd.concat([f.iloc[: i + 1], row, f.iloc[i + 1:]]), path)
 
 
+def a_deflection_sensor_of_half_gain(path, cmd, rng):
+    """One suspension deflection channel reading half the travel (a wrong gain in its calibration; session 40's probe:
+    not detected)."""
+    f = _frame(path)
+    f["dz21_FL"] = (0.5 * pd.to_numeric(f["dz21_FL"])).map(repr)
+    _save(f, path)
+
+
+def a_bump_at_the_end(path, cmd, rng):
+    """A 40 mm bump 2.5 m before the profile's end, in the stretch no localized window is centred on (session 40's
+    probe: reported as a short defect ending at the last window, nothing said)."""
+    f = _frame(path)
+    x = pd.to_numeric(f[cmd.key]).to_numpy()
+    z = pd.to_numeric(f[cmd.value]).to_numpy() + 0.04 * np.exp(-0.5 * ((x - (x[-1] - 2.5)) / 0.3) ** 2)
+    f[cmd.value] = pd.Series(z).map(repr)
+    _save(f, path)
+
+
 def no_temperature_column(path, cmd, rng):
     """An angles-only logger's export without --thermal none (the refusal names --thermal none; with it, it runs)."""
     _save(_frame(path).drop(columns=["temperature_c"]), path)
@@ -507,7 +547,8 @@ def _table(c: Command) -> bool:
 
 def _general(c: Command) -> bool:
     return _table(c) and not c.name.startswith(("rail settle (survey z)", "vehicle slope (steering",
-                                                 "rail settle --thresholds"))
+                                                 "rail settle --thresholds", "vehicle vertical estimate (config 2)",
+                                                 "road acceptance (localized roughness)"))
 
 
 MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
@@ -557,9 +598,15 @@ MUTATIONS: dict[str, tuple[Callable, Callable[[Command], bool]]] = {
     "local times across the spring change": (spring_local_times, lambda c: c.name == "rail settle (readings)"),
     "a reading repeated with another value": (a_conflicting_duplicate, lambda c: c.name == "rail settle (readings)"),
     "no temperature column": (no_temperature_column, lambda c: c.name == "rail settle (readings)"),
+    "a deflection sensor of half gain": (a_deflection_sensor_of_half_gain,
+                                         lambda c: c.name.startswith("vehicle vertical estimate")),
+    "a bump at the profile's end": (a_bump_at_the_end, lambda c: c.name == "road acceptance (localized roughness)"),
 }
 
 CASES = [(c, m) for c in COMMANDS for m, (_, applies) in MUTATIONS.items() if applies(c)]
+
+#: The commands of ProVAL's other analyses (session 41): they read profiles as `road iri` does.
+_PROVAL = ("road ride-number", "road straightedge", "road profile-index", "road faulting")
 
 #: Cases whose input has one right reading, which the command takes with a warning instead of refusing it: a rail
 #: survey is a set of (x, z) points, so its rows in another order (whole rows moved) give the same profile; the
@@ -573,18 +620,25 @@ WARNED = {("rail settle (survey)", "swapped rows"): "not in order of x_m",
           ("rail settle (readings)", "a stray reading years before"): "is the reference day",
           # a row repeated exactly is an overlapping download: dropped, counted in a warning (session 39)
           ("rail settle (readings)", "duplicate row"): "repeated exactly",
+          # session 41: measured gains and a defect that may go on where nothing is assessed are warnings
+          **{(name, "a deflection sensor of half gain"): "dz21_FL reads 0.5"
+             for name in ("vehicle vertical estimate", "vehicle vertical estimate (config 2)")},
+          ("road acceptance (localized roughness)", "a bump at the profile's end"): "runs up to the unassessed end",
+          **{(f"differentiate {extra} (a window spanning the 2 Hz sine)", "(the input as is)"): "window too long"
+             for extra in ("-w 1000 -d 2", "-w 1000 -d 2 --order 2")},
           # rows cut from an APL recording's grid are its missing samples, bridged (as empty cells are; session 39)
           ("road reconstruct", "rows missing (a gap)"): "absent from the",
           # a profile whose stations count down is a run driven against the stationing (a southbound lane): read
           # in the order of its rows, with a warning that names the other reading (session 40)
           **{(name, "descending keys"): "decrease (200 .. 0): a run driven against the stationing"
-             for name in ("road iri", "road report", "road convert", "road acceptance", "road compare (a run)")}}
+             for name in ("road iri", "road report", "road convert", "road acceptance", "road compare (a run)",
+                          *_PROVAL)}}
 
 #: Cases whose input only looks broken: a profile file separated by ';' with decimal commas and no point has one
 #: reading, which the profile readers take (session 40; tests/io/test_profile_file_variants.py checks it reads
 #: back bit-identical to the comma file). The outcome must be "read": exit 0.
 READ = {(name, "semicolon export") for name in ("road iri", "road reconstruct", "road report", "road convert",
-                                                 "road acceptance", "road compare (a run)")}
+                                                 "road acceptance", "road compare (a run)", *_PROVAL)}
 
 
 #: Mutations whose refusal must also name the broken file (session 39: an APL recording's stations were refused as

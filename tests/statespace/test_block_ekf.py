@@ -229,3 +229,20 @@ def test_block_filter_non_finite_jacobian_and_covariance_like_the_ekf():
             block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB)
         with pytest.raises(ModelError, match=message):
             extended_kalman_filter(model, y, u=u)
+
+
+def test_variances_mode_keeps_the_innovation_variances_of_both_filters():
+    """``store_covariances="variances"`` keeps diag(S_k) (T, m) besides diag(P_k): what a normalized innovation
+    squared needs without the (T, m, m) history (session 41); equal to the full history's diagonal."""
+    from longprofile.statespace import extended_kalman_filter
+
+    y, u = _data(T=120)
+    model = _model()
+    for run in (lambda **kw: block_extended_kalman_filter(model, y, u=u, state_blocks=SB, obs_blocks=OB, **kw),
+                lambda **kw: extended_kalman_filter(model, y, u=u, **kw)):
+        full, lean = run(), run(store_covariances="variances")
+        assert lean.innovation_cov is None and lean.innovation_variance.shape == (120, 3)
+        np.testing.assert_array_equal(lean.innovation_variance, np.diagonal(full.innovation_cov, axis1=1, axis2=2))
+        np.testing.assert_array_equal(lean.variance, np.diagonal(full.cov, axis1=1, axis2=2))
+        np.testing.assert_array_equal(lean.mean, full.mean)
+        assert full.innovation_variance is None and run(store_covariances=False).innovation_variance is None

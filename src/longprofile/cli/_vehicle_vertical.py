@@ -158,6 +158,7 @@ def estimate(
     accept_check: str | None = typer.Option(None, "--accept-check", help="Go on, with a warning, past these checks "
                                             "of the log (comma-separated): sensor_sign (a deflection or accelerometer "
                                             "of inverted sign), wheel_accel_unit (wheel accelerometers in g), "
+                                            "body_accel_unit (body accelerometers in g), "
                                             "corner_order (deflections of swapped corners), lateral_axis (ay to the "
                                             "right or in g); docs/vehicle-vertical.md."),
     overwrite: bool = OVERWRITE,
@@ -211,7 +212,10 @@ def estimate(
                                        accept=[a.strip() for a in (accept_check or "").split(",") if a.strip()])
     est = result.estimate
     write_table(estimate_to_frame(est), out)
-    console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method})")
+    bands = ("; *_std columns: calibrated stds of dz21, dz21dot, dz10, tyre_force (90 % band +-1.645 std)"
+             if est.calibrated_std is not None else
+             "; no std columns: calibrated for the per-corner filters at 500-2000 Hz only")
+    console.print(f"wrote {out} ({est.time.size} samples, config {config}, {est.method}{bands})")
     for text in result.warnings():
         console.print(f"[yellow]warning: {escape(text)}[/yellow]")
     if profile is not None:

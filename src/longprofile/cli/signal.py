@@ -154,6 +154,19 @@ def _unit_of(name: str) -> str | None:
     return None if m is None else m.group(1)
 
 
+def _output_names(unit: str | None, order: int, *, timed: bool) -> tuple[str, str, str]:
+    """The output's value, derivative and derivative_std column names: plain without a unit in the signal's name;
+    with one, each carries its unit as the input did (``value [mm]``, ``derivative [mm/s]``, ``(km/h)/s^2``; per
+    ``--dt unit`` when the interval is --dt's, whose unit the file does not say), so that the file itself says what its
+    numbers are: the values are not converted (session 41)."""
+    if unit is None:
+        return "value", "derivative", "derivative_std"
+    base = f"({unit})" if re.search(r"[/*^ ]", unit) else unit
+    per = ("s" if order == 1 else f"s^{order}") if timed else ("--dt unit" if order == 1 else f"(--dt unit)^{order}")
+    rate = f"{base}/{per}" if timed else f"{unit} per {per}"
+    return f"value [{unit}]", f"derivative [{rate}]", f"derivative_std [{rate}]"
+
+
 def _interval_source(frame, column: str, dt: float) -> str:
     """Where the sample interval came from, for the summary: a time column in ms under a plain 'time' label (or
     minutes) would make every derivative 1000 (or 1/60) times too small, and only the printed interval shows it."""
@@ -190,7 +203,9 @@ def differentiate(
                                                             "has a time column), value, derivative, derivative_std "
                                                             "(see --std), settled (False where derivative_std is not "
                                                             "settled: the estimator's start-up, the smoother's ends); "
-                                                            "one row per input row."),
+                                                            "one row per input row. A unit in the column's name is "
+                                                            "carried, not converted: 'x (mm)' gives 'value \\[mm]', "
+                                                            "'derivative \\[mm/s]'."),
     method: str = typer.Option("ml", "--method", "-m", help="ml, polyfit, backward or kalman (docs/signal.md)."),
     window: int | None = typer.Option(None, "--window", "-w",
                                       help="N, past samples per estimate; required by ml and polyfit (e.g. 45)."),
@@ -263,13 +278,15 @@ def differentiate(
     table = {} if axis is None else {"time_s": axis[1]}  # the file's time, s, beside each row
     first, stop = res.params["settled"]  # derivative_std before / after: start-up or end, where it under-covers
     settled = (np.arange(x.size) >= first) & (np.arange(x.size) < stop) & np.isfinite(res.derivative)
-    write_table(pd.DataFrame({**table, "value": res.value, "derivative": res.derivative,
-                              "derivative_std": res.derivative_std, "settled": settled}), out)
     unit = _unit_of(column)
+    names = _output_names(unit, order, timed=axis is not None or resample is not None)
+    write_table(pd.DataFrame({**table, names[0]: res.value, names[1]: res.derivative,
+                              names[2]: res.derivative_std, "settled": settled}), out)
     per = "s" if order == 1 else f"s^{order}"
+    rate = f"units of {column}/{per}" if unit is None else names[1][len("derivative ["):-1]
     console.print(f"wrote {out} ({x.size} samples, method {method}, noise std {res.params['noise_std']:.4g}, "
-                  f"derivative_std: {std}; derivative in {f'({unit})' if unit else f'units of {column}'}/{per}, "
-                  "not converted)", markup=False, soft_wrap=True)
+                  f"derivative_std: {std}; derivative in {rate}, not converted"
+                  f"{'' if unit is None else f': columns {names[0]!r}, {names[1]!r}'})", markup=False, soft_wrap=True)
     source = _interval_source(frame, column, dt) if resample is None else f"(--resample {resample:g} Hz)"
     console.print(f"sample interval {dt:.6g} s {source}: the derivative is per second" if source != "(--dt)" else
                   f"sample step {dt:.6g} (--dt): the derivative is per unit of that step (per second for a time "
@@ -303,12 +320,19 @@ def _warn_model(x, dt: float, method: str, res, options: dict) -> None:
 
     keys = ("window", "degree", "q_over_r", "smooth", "steady_state")
     check = model_check(x, dt, method=method, noise_std=float(res.params["noise_std"]),
-                        skip=int(options.get("window") or 0) + 1, **{k: options[k] for k in keys if k in options})
+                        skip=int(options.get("window") or 0) + 1, estimate=res,
+                        **{k: options[k] for k in keys if k in options})
     if check.adequate:
         return
     fix = "raise --q-over-r" if method == "kalman" else "shorten --window"
-    console.print(f"warning: {'q/r too small' if method == 'kalman' else 'window too long'} for this signal: on "
-                  f"{check.share:.0%} of the record the fit's residuals reach {check.residual_ratio:.3g} times the "
-                  "noise std, and the companion estimate that derivative_std takes the bias from explains "
-                  f"{1 / check.unexplained:.0%} of them: the derivative is biased beyond derivative_std; {fix} "
-                  "(docs/signal.md, Model check).", markup=False, soft_wrap=True)
+    if check.reason == "residuals":
+        why = (f"on {check.share:.0%} of the record the fit's residuals reach {check.residual_ratio:.3g} times the "
+               "noise std, and the companion estimate that derivative_std takes the bias from explains "
+               f"{1 / check.unexplained:.0%} of them")
+    else:
+        why = (f"the derivative disagrees with the rate of change of the same fit's lower order by "
+               f"{check.inconsistency:.3g} times derivative_std (RMS, beyond the noise): the polynomial does not "
+               "follow the signal over the window")
+    console.print(f"warning: {'q/r too small' if method == 'kalman' else 'window too long'} for this signal: {why}: "
+                  f"the derivative is biased beyond derivative_std; {fix} (docs/signal.md, Model check).",
+                  markup=False, soft_wrap=True)

@@ -66,6 +66,8 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None, l
     """
     from ..vehicle.vertical import CORNER_NAMES
 
+    Z90 = 1.6448536269514722  # two-sided 90 % of a normal distribution
+
     config = states.config if config is None else config
     method = states.method if method is None else method
     label = f"estimate (config {config})" if label is None else label
@@ -85,7 +87,13 @@ def _corner_figure(states, truth, corner, window, *, config=None, method=None, l
         col = f"{tcol}_{name}"
         if truth is not None and col in truth.columns:
             ax.plot(t[sel], truth[col].to_numpy(float)[sel], color="0.3", lw=1.2, label="true")
-        ax.plot(t[sel], getattr(states, attr)[sel, corner], color="tab:red", lw=0.9, label=label)
+        value = getattr(states, attr)[sel, corner]
+        ax.plot(t[sel], value, color="tab:red", lw=0.9, label=label)
+        std = getattr(getattr(states, "calibrated_std", None), attr, None)  # the filter's states only (session 41)
+        if std is not None:
+            half = Z90 * std[sel, corner]
+            ax.fill_between(t[sel], value - half, value + half, color="tab:red", alpha=0.2, lw=0,
+                            label="calibrated 90 % band")
         ax.set_ylabel(ylabel, fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)

@@ -237,7 +237,8 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, 
     evaluated through :func:`._ekf_kernels.model_eval`, with the model's ``params`` (None: none) after k. When every block has ``ns_uniform`` states and
     ``no_uniform`` observations (> 0; passed as numba literals, so the block loops have compile-time
     trip counts and are unrolled), the uniform block routines are used. ``store_var``: the diagonal of each
-    filtered covariance is written to ``var[k]`` (a dummy otherwise).
+    filtered covariance is written to ``var[k, :n]`` and that of the (block-diagonal) innovation covariance to
+    ``var[k, n:]`` (``var`` is (T, n + m); a dummy otherwise).
     """
     T, m = y.shape
     n = x0.shape[0]
@@ -256,6 +257,7 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, 
     A, AP, KR = np.empty((smax, smax)), np.empty((smax, smax)), np.empty((smax, omax))
     obs, e, w = np.empty(omax, np.int64), np.empty(omax), np.empty(omax)
     n_obs = 0
+    store_s = store or store_var  # the innovation covariance is written (to icov[0] unless store)
     for k in range(T):
         uk = u[k]
         R = R3[k if R3.shape[0] > 1 else 0]
@@ -271,11 +273,11 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, 
             copy2(Jh, Hj[k])
         if ns_uniform > 0:
             status, mo, ll = _update_all_uniform(x, P, Jh, yhat, y[k], R, sidx, ns_uniform, oidx, no_uniform,
-                                                 innov[k], icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A,
-                                                 AP, KR, obs, e, w)
+                                                 innov[k], icov[k if store else 0], store_s, Pb, Hb, PHt, S, L, K,
+                                                 A, AP, KR, obs, e, w)
         else:
             status, mo, ll = _update_all_inline(x, P, Jh, yhat, y[k], R, sidx, scount, oidx, ocount, innov[k],
-                                                icov[k if store else 0], store, Pb, Hb, PHt, S, L, K, A, AP, KR,
+                                                icov[k if store else 0], store_s, Pb, Hb, PHt, S, L, K, A, AP, KR,
                                                 obs, e, w)
         if status != OK:
             state[0] = status
@@ -289,6 +291,8 @@ def _block_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, 
         if store_var:
             for i in range(n):
                 var[k, i] = P[i, i]
+            for a in range(m):
+                var[k, n + a] = icov[0 if not store else k][a, a]
         if k < T - 1:
             xn = model_eval(f, fjac, fstep, params, x, uk, k, xw, x_next, Jf)
             if not (all_finite1(xn) and _blocks_finite(Jf, sidx, scount, sidx, scount)):
@@ -347,8 +351,9 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
     store_covariances : bool or "variances"
         If False, the covariance fields and Jacobians of the result are None; ``"variances"``: the same, but the
         diagonal of each filtered covariance is kept (``FilterResult.variance``, (T, n): O(T n) memory instead
-        of the O(T n^2) of the five covariance and Jacobian histories). The filtered numbers are the same in
-        all three modes (only what is copied out differs).
+        of the O(T n^2) of the five covariance and Jacobian histories), and that of each innovation covariance
+        (``FilterResult.innovation_variance``, (T, m)). The filtered numbers are the same in all three modes
+        (only what is copied out differs).
 
     Returns
     -------
@@ -414,7 +419,7 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         cov, pcov, icov = np.empty((1, n, n)), np.empty((1, n, n)), np.empty((1, m, m))
         Fj, Hj = np.empty((1, n, n)), np.empty((1, m, n))
     state = np.zeros(2, np.int64)
-    var = np.empty((T, n) if store_var else (1, n))
+    var = np.empty((T, n + m) if store_var else (1, n + m))
     fns = model_functions(model)
     data = (model.kernel_params(), Q3, R3, np.ascontiguousarray(model.initial_mean), np.ascontiguousarray(model.initial_cov),
             np.ascontiguousarray(Y), U if U.flags.writeable else U.copy(), sidx, scount, oidx, ocount, store, mean,
@@ -438,4 +443,4 @@ def block_extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, state_bl
         innovation=innov, innovation_cov=icov if store else None, log_likelihood=float(ll_steps.sum()),
         log_likelihood_steps=ll_steps, n_observed=int(n_obs), method="block-ekf",
         transition_jacobians=Fj[:T - 1] if store else None, observation_jacobians=Hj if store else None,
-        variance=var if store_var else None)
+        variance=var[:, :n] if store_var else None, innovation_variance=var[:, n:] if store_var else None)

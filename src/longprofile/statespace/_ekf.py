@@ -378,7 +378,7 @@ def ekf_kernel_result(outputs: tuple, n_obs, store: bool) -> tuple:
 def _ekf_compiled(model, Q3, R3, y, u, store, store_var=False):
     T, m = y.shape
     outputs = ekf_kernel_outputs(T, model.n_states, m, store)
-    var = np.empty((T, model.n_states) if store_var else (1, model.n_states))
+    var = np.empty((T, model.n_states + m) if store_var else (1, model.n_states + m))
     data = ((model.kernel_params(), Q3, R3, model.initial_mean, model.initial_cov, y, u, store) + tuple(outputs)
             + (store_var, var))
     fns = model_functions(model)
@@ -387,7 +387,8 @@ def _ekf_compiled(model, Q3, R3, y, u, store, store_var=False):
         n_obs = ekf_kernel(*fns, *data)
     else:
         n_obs = cached_ekf_kernel().compile(fn_types + tuple(typeof(a) for a in data))(*fns, *data)
-    return ekf_kernel_result(outputs, n_obs, store) + (var if store_var else None,)
+    n = model.n_states
+    return ekf_kernel_result(outputs, n_obs, store) + ((var[:, :n], var[:, n:]) if store_var else (None, None))
 
 
 # ---------------------------------------------------------------- loop typed by signature (cached on disk)
@@ -521,8 +522,9 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
         If False, ``cov``, ``pred_cov``, ``innovation_cov`` and the Jacobians
         are None (O(T n) memory); the smoother then cannot run. ``"variances"``:
         the same, plus the diagonal of each filtered covariance
-        (``FilterResult.variance``, (T, n)); the filtered numbers are the same
-        in all three modes.
+        (``FilterResult.variance``, (T, n)) and of each innovation covariance
+        (``FilterResult.innovation_variance``, (T, m)); the filtered numbers
+        are the same in all three modes.
 
     Returns
     -------
@@ -566,7 +568,8 @@ def extended_kalman_filter(model: NonlinearStateSpaceModel, y, *, u=None,
         mean=stack(0), cov=stack(1), pred_mean=stack(2), pred_cov=stack(3), innovation=stack(4),
         innovation_cov=stack(5), log_likelihood=ll_steps.sum(axis=-1) if batched else float(ll_steps.sum()),
         log_likelihood_steps=ll_steps, n_observed=np.array([o[7] for o in outs]) if batched else outs[0][7],
-        method="ekf", transition_jacobians=stack(8), observation_jacobians=stack(9), variance=stack(10))
+        method="ekf", transition_jacobians=stack(8), observation_jacobians=stack(9), variance=stack(10),
+        innovation_variance=stack(11))
 
 
 def extended_rts_smoother(model: NonlinearStateSpaceModel, filtered: FilterResult, *, u=None) -> SmootherResult:

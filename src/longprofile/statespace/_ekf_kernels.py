@@ -134,7 +134,8 @@ def _update(x, P, Jh, yhat, yk, R, PHt, S, L, K, A, AP, KR, e, w, dinv, Ho, Ro, 
 def ekf_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, store,
                mean, cov, pmean, pcov, innov, icov, ll_steps, Fj, Hj, state, store_var, var):
     """EKF over one series. ``store`` False: cov/pcov/icov/Fj/Hj are dummies and not written; ``store_var``:
-    the diagonal of each filtered covariance is written to ``var[k]`` (a dummy otherwise).
+    the diagonal of each filtered covariance is written to ``var[k, :n]`` and that of the innovation covariance to
+    ``var[k, n:]`` (``var`` is (T, n + m); a dummy otherwise).
 
     ``fstep``/``hstep`` None: the model is ``f``, ``h`` and the Jacobians (None = finite differences);
     otherwise the fused steps are called and ``f``, ``h``, ``fjac``, ``hjac`` are None. The Jacobian
@@ -177,6 +178,9 @@ def ekf_kernel(f, h, fjac, hjac, fstep, hstep, params, Q3, R3, x0, P0, y, u, sto
         if store:
             copy2(Jh, Hj[k])
             copy2(S, icov[k])
+        if store_var:
+            for a in range(m):
+                var[k, n + a] = S[a, a]
         status, mo, ll = _update(x, P, Jh, yhat, y[k], R3[k if R3.shape[0] > 1 else 0], PHt, S, L, K, A, AP,
                                  KR, e, w, dinv, Ho, Ro, obs, innov[k])
         if status != OK:

@@ -43,6 +43,10 @@ class FilterResult:
         Diagonal of the filtered covariances, kept without them by ``store_covariances="variances"`` of
         :func:`extended_kalman_filter` and :func:`block_extended_kalman_filter` (O(T n) memory instead of
         O(T n^2)); None otherwise (take ``np.diagonal(cov, axis1=-2, axis2=-1)`` when ``cov`` is stored).
+    innovation_variance : (T, m) ndarray or None
+        Diagonal of the innovation covariances, kept with ``variance`` by ``store_covariances="variances"`` (what
+        a normalized innovation squared, ``innovation**2 / innovation_variance``, needs); None otherwise (take
+        the diagonal of ``innovation_cov`` when it is stored).
     """
 
     mean: np.ndarray
@@ -59,6 +63,7 @@ class FilterResult:
     transition_jacobians: np.ndarray | None = None
     observation_jacobians: np.ndarray | None = None
     variance: np.ndarray | None = None
+    innovation_variance: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

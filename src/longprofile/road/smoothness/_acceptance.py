@@ -469,7 +469,10 @@ class AcceptanceResult:
         ``station, iri_<track>..., mri`` continuous short-interval IRI at window centres (NaN where the window
         touches an exclusion).
     defects : pandas.DataFrame
-        ``start, end, length, peak_station, peak`` runs of the localized index above the threshold.
+        ``start, end, length, peak_station, peak, open_end`` runs of the localized index above the threshold;
+        ``open_end`` True for a run that reaches an unassessed stretch (the profile's ends, where no whole window is
+        centred, or a window blanked by an exclusion): its length and peak are those of its assessed part, and
+        ``warnings`` says so (session 41).
     histogram : pandas.DataFrame
         ``low, high, lots, length`` of the lot index.
     pay_summary : dict
@@ -878,11 +881,31 @@ def _localized_table(profile, spec, rs):
     rows = []
     if spec.localized_threshold is not None:
         above = np.nan_to_num(loc_index, nan=-np.inf) > spec.localized_threshold
+        blank = ~np.isfinite(loc_index)
         for i, k in _runs(above):
             p = i + int(np.argmax(loc_index[i:k + 1]))
+            # a run reaching the first or last window, or a blank window (an exclusion), may go on where no window
+            # is assessed: its length and peak are those of its assessed part
+            open_end = i == 0 or k == loc_index.size - 1 or bool(blank[i - 1]) or bool(blank[k + 1])
             rows.append({"start": centres[i], "end": centres[k], "length": centres[k] - centres[i],
-                         "peak_station": centres[p], "peak": loc_index[p]})
-    return pd.DataFrame(loc), pd.DataFrame(rows, columns=["start", "end", "length", "peak_station", "peak"])
+                         "peak_station": centres[p], "peak": loc_index[p], "open_end": open_end})
+    return pd.DataFrame(loc), pd.DataFrame(rows, columns=["start", "end", "length", "peak_station", "peak",
+                                                          "open_end"])
+
+
+def _open_end_warnings(defects, unassessed, spec) -> list[str]:
+    """One line per localized roughness area that runs up to an unassessed stretch (``open_end``: the profile's ends,
+    an exclusion): it may go on, and peak higher, where no window is assessed (session 41)."""
+    lu, out = spec.length_unit, []
+    for d in defects[defects["open_end"].astype(bool)].itertuples():
+        near = [f"{a:.6g}-{b:.6g} {lu}" for a, b in unassessed if min(abs(d.start - b), abs(d.end - a)) < 1e-6]
+        where = (f"the unassessed end {near[0]} (no whole window centred there)" if near else
+                 "a stretch whose windows touch an exclusion zone (blank)")
+        out.append(f"localized roughness area {d.start:.6g}-{d.end:.6g} {lu} (peak {d.peak:.4g} {spec.iri_unit}) "
+                   f"runs up to {where}: its length ({d.length:.3g} {lu}) and peak are those of its assessed part only; the "
+                   "defect may go on, and peak higher, beyond it: measure a few metres past the section's ends (or "
+                   "check it on site)")
+    return out
 
 
 def _histogram(lots, spec) -> pd.DataFrame:
@@ -997,8 +1020,9 @@ def smoothness_acceptance(profile: Profile, spec: AcceptanceSpec | None = None, 
     lots, lot_iri_m, section_m = _lot_table(st, cum, bounds_u, zones, spec, rs.tracks)
     plausible_warnings, implausible = _check_plausible(lots, lot_iri_m, section_m, spec, check_units)
     localized, defects = _localized_table(profile, spec, rs)
-    summary = _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible,
-                           _unassessed_ends(localized, x0u, x1u))
+    unassessed = _unassessed_ends(localized, x0u, x1u)
+    summary = _pay_summary(lots, defects, spec, zones, last, x0u, x1u, implausible, unassessed)
+    plausible_warnings += _open_end_warnings(defects, unassessed, spec)
     meta = {"standard": "ASTM E1926 IRI (golden car, 80 km/h); MRI mean of two tracks; continuous IRI as ProVAL SAM",
             "units": spec.units, "length_unit": lu, "iri_unit": spec.iri_unit,
             "moving_average": bool(rs.moving_average), "moving_average_reason": rs.moving_average_reason,

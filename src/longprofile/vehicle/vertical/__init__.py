@@ -8,14 +8,26 @@ thesis Tables 4.4/4.5), ``_observability``, ``_road`` (the car as a profilometer
 :mod:`longprofile.vehicle`.
 """
 
+from ._bands import (
+                      VERTICAL_NIS_WINDOW,
+                      VERTICAL_STD_CALIBRATION,
+                      VERTICAL_STD_RATE_RANGE,
+                      VerticalStateStd,
+                      calibrated_vertical_std,
+                      innovation_consistency,
+)
 from ._checks import (
+                      BODY_ACCEL_RATIO_RANGE,
+                      DEFLECTION_GAIN_RANGE,
                       DEFLECTION_SIGN_LIMIT,
                       ROLL_RATIO_RANGE,
                       SIGN_REFUSAL_LIMIT,
                       VERTICAL_ACCEL_MEAN_LIMIT,
                       VERTICAL_VELOCITY_CHANGE_LIMIT,
+                      body_accelerometer_ratio,
                       check_vertical_accel_means,
                       corner_order_problem,
+                      deflection_gains,
                       deflection_sign_correlation,
                       hop_correlation_matrix,
                       lateral_roll_ratio,
@@ -91,6 +103,8 @@ from ._simulate import (
 )
 
 __all__ = [
+    "VerticalStateStd", "calibrated_vertical_std", "innovation_consistency", "VERTICAL_NIS_WINDOW",
+    "VERTICAL_STD_CALIBRATION", "VERTICAL_STD_RATE_RANGE",
     "VerticalVehicleParams", "MRDamperParams", "THESIS_MR_TIME_CONSTANT", "load_vertical_params", "SENSOR_CONFIGS",
     "CORNER_NAMES", "MR_MAP_VELOCITIES", "STATE_BLOCKS", "CornerFilterSettings", "thesis_filter_settings",
     "vertical_ekf_model",
@@ -109,5 +123,6 @@ __all__ = [
     "check_vertical_accel_means", "VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT",
     "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT", "DEFLECTION_RANGE",
     "SIGN_REFUSAL_LIMIT", "hop_correlation_matrix", "corner_order_problem", "lateral_roll_ratio", "ROLL_RATIO_RANGE",
-    "VERTICAL_ACCEPTABLE_CHECKS",
+    "VERTICAL_ACCEPTABLE_CHECKS", "body_accelerometer_ratio", "BODY_ACCEL_RATIO_RANGE", "deflection_gains",
+    "DEFLECTION_GAIN_RANGE",
 ]

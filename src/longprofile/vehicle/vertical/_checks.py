@@ -24,7 +24,10 @@ if TYPE_CHECKING:
 
 __all__ = ["VERTICAL_ACCEL_MEAN_LIMIT", "VERTICAL_VELOCITY_CHANGE_LIMIT", "check_vertical_accel_means",
            "deflection_sign_correlation", "DEFLECTION_SIGN_LIMIT", "SIGN_REFUSAL_LIMIT", "hop_correlation_matrix",
-           "corner_order_problem", "lateral_roll_ratio", "ROLL_RATIO_RANGE"]
+           "corner_order_problem", "lateral_roll_ratio", "ROLL_RATIO_RANGE", "BODY_ACCEL_RATIO_RANGE",
+           "DEFLECTION_GAIN_RANGE", "GAIN_MIN_CORRELATION", "GAIN_MIN_DISTINCT", "body_accelerometer_ratio",
+           "deflection_gains",
+           "sensor_scale_problems"]
 
 _G = 9.80665  # standard gravity, m/s^2
 
@@ -286,3 +289,163 @@ def lateral_roll_ratio(sensors: VerticalSensors, *, params: VerticalVehicleParam
     model = sos_filtfilt(sos, np.asarray(hdz, dtype=float) @ weights)[turning]
     den = float(np.dot(model, model))
     return (float(np.dot(model, measured) / den) if den > 0 else float("inf")), n
+
+
+# ------------------------------------------------------------------------------------ scale of the sensors (session 41)
+
+#: :func:`body_accelerometer_ratio` outside this band: body accelerometers (or deflections) in another unit. In SI
+#: units ~1 (0.96 on the guide's class C log); in g ~0.1 (1 / 9.81). Calibrated in session 41
+#: (docs/vehicle-vertical.md, "Sensor scale").
+BODY_ACCEL_RATIO_RANGE = (0.4, 2.5)
+#: :func:`deflection_gains` outside this band names the channel (a sensor gain or scale error). Calibrated in session
+#: 41 (docs/vehicle-vertical.md, "Sensor scale").
+DEFLECTION_GAIN_RANGE = (0.7, 1.4)
+#: Configuration 3: a corner is judged only where its deflection and wheel accelerometer correlate above this in the
+#: wheel hop (their std ratio then brackets the gain within this factor; on a smooth road the deflections'
+#: quantisation dominates their second derivative and the corner is not judged).
+GAIN_MIN_CORRELATION = 0.85
+#: Configuration 2: the fit is judged only when the four corners' sensitivities are distinct enough: the smallest
+#: eigenvalue of their normalised Gram matrix above this (4-poster heave sweeps: 0.05-0.15, where a MagneRide car's
+#: map error went into the gains, up to 10; roads and track tests: 0.20-0.98; session 41).
+GAIN_MIN_DISTINCT = 0.18
+_GAIN_BLOCK = 10.0  # s: the configuration-2 fit runs on at most _GAIN_BLOCKS blocks of this length (a long log)
+_GAIN_BLOCKS = 12
+
+
+def _implied_body_accel(sensors: VerticalSensors, params, actuator_force):
+    """``evaluate(rows, scale)``: the body-corner accelerations the model's body equations give on ``rows`` of the log
+    for the deflections multiplied by ``scale`` (4,) (:func:`_body_corner_accel`; configuration-2 checks)."""
+    from ._estimate import damper_velocity_from_displacement, vertical_ekf_inputs
+    from ._model import vertical_params_arrays
+    from ._params import VerticalVehicleParams
+
+    corner, coupling, scalars = vertical_params_arrays(params or VerticalVehicleParams())
+    dz = np.ascontiguousarray(sensors.displacement, dtype=float)
+    v = np.ascontiguousarray(damper_velocity_from_displacement(dz, sensors.dt, cutoff=50.0))
+    act = np.zeros_like(dz) if actuator_force is None else np.ascontiguousarray(actuator_force, dtype=float)
+    u = np.ascontiguousarray(vertical_ekf_inputs(sensors)[:, :3])
+
+    def evaluate(rows, scale):
+        return _body_corner_accel(np.ascontiguousarray(dz[rows] * scale), np.ascontiguousarray(v[rows] * scale),
+                                  act[rows], u[rows], corner, coupling, scalars[STAU])
+    return evaluate
+
+
+def _gain_blocks(n: int, dt: float) -> list[slice]:
+    """The rows the configuration-2 fit uses: the whole log, or :data:`_GAIN_BLOCKS` evenly spaced blocks of
+    :data:`_GAIN_BLOCK` s of a longer one (the fit evaluates the model 20 times)."""
+    block = int(round(_GAIN_BLOCK / dt))
+    if n <= block * _GAIN_BLOCKS:
+        return [slice(0, n)]
+    starts = np.linspace(0, n - block, _GAIN_BLOCKS).astype(int)
+    return [slice(int(s), int(s) + block) for s in starts]
+
+
+def body_accelerometer_ratio(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
+                             actuator_force=None) -> float | None:
+    """Median over the corners of the least-squares slope of each body accelerometer on the body-corner acceleration
+    the 7-DOF model's body equations give for the measured deflections (0.5-8 Hz, as
+    :func:`deflection_sign_correlation`): ~1 when both are in SI units, ~0.1 for accelerations in g.
+
+    The body equations (heave, roll, pitch; digest §2.3, §2.6) turn the suspension tensions into the body-corner
+    accelerations; below the wheel hop the body accelerometers measure them (correlation above 0.89 on clean drives).
+    None without body accelerometers (configurations 1 and 3) or on a log under 64 samples.
+    """
+    if sensors.body_accel is None or sensors.time.size < 64:
+        return None
+    evaluate = _implied_body_accel(sensors, params, actuator_force)
+    sos = filter_design("butter", 2, list(_BODY_BAND), btype="band", fs=1.0 / sensors.dt, output="sos")
+    a = sos_filtfilt(sos, np.asarray(sensors.body_accel, dtype=float))
+    b = sos_filtfilt(sos, evaluate(slice(None), np.ones(4)))
+    a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return float(np.median(np.sum(a * b, axis=0) / np.sum(b * b, axis=0)))
+
+
+def deflection_gains(sensors: VerticalSensors, *, params: VerticalVehicleParams | None = None,
+                     actuator_force=None) -> np.ndarray | None:
+    """Each deflection channel's gain relative to what the accelerometers imply: ~1 right, 0.5 for a sensor reading
+    half the travel (a wrong gain in its calibration), nan where not judged.
+
+    Configuration 3: in the wheel hop (8-25 Hz) the body stands still and the wheel's acceleration is minus the
+    deflection's second derivative (``dZ21 = Z2 - Z1``), so the ratio of their stds is the deflection's gain; judged
+    only where their correlation exceeds :data:`GAIN_MIN_CORRELATION` (the ratio is then within that factor of the
+    gain; a smooth road's quantisation noise would inflate it). Configuration 2: the four scale factors ``h`` that
+    make the body-corner accelerations of the model's body equations (springs, dampers, anti-roll bars at
+    ``h dz``; :func:`body_accelerometer_ratio`) fit the body accelerometers in 0.5-8 Hz best (Gauss-Newton, least
+    squares); the gain is ``1 / h``, nan for all four when the corners move alike (:data:`GAIN_MIN_DISTINCT`). The
+    model is the filter's car (ASSUMPTION: a car unlike it shifts the four gains alike; :func:`sensor_scale_problems`
+    judges each over their median). None in configuration 1 or on a log under 2 s.
+    """
+    if sensors.time.size * sensors.dt < 2.0:
+        return None
+    if sensors.wheel_accel is not None:
+        a, b = _hop_band(sensors)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.sqrt(np.sum(a * a, axis=0) / np.sum(b * b, axis=0))
+        rho = np.diagonal(_cross_correlation(a, b))
+        return np.where(rho > GAIN_MIN_CORRELATION, ratio, np.nan)
+    if sensors.body_accel is None:
+        return None
+    evaluate = _implied_body_accel(sensors, params, actuator_force)
+    sos = filter_design("butter", 2, list(_BODY_BAND), btype="band", fs=1.0 / sensors.dt, output="sos")
+    blocks = _gain_blocks(sensors.time.size, sensors.dt)
+    measured = np.concatenate([sos_filtfilt(sos, np.asarray(sensors.body_accel[rows], dtype=float))
+                               for rows in blocks]).ravel()
+
+    def model(scale):
+        return np.concatenate([sos_filtfilt(sos, evaluate(rows, scale)) for rows in blocks]).ravel()
+
+    start = (measured * model(np.ones(4))).reshape(-1, 4).sum(axis=0)
+    h, step = np.where(start < 0.0, -1.0, 1.0), 1e-3  # from the sign each corner's correlation gives
+    for _ in range(4):  # Gauss-Newton on the four scale factors, forward-difference Jacobian
+        base = model(h)
+        jac = np.column_stack([(model(h + step * np.eye(4)[e]) - base) / step for e in range(4)])
+        h = h + np.linalg.lstsq(jac, measured - base, rcond=None)[0]
+        h = np.where(h < 0.0, -1.0, 1.0) * np.clip(np.abs(h), 0.05, 20.0)  # a sign inverted goes to -1
+    norm = np.sqrt(np.sum(jac * jac, axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gram = np.nan_to_num((jac.T @ jac) / np.outer(norm, norm))
+    if np.linalg.eigvalsh(gram)[0] < GAIN_MIN_DISTINCT:  # the corners move alike (a 4-poster heave): not separable
+        return np.full(4, np.nan)
+    return 1.0 / h
+
+
+def sensor_scale_problems(body_ratio: float | None, gains, *, wheel: bool) -> list[tuple[str, str]]:
+    """(check name, one line) of :func:`body_accelerometer_ratio` outside :data:`BODY_ACCEL_RATIO_RANGE` (name
+    ``body_accel_unit`` below it: a refusal unless accepted; ``""`` above: a warning) and of the
+    :func:`deflection_gains` outside :data:`DEFLECTION_GAIN_RANGE` (a warning, ``""``): configuration 3 (``wheel``)
+    each gain itself, configuration 2 each gain over the median of the four (the body equations are the filter's
+    car: a car unlike it shifts every corner alike)."""
+    out = []
+    lo, hi = BODY_ACCEL_RATIO_RANGE  # magnitudes: a sign inverted is the sign check's (deflection_sign_correlation)
+    body_ratio = None if body_ratio is None else abs(body_ratio)
+    if body_ratio is not None and np.isfinite(body_ratio) and not lo <= body_ratio <= hi:
+        out.append(("body_accel_unit" if body_ratio < lo else "",
+                    f"the body accelerometers' 0.5-8 Hz content is {body_ratio:.2g} times the body-corner acceleration "
+                    "that the suspension deflections imply through the car's body equations (about 1 when both are in "
+                    f"SI units; {lo:g}..{hi:g} passes): "
+                    + ("accelerations in g? Declare them: --units 'body_accel_*=g'" if body_ratio < lo else
+                       "accelerations or deflections in another unit?")))
+    if gains is None:
+        return out
+    gains = np.abs(np.asarray(gains, dtype=float))
+    judged = np.isfinite(gains)
+    if not wheel and judged.sum() >= 3:
+        gains = gains / float(np.median(gains[judged]))
+    elif not wheel:
+        return out
+    lo, hi = DEFLECTION_GAIN_RANGE
+    bad = np.flatnonzero(judged & ((gains < lo) | (gains > hi)))
+    if bad.size:
+        names = ", ".join(f"dz21_{CORNER_NAMES[c]}" for c in bad)
+        values = ", ".join(f"{gains[c]:.2f}" for c in bad)
+        others = [f"{gains[c]:.2f}" for c in np.flatnonzero(judged) if c not in bad]
+        what = ("the travel its wheel accelerometer implies in the wheel hop (8-25 Hz, where d²dz21/dt² is minus the "
+                "wheel's acceleration)" if wheel else "the travel the body accelerometers imply through the car's body "
+                "equations (0.5-8 Hz), relative to the median of the four corners")
+        out.append(("", f"{names} read{'s' if bad.size == 1 else ''} {values} times {what} ({lo:g}..{hi:g} passes"
+                    + (f"; the other corners {', '.join(others)}" if others else "") + "): a deflection sensor of "
+                    "another gain (its calibration, mm per volt) or an accelerometer of another scale: check the "
+                    "sensor's calibration; if the deflection's is wrong, divide the column by the gain found"))
+    return out

@@ -19,6 +19,13 @@ from ..._jit import njit
 from ..._validation import as_float_array, require_positive
 from ...errors import InputError, ShapeError
 from ...statespace import filter_design, sos_filter
+from ._bands import (
+    VERTICAL_NIS_WINDOW,
+    VerticalStateStd,
+    calibrated_vertical_std,
+    innovation_consistency,
+    rate_is_calibrated,
+)
 from ._model import (
     CORNER_NAMES,
     MR_MAP_VELOCITIES,
@@ -155,13 +162,17 @@ class VerticalStateEstimate:
     state_std : (T, 16) ndarray -- the filter's MODEL standard deviations of the stacked state, NOT calibrated:
         on clean simulated road logs (session 40, classes B-D) the ±1.645 std band held the truth on 17-31 % of the
         samples for the damper velocity, 18-44 % for the deflection and 19-32 % for the tyre deflection where 90 %
-        was meant (docs/vehicle-vertical.md); do not use them as error bars.
+        was meant (docs/vehicle-vertical.md); do not use them as error bars: use ``calibrated_std``.
     config : int
     method : str -- "corner-ekf" (thesis, decentralised) or "full-ekf" (centralised).
     filtered : FilterResult -- the engine's output (stacked 16 states).
     actuator_force : (T, 4) ndarray or None, N -- the actuator forces the filter used at each step: the known
         input plus, with ``mr_map_velocity="filter"``, the in-model MR map at the filtered velocity
         ``F_y(i[k]) tanh(dZ21dot[k|k] / v_y)`` (the force the transition from step k applied).
+    calibrated_std : VerticalStateStd or None -- the calibrated stds of the deflection, damper velocity, tyre
+        deflection and tyre force (:func:`calibrated_vertical_std`: the model stds inflated from the windowed NIS;
+        session 41); None for the centralised filter and the smoothers (no calibration fitted for them) and for
+        sample rates outside ``VERTICAL_STD_RATE_RANGE`` (500-2000 Hz, the rates it was fitted on).
     """
 
     time: np.ndarray
@@ -177,6 +188,7 @@ class VerticalStateEstimate:
     method: str
     filtered: object
     actuator_force: np.ndarray | None = None
+    calibrated_std: VerticalStateStd | None = None
 
 
 def vertical_ekf_inputs(sensors: VerticalSensors, *, settings: CornerFilterSettings | None = None,
@@ -283,6 +295,8 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     VerticalStateEstimate
         Its ``state_std`` is the filter's model std, NOT calibrated: the ±1.645 std band covered 17-31 % of the
         true damper velocities on clean simulated roads where 90 % was meant (session 40; docs/vehicle-vertical.md).
+        Its ``calibrated_std`` (corner EKFs only) inflates them from the innovations' windowed NIS
+        (:func:`calibrated_vertical_std`; measured coverage in docs/vehicle-vertical.md, "Calibrated stds").
 
     Notes
     -----
@@ -329,14 +343,21 @@ def estimate_vertical_states(sensors: VerticalSensors, *, params: VerticalVehicl
     body, wheel = absolute_velocities(sensors, disp, vel, u, params=p, accel_compensation=accel_compensation)
     var = np.diagonal(res.cov, axis1=1, axis2=2) if res.cov is not None else res.variance
     std = np.sqrt(np.maximum(var, 0.0))
+    bands = None
+    if decentralised and rate_is_calibrated(sensors.dt):
+        ivar = res.innovation_variance if res.innovation_cov is None else np.diagonal(res.innovation_cov, axis1=1,
+                                                                                        axis2=2)
+        nis = innovation_consistency(res.innovation, ivar, round(VERTICAL_NIS_WINDOW / sensors.dt))
+        bands = calibrated_vertical_std(std, nis, config, p.tyre_stiffness, sensors.dt)
     if not store_covariances:  # means only: what the states are views of (an hour at 1 kHz: 0.7 GB less)
-        res = replace(res, pred_mean=None, innovation=None, log_likelihood_steps=None, variance=None)
+        res = replace(res, pred_mean=None, innovation=None, log_likelihood_steps=None, variance=None,
+                      innovation_variance=None)
     del var
     return VerticalStateEstimate(
         time=sensors.time.copy(), suspension_deflection=disp, suspension_velocity=vel, vehicle_disturbance=dist,
         tyre_deflection=tyre, tyre_force=-p.tyre_stiffness * tyre, body_velocity=body, wheel_velocity=wheel,
         state_std=std, config=config, method="corner-ekf" if decentralised else "full-ekf", filtered=res,
-        actuator_force=_actuator_forces(u, vel))
+        actuator_force=_actuator_forces(u, vel), calibrated_std=bands)
 
 
 def _actuator_forces(u, damper_velocity):
@@ -583,12 +604,22 @@ _FIELDS = (("suspension_deflection", "dz21", "m"), ("suspension_velocity", "dz21
 
 
 def estimate_to_frame(estimate: VerticalStateEstimate) -> pd.DataFrame:
-    """One row per sample: ``time`` and ``<quantity>_<corner>`` for the seven estimated quantities (SI units)."""
+    """One row per sample: ``time`` and ``<quantity>_<corner>`` for the seven estimated quantities (SI units).
+
+    With ``estimate.calibrated_std`` (the corner EKFs), also ``<quantity>_<corner>_std`` for the deflection, damper
+    velocity, tyre deflection and tyre force: the calibrated stds (:func:`calibrated_vertical_std`; a 90 % band is
+    +-1.645 std). The disturbance and the body and wheel velocities have none (docs/vehicle-vertical.md).
+    """
     import pandas as pd
 
     cols = {"time": estimate.time}
+    bands = estimate.calibrated_std
     for attr, prefix, _unit in _FIELDS:
         arr = getattr(estimate, attr)
         for c, name in enumerate(CORNER_NAMES):
             cols[f"{prefix}_{name}"] = arr[:, c]
+        std = getattr(bands, attr, None) if bands is not None else None
+        if std is not None:
+            for c, name in enumerate(CORNER_NAMES):
+                cols[f"{prefix}_{name}_std"] = std[:, c]
     return pd.DataFrame(cols)

@@ -22,10 +22,13 @@ from ._checks import (
     DEFLECTION_SIGN_LIMIT,
     ROLL_RATIO_RANGE,
     SIGN_REFUSAL_LIMIT,
+    body_accelerometer_ratio,
     check_vertical_accel_means,
     corner_order_problem,
+    deflection_gains,
     deflection_sign_correlation,
     lateral_roll_ratio,
+    sensor_scale_problems,
 )
 from ._estimate import VerticalStateEstimate
 from ._model import CKBAR, CORNER_NAMES, OPPOSITE, STAU, suspension_tensions, vertical_params_arrays
@@ -281,6 +284,10 @@ class VerticalLogEstimate:
         :func:`corner_order_problem` of the log (configuration 3): deflections of swapped corners, else None.
     roll_ratio : float
         :func:`lateral_roll_ratio` of the log (nan without 1 s of turning).
+    body_accel_ratio : float or None
+        :func:`body_accelerometer_ratio` of the log (configuration 2), else None (session 41).
+    deflection_gain : (4,) ndarray or None
+        :func:`deflection_gains` of the log (configurations 2 and 3; nan where not judged), else None (session 41).
     """
 
     estimate: VerticalStateEstimate
@@ -291,6 +298,8 @@ class VerticalLogEstimate:
     deflection_check: DeflectionZeroCheck | None = None
     corner_order: str | None = None
     roll_ratio: float = float("nan")
+    body_accel_ratio: float | None = None
+    deflection_gain: np.ndarray | None = None
 
     def warnings(self) -> list[str]:
         """What a user should know before trusting this result (strings; empty when nothing).
@@ -305,6 +314,8 @@ class VerticalLogEstimate:
         if self.deflection_check is not None and self.deflection_check.suspect:
             out.append(self.deflection_check.message())
         out.extend(text for _, text in _log_problems(self.accelerometer_ratio, self.corner_order, self.roll_ratio))
+        out.extend(text for _, text in sensor_scale_problems(self.body_accel_ratio, self.deflection_gain,
+                                                             wheel=self.estimate.config == 3))
         if self.profile is not None and self.estimate.config != 3:
             out.append(f"configuration {self.estimate.config}: the road profile and IRI underestimate the IRI by "
                        "8-20 % (wheel motion from the reconstructed velocity); configuration 3 (wheel "
@@ -546,7 +557,7 @@ def _balance_offset(dz, v, act, corner, tau, target) -> np.ndarray:
 
 
 #: The checks of a vertical log that ``accept`` (the CLI's ``--accept-check``) turns from refusals into warnings.
-VERTICAL_ACCEPTABLE_CHECKS = ("sensor_sign", "wheel_accel_unit", "corner_order", "lateral_axis")
+VERTICAL_ACCEPTABLE_CHECKS = ("sensor_sign", "wheel_accel_unit", "corner_order", "lateral_axis", "body_accel_unit")
 
 
 def _log_problems(ratio, swap, roll) -> list[tuple[str, str]]:
@@ -650,7 +661,10 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
         wheel accelerometers in g (``wheel_accel_unit``: :func:`wheel_accelerometer_ratio` below
         ``WHEEL_ACCEL_RATIO_RANGE``), deflection columns of swapped corners (``corner_order``), a lateral axis to
         the right or a_y in g (``lateral_axis``), a sign correlation below ``-SIGN_REFUSAL_LIMIT``
-        (``sensor_sign``, naming the deflections or the accelerometers, :attr:`DeflectionZeroCheck.sign_culprit`).
+        (``sensor_sign``, naming the deflections or the accelerometers, :attr:`DeflectionZeroCheck.sign_culprit`),
+        body accelerometers in g (``body_accel_unit``: :func:`body_accelerometer_ratio` below
+        ``BODY_ACCEL_RATIO_RANGE``, session 41). A deflection channel of another gain
+        (:func:`deflection_gains` outside ``DEFLECTION_GAIN_RANGE``) is a warning.
     """
     from ._estimate import estimate_vertical_states, nominal_mr_map
     from ._params import MRDamperParams
@@ -669,7 +683,13 @@ def estimate_vertical_log(sensors: VerticalSensors, *, params: VerticalVehiclePa
     zero = deflection_zero_check(sensors, params=params, actuator_force=est.actuator_force)
     if zero is not None and zero.inverted.any() and float(np.min(zero.sign)) < -SIGN_REFUSAL_LIMIT:
         _refuse([("sensor_sign", zero.message())], accept, source)
-    checks = {"accelerometer_ratio": ratio, "deflection_check": zero, "corner_order": swap, "roll_ratio": roll}
+    body = body_accelerometer_ratio(sensors, params=params, actuator_force=est.actuator_force)
+    _refuse(sensor_scale_problems(body, None, wheel=False), accept, source)  # accelerations in g, before the fit
+    gains = deflection_gains(sensors, params=params, actuator_force=est.actuator_force)
+    if gains is not None and zero is not None and zero.inverted.any():  # named by the sign check, not judged here
+        gains = np.where(zero.inverted, np.nan, gains)
+    checks = {"accelerometer_ratio": ratio, "deflection_check": zero, "corner_order": swap, "roll_ratio": roll,
+              "body_accel_ratio": body, "deflection_gain": gains}
     if speed is None:
         return VerticalLogEstimate(estimate=est, mr_map=mr_map, **checks)
     from ...road import iri
