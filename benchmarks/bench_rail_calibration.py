@@ -403,6 +403,9 @@ def main(argv=None) -> int:
     p.add_argument("--reversal-null", choices=("site", "model"), default=None,
                    help="the all-days reversal evidence against the site's own healthy spread or the model's "
                         "(SettlementSettings.reversal_null, docs/rail.md step 18; default: the estimator's)")
+    p.add_argument("--smooth-reversal", choices=("on", "off"), default=None,
+                   help="the smooth-slope reversal test (SettlementSettings.smooth_reversal, docs/rail.md step 20; "
+                        "default: the estimator's, on)")
     p.add_argument("--days", type=int, default=None, metavar="D",
                    help="every site D days long (long records; default: the family's 21-28)")
     p.add_argument("--sampling-minutes", type=float, default=None, metavar="M",
@@ -430,7 +433,8 @@ def main(argv=None) -> int:
                **({"end_ambiguity": args.end_ambiguity} if args.end_ambiguity else {}),
                **({"witness_rule": args.witness_rule} if args.witness_rule else {}),
                **({"thermal": args.thermal} if args.thermal else {}),
-               **({"reversal_null": args.reversal_null} if args.reversal_null else {}))
+               **({"reversal_null": args.reversal_null} if args.reversal_null else {}),
+               **({"smooth_reversal": args.smooth_reversal == "on"} if args.smooth_reversal else {}))
     for r in rows:
         print(f"{r.name}: {r.value:.4g} {r.unit}  [{r.detail}]")
     if args.json:

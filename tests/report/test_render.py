@@ -295,3 +295,47 @@ def test_a_report_drawn_by_two_helpers_is_byte_identical_to_the_inline_report(tm
     assert [p.name for p in inline] == [p.name for p in back]
     for a, b in zip(inline, back):
         assert a.read_bytes() == b.read_bytes(), a.name
+
+
+def _imported(name):
+    import sys
+
+    return name in sys.modules
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+@pytest.mark.parametrize("inherit", [False, True])
+def test_an_inherited_preload_is_imported_once_before_the_fork(tmp_path, monkeypatch, inherit):
+    """``inherit=True`` (``rail settle``: pandas, which the command imports first anyway): the preload is imported
+    in the calling process before the helper is forked, and the helper has it without importing its own copy; an
+    entry ending in ``()`` is still called in the helper only."""
+    import sys
+
+    (tmp_path / "lp_preload_probe.py").write_text("import os\nPID = os.getpid()\ndef warm():\n"
+                                                  "    open(os.path.join(os.path.dirname(__file__), f'warm-{os.getpid()}'),"
+                                                  " 'w').close()\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("LONGPROFILE_FIGURES", "helper")
+    monkeypatch.delitem(sys.modules, "lp_preload_probe", raising=False)
+    with figure_renderer(preload=("lp_preload_probe:warm()",), inherit=inherit) as renderer:
+        assert renderer.background
+        assert _imported("lp_preload_probe") is inherit
+        helper = renderer.submit(_pid).result()
+        imported_at = renderer.submit(_probe_pid).result()
+    assert helper != os.getpid()
+    assert imported_at == (os.getpid() if inherit else helper)  # the module object the helper holds was made here
+    assert [p.name for p in tmp_path.glob("warm-*")] == [f"warm-{helper}"]  # called in the helper only
+    sys.modules.pop("lp_preload_probe", None)
+
+
+def _probe_pid(_=None):
+    import lp_preload_probe
+
+    return lp_preload_probe.PID
+
+
+def test_rail_settle_inherits_its_preload():
+    from longprofile.cli.app import _INHERIT_PRELOAD_COMMANDS, _command_in
+
+    assert _command_in(["rail", "settle", "--sensors", "s.csv", "--report", "r/"], _INHERIT_PRELOAD_COMMANDS)
+    assert not _command_in(["road", "report", "p.csv", "-o", "r/"], _INHERIT_PRELOAD_COMMANDS)

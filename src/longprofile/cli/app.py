@@ -107,6 +107,12 @@ _HELPER_COMMANDS = {
 _TWO_HELPER_COMMANDS = (("road", "report"), ("rail", "settle"))
 
 
+#: Commands that import their helper's preload themselves, first thing: imported before the helper is forked, which
+#: inherits them (``figure_renderer(inherit=True)``); measured on ``rail settle --plot --report`` (session 41, docs/
+#: architecture.md "Start-up": pandas imported once instead of twice).
+_INHERIT_PRELOAD_COMMANDS = (("rail", "settle"),)
+
+
 def _figure_helper(args) -> tuple[bool, tuple[str, ...]]:
     """Whether to start the figure helper for this command line (:data:`_HELPER_COMMANDS`, or any command that
     draws with ``LONGPROFILE_FIGURES=helper``), and what it preloads."""
@@ -149,10 +155,15 @@ def _memory_hint(args) -> str:
     return f"reduce its size ({', '.join(sizes)}) or split the input" if sizes else "split the input into smaller files"
 
 
+def _command_in(args, commands) -> bool:
+    """Whether the command words of ``args`` begin with one of ``commands`` (tuples of words)."""
+    words = tuple(str(a) for a in args if not str(a).startswith("-"))
+    return any(words[:len(c)] == c for c in commands)
+
+
 def _second_helper(args) -> bool:
     """Whether the figure helper forks a second one (:data:`_TWO_HELPER_COMMANDS`)."""
-    words = tuple(str(a) for a in args if not str(a).startswith("-"))
-    return any(words[:len(c)] == c for c in _TWO_HELPER_COMMANDS)
+    return _command_in(args, _TWO_HELPER_COMMANDS)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -168,7 +179,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = sys.argv[1:] if argv is None else argv
         background, preload = _figure_helper(args)
-        with (figure_renderer(background=background, preload=preload, second=_second_helper(args)) as renderer,
+        with (figure_renderer(background=background, preload=preload, second=_second_helper(args),
+                              inherit=_command_in(args, _INHERIT_PRELOAD_COMMANDS)) as renderer,
               use_renderer(renderer)):
             # with standalone_mode=False click returns a raised typer.Exit's code instead of exiting
             code = app(args=argv, standalone_mode=False)

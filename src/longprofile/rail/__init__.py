@@ -85,26 +85,29 @@ from .._lazy import lazy_namespace
 #: Lazy namespace (PEP 562): ``import longprofile.rail`` loads no submodule until a name is used, so
 #: ``rail settle`` does not import the synthetic sites (scipy.signal) and nothing here imports matplotlib.
 _EXPORTS = {
-    "._controls": ("ControlCheck", "CONTROL_CHECK_P", "check_controls", "compare_controls"),
+    "._controls": ("CONTROL_CHECK_P", "check_controls", "compare_controls"),
     "._data": ("SiteData", "validate_site", "angle_noise", "missing_value_code", "MISSING_CODE_HINT", "RADIAN_NOISE_THRESHOLD", "READING_COLUMNS", "track_angle",
                "MAX_TRACK_ANGLE_DEG", "ANGLE_RANGE_DEG", "TEMPERATURE_RANGE_C", "check_survey",
                "fill_temperature", "TEMPERATURE_NEIGHBOURS", "STUCK_MIN_READINGS", "STUCK_SITE_SPREAD_C",
                "TEMPERATURE_OFFSET_DAYS", "MISSING_TEXT"),
     "._deprecated": ("read_site",),
-    "._health": ("SensorHealth", "assess_sensors", "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED"),
+    "._health": ("assess_sensors", "SENSOR_STATUSES", "UNUSABLE_STATUSES", "USER_EXCLUDED"),
     "._integration": ("bar_angles_from_profile", "integrate_angles"),
+    # the result types: numpy and pandas only (unpickled by the figure helper without scipy or numba)
+    "._results": ("ChangePriorFit", "ControlCheck", "DailyAngles", "ProfilePosterior", "SensorHealth",
+                  "SettlementResult", "TemporalSettlement"),
     "._reinstall": ("Rebaselines", "find_reinstallations", "check_events", "apply_replacements",
                     "site_with_events"),
-    "._rigidity": ("ProfilePosterior", "initial_profile_posterior", "initial_profile_posterior_dense",
+    "._rigidity": ("initial_profile_posterior", "initial_profile_posterior_dense",
                    "max_settlement_monte_carlo", "max_settlement_interval", "MaxSettlement", "measurement_std", "rigidity_cost_matrix", "rigidity_model",
                    "rigidity_posterior", "rigidity_posterior_dense", "sample_profiles"),
-    "._settle": ("ChangePriorFit", "SettlementResult", "SettlementSettings", "affine_correction",
+    "._settle": ("SettlementSettings", "affine_correction",
                  "estimate_settlement", "estimate_settlement_from_daily", "fit_change_prior", "segment_prior_weights"),
     "._synthetic": ("SiteTruth", "SyntheticSite", "simulate_site"),
-    "._temporal": ("TemporalSettlement", "settlement_alarms", "smooth_through_time", "check_threshold",
+    "._temporal": ("settlement_alarms", "smooth_through_time", "check_threshold",
                    "THRESHOLD_RANGE_M", "THRESHOLD_FLOORS_M"),
     "._thresholds": ("THRESHOLD_QUANTITIES", "THRESHOLD_LEVELS", "check_thresholds", "threshold_alarms"),
-    "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DailyAngles", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
+    "._thermal": ("DAY_FIELDS", "MEDIAN_LINES", "NOISE_STD_TOLERANCE", "DayStatistics", "daily_angles", "daily_angles_from_statistics",
                   "day_statistics", "first_order_response", "statistics_window", "lag_variance_ratio", "LAG_AUTO_RATIO"),
 }
 

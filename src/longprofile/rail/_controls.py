@@ -18,12 +18,11 @@ settlement is a bowl between stable ends was flagged (calibration seeds 300-319;
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ._results import ControlCheck
 from ._rigidity import DEFAULT_SIGMA_A, Z90
 
 __all__ = ["ControlCheck", "compare_controls", "check_controls", "common_offsets", "unmatched_controls",
@@ -34,60 +33,6 @@ __all__ = ["ControlCheck", "compare_controls", "check_controls", "common_offsets
 CONTROL_CHECK_P = 1e-3
 
 _COLUMNS = ["date", "x_m", "dz_control_m", "dz_estimate_m", "std_m", "z", "inside_90"]
-
-
-@dataclass(frozen=True)
-class ControlCheck:
-    """Do the control surveys agree with the estimate? (:func:`check_controls`).
-
-    Attributes
-    ----------
-    n_points : int
-        Control points compared (inside the sensors' span and the initial survey's).
-    n_outside : int
-        Points whose control lies outside the estimate's 90 % band widened by the survey noise.
-    chi2 : float
-        sum z^2 of the standardised differences.
-    p_value : float
-        P(chi-squared with ``n_points`` degrees of freedom > ``chi2``).
-    disagree : bool
-        ``p_value`` below ``CONTROL_CHECK_P``.
-    worst : tuple
-        (date, x_m, control minus estimate in m, z) of the point of largest |z|.
-    offsets : tuple of (date, offset_m, spread_m)
-        The surveys whose disagreement is one offset shared by all their points (:func:`common_offsets`): the
-        weighted mean of control minus estimate and the RMS of the differences around it, m; empty otherwise.
-    """
-
-    n_points: int
-    n_outside: int
-    chi2: float
-    p_value: float
-    disagree: bool
-    worst: tuple
-    offsets: tuple = ()
-
-    def message(self) -> str:
-        """The warning printed when the surveys disagree (empty when they agree)."""
-        if not self.disagree:
-            return ""
-        date, x, diff, z = self.worst
-        head = (f"the control surveys disagree with the estimate: {self.n_outside} of {self.n_points} control points "
-                f"outside the 90 % band (about {max(1, round(0.1 * self.n_points))} expected), chi-squared "
-                f"{self.chi2:.3g} on {self.n_points} points (p = {self.p_value:.1e}); the largest difference is "
-                f"{1e3 * diff:+.1f} mm at x = {x:g} m on {date} ({z:+.1f} std). ")
-        offset = ""
-        if self.offsets:
-            shown = ", ".join(f"{1e3 * c:+.1f} mm on {d} (spread {1e3 * s:.1f} mm)" for d, c, s in self.offsets[:3])
-            more = f" and {len(self.offsets) - 3} more survey(s)" if len(self.offsets) > 3 else ""
-            offset = (f"Same offset at every point of a survey: {shown}{more}. Controls levelled on another datum or "
-                      "benchmark than the initial survey? Subtract the offset from their z_m (or re-reference them to "
-                      "the initial survey's benchmark) and run again; if the benchmark is the same, the whole span "
-                      "moved, its ends too. Otherwise, ")
-        return (head + offset + ("the" if offset else "The") + " estimate's assumptions do not "
-                "hold here: a span end that moved, or a step seen by one or two sensors and excluded as a fault "
-                "(docs/rail.md, \"Control surveys\"); trust the controls, look at the report's control figure, and "
-                "extend the instrumented span beyond the works or try --end-ambiguity mixture.")
 
 
 def compare_controls(controls: pd.DataFrame | None, days, x, dz, dz_std, survey_x, survey_z, *,

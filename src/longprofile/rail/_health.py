@@ -33,12 +33,13 @@ excluded    excluded by the user (``exclude``; ``rail settle --exclude``, the se
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from scipy.special import gammaincc
 
 from ..errors import InputError
+from ._results import ReversalEvidence, SensorHealth, StepEvidence
 from ._rigidity import DEFAULT_SIGMA_Z, rigidity_posterior, rigidity_posterior_levels
 from ._shapes import ShapeEvidence
 
@@ -179,78 +180,6 @@ REVERSED_SUM_GATE_INC_LLR = 2.0
 #: threshold flagging 1 healthy sensor, 7 / 7 / 7 / 12 flagging none; 0.5 and 16: 14 and 1 (step 14's rule: 8 and the
 #: same sensor).
 REVERSED_SUM_INC_WEIGHT = 0.5
-
-
-@dataclass(frozen=True, eq=False)
-class SensorHealth:
-    """Health of each sensor.
-
-    Attributes
-    ----------
-    sensor_ids : list of str
-    status : (N,) ndarray of str
-        One of :data:`SENSOR_STATUSES`.
-    detail : (N,) ndarray of str
-        Why (statistic and threshold) — printed in reports.
-    excluded : (N,) bool ndarray
-        True for every status other than "ok": these sensors do not enter the settlement.
-    loo_score : (N,) ndarray
-        Mean squared standardised leave-one-out residual over days (≈1 for a healthy sensor);
-        NaN for dead sensors.
-    reversal_z : (N,) ndarray or None
-        Reversal statistic z_rev (:data:`REVERSED_Z`): ~N(0, 1) or very negative for a healthy
-        sensor, large and positive when its changes follow minus the neighbours' prediction.
-    reversal_llr : (N,) ndarray or None
-        Day-to-day reversal log-likelihood ratio (:data:`REVERSED_LLR`): negative for a sensor that
-        follows its neighbours, large and positive for a reversed one.
-    step_z : (N,) ndarray or None
-        Largest day-to-day leave-one-out residual change in robust std of the others (:data:`STEP_Z`).
-    reversal_evidence : ReversalEvidence or None
-        The all-days log Bayes factor of "reversed" against "healthy" of every sensor
-        (:func:`all_days_reversal_evidence`; None when the all-days model did not run).
-    step_evidence : StepEvidence or None
-        The all-days step log-likelihood ratio of every sensor (:func:`all_days_step_evidence`; None when the
-        all-days model did not run or a reversal was flagged on the last pass).
-    shape_evidence : ShapeEvidence or None
-        The localised-shape evidence of a reversal of the sensors :func:`shape_candidates` chose on the last pass (NaN
-        for the others; None when none was or the all-days model did not run).
-    anchor_std : float or None
-        The end-anchor std (m) of the last pass's leave-one-out prediction (``sigma_z``, or its maximum-likelihood
-        value with ``fit_anchor``; docs/rail.md, "Sensor health on settlements that are not a bowl").
-    witness : (N,) bool ndarray or None
-        With ``witness_rule="steps"``: the kept sensors whose departure from their neighbours grew in separate
-        same-sign steps (:func:`step_witness_z`), which the step tests therefore did not flag; None otherwise.
-    excluded_witness : (N,) bool ndarray or None
-        The sensors :func:`assess_sensors` excluded by the step or leave-one-out tests whose record, when they were
-        flagged, was a witness's (the test of ``witness``): the departure grew in separate same-sign steps, as at a
-        settling transition (joint, abutment, culvert) the neighbours do not see. ``estimate_settlement`` warns about
-        them (docs/rail.md, "Sensor health: an excluded sensor that may be a witness"); None from callers that built
-        the health without it.
-    reversal_llr_scale : (N,) ndarray or None
-        :func:`record_length_factor` of each sensor's number of day-to-day changes on the last pass: the factor on the
-        thresholds of ``reversal_llr`` (None: 1).
-    """
-
-    sensor_ids: list
-    status: np.ndarray
-    detail: np.ndarray
-    excluded: np.ndarray
-    loo_score: np.ndarray
-    reversal_z: np.ndarray | None = None
-    reversal_llr: np.ndarray | None = None
-    step_z: np.ndarray | None = None
-    reversal_evidence: "ReversalEvidence | None" = None
-    step_evidence: "StepEvidence | None" = None
-    shape_evidence: "ShapeEvidence | None" = None
-    anchor_std: float | None = None
-    witness: np.ndarray | None = None
-    excluded_witness: np.ndarray | None = None
-    reversal_llr_scale: np.ndarray | None = None
-
-    def flagged(self) -> list[tuple[str, str, str]]:
-        """(sensor_id, status, detail) of every excluded sensor."""
-        return [(str(s), str(st), str(d)) for s, st, d, e in zip(self.sensor_ids, self.status, self.detail, self.excluded)
-                if e]
 
 
 def loo_residuals(x, slopes, *, sigma, rigidity, sigma_z):
@@ -659,29 +588,6 @@ def _witnesses(M, pred, bad, looks_reversed) -> np.ndarray:
             & (np.nan_to_num(back, nan=np.inf) < WITNESS_STEP_Z) & ~np.asarray(looks_reversed, bool))
 
 
-@dataclass(frozen=True, eq=False)
-class ReversalEvidence:
-    """Evidence that each sensor is mounted back to front, from all days at once (:func:`all_days_reversal_evidence`).
-
-    Attributes
-    ----------
-    log_bayes_factor : (N,) ndarray
-        log p(data | sensor i reversed) - log p(data | sensor i healthy), the other sensors as they are; NaN for
-        excluded sensors. Negative for a sensor that follows its neighbours.
-    information : (N,) ndarray
-        sum_k mu_ik^2 / v_ik: how much the neighbours predict of the sensor's changes (its squared signal-to-noise
-        ratio over all days). Under "healthy" the log Bayes factor has mean -2 information and variance
-        4 information; a sensor whose information is below ~2 cannot show a reversal.
-    null_shift, null_scale : float
-        The site's null taken out by :func:`site_reversal_null` (0 and 1: the model's own).
-    """
-
-    log_bayes_factor: np.ndarray
-    information: np.ndarray
-    null_shift: float = 0.0
-    null_scale: float = 1.0
-
-
 #: The healthy sensors' standardised all-days reversal evidence s = (log BF + 2 I) / (2 sqrt I) (N(0, 1) under the
 #: model) on the 3-4-week records the thresholds were set on: median ~0.5, robust spread ~1.2 (session 31, seeds
 #: 300-339 of drift, lag-swings and faults at 28 days: 0.49 / 1.23, 0.57 / 1.13, 0.70 / 1.16). The thresholds absorb
@@ -917,30 +823,6 @@ def _flag_worst(health: SensorHealth, score, passes, status_name: str, detail, m
     excluded[j] = True
     return replace(health, status=np.array(status, dtype=str), detail=np.array(details, dtype=str),
                    excluded=excluded), j
-
-
-@dataclass(frozen=True, eq=False)
-class StepEvidence:
-    """Evidence that each sensor's readings jumped once and stayed (:func:`all_days_step_evidence`).
-
-    Attributes
-    ----------
-    log_likelihood_ratio : (N,) ndarray
-        max over the first day d of the step and its size of log p(data | step at d) - log p(data | healthy), sensor
-        i's own noise factor fitted under each hypothesis; NaN for excluded sensors.
-    day : (N,) ndarray of int
-        The maximising d (1..D-1; -1 for excluded sensors).
-    size : (N,) ndarray
-        The fitted step, rad.
-    factor_healthy, factor_step : (N,) ndarray
-        The maximising noise factor f under each hypothesis.
-    """
-
-    log_likelihood_ratio: np.ndarray
-    day: np.ndarray
-    size: np.ndarray
-    factor_healthy: np.ndarray
-    factor_step: np.ndarray
 
 
 def all_days_step_evidence(x, mode_slopes, mode_noise, to_modes, *, rigidity: float, penalty_order: int = 2,

@@ -12,11 +12,14 @@ real inclinometer records are lost that way:
 Model (per sensor i, days d = 1..D-1 after the reference day 0): the slope changes m_{.,i} = theta_{.,i} + e_{.,i},
 with the errors of different sensors independent and
 
-    Cov(e_{.,i}) = f_i^2 R,    R = c_ref 1 1^T + c_white I + c_walk min(t_d, t_e) + c_T dT dT^T + c_Tw diag(dT^2),
+    Cov(e_{.,i}) = f_i^2 R,    R = c_ref 1 1^T + c_white I + c_walk min(t_d, t_e) + c_T dT dT^T + c_Tw diag(dT^2)
+                                   + c_short exp(-|t_d - t_e| / tau),
 
 (t: days since the reference; dT: site-mean temperature minus the reference day's: a shared reference error, white
-daily noise, a random-walk drift, a residual thermal coefficient and a white thermal residual; f_i the sensor's noise
-factor of :func:`~longprofile.rail._settle.sensor_noise_factors`). The settlement's slope profile is a random walk over
+daily noise, a random-walk drift, a residual thermal coefficient, a white thermal residual and a short-memory error
+correlated over about tau = SHORT_MEMORY_DAYS days (session 41: without it, the drift-free sites' day-to-day
+correlation was read as drift); f_i the sensor's noise factor of
+:func:`~longprofile.rail._settle.sensor_noise_factors`). The settlement's slope profile is a random walk over
 the days whose increment from day d - 1 to day d has the rigidity model's prior (paper 004 §4.2, eq. of Lemma 4.1;
 ``rigidity_model``) with its own r_d: vec(theta) ~ N(0, S ⊗ P) with S = L diag(r_d / r) L^T, L the lower-triangular
 matrix of ones, P the spatial prior of rigidity r = max_d r_d.
@@ -44,7 +47,14 @@ __all__ = ["DayNoiseCovariance", "DayModes", "JointPosterior", "day_noise_covari
            "NOISE_BASIS"]
 
 #: The day-covariance terms of :func:`day_noise_covariance`, in the order of its coefficients.
-NOISE_BASIS = ("reference", "white", "walk", "thermal", "thermal_white")
+NOISE_BASIS = ("reference", "white", "walk", "thermal", "thermal_white", "short")
+#: Correlation time (days) of the "short" term of :data:`NOISE_BASIS`: an error that persists over a day or two
+#: (the daily medians of a thermal residual, a slow logger) but does not grow. The increments of such an error
+#: have a zero sum over a long horizon, those of a random walk do not; without this term the fit read a lag-1
+#: covariance 0.9-1.3e-11 rad^2 above the longer lags' as a drift of 1.2-1.6e-11 rad^2/day on the drift-free
+#: mittersheim-like preset (truth subtracted; its actual variance grows by 1.5e-12 rad^2/day; docs/rail.md,
+#: session 41). 1 day, not fitted: 2 days also gave a zero walk there.
+SHORT_MEMORY_DAYS = 1.0
 #: Where a sensor's day-to-day departures are clipped, in robust std of its own (work days' settlement steps).
 INCREMENT_CLIP = 3.0
 #: Fewest day-to-day changes for the day covariance (:func:`day_noise_covariance`).
@@ -148,7 +158,8 @@ class DayNoiseCovariance:
 def _basis(t, dT):
     """The day-covariance terms over days 1..D-1 (:data:`NOISE_BASIS`)."""
     K = t.size
-    return [np.ones((K, K)), np.eye(K), np.minimum.outer(t, t), np.outer(dT, dT), np.diag(dT**2)]
+    return [np.ones((K, K)), np.eye(K), np.minimum.outer(t, t), np.outer(dT, dT), np.diag(dT**2),
+            np.exp(-np.abs(np.subtract.outer(t, t)) / SHORT_MEMORY_DAYS)]
 
 
 def day_noise_covariance(x, slopes, *, day_offsets=None, temperature_change=None, sensor_factors=None,

@@ -46,6 +46,7 @@ from ..statespace import (
     shared_covariance_smoother,
     smoother_noise_covariance,
 )
+from ._results import Z90, ProfilePosterior
 
 __all__ = [
     "ProfilePosterior",
@@ -70,9 +71,6 @@ __all__ = [
     "rigidity_posterior_levels",
     "Z90",
 ]
-
-#: Two-sided 90 % normal quantile (the paper rounds it to 1.6).
-Z90 = 1.6448536269514722
 
 #: Rigidity r of the paper (§4.1): typical mean-square curvature, m^-2 (the text's "1/r := 1e-8" is a misprint).
 DEFAULT_RIGIDITY = 1e-8
@@ -105,48 +103,6 @@ MAX_SETTLEMENT_PROBABILITY = 0.98
 #: Supported prior orders: 2 = the paper's ||f''||^2 (cubic Hermite between stations, Lemma 4.1);
 #: 3 = ||f'''||^2 (quintic Hermite between stations; beyond the paper, for smooth settlement bowls).
 PENALTY_ORDERS = (2, 3)
-
-
-@dataclass(frozen=True, eq=False)
-class ProfilePosterior:
-    """Gaussian posterior of (altitude, slope) at the stations, for one or several profiles (days).
-
-    Attributes
-    ----------
-    x : (N,) ndarray
-        Station positions, m.
-    z_mean, slope_mean : (N,) or (D, N) ndarray
-        Posterior means of the altitude (m) and slope (rad ≈ m/m); one row per profile.
-    z_std, slope_std : (N,) or (D, N) ndarray
-        Posterior standard deviations.
-    station_cov : (N, k, k) or (D, N, k, k) ndarray
-        Posterior covariance of (z_i, theta_i) at each station (k = 2), or of (z_i, theta_i, kappa_i)
-        with the curvature for ``penalty_order=3`` (k = 3).
-    cross_cov : (N-1, k, k) or (D, N-1, k, k) ndarray or None
-        Cov((z_i, theta_i), (z_{i+1}, theta_{i+1})): with ``station_cov`` it determines the
-        whole joint posterior (the posterior is Markov along the track). None for the dense reference.
-    full_cov : (2N, 2N) ndarray or None
-        Full covariance of X = (z_1..z_N, theta_1..theta_N), dense reference only.
-    log_likelihood : float or (D,) ndarray or None
-        Marginal log-likelihood of the observations (engine only; used to estimate sigma and r).
-    method : str
-        ``"dense"`` (the paper's formula) or ``"state-space"`` (RTS smoother over stations).
-    """
-
-    x: np.ndarray
-    z_mean: np.ndarray
-    slope_mean: np.ndarray
-    z_std: np.ndarray
-    slope_std: np.ndarray
-    station_cov: np.ndarray
-    cross_cov: np.ndarray | None
-    full_cov: np.ndarray | None
-    log_likelihood: float | np.ndarray | None
-    method: str
-
-    def z_band(self, level_z: float = Z90) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) altitude band, mean ∓ ``level_z`` std (default: two-sided 90 %)."""
-        return self.z_mean - level_z * self.z_std, self.z_mean + level_z * self.z_std
 
 
 def _check_stations(x) -> np.ndarray:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -12,7 +12,7 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import require_positive
 from ..errors import InputError
-from ._controls import ControlCheck, check_controls, compare_controls, unmatched_controls
+from ._controls import check_controls, compare_controls, unmatched_controls
 from ._data import SiteData
 from ._given_sigma import check_sigma_range, compare_with_estimate
 from ._health import (
@@ -49,13 +49,13 @@ from ._joint import (
     joint_posterior,
 )
 from ._reinstall import REINSTALL_MODES, condition_on_unknowns, offset_columns, reinstall_stage
+from ._results import ChangePriorFit, SettlementResult
 from ._rigidity import (
     DEFAULT_RIGIDITY,
     DEFAULT_SIGMA_A,
     DEFAULT_SIGMA_Z,
     MAX_SETTLEMENT_INTERVALS,
     PENALTY_ORDERS,
-    Z90,
     ProfilePosterior,
     initial_profile_posterior,
     max_settlement_from_draws,
@@ -66,6 +66,7 @@ from ._rigidity import (
     segment_process_energy_levels,
 )
 from ._shapes import shape_reversal_evidence
+from ._smooth_reversal import flag_reversed_smooth, smooth_candidates, smooth_reversal_evidence
 from ._temporal import TemporalSettlement, check_threshold, settlement_alarms, smooth_through_time
 from ._thermal import DailyAngles, daily_angles
 from ._thresholds import check_thresholds, threshold_alarms
@@ -78,149 +79,6 @@ __all__ = ["SettlementResult", "SettlementSettings", "estimate_settlement", "est
 #: Error models of the daily slope changes: "drift" (one std per day, growing with the days since the
 #: reference and with the temperature difference from it, :func:`daily_noise_sigma`) or "white" (one std).
 ERROR_MODELS = ("drift", "white")
-
-
-@dataclass(frozen=True, eq=False)
-class SettlementResult:
-    """Everything :func:`estimate_settlement` found. Shapes: D days, N sensors (by station).
-
-    Attributes
-    ----------
-    days : (D,) datetime64[ns] ndarray
-    sensor_ids : list of str
-    x : (N,) ndarray
-        Stations, m.
-    dz : (D, N) ndarray
-        Daily posterior mean of the altitude change since day 0, m (negative = settlement), at every
-        station — excluded sensors' stations are estimated from their neighbours.
-    dz_std : (D, N) ndarray
-        Posterior std of dz, m, under the fitted change prior (all the model's uncertainty: slope
-        noise, smoothing and the track between sensors); the 90 % band is dz ∓ 1.645 dz_std.
-    dz_noise_std : (D, N) ndarray
-        The part of the error due to the slope noise alone for a fixed true profile, m
-        (:func:`~longprofile.rail.measurement_std`): a lower bound, not a band (docs/rail.md).
-    slope_change, slope_change_std : (D, N) ndarray
-        Posterior slope change, rad.
-    smoothed : TemporalSettlement or None
-        Settlement smoothed across days with daily rates (None when ``through_time=False``).
-    initial : ProfilePosterior
-        Initial altitudes and slopes at the sensors from the survey (§4.4).
-    integrated : dict of str -> (D, N) ndarray
-        Altitude change by the paper's §2 chain integrations (forward, backward, average, convex).
-    max_settlement_mean, max_settlement_std : (D,) ndarray
-        Monte Carlo mean and std of max_i(-dz_i), m (§4.3).
-    max_settlement_lower, max_settlement_upper : (D,) ndarray or None
-        The 90 % interval of max_i(-dz_i), m, band-shaped around the posterior mean and holding the maximum of
-        98 % of the draws (:func:`~longprofile.rail.max_settlement_interval`, ``interval="draws"``; with
-        ``max_settlement_interval="band"`` the simultaneous 90 % band's, as until 2026-12-06; not mean ∓ 1.645 std:
-        the maximum is skewed and is 0 on days without change). NaN when the Monte Carlo is skipped.
-    health : SensorHealth
-    daily : DailyAngles
-    sigma : float
-        Slope noise std used, rad.
-    rigidity : float
-        r of the change prior used, m^-2 (penalty_order 2) or m^-4 (penalty_order 3).
-    penalty_order : int
-        2 = the paper's ||f''||^2 prior on the change profile, 3 = the smoother ||f‴||^2 prior.
-    change_prior : ChangePriorFit or None
-        The maximum-likelihood fit of the change prior (None when ``rigidity`` was given).
-    alarms : DataFrame
-        See :func:`~longprofile.rail.settlement_alarms` (with graded ``thresholds``:
-        :func:`~longprofile.rail.threshold_alarms`, a ``level`` column more). Empty both when nothing exceeds and
-        when no threshold was set: ``settings["thresholds_set"]`` tells them apart.
-    controls : DataFrame or None
-        Control points compared with the estimate: date, x_m, dz_control_m, dz_estimate_m, std_m, z, inside_90
-        (:func:`~longprofile.rail.compare_controls`).
-    warnings : tuple of str
-        Everything the user must know (input fixes, excluded sensors, affine correction...).
-    settings : dict
-        The options used (for reports).
-    sigma_by_day : (D,) ndarray or None
-        Slope-change noise std of each day, rad (``error_model="drift"``: :func:`daily_noise_sigma`;
-        ``sigma`` is then its median); constant for ``error_model="white"``.
-    sensor_noise_factor : (N,) ndarray or None
-        f_i of :func:`sensor_noise_factors`: sensor i's noise std is ``sigma_by_day * f_i`` (all 1 for
-        ``error_model="white"`` or ``sensor_noise=False``).
-    prior_weights : (N-1,) ndarray or None
-        w_i of :func:`segment_prior_weights`: the change prior's r on the segment between stations i and i+1 is
-        ``rigidity * w_i`` (all 1 with ``spatial_prior=False`` or a given ``rigidity``).
-    increment_rigidity : (D,) ndarray or None
-        With the all-days model (``joint_days=True``): r_d of the settlement's increment from day d - 1 to day d
-        (:func:`increment_rigidity`; NaN on day 0); ``rigidity`` is then their maximum and ``smoothed`` is the
-        all-days posterior itself (its ``process_std`` NaN). None for the per-day model.
-    noise_day_cov : (D-1, D-1) ndarray or None
-        With the all-days model: the day covariance R of the slope-change error of a sensor of factor 1 over days
-        1..D-1, rad^2 (:func:`~longprofile.rail._joint.day_noise_covariance`); sensor i's is f_i^2 R.
-    control_check : ControlCheck or None
-        Whether the control surveys agree with the estimate (:func:`~longprofile.rail.check_controls`; a warning
-        when they do not); None without control points.
-    """
-
-    days: np.ndarray
-    sensor_ids: list
-    x: np.ndarray
-    dz: np.ndarray
-    dz_std: np.ndarray
-    dz_noise_std: np.ndarray
-    slope_change: np.ndarray
-    slope_change_std: np.ndarray
-    smoothed: TemporalSettlement | None
-    initial: ProfilePosterior
-    integrated: dict
-    max_settlement_mean: np.ndarray
-    max_settlement_std: np.ndarray
-    health: SensorHealth
-    daily: DailyAngles
-    sigma: float
-    rigidity: float
-    penalty_order: int
-    change_prior: ChangePriorFit | None
-    alarms: pd.DataFrame
-    controls: pd.DataFrame | None
-    warnings: tuple
-    settings: dict = field(default_factory=dict)
-    sigma_by_day: np.ndarray | None = None
-    sensor_noise_factor: np.ndarray | None = None
-    prior_weights: np.ndarray | None = None
-    max_settlement_lower: np.ndarray | None = None
-    max_settlement_upper: np.ndarray | None = None
-    increment_rigidity: np.ndarray | None = None
-    noise_day_cov: np.ndarray | None = None
-    control_check: ControlCheck | None = None
-
-    def measured(self) -> np.ndarray:
-        """(D, N) bool: did this sensor's daily angle of this day enter the estimate? False on the days without one
-        (a logger outage: the value there is the model's inference from the sensor's other days and its
-        neighbours, with a band to match) and on every day of an excluded sensor (its station is estimated from
-        its neighbours)."""
-        seen = np.isfinite(np.asarray(self.daily.change_deg, float))
-        if seen.shape != self.dz.shape:  # daily angles of other days than the result's (not from estimate_settlement)
-            return np.broadcast_to(~np.asarray(self.health.excluded, bool), self.dz.shape).copy()
-        return seen & ~np.asarray(self.health.excluded, bool)[None, :]
-
-    def to_table(self) -> pd.DataFrame:
-        """Long table, one row per day and sensor: date, sensor_id, x_m, status, measured (:meth:`measured`),
-        dz_m, dz_std_m (posterior), dz_lower90_m, dz_upper90_m, dz_noise_std_m, smoothed_dz_m, smoothed_std_m,
-        rate_m_per_day, rate_std_m_per_day."""
-        D, N = self.dz.shape
-        out = pd.DataFrame({
-            "date": np.repeat(pd.DatetimeIndex(self.days).strftime("%Y-%m-%d").to_numpy(), N),
-            "sensor_id": np.tile(self.sensor_ids, D),
-            "x_m": np.tile(self.x, D),
-            "status": np.tile(self.health.status, D),
-            "measured": self.measured().ravel(),
-            "dz_m": self.dz.ravel(),
-            "dz_std_m": self.dz_std.ravel(),
-            "dz_lower90_m": (self.dz - Z90 * self.dz_std).ravel(),
-            "dz_upper90_m": (self.dz + Z90 * self.dz_std).ravel(),
-            "dz_noise_std_m": self.dz_noise_std.ravel(),
-        })
-        if self.smoothed is not None:
-            out["smoothed_dz_m"] = self.smoothed.mean.ravel()
-            out["smoothed_std_m"] = self.smoothed.std.ravel()
-            out["rate_m_per_day"] = self.smoothed.rate.ravel()
-            out["rate_std_m_per_day"] = self.smoothed.rate_std.ravel()
-        return out
 
 
 def day_difference_sigma(slopes) -> float:
@@ -870,35 +728,6 @@ def _loo_anchor_gain(x, Y, modes: DayModes, factors, fixed, loose, skip=None) ->
     return float(np.min(gain)), int(kept[int(np.argmin(gain))])
 
 
-@dataclass(frozen=True)
-class ChangePriorFit:
-    """Maximum-likelihood choice of the prior of the change profile (:func:`fit_change_prior`).
-
-    Attributes
-    ----------
-    penalty_order : int
-        The order with the larger maximised likelihood (2 = the paper's ||f''||^2, 3 = ||f‴||^2).
-    rigidity : float
-        Its maximum-likelihood r (m^-2 or m^-4).
-    log_likelihood : dict of int -> float
-        Maximised log-likelihood (summed over days) of each order tried.
-    rigidities : dict of int -> float
-        Maximum-likelihood r of each order tried.
-    sigma : float
-        The fixed slope noise std, rad.
-    stiffest_log_likelihood : dict of int -> float
-        Log-likelihood of each order at the stiffest r of its grid (no change): the likelihood-ratio test of "no
-        settlement" against the fitted prior.
-    """
-
-    penalty_order: int
-    rigidity: float
-    log_likelihood: dict
-    rigidities: dict
-    sigma: float
-    stiffest_log_likelihood: dict = field(default_factory=dict)
-
-
 def fit_change_prior(x, slopes, *, sigma: float, sigma_z: float = DEFAULT_SIGMA_Z,
                      penalty_orders=PENALTY_ORDERS, sensor_factors=None) -> ChangePriorFit:
     r"""Fit the prior of the settlement (change) profile by maximum marginal likelihood, sigma fixed.
@@ -1192,6 +1021,12 @@ class SettlementSettings:
         :data:`~longprofile.rail._health.REVERSED_SUM_LBF`). Not the default: on the benchmark it found 94 of 100
         reversed sensors (faults seeds 200-299, as "threshold"; 96 instead of 95 on 100-199) with one healthy sensor
         fewer flagged, but 14 instead of 12 of 1020 on asymmetric bowls.
+    smooth_reversal : bool, default True
+        With the all-days model and ``check_health``: also flag a sensor "reversed" on the evidence of a smooth-slope
+        (order-3) settlement prior, its predictive variance scaled to the site's own sensors, far above every healthy
+        calibration sensor (log Bayes factor > 20) with the day-to-day ratio > 5 (issue 13 step 20, docs/rail.md,
+        "Sensor health, step 20"; :func:`~longprofile.rail._smooth_reversal.smooth_reversal_evidence`). False: the
+        tests as before (session 41).
     health_end_anchor : {"fixed", "fit", "all-days"}, default "all-days"
         End anchors of the health tests' prediction of a sensor from its neighbours: "fixed", ``sigma_z`` (the default
         until 2026-12-06, :meth:`until_2026_12_06`); "fit", the
@@ -1295,6 +1130,7 @@ class SettlementSettings:
     max_settlement_interval: str = "draws"
     shape_evidence: bool = False
     shape_rule: str = "threshold"
+    smooth_reversal: bool = True
     health_end_anchor: str = "all-days"
     reversal_z_rule: str = "gated"
     settlement_end_anchor: str = "all-days"
@@ -1313,12 +1149,13 @@ class SettlementSettings:
         (``reversal_z_rule="alone"``, the default until step 16 of the same day) and the paper's linear thermal model
         (``thermal="linear"``, the default until session 29 of the same day) and the model's null for the reversal
         tests (``reversal_null="model"``, the rule until session 31) and every series taken as continuous
-        (``reinstallations="off"``, the rule until session 39); reproduces that estimator's outputs.
+        (``reinstallations="off"``, the rule until session 39) and no smooth-slope reversal test
+        (``smooth_reversal=False``, the rule until session 41); reproduces that estimator's outputs.
         ``options`` as the constructor's."""
         return cls(**{"thermal": "linear", "max_settlement_interval": "band", "health_end_anchor": "fixed",
                       "settlement_end_anchor": "fixed",
                       "reversal_z_rule": "alone", "end_ambiguity": "off", "witness_rule": "off",
-                      "reversal_null": "model", "reinstallations": "off", **options})
+                      "reversal_null": "model", "reinstallations": "off", "smooth_reversal": False, **options})
 
     def __post_init__(self):
         require_positive("sigma_z", self.sigma_z)
@@ -2134,7 +1971,7 @@ def _settings_record(opt: SettlementSettings, *, drift, sig, rig, order, prior_f
     return dict(thermal=daily.thermal, thermal_requested=opt.thermal, lag_variance_ratio=daily.lag_variance_ratio,
                 error_model="drift" if drift else "white", joint_days=bool(joint),
                 max_settlement_interval=opt.max_settlement_interval, shape_evidence=bool(opt.shape_evidence and joint),
-                shape_rule=opt.shape_rule,
+                shape_rule=opt.shape_rule, smooth_reversal=bool(opt.smooth_reversal and joint),
                 health_end_anchor=opt.health_end_anchor, reversal_z_rule=opt.reversal_z_rule,
                 reversal_null=opt.reversal_null, health_sigma_z=opt.sigma_z if health_sigma_z is None else float(health_sigma_z),
                 settlement_end_anchor=opt.settlement_end_anchor,
@@ -2308,6 +2145,10 @@ def estimate_settlement_from_daily(site: SiteData, daily: DailyAngles, settings:
                                            sensor_factors=joint.factors, segment_weights=joint.weights,
                                            sigma_z=health_sz)
             health, j = flag_detached_all_days(health, steps, max_flagged=None if opt.check_health else 0)
+        if j is None and opt.smooth_reversal and smooth_candidates(health).any():  # last ("Sensor health, step 20")
+            smooth = smooth_reversal_evidence(x, joint.mode_slopes, joint.modes.noise, sensor_factors=joint.factors,
+                                              sigma_z=health_sz)
+            health, j = flag_reversed_smooth(health, smooth, max_flagged=None if opt.check_health else 0)
         if j is None:
             break
         warnings.append(f"sensor {ids[j]} excluded ({health.status[j]}): {health.detail[j]}.")

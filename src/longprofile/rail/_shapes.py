@@ -32,10 +32,10 @@ algebra over the stations; no recursion (the modes come from the engine's all-da
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from scipy.special import logsumexp
+
+from ._results import ShapeEvidence
 
 __all__ = ["DICTIONARY_FAMILIES", "ShapeEvidence", "localized_slope_shapes", "shape_reversal_evidence"]
 
@@ -89,26 +89,6 @@ def localized_slope_shapes(x) -> tuple[np.ndarray, np.ndarray]:
     scale = np.max(np.abs(g), axis=1)
     keep = scale > 1e-6
     return g[keep] / scale[keep, None], fam[keep]
-
-
-@dataclass(frozen=True, eq=False)
-class ShapeEvidence:
-    """The localised-shape evidence of a reversal of every sensor (:func:`shape_reversal_evidence`).
-
-    Attributes
-    ----------
-    log_bayes_factor : (N,) ndarray
-        log BF_j of "sensor j reversed" against "healthy" under the dictionary's mixture weighed by the other sensors
-        (module docstring); NaN for excluded sensors and sensors not asked for.
-    information : (N,) ndarray
-        I_j = sum_k mu_jk^2 / v_jk of the shape that fits the other sensors best.
-    family : (N,) ndarray of int
-        The dictionary family (:data:`DICTIONARY_FAMILIES`) of that shape (-1 where NaN or unknown).
-    """
-
-    log_bayes_factor: np.ndarray
-    information: np.ndarray
-    family: np.ndarray
 
 
 def shape_reversal_evidence(x, mode_slopes, mode_noise, sensor_factors=None, shapes=None,

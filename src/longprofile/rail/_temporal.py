@@ -16,41 +16,19 @@ s_d - s_{d-1} gets its std from the lag-one cross-covariance (a_0 cancels).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 from scipy.special import ndtr
 
 from ..errors import InputError
 from ..statespace import StateSpaceModel, kalman_filter, rts_smoother
+from ._results import TemporalSettlement
 
 __all__ = ["TemporalSettlement", "smooth_through_time", "settlement_alarms", "check_threshold", "THRESHOLD_RANGE_M",
            "THRESHOLD_FLOORS_M", "PROCESS_STD_GRID"]
 
 #: Candidate day-to-day settlement std q, m/day.
 PROCESS_STD_GRID = (2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
-
-
-@dataclass(frozen=True, eq=False)
-class TemporalSettlement:
-    """Settlement smoothed across days.
-
-    Attributes
-    ----------
-    mean, std : (D, N) ndarray
-        Smoothed altitude change and its std, m.
-    rate, rate_std : (D, N) ndarray
-        Altitude change per day s_d - s_{d-1} and its std, m/day (NaN on day 0).
-    process_std : float
-        q, m/day (maximum likelihood on the grid :data:`PROCESS_STD_GRID`).
-    """
-
-    mean: np.ndarray
-    std: np.ndarray
-    rate: np.ndarray
-    rate_std: np.ndarray
-    process_std: float
 
 
 #: The through-time model's structure (state (s_d, a_0), y_d = s_d - a_0): its noise and initial covariances

@@ -22,7 +22,6 @@ flagged healthy sensors as reversed and under-covered (docs/rail.md, "The therma
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -32,6 +31,7 @@ from .._validation import require_positive
 from ..errors import InputError
 from ..statespace import linear_recursion
 from ._data import SiteData
+from ._results import DailyAngles, _changes
 
 __all__ = ["DailyAngles", "daily_angles", "first_order_response", "THERMAL_MODELS", "LAG_GRID_HOURS", "DayStatistics",
            "lag_variance_ratio", "LAG_AUTO_RATIO", "LAG_AUTO_GRID_HOURS",
@@ -65,100 +65,6 @@ def _noise_std(dev) -> float:
     return 1.4826 * float(np.median(nz)) if nz.size else 0.0
 
 
-@dataclass(frozen=True, eq=False)
-class DailyAngles:
-    """Daily angles per sensor after outlier removal and thermal correction.
-
-    Attributes
-    ----------
-    days : (D,) datetime64[ns] ndarray
-        Calendar days covered by the readings.
-    sensor_ids : list of str
-        Sensors by station (same order as ``SiteData.sensors``).
-    angle_deg : (D, N) ndarray
-        Daily median of the corrected angles, deg (NaN when a sensor has no reading that day).
-    change_deg : (D, N) ndarray
-        Angle change since the sensor's first day with readings, deg.
-    n_readings : (D, N) int ndarray
-        Readings used per day and sensor (after outlier removal).
-    n_outliers : (N,) int ndarray
-        Readings set aside as outliers per sensor (never silently: reported).
-    raw_std_deg : (N,) ndarray
-        Robust std of each sensor's raw readings (a dead sensor has ~0).
-    raw_day_spread_deg : (D, N) ndarray or None
-        Robust within-day spread (1.4826 MAD) of each sensor's raw readings (before outlier removal and
-        thermal correction), deg; NaN on days with fewer than 2 readings. A sensor frozen from some day on
-        reads the same value all day (the frozen-sensor test of :func:`~longprofile.rail.assess_sensors`).
-    temperature_mean_c : (D,) ndarray or None
-        Site-mean daily temperature (mean of every finite temperature reading of the day), °C.
-    noise_deg : (N,) ndarray
-        Robust high-frequency noise std of each sensor (:func:`_noise_std`), deg: the outlier threshold is
-        ``OUTLIER_THRESHOLD`` max(noise_deg, 1e-4).
-    thermal_coef : (N,) ndarray
-        k, deg/°C (0 for ``thermal="none"``).
-    thermal_lag_hours : (N,) ndarray
-        tau, h (0 for the linear model).
-    reference_temp_c : float
-        T_ref of the correction, °C.
-    thermal : str
-        ``"linear"``, ``"lagged"`` or ``"none"`` (the model used; ``thermal="auto"`` gives one of the first two).
-    warnings : tuple of str
-        Sensors whose thermal coefficient could not be fitted (left uncorrected), reported.
-    lag_variance_ratio : float or None
-        With ``thermal="auto"``: the median over sensors of :func:`lag_variance_ratio`, which chose the model
-        (lagged below ``LAG_AUTO_RATIO``); None otherwise.
-    rebaselined : (D, N) int ndarray or None
-        0 where a sensor's change refers to its first day, k + 1 from its k-th new reference on (a re-installed or
-        replaced sensor, :func:`~longprofile.rail._reinstall.rebaseline_daily`); None: no new reference.
-    """
-
-    days: np.ndarray
-    sensor_ids: list
-    angle_deg: np.ndarray
-    change_deg: np.ndarray
-    n_readings: np.ndarray
-    n_outliers: np.ndarray
-    raw_std_deg: np.ndarray
-    noise_deg: np.ndarray
-    thermal_coef: np.ndarray
-    thermal_lag_hours: np.ndarray
-    reference_temp_c: float
-    thermal: str
-    warnings: tuple = ()
-    raw_day_spread_deg: np.ndarray | None = None
-    temperature_mean_c: np.ndarray | None = None
-    lag_variance_ratio: float | None = None
-    rebaselined: np.ndarray | None = None
-    #: A day holding less than this share of the median day's readings is a partial day (the first such days are left
-    #: out by :func:`~longprofile.rail.estimate_settlement`; a partial last day is named by ``rail settle``).
-    PARTIAL_DAY_SHARE: ClassVar[float] = 0.5
-
-    def reading_shares(self) -> np.ndarray:
-        """(D,) each day's readings (all sensors) over the median day's: below :attr:`PARTIAL_DAY_SHARE`, part of a
-        day (a record starting late, installation tests, a day still being recorded)."""
-        total = self.n_readings.sum(axis=1).astype(float)
-        return total / max(float(np.median(total)), 1.0)
-
-    def select_days(self, mask) -> "DailyAngles":
-        """The same angles on the days where ``mask`` (D,) is True; each sensor's changes from its first kept day."""
-        m = np.asarray(mask, bool)
-        per_day = {f: getattr(self, f)[m] for f in ("days", "angle_deg", "n_readings")}
-        per_day["change_deg"] = _changes(per_day["angle_deg"])
-        per_day.update({f: getattr(self, f)[m] for f in ("raw_day_spread_deg", "temperature_mean_c", "rebaselined")
-                        if getattr(self, f) is not None})
-        return replace(self, **per_day)
-
-
-def _changes(angle: np.ndarray) -> np.ndarray:
-    """(D, N) each sensor's daily angle minus its angle on its first day with one (NaN before it and where missing)."""
-    change = np.full_like(angle, np.nan)
-    for j in range(angle.shape[1]):
-        ok = np.nonzero(np.isfinite(angle[:, j]))[0]
-        if ok.size:
-            change[:, j] = angle[:, j] - angle[ok[0], j]
-    return change
-
-
 def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     r"""Response T_s of a first-order thermal lag, tau dT_s/dt = T - T_s, to a sampled temperature.
 
@@ -181,21 +87,36 @@ def first_order_response(t_hours, temperature, tau_hours: float) -> np.ndarray:
     if tau_hours == 0:
         return T.copy()
     require_positive("tau_hours", tau_hours)
-    if T.size == 0:
-        return T.copy()
-    if T.size == 1:
-        return T.copy()
+    return _first_order_responses(t, T, (tau_hours,))[:, 0].copy()
+
+
+def _first_order_responses(t_hours, temperature, taus_hours) -> np.ndarray:
+    """(T, L) :func:`first_order_response` of the same temperature at each of L time constants > 0, in one run of the
+    engine: the L lags as the L states of one recursion with a diagonal transition (each state's operations those of
+    its own run, to the last bit: the off-diagonal terms add exact zeros)."""
+    t = np.ascontiguousarray(t_hours, dtype=float)
+    T = np.ascontiguousarray(temperature, dtype=float)
+    taus = [float(tau) for tau in taus_hours]
+    for tau in taus:
+        require_positive("tau_hours", tau)
+    if T.size <= 1:
+        return np.repeat(T[:, None], len(taus), axis=1)
     # exact discretisation between samples for T linear in between:
     # T_s[k] = a T_s[k-1] + (1 - b) T[k] + (b - a) T[k-1], a = exp(-h/tau), b = (1 - a) tau / h;
     # run on the engine's deterministic recursion (a repeated time stamp, h = 0, keeps T_s unchanged).
     h = np.diff(t)
-    a = np.exp(-h / float(tau_hours))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        b = np.where(h > 0, (1.0 - a) * float(tau_hours) / np.where(h > 0, h, 1.0), 1.0)
-    input_matrix = np.stack([1.0 - b, b - a], axis=-1)[:, None, :]
+    L = len(taus)
+    transition = np.zeros((h.size, L, L))
+    input_matrix = np.empty((h.size, L, 2))
+    for i, tau in enumerate(taus):  # a and b computed per lag as for one lag alone
+        a = np.exp(-h / tau)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            b = np.where(h > 0, (1.0 - a) * tau / np.where(h > 0, h, 1.0), 1.0)
+        transition[:, i, i] = a
+        input_matrix[:, i, 0] = 1.0 - b
+        input_matrix[:, i, 1] = b - a
     inputs = np.column_stack([T[1:], T[:-1]])
-    run = linear_recursion(a[:, None, None], input_matrix, inputs, T[:1])
-    return run.states[:, 0].copy()
+    return linear_recursion(transition, input_matrix, inputs, np.full(L, T[0])).states
 
 
 def _slice_regression(day, a, T, n_days):
@@ -802,16 +723,28 @@ def _unfitted_warning(unfitted) -> tuple:
                   "for the fit"] if unfitted else [])
 
 
-def _sensor_series(g, t0, days):
-    """One sensor's finite readings: (angle deg, temperature degC, hours since ``t0``, day index, deviation from the
-    7-sample running median, its robust std s_hf) -- the outlier test keeps |deviation| <= OUTLIER_THRESHOLD s_hf."""
-    a = g["angle_deg"].to_numpy(float)
-    T = g["temperature_c"].to_numpy(float)
-    th = (g["timestamp"] - t0).dt.total_seconds().to_numpy() / 3600.0
-    day = np.searchsorted(days.to_numpy(), g["timestamp"].dt.normalize().to_numpy())
+def _sensor_readings(r, days) -> dict:
+    """{sensor_id: (angle deg, temperature degC, hours since ``days[0]``, day index)} of each sensor's readings with a
+    finite angle and temperature, in the table's order (the times of the whole table converted once)."""
+    th = (r["timestamp"] - days[0]).dt.total_seconds().to_numpy() / 3600.0
+    day = np.searchsorted(days.to_numpy(), r["timestamp"].dt.normalize().to_numpy())
+    a = r["angle_deg"].to_numpy(float)
+    T = r["temperature_c"].to_numpy(float)
+    finite = np.isfinite(a) & np.isfinite(T)
+    positions = pd.Series(np.arange(len(r))).groupby(r["sensor_id"].to_numpy(), sort=False).indices
+    out = {}
+    for sid, rows in positions.items():
+        rows = rows[finite[rows]]
+        out[sid] = (a[rows], T[rows], th[rows], day[rows])
+    return out
+
+
+def _running_deviation(a):
+    """Deviation of each reading from the 7-sample running median and its robust std s_hf -- the outlier test keeps
+    |deviation| <= OUTLIER_THRESHOLD s_hf."""
     med = median_filter(a, size=7, mode="nearest") if a.size >= 7 else np.full_like(a, np.median(a))
     dev = a - med
-    return a, T, th, day, dev, (_noise_std(dev) if a.size else 0.0)
+    return dev, (_noise_std(dev) if a.size else 0.0)
 
 
 def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_GRID_HOURS) -> np.ndarray:
@@ -843,25 +776,23 @@ def lag_variance_ratio(site: SiteData, *, quiet_days=None, lags_hours=LAG_AUTO_G
     if len(days) == 0:
         raise InputError("the readings table is empty.")
     quiet_mask = _quiet_mask(days, quiet_days)
-    groups = dict(tuple(r.groupby("sensor_id", sort=False)))
+    series = _sensor_readings(r, days)
     out = np.full(len(site.sensor_ids), np.nan)
     for j, sid in enumerate(site.sensor_ids):
-        g = groups.get(sid)
-        if g is None:
-            continue
-        g = g[np.isfinite(g["angle_deg"].to_numpy()) & np.isfinite(g["temperature_c"].to_numpy())]
-        if len(g) == 0:  # angles without a temperature (a failed temperature channel): nothing to fit
-            continue
-        a, T, th, day, dev, s_hf = _sensor_series(g, days[0], days)
+        if sid not in series or series[sid][0].size == 0:  # angles without a temperature (a failed temperature
+            continue                                      # channel): nothing to fit
+        a, T, th, day = series[sid]
+        dev, s_hf = _running_deviation(a)
         keep = np.abs(dev) <= OUTLIER_THRESHOLD * max(s_hf, 1e-4)
         if quiet_mask is not None:
             keep &= quiet_mask[day]
         if keep.sum() <= 12:
             continue
         a, T, th, day = a[keep], T[keep], th[keep], day[keep]
+        lagged = iter(_first_order_responses(th, T, [tau for tau in lags if tau != 0]).T.copy())  # one engine run
         scores = []
         for tau in lags:
-            slope, resid = _slice_regression(day, a, first_order_response(th, T, tau), len(days))
+            slope, resid = _slice_regression(day, a, T if tau == 0 else next(lagged), len(days))
             scores.append(float(np.nanmedian(resid)) if np.isfinite(slope).any() else np.nan)
         if np.isfinite(scores[0]) and scores[0] > 0:
             out[j] = min(1.0, float(np.nanmin(scores)) / scores[0])
@@ -933,7 +864,6 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     D = len(days)
     quiet_mask = _quiet_mask(days, quiet_days)
     quiet = quiet_mask
-    t0 = days[0]
     unfitted = []
     angle = np.full((D, N), np.nan)
     nread = np.zeros((D, N), dtype=int)
@@ -943,15 +873,12 @@ def daily_angles(site: SiteData, *, thermal: str = "linear", reference_temp_c: f
     noise = np.full(N, np.nan)
     coef = np.zeros(N)
     lag = np.zeros(N)
-    groups = dict(tuple(r.groupby("sensor_id", sort=False)))
+    series = _sensor_readings(r, days)
     for j, sid in enumerate(ids):
-        g = groups.get(sid)
-        if g is None:
+        if sid not in series or series[sid][0].size == 0:
             continue
-        g = g[np.isfinite(g["angle_deg"].to_numpy()) & np.isfinite(g["temperature_c"].to_numpy())]
-        if len(g) == 0:
-            continue
-        a, T, th, day, dev, s_hf = _sensor_series(g, t0, days)
+        a, T, th, day = series[sid]
+        dev, s_hf = _running_deviation(a)
         rawstd[j] = 1.4826 * np.median(np.abs(a - np.median(a)))
         by_day = pd.Series(a).groupby(day)
         spread = 1.4826 * (pd.Series(a) - by_day.transform("median")).abs().groupby(day).median()
