@@ -19,6 +19,11 @@ walk in distance (time-sampled: ``reconstruct_time_sampled``): another discretis
 * ``traffic, trailer mismatch`` -- ``traffic`` recorded by Table 1's 6 m/s, 5 cm trailer (its continuous form:
   damper 23.7 Hz instead of 19.3 Hz) and reconstructed with the 20 m/s one.
 
+The other members are recorded by the trailer the reconstruction takes: Table 1's configuration at 5 cm nearest, in
+ratio, the median speed of the stations passed above 1 m/s (20 m/s, or 6 m/s below 10.95 m/s; since 2026-12-08,
+before: always the 20 m/s one, so that the stop-and-go draws of a median below 10.95 m/s -- seeds 3, 9 and 15 --
+were a trailer mismatch, covered at 38-40 %).
+
 Every draw: 2 km (600 m in ``--quick``), a road class drawn in A-D, white noise of 0.5-5 % of the signal RMS; the
 smoother with maximum-likelihood q and r (the ``road reconstruct`` defaults); the first and last 100 m left out.
 Coverage = share of stations whose detrended truth is inside elevation +- 1.645 std_m (target 85-95 %).
@@ -92,6 +97,15 @@ def _trailer_run(config, x, road_x, road_z):
     return states @ C[0] + D[0, 0] * u
 
 
+def _calibrated_nearest(x, v) -> float:
+    """The Table 1 speed at DX (6 or 20 m/s) nearest, in ratio, the median speed of the stations passed above 1 m/s:
+    the trailer ``road reconstruct`` takes for the record (docs/road-apl.md, "Varying towing speed", assumption 1)."""
+    stations = np.arange(x[0], x[-1], DX)
+    vs = np.interp(stations, x, v)
+    median = float(np.median(vs[vs > 1.0]))
+    return min((6.0, 20.0), key=lambda s: abs(np.log(median / s)))
+
+
 def draw(member: str, rng, length: float = LENGTH, workdir: Path | None = None):
     """One record: (signal Profile, SpeedColumn, truth at the record's stations, the file's time samples or None)."""
     from longprofile.core import Profile
@@ -104,7 +118,7 @@ def draw(member: str, rng, length: float = LENGTH, workdir: Path | None = None):
     t, v, x = t[keep], v[keep], x[keep]
     road = iso8608_profile(length + 40.0, 0.01, str(rng.choice(CLASSES)), rng=rng)
     rx, rz = road.distance, road.elevation[:, 0]
-    config = (6.0, DX) if member.endswith("mismatch") else (20.0, DX)
+    config = (6.0, DX) if member.endswith("mismatch") else (_calibrated_nearest(x, v), DX)
     y = _trailer_run(config, x, rx, rz)
     y = y + rng.normal(0.0, rng.uniform(0.005, 0.05) * np.std(y), y.size)
     if member == "stop-and-go":  # a time-sampled file, read as road reconstruct reads it

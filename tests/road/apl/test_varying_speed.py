@@ -162,3 +162,82 @@ def test_a_time_sampled_record_at_the_models_step_is_the_constant_speed_reconstr
     assert b.q == pytest.approx(a.q, rel=1e-6) and b.r == pytest.approx(a.r, rel=1e-6)
     np.testing.assert_allclose(b.profile.elevation, a.profile.elevation, rtol=0, atol=1e-9)
     np.testing.assert_allclose(b.profile.std, a.profile.std, rtol=1e-9)
+
+
+def _time_sampled(length, speed_of_time, *, dt=0.0025, seed=5, noise=0.02, slowest=17.0):
+    """The Table 1 20 m/s trailer run at its own step dt (its dynamics are in time) along a road at x(t), white noise
+    per time sample: (time samples, record at every 5 cm, speed there, truth there)."""
+    from longprofile.road import iso8608_profile
+    from longprofile.road.apl import apl_filter
+
+    rng = np.random.default_rng(seed)
+    road = iso8608_profile(length + 20.0, 0.01, "B", rng=rng)
+    t = np.arange(0.0, 1.2 * length / slowest, dt)
+    v = speed_of_time(t)
+    x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)])
+    t, v, x = t[x <= length], v[x <= length], x[x <= length]
+    u = np.interp(x, road.distance, road.elevation[:, 0])
+    y = np.asarray(apl_filter(apl_model(20.0, 0.05), u)).reshape(-1)
+    y = y + rng.normal(0.0, noise * np.std(y), y.size)
+    grid = np.arange(0.0, x[-1], 0.05)
+    p = Profile(grid, np.interp(grid, x, y))
+    return (t, x, y), p, np.interp(grid, x, v), np.interp(grid, road.distance, road.elevation[:, 0])
+
+
+def test_the_noise_of_a_time_sampled_record_taken_at_every_dx_is_the_interpolated_noise():
+    """The cause of the time path's band twice too wide (sp_vary.csv, 99.9 %): linear interpolation of the file's
+    samples onto the stations averages their noise, so the record at every dx is not white of variance r and the
+    short-wave estimate failed its noise check. Oracle: a Monte Carlo of interpolated white noise."""
+    from longprofile.road.apl._short_waves import SHORT_WAVE_NOISE_FLOOR_RANGE, _welch
+    from longprofile.road.apl._varying_speed import _interpolated_noise
+
+    rng = np.random.default_rng(1)
+    x = np.concatenate([[0.0], np.cumsum(0.05 * rng.uniform(0.75, 1.25, 12_000))])  # 15-25 m/s at 2.5 ms
+    grid = np.arange(0.0, x[-1], 0.05)
+    missing = np.zeros(grid.size, bool)
+    missing[3000:3010] = True
+    noise = _interpolated_noise(x, grid, missing, 2.0)
+    acc = 0.0
+    for _ in range(40):
+        e = np.interp(grid, x, rng.normal(0.0, np.sqrt(2.0), x.size))
+        e[missing] = np.nan
+        w, P, _ = _welch(e, 4096)
+        acc = acc + P / 40
+    for lo, hi in [(50, 500), (500, 1500), (1500, 2048)]:
+        assert np.mean(acc[lo:hi]) == pytest.approx(np.mean(noise(w[lo:hi])), rel=0.02)
+    assert np.mean(noise(w[1500:])) < SHORT_WAVE_NOISE_FLOOR_RANGE[0] * 2.0  # below r where the road is invisible
+    assert _interpolated_noise(np.arange(100.0) * 0.05, np.arange(100.0) * 0.05, np.zeros(100, bool), 2.0) is None
+
+
+def test_a_time_sampled_record_at_a_varying_speed_prints_the_band_of_the_same_road_at_a_constant_speed():
+    """17-23 m/s sampled every 2.5 ms (0.87-1.15 samples per station), the trailer's exact discrete dynamics: the
+    printed std is that of the same road and noise recorded at a constant 20 m/s (one sample per station, the
+    constant-speed path, calibrated), not twice it (before 2026-12-08: the noise check failed, the prior's short
+    waves taken), and covers the error."""
+    from longprofile.road.apl import detrend_profile
+
+    samples, p, v, truth = _time_sampled(600.0, lambda t: 20.0 + 3.0 * np.sin(2 * np.pi * t / 10.0))
+    rec = reconstruct_time_sampled(samples, p, v, apl_model(20.0, 0.05))
+    _, p20, _, _ = _time_sampled(600.0, lambda t: np.full(t.size, 20.0))
+    ref = reconstruct_profile(p20, apl_model(20.0, 0.05))
+    inner = (p.distance > 100.0) & (p.distance < p.distance[-1] - 100.0)
+    ratio = np.median(rec.profile.std[inner, 0]) / np.median(ref.profile.std[:, 0])
+    assert 0.8 < ratio < 1.25
+    err = rec.profile.elevation[:, 0] - detrend_profile(truth - truth[0], 0.05)
+    z = np.sqrt(np.mean(err[inner] ** 2) / np.mean(rec.profile.std[inner, 0] ** 2))
+    assert 0.7 < z < 1.4
+
+
+@pytest.mark.parametrize("speed", [2.5, 10.0])
+def test_a_station_sampled_k_times_has_the_std_of_the_constant_speed_path_on_the_files_grid(speed):
+    """At a constant 2.5 (10) m/s sampled every 2.5 ms, each 5 cm station is sampled 8 (2) times: the printed std is
+    the constant-speed path's on the same samples read at their own spacing (6.25 mm, 2.5 cm; the trailer at its
+    step), not that of one sample per station at dx / v = 20 ms (before 2026-12-08: 2.5 x it at 2.5 m/s)."""
+    samples, p, v, _ = _time_sampled(300.0, lambda t: np.full(t.size, speed), slowest=speed)
+    rec = reconstruct_time_sampled(samples, p, v, apl_model(20.0, 0.05))
+    h = speed * 0.0025
+    own = Profile(h * np.arange(samples[2].size), samples[2])
+    ref = reconstruct_profile(own, resample_model(apl_model(20.0, 0.05), 0.0025, speed=speed, dx=h))
+    inner = (p.distance > 100.0) & (p.distance < p.distance[-1] - 100.0)
+    at = (own.distance > 100.0) & (own.distance < own.distance[-1] - 100.0)
+    assert np.median(rec.profile.std[inner, 0]) == pytest.approx(np.median(ref.profile.std[at, 0]), rel=0.05)

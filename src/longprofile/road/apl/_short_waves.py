@@ -155,7 +155,8 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
                                  bands_per_octave: int = SHORT_WAVE_BANDS_PER_OCTAVE,
                                  min_snr: float = SHORT_WAVE_MIN_SNR,
                                  slope_octaves: float = SHORT_WAVE_SLOPE_OCTAVES,
-                                 significance: float = SHORT_WAVE_SLOPE_SIGNIFICANCE) -> RoadSpectrumRatio | None:
+                                 significance: float = SHORT_WAVE_SLOPE_SIGNIFICANCE,
+                                 noise=None) -> RoadSpectrumRatio | None:
     """Estimate c(w) = S_road / S_model from an APL record (module docstring; paper 000 eq. 1 for H, eq. 7 for the
     Wiener model spectrum).
 
@@ -169,6 +170,11 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
         White-noise variance of the reconstruction, m^2.
     model_spectrum : callable
         w (rad/sample) -> the reconstruction's road spectrum S_model(w), m^2 (var = (1/pi) int_0^pi S dw).
+    noise : callable, optional
+        w (rad/sample) -> the expected power of the record's noise, m^2 (var = (1/pi) int_0^pi N dw), where it is not
+        white of variance r: a time-sampled record taken at every dx by linear interpolation (its noise averaged
+        between the file's samples: ``reconstruct_time_sampled``). It replaces r in the band estimates, their
+        signal-to-noise ratio and the noise check. Default None: white noise of variance r.
 
     Returns
     -------
@@ -182,6 +188,7 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
     H2 = np.abs(instrument.response_at(w / (2 * np.pi * instrument.dt))) ** 2
     Sm = np.asarray(model_spectrum(w), dtype=float)
     signal_m = H2 * Sm
+    N = r if noise is None else np.asarray(noise(w), dtype=float)
     low = np.arange(w.size) < _LOWEST_BIN - 1  # the lowest bins: biased by the Hann window and the segment mean
     edges = w[0] * 2.0 ** (np.arange(0, np.log2(np.pi / w[0]) * bands_per_octave + 2) / bands_per_octave)
     idx = np.searchsorted(edges, w, side="right") - 1
@@ -190,10 +197,11 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
         m = (idx == b) & ~low
         if not m.any():
             continue
-        s = float(np.mean(signal_m[m]) / r)
+        Nb = r if noise is None else float(np.mean(N[m]))
+        s = float(np.mean(signal_m[m]) / Nb)
         if s < min_snr or not np.isfinite(s):
             continue
-        c = max(float(np.sum(P[m] - r) / np.sum(signal_m[m])), 0.0)
+        c = max(float(np.sum(P[m] - (r if noise is None else N[m])) / np.sum(signal_m[m])), 0.0)
         dof = m.sum() * used / _WELCH_CORRELATION
         cen.append(float(np.exp(np.mean(np.log(w[m])))))
         rat.append(c)
@@ -204,16 +212,18 @@ def estimate_road_spectrum_ratio(y, instrument: APLModel, r: float, model_spectr
     cen, rat, snr, err = map(np.array, (cen, rat, snr, err))
     level, slope = _continuation(cen, rat, err, slope_octaves, significance)
     return RoadSpectrumRatio(frequency=cen, ratio=rat, snr=snr, level=level, slope=slope, n_segments=used,
-                             noise_floor_ratio=_noise_floor_ratio(P, signal_m / r, r))
+                             noise_floor_ratio=_noise_floor_ratio(P, signal_m / N, N))
 
 
 def _noise_floor_ratio(P, snr, r) -> float:
     """Mean power of the record where the model's road is invisible (snr below :data:`SHORT_WAVE_NOISE_FLOOR_SNR`)
-    over the white-noise variance r: ~1 (or a little above, the road's residue) for white noise; 1.0 with fewer
-    than :data:`_NOISE_FLOOR_BINS` such bins."""
+    over the white-noise variance r (or over the noise's expected power there, an array ``r``): ~1 (or a little
+    above, the road's residue) for white noise; 1.0 with fewer than :data:`_NOISE_FLOOR_BINS` such bins."""
     floor = snr < SHORT_WAVE_NOISE_FLOOR_SNR
     if floor.sum() < _NOISE_FLOOR_BINS:
         return 1.0
+    if np.ndim(r):
+        return float(np.mean(P[floor]) / np.mean(r[floor]))
     return float(np.mean(P[floor]) / r)
 
 

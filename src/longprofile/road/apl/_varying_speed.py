@@ -12,7 +12,9 @@ per station as in the constant-speed model. The state-space engine runs it as a 
 (T-1, n, n)): q and r by maximum likelihood (:func:`fit_noise_variances` with ``steps``), the RTS smoother or the
 filter, and the detrending of the constant-speed path. The printed std (``profile.std``) is the constant-speed
 path's stationary error of the detrended estimate evaluated at each station's own speed (the instrument
-re-discretised at dt = dx / v_k, the road spectrum the record shows), plus what missing samples add.
+re-discretised at dt = dx / v_k, the road spectrum the record shows), plus what missing samples add; for a
+time-sampled record, on the file's own grid at that speed (the instrument at the file's step, samples v dt apart),
+the road spectrum estimated with the noise the record's interpolation at every dx leaves (not white of variance r).
 
 Assumptions (docs/road-apl.md, "Varying towing speed"): the trailer's dynamics in time do not depend on the speed
 (the Table 1 configuration nearest the record's median speed, or the ``--model`` file, is re-discretised at every
@@ -45,7 +47,7 @@ from ._deconvolution import (
 from ._gap_uncertainty import gap_error_variance
 from ._model import APLModel
 from ._resample import _rediscretised, step_transitions
-from ._short_waves import estimate_road_spectrum_ratio
+from ._short_waves import SHORT_WAVE_MAX_SEGMENTS, SHORT_WAVE_SEGMENT, estimate_road_spectrum_ratio
 
 __all__ = ["VARYING_SPEED_METHODS", "station_steps", "varying_speed_model", "reconstruct_varying_speed",
            "reconstruct_time_sampled", "STD_SPEED_STEP"]
@@ -224,8 +226,10 @@ def reconstruct_time_sampled(samples, signal_: Profile, speed, instrument: APLMo
     -------
     Reconstruction
         On ``signal_``'s stations: ``raw_elevation`` and ``raw_std`` the smoother's at the file's samples, linear in
-        distance between them; ``profile.std`` as :func:`reconstruct_varying_speed`'s (without a gap term: the file
-        has none).
+        distance between them; ``profile.std`` the stationary std of the detrended error at each station's speed on
+        the file's own grid (samples v dt apart, the trailer at the file's step; :func:`_local_std`), the road's
+        spectrum ratio estimated with the expected power of the interpolated noise (:func:`_interpolated_noise`);
+        no gap term (the file has none).
     """
     if options.get("input_model") not in (None, "wiener"):
         raise InputError("a time-sampled record is reconstructed at its own step with the Wiener road only; leave out "
@@ -248,7 +252,10 @@ def reconstruct_time_sampled(samples, signal_: Profile, speed, instrument: APLMo
     elevation = detrend_profile(mean, dx, highpass_wavelength=highpass_wavelength)
     std = None
     if method == "smoother" and highpass_wavelength is not None:
-        std = _local_std(instrument, v, signal_.elevation[:, 0], q, r, highpass_wavelength, **kw)
+        y_dx = signal_.elevation[:, 0]
+        std = _local_std(instrument, v, y_dx, q, r, highpass_wavelength,
+                         noise=_interpolated_noise(x[moved], grid, np.isnan(y_dx), r),
+                         time_step=float(np.median(np.diff(t))), **kw)
     return _result(signal_, elevation, std, mean, var, (q, r, fit), method, highpass_wavelength, v, kw)
 
 
@@ -286,25 +293,87 @@ def _result(signal_, elevation, std, mean, var, noise, method, highpass_waveleng
                           speed_range=(float(v.min()), float(np.median(v)), float(v.max())))
 
 
-def _local_std(instrument: APLModel, v, y, q, r, highpass_wavelength, *, input_model, correlation_length, dx):
+def _local_std(instrument: APLModel, v, y, q, r, highpass_wavelength, *, input_model, correlation_length, dx,
+               noise=None, time_step: float | None = None):
     """The constant-speed path's printed std (:func:`smoother_error_std` under the road the record shows) at each
     station's own speed: evaluated every :data:`STD_SPEED_STEP` of speed between the slowest and the fastest, the
-    instrument re-discretised there, then interpolated in log speed."""
+    instrument re-discretised there, then interpolated in log speed.
+
+    Distance-sampled (``time_step`` None): on the stations' grid, the instrument at dt = dx / v. Time-sampled
+    (``time_step``, s, the file's step; ``noise``, the expected power of its noise once taken at every dx, for
+    :func:`estimate_road_spectrum_ratio`): on the file's own grid at that speed, samples h = v time_step apart, the
+    instrument at the file's step, the road's variance q h / dx per sample, r per sample, the road's spectrum ratio
+    at the same wavenumbers: the stationary error of the smoother the record is reconstructed by (ASSUMPTION,
+    docs/road-apl.md, "Varying towing speed", 4)."""
     phi = _input_dynamics(input_model, dx, correlation_length)
 
     def road(w):
         return q / np.abs(1.0 - phi * np.exp(-1j * w)) ** 2
 
     median = float(np.median(v[v > _STD_SLOWEST])) if np.any(v > _STD_SLOWEST) else _STD_SLOWEST
-    ratio = estimate_road_spectrum_ratio(y, _rediscretised(instrument, dx / median, dx=dx), r, road)
+    ratio = estimate_road_spectrum_ratio(y, _rediscretised(instrument, dx / median, dx=dx), r, road, noise=noise)
     ratio = ratio if ratio is not None and ratio.white_noise else None
     lv = np.log(np.maximum(v, _STD_SLOWEST))
     n = max(2, int(np.ceil((lv.max() - lv.min()) / np.log1p(STD_SPEED_STEP))) + 1)
     grid = np.linspace(lv.min(), lv.max(), n)
-    stds = [smoother_error_std(_rediscretised(instrument, dx / np.exp(g), dx=dx), q, r, input_model=input_model,
-                               correlation_length=correlation_length, dx=dx, highpass_wavelength=highpass_wavelength,
-                               road_ratio=ratio) for g in grid]
-    return np.interp(lv, grid, stds)
+    options = dict(input_model=input_model, correlation_length=correlation_length,
+                   highpass_wavelength=highpass_wavelength)
+
+    def at_speed(speed):
+        if time_step is None:
+            return smoother_error_std(_rediscretised(instrument, dx / speed, dx=dx), q, r, dx=dx, road_ratio=ratio,
+                                      **options)
+        h = speed * time_step
+        on_file = None if ratio is None else dataclasses.replace(ratio, frequency=ratio.frequency * h / dx)
+        return smoother_error_std(_rediscretised(instrument, time_step, dx=h), q * h / dx, r, dx=h,
+                                  road_ratio=on_file, **options)
+
+    return np.interp(lv, grid, [at_speed(np.exp(g)) for g in grid])
+
+
+def _interpolated_noise(x, grid, missing, r: float, *, segment: int = SHORT_WAVE_SEGMENT):
+    """The expected power of white noise of variance ``r`` at the file's sample positions ``x`` (increasing) once
+    taken at the stations ``grid`` by linear interpolation, as the record's signal was: w (rad/sample) -> m^2 on the
+    Welch segments :func:`estimate_road_spectrum_ratio` uses (those without a ``missing`` station; the segment mean's
+    removal, which touches only the lowest bins, neglected); None when every station is a sample (white noise of
+    variance r).
+
+    Exactly: with n = W e, E|sum_j h_j n_j e^{-iwj}|^2 = r sum_l e^{-iwl} sum_j h_j h_{j+l} (W W^T)_{j,j+l}, W W^T
+    banded (two stations share a sample only when they lie in the same or adjacent intervals). Linear interpolation
+    averages neighbouring samples, so this is below r at short waves: the record taken at every dx is not white of
+    variance r, and the short-wave estimate taken with r failed its noise check (the band about twice as wide as the
+    error: docs/road-apl.md, "Varying towing speed")."""
+    n = grid.size
+    a = np.clip(np.searchsorted(x, grid, side="right") - 1, 0, x.size - 2)
+    f = np.clip((grid - x[a]) / (x[a + 1] - x[a]), 0.0, 1.0)  # weight of sample a + 1
+    lags = [(1.0 - f) ** 2 + f ** 2]  # (W W^T)_{j, j+l}, l = 0, 1, ...
+    while lags[-1].any() and len(lags) <= n - 1:
+        lag = len(lags)
+        same, next_ = a[lag:] == a[:-lag], a[lag:] == a[:-lag] + 1
+        lags.append(np.where(same, (1 - f[:-lag]) * (1 - f[lag:]) + f[:-lag] * f[lag:], 0.0)
+                    + np.where(next_, f[:-lag] * (1 - f[lag:]), 0.0))
+    lags = lags[:-1] if len(lags) > 1 and not lags[-1].any() else lags
+    if len(lags) == 1 and np.all(lags[0] == 1.0):
+        return None
+    seg = int(min(segment, 1 << int(np.floor(np.log2(max(n, 2))))))
+    starts = np.arange(0, n - seg + 1, seg // 2)
+    if starts.size > SHORT_WAVE_MAX_SEGMENTS:
+        starts = starts[np.linspace(0, starts.size - 1, SHORT_WAVE_MAX_SEGMENTS).round().astype(int)]
+    starts = [s0 for s0 in starts if not missing[s0:s0 + seg].any()]
+    if not starts:
+        return None
+    win = np.hanning(seg)
+    cov = np.zeros(len(lags))  # sum over segments of sum_j h_j h_{j+l} (W W^T)_{j,j+l}
+    for s0 in starts:
+        for lag, band in enumerate(lags):
+            cov[lag] += np.sum(win[:seg - lag] * win[lag:] * band[s0:s0 + seg - lag])
+    cov = r * cov / (len(starts) * np.sum(win ** 2))
+
+    def noise(w):
+        w = np.asarray(w, dtype=float)
+        return np.full(w.shape, cov[0]) + 2.0 * sum(c * np.cos(w * lag) for lag, c in enumerate(cov[1:], start=1))
+
+    return noise
 
 
 def _gap_variance(model: StateSpaceModel, y, dx: float, highpass_wavelength: float) -> np.ndarray | float:
