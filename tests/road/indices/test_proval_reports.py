@@ -195,7 +195,7 @@ def test_a_profile_too_short_is_refused(fn, length, match):
     (profile_index_report, dict(segment=5.0), r"5 m is outside the plausible 10-10000 m of a segment"),
     (faulting_report, dict(units="us", min_fault=1.0), r"if you meant 1 mm, write 0\.03937"),
     (ride_number_report, dict(units="us", segment=2.0), r"segment"),
-], ids=str)
+], ids=lambda v: getattr(v, "__name__", None) or str(v))
 def test_a_value_in_the_other_unit_system_is_refused(fn, kwargs, match):
     prof = iso8608_profile(300.0, 0.05, "B", rng=np.random.default_rng(0))
     with pytest.raises(UnitsError, match=match):
