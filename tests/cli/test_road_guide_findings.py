@@ -189,7 +189,7 @@ def test_acceptance_tables_name_their_units(acceptance):
             f"start_{lu}", f"end_{lu}", f"included_length_{lu}", f"iri_left_{iu}", f"iri_right_{iu}", f"mri_{iu}",
             f"index_{iu}", "pay_factor"]
         assert list(pd.read_csv(out / "defects.csv").columns) == [
-            f"start_{lu}", f"end_{lu}", f"length_{lu}", f"peak_station_{lu}", f"peak_{iu}"]
+            f"start_{lu}", f"end_{lu}", f"length_{lu}", f"peak_station_{lu}", f"peak_{iu}", "open_end"]
         assert list(pd.read_csv(out / "grinds.csv").columns) == [
             "area", "track", f"start_{lu}", f"end_{lu}", f"length_{lu}", f"max_depth_{du}", f"mean_depth_{du}",
             "achieved", f"peak_before_{iu}", f"peak_after_{iu}", "limit"]
