@@ -91,8 +91,7 @@ def innovation_consistency(innovation, innovation_variance, window: int) -> np.n
     with np.errstate(invalid="ignore", divide="ignore"):
         nis = np.square(nu) / s
     nis = np.where(np.isfinite(nis), nis, 1.0)
-    return np.column_stack([uniform_filter1d(np.ascontiguousarray(nis[:, j]), size=max(int(window), 1),
-                                             mode="nearest") for j in range(nis.shape[1])])
+    return uniform_filter1d(nis, size=max(int(window), 1), axis=0, mode="nearest")
 
 
 def rate_is_calibrated(dt: float) -> bool:
